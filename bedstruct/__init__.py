@@ -1,0 +1,56 @@
+"""bedstruct: quantify powder beds from DEM particle data.
+
+Readers for LIGGGHTS/LAMMPS files produce :class:`Frame` objects (spheres in a
+:class:`Box`) and :class:`Contacts`; analyses consume them; an embedded DEM
+engine writes them. Heavy subpackages are imported on first use.
+
+Examples
+--------
+>>> import bedstruct
+>>> frame = bedstruct.Frame([[0, 0, 0], [1, 0, 0]], [0.5, 0.5], box=[2, 2, 2])
+>>> frame.n_particles
+2
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from ._version import __version__
+from .core import Box, Contacts, Frame, FrameList, Provenance, Trajectory, Units, WallContacts
+from .errors import ConfigError, DumpFormatError, UnsafeTimestepError
+
+# Public names that live in subpackages, imported lazily so that `import bedstruct`
+# stays fast (numba, scipy, matplotlib load only when needed).
+_LAZY = {
+    # io
+    "read_dump": "bedstruct.io", "iter_frames": "bedstruct.io",
+    "read_dump_local": "bedstruct.io", "read_data": "bedstruct.io",
+    "write_dump": "bedstruct.io", "write_data": "bedstruct.io", "write_dump_local": "bedstruct.io",
+    "save_hdf5": "bedstruct.io", "load_hdf5": "bedstruct.io",
+    "to_universe": "bedstruct.io", "from_universe": "bedstruct.io", "to_pyvista": "bedstruct.io",
+    # analysis
+    "find_contacts": "bedstruct.analysis", "coordination": "bedstruct.analysis",
+    "packing_fraction": "bedstruct.analysis", "fit_german_law": "bedstruct.analysis",
+    "psd_from_percentiles": "bedstruct.analysis", "angle_of_repose": "bedstruct.analysis",
+    "fabric_tensors": "bedstruct.analysis", "harmonic_expansion": "bedstruct.analysis",
+    # plots
+    "plot_rose": "bedstruct.plot",
+}
+
+__all__ = ["__version__", "Box", "Frame", "FrameList", "Trajectory", "Units", "Provenance",
+           "Contacts", "WallContacts", "DumpFormatError", "ConfigError", "UnsafeTimestepError",
+           *_LAZY]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bedstruct' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

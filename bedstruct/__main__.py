@@ -1,0 +1,3 @@
+from bedstruct.cli import entry_point
+
+entry_point()

@@ -1,0 +1,73 @@
+import numpy as np
+import pytest
+
+from bedstruct import Contacts, Frame, Units
+from bedstruct.core import lens_radius
+
+
+def test_defaults_and_volume():
+    f = Frame(np.zeros((3, 3)), [1, 1, 1], box=[5, 5, 5])
+    assert f.ids.tolist() == [1, 2, 3] and f.types.tolist() == [1, 1, 1]
+    assert f.units.style == "si"
+    assert np.isclose(f.particle_volume, 3 * 4 / 3 * np.pi)
+
+
+@pytest.mark.parametrize("radii, msg", [([1, -1], "positive"), ([1, np.nan], "positive"),
+                                        ([1], "shape")])
+def test_bad_radii(radii, msg):
+    with pytest.raises(ValueError, match=msg):
+        Frame(np.zeros((2, 3)), radii, box=[1, 1, 1])
+
+
+def test_nan_position_rejected():
+    with pytest.raises(ValueError, match="finite"):
+        Frame([[0, 0, np.inf]], [1], box=[1, 1, 1])
+
+
+def test_zero_atoms():
+    f = Frame(np.empty((0, 3)), np.empty(0), box=[1, 1, 1])
+    assert f.n_particles == 0 and f.particle_volume == 0.0
+
+
+def test_select_and_sort():
+    f = Frame(np.arange(9.0).reshape(3, 3), [1, 2, 3], box=[10, 10, 10], ids=[5, 2, 9],
+              columns={"mass": np.array([1.0, 2.0, 3.0])})
+    s = f.sorted_by_id()
+    assert s.ids.tolist() == [2, 5, 9]
+    assert s.columns["mass"].tolist() == [2.0, 1.0, 3.0]
+    assert np.array_equal(s.positions[0], [3, 4, 5])
+
+
+def test_to_si_records_conversion():
+    f = Frame([[1.0, 2.0, 3.0]], [0.5], box=[10, 10, 10], units="cgs",
+              velocities=[[1.0, 0, 0]], columns={"density": np.array([8.3]), "c_x": np.array([1.0])})
+    g = f.to_si()
+    assert np.allclose(g.positions, [[0.01, 0.02, 0.03]])
+    assert np.isclose(g.radii[0], 0.005) and np.isclose(g.box.hi[0], 0.1)
+    assert np.isclose(g.columns["density"][0], 8300.0)
+    assert g.units.style == "si" and "cgs -> si" in g.units.conversions[0]
+    assert "c_x" in g.units.conversions[0]
+    with pytest.raises(ValueError, match="SI"):
+        Units("lj").to_si("length")
+
+
+def test_lens_radius_against_geometry():
+    rng = np.random.default_rng(0)
+    r1, r2 = rng.uniform(0.5, 2, 100), rng.uniform(0.5, 2, 100)
+    d = rng.uniform(np.abs(r1 - r2) + 1e-3, r1 + r2 - 1e-3)
+    a = lens_radius(r1, r2, d)
+    x = (d**2 + r1**2 - r2**2) / (2 * d)
+    # the circle lies on both spheres
+    assert np.allclose(a**2 + x**2, r1**2)
+    assert np.allclose(a**2 + (d - x) ** 2, r2**2)
+
+
+def test_contacts_geometry_and_counts():
+    c = Contacts(i=[0, 0], j=[1, 2], branch=[[1.8, 0, 0], [0, 2.5, 0]], radii_i=[1, 1],
+                 radii_j=[1, 1], n_particles=4)
+    assert np.allclose(c.overlap, [0.2, -0.5])
+    assert c.touching().n_contacts == 1
+    assert c.per_particle_count().tolist() == [2, 1, 1, 0]
+    assert np.allclose(np.linalg.norm(c.normals, axis=1), 1)
+    with pytest.raises(ValueError, match="indices"):
+        Contacts(i=[0], j=[5], branch=[[1, 0, 0]], radii_i=[1], radii_j=[1], n_particles=2)
