@@ -1,0 +1,237 @@
+"""Numba kernels: exact volume of the intersection of spheres with cuboids.
+
+The volume of a ball of radius ``r`` inside a cuboid is integrated over one
+clipped axis ``t`` of the exact area of the disc of radius
+``rho(t) = sqrt(r^2 - t^2)`` inside the rectangle spanned by the other two
+axes. The area has a closed form (below); its derivatives jump only where
+``rho`` equals the distance from the centre to an edge line or to a corner, so
+the integral is split at those points and each piece is integrated with
+Gauss-Legendre nodes after the substitution ``t = a + (b - a)(3u^2 - 2u^3)``,
+which turns the square-root behaviour at both ends of a piece into smooth
+functions of ``u``. With 16 nodes per piece the result is exact to ~1e-13
+relative (tested against adaptive quadrature and Monte Carlo).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._numba import njit
+
+__all__ = ["sphere_box_volume_one", "sphere_box_volumes", "grid_volumes"]
+
+_BIG = 1e300
+
+
+@njit
+def _hprim(x, rho):
+    """Integral of sqrt(rho^2 - X^2) from -rho to x, for x in [-rho, rho]."""
+    if x <= -rho:
+        return 0.0
+    if x >= rho:
+        return 0.5 * math.pi * rho * rho
+    h = math.sqrt(max(rho * rho - x * x, 0.0))
+    return 0.5 * (x * h + rho * rho * math.asin(x / rho)) + 0.25 * math.pi * rho * rho
+
+
+@njit
+def _quadrant(x, y, rho):
+    """Area of the disc of radius rho at the origin with X <= x and Y <= y."""
+    if x <= -rho or y <= -rho:
+        return 0.0
+    xc = min(x, rho)
+    if y >= rho:
+        return 2.0 * _hprim(xc, rho)
+    w = math.sqrt(max(rho * rho - y * y, 0.0))
+    if y >= 0.0:
+        # lengths: h(X) + min(y, h(X)) for X in [-rho, xc]
+        area = _hprim(xc, rho)
+        a = min(xc, -w)
+        area += _hprim(a, rho)
+        lo = max(-w, -rho)
+        hi = min(xc, w)
+        if hi > lo:
+            area += y * (hi - lo)
+        if xc > w:
+            area += _hprim(xc, rho) - _hprim(w, rho)
+        return area
+    # y < 0: length h(X) + y where |X| < w
+    hi = min(xc, w)
+    if hi <= -w:
+        return 0.0
+    return _hprim(hi, rho) - _hprim(-w, rho) + y * (hi + w)
+
+
+@njit
+def _disc_rect(x0, x1, y0, y1, rho):
+    """Area of the disc of radius rho at the origin inside [x0, x1] x [y0, y1]."""
+    if rho <= 0.0 or x1 <= x0 or y1 <= y0:
+        return 0.0
+    return (_quadrant(x1, y1, rho) - _quadrant(x0, y1, rho)
+            - _quadrant(x1, y0, rho) + _quadrant(x0, y0, rho))
+
+
+@njit
+def _insert_sorted(buf, n, v):
+    k = n
+    while k > 0 and buf[k - 1] > v:
+        buf[k] = buf[k - 1]
+        k -= 1
+    buf[k] = v
+    return n + 1
+
+
+@njit
+def sphere_box_volume_one(cx, cy, cz, r, x0, x1, y0, y1, z0, z1, nodes, weights):
+    """Exact volume of the ball (centre, r) inside the cuboid [x0,x1]x[y0,y1]x[z0,z1]."""
+    lo0 = x0 - cx
+    hi0 = x1 - cx
+    lo1 = y0 - cy
+    hi1 = y1 - cy
+    lo2 = z0 - cz
+    hi2 = z1 - cz
+    if hi0 <= -r or lo0 >= r or hi1 <= -r or lo1 >= r or hi2 <= -r or lo2 >= r:
+        return 0.0
+    if hi0 <= lo0 or hi1 <= lo1 or hi2 <= lo2:
+        return 0.0
+    c0 = lo0 > -r or hi0 < r
+    c1 = lo1 > -r or hi1 < r
+    c2 = lo2 > -r or hi2 < r
+    nclip = int(c0) + int(c1) + int(c2)
+    if nclip == 0:
+        return 4.0 / 3.0 * math.pi * r * r * r
+    # integration axis t: a clipped axis; (u, v): the other two
+    if c2:
+        ta, tb, ua, ub, va, vb = lo2, hi2, lo0, hi0, lo1, hi1
+    elif c0:
+        ta, tb, ua, ub, va, vb = lo0, hi0, lo1, hi1, lo2, hi2
+    else:
+        ta, tb, ua, ub, va, vb = lo1, hi1, lo0, hi0, lo2, hi2
+    ta = max(ta, -r)
+    tb = min(tb, r)
+    if nclip == 1:
+        # only t clipped: integral of pi (r^2 - t^2)
+        return math.pi * (r * r * (tb - ta) - (tb * tb * tb - ta * ta * ta) / 3.0)
+    ua = max(ua, -r)
+    ub = min(ub, r)
+    va = max(va, -r)
+    vb = min(vb, r)
+    # breakpoints: rho(t) equal to edge distances and corner distances
+    bp = np.empty(22)
+    nb = 0
+    nb = _insert_sorted(bp, nb, ta)
+    nb = _insert_sorted(bp, nb, tb)
+    cu = ua > -r or ub < r
+    cv = va > -r or vb < r
+    for k in range(4):
+        if k == 0:
+            d = abs(ua) if cu and ua > -r else -1.0
+        elif k == 1:
+            d = abs(ub) if cu and ub < r else -1.0
+        elif k == 2:
+            d = abs(va) if cv and va > -r else -1.0
+        else:
+            d = abs(vb) if cv and vb < r else -1.0
+        if 0.0 <= d < r:
+            z = math.sqrt(r * r - d * d)
+            if ta < z < tb:
+                nb = _insert_sorted(bp, nb, z)
+            if ta < -z < tb:
+                nb = _insert_sorted(bp, nb, -z)
+    if cu and cv:
+        for p in range(2):
+            uu = ua if p == 0 else ub
+            for q in range(2):
+                vv = va if q == 0 else vb
+                d2 = uu * uu + vv * vv
+                if d2 < r * r:
+                    z = math.sqrt(r * r - d2)
+                    if ta < z < tb:
+                        nb = _insert_sorted(bp, nb, z)
+                    if ta < -z < tb:
+                        nb = _insert_sorted(bp, nb, -z)
+    total = 0.0
+    m = nodes.shape[0]
+    for s in range(nb - 1):
+        a = bp[s]
+        b = bp[s + 1]
+        h = b - a
+        if h <= 0.0:
+            continue
+        acc = 0.0
+        for q in range(m):
+            u = nodes[q]
+            t = a + h * (3.0 * u * u - 2.0 * u * u * u)
+            jac = 6.0 * u * (1.0 - u)
+            rho2 = r * r - t * t
+            if rho2 <= 0.0:
+                continue
+            acc += weights[q] * jac * _disc_rect(ua, ub, va, vb, math.sqrt(rho2))
+        total += acc * h
+    return total
+
+
+@njit
+def sphere_box_volumes(centres, radii, lower, upper, nodes, weights, out):
+    """``out[i]`` = volume of sphere ``i`` inside the one cuboid (lower, upper)."""
+    for i in range(centres.shape[0]):
+        out[i] = sphere_box_volume_one(centres[i, 0], centres[i, 1], centres[i, 2], radii[i],
+                                       lower[0], upper[0], lower[1], upper[1], lower[2], upper[2],
+                                       nodes, weights)
+
+
+@njit
+def _first_cell(edges, x):
+    """Index of the cell of a sorted edge array that contains x (clipped)."""
+    n = edges.shape[0] - 1
+    k = np.searchsorted(edges, x, side="right") - 1
+    if k < 0:
+        return 0
+    if k > n - 1:
+        return n - 1
+    return k
+
+
+@njit
+def grid_volumes(centres, radii, shifts, ex, ey, ez, nodes, weights, out):
+    """Add to ``out[a, b, c]`` the volume of every sphere image inside each grid cell.
+
+    The grid is rectilinear with sorted cell edges ``ex``, ``ey``, ``ez``;
+    ``shifts`` (S, 3) are the periodic image translations to try (include
+    zero). Serial scatter: each sphere touches only the cells it overlaps.
+    """
+    gx0 = ex[0]
+    gx1 = ex[ex.shape[0] - 1]
+    gy0 = ey[0]
+    gy1 = ey[ey.shape[0] - 1]
+    gz0 = ez[0]
+    gz1 = ez[ez.shape[0] - 1]
+    full_c = 4.0 / 3.0 * math.pi
+    for i in range(centres.shape[0]):
+        r = radii[i]
+        for s in range(shifts.shape[0]):
+            cx = centres[i, 0] + shifts[s, 0]
+            cy = centres[i, 1] + shifts[s, 1]
+            cz = centres[i, 2] + shifts[s, 2]
+            if cx + r <= gx0 or cx - r >= gx1 or cy + r <= gy0 or cy - r >= gy1 \
+                    or cz + r <= gz0 or cz - r >= gz1:
+                continue
+            a0 = _first_cell(ex, cx - r)
+            a1 = _first_cell(ex, cx + r)
+            b0 = _first_cell(ey, cy - r)
+            b1 = _first_cell(ey, cy + r)
+            c0 = _first_cell(ez, cz - r)
+            c1 = _first_cell(ez, cz + r)
+            if a0 == a1 and b0 == b1 and c0 == c1 and cx - r >= ex[a0] and cx + r <= ex[a0 + 1] \
+                    and cy - r >= ey[b0] and cy + r <= ey[b0 + 1] \
+                    and cz - r >= ez[c0] and cz + r <= ez[c0 + 1]:
+                out[a0, b0, c0] += full_c * r * r * r
+                continue
+            for a in range(a0, a1 + 1):
+                for b in range(b0, b1 + 1):
+                    for c in range(c0, c1 + 1):
+                        out[a, b, c] += sphere_box_volume_one(
+                            cx, cy, cz, r, ex[a], ex[a + 1], ey[b], ey[b + 1], ez[c], ez[c + 1],
+                            nodes, weights)
