@@ -1,0 +1,452 @@
+"""Input-deck generators that take the same SI parameters for LIGGGHTS and LAMMPS.
+
+Every generator returns the deck as text whose first line is
+``# bedstruct deck for <engine>`` (so :func:`run_deck` knows the engine).
+Relative output names (dumps, ``write_data``) are relative to the run's working
+directory; input files (data files, STL meshes) are written into the deck with
+absolute paths.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._common import EngineLog, GranularParams, as_granular_params, read_data_header
+from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
+from .liggghts import liggghts_model_commands, liggghts_wall_model
+from .stl import BladeGeometry
+
+__all__ = ["bed_deck", "impact_deck", "moving_wall_deck", "impact_result", "ImpactResult",
+           "hertz_contact_time", "DUMP_COLUMNS", "data_file_radii"]
+
+#: Per-particle dump columns written by every deck.
+DUMP_COLUMNS = "id type x y z vx vy vz fx fy fz omegax omegay omegaz radius"
+#: Contact-dump columns per engine (``dump local``).
+CONTACT_COLUMNS = {
+    # compute pair/gran/local pos id force contactArea delta
+    "liggghts": "x1 y1 z1 x2 y2 z2 id1 id2 periodic fx fy fz contact_area overlap",
+    # compute property/local patom1 patom2 + compute pair/local dist fx fy fz
+    "lammps": "id1 id2 distance fx fy fz",
+}
+
+
+def _check_engine(engine: str) -> str:
+    if engine not in ("liggghts", "lammps"):
+        raise ValueError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
+    return engine
+
+
+def _path_word(path) -> str:
+    s = str(Path(path).resolve())
+    if any(c.isspace() for c in s):
+        raise ValueError(f"LIGGGHTS/LAMMPS cannot read paths with spaces: {s!r}")
+    return s
+
+
+def _setup(engine: str, boundary: str, processors: str | None) -> list[str]:
+    if engine == "liggghts":
+        lines = ["atom_style granular", "atom_modify map array", f"boundary {boundary}",
+                 "newton off", "communicate single vel yes", "units si"]
+    else:
+        lines = ["atom_style sphere", "atom_modify map array", f"boundary {boundary}",
+                 "newton off", "comm_modify vel yes", "units si"]
+    if processors:
+        lines.append(f"processors {processors}")
+    return lines
+
+
+def data_file_radii(path) -> np.ndarray:
+    """Radii (length) of the ``Atoms`` section of a sphere/granular data file.
+
+    Reads the ``diameter`` column (third) of ``id type diameter density x y z ...``.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> from bedstruct.dem.backends import write_sphere_data
+    >>> p = write_sphere_data(os.path.join(tempfile.mkdtemp(), "a.data"), [[0, 0, 1]], [0.5],
+    ...                       box_lo=[-1, -1, 0], box_hi=[1, 1, 2])
+    >>> data_file_radii(p).tolist()
+    [0.5]
+    """
+    head = read_data_header(path)
+    n = head["atoms"]
+    with open(path) as fh:
+        for line in fh:
+            if line.split("#")[0].strip() == "Atoms":
+                break
+        rows = []
+        for line in fh:
+            s = line.strip()
+            if not s:
+                if rows:
+                    break
+                continue
+            rows.append(s.split()[2])
+            if len(rows) == n:
+                break
+    return 0.5 * np.array(rows, dtype=np.float64)
+
+
+def _wall_commands(engine: str, p: GranularParams, model_lines_wt: int, *, zlo: float,
+                   cohesion_model, reference_radius, reference_overlap) -> list[str]:
+    if engine == "liggghts":
+        return [f"fix wbottom all wall/gran {liggghts_wall_model(p)} primitive type "
+                f"{model_lines_wt} zplane {zlo:.10g}"]
+    coeffs = lammps_granular_coeffs(p, wall=True, cohesion_model=cohesion_model,
+                                    reference_radius=reference_radius,
+                                    reference_overlap=reference_overlap)
+    return [f"fix wbottom all wall/gran granular {coeffs} zplane {zlo:.10g} NULL"]
+
+
+def _model(engine, p, n_types, cohesion_model, reference_radius, reference_overlap):
+    if engine == "liggghts":
+        return liggghts_model_commands(p, n_types=n_types)
+    coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
+                                    reference_radius=reference_radius,
+                                    reference_overlap=reference_overlap)
+    return ["pair_style granular", f"pair_coeff * * {coeffs}"], 2
+
+
+def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
+             thermo_every: int = 1000, dump: str | None = None, dump_every: int = 0,
+             contacts: str | None = None, contacts_every: int | None = None,
+             warmup_steps: int = 0, skin: float | None = None, write_data: str | None = None,
+             boundary: str = "p p f", processors: str | None = "* * 1",
+             cohesion_model: str | None = None, reference_radius: float = REFERENCE_RADIUS,
+             reference_overlap: float = REFERENCE_OVERLAP, _extra=None) -> str:
+    """A deck that reads a settled bed, adds a bottom plane, gravity, and runs.
+
+    The bed comes from a data file (``atom_style sphere``/``granular`` atoms
+    ``id type diameter density x y z``); x and y are periodic, z fixed; a
+    bottom plane sits at the box's ``zlo``; gravity acts along -z. The contact
+    model is the seed's (see :class:`GranularParams` and docs/backends.md).
+
+    Parameters
+    ----------
+    data_file : str or os.PathLike
+        The bed. If it declares 2 atom types, walls use type 2 in LIGGGHTS.
+    params : GranularParams, mapping or ContactModel, optional
+        Contact parameters in SI (default :class:`GranularParams()`).
+    engine : {"liggghts", "lammps"}
+    steps : int
+        Steps of the main run.
+    dt : float, s
+        Time step.
+    thermo_every : int
+        Thermo output interval (columns ``Step Atoms KinEng c_rke``; kinetic
+        and rotational energy in J). 0 prints only the first and last line.
+    dump, dump_every : str, int
+        Per-particle dump file name and interval (columns :data:`DUMP_COLUMNS`).
+    contacts, contacts_every : str, int
+        Contact (``dump local``) file and interval (columns
+        ``CONTACT_COLUMNS[engine]``; LAMMPS lists every pair within the force
+        cutoff, including touching-free ones with zero force).
+    warmup_steps : int
+        Steps of a first, separate ``run`` (its Loop time excludes setup, the
+        main run's excludes both setup and warm-up).
+    skin : float, m, optional
+        Neighbour skin (default 0.1 x the smallest diameter).
+    write_data : str, optional
+        Write the final state to this data file.
+    boundary : str
+        LAMMPS boundary flags.
+    processors : str or None
+        ``processors`` grid (default ``* * 1``: beds are thin in z).
+    cohesion_model : {None, "dmt", "jkr"}
+        LAMMPS only: how to represent SJKR cohesion (see docs/backends.md).
+    reference_radius, reference_overlap : float
+        LAMMPS only: the contact at which overlap-dependent LIGGGHTS
+        coefficients are frozen.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> from bedstruct.dem.backends import write_sphere_data
+    >>> p = write_sphere_data(os.path.join(tempfile.mkdtemp(), "b.data"), [[0, 0, 1e-4]], [5e-5],
+    ...                       box_lo=[-1e-4, -1e-4, 0], box_hi=[1e-4, 1e-4, 4e-4], n_types=2)
+    >>> deck = bed_deck(p, engine="liggghts", steps=10, dt=1e-7)
+    >>> deck.splitlines()[0]
+    '# bedstruct deck for liggghts'
+    >>> [l for l in deck.splitlines() if l.startswith("pair_style")]
+    ['pair_style gran model hertz tangential history rolling_friction epsd2']
+    """
+    engine = _check_engine(engine)
+    p = as_granular_params(params)
+    steps, warmup_steps = int(steps), int(warmup_steps)
+    if steps < 0 or warmup_steps < 0:
+        raise ValueError("`steps` and `warmup_steps` must be >= 0")
+    if not (dt > 0 and math.isfinite(dt)):
+        raise ValueError(f"`dt` must be a positive number of seconds; got {dt!r}")
+    head = read_data_header(data_file)
+    if skin is None:
+        skin = 0.2 * float(data_file_radii(data_file).min())
+    zlo = float(head["lo"][2])
+    lines = [f"# bedstruct deck for {engine}: bed from data file, bottom plane, gravity",
+             *_setup(engine, boundary, processors),
+             f"read_data {_path_word(data_file)}",
+             f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
+    model_lines, wt = _model(engine, p, head["atom types"], cohesion_model, reference_radius,
+                             reference_overlap)
+    lines += model_lines
+    lines.append(f"timestep {dt:.10g}")
+    if p.gravity > 0:
+        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+    lines += _wall_commands(engine, p, wt, zlo=zlo, cohesion_model=cohesion_model,
+                            reference_radius=reference_radius, reference_overlap=reference_overlap)
+    if _extra is not None:
+        lines += _extra(engine, p, wt, head)
+    lines += ["fix integr all nve/sphere",
+              "compute rke all erotate/sphere",
+              "thermo_style custom step atoms ke c_rke",
+              f"thermo {int(thermo_every)}",
+              "thermo_modify lost ignore norm no"]
+    if warmup_steps:
+        lines.append(f"run {warmup_steps}")
+    if dump and dump_every:
+        lines.append(f"dump dmp all custom {int(dump_every)} {dump} {DUMP_COLUMNS}")
+    if contacts:
+        every = int(contacts_every or dump_every or max(steps, 1))
+        if engine == "liggghts":
+            cols = " ".join(f"c_cpl[{i}]" for i in range(1, 15))
+            lines += ["compute cpl all pair/gran/local pos id force contactArea delta",
+                      f"dump dloc all local {every} {contacts} {cols}"]
+        else:
+            lines += ["compute cpa all property/local patom1 patom2",
+                      "compute cpf all pair/local dist fx fy fz",
+                      f"dump dloc all local {every} {contacts} c_cpa[1] c_cpa[2] c_cpf[1] "
+                      "c_cpf[2] c_cpf[3] c_cpf[4]"]
+    lines.append(f"run {steps}")
+    if write_data:
+        lines.append(f"write_data {write_data}" + (" nocoeff" if engine == "lammps" else ""))
+    return "\n".join(lines) + "\n"
+
+
+def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometry,
+                     stl_path=None, steps: int, dt: float, **bed_kwargs) -> str:
+    """:func:`bed_deck` plus a blade (or plate) moving along +x at constant speed.
+
+    LIGGGHTS: ``fix mesh/surface`` of the blade STL (write it first with
+    ``blade.write_stl(stl_path, ylo, yhi)``) + ``fix move/mesh linear`` +
+    ``fix wall/gran ... mesh``. LAMMPS: a block region moved by
+    ``move v_bx NULL NULL`` (``bx = speed * time``) + ``fix wall/gran/region``;
+    LAMMPS regions cannot carry the bevel, so the LAMMPS blade is the
+    unbevelled slab (documented in docs/backends.md).
+
+    Parameters
+    ----------
+    data_file, params, engine, steps, dt
+        As in :func:`bed_deck`.
+    blade : BladeGeometry
+        Blade position at t = 0, size, bevel and speed (SI).
+    stl_path : str or os.PathLike
+        LIGGGHTS only: the blade STL file (required for LIGGGHTS).
+    **bed_kwargs
+        Passed on to :func:`bed_deck`.
+
+    Returns
+    -------
+    str
+    """
+    engine = _check_engine(engine)
+    if engine == "liggghts" and stl_path is None:
+        raise ValueError("LIGGGHTS needs the blade as an STL file: pass `stl_path` "
+                         "(write it with blade.write_stl(...))")
+    cohesion_model = bed_kwargs.get("cohesion_model")
+    ref_r = bed_kwargs.get("reference_radius", REFERENCE_RADIUS)
+    ref_o = bed_kwargs.get("reference_overlap", REFERENCE_OVERLAP)
+
+    def extra(engine, p, wt, head):
+        if engine == "liggghts":
+            return [f"fix blade all mesh/surface file {_path_word(stl_path)} type {wt} "
+                    "curvature_tolerant yes",
+                    f"fix wblade all wall/gran {liggghts_wall_model(p)} mesh n_meshes 1 meshes blade",
+                    f"fix mvblade all move/mesh mesh blade linear {blade.speed:.10g} 0 0"]
+        coeffs = lammps_granular_coeffs(p, wall=True, cohesion_model=cohesion_model,
+                                        reference_radius=ref_r, reference_overlap=ref_o)
+        x0, x1 = blade.x0, blade.x0 + blade.thickness
+        z0, z1 = blade.z_bottom, blade.z_bottom + blade.height
+        return [f"variable bx equal {blade.speed:.10g}*time",
+                f"region blade block {x0:.10g} {x1:.10g} INF INF {z0:.10g} {z1:.10g} "
+                "move v_bx NULL NULL units box",
+                f"fix wblade all wall/gran/region granular {coeffs} region blade"]
+
+    return bed_deck(data_file, params, engine=engine, steps=steps, dt=dt, _extra=extra,
+                    **bed_kwargs)
+
+
+def hertz_contact_time(radius1: float, radius2: float, params=None, *, speed: float) -> float:
+    """Duration of an undamped head-on Hertz collision (s).
+
+    .. math:: t_c = 2.868 \\left(\\frac{m^{*2}}{R^* E^{*2} v}\\right)^{1/5}
+
+    with reduced mass m*, R* = r1 r2/(r1+r2), E* = E/(2(1-nu^2)) and relative
+    approach speed v.
+
+    Parameters
+    ----------
+    radius1, radius2 : float, m
+    params : GranularParams, optional
+        Supplies E, nu and density.
+    speed : float, m/s
+        Relative approach speed.
+
+    Examples
+    --------
+    >>> t = hertz_contact_time(2e-5, 2e-5, GranularParams(youngs_modulus=1e8), speed=1.0)
+    >>> round(t * 1e6, 3)  # microseconds
+    2.621
+
+    References
+    ----------
+    Johnson, K. L. (1985). Contact Mechanics, Cambridge University Press, sec. 11.4.
+    """
+    p = as_granular_params(params)
+    m1 = 4.0 / 3.0 * math.pi * radius1 ** 3 * p.density
+    m2 = 4.0 / 3.0 * math.pi * radius2 ** 3 * p.density
+    mstar = m1 * m2 / (m1 + m2)
+    rstar = radius1 * radius2 / (radius1 + radius2)
+    return 2.868 * (mstar ** 2 / (rstar * p.effective_youngs_modulus() ** 2 * speed)) ** 0.2
+
+
+def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: float | None = None,
+                speed: float = 1.0, dt: float | None = None, gap: float = 0.02,
+                thermo_every: int = 1) -> str:
+    """Two spheres colliding head-on along x with no gravity and no walls.
+
+    Sphere 1 (id 1) moves at +speed/2, sphere 2 at -speed/2, starting
+    ``gap * (r1 + r2)`` apart. Thermo columns: ``Step Time v_dist v_vx1 v_vx2
+    KinEng`` (``dist`` = centre distance, m). Read the result with
+    :func:`impact_result`.
+
+    Parameters
+    ----------
+    params : GranularParams, optional
+        Contact parameters (cohesion and friction play no role head-on; for
+        LAMMPS cohesion is switched off).
+    engine : {"liggghts", "lammps"}
+    radius, radius2 : float, m
+        Radii (``radius2`` defaults to ``radius``).
+    speed : float, m/s
+        Relative approach speed.
+    dt : float, s, optional
+        Time step (default: the Hertz contact time / 400).
+    gap : float, dimensionless
+        Initial surface gap in units of r1 + r2.
+    thermo_every : int
+        Thermo interval in steps (1 resolves the contact best).
+
+    Returns
+    -------
+    str
+    """
+    engine = _check_engine(engine)
+    p = as_granular_params(params, gravity=0.0, cohesion_energy_density=0.0,
+                           wall_cohesion_energy_density=0.0)
+    r1 = float(radius)
+    r2 = float(radius if radius2 is None else radius2)
+    tc = hertz_contact_time(r1, r2, p, speed=speed)
+    if dt is None:
+        dt = tc / 400.0
+    s = gap * (r1 + r2)
+    x1, x2 = -(r1 + s / 2), r2 + s / 2
+    steps = int(math.ceil((s / speed + 3.0 * tc) / dt))
+    half = 20 * (r1 + r2)
+    model_lines, _ = _model(engine, p, 1, None, max(r1, r2), REFERENCE_OVERLAP)
+    lines = [f"# bedstruct deck for {engine}: two-sphere head-on impact",
+             *_setup(engine, "f f f", None),
+             f"region reg block {-half:.10g} {half:.10g} {-half:.10g} {half:.10g} {-half:.10g} "
+             f"{half:.10g} units box",
+             "create_box 1 reg",
+             f"neighbor {0.1 * min(r1, r2):.10g} bin", "neigh_modify delay 0",
+             *model_lines,
+             f"timestep {dt:.10g}",
+             f"create_atoms 1 single {x1:.10g} 0 0 units box",
+             f"create_atoms 1 single {x2:.10g} 0 0 units box",
+             f"set atom 1 diameter {2 * r1:.10g}", f"set atom 2 diameter {2 * r2:.10g}",
+             f"set atom * density {p.density:.10g}",
+             "velocity all set 0 0 0 units box",
+             f"set atom 1 vx {speed / 2:.10g}", f"set atom 2 vx {-speed / 2:.10g}",
+             "fix integr all nve/sphere",
+             "variable dist equal x[2]-x[1]",
+             "variable vx1 equal vx[1]", "variable vx2 equal vx[2]",
+             "thermo_style custom step time v_dist v_vx1 v_vx2 ke",
+             f"thermo {int(thermo_every)}",
+             "thermo_modify norm no format float %.12g" if engine == "lammps"
+             else "thermo_modify norm no",
+             f"run {steps}"]
+    return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class ImpactResult:
+    """Outcome of a head-on two-sphere impact.
+
+    Parameters
+    ----------
+    restitution : float, dimensionless
+        -(relative velocity after) / (relative velocity before).
+    contact_time : float, s
+        Time with centre distance below r1 + r2 (crossings interpolated).
+    max_overlap : float, m
+        Largest overlap r1 + r2 - dist printed.
+    """
+
+    restitution: float
+    contact_time: float
+    max_overlap: float
+
+
+def impact_result(log: EngineLog, radius1: float, radius2: float | None = None) -> ImpactResult:
+    """Restitution and contact time from the log of an :func:`impact_deck` run.
+
+    Parameters
+    ----------
+    log : EngineLog
+        Parsed log (``run_deck(...).log``).
+    radius1, radius2 : float, m
+
+    Returns
+    -------
+    ImpactResult
+
+    Raises
+    ------
+    ValueError
+        If the log does not show a complete contact (touch and separation).
+
+    Examples
+    --------
+    >>> from bedstruct.dem.backends import parse_log
+    >>> text = ('LAMMPS (x)\\nStep Time v_dist v_vx1 v_vx2 KinEng\\n'
+    ...         '0 0 2.2 1 -1 1\\n1 1 1.8 0 0 0\\n2 2 1.9 0 0 0\\n3 3 2.1 -0.5 0.5 1\\n'
+    ...         'Loop time of 1 on 1 procs for 3 steps with 2 atoms\\n')
+    >>> res = impact_result(parse_log(text), 1.0)
+    >>> round(res.restitution, 6), round(res.contact_time, 6), round(res.max_overlap, 6)
+    (0.5, 2.0, 0.2)
+    """
+    r2 = radius1 if radius2 is None else radius2
+    t = log.column("Time")
+    gap = log.column("v_dist") - (radius1 + r2)
+    vrel = log.column("v_vx2") - log.column("v_vx1")
+    inside = np.flatnonzero(gap < 0)
+    if inside.size == 0 or inside[0] == 0 or inside[-1] == len(gap) - 1:
+        raise ValueError("the log does not contain a complete contact (touch and separation)")
+    i0, i1 = inside[0], inside[-1]
+
+    def cross(a, b):
+        return t[a] + (t[b] - t[a]) * gap[a] / (gap[a] - gap[b])
+    t_in = cross(i0 - 1, i0)
+    t_out = cross(i1, i1 + 1)
+    v_before = vrel[i0 - 1]
+    v_after = vrel[-1]
+    return ImpactResult(restitution=float(-v_after / v_before), contact_time=float(t_out - t_in),
+                        max_overlap=float(-gap.min()))

@@ -1,0 +1,202 @@
+"""ASCII STL generators for walls: a box and the recoater blade.
+
+Coordinates are in the deck's length unit (SI metres for bedstruct's decks).
+Triangles are wound so that normals point out of the solid (or into the box
+with ``inward=True``), and each facet's normal is written explicitly.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["stl_text", "write_stl", "box_triangles", "blade_triangles", "BladeGeometry",
+           "read_stl_triangles"]
+
+
+def stl_text(triangles, *, name: str = "bedstruct") -> str:
+    """ASCII STL text of ``triangles``.
+
+    Parameters
+    ----------
+    triangles : (M, 3, 3) array_like of float, length
+        Vertices of each triangle, counter-clockwise seen from outside.
+    name : str
+        Solid name.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(stl_text([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], name="t"))  # doctest: +NORMALIZE_WHITESPACE
+    solid t
+     facet normal 0 0 1
+      outer loop
+       vertex 0 0 0
+       vertex 1 0 0
+       vertex 0 1 0
+      endloop
+     endfacet
+    endsolid t
+    """
+    tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    norm = np.linalg.norm(normals, axis=1)
+    if np.any(norm == 0):
+        raise ValueError("`triangles` contains a degenerate (zero-area) triangle")
+    normals = normals / norm[:, None]
+    out = [f"solid {name}"]
+    for t, n in zip(tri, normals):
+        out.append(" facet normal " + " ".join(f"{v:.10g}" for v in n + 0.0))
+        out.append("  outer loop")
+        for v in t:
+            out.append("   vertex " + " ".join(f"{c:.10g}" for c in v))
+        out.append("  endloop")
+        out.append(" endfacet")
+    out.append(f"endsolid {name}")
+    return "\n".join(out)
+
+
+def write_stl(path, triangles, *, name: str = "bedstruct") -> Path:
+    """Write ``triangles`` ((M, 3, 3), length) as an ASCII STL file; returns the path."""
+    path = Path(path)
+    path.write_text(stl_text(triangles, name=name) + "\n")
+    return path
+
+
+def read_stl_triangles(path) -> np.ndarray:
+    """Vertices (M, 3, 3) of an ASCII STL file (normals are ignored)."""
+    verts = [list(map(float, line.split()[1:4])) for line in Path(path).read_text().splitlines()
+             if line.strip().startswith("vertex")]
+    if len(verts) % 3:
+        raise ValueError(f"{path}: vertex count {len(verts)} is not a multiple of 3")
+    return np.array(verts, dtype=np.float64).reshape(-1, 3, 3)
+
+
+def _prism(profile_xz, y0: float, y1: float) -> np.ndarray:
+    """Triangles of a convex x-z polygon (counter-clockwise seen from -y) extruded in y."""
+    P = np.asarray(profile_xz, dtype=np.float64)
+    k = len(P)
+    front = np.column_stack([P[:, 0], np.full(k, y0), P[:, 1]])
+    back = np.column_stack([P[:, 0], np.full(k, y1), P[:, 1]])
+    tris = []
+    # seen from -y with x right and z up, counter-clockwise x-z order gives a +y normal;
+    # the y0 cap must face -y, so reverse it there.
+    for i in range(1, k - 1):
+        tris.append([front[0], front[i + 1], front[i]])
+        tris.append([back[0], back[i], back[i + 1]])
+    for i in range(k):
+        j = (i + 1) % k
+        tris.append([front[i], front[j], back[j]])
+        tris.append([front[i], back[j], back[i]])
+    tri = np.array(tris)
+    # orient every facet outwards (the polygon is convex: compare with the centroid)
+    c = np.concatenate([front, back]).mean(axis=0)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    flip = np.einsum("ij,ij->i", n, tri.mean(axis=1) - c) < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return tri
+
+
+def box_triangles(lo, hi, *, inward: bool = False) -> np.ndarray:
+    """The 12 triangles of an axis-aligned box.
+
+    Parameters
+    ----------
+    lo, hi : (3,) array_like of float, length
+        Opposite corners.
+    inward : bool
+        Point normals into the box (a container) instead of out of it.
+
+    Returns
+    -------
+    (12, 3, 3) ndarray of float
+
+    Examples
+    --------
+    >>> tri = box_triangles([0, 0, 0], [1, 2, 3])
+    >>> tri.shape
+    (12, 3, 3)
+    >>> n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    >>> float(0.5 * np.linalg.norm(n, axis=1).sum())  # surface area 2(2 + 3 + 6)
+    22.0
+    """
+    lo = np.asarray(lo, dtype=np.float64).reshape(3)
+    hi = np.asarray(hi, dtype=np.float64).reshape(3)
+    if np.any(hi <= lo):
+        raise ValueError(f"`hi` must exceed `lo` on every axis; got {lo} and {hi}")
+    tri = _prism([[lo[0], lo[2]], [hi[0], lo[2]], [hi[0], hi[2]], [lo[0], hi[2]]], lo[1], hi[1])
+    return tri[:, [0, 2, 1]] if inward else tri
+
+
+@dataclass(frozen=True)
+class BladeGeometry:
+    """A recoater blade: a slab normal to x, spanning y, moving along +x.
+
+    Parameters
+    ----------
+    x0 : float, m
+        x of the blade's trailing (upstream, -x) face at t = 0.
+    z_bottom : float, m
+        Height of the lowest point of the blade (the gap above the plate when
+        the plate is at z = 0).
+    speed : float, m/s
+        Constant speed along +x.
+    thickness : float, m
+        Blade thickness along x (seed: 0.5 mm).
+    height : float, m
+        Height of the trailing face above ``z_bottom``.
+    bevel_deg : float, degrees
+        Bevel of the bottom edge (seed: 10): the bottom face rises by
+        ``thickness * tan(bevel)`` from the trailing to the leading (+x) face,
+        so the leading face is shorter and powder in front of the blade is
+        pushed under it. 0 gives a square edge.
+
+    Examples
+    --------
+    >>> b = BladeGeometry(x0=1e-3, z_bottom=1e-4, speed=0.0254)
+    >>> round(b.bevel_rise * 1e6, 2)  # micrometres
+    88.16
+    >>> b.triangles(0.0, 3e-3).shape
+    (12, 3, 3)
+    """
+
+    x0: float
+    z_bottom: float
+    speed: float = 0.0254
+    thickness: float = 0.5e-3
+    height: float = 2.0e-3
+    bevel_deg: float = 10.0
+
+    def __post_init__(self):
+        if not (self.thickness > 0 and self.height > 0):
+            raise ValueError("`thickness` and `height` must be positive lengths")
+        if not (0 <= self.bevel_deg < 90) or self.bevel_rise >= self.height:
+            raise ValueError(f"`bevel_deg` must lie in [0, 90) and its rise stay below `height`; "
+                             f"got {self.bevel_deg}")
+
+    @property
+    def bevel_rise(self) -> float:
+        """Height gained by the bottom face across the thickness (m)."""
+        return self.thickness * math.tan(math.radians(self.bevel_deg))
+
+    def profile(self) -> np.ndarray:
+        """The x-z outline at t = 0, (4, 2), counter-clockwise from the lowest corner."""
+        x0, x1 = self.x0, self.x0 + self.thickness
+        zb, zt = self.z_bottom, self.z_bottom + self.height
+        return np.array([[x0, zb], [x1, zb + self.bevel_rise], [x1, zt], [x0, zt]])
+
+    def triangles(self, y0: float, y1: float) -> np.ndarray:
+        """The 12 triangles of the blade spanning ``y0 <= y <= y1`` (m), normals outward."""
+        if y1 <= y0:
+            raise ValueError(f"`y1` must exceed `y0`; got {y0} and {y1}")
+        return _prism(self.profile(), y0, y1)
+
+    def write_stl(self, path, y0: float, y1: float) -> Path:
+        """Write the blade as an ASCII STL file (for LIGGGHTS ``fix mesh/surface``)."""
+        return write_stl(path, self.triangles(y0, y1), name="blade")
