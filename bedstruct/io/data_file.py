@@ -1,0 +1,400 @@
+"""LAMMPS/LIGGGHTS data files (``read_data``/``write_data``) for spheres.
+
+Supported ``Atoms`` layouts:
+
+* ``sphere`` and LIGGGHTS ``granular``: ``id type diameter density x y z [ix iy iz]``;
+* ``hybrid granular bond/gran`` (and ``hybrid sphere ...``) as LIGGGHTS
+  ``write_data`` writes it: ``id type x y z diameter density [ix iy iz]``,
+  with a molecule id before the image flags when present;
+* ``atomic``: ``id type x y z [ix iy iz]`` (radii from ``radius=``).
+
+The style comes from the ``Atoms # style`` comment, the ``atom_style=``
+argument, or, when neither is there, ``sphere`` (``hybrid granular bond/gran``
+when the header declares bonds); the choice is noted in the provenance.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from ..core import Box, Frame, Provenance, Units
+from ..errors import DumpFormatError
+
+__all__ = ["read_data", "write_data"]
+
+_HEADER_KEYS = ("atoms", "atom types", "bonds", "bond types", "angles", "angle types",
+                "dihedrals", "dihedral types", "impropers", "improper types", "extra bond per atom",
+                "extra angle per atom", "extra dihedral per atom", "extra improper per atom",
+                "extra special per atom", "ellipsoids", "lines", "triangles", "bodies")
+_SECTIONS = ("Atoms", "Velocities", "Masses", "Bonds", "Angles", "Dihedrals", "Impropers",
+             "Pair Coeffs", "PairIJ Coeffs", "Bond Coeffs", "Angle Coeffs", "Dihedral Coeffs",
+             "Improper Coeffs", "BondBond Coeffs", "BondAngle Coeffs", "MiddleBondTorsion Coeffs",
+             "EndBondTorsion Coeffs", "AngleTorsion Coeffs", "AngleAngleTorsion Coeffs",
+             "BondBond13 Coeffs", "AngleAngle Coeffs", "Ellipsoids", "Lines", "Triangles",
+             "Bodies")
+
+
+def _strip(line: str) -> str:
+    k = line.find("#")
+    return (line if k < 0 else line[:k]).strip()
+
+
+def _style_kind(style: str) -> str:
+    words = style.split()
+    if not words:
+        return "sphere"
+    if words[0] == "hybrid":
+        return "hybrid"
+    if words[0] in ("sphere", "granular"):
+        return "sphere"
+    if words[0] == "atomic":
+        return "atomic"
+    if words[0] == "bond/gran":
+        return "bond/gran"
+    raise ValueError(f"atom_style {style!r} is not supported; expected sphere, granular, "
+                     f"hybrid granular bond/gran, bond/gran or atomic")
+
+
+def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=None) -> Frame:
+    """Read a LAMMPS/LIGGGHTS data file of spheres into a :class:`Frame`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The data file.
+    atom_style : str, optional
+        ``"sphere"``, ``"granular"``, ``"hybrid granular bond/gran"``,
+        ``"bond/gran"`` or ``"atomic"``; default from the ``Atoms # style``
+        comment, else ``sphere`` (or the LIGGGHTS hybrid layout when bonds are
+        declared).
+    boundary : str or sequence of 3 str, optional
+        Boundary flags; data files do not store them. Default ``"pp pp pp"``,
+        noted in the provenance.
+    radius : float, optional
+        Radius for styles without a diameter column (``atomic``, ``bond/gran``).
+    units : str, optional
+        Unit style of the numbers (data files do not say); default unknown.
+
+    Returns
+    -------
+    Frame
+        Rows sorted by id. ``columns`` holds ``density`` and ``mass``
+        (density times sphere volume) for sphere styles, ``molecule`` when
+        present; ``velocities`` and ``omegas`` come from a ``Velocities``
+        section; per-type ``Masses`` are kept as ``type_mass``.
+
+    Raises
+    ------
+    DumpFormatError
+        For malformed files (file, line and what was expected).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from bedstruct import Frame, read_data, write_data
+    >>> path = os.path.join(tempfile.mkdtemp(), "data.spheres")
+    >>> write_data(path, Frame([[1.0, 1.0, 1.0]], [0.5], box=[2, 2, 2]), density=2500.0)
+    >>> f = read_data(path)
+    >>> f.radii.tolist(), round(float(f.columns["mass"][0]), 3)
+    ([0.5], 1308.997)
+    """
+    path = os.fspath(path)
+    with open(path, "r", encoding="latin-1") as fh:
+        lines = fh.read().splitlines()
+    if not lines:
+        raise DumpFormatError("empty data file", path=path, line=1)
+    counts = {}
+    bounds = {}
+    tilt = None
+    k = 1
+    # ---- header (the first line is a title)
+    while k < len(lines):
+        text = _strip(lines[k])
+        if not text:
+            k += 1
+            continue
+        head = text.split()[0]
+        if any(text.startswith(s) and (text == s or text[len(s)].isspace()) for s in _SECTIONS):
+            break
+        words = text.split()
+        done = False
+        for axis in ("x", "y", "z"):
+            if text.endswith(f"{axis}lo {axis}hi"):
+                try:
+                    bounds[axis] = (float(words[0]), float(words[1]))
+                except (ValueError, IndexError):
+                    raise DumpFormatError(f"expected '{axis}lo {axis}hi' bounds", path=path,
+                                          line=k + 1, text=lines[k]) from None
+                done = True
+        if text.endswith("xy xz yz"):
+            try:
+                tilt = [float(w) for w in words[:3]]
+            except ValueError:
+                raise DumpFormatError("expected 'xy xz yz' tilt factors", path=path, line=k + 1,
+                                      text=lines[k]) from None
+            done = True
+        if not done:
+            rest = " ".join(words[1:])
+            if rest in _HEADER_KEYS:
+                try:
+                    counts[rest] = int(head)
+                except ValueError:
+                    raise DumpFormatError(f"expected an integer count of {rest}", path=path,
+                                          line=k + 1, text=lines[k]) from None
+            else:
+                raise DumpFormatError("unknown data file header line", path=path, line=k + 1,
+                                      text=lines[k])
+        k += 1
+    if "atoms" not in counts:
+        raise DumpFormatError("header lacks the 'N atoms' line", path=path)
+    missing = [a for a in "xyz" if a not in bounds]
+    if missing:
+        raise DumpFormatError(f"header lacks the box bounds for {missing}", path=path)
+    n = counts["atoms"]
+    # ---- sections
+    sections = {}
+    while k < len(lines):
+        raw_line = lines[k]
+        text = _strip(raw_line)
+        if not text:
+            k += 1
+            continue
+        name = next((s for s in _SECTIONS if text == s), None)
+        if name is None:
+            raise DumpFormatError("expected a section name such as 'Atoms' or 'Velocities'",
+                                  path=path, line=k + 1, text=raw_line)
+        comment = raw_line.split("#", 1)[1].strip() if "#" in raw_line else ""
+        k += 1
+        rows = []
+        # section body: skip blank lines after the title, then rows until the next title
+        while k < len(lines):
+            t = _strip(lines[k])
+            if not t:
+                k += 1
+                if rows:
+                    # a blank line ends the section unless more rows follow directly
+                    nxt = k
+                    while nxt < len(lines) and not _strip(lines[nxt]):
+                        nxt += 1
+                    if nxt >= len(lines) or _strip(lines[nxt]) in _SECTIONS:
+                        break
+                continue
+            if t in _SECTIONS:
+                break
+            rows.append((k + 1, t))
+            k += 1
+        sections[name] = (comment, rows)
+    if "Atoms" not in sections:
+        raise DumpFormatError("no 'Atoms' section", path=path)
+    comment, rows = sections["Atoms"]
+    notes = []
+    if atom_style is None:
+        if comment:
+            atom_style = comment
+        elif counts.get("bonds", 0) > 0 or counts.get("bond types", 0) > 0:
+            atom_style = "hybrid granular bond/gran"
+            notes.append("atom_style not stated; assumed LIGGGHTS 'hybrid granular bond/gran' "
+                         "layout (id type x y z diameter density) because bonds are declared")
+        else:
+            atom_style = "sphere"
+            notes.append("atom_style not stated; assumed 'sphere' (id type diameter density x y z)")
+    try:
+        kind = _style_kind(atom_style)
+    except ValueError as exc:
+        raise DumpFormatError(str(exc), path=path) from None
+    if len(rows) != n:
+        raise DumpFormatError(f"atom count mismatch: the header says {n} atoms but the Atoms "
+                              f"section has {len(rows)} rows", path=path,
+                              line=rows[-1][0] if rows else None)
+    base = {"sphere": 7, "hybrid": 7, "atomic": 5, "bond/gran": 6}[kind]
+    table = _numeric_rows(rows, path, "Atoms", allowed=(base, base + 1, base + 3, base + 4))
+    ncol = table.shape[1] if n else base
+    ids = _ints(table[:, 0], rows, path, "id") if n else np.zeros(0, np.int64)
+    types = _ints(table[:, 1], rows, path, "type") if n else np.zeros(0, np.int64)
+    columns = {}
+    images = None
+    if kind == "sphere":
+        diam, dens, pos = table[:, 2], table[:, 3], table[:, 4:7]
+        extra = table[:, 7:]
+    elif kind == "hybrid":
+        pos, diam, dens = table[:, 2:5], table[:, 5], table[:, 6]
+        extra = table[:, 7:]
+    elif kind == "bond/gran":
+        columns["molecule"] = _ints(table[:, 1], rows, path, "molecule")
+        types = _ints(table[:, 2], rows, path, "type")
+        pos, diam, dens = table[:, 3:6], None, None
+        extra = table[:, 6:]
+    else:
+        pos, diam, dens = table[:, 2:5], None, None
+        extra = table[:, 5:]
+    if extra.shape[1] in (1, 4):
+        columns["molecule"] = _ints(extra[:, 0], rows, path, "molecule")
+        extra = extra[:, 1:]
+    if extra.shape[1] == 3:
+        images = np.stack([_ints(extra[:, c], rows, path, "image flag") for c in range(3)], 1)
+    elif extra.shape[1] != 0:
+        raise DumpFormatError(f"unexpected {ncol} values per Atoms row for atom_style "
+                              f"{atom_style!r}", path=path, line=rows[0][0], text=rows[0][1])
+    if diam is not None:
+        bad = ~(np.isfinite(diam) & (diam > 0))
+        if bad.any():
+            r = int(np.flatnonzero(bad)[0])
+            raise DumpFormatError(f"diameter must be positive and finite (atom_style "
+                                  f"{atom_style!r}: diameter is column "
+                                  f"{3 if kind == 'sphere' else 6})", path=path,
+                                  line=rows[r][0], text=rows[r][1])
+        radii = diam / 2.0
+        columns["density"] = dens.copy()
+        columns["mass"] = dens * (4.0 / 3.0) * math.pi * radii ** 3
+    elif radius is not None:
+        radii = np.full(n, float(radius))
+        notes.append(f"radius {float(radius)!r} given by the caller (atom_style {atom_style!r})")
+    else:
+        raise DumpFormatError(f"atom_style {atom_style!r} has no diameter; pass radius=",
+                              path=path)
+    bad = ~np.isfinite(pos).all(axis=1)
+    if bad.any():
+        r = int(np.flatnonzero(bad)[0])
+        raise DumpFormatError("position must be finite", path=path, line=rows[r][0],
+                              text=rows[r][1])
+    kw = {}
+    if images is not None:
+        kw["images"] = images
+    if "Velocities" in sections:
+        vrows = sections["Velocities"][1]
+        if len(vrows) != n:
+            raise DumpFormatError(f"the Velocities section has {len(vrows)} rows; expected {n}",
+                                  path=path, line=vrows[-1][0] if vrows else None)
+        vt = _numeric_rows(vrows, path, "Velocities", allowed=(4, 7))
+        vids = _ints(vt[:, 0], vrows, path, "id")
+        order = np.argsort(vids)
+        where = np.searchsorted(vids[order], ids)
+        where = np.minimum(where, n - 1)
+        if not np.array_equal(vids[order][where], ids):
+            raise DumpFormatError("Velocities ids do not match the Atoms ids", path=path,
+                                  line=vrows[0][0])
+        vt = vt[order][where]
+        kw["velocities"] = vt[:, 1:4]
+        if vt.shape[1] == 7:
+            kw["omegas"] = vt[:, 4:7]
+    if "Masses" in sections:
+        mrows = sections["Masses"][1]
+        mt = _numeric_rows(mrows, path, "Masses", allowed=(2,))
+        mass_of = dict(zip(_ints(mt[:, 0], mrows, path, "type").tolist(), mt[:, 1].tolist()))
+        columns["type_mass"] = np.array([mass_of.get(int(t), np.nan) for t in types])
+    skipped = [s for s in sections if s not in ("Atoms", "Velocities", "Masses")]
+    if skipped:
+        notes.append("sections not read: " + ", ".join(skipped))
+    bstr = " ".join(boundary) if not isinstance(boundary, str) else boundary
+    notes.append(f"data files do not store boundary flags: boundary {bstr!r} assumed")
+    lo = [bounds[a][0] for a in "xyz"]
+    hi = [bounds[a][1] for a in "xyz"]
+    box = Box(lo, hi, tilt if tilt is not None else np.zeros(3), boundary)
+    frame = Frame(pos, radii, box=box, ids=ids, types=types, columns=columns,
+                  units=Units(None if units is None else units),
+                  provenance=Provenance(source=path, frame_index=0, notes=tuple(notes)), **kw)
+    return frame.sorted_by_id()
+
+
+def _numeric_rows(rows, path, section, allowed):
+    if not rows:
+        return np.zeros((0, allowed[0]))
+    width = len(rows[0][1].split())
+    if width not in allowed:
+        raise DumpFormatError(f"{section} rows need {' or '.join(map(str, allowed))} values; "
+                              f"found {width}", path=path, line=rows[0][0], text=rows[0][1])
+    out = np.empty((len(rows), width))
+    for r, (ln, text) in enumerate(rows):
+        parts = text.split()
+        if len(parts) != width:
+            raise DumpFormatError(f"wrong number of values in the {section} section: found "
+                                  f"{len(parts)}, expected {width}", path=path, line=ln, text=text)
+        try:
+            out[r] = [float(p) for p in parts]
+        except ValueError:
+            raise DumpFormatError(f"non-numeric value in the {section} section", path=path,
+                                  line=ln, text=text) from None
+    return out
+
+
+def _ints(col, rows, path, what):
+    ints = col.astype(np.int64)
+    bad = np.flatnonzero(ints != col)
+    if bad.size:
+        r = int(bad[0])
+        raise DumpFormatError(f"{what} must be an integer", path=path, line=rows[r][0],
+                              text=rows[r][1])
+    return ints
+
+
+def _r(x) -> str:
+    return repr(float(x))
+
+
+def write_data(path, frame: Frame, *, density=None, title=None) -> None:
+    """Write a frame as a LAMMPS data file with ``atom_style sphere``.
+
+    Rows are ``id type diameter density x y z [ix iy iz]`` under
+    ``Atoms # sphere``; a ``Velocities`` section (``id vx vy vz wx wy wz``)
+    follows when the frame has velocities. Floats are written round-trip exact.
+
+    Parameters
+    ----------
+    path : path-like
+        Output file.
+    frame : Frame
+        The spheres.
+    density : float or (N,) array_like, optional
+        Particle density (mass/length^3); default the frame's ``density``
+        column. One of the two is required.
+    title : str, optional
+        The first (comment) line.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from bedstruct import Frame, write_data
+    >>> path = os.path.join(tempfile.mkdtemp(), "data.spheres")
+    >>> write_data(path, Frame([[1.0, 1.0, 1.0]], [0.5], box=[2, 2, 2]), density=2500.0)
+    >>> print(open(path).read().split("Atoms")[1].strip())
+    # sphere
+    <BLANKLINE>
+    1 1 1.0 2500.0 1.0 1.0 1.0
+    """
+    if not isinstance(frame, Frame):
+        raise TypeError(f"expected a Frame; got {type(frame).__name__}")
+    n = frame.n_particles
+    if density is None:
+        if "density" not in frame.columns:
+            raise ValueError("write_data needs a density: pass density= or give the frame a "
+                             "'density' column")
+        density = frame.columns["density"]
+    dens = np.broadcast_to(np.asarray(density, dtype=np.float64), (n,))
+    box = frame.box
+    out = [title or f"LAMMPS data file written by bedstruct (timestep {frame.timestep})", "",
+           f"{n} atoms", f"{int(frame.types.max(initial=1))} atom types", ""]
+    for k, a in enumerate("xyz"):
+        out.append(f"{_r(box.lo[k])} {_r(box.hi[k])} {a}lo {a}hi")
+    if box.is_triclinic:
+        out.append(f"{_r(box.tilt[0])} {_r(box.tilt[1])} {_r(box.tilt[2])} xy xz yz")
+    out += ["", "Atoms # sphere", ""]
+    img = frame.images
+    for r in range(n):
+        p = frame.positions[r]
+        line = (f"{frame.ids[r]} {frame.types[r]} {_r(2.0 * frame.radii[r])} {_r(dens[r])} "
+                f"{_r(p[0])} {_r(p[1])} {_r(p[2])}")
+        if img is not None:
+            line += f" {img[r, 0]} {img[r, 1]} {img[r, 2]}"
+        out.append(line)
+    if frame.velocities is not None:
+        out += ["", "Velocities", ""]
+        om = frame.omegas if frame.omegas is not None else np.zeros((n, 3))
+        for r in range(n):
+            v = frame.velocities[r]
+            w = om[r]
+            out.append(f"{frame.ids[r]} " + " ".join(_r(x) for x in (*v, *w)))
+    with open(path, "w", encoding="ascii") as fh:
+        fh.write("\n".join(out) + "\n")
