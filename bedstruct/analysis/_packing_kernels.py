@@ -20,7 +20,7 @@ import numpy as np
 
 from .._numba import njit
 
-__all__ = ["sphere_box_volume_one", "sphere_box_volumes", "grid_volumes"]
+__all__ = ["sphere_box_volume_one", "sphere_box_volumes", "grid_volumes", "cap_height_map"]
 
 _BIG = 1e300
 
@@ -235,3 +235,45 @@ def grid_volumes(centres, radii, shifts, ex, ey, ez, nodes, weights, out):
                         out[a, b, c] += sphere_box_volume_one(
                             cx, cy, cz, r, ex[a], ex[a + 1], ey[b], ey[b + 1], ez[c], ez[c + 1],
                             nodes, weights)
+
+
+@njit
+def cap_height_map(pos, radii, probe, x0, y0, dx, dy, per_x, per_y, ax, ay, az, out):
+    """Highest point of every sphere (grown by ``probe``) above each grid node.
+
+    Node ``(k, l)`` sits at ``(x0 + (k + 1/2) dx, y0 + (l + 1/2) dy)``; along a
+    periodic lateral axis node indices wrap. ``out`` (nx, ny) must be
+    initialised (e.g. to -inf); it receives ``max_i z_i + sqrt((r_i + p)^2 -
+    rho^2) - p``, the height of the lowest point of a probe sphere of radius
+    ``p`` lowered onto the spheres (``p = 0``: the highest cap).
+    """
+    nx = out.shape[0]
+    ny = out.shape[1]
+    for i in range(pos.shape[0]):
+        rr = radii[i] + probe
+        cx = pos[i, ax]
+        cy = pos[i, ay]
+        cz = pos[i, az]
+        k0 = int(math.ceil((cx - rr - x0) / dx - 0.5))
+        k1 = int(math.floor((cx + rr - x0) / dx - 0.5))
+        l0 = int(math.ceil((cy - rr - y0) / dy - 0.5))
+        l1 = int(math.floor((cy + rr - y0) / dy - 0.5))
+        for k in range(k0, k1 + 1):
+            kk = k
+            if per_x:
+                kk = k % nx
+            elif k < 0 or k >= nx:
+                continue
+            ddx = x0 + (k + 0.5) * dx - cx
+            for m in range(l0, l1 + 1):
+                mm = m
+                if per_y:
+                    mm = m % ny
+                elif m < 0 or m >= ny:
+                    continue
+                ddy = y0 + (m + 0.5) * dy - cy
+                d2 = ddx * ddx + ddy * ddy
+                if d2 < rr * rr:
+                    h = cz + math.sqrt(rr * rr - d2) - probe
+                    if h > out[kk, mm]:
+                        out[kk, mm] = h
