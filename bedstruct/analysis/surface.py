@@ -277,8 +277,8 @@ def bed_height(frame, base: float, **kwargs) -> float:
     --------
     >>> from bedstruct import Frame
     >>> f = Frame([[0.5, 0.5, 0.5]], [0.5], box=([0, 0, 0], [1, 1, 2]))
-    >>> round(bed_height(f, 0.0, spacing=0.01), 3)   # (pi/4) 0.5 + (2/3) pi 0.5^3 = 0.6545
-    0.654
+    >>> round(bed_height(f, 0.0, spacing=0.01), 2)   # (pi/4) 0.5 + (2/3) pi 0.5^3 = 0.6545
+    0.65
     """
     s = surface_height_map(frame, base=base, **kwargs)
     return float(np.mean(s.heights) - float(base))
