@@ -463,3 +463,17 @@ def test_lammps_contact_tensor_is_our_D2_and_other_tensors_follow_the_source():
     assert oc.force_tangential is None
     with pytest.raises(ValueError, match="force_normal"):
         lammps_fabric(delv, force_tangential=ft)
+
+
+def test_lattice_neighbour_shells_analytic_values():
+    """SC (6 neighbours) and FCC (12): D2 = 0, D4_xxxx = 21/4 and -21/16 (hand-derived)."""
+    sc = np.vstack([np.eye(3), -np.eye(3)])
+    fcc = np.array([(a, b, 0) for a in (-1, 1) for b in (-1, 1)]
+                   + [(a, 0, b) for a in (-1, 1) for b in (-1, 1)]
+                   + [(0, a, b) for a in (-1, 1) for b in (-1, 1)], dtype=float)
+    for dirs, d4xxxx, d4xxyy in ((sc, 21 / 4, -21 / 8), (fcc, -21 / 16, 21 / 32)):
+        t = fabric_tensors(dirs)
+        np.testing.assert_allclose(t.D2, 0, atol=1e-14)
+        assert t.D4[0, 0, 0, 0] == pytest.approx(d4xxxx, abs=1e-13)
+        assert t.D4[0, 0, 1, 1] == pytest.approx(d4xxyy, abs=1e-13)
+        assert t.D4[2, 2, 2, 2] == pytest.approx(d4xxxx, abs=1e-13)
