@@ -195,6 +195,10 @@ def parse_text_frame(buf: bytes, *, path: str, line0: int = 0, at_eof: bool = Tr
                 names = list(ncols_override)
             break
         else:
+            if at_eof and q >= size and not buf.endswith(b"\n") and any(
+                    k.startswith(item_s) for k in _KNOWN_ITEMS):
+                raise TruncatedFrame("truncated frame: the file ends inside a header line",
+                                     path=path, line=item_line, text=_decode(text))
             raise DumpFormatError(
                 "unknown header item; expected one of " + ", ".join(f"'ITEM: {k}'" for k in _KNOWN_ITEMS),
                 path=path, line=item_line, text=_decode(text))

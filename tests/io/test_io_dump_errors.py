@@ -1,0 +1,163 @@
+"""Every malformed-input case gives a DumpFormatError naming file, line and expectation."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from bedstruct import read_dump
+from bedstruct.errors import BedstructWarning, DumpFormatError
+
+# rows of the frame written by dump_text start at line 10 (9 header lines)
+FIRST_ROW = 10
+
+
+def _err(path, **kw) -> DumpFormatError:
+    with pytest.raises(DumpFormatError) as info:
+        traj = read_dump(path, **kw)
+        for _ in traj:
+            pass
+    err = info.value
+    assert isinstance(err, ValueError)
+    assert err.path == str(path)
+    return err
+
+
+def test_truncated_last_frame_strict_and_lenient(write, dump_text, good_rows):
+    text = dump_text(good_rows, step=1) + dump_text(good_rows[:2], step=2, n=3)
+    p = write("trunc.dump", text)
+    err = _err(p)
+    assert "truncated frame" in err.message and err.line == 9 + 3 + 9 + 2 + 1
+    with pytest.warns(BedstructWarning, match="truncated last frame"):
+        traj = read_dump(p, strict=False)
+    assert traj.timesteps.tolist() == [1]
+    assert traj[0].n_particles == 3
+
+
+def test_truncated_in_the_middle_of_a_line(write, dump_text, good_rows):
+    text = dump_text(good_rows, step=1) + dump_text(good_rows, step=2)
+    p = write("cut.dump", text[:-9])  # the last row loses its end and the newline
+    err = _err(p)
+    assert "truncated frame" in err.message and err.line == 9 + 3 + 9 + 3
+    with pytest.warns(BedstructWarning):
+        assert read_dump(p, strict=False).timesteps.tolist() == [1]
+
+
+def test_truncated_header_of_next_frame(write, dump_text, good_rows):
+    p = write("head.dump", dump_text(good_rows, step=1) + "ITEM: TIMES")
+    err = _err(p)
+    assert "cut off" in err.message and err.line == 13
+    with pytest.warns(BedstructWarning):
+        traj = read_dump(p, strict=False)
+    assert len(traj) == 1 and traj[0].n_particles == 3
+    q = write("head2.dump", dump_text(good_rows, step=1) + "ITEM: TIMESTEP\n2\nITEM: NUMB")
+    assert "truncated frame" in _err(q).message
+    with pytest.warns(BedstructWarning):
+        assert read_dump(q, strict=False).timesteps.tolist() == [1]
+
+
+def test_truncation_is_only_skipped_at_the_end(write, dump_text, good_rows):
+    # a short frame followed by another frame is a count mismatch, never skipped
+    text = dump_text(good_rows[:2], step=1, n=3) + dump_text(good_rows, step=2)
+    p = write("mid.dump", text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        traj = read_dump(p, strict=False)
+    with pytest.raises(DumpFormatError, match="count mismatch") as info:
+        traj[0]
+    assert info.value.line == 12
+
+
+def test_non_numeric_token(write, dump_text, good_rows):
+    rows = list(good_rows)
+    rows[1] = "1 2 4.0 five 6.0 0.25"
+    err = _err(write("nn.dump", dump_text(rows)))
+    assert "non-numeric" in err.message and err.line == FIRST_ROW + 1
+    assert err.text == rows[1]
+    assert "x y z" in err.message  # says what was expected
+
+
+@pytest.mark.parametrize("bad,k", [("1 2 4.0 5.0 6.0", 5), ("1 2 4.0 5.0 6.0 0.25 9", 7)])
+def test_wrong_number_of_values(write, dump_text, good_rows, bad, k):
+    rows = list(good_rows)
+    rows[1] = bad
+    err = _err(write("wn.dump", dump_text(rows + ["4 1 1 1 1 0.5"], step=1) + dump_text(rows)))
+    assert "wrong number of values" in err.message and f"found {k}, expected 6" in err.message
+    assert err.line == FIRST_ROW + 1
+
+
+def test_compensating_wrong_counts_are_caught(write, dump_text, good_rows):
+    # one row short and the next one long: the total count is right, the rows are not
+    rows = ["2 1 1.0 2.0 3.0", "1 2 4.0 5.0 6.0 0.25 0.5", good_rows[2]]
+    err = _err(write("comp.dump", dump_text(rows)))
+    assert "wrong number of values" in err.message and err.line == FIRST_ROW
+
+
+def test_atom_count_mismatch(write, dump_text, good_rows):
+    err = _err(write("more.dump", dump_text(good_rows + ["4 1 1 1 1 0.5"], n=3)))
+    assert "count mismatch" in err.message and err.line == FIRST_ROW + 3
+
+
+@pytest.mark.parametrize("radius", ["0", "-0.5", "nan", "inf"])
+def test_bad_radius(write, dump_text, good_rows, radius):
+    rows = list(good_rows)
+    rows[2] = f"3 1 7.5 8.5 9.5 {radius}"
+    err = _err(write("rad.dump", dump_text(rows)))
+    assert "positive and finite" in err.message and err.line == FIRST_ROW + 2
+    assert err.text == rows[2]
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_non_finite_positions(write, dump_text, good_rows, value):
+    rows = list(good_rows)
+    rows[0] = f"2 1 1.0 {value} 3.0 0.5"
+    err = _err(write("pos.dump", dump_text(rows)))
+    assert "not finite" in err.message and err.line == FIRST_ROW
+
+
+def test_unknown_header_item(write, dump_text, good_rows):
+    text = dump_text(good_rows).replace("ITEM: NUMBER OF ATOMS", "ITEM: NUMBER OF BANANAS")
+    err = _err(write("item.dump", text))
+    assert "unknown header item" in err.message and err.line == 3
+    assert "ITEM: TIMESTEP" in err.message
+
+
+def test_non_integer_id_and_bad_flags(write, dump_text, good_rows):
+    rows = list(good_rows)
+    rows[1] = "1.5 2 4.0 5.0 6.0 0.25"
+    err = _err(write("id.dump", dump_text(rows)))
+    assert "integers" in err.message and err.line == FIRST_ROW + 1
+    err = _err(write("flags.dump", dump_text(good_rows, flags="pp xx pp")))
+    assert "boundary flags" in err.message and err.line == 5
+    err = _err(write("box.dump", dump_text(good_rows).replace("0 10\n", "0 ten\n", 1)))
+    assert "box line" in err.message and err.line == 6
+
+
+def test_not_a_dump(write):
+    err = _err(write("x.dump", "hello world\nthis is not a dump\n"))
+    assert err.line == 1
+
+
+def test_error_line_numbers_in_later_frames_and_gz(tmp_path, dump_text, good_rows):
+    import gzip
+    rows = list(good_rows)
+    rows[2] = "3 1 7.5 8.5 9.5 0.5 oops"
+    text = "".join(dump_text(good_rows, step=s) for s in range(3)) + dump_text(rows, step=3)
+    p = tmp_path / "late.dump.gz"
+    with gzip.open(p, "wb") as fh:
+        fh.write(text.encode())
+    err = _err(p)
+    assert err.line == 3 * 12 + FIRST_ROW + 2
+    # the same line read with plain Python
+    assert text.splitlines()[err.line - 1] == rows[2]
+
+
+def test_slow_path_numbers_parse_exactly(write, dump_text):
+    # 17-digit mantissas, huge exponents, nan in an extra column: the general parser is used
+    rows = [f"{k} 1 0.10000000000000001 1e300 2.2250738585072014e-308 0.5 nan"
+            for k in range(1, 200)]
+    f = read_dump(write("slow.dump", dump_text(rows, cols="id type x y z radius c_q")))[0]
+    assert f.positions[0].tolist() == [0.1, 1e300, 2.2250738585072014e-308]
+    assert np.isnan(f.columns["c_q"]).all()

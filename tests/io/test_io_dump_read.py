@@ -1,0 +1,194 @@
+"""read_dump / iter_frames: column mapping, boxes, compression, series, laziness."""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import bedstruct
+from bedstruct import Box, Frame, read_dump, iter_frames, write_dump
+from bedstruct.errors import BedstructWarning, DumpFormatError
+
+
+def test_basic_mapping_sorted_by_id(write, dump_text, good_rows):
+    p = write("a.dump", dump_text(good_rows, step=42, flags="pp ff mm"))
+    traj = read_dump(p)
+    assert len(traj) == 1 and traj.timesteps.tolist() == [42]
+    f = traj[0]
+    assert f.ids.tolist() == [1, 2, 3]
+    assert f.types.tolist() == [2, 1, 1]
+    assert f.positions.tolist() == [[4, 5, 6], [1, 2, 3], [7.5, 8.5, 9.5]]
+    assert f.radii.tolist() == [0.25, 0.5, 0.5]
+    assert f.box.boundary == ("pp", "ff", "mm") and f.box.periodic == (True, False, False)
+    assert f.positions.dtype == np.float64
+    assert f.units.style is None  # not stated anywhere
+    assert f.provenance.source == str(p)
+    unsorted = read_dump(p, sort_by_id=False)[0]
+    assert unsorted.ids.tolist() == [2, 1, 3]
+
+
+def test_all_vector_columns(write, dump_text):
+    cols = "id type x y z ix iy iz vx vy vz fx fy fz omegax omegay omegaz diameter c_x[1] c_x[2] f_t"
+    row = "1 1 1 2 3 -1 0 2 0.1 0.2 0.3 4 5 6 7 8 9 0.5 11 12 13"
+    f = read_dump(write("v.dump", dump_text([row], cols=cols)))[0]
+    assert f.images.tolist() == [[-1, 0, 2]]
+    assert f.velocities.tolist() == [[0.1, 0.2, 0.3]]
+    assert f.forces.tolist() == [[4, 5, 6]]
+    assert f.omegas.tolist() == [[7, 8, 9]]
+    assert f.radii.tolist() == [0.25]  # diameter halved
+    assert any("diameter" in n for n in f.provenance.notes)
+    assert sorted(f.columns) == ["c_x[1]", "c_x[2]", "f_t"]
+    assert f.columns["c_x[2]"].tolist() == [12.0]
+
+
+def test_missing_id_and_type_are_synthesised(write, dump_text):
+    p = write("n.dump", dump_text(["1 2 3 0.5", "4 5 6 0.5"], cols="x y z radius"))
+    f = read_dump(p)[0]
+    assert f.ids.tolist() == [1, 2] and f.types.tolist() == [1, 1]
+    notes = " ".join(f.provenance.notes)
+    assert "ids 1..N synthesised" in notes and "types set to 1" in notes
+
+
+def test_missing_radius_needs_radius_argument(write, dump_text):
+    p = write("r.dump", dump_text(["1 1 1 2 3"], cols="id type x y z"))
+    with pytest.raises(DumpFormatError, match="radius") as err:
+        read_dump(p)[0]
+    assert err.value.line == 9
+    f = read_dump(p, radius=0.3)[0]
+    assert f.radii.tolist() == [0.3]
+    assert any("given by the caller" in n for n in f.provenance.notes)
+
+
+def test_scaled_coordinates_triclinic(write):
+    # triclinic box lo=0, hi=(10, 8, 6), tilt xy=2, xz=-1, yz=0.5; bounding box as LAMMPS writes it
+    box = Box([0, 0, 0], [10, 8, 6], [2.0, -1.0, 0.5])
+    b = box.lammps_bounds()
+    text = ("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS xy xz yz pp pp pp\n"
+            f"{b[0, 0]} {b[0, 1]} 2.0\n{b[1, 0]} {b[1, 1]} -1.0\n{b[2, 0]} {b[2, 1]} 0.5\n"
+            "ITEM: ATOMS id type xs ys zs radius\n1 1 0.5 0.25 0.5 0.1\n")
+    f = read_dump(write("tri.dump", text))[0]
+    assert f.box.tilt.tolist() == [2.0, -1.0, 0.5]
+    np.testing.assert_allclose(f.box.lo, [0, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(f.box.hi, [10, 8, 6], atol=1e-12)
+    # x = lo + s0*a + s1*b + s2*c with a=(10,0,0), b=(2,8,0), c=(-1,0.5,6)
+    np.testing.assert_allclose(f.positions[0], [5 + 0.5 - 0.5, 2 + 0.25, 3.0])
+
+
+def test_unwrapped_coordinates_kept_or_wrapped(write):
+    text = ("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS pp pp ff\n0 10\n0 10\n"
+            "0 10\nITEM: ATOMS id xu yu zu radius\n1 12.5 -1.0 11.0 0.5\n")
+    p = write("u.dump", text)
+    f = read_dump(p)[0]
+    assert f.positions.tolist() == [[12.5, -1.0, 11.0]]
+    assert any("unwrapped" in n for n in f.provenance.notes)
+    g = read_dump(p, wrap=True)[0]
+    assert g.positions.tolist() == [[2.5, 9.0, 11.0]]  # z is not periodic
+    assert any("wrapped into the box" in n for n in g.provenance.notes)
+
+
+def test_bare_box_bounds_units_time_trailing_space(write):
+    text = ("ITEM: UNITS\ncgs\nITEM: TIME\n0.25\nITEM: TIMESTEP\n7\nITEM: NUMBER OF ATOMS\n1\n"
+            "ITEM: BOX BOUNDS\n0 1\n0 1\n0 1\nITEM: ATOMS id type x y z radius   \n"
+            "1 1 0.5 0.5 0.5 0.1   \n   \n"
+            "ITEM: UNITS\ncgs\nITEM: TIME\n0.5\nITEM: TIMESTEP\n8\nITEM: NUMBER OF ATOMS\n0\n"
+            "ITEM: BOX BOUNDS\n0 1\n0 1\n0 1\nITEM: ATOMS id type x y z radius\n")
+    traj = read_dump(write("units.dump", text))
+    assert traj.timesteps.tolist() == [7, 8]
+    f, g = traj
+    assert f.units.style == "cgs" and f.time == 0.25 and g.time == 0.5
+    assert f.box.boundary == ("pp", "pp", "pp")
+    assert any("assumed periodic" in n for n in f.provenance.notes)
+    assert g.n_particles == 0 and g.positions.shape == (0, 3)
+    with pytest.raises(DumpFormatError, match="ITEM: UNITS cgs"):
+        read_dump(write("units2.dump", text), units="si")[0]
+    h = read_dump(write("units3.dump", text.replace("ITEM: UNITS\ncgs\n", "")), units="micro")[0]
+    assert h.units.style == "micro"
+
+
+@pytest.mark.parametrize("opener,ext", [(gzip.open, ".gz"), (bz2.open, ".bz2")])
+def test_compressed(tmp_path, dump_text, good_rows, opener, ext):
+    text = dump_text(good_rows, step=1) + dump_text(good_rows[:2], step=2)
+    p = tmp_path / f"c.dump{ext}"
+    with opener(p, "wb") as fh:
+        fh.write(text.encode())
+    traj = read_dump(p)
+    assert traj.timesteps.tolist() == [1, 2]
+    assert traj[1].n_particles == 2 and traj[0].n_particles == 3
+    # random access backwards after forwards reopens the stream
+    assert traj[0].positions.tolist() == traj[0].positions.tolist()
+    # compression detected from the magic bytes without the extension
+    q = tmp_path / "noext"
+    q.write_bytes(p.read_bytes())
+    assert read_dump(q)[1].ids.tolist() == [1, 2]
+
+
+def test_zstd(tmp_path, dump_text, good_rows):
+    zstd = pytest.importorskip("zstandard")
+    p = tmp_path / "c.dump.zst"
+    p.write_bytes(zstd.ZstdCompressor().compress(dump_text(good_rows).encode()))
+    assert read_dump(p)[0].ids.tolist() == [1, 2, 3]
+
+
+def test_glob_series_sorted_by_timestep(tmp_path, dump_text, good_rows):
+    for step in (1000, 200, 30):
+        (tmp_path / f"dump{step}.liggghts").write_text(dump_text(good_rows, step=step))
+    traj = read_dump(str(tmp_path / "dump*.liggghts"))
+    assert traj.timesteps.tolist() == [30, 200, 1000]
+    assert [f.timestep for f in traj] == [30, 200, 1000]
+    assert [f.timestep for f in iter_frames(str(tmp_path / "dump*.liggghts"))] == [30, 200, 1000]
+    with pytest.raises(FileNotFoundError):
+        read_dump(str(tmp_path / "nothing*.dump"))
+
+
+def test_random_access_slices_and_context_manager(tmp_path, dump_text, good_rows):
+    p = tmp_path / "m.dump"
+    p.write_text("".join(dump_text(good_rows, step=s) for s in range(0, 50, 10)))
+    with read_dump(p) as traj:
+        assert len(traj) == 5
+        assert traj[-1].timestep == 40 and traj[2].timestep == 20 and traj[0].timestep == 0
+        assert [f.timestep for f in traj[1:4]] == [10, 20, 30]
+        assert traj.n_particles.tolist() == [3] * 5
+        with pytest.raises(IndexError):
+            traj[5]
+    assert "n_frames=5" in repr(traj)
+
+
+def test_iteration_holds_one_frame(tmp_path):
+    """Iterating a 20-frame file never holds more than about one frame in memory."""
+    rng = np.random.default_rng(0)
+    n = 20000
+    frame = Frame(rng.uniform(0, 10, (n, 3)), np.full(n, 0.1), box=[10, 10, 10],
+                  velocities=rng.normal(size=(n, 3)))
+    p = tmp_path / "big.dump"
+    write_dump(p, (Frame(frame.positions, frame.radii, box=frame.box, timestep=k,
+                         velocities=frame.velocities) for k in range(20)))
+    frame_bytes = n * 11 * 8
+    traj = read_dump(p)
+    traj[0]  # compile kernels and warm up outside the measurement
+    tracemalloc.start()
+    count = 0
+    for f in traj:
+        count += f.n_particles
+        del f
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert count == 20 * n
+    assert peak < 6 * frame_bytes, (peak, frame_bytes)   # file is ~20 frames; one frame ~ 1.7 MB
+
+
+def test_dump_local_file_refused_by_read_dump(realdata):
+    p = realdata / "ashriva16+granular-force-chains/LAMMPS/examples/dump.neigh"
+    with pytest.raises(DumpFormatError, match="read_dump_local"):
+        read_dump(p)[0]
+
+
+def test_top_level_names():
+    for name in ("read_dump", "iter_frames", "read_dump_local", "read_data", "write_dump",
+                 "write_data", "write_dump_local", "save_hdf5", "load_hdf5", "to_universe",
+                 "from_universe", "to_pyvista"):
+        assert getattr(bedstruct, name) is getattr(bedstruct.io, name)
+        assert name in bedstruct.io.__all__
