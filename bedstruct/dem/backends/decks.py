@@ -175,7 +175,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     ...                       box_lo=[-1e-4, -1e-4, 0], box_hi=[1e-4, 1e-4, 4e-4], n_types=2)
     >>> deck = bed_deck(p, engine="liggghts", steps=10, dt=1e-7)
     >>> deck.splitlines()[0]
-    '# bedstruct deck for liggghts'
+    '# bedstruct deck for liggghts: bed from data file, bottom plane, gravity'
     >>> [l for l in deck.splitlines() if l.startswith("pair_style")]
     ['pair_style gran model hertz tangential history rolling_friction epsd2']
     """
@@ -209,21 +209,23 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
               "thermo_style custom step atoms ke c_rke",
               f"thermo {int(thermo_every)}",
               "thermo_modify lost ignore norm no"]
-    if warmup_steps:
-        lines.append(f"run {warmup_steps}")
-    if dump and dump_every:
-        lines.append(f"dump dmp all custom {int(dump_every)} {dump} {DUMP_COLUMNS}")
-    if contacts:
+    dumps = []
+    if contacts:  # LIGGGHTS wants pair/gran/local defined before the first run
         every = int(contacts_every or dump_every or max(steps, 1))
         if engine == "liggghts":
             cols = " ".join(f"c_cpl[{i}]" for i in range(1, 15))
-            lines += ["compute cpl all pair/gran/local pos id force contactArea delta",
-                      f"dump dloc all local {every} {contacts} {cols}"]
+            lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
+            dumps.append(f"dump dloc all local {every} {contacts} {cols}")
         else:
             lines += ["compute cpa all property/local patom1 patom2",
-                      "compute cpf all pair/local dist fx fy fz",
-                      f"dump dloc all local {every} {contacts} c_cpa[1] c_cpa[2] c_cpf[1] "
-                      "c_cpf[2] c_cpf[3] c_cpf[4]"]
+                      "compute cpf all pair/local dist fx fy fz"]
+            dumps.append(f"dump dloc all local {every} {contacts} c_cpa[1] c_cpa[2] c_cpf[1] "
+                         "c_cpf[2] c_cpf[3] c_cpf[4]")
+    if dump and dump_every:
+        dumps.insert(0, f"dump dmp all custom {int(dump_every)} {dump} {DUMP_COLUMNS}")
+    if warmup_steps:
+        lines.append(f"run {warmup_steps}")
+    lines += dumps
     lines.append(f"run {steps}")
     if write_data:
         lines.append(f"write_data {write_data}" + (" nocoeff" if engine == "lammps" else ""))
@@ -276,7 +278,7 @@ def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometr
         z0, z1 = blade.z_bottom, blade.z_bottom + blade.height
         return [f"variable bx equal {blade.speed:.10g}*time",
                 f"region blade block {x0:.10g} {x1:.10g} INF INF {z0:.10g} {z1:.10g} "
-                "move v_bx NULL NULL units box",
+                "side out move v_bx NULL NULL units box",
                 f"fix wblade all wall/gran/region granular {coeffs} region blade"]
 
     return bed_deck(data_file, params, engine=engine, steps=steps, dt=dt, _extra=extra,
@@ -303,7 +305,7 @@ def hertz_contact_time(radius1: float, radius2: float, params=None, *, speed: fl
     --------
     >>> t = hertz_contact_time(2e-5, 2e-5, GranularParams(youngs_modulus=1e8), speed=1.0)
     >>> round(t * 1e6, 3)  # microseconds
-    2.621
+    2.624
 
     References
     ----------

@@ -157,7 +157,7 @@ def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
     --------
     >>> lammps_granular_coeffs(GranularParams(youngs_modulus=1e8, restitution=0.5,
     ...                                       rolling_friction=0.0))
-    'hertz/material 1e+08 0.5 0.3 damping coeff_restitution tangential mindlin NULL 1.0 0.4'
+    'hertz/material 100000000 0.5 0.3 damping coeff_restitution tangential mindlin NULL 1.0 0.4'
     """
     pick = params.wall if wall else (lambda n: getattr(params, n))
     nu, e = params.poisson_ratio, pick("restitution")

@@ -119,7 +119,7 @@ def liggghts_model_commands(params: GranularParams, *, n_types: int = 2) -> tupl
     --------
     >>> lines, wt = liggghts_model_commands(GranularParams(youngs_modulus=1e8), n_types=2)
     >>> lines[0]
-    'fix m1 all property/global youngsModulus peratomtype 1e+08 1e+08'
+    'fix m1 all property/global youngsModulus peratomtype 100000000 100000000'
     >>> wt
     2
     """

@@ -78,7 +78,7 @@ def read_stl_triangles(path) -> np.ndarray:
     return np.array(verts, dtype=np.float64).reshape(-1, 3, 3)
 
 
-def _prism(profile_xz, y0: float, y1: float) -> np.ndarray:
+def _prism(profile_xz, y0: float, y1: float, caps: bool = True) -> np.ndarray:
     """Triangles of a convex x-z polygon (counter-clockwise seen from -y) extruded in y."""
     P = np.asarray(profile_xz, dtype=np.float64)
     k = len(P)
@@ -87,7 +87,7 @@ def _prism(profile_xz, y0: float, y1: float) -> np.ndarray:
     tris = []
     # seen from -y with x right and z up, counter-clockwise x-z order gives a +y normal;
     # the y0 cap must face -y, so reverse it there.
-    for i in range(1, k - 1):
+    for i in range(1, k - 1 if caps else 1):
         tris.append([front[0], front[i + 1], front[i]])
         tris.append([back[0], back[i], back[i + 1]])
     for i in range(k):
@@ -191,12 +191,17 @@ class BladeGeometry:
         zb, zt = self.z_bottom, self.z_bottom + self.height
         return np.array([[x0, zb], [x1, zb + self.bevel_rise], [x1, zt], [x0, zt]])
 
-    def triangles(self, y0: float, y1: float) -> np.ndarray:
-        """The 12 triangles of the blade spanning ``y0 <= y <= y1`` (m), normals outward."""
+    def triangles(self, y0: float, y1: float, *, caps: bool = True) -> np.ndarray:
+        """Triangles of the blade spanning ``y0 <= y <= y1`` (m), normals outward.
+
+        ``caps=False`` leaves out the two end faces (4 triangles): use it when
+        the blade spans a periodic y direction, where LIGGGHTS would see the
+        end caps as duplicate elements (they coincide modulo the period).
+        """
         if y1 <= y0:
             raise ValueError(f"`y1` must exceed `y0`; got {y0} and {y1}")
-        return _prism(self.profile(), y0, y1)
+        return _prism(self.profile(), y0, y1, caps)
 
-    def write_stl(self, path, y0: float, y1: float) -> Path:
+    def write_stl(self, path, y0: float, y1: float, *, caps: bool = True) -> Path:
         """Write the blade as an ASCII STL file (for LIGGGHTS ``fix mesh/surface``)."""
-        return write_stl(path, self.triangles(y0, y1), name="blade")
+        return write_stl(path, self.triangles(y0, y1, caps=caps), name="blade")

@@ -1,0 +1,321 @@
+"""External engines (LIGGGHTS 3.8, LAMMPS) as independent references.
+
+Engine runs skip when the engine is not installed (install both with
+``bash .ci/install-engines.sh``). Sizes are tiny: the whole file runs in well
+under a minute on a loaded 2-core machine.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bedstruct.dem.backends import (BladeGeometry, EngineRunError, GranularParams, as_granular_params,
+                                    bed_deck, box_triangles, find_lammps, find_liggghts,
+                                    hertz_contact_time, impact_deck, impact_result,
+                                    lammps_granular_coeffs, moving_wall_deck, parse_log,
+                                    read_data_header, read_stl_triangles, run_deck,
+                                    write_sphere_data, write_stl)
+
+ENGINES = {"liggghts": find_liggghts, "lammps": find_lammps}
+
+
+def _engine_param(name):
+    return pytest.param(name, marks=pytest.mark.skipif(
+        ENGINES[name]() is None,
+        reason=f"{name} is not installed (run .ci/install-engines.sh)"))
+
+
+both_engines = pytest.mark.parametrize("engine", [_engine_param("liggghts"), _engine_param("lammps")])
+
+
+# --------------------------------------------------------------------------- log parsing
+LIGGGHTS_LOG = """\
+LIGGGHTS (Version LIGGGHTS-PUBLIC 3.8.0, compiled 2022-01-26-19:42:32 by buildd, git commit unknown)
+atom_style granular
+WARNING: 
+\tThe contact model you specified is not located in any whitelist.
+Setting up run at Sat Nov 21 10:36:27 2026
+
+Memory usage per processor = 4.58844 Mbytes
+    Step           Time           dist            vx1 
+       0              0       4.08e-05            0.5 
+       1  6.5590114e-09  4.0793441e-05            0.5 
+WARNING: Particle insertion: Less insertions than requested (../fix_insert.cpp:782)
+       2  1.3118023e-08  4.0786882e-05      0.4999999 
+Loop time of 0.00288291 on 1 procs for 2 steps with 2 atoms, finish time Sat Nov 21 10:36:27 2026
+
+
+Pair  time (%) = 0.000711144 (24.6676)
+Nlocal:    2 ave 2 max 2 min
+Total # of neighbors = 1
+Ave neighs/atom = 0.5
+Neighbor list builds = 1
+Setting up run at Sat Nov 21 10:36:28 2026
+    Step           Time           dist            vx1 
+       2  1.3118023e-08  4.0786882e-05      0.4999999 
+      12  1.3118023e-07  4.07e-05               -0.25 
+Loop time of 0.5 on 2 procs for 10 steps with 2 atoms, finish time Sat Nov 21 10:36:28 2026
+"""
+
+LAMMPS_LOG = """\
+LAMMPS (22 Jul 2025 - Update 4)
+  using 1 OpenMP thread(s) per MPI task
+Per MPI rank memory allocation (min/avg/max) = 18.45 | 18.45 | 18.45 Mbytes
+   Step          Time          v_dist          v_v1          KinEng    
+         0   0              4.2e-05        0.5            6.9533917e-11
+       500   5e-07          4.15e-05       0.5            6.9533917e-11
+Loop time of 0.00293777 on 1 procs for 500 steps with 2 atoms
+
+0.0% CPU use with 1 MPI tasks x 1 OpenMP threads
+Total # of neighbors = 1
+Ave neighs/atom = 0.5
+Neighbor list builds = 1
+ERROR: Lost atoms: original 2 current 1 (src/src/thermo.cpp:497)
+"""
+
+
+def test_parse_liggghts_log():
+    lg = parse_log(LIGGGHTS_LOG)
+    assert lg.engine == "liggghts" and "3.8.0" in lg.version
+    assert len(lg.runs) == 2
+    first, second = lg.runs
+    assert first.columns == ("Step", "Time", "dist", "vx1")
+    assert first.data.shape == (3, 4)  # the WARNING inside the table is skipped
+    assert (first.loop_time, first.n_procs, first.n_steps, first.n_atoms) == (0.00288291, 1, 2, 2)
+    assert first.neighbors_per_atom == 0.5
+    assert second.n_procs == 2 and second.loop_time == 0.5
+    # LIGGGHTS drops the v_ prefix; both spellings work
+    assert lg.column("v_vx1").tolist() == [0.5, 0.5, 0.4999999, 0.4999999, -0.25]
+    assert len(lg.warnings) == 2 and not lg.errors
+
+
+def test_parse_lammps_log():
+    lg = parse_log(LAMMPS_LOG)
+    assert lg.engine == "lammps"
+    assert lg.last.column("KinEng").shape == (2,)
+    assert lg.last.n_steps == 500 and lg.last.neighbors_per_atom == 0.5
+    assert lg.errors == ("ERROR: Lost atoms: original 2 current 1 (src/src/thermo.cpp:497)",)
+    with pytest.raises(KeyError, match="columns are"):
+        lg.last.column("PotEng")
+
+
+def test_parse_log_from_file(tmp_path):
+    p = tmp_path / "log.lammps"
+    p.write_text(LAMMPS_LOG)
+    assert parse_log(p).last.n_atoms == 2
+
+
+def test_parse_log_crashed_run_keeps_rows():
+    text = "LAMMPS (x)\nStep KinEng\n0 1.0\n10 2.0\nERROR: boom\n"
+    lg = parse_log(text)
+    assert lg.last.loop_time is None and lg.last.data.shape == (2, 2)
+
+
+# --------------------------------------------------------------------------- parameters
+def test_params_validation_and_wall_defaults():
+    p = GranularParams(restitution=0.5, wall_friction=0.2)
+    assert p.wall("friction") == 0.2 and p.wall("restitution") == 0.5
+    with pytest.raises(ValueError, match="restitution"):
+        GranularParams(restitution=0.0)
+    with pytest.raises(ValueError, match="unknown contact parameter"):
+        as_granular_params({"youngs": 1e7})
+
+
+def test_params_from_engine_contact_model():
+    dem = pytest.importorskip("bedstruct.dem")
+    if not hasattr(dem, "ContactModel"):
+        pytest.skip("bedstruct.dem.ContactModel not available")
+    cm = dem.ContactModel(dem.Material(2e7, 0.25, 7000.0), restitution=0.3, friction=0.5,
+                          rolling_friction=0.1, cohesion=1e4, wall_friction=0.7)
+    p = as_granular_params(cm)
+    assert (p.youngs_modulus, p.poisson_ratio, p.density) == (2e7, 0.25, 7000.0)
+    assert (p.restitution, p.friction, p.rolling_friction, p.cohesion_energy_density) == (
+        0.3, 0.5, 0.1, 1e4)
+    assert p.wall("friction") == 0.7 and p.wall("restitution") == 0.3
+
+
+def test_lammps_refuses_sjkr_without_mapping():
+    p = GranularParams(cohesion_energy_density=3.2e7)
+    with pytest.raises(ValueError, match="no SJKR"):
+        lammps_granular_coeffs(p)
+    words = lammps_granular_coeffs(p, cohesion_model="dmt")
+    assert words.startswith("dmt ") and "damping viscoelastic" in words
+
+
+def test_lammps_dmt_gamma_matches_sjkr_force_at_reference_overlap():
+    # DMT pull-in 4 pi gamma R* must equal SJKR k * pi * a_geo^2 (a_geo^2 = 2 R* delta)
+    k, r = 3.2e7, 26e-6
+    p = GranularParams(cohesion_energy_density=k, rolling_friction=0.0)
+    gamma = float(lammps_granular_coeffs(p, cohesion_model="dmt").split()[4])
+    rstar = r / 2
+    delta = 1e-3 * rstar
+    assert 4 * math.pi * gamma * rstar == pytest.approx(k * math.pi * 2 * rstar * delta, rel=1e-9)
+
+
+# --------------------------------------------------------------------------- STL
+def _signed_volume(tri):
+    return float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0)
+
+
+def test_box_stl_roundtrip_and_volume(tmp_path):
+    tri = box_triangles([0, 0, 0], [1e-3, 2e-3, 3e-3])
+    path = write_stl(tmp_path / "box.stl", tri, name="box")
+    back = read_stl_triangles(path)
+    np.testing.assert_allclose(back, tri, rtol=1e-9)
+    assert _signed_volume(back) == pytest.approx(6e-9, rel=1e-9)  # outward normals: +V
+    assert _signed_volume(box_triangles([0, 0, 0], [1, 2, 3], inward=True)) == pytest.approx(-6.0)
+
+
+def test_blade_geometry_volume_and_bevel():
+    b = BladeGeometry(x0=1e-3, z_bottom=1e-4, thickness=0.5e-3, height=2e-3, bevel_deg=10)
+    tri = b.triangles(0.0, 3e-3)
+    rise = 0.5e-3 * math.tan(math.radians(10))
+    area = 0.5e-3 * 2e-3 - 0.5 * 0.5e-3 * rise  # rectangle minus the bevelled corner
+    assert _signed_volume(tri) == pytest.approx(area * 3e-3, rel=1e-9)
+    # the lowest point is the trailing bottom edge, the leading face starts `rise` higher
+    assert tri[..., 2].min() == pytest.approx(1e-4)
+    lead = np.isclose(tri[..., 0], 1.5e-3, rtol=0, atol=1e-12)
+    assert tri[..., 2][lead].min() == pytest.approx(1e-4 + rise)
+    assert b.triangles(0.0, 3e-3, caps=False).shape == (8, 3, 3)
+
+
+# --------------------------------------------------------------------------- engines
+def test_hertz_contact_time_formula():
+    p = GranularParams(youngs_modulus=1e8)
+    t = hertz_contact_time(2e-5, 2e-5, p, speed=1.0)
+    m = 4 / 3 * math.pi * (2e-5) ** 3 * 8300
+    estar = 1e8 / (2 * (1 - 0.09))
+    assert t == pytest.approx(2.868 * ((m / 2) ** 2 / (1e-5 * estar ** 2 * 1.0)) ** 0.2)
+
+
+def _impact(engine, tmp_path, **kw):
+    p = GranularParams(youngs_modulus=1e8, **kw)
+    deck = tmp_path / f"impact_{engine}.in"
+    deck.write_text(impact_deck(p, engine=engine, radius=20e-6, speed=1.0))
+    return impact_result(run_deck(deck).log, 20e-6), p
+
+
+@both_engines
+@pytest.mark.parametrize("e", [0.1, 0.5])
+def test_impact_restitution(engine, e, tmp_path):
+    res, _ = _impact(engine, tmp_path, restitution=e)
+    assert res.restitution == pytest.approx(e, rel=0.02)
+
+
+@both_engines
+def test_impact_hertz_contact_time(engine, tmp_path):
+    res, p = _impact(engine, tmp_path, restitution=1.0)
+    assert res.restitution == pytest.approx(1.0, abs=1e-4)
+    t = hertz_contact_time(20e-6, 20e-6, p, speed=1.0)
+    assert res.contact_time == pytest.approx(t, rel=0.02)
+    # Hertz maximum overlap (15 m* v^2 / (16 E* sqrt(R*)))^(2/5)
+    m = 4 / 3 * math.pi * (20e-6) ** 3 * p.density / 2
+    dmax = (15 * m * 1.0 / (16 * p.effective_youngs_modulus() * math.sqrt(10e-6))) ** 0.4
+    assert res.max_overlap == pytest.approx(dmax, rel=0.01)
+
+
+R = 50e-6
+
+
+def _columns_bed(tmp_path):
+    """3 x 3 columns of 3 touching spheres standing on the plate (18 contacts)."""
+    g = np.arange(3)
+    ii, jj, kk = np.meshgrid(g, g, g, indexing="ij")
+    pos = np.column_stack([(ii.ravel() + 0.5) * 2.5 * R, (jj.ravel() + 0.5) * 2.5 * R,
+                           R + kk.ravel() * 2 * R * (1 - 1e-6)])
+    return write_sphere_data(tmp_path / "columns.data", pos, np.full(27, R),
+                             box_lo=[0, 0, 0], box_hi=[7.5 * R, 7.5 * R, 10 * R], n_types=2)
+
+
+def _contact_pairs(engine, path):
+    lines = path.read_text().splitlines()
+    start = max(i for i, line in enumerate(lines) if line.startswith("ITEM: ENTRIES"))
+    rows = np.array([[float(v) for v in line.split()] for line in lines[start + 1:] if line.strip()])
+    if engine == "liggghts":  # x1 y1 z1 x2 y2 z2 id1 id2 periodic fx fy fz area delta
+        ids, force = rows[:, 6:8], rows[:, 9:12]
+    else:  # id1 id2 dist fx fy fz: every pair within the cutoff, keep touching ones
+        rows = rows[rows[:, 2] < 2 * R]
+        ids, force = rows[:, 0:2], rows[:, 3:6]
+    return {tuple(sorted(map(int, p))) for p in ids}, force
+
+
+@both_engines
+def test_bed_deck_runs_and_dumps_are_readable(engine, tmp_path):
+    data = _columns_bed(tmp_path)
+    steps, dt = 20, 1e-8
+    p = GranularParams(youngs_modulus=1e8, restitution=0.5)
+    deck = tmp_path / "bed.in"
+    deck.write_text(bed_deck(data, p, engine=engine, steps=steps, dt=dt, thermo_every=10,
+                             dump="bed.dump", dump_every=steps, contacts="contacts.dump",
+                             contacts_every=steps, write_data="final.data"))
+    res = run_deck(deck)
+    assert res.log.last.n_atoms == 27 and res.log.last.n_steps == steps
+    assert read_data_header(tmp_path / "final.data")["atoms"] == 27
+    pairs, force = _contact_pairs(engine, tmp_path / "contacts.dump")
+    # column neighbours k, k+1 in every column: ids differ by 1 within a column of 3
+    expected = {(c * 3 + k + 1, c * 3 + k + 2) for c in range(9) for k in range(2)}
+    assert pairs == expected
+    assert np.all(np.abs(force[:, :2]) < 1e-6 * np.abs(force[:, 2]).max())  # vertical forces only
+    # per-particle dump: bedstruct's reader when available, else the raw columns
+    try:
+        from bedstruct.io import read_dump
+    except ImportError:
+        read_dump = None
+    if read_dump is not None:
+        frame = read_dump(tmp_path / "bed.dump")[-1]
+        assert frame.n_particles == 27
+        np.testing.assert_allclose(frame.radii, R)
+        vz = frame.velocities[:, 2]
+    else:
+        rows = np.loadtxt(tmp_path / "bed.dump", skiprows=9)
+        assert rows.shape == (27, 15)
+        np.testing.assert_allclose(rows[:, 14], R)
+        vz = rows[:, 7]
+    # the top spheres carry nobody: over 20 tiny steps they fall freely, vz = -g t (tiny overlap)
+    assert np.all(vz <= 0)
+    assert vz.min() == pytest.approx(-9.81 * steps * dt, rel=0.05)
+
+
+@both_engines
+def test_two_ranks_match_one_rank(engine, tmp_path):
+    info = ENGINES[engine]()
+    if info.mpirun is None:
+        pytest.skip(f"no MPI launcher for {engine}")
+    data = _columns_bed(tmp_path)
+    finals = []
+    for np_ in (1, 2):
+        deck = tmp_path / f"bed{np_}.in"
+        deck.write_text(bed_deck(data, GranularParams(youngs_modulus=1e8), engine=engine,
+                                 steps=50, dt=1e-8, thermo_every=50))
+        res = run_deck(deck, np=np_)
+        assert res.log.last.n_procs == np_
+        finals.append(res.log.last.column("KinEng")[-1])
+    assert finals[1] == pytest.approx(finals[0], rel=1e-6)
+
+
+@both_engines
+def test_moving_blade_pushes_particles(engine, tmp_path):
+    data = _columns_bed(tmp_path)
+    blade = BladeGeometry(x0=0.0, z_bottom=0.5 * R, speed=0.5, thickness=0.2 * R, height=8 * R,
+                          bevel_deg=10)
+    stl = blade.write_stl(tmp_path / "blade.stl", 0.0, 7.5 * R, caps=False)
+    deck = tmp_path / "blade.in"
+    deck.write_text(moving_wall_deck(data, GranularParams(youngs_modulus=1e8), engine=engine,
+                                     blade=blade, stl_path=stl, steps=300, dt=1e-7,
+                                     thermo_every=300))
+    res = run_deck(deck)
+    # the blade's leading face (x = 0.2 R) reaches the first column (surface at 0.25 R) after
+    # 5e-6 s and shoves it at 0.5 m/s; without the blade the bed would be at rest
+    m = 4 / 3 * math.pi * R ** 3 * 8300
+    assert res.log.last.column("KinEng")[-1] > 0.05 * 0.5 * m * 0.5 ** 2
+
+
+@both_engines
+def test_run_deck_error_carries_log_tail(engine, tmp_path):
+    deck = tmp_path / "bad.in"
+    deck.write_text(f"# bedstruct deck for {engine}\nunits si\nthis_is_not_a_command 1 2 3\n")
+    with pytest.raises(EngineRunError, match="this_is_not_a_command|Unknown command|Invalid"):
+        run_deck(deck)
