@@ -169,7 +169,7 @@ def plot_rose(source, *, kind=None, ax=None, n_theta: int = 41, n_phi: int = 81,
 
 
 def plot_rose_grid(results, *, names=None, kinds=(2, 4, "difference"), n_theta: int = 31,
-                   n_phi: int = 61, relative=True):
+                   n_phi: int = 61, relative=True, share_colors=True):
     """Grid of 3-D roses: one row per result, one column per kind (seed figure 22).
 
     Parameters
@@ -182,6 +182,8 @@ def plot_rose_grid(results, *, names=None, kinds=(2, 4, "difference"), n_theta: 
         Columns, each as ``kind`` of :func:`plot_rose`.
     n_theta, n_phi, relative
         As for :func:`plot_rose`.
+    share_colors : bool
+        One colour scale per column (default), so rows compare directly.
 
     Returns
     -------
@@ -198,6 +200,12 @@ def plot_rose_grid(results, *, names=None, kinds=(2, 4, "difference"), n_theta: 
     Figure = _mpl()
     names, items = _named_results(results, names)
     kinds = list(kinds)
+    norms = [None] * len(kinds)
+    if share_colors:
+        for c, kind in enumerate(kinds):
+            vals = [_rose_values(t, kind, n_theta, n_phi, relative)[1] for t in items if t is not None]
+            if vals:
+                _, norms[c] = _diverging(kind, np.concatenate([v.ravel() for v in vals]), None, None)
     fig = Figure(figsize=(3.6 * len(kinds), 3.4 * len(items)))
     fig.subplots_adjust(hspace=0.3, wspace=0.3)
     for r, (name, t) in enumerate(zip(names, items)):
@@ -207,7 +215,8 @@ def plot_rose_grid(results, *, names=None, kinds=(2, 4, "difference"), n_theta: 
                 ax.set_title(f"{name}: no contacts")
                 continue
             plot_rose(t, kind=kind, ax=ax, n_theta=n_theta, n_phi=n_phi, relative=relative,
-                      colorbar=True, title=f"{name}: {_KIND_TITLES[_normalise_kind(kind)]}")
+                      norm=norms[c], colorbar=True,
+                      title=f"{name}: {_KIND_TITLES[_normalise_kind(kind)]}")
     return fig
 
 
