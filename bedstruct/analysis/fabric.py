@@ -695,6 +695,8 @@ class RegionFabric:
         One per region; None where a region has no contact.
     labels : (M,) ndarray of int
         Region of each contact (-1 outside).
+    expansions : tuple of HarmonicExpansion or None, or None
+        Per-region spherical-harmonic expansions when ``l_max`` was given.
 
     .. versionadded:: 0.1
     """
@@ -704,6 +706,7 @@ class RegionFabric:
     axis: int
     tensors: tuple
     labels: np.ndarray = field(repr=False)
+    expansions: tuple | None = field(default=None, repr=False)
 
     def __getitem__(self, key) -> FabricTensors | None:
         if isinstance(key, str):
@@ -715,7 +718,7 @@ class RegionFabric:
 
 
 def region_fabric(contacts, frame, *, axis=0, n_regions: int = 3, weights=None,
-                  position="midpoint", bounds=None) -> RegionFabric:
+                  position="midpoint", bounds=None, l_max: int | None = None) -> RegionFabric:
     """Fabric tensors of each slab (default thirds: start, centre, end) along an axis.
 
     Parameters
@@ -724,6 +727,9 @@ def region_fabric(contacts, frame, *, axis=0, n_regions: int = 3, weights=None,
         As for :func:`contact_regions`.
     weights : (M,) array_like or str, optional
         As for :func:`fabric_tensors` (strings select Contacts fields).
+    l_max : int, optional
+        Also expand each region in spherical harmonics to this degree
+        (:func:`~bedstruct.analysis.harmonics.harmonic_expansion`).
 
     Returns
     -------
@@ -746,16 +752,24 @@ def region_fabric(contacts, frame, *, axis=0, n_regions: int = 3, weights=None,
     w = _resolve_weights(contacts, weights, m)
     normals = contacts.normals
     out = []
+    exps = []
+    if l_max is not None:
+        from .harmonics import harmonic_expansion
     for k in range(int(n_regions)):
         sel = labels == k
         if not np.any(sel) or (w is not None and not w[sel].sum() > 0):
             out.append(None)
+            exps.append(None)
             continue
-        out.append(fabric_tensors(normals[sel], None if w is None else w[sel]))
+        wk = None if w is None else w[sel]
+        out.append(fabric_tensors(normals[sel], wk))
+        if l_max is not None:
+            exps.append(harmonic_expansion(normals[sel], l_max, wk))
     names = _REGION_NAMES_3 if n_regions == 3 else tuple(f"region {k}" for k in range(n_regions))
     labels.setflags(write=False)
     return RegionFabric(names=names, edges=_readonly(edges), axis=_axis_index(axis),
-                        tensors=tuple(out), labels=labels)
+                        tensors=tuple(out), labels=labels,
+                        expansions=None if l_max is None else tuple(exps))
 
 
 # --------------------------------------------------------------------------- LAMMPS

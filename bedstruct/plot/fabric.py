@@ -533,7 +533,9 @@ def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlab
 
     Parameters
     ----------
-    expansions : HarmonicExpansion or sequence of them
+    expansions : HarmonicExpansion, sequence of them, or RegionFabric
+        A RegionFabric must carry expansions (``region_fabric(..., l_max=...)``);
+        its slab centres are the abscissa.
     x : (K,) array_like, optional
         Abscissa for several expansions (default 0..K-1).
     degrees : sequence of int, optional
@@ -556,6 +558,15 @@ def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlab
     2
     """
     Figure = _mpl()
+    if isinstance(expansions, RegionFabric):
+        if expansions.expansions is None:
+            raise ValueError("this RegionFabric has no expansions; call region_fabric(..., l_max=8)")
+        if x is None:
+            x = 0.5 * (expansions.edges[1:] + expansions.edges[:-1])
+            xlabel = xlabel or f"position along {'xyz'[expansions.axis]}"
+        keep = [k for k, e in enumerate(expansions.expansions) if e is not None]
+        x = np.asarray(x, dtype=np.float64)[keep]
+        expansions = [expansions.expansions[k] for k in keep]
     single = isinstance(expansions, HarmonicExpansion)
     items = [expansions] if single else list(expansions)
     if not items:

@@ -387,8 +387,12 @@ def test_region_fabric_equals_fabric_of_selection():
         ref = fabric_tensors(c.select(sel), w[sel])
         np.testing.assert_allclose(r[name].N4, ref.N4, atol=1e-14)
         assert r[k].n_contacts == sel.sum()
-    r5 = region_fabric(c, f, n_regions=5, axis=1)
+    r5 = region_fabric(c, f, n_regions=5, axis=1, l_max=4)
     assert r5.names[0] == "region 0" and r5.axis == 1
+    from bedstruct.analysis.harmonics import fabric_from_harmonics
+    for t, e in zip(r5.tensors, r5.expansions):
+        np.testing.assert_allclose(fabric_from_harmonics(e).D4, t.D4, atol=1e-12)
+    assert r.expansions is None
     tab = fabric_table(r.tensors, labels=r.names)
     assert set(len(v) for v in tab.values()) == {3}
     assert tab["label"].tolist() == ["start", "centre", "end"]

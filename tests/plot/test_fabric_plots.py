@@ -174,6 +174,13 @@ def test_region_figures_and_evolution(tmp_path):
     assert r["start"].anisotropy > r["end"].anisotropy    # the start region was made anisotropic
     assert "along x" in bottom.get_xlabel()
     _render(fig, tmp_path, "evolution")
+    r8 = region_fabric(c, f, l_max=8, n_regions=4)
+    fig = plot_harmonic_power(r8, degrees=[2, 4])
+    line = fig.axes[0].get_lines()[0]
+    np.testing.assert_allclose(line.get_xdata(), 0.5 * (r8.edges[1:] + r8.edges[:-1]))
+    np.testing.assert_allclose(line.get_ydata(), [e.power[2] / e.power[0] for e in r8.expansions])
+    with pytest.raises(ValueError, match="l_max"):
+        plot_harmonic_power(r)
 
 
 def test_plot_harmonic_power(ti_sample, iso_sample):
