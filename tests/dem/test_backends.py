@@ -217,6 +217,23 @@ def test_impact_hertz_contact_time(engine, tmp_path):
     assert res.max_overlap == pytest.approx(dmax, rel=0.01)
 
 
+@both_engines
+def test_wall_impact_restitution_and_contact_time(engine, tmp_path):
+    # a sphere on a stiffer plane: E* mixes particle and wall moduli, m* = m, R* = r
+    r = 20e-6
+    p = GranularParams(youngs_modulus=1e8, wall_youngs_modulus=3e8, restitution=0.9,
+                       wall_restitution=1.0)
+    deck = tmp_path / "wall.in"
+    deck.write_text(impact_deck(p, engine=engine, radius=r, speed=1.0, target="wall"))
+    res = impact_result(run_deck(deck).log, r, 0.0)
+    assert res.restitution == pytest.approx(1.0, abs=1e-4)
+    estar = 1 / ((1 - 0.09) / 1e8 + (1 - 0.09) / 3e8)
+    m = 4 / 3 * math.pi * r ** 3 * p.density
+    assert res.contact_time == pytest.approx(2.868 * (m ** 2 / (r * estar ** 2)) ** 0.2, rel=0.02)
+    deck.write_text(impact_deck(GranularParams(wall_restitution=0.3), engine=engine, target="wall"))
+    assert impact_result(run_deck(deck).log, 20e-6, 0.0).restitution == pytest.approx(0.3, rel=0.02)
+
+
 R = 50e-6
 
 

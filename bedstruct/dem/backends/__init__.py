@@ -12,7 +12,7 @@ Examples
 >>> from bedstruct.dem.backends import GranularParams, impact_deck
 >>> deck = impact_deck(GranularParams(youngs_modulus=1e8, restitution=0.5), engine="lammps")
 >>> deck.splitlines()[0]
-'# bedstruct deck for lammps: two-sphere head-on impact'
+'# bedstruct deck for lammps: head-on impact on a sphere'
 """
 
 from ._common import (EngineInfo, EngineLog, EngineRunError, GranularParams, RunResult, ThermoRun,

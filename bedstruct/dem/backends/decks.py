@@ -321,70 +321,98 @@ def hertz_contact_time(radius1: float, radius2: float, params=None, *, speed: fl
 
 def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: float | None = None,
                 speed: float = 1.0, dt: float | None = None, gap: float = 0.02,
-                thermo_every: int = 1) -> str:
-    """Two spheres colliding head-on along x with no gravity and no walls.
+                thermo_every: int = 1, target: str = "sphere") -> str:
+    """A head-on impact of two spheres, or of one sphere on the bottom plane.
 
-    Sphere 1 (id 1) moves at +speed/2, sphere 2 at -speed/2, starting
-    ``gap * (r1 + r2)`` apart. Thermo columns: ``Step Time v_dist v_vx1 v_vx2
-    KinEng`` (``dist`` = centre distance, m). Read the result with
-    :func:`impact_result`.
+    ``target="sphere"``: sphere 1 (id 1) moves at +speed/2 along x, sphere 2
+    at -speed/2, starting ``gap * (r1 + r2)`` apart; thermo ``v_dist`` is the
+    centre distance, ``v_vx1``/``v_vx2`` their x velocities.
+    ``target="wall"``: sphere 1 falls at ``speed`` onto the plane z = 0 (the
+    particle-wall coefficients apply); ``v_dist`` is the centre height,
+    ``v_vx1`` = vz, ``v_vx2`` = 0. Either way, read the result with
+    ``impact_result(log, radius, radius2)`` where ``radius2 = 0`` for the wall.
+    No gravity; thermo columns ``Step Time v_dist v_vx1 v_vx2 KinEng``.
 
     Parameters
     ----------
     params : GranularParams, optional
-        Contact parameters (cohesion and friction play no role head-on; for
-        LAMMPS cohesion is switched off).
+        Contact parameters (cohesion and friction play no role head-on;
+        cohesion is switched off).
     engine : {"liggghts", "lammps"}
     radius, radius2 : float, m
-        Radii (``radius2`` defaults to ``radius``).
+        Radii (``radius2`` defaults to ``radius``; unused for the wall).
     speed : float, m/s
         Relative approach speed.
     dt : float, s, optional
         Time step (default: the Hertz contact time / 400).
     gap : float, dimensionless
-        Initial surface gap in units of r1 + r2.
+        Initial surface gap in units of r1 + r2 (of r1 for the wall).
     thermo_every : int
         Thermo interval in steps (1 resolves the contact best).
+    target : {"sphere", "wall"}
 
     Returns
     -------
     str
     """
     engine = _check_engine(engine)
+    if target not in ("sphere", "wall"):
+        raise ValueError(f"`target` must be 'sphere' or 'wall'; got {target!r}")
     p = as_granular_params(params, gravity=0.0, cohesion_energy_density=0.0,
                            wall_cohesion_energy_density=0.0)
     r1 = float(radius)
     r2 = float(radius if radius2 is None else radius2)
-    tc = hertz_contact_time(r1, r2, p, speed=speed)
+    wall = target == "wall"
+    if wall:
+        e_wall = 1.0 / ((1 - p.poisson_ratio ** 2) / p.youngs_modulus
+                        + (1 - p.wall("poisson_ratio") ** 2) / p.wall("youngs_modulus"))
+        m = 4.0 / 3.0 * math.pi * r1 ** 3 * p.density
+        tc = 2.868 * (m ** 2 / (r1 * e_wall ** 2 * speed)) ** 0.2
+        s = gap * r1
+    else:
+        tc = hertz_contact_time(r1, r2, p, speed=speed)
+        s = gap * (r1 + r2)
     if dt is None:
         dt = tc / 400.0
-    s = gap * (r1 + r2)
-    x1, x2 = -(r1 + s / 2), r2 + s / 2
     steps = int(math.ceil((s / speed + 3.0 * tc) / dt))
     half = 20 * (r1 + r2)
-    model_lines, _ = _model(engine, p, 1, None, max(r1, r2), REFERENCE_OVERLAP)
-    lines = [f"# bedstruct deck for {engine}: two-sphere head-on impact",
+    n_types = 2 if wall else 1
+    model_lines, wt = _model(engine, p, n_types, None, r1 if wall else max(r1, r2),
+                             REFERENCE_OVERLAP)
+    lines = [f"# bedstruct deck for {engine}: head-on impact on a {target}",
              *_setup(engine, "f f f", None),
-             f"region reg block {-half:.10g} {half:.10g} {-half:.10g} {half:.10g} {-half:.10g} "
-             f"{half:.10g} units box",
-             "create_box 1 reg",
-             f"neighbor {0.1 * min(r1, r2):.10g} bin", "neigh_modify delay 0",
+             f"region reg block {-half:.10g} {half:.10g} {-half:.10g} {half:.10g} "
+             f"{-half if not wall else -r1:.10g} {half:.10g} units box",
+             f"create_box {n_types} reg",
+             f"neighbor {0.1 * min(r1, r2 if not wall else r1):.10g} bin", "neigh_modify delay 0",
              *model_lines,
-             f"timestep {dt:.10g}",
-             f"create_atoms 1 single {x1:.10g} 0 0 units box",
-             f"create_atoms 1 single {x2:.10g} 0 0 units box",
-             f"set atom 1 diameter {2 * r1:.10g}", f"set atom 2 diameter {2 * r2:.10g}",
-             f"set atom * density {p.density:.10g}",
-             "velocity all set 0 0 0 units box",
-             f"set atom 1 vx {speed / 2:.10g}", f"set atom 2 vx {-speed / 2:.10g}",
-             "fix integr all nve/sphere",
-             "variable dist equal x[2]-x[1]",
-             "variable vx1 equal vx[1]", "variable vx2 equal vx[2]",
-             "thermo_style custom step time v_dist v_vx1 v_vx2 ke",
-             f"thermo {int(thermo_every)}",
-             "thermo_modify norm no format float %.12g" if engine == "lammps"
-             else "thermo_modify norm no",
-             f"run {steps}"]
+             f"timestep {dt:.10g}"]
+    if wall:
+        lines += _wall_commands(engine, p, wt, zlo=0.0, cohesion_model=None,
+                                reference_radius=r1, reference_overlap=REFERENCE_OVERLAP)
+        lines += [f"create_atoms 1 single 0 0 {r1 + s:.10g} units box",
+                  f"set atom 1 diameter {2 * r1:.10g}",
+                  f"set atom * density {p.density:.10g}",
+                  "velocity all set 0 0 0 units box",
+                  f"set atom 1 vz {-speed:.10g}",
+                  "variable dist equal z[1]",
+                  "variable vx1 equal vz[1]", "variable vx2 equal 0.0"]
+    else:
+        x1, x2 = -(r1 + s / 2), r2 + s / 2
+        lines += [f"create_atoms 1 single {x1:.10g} 0 0 units box",
+                  f"create_atoms 1 single {x2:.10g} 0 0 units box",
+                  f"set atom 1 diameter {2 * r1:.10g}", f"set atom 2 diameter {2 * r2:.10g}",
+                  f"set atom * density {p.density:.10g}",
+                  "velocity all set 0 0 0 units box",
+                  f"set atom 1 vx {speed / 2:.10g}", f"set atom 2 vx {-speed / 2:.10g}",
+                  "variable dist equal x[2]-x[1]",
+                  "variable vx1 equal vx[1]", "variable vx2 equal vx[2]"]
+    lines += ["fix integr all nve/sphere",
+              "thermo_style custom step time v_dist v_vx1 v_vx2 ke",
+              f"thermo {int(thermo_every)}",
+              "thermo_modify norm no format float %.12g" if engine == "lammps"
+              else "thermo_modify norm no",
+              f"run {steps}"]
     return "\n".join(lines) + "\n"
 
 
