@@ -70,7 +70,7 @@ def real_spherical_harmonics(directions, l_max: int) -> np.ndarray:
     Parameters
     ----------
     directions : (M, 3) array_like of float
-        Directions (normalised here; a zero row gives ``Y_00`` only).
+        Directions (normalised here; zero or non-finite rows raise).
     l_max : int
         Highest degree.
 
@@ -87,6 +87,10 @@ def real_spherical_harmonics(directions, l_max: int) -> np.ndarray:
     """
     l_max = _check_lmax(l_max)
     d = _as_directions(directions, "directions")
+    n2 = np.einsum("ij,ij->i", d, d)
+    if d.shape[0] and not np.all(np.isfinite(n2) & (n2 > 0)):
+        bad = int(np.flatnonzero(~(np.isfinite(n2) & (n2 > 0)))[0])
+        raise ValueError(f"`directions` must be non-zero and finite; row {bad} is {d[bad].tolist()}")
     out = np.zeros((d.shape[0], (l_max + 1) ** 2))
     a, b, fmm = _k.recurrence_tables(l_max)
     _k.harmonic_matrix(d, l_max, a, b, fmm, out)

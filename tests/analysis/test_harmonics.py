@@ -180,6 +180,8 @@ def test_input_validation():
         e.coefficient(3, 0)
     with pytest.raises(ValueError):
         e.truncated(4)
+    with pytest.raises(ValueError, match="row 1"):
+        real_spherical_harmonics([[1, 0, 0], [0, 0, 0]], 2)
     with pytest.raises(ValueError, match="c_00"):
         fabric_from_harmonics(HarmonicExpansion.from_coefficients(np.zeros(9)))
 
