@@ -336,3 +336,26 @@ def test_run_deck_error_carries_log_tail(engine, tmp_path):
     deck.write_text(f"# bedstruct deck for {engine}\nunits si\nthis_is_not_a_command 1 2 3\n")
     with pytest.raises(EngineRunError, match="this_is_not_a_command|Unknown command|Invalid"):
         run_deck(deck)
+
+
+@both_engines
+def test_benchmark_external_uses_timed_run(engine, tmp_path):
+    from bedstruct.dem.backends import benchmark_external
+    data = _columns_bed(tmp_path)
+    res = benchmark_external(data, engine=engine, np=1, steps=60, dt=1e-8, warmup_steps=10,
+                             model_params=GranularParams(youngs_modulus=1e8), workdir=tmp_path)
+    assert res["n_atoms"] == 27 and res["steps"] == 60 and res["np"] == 1
+    assert res["particle_steps_per_s"] == pytest.approx(27 * 60 / res["loop_time_s"])
+    assert res["loop_time_s"] < res["wall_time_s"]  # start-up and the warm-up are excluded
+    log = parse_log(tmp_path / f"bench_{engine}.log")
+    assert [r.n_steps for r in log.runs] == [10, 60]
+
+
+@both_engines
+def test_pour_bed_writes_settling_bed(engine, tmp_path):
+    from bedstruct.dem.backends import pour_bed
+    out = pour_bed(tmp_path / "bed.data", n_particles=40, engine=engine, width=(0.3e-3, 0.3e-3),
+                   steps=400, workdir=tmp_path)
+    head = read_data_header(out)
+    assert head["atoms"] == 40 and head["atom types"] == 2
+    assert np.all(np.asarray(head["hi"][:2]) == pytest.approx(0.3e-3))

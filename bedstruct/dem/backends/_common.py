@@ -448,9 +448,12 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
     text = log_path.read_text(errors="replace") if log_path.is_file() else ""
     parsed = parse_log(text) if text else EngineLog("", "", ())
     if proc.returncode != 0 or parsed.errors:
-        tail = _tail(text if parsed.errors or not proc.stdout else proc.stdout)
-        if proc.stdout and not parsed.errors:
-            tail = _tail(proc.stdout)
+        # the log holds the ERROR line of rank 0; MPI launchers and other ranks print to stdout
+        tail = _tail(text) if text else ""
+        extra = [ln for ln in (proc.stdout or "").splitlines()
+                 if ln.strip() and ln not in text][-15:]
+        if extra:
+            tail = (tail + "\n--- engine stdout ---\n" if tail else "") + "\n".join(extra)
         raise EngineRunError(
             f"{info.name} failed on {deck_path.name} (exit code {proc.returncode}, "
             f"np={np}, cwd={cwd})", returncode=proc.returncode, log_path=str(log_path), tail=tail)

@@ -208,7 +208,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
               "compute rke all erotate/sphere",
               "thermo_style custom step atoms ke c_rke",
               f"thermo {int(thermo_every)}",
-              "thermo_modify lost ignore norm no"]
+              "thermo_modify lost ignore norm no flush yes"]
     dumps = []
     if contacts:  # LIGGGHTS wants pair/gran/local defined before the first run
         every = int(contacts_every or dump_every or max(steps, 1))
