@@ -1,0 +1,13 @@
+"""Self-contained HTML + JSON reports of a powder bed.
+
+>>> from bedstruct.report import build_report, ReportOptions
+"""
+
+from ._model import Quantity, Report, Section, Table, run_section, skip
+from ._render import render_html, write_report
+from .build import ReportOptions, build_report, select_frames
+from .inputs import load_report_inputs, report_on_files
+
+__all__ = ["Quantity", "Report", "Section", "Table", "run_section", "skip", "render_html",
+           "write_report", "ReportOptions", "build_report", "select_frames", "load_report_inputs",
+           "report_on_files"]

@@ -1,0 +1,175 @@
+"""The report's content model: sections of numbers, tables and figures."""
+
+from __future__ import annotations
+
+import io
+import base64
+import logging
+import math
+import time
+import traceback
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+__all__ = ["Quantity", "Table", "Section", "Report", "run_section"]
+
+log = logging.getLogger(__name__)
+
+SCHEMA = "bedstruct.report/1"
+
+
+def _plain(value):
+    """Convert numpy scalars/arrays and non-finite floats into JSON-safe values."""
+    if isinstance(value, np.ndarray):
+        return [_plain(v) for v in value.tolist()]
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One reported number with its unit and definition.
+
+    Parameters
+    ----------
+    value : float, int, str, list or None
+        The number (None when it cannot be computed for this input).
+    unit : str
+        Unit, ``"1"`` for dimensionless quantities.
+    definition : str
+        One sentence saying what the number is.
+    doc : str, optional
+        Link (relative to the docs) to the full definition.
+    """
+
+    value: Any
+    unit: str
+    definition: str
+    doc: str | None = None
+
+    def to_json(self) -> dict:
+        out = {"value": _plain(self.value), "unit": self.unit, "definition": self.definition}
+        if self.doc:
+            out["doc"] = self.doc
+        return out
+
+
+@dataclass
+class Table:
+    """A small table: column names and rows of values."""
+
+    columns: list[str]
+    rows: list[list[Any]]
+    caption: str = ""
+
+    def to_json(self) -> dict:
+        return {"caption": self.caption, "columns": list(self.columns), "rows": _plain(self.rows)}
+
+
+@dataclass
+class Section:
+    """A report section; ``status`` is ``"ok"``, ``"failed"`` or ``"skipped"``."""
+
+    key: str
+    title: str
+    status: str = "ok"
+    numbers: dict[str, Quantity] = field(default_factory=dict)
+    tables: list[Table] = field(default_factory=list)
+    figures: list[tuple[str, str]] = field(default_factory=list)  # (caption, data URI)
+    text: str = ""
+    error: str | None = None
+    seconds: float = 0.0
+
+    def add_number(self, key: str, value, unit: str, definition: str, doc: str | None = None):
+        self.numbers[key] = Quantity(value, unit, definition, doc)
+
+    def add_figure(self, fig, caption: str) -> None:
+        """Embed a matplotlib Figure as a PNG data URI (the figure is then closed)."""
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+        uri = "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+        self.figures.append((caption, uri))
+
+    def to_json(self) -> dict:
+        out = {"title": self.title, "status": self.status,
+               "numbers": {k: q.to_json() for k, q in self.numbers.items()},
+               "tables": [t.to_json() for t in self.tables],
+               "n_figures": len(self.figures), "seconds": round(self.seconds, 3)}
+        if self.text:
+            out["text"] = self.text
+        if self.error:
+            out["error"] = self.error
+        return out
+
+
+@dataclass
+class Report:
+    """A whole report: inputs, settings and sections in order."""
+
+    title: str
+    inputs: dict[str, Any]
+    settings: dict[str, Any]
+    sections: list[Section] = field(default_factory=list)
+    version: str = ""
+
+    def section(self, key: str) -> Section:
+        for s in self.sections:
+            if s.key == key:
+                return s
+        raise KeyError(key)
+
+    @property
+    def failed(self) -> list[str]:
+        """Keys of sections that failed."""
+        return [s.key for s in self.sections if s.status == "failed"]
+
+    def to_json(self) -> dict:
+        """The full, documented JSON document (schema ``bedstruct.report/1``)."""
+        return {"schema": SCHEMA, "bedstruct_version": self.version, "title": self.title,
+                "inputs": _plain(self.inputs), "settings": _plain(self.settings),
+                "sections": {s.key: s.to_json() for s in self.sections},
+                "failed_sections": self.failed}
+
+    def summary(self) -> dict:
+        """A compact summary: every number's value by ``section.key``, plus status."""
+        values = {}
+        for s in self.sections:
+            for k, q in s.numbers.items():
+                values[f"{s.key}.{k}"] = _plain(q.value)
+        return {"schema": SCHEMA, "title": self.title, "sections": {s.key: s.status for s in self.sections},
+                "failed_sections": self.failed, "values": values}
+
+
+def run_section(key: str, title: str, func: Callable[[Section], None]) -> Section:
+    """Run ``func(section)``; an exception marks the section failed, never the report."""
+    section = Section(key, title)
+    t0 = time.perf_counter()
+    try:
+        func(section)
+    except _Skip as skip:
+        section.status = "skipped"
+        section.text = str(skip)
+    except Exception as exc:  # a failing section must not take the report down
+        section.status = "failed"
+        section.error = f"{type(exc).__name__}: {exc}"
+        log.debug("section %s failed:\n%s", key, traceback.format_exc())
+    section.seconds = time.perf_counter() - t0
+    return section
+
+
+class _Skip(Exception):
+    """Raised inside a section to mark it skipped with a reason."""
+
+
+def skip(reason: str):
+    """Mark the running section as skipped (not applicable to this input)."""
+    raise _Skip(reason)

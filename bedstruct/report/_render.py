@@ -1,0 +1,108 @@
+"""Render a :class:`Report` as one self-contained HTML file."""
+
+from __future__ import annotations
+
+import html
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from ._model import Report, Section
+
+__all__ = ["render_html", "write_report"]
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;
+padding:0 1em;color:#1d2330;line-height:1.45}
+h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:2px solid #dde3ec;padding-bottom:.2em;margin-top:1.8em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.92em}
+td,th{border:1px solid #dde3ec;padding:.25em .6em;text-align:left;vertical-align:top}
+th{background:#f3f6fa}td.num{text-align:right;font-variant-numeric:tabular-nums}
+.status{display:inline-block;padding:.05em .5em;border-radius:.6em;font-size:.8em;margin-left:.5em}
+.ok{background:#dff3e4;color:#185c2b}.failed{background:#fde2e1;color:#8a1c17}
+.skipped{background:#eceff3;color:#4a5568}figure{display:inline-block;margin:.6em .6em .6em 0}
+figure img{max-width:100%;border:1px solid #e5e9f0}figcaption{font-size:.85em;color:#4a5568}
+.def{color:#4a5568;font-size:.88em}.error{background:#fff5f5;border-left:4px solid #e53e3e;padding:.5em .8em}
+nav a{margin-right:.8em}
+"""
+
+
+def _fmt(value) -> str:
+    if value is None:
+        return "n/a"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, (list, tuple)):
+        inner = ", ".join(_fmt(v) for v in value[:12])
+        return f"[{inner}{', ...' if len(value) > 12 else ''}]"
+    return html.escape(str(value))
+
+
+def _section_html(s: Section) -> str:
+    parts = [f'<section id="{html.escape(s.key)}"><h2>{html.escape(s.title)}'
+             f'<span class="status {s.status}">{s.status}</span></h2>']
+    if s.error:
+        parts.append(f'<p class="error">This section failed: {html.escape(s.error)}. '
+                     f'The rest of the report is unaffected.</p>')
+    if s.text:
+        parts.append(f"<p>{html.escape(s.text)}</p>")
+    if s.numbers:
+        parts.append("<table><tr><th>quantity</th><th>value</th><th>unit</th><th>definition</th></tr>")
+        for key, q in s.numbers.items():
+            link = (f' <a href="{html.escape(q.doc)}">docs</a>' if q.doc else "")
+            parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value)}</td>'
+                         f'<td>{html.escape(q.unit)}</td><td class="def">{html.escape(q.definition)}{link}</td></tr>')
+        parts.append("</table>")
+    for t in s.tables:
+        parts.append("<table>")
+        if t.caption:
+            parts.append(f"<caption>{html.escape(t.caption)}</caption>")
+        parts.append("<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in t.columns) + "</tr>")
+        for row in t.rows:
+            parts.append("<tr>" + "".join(f'<td class="num">{_fmt(v)}</td>' for v in row) + "</tr>")
+        parts.append("</table>")
+    for caption, uri in s.figures:
+        parts.append(f'<figure><img src="{uri}" alt="{html.escape(caption)}">'
+                     f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def render_html(report: Report) -> str:
+    """The report as a self-contained HTML document (figures embedded as data URIs)."""
+    nav = " ".join(f'<a href="#{html.escape(s.key)}">{html.escape(s.title)}</a>' for s in report.sections)
+    inputs = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_fmt(v)}</td></tr>"
+                     for k, v in report.inputs.items())
+    body = "\n".join(_section_html(s) for s in report.sections)
+    return (f"<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
+            f"<h1>{html.escape(report.title)}</h1>"
+            f"<p class=\"def\">bedstruct {html.escape(report.version)}</p>"
+            f"<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_report(report: Report, out_dir) -> tuple[Path, Path]:
+    """Write ``report.html`` and ``report.json`` into ``out_dir`` atomically.
+
+    Returns the two paths.
+    """
+    out = Path(out_dir)
+    html_path, json_path = out / "report.html", out / "report.json"
+    _atomic_write(json_path, json.dumps(report.to_json(), indent=1, allow_nan=False))
+    _atomic_write(html_path, render_html(report))
+    return html_path, json_path

@@ -1,0 +1,467 @@
+"""Build a report on one or more dumps: every analysis, section by section.
+
+Each section runs on its own: one that fails is marked failed (with the
+reason) and the rest of the report still renders.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .._version import __version__
+from ..core import Contacts, Frame
+from ._model import Report, Section, Table, run_section, skip
+
+__all__ = ["ReportOptions", "build_report", "select_frames"]
+
+log = logging.getLogger(__name__)
+
+DOCS = "https://bedstruct.readthedocs.io/en/latest/"
+_REGION_NAMES = {1: ["bed"], 2: ["start", "end"], 3: ["start", "centre", "end"]}
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+@dataclass(frozen=True)
+class ReportOptions:
+    """Settings of a report.
+
+    Parameters
+    ----------
+    regions : int
+        Number of regions along the bed (default 3: start, centre, end).
+    axis : str
+        Spreading direction, ``"x"``, ``"y"`` or ``"z"``.
+    frames : str
+        Which frames to analyse: ``"-1"`` (last, default), ``"all"``, an
+        index, or a slice ``"start:stop:step"``. Per-frame series use all
+        selected frames; the detailed sections use the last selected one.
+    heat : bool
+        Run the heat-conduction section (needs SI or a known unit system).
+    heat_length_unit : float or None
+        Metres per length unit of the dump when its unit system is unknown.
+    tolerance : float
+        Contact detection tolerance (length) for geometric contacts.
+    l_max : int
+        Highest degree of the spherical-harmonic expansion.
+    """
+
+    regions: int = 3
+    axis: str = "x"
+    frames: str = "-1"
+    heat: bool = False
+    heat_length_unit: float | None = None
+    tolerance: float = 0.0
+    l_max: int = 8
+
+    def __post_init__(self):
+        if self.axis not in _AXES:
+            raise ValueError(f"`axis` must be one of 'x', 'y', 'z'; got {self.axis!r}")
+        if int(self.regions) < 1:
+            raise ValueError(f"`regions` must be at least 1; got {self.regions}")
+        if self.l_max < 2 or self.l_max % 2:
+            raise ValueError(f"`l_max` must be an even number >= 2; got {self.l_max}")
+
+    @property
+    def axis_index(self) -> int:
+        return _AXES[self.axis]
+
+    @property
+    def region_names(self) -> list[str]:
+        return _REGION_NAMES.get(self.regions, [f"region {k + 1}" for k in range(self.regions)])
+
+
+def select_frames(n_frames: int, selection: str) -> list[int]:
+    """Frame indices for a selection string (``-1``, ``all``, ``3``, ``0:10:2``).
+
+    Examples
+    --------
+    >>> select_frames(5, "-1"), select_frames(5, "all"), select_frames(5, "1:4:2")
+    ([4], [0, 1, 2, 3, 4], [1, 3])
+    """
+    sel = str(selection).strip()
+    if n_frames == 0:
+        raise ValueError("the input has no frames")
+    if sel in ("all", ":"):
+        return list(range(n_frames))
+    if ":" in sel:
+        parts = [int(p) if p.strip() else None for p in sel.split(":")]
+        if len(parts) > 3:
+            raise ValueError(f"frame selection {selection!r} is not start:stop:step")
+        idx = list(range(n_frames))[slice(*parts)]
+    else:
+        try:
+            k = int(sel)
+        except ValueError:
+            raise ValueError(f"frame selection {selection!r}: expected 'all', an index or "
+                             f"start:stop:step") from None
+        if not -n_frames <= k < n_frames:
+            raise ValueError(f"frame {k} out of range: the input has {n_frames} frames")
+        idx = [k % n_frames]
+    if not idx:
+        raise ValueError(f"frame selection {selection!r} selects no frame of {n_frames}")
+    return idx
+
+
+def _figure_of(obj):
+    """The Figure behind what a plot function returned (Figure, Axes, (fig, ax) or axes)."""
+    from matplotlib.figure import Figure
+    if isinstance(obj, Figure):
+        return obj
+    if isinstance(obj, tuple) and obj and isinstance(obj[0], Figure):
+        return obj[0]
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return _figure_of(np.ravel(obj)[0])
+    return obj.figure
+
+
+def _fig(nrows=1, ncols=1, size=(6.0, 3.6)):
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=size, layout="constrained")
+    axes = fig.subplots(nrows, ncols)
+    return fig, axes
+
+
+class _Context:
+    """What the sections share: the frames, contacts and derived regions."""
+
+    def __init__(self, frames: list[Frame], contacts: Contacts | None, options: ReportOptions,
+                 frame_indices: list[int]):
+        self.frames = frames
+        self.frame = frames[-1]
+        self.options = options
+        self.frame_indices = frame_indices
+        self._contacts = contacts
+        self._windows = None
+
+    @property
+    def length_unit(self) -> str:
+        return self.frame.units.length_unit
+
+    @property
+    def contacts(self) -> Contacts:
+        if self._contacts is None:
+            from ..analysis import find_contacts
+            self._contacts = find_contacts(self.frame, self.options.tolerance)
+        return self._contacts
+
+    def windows(self):
+        if self._windows is None:
+            from ..analysis import bed_windows
+            self._windows = bed_windows(self.frame, self.options.regions, axis=self.options.axis_index)
+        return self._windows
+
+
+# ---------------------------------------------------------------- sections
+def _summary(ctx: _Context, s: Section) -> None:
+    f = ctx.frame
+    s.add_number("n_frames_analysed", len(ctx.frames), "1", "number of frames selected for analysis")
+    s.add_number("timestep", f.timestep, "steps", "timestep of the frame analysed in detail")
+    s.add_number("n_particles", f.n_particles, "1", "number of spheres in the frame")
+    s.add_number("box_lo", f.box.lo, ctx.length_unit, "lower box bounds (x, y, z)")
+    s.add_number("box_hi", f.box.hi, ctx.length_unit, "upper box bounds (x, y, z)")
+    s.add_number("boundary", " ".join(f.box.boundary), "-", "LAMMPS boundary flags per axis")
+    s.add_number("units", f.units.style or "unknown", "-", "unit system of the dump")
+    s.add_number("radius_range", [float(f.radii.min()), float(f.radii.max())] if f.n_particles else None,
+                 ctx.length_unit, "smallest and largest sphere radius")
+    s.tables.append(Table(["frame index", "timestep", "n_particles"],
+                          [[k, fr.timestep, fr.n_particles] for k, fr in zip(ctx.frame_indices, ctx.frames)],
+                          caption="frames analysed"))
+    notes = list(f.provenance.notes) + list(f.units.conversions)
+    s.text = f"Source: {f.provenance.source or 'in memory'}." + (" Notes: " + "; ".join(notes) if notes else "")
+
+
+def _packing(ctx: _Context, s: Section) -> None:
+    from ..analysis import packing_along, packing_fraction
+    f, opt = ctx.frame, ctx.options
+    seed_def = packing_fraction(f)
+    s.add_number("bounding_box_fraction", seed_def.fraction, "1",
+                 "total particle volume over the volume of the box enclosing all particles "
+                 "(the seed report's definition)", DOCS + "analysis/#packing-fraction")
+    prof = packing_along(f, opt.regions, axis=opt.axis_index)
+    for name, value in zip(opt.region_names, prof.fractions):
+        s.add_number(f"fraction_{name.replace(' ', '_')}", value, "1",
+                     f"exact sphere-cuboid packing fraction of the {name} region of the bed")
+    fine = packing_along(f, max(12, 4 * opt.regions), axis=opt.axis_index)
+    fig, ax = _fig()
+    ax.plot(fine.centres, fine.fractions, "o-", label="12+ windows")
+    ax.step(np.r_[prof.lower[:, opt.axis_index], prof.upper[-1, opt.axis_index]],
+            np.r_[prof.fractions, prof.fractions[-1]], where="post", label="regions")
+    ax.set_xlabel(f"{opt.axis} ({ctx.length_unit})")
+    ax.set_ylabel("packing fraction")
+    ax.legend()
+    s.add_figure(fig, "Packing fraction along the bed")
+
+
+def _coordination(ctx: _Context, s: Section) -> None:
+    from ..analysis import coordination, coordination_by_window, fit_german_law, packing_along
+    f, opt = ctx.frame, ctx.options
+    res = coordination(f, ctx.contacts)
+    s.add_number("mean", res.mean, "1", "mean number of contacts per particle",
+                 DOCS + "analysis/#coordination-number")
+    s.add_number("mean_excluding_rattlers", res.mean_excluding_rattlers, "1",
+                 f"mean coordination after iterative removal of particles with fewer than "
+                 f"{res.min_contacts} contacts")
+    s.add_number("mechanical", res.mechanical, "1", "mechanical coordination number (rattlers removed)")
+    s.add_number("rattler_fraction", res.rattler_fraction, "1", "fraction of particles that are rattlers")
+    s.add_number("n_contacts", ctx.contacts.n_contacts, "1", f"particle-particle contacts ({ctx.contacts.source})")
+    # German's law over windows along the bed (and over frames when several are given)
+    n_win = max(8, 3 * opt.regions)
+    prof = packing_along(f, n_win, axis=opt.axis_index)
+    wins = coordination_by_window(f, prof.lower, prof.upper, result=res)
+    ok = (np.asarray(wins.n_particles) >= 5) & np.isfinite(prof.fractions)
+    fs, cns = np.asarray(prof.fractions)[ok], np.asarray(wins.mean)[ok]
+    region = packing_along(f, opt.regions, axis=opt.axis_index)
+    per_region = coordination_by_window(f, region.lower, region.upper, result=res)
+    rows = []
+    for k, name in enumerate(opt.region_names):
+        mean_k = float(np.asarray(per_region.mean)[k])
+        rows.append([name, region.fractions[k], mean_k, float(np.asarray(per_region.mechanical)[k]),
+                     int(np.asarray(per_region.n_particles)[k])])
+        s.add_number(f"mean_{name.replace(' ', '_')}", mean_k, "1", f"mean coordination in the {name} region")
+    s.tables.append(Table(["region", "packing fraction", "mean CN", "mechanical CN", "particles"], rows,
+                          caption="coordination and packing per region"))
+    if len(fs) >= 3:
+        fit = fit_german_law(fs, cns)
+        s.add_number("german_a", fit.a, "1", "fitted a in CN = 2a + 11 b f^2", DOCS + "analysis/#germans-law")
+        s.add_number("german_b", fit.b, "1", "fitted b in CN = 2a + 11 b f^2")
+        s.add_number("german_a_ci", list(fit.a_ci), "1", f"{fit.confidence:.0%} confidence interval of a")
+        s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
+        s.add_number("german_unfitted_deviation", fit.unfitted_deviation, "1",
+                     "mean absolute difference between CN = 2 + 11 f^2 and the measured CN")
+        fig, (ax, axr) = _fig(1, 2, size=(8.0, 3.4))
+        ff = np.linspace(min(fs) * 0.95, max(fs) * 1.05, 50)
+        ax.plot(fs, cns, "o", label="windows")
+        ax.plot(ff, 2 + 11 * ff ** 2, "--", label="German: 2 + 11 f²")
+        ax.plot(ff, 2 * fit.a + 11 * fit.b * ff ** 2, "-", label=f"fit a={fit.a:.3g}, b={fit.b:.3g}")
+        ax.set_xlabel("packing fraction f")
+        ax.set_ylabel("coordination number")
+        ax.legend(fontsize=8)
+        axr.axhline(0, color="0.6")
+        axr.plot(fs, fit.residuals, "o", label="fitted")
+        axr.plot(fs, fit.unfitted_residuals, "x", label="unfitted")
+        axr.set_xlabel("packing fraction f")
+        axr.set_ylabel("residual CN")
+        axr.legend(fontsize=8)
+        s.add_figure(fig, "Coordination number against packing fraction with German's law")
+    else:
+        s.text = "Too few populated windows for a German's-law fit (need at least 3)."
+
+
+def _psd(ctx: _Context, s: Section) -> None:
+    from ..analysis import bed_windows, particle_size_distribution, psd_by_region, segregation_index
+    f, opt = ctx.frame, ctx.options
+    whole = particle_size_distribution(f, weighting="volume")
+    for q in ("d10", "d50", "d90"):
+        s.add_number(q, getattr(whole, q), ctx.length_unit,
+                     f"volume-weighted {q.upper()} diameter of the whole frame", DOCS + "analysis/#psd")
+    lower, upper = ctx.windows()
+    regions = psd_by_region(f, lower, upper, weighting="volume")
+    rows = []
+    fig, ax = _fig()
+    ax.plot(whole.edges[1:], whole.cumulative, "k-", lw=2, label="whole bed")
+    for name, r in zip(opt.region_names, regions):
+        rows.append([name, r.n_particles, r.d10, r.d50, r.d90])
+        if r.n_particles:
+            ax.plot(r.edges[1:], r.cumulative, label=name)
+    ax.set_xlabel(f"diameter ({ctx.length_unit})")
+    ax.set_ylabel("cumulative volume fraction")
+    ax.legend(fontsize=8)
+    s.add_figure(fig, "Cumulative size distribution per region")
+    s.tables.append(Table(["region", "particles", "D10", "D50", "D90"], rows,
+                          caption=f"volume-weighted percentiles per region ({ctx.length_unit})"))
+    d50s = [r.d50 for r in regions if r.n_particles]
+    if len(d50s) >= 2:
+        s.add_number("d50_shift_start_to_end", d50s[-1] - d50s[0], ctx.length_unit,
+                     "D50 of the last region minus D50 of the first")
+    seg = segregation_index(f, lower, upper) if _accepts_windows(segregation_index) else None
+    if seg is not None:
+        s.add_number("segregation_index", seg, "1", "spread of local mean size over the mean size")
+
+
+def _accepts_windows(func) -> bool:
+    import inspect
+    try:
+        params = list(inspect.signature(func).parameters)
+    except (TypeError, ValueError):
+        return False
+    return len(params) >= 3 and params[1] in ("lower", "windows_lower")
+
+
+def _surface(ctx: _Context, s: Section) -> None:
+    from ..analysis import surface_height_map
+    f = ctx.frame
+    surf = surface_height_map(f)
+    r = surf.roughness
+    for key, text in (("sa", "arithmetic mean height deviation Sa"), ("sq", "root-mean-square height Sq"),
+                      ("sz", "maximum height Sz (peak to valley)")):
+        s.add_number(key, getattr(r, key), ctx.length_unit, text, DOCS + "analysis/#surface")
+    s.add_number("ssk", r.ssk, "1", "skewness of the height distribution Ssk")
+    s.add_number("mean_height", r.mean_height, ctx.length_unit, "mean surface height above the base")
+    s.add_number("uncovered_fraction", surf.uncovered_fraction, "1", "fraction of grid cells with no particle")
+    fig, ax = _fig(size=(7.0, 3.2))
+    extent = [surf.x[0], surf.x[-1], surf.y[0], surf.y[-1]]
+    im = ax.imshow(np.asarray(surf.heights).T, origin="lower", extent=extent, aspect="auto", cmap="viridis")
+    fig.colorbar(im, ax=ax, label=f"height ({ctx.length_unit})")
+    ax.set_xlabel(f"x ({ctx.length_unit})")
+    ax.set_ylabel(f"y ({ctx.length_unit})")
+    s.add_figure(fig, "Top-surface height map (highest particle cap per cell)")
+
+
+def _fabric(ctx: _Context, s: Section) -> None:
+    from ..analysis import fabric_tensors, region_fabric
+    from ..plot import plot_fabric_differences, plot_rose_2d, plot_rose_grid
+    c, opt = ctx.contacts.touching(), ctx.options
+    if c.n_contacts < 10:
+        skip(f"only {c.n_contacts} touching contacts: too few for fabric tensors")
+    whole = fabric_tensors(c.normals)
+    s.add_number("eigenvalues_N2", whole.eigenvalues, "1", "eigenvalues of the moment tensor N_ij (sum 1)",
+                 DOCS + "fabric/")
+    s.add_number("anisotropy", whole.anisotropy, "1", "rank-2 anisotropy of the contact normals")
+    s.add_number("anisotropy_rank4", whole.anisotropy_rank4, "1", "rank-4 anisotropy of the contact normals")
+    reg = region_fabric(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
+    rows = []
+    for name, t in zip(opt.region_names, reg.tensors):
+        rows.append([name, t.n_contacts, *np.round(t.eigenvalues, 4), t.anisotropy])
+    s.tables.append(Table(["region", "contacts", "λ1", "λ2", "λ3", "anisotropy"], rows,
+                          caption="moment-tensor eigenvalues per region"))
+    s.add_figure(plot_rose_grid(reg.tensors, names=opt.region_names),
+                 "3-D rose diagrams per region: rank 2, rank 4 and their difference")
+    if opt.regions >= 2:
+        s.add_figure(plot_fabric_differences(reg.tensors, names=opt.region_names),
+                     "Difference of contact-normal densities between regions (red: gain, blue: loss)")
+    s.add_figure(plot_rose_2d(c.normals, tensors=whole), "Planar roses of contact normals with the rank-4 approximation")
+
+
+def _harmonics(ctx: _Context, s: Section) -> None:
+    from ..analysis import contact_regions, harmonic_expansion
+    from ..plot import plot_harmonic_power
+    c, opt = ctx.contacts.touching(), ctx.options
+    if c.n_contacts < 10:
+        skip(f"only {c.n_contacts} touching contacts")
+    whole = harmonic_expansion(c.normals, opt.l_max)
+    degrees = list(range(0, opt.l_max + 1, 2))
+    for l in degrees[1:]:
+        s.add_number(f"power_l{l}", whole.power[l], "1", f"rotation-invariant power of degree {l}")
+    labels, _ = contact_regions(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
+    names = [n for k, n in enumerate(opt.region_names) if np.any(labels == k)]
+    exps = [harmonic_expansion(c.normals[labels == k], opt.l_max) for k in range(opt.regions)
+            if np.any(labels == k)]
+    rows = [[n] + [float(e.power[l]) for l in degrees[1:]] for n, e in zip(names, exps)]
+    s.tables.append(Table(["region"] + [f"l={l}" for l in degrees[1:]], rows,
+                          caption="rotation-invariant harmonic power per degree and region"))
+    s.add_figure(_figure_of(plot_harmonic_power(exps, xlabel="region")),
+                 "Spherical-harmonic power per degree along the bed")
+
+
+def _repose(ctx: _Context, s: Section) -> None:
+    from ..analysis import angle_of_repose
+    f, opt = ctx.frame, ctx.options
+    try:
+        res = angle_of_repose(f, axis=opt.axis_index)
+    except ValueError as exc:
+        skip(f"no pile with two flanks found ({exc})")
+    if not (np.isfinite(res.angle_deg) and res.angle_deg > 5.0
+            and res.angle_deg > 2.0 * np.nan_to_num(res.angle_std_deg, nan=np.inf)):
+        skip(f"no pile found: the free surface has no clear slope "
+             f"({res.angle_deg:.1f} +- {res.angle_std_deg:.1f} deg)")
+    s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
+                 DOCS + "analysis/#angle-of-repose")
+    s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")
+    s.add_number("left_deg", res.left_deg, "deg", "angle of the left flank")
+    s.add_number("right_deg", res.right_deg, "deg", "angle of the right flank")
+    fig, ax = _fig()
+    ax.plot(res.profile_x, res.profile_h, ".", ms=3, label="free surface")
+    ax.set_xlabel(f"{opt.axis} ({ctx.length_unit})")
+    ax.set_ylabel(f"height ({ctx.length_unit})")
+    ax.set_aspect("equal", adjustable="datalim")
+    s.add_figure(fig, "Free-surface profile of the pile")
+
+
+def _heat(ctx: _Context, s: Section) -> None:
+    from ..analysis import HemisphereSource, conduct_heat, haz_shape, temperature_map, thermal_network
+    from ..plot import plot_temperature_map
+    f, opt = ctx.frame, ctx.options
+    if f.units.style not in ("si", "cgs", "micro", "nano") and opt.heat_length_unit is None:
+        skip("the dump's unit system is unknown: give --heat-length-unit (metres per length unit)")
+    net = thermal_network(f, ctx.contacts, length_unit=opt.heat_length_unit)
+    lower, upper = ctx.windows()
+    ax_i = opt.axis_index
+    rows = []
+    figs = []
+    scale = 1.0 if opt.heat_length_unit is None else opt.heat_length_unit
+    if f.units.style in ("cgs", "micro", "nano"):
+        scale = f.units.to_si("length")
+    top = float(np.max(f.positions[:, 2] + f.radii)) * scale
+    for name, lo, hi in zip(opt.region_names, lower, upper):
+        centre = 0.5 * (lo + hi) * scale
+        centre[2] = top
+        src = HemisphereSource(center=tuple(centre), diameter=500e-6, temperature=1573.15, duration=0.0)
+        res = conduct_heat(net, t_end=2e-3, source=src)
+        tmap = temperature_map(res)
+        threshold = 0.5 * (float(np.nanmax(tmap.values)) + float(res.final_temperature.min()))
+        haz = haz_shape(tmap, threshold)
+        rows.append([name, res.peak_temperature - 273.15, haz.roundness, haz.orientation_deg])
+        s.add_number(f"roundness_{name}", haz.roundness, "1",
+                     f"heat-affected-zone roundness 4A/(pi L_major^2) in the {name} region", DOCS + "heat/")
+        figs.append((_figure_of(plot_temperature_map(tmap, haz=haz)), f"Top-view temperature at the end, {name} region"))
+    s.tables.append(Table(["region", "peak temperature (C)", "roundness", "orientation (deg)"], rows,
+                          caption="hemispherical 500 um source at 1300 C, switched off, 2 ms of conduction"))
+    for fig, cap in figs:
+        s.add_figure(fig, cap)
+
+
+SECTIONS = [
+    ("summary", "Data summary", _summary),
+    ("packing", "Packing fraction", _packing),
+    ("coordination", "Coordination number and German's law", _coordination),
+    ("psd", "Particle size distribution and segregation", _psd),
+    ("surface", "Surface height and roughness", _surface),
+    ("fabric", "Fabric tensors and rose diagrams", _fabric),
+    ("harmonics", "Spherical-harmonic spectrum", _harmonics),
+    ("repose", "Angle of repose", _repose),
+    ("heat", "Heat conduction and heat-affected zone", _heat),
+]
+
+
+def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None = None,
+                 options: ReportOptions | None = None, frame_indices: Sequence[int] | None = None,
+                 inputs: dict | None = None, progress: bool = False) -> Report:
+    """Run every analysis section on the frames and collect a :class:`Report`.
+
+    Parameters
+    ----------
+    frames : Frame or sequence of Frame
+        The frames selected for the report; detailed sections use the last.
+    contacts : Contacts, optional
+        Contacts of the last frame (from a ``dump local`` file); geometric
+        contacts are detected when omitted.
+    options : ReportOptions, optional
+        Regions, axis, heat and other settings.
+    progress : bool
+        Show a progress bar over the sections (stderr).
+
+    Returns
+    -------
+    Report
+    """
+    options = options or ReportOptions()
+    frames = [frames] if isinstance(frames, Frame) else list(frames)
+    if not frames:
+        raise ValueError("no frames to report on")
+    idx = list(frame_indices) if frame_indices is not None else list(range(len(frames)))
+    ctx = _Context(frames, contacts, options, idx)
+    report = Report(title="bedstruct report", inputs=dict(inputs or {}),
+                    settings={"regions": options.regions, "axis": options.axis, "frames": options.frames,
+                              "heat": options.heat, "tolerance": options.tolerance, "l_max": options.l_max},
+                    version=__version__)
+    todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
+    from tqdm.auto import tqdm
+    for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
+        report.sections.append(run_section(key, title, lambda sec, f=func: f(ctx, sec)))
+    return report

@@ -1,0 +1,88 @@
+"""Load dumps (and contact files) for a report and run it end to end."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+from ..core import Contacts, Frame
+from .build import ReportOptions, build_report, select_frames
+from ._model import Report
+from ._render import write_report
+
+__all__ = ["load_report_inputs", "report_on_files"]
+
+
+def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
+                       contact_keywords: Sequence[str] | None = None, frames: str = "-1",
+                       radius: float | None = None, units: str | None = None
+                       ) -> tuple[list[Frame], list[int], Contacts | None, dict]:
+    """Read the frames selected from dump files and the matching contacts.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        Dump files or globs (text, gz, bz2, binary) or LAMMPS data files
+        (``*.data``); their frames are concatenated in order.
+    contacts : str, optional
+        A ``dump local`` contact file; contacts of the last selected frame
+        are joined by particle id (geometric contacts are used otherwise).
+    contact_keywords : sequence of str, optional
+        The ``compute pair/gran/local`` keywords of the contact file.
+    frames : str
+        Frame selection (see :func:`select_frames`).
+
+    Returns
+    -------
+    frames, indices, contacts, inputs
+        The selected frames, their indices, the contacts of the last one
+        (or None) and a description of the inputs for the report.
+    """
+    from ..io import read_data, read_dump
+
+    trajectories = []
+    for p in paths:
+        if str(p).endswith((".data", ".lmp")) or Path(p).name.startswith("data."):
+            trajectories.append([read_data(p, radius=radius, units=units)])
+        else:
+            trajectories.append(read_dump(p, radius=radius, units=units))
+    sizes = [len(t) for t in trajectories]
+    total = sum(sizes)
+    idx = select_frames(total, frames)
+    selected = []
+    for k in idx:
+        t = 0
+        while k >= sizes[t]:
+            k -= sizes[t]
+            t += 1
+        selected.append(trajectories[t][k])
+    contact_obj = None
+    if contacts is not None:
+        from ..io import read_dump_local
+        by_step = read_dump_local(contacts, keywords=contact_keywords, frames=selected[-1])
+        last = selected[-1].timestep
+        if last not in by_step:
+            raise ValueError(f"{contacts}: no contact frame at timestep {last} "
+                             f"(has {sorted(by_step)[:10]})")
+        contact_obj = by_step[last]
+    inputs = {"paths": [str(p) for p in paths], "frames_in_input": total,
+              "frames_selected": idx, "contacts": str(contacts) if contacts else "geometric detection"}
+    return selected, idx, contact_obj, inputs
+
+
+def report_on_files(paths: Sequence[str], out_dir, *, contacts: str | None = None,
+                    contact_keywords: Sequence[str] | None = None, options: ReportOptions | None = None,
+                    radius: float | None = None, units: str | None = None, progress: bool = False
+                    ) -> tuple[Report, Path, Path]:
+    """Read inputs, build the report and write ``report.html`` and ``report.json``.
+
+    Returns the report and the two paths written.
+    """
+    options = options or ReportOptions()
+    frames, idx, contact_obj, inputs = load_report_inputs(
+        paths, contacts=contacts, contact_keywords=contact_keywords, frames=options.frames,
+        radius=radius, units=units)
+    report = build_report(frames, contacts=contact_obj, options=options, frame_indices=idx,
+                          inputs=inputs, progress=progress)
+    html_path, json_path = write_report(report, out_dir)
+    return report, html_path, json_path

@@ -1,0 +1,126 @@
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import bedstruct
+from bedstruct.cli import main
+from bedstruct.report import ReportOptions, build_report, render_html, select_frames, write_report
+from bedstruct.report import build as build_mod
+
+
+@pytest.fixture(scope="module")
+def bed_dump(tmp_path_factory):
+    """A jittered polydisperse slab, written as a LIGGGHTS dump in micrometres."""
+    rng = np.random.default_rng(1)
+    n = (24, 6, 4)
+    g = np.stack(np.meshgrid(*[np.arange(k) for k in n], indexing="ij"), -1).reshape(-1, 3)
+    pos = (g + 0.5) * 50.0 + rng.normal(0, 2.0, g.shape)
+    r = rng.uniform(23.0, 27.0, len(pos))
+    frames = [bedstruct.Frame(pos, r, box=bedstruct.Box([0, 0, 0], [1200, 300, 400], boundary="pp pp ff"),
+                              timestep=ts) for ts in (0, 100)]
+    path = tmp_path_factory.mktemp("bed") / "bed.dump"
+    bedstruct.write_dump(path, frames)
+    return path
+
+
+def test_select_frames_errors():
+    with pytest.raises(ValueError, match="out of range"):
+        select_frames(3, "5")
+    with pytest.raises(ValueError, match="selects no frame"):
+        select_frames(3, "2:1")
+    with pytest.raises(ValueError, match="expected"):
+        select_frames(3, "last")
+
+
+def test_report_sections_and_numbers(bed_dump, tmp_path):
+    frame = bedstruct.read_dump(bed_dump)[-1]
+    rep = build_report(frame, options=ReportOptions(regions=3))
+    status = {s.key: s.status for s in rep.sections}
+    assert status["summary"] == "ok" and status["packing"] == "ok" and status["fabric"] == "ok"
+    assert status["repose"] == "skipped"          # a flat slab has no pile
+    assert "heat" not in status                   # only with heat=True
+    num = rep.summary()["values"]
+    assert num["summary.n_particles"] == frame.n_particles
+    # regional packing fractions bracket the bounding-box fraction sensibly
+    for name in ("start", "centre", "end"):
+        assert 0.2 < num[f"packing.fraction_{name}"] < 0.74
+    # every number carries a unit and a definition
+    doc = rep.to_json()
+    for sec in doc["sections"].values():
+        for q in sec["numbers"].values():
+            assert q["unit"] and q["definition"]
+    json.dumps(doc, allow_nan=False)
+    html_path, json_path = write_report(rep, tmp_path)
+    html = html_path.read_text()
+    assert html.count("data:image/png;base64,") == sum(len(s.figures) for s in rep.sections) > 3
+    assert json.loads(json_path.read_text())["schema"] == "bedstruct.report/1"
+
+
+def test_failing_section_does_not_break_report(bed_dump, monkeypatch):
+    def boom(ctx, section):
+        raise RuntimeError("kaboom")
+    sections = [(k, t, boom if k == "surface" else f) for k, t, f in build_mod.SECTIONS]
+    monkeypatch.setattr(build_mod, "SECTIONS", sections)
+    rep = build_report(bedstruct.read_dump(bed_dump)[-1])
+    assert rep.failed == ["surface"]
+    assert "kaboom" in rep.section("surface").error
+    assert rep.section("packing").status == "ok"
+    assert "This section failed" in render_html(rep)
+
+
+def test_cli_report_json_last_line(bed_dump, tmp_path, capsys):
+    out = tmp_path / "rep"
+    assert main(["report", str(bed_dump), "--out", str(out), "--json", "--frames", "all"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    summary = json.loads(last)
+    assert summary["sections"]["summary"] == "ok"
+    assert summary["values"]["summary.n_frames_analysed"] == 2
+    assert (out / "report.html").exists() and (out / "report.json").exists()
+
+
+def test_cli_report_bad_input(tmp_path, capsys):
+    bad = tmp_path / "bad.dump"
+    bad.write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS pp pp pp\n0 1\n0 1\n0 1\n"
+                   "ITEM: ATOMS id type x y z radius\n1 1 0.5 0.5 0.5 0.1\n")
+    assert main(["report", str(bad), "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bad.dump" in err[0]
+    assert main(["report", str(tmp_path / "missing.dump"), "--out", str(tmp_path / "o")]) == 1
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def test_report_renders_in_headless_chromium(bed_dump, tmp_path):
+    exe = _chromium()
+    if exe is None:
+        pytest.skip("headless Chromium not installed (Debian package 'chromium'); cannot test rendering")
+    rep = build_report(bedstruct.read_dump(bed_dump)[-1])
+    html_path, _ = write_report(rep, tmp_path)
+    n_fig = sum(len(s.figures) for s in rep.sections)
+    # count images that decoded (naturalWidth > 0) and report console errors via the DOM title
+    probe = tmp_path / "probe.html"
+    probe.write_text(html_path.read_text().replace(
+        "</body>",
+        "<script>window.addEventListener('load',()=>{const ok=[...document.images]"
+        ".filter(i=>i.complete&&i.naturalWidth>0).length;document.title='loaded:'+ok;"
+        "document.body.setAttribute('data-loaded', ok);});</script></body>"))
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+             "--disable-background-networking", "--disable-component-update", "--disable-sync",
+             f"--user-data-dir={tmp_path / 'profile'}"]
+    dom = subprocess.run([exe, *flags, "--virtual-time-budget=5000", "--dump-dom", probe.as_uri()],
+                         capture_output=True, text=True, timeout=120)
+    assert f'data-loaded="{n_fig}"' in dom.stdout, dom.stderr[-2000:]
+    assert "Uncaught" not in dom.stderr
+    shot = tmp_path / "report.png"
+    subprocess.run([exe, *flags, "--window-size=1200,2400", f"--screenshot={shot}", html_path.as_uri()],
+                   capture_output=True, timeout=120)
+    assert shot.exists() and shot.stat().st_size > 10_000
