@@ -1,0 +1,75 @@
+"""German's law: fit against an independent regression, interval coverage, deviation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import bedstruct
+from bedstruct.analysis import (coordination_by_window, fit_german_law, german_cn,
+                                packing_along)
+
+
+def test_exact_recovery_of_seed_coefficients():
+    f = np.linspace(0.45, 0.65, 9)
+    cn = german_cn(f, a=1.925, b=0.04545)
+    fit = bedstruct.fit_german_law(f, cn)
+    assert fit.a == pytest.approx(1.925, abs=1e-12) and fit.b == pytest.approx(0.04545, abs=1e-12)
+    assert np.allclose(fit.residuals, 0, atol=1e-12) and fit.r_squared == pytest.approx(1.0)
+    assert fit.a_ci[0] <= fit.a <= fit.a_ci[1]
+    np.testing.assert_allclose(fit.predict(f), cn)
+
+
+def test_matches_polyfit():
+    rng = np.random.default_rng(1)
+    f = rng.uniform(0.4, 0.65, 30)
+    cn = 2 * 1.8 + 11 * 0.2 * f ** 2 + rng.normal(0, 0.1, 30)
+    slope, icpt = np.polyfit(f ** 2, cn, 1)
+    fit = fit_german_law(f, cn)
+    assert fit.a == pytest.approx(icpt / 2, rel=1e-10) and fit.b == pytest.approx(slope / 11, rel=1e-10)
+    # standard errors agree with the classical formula for simple regression
+    x = f ** 2
+    s2 = np.sum((cn - icpt - slope * x) ** 2) / 28
+    se_slope = np.sqrt(s2 / np.sum((x - x.mean()) ** 2))
+    assert np.sqrt(fit.covariance[1, 1]) == pytest.approx(se_slope / 11, rel=1e-8)
+
+
+def test_interval_coverage():
+    rng = np.random.default_rng(2)
+    f = np.linspace(0.45, 0.65, 8)
+    hits = 0
+    trials = 400
+    for _ in range(trials):
+        cn = german_cn(f, a=1.9, b=0.3) + rng.normal(0, 0.05, f.size)
+        fit = fit_german_law(f, cn, confidence=0.9)
+        hits += fit.b_ci[0] <= 0.3 <= fit.b_ci[1]
+    assert 0.86 < hits / trials < 0.94
+
+
+def test_unfitted_deviation_definition():
+    f = np.array([0.5, 0.55, 0.6])
+    cn = german_cn(f) - np.array([0.40, 0.46, 0.52])
+    fit = fit_german_law(f, cn)
+    assert fit.unfitted_deviation == pytest.approx(0.46)      # mean |CN_S - cn|
+    np.testing.assert_allclose(fit.unfitted_residuals, [-0.40, -0.46, -0.52])
+    assert fit.fitted_deviation < fit.unfitted_deviation / 100
+
+
+def test_two_points_and_errors():
+    fit = fit_german_law([0.5, 0.6], [4.0, 4.2])
+    assert np.isnan(fit.a_ci[0]) and fit.n_points == 2
+    with pytest.raises(ValueError, match="at least 2"):
+        fit_german_law([0.5], [4.0])
+    with pytest.raises(ValueError, match="equal"):
+        fit_german_law([0.5, 0.5, 0.5], [4.0, 4.1, 4.2])
+    with pytest.raises(ValueError, match="same length"):
+        fit_german_law([0.5, 0.6], [4.0])
+    with pytest.raises(ValueError, match="finite"):
+        fit_german_law([0.5, np.nan], [4.0, 4.1])
+
+
+def test_windows_pipeline(random_bed):
+    prof = packing_along(random_bed, 4)
+    cn = coordination_by_window(random_bed, prof.lower, prof.upper)
+    fit = fit_german_law(prof.fractions, cn.mean, weights=cn.n_particles)
+    assert np.isfinite(fit.a) and fit.n_points == 4
