@@ -126,6 +126,44 @@ def ylm_row(x, y, z, l_max, a, b, fmm, ylm):
                 ylm[base - m] = sqrt2 * p * sm
 
 
+@njit
+def ylm_accumulate(x, y, z, w, l_max, even_only, a, b, fmm, acc):
+    """``acc[l*l + l + m] += w * Y_lm(n)`` (same recurrence as :func:`ylm_row`, fused)."""
+    sqrt2w = 1.4142135623730951 * w
+    cm = 1.0
+    sm = 0.0
+    pmm = 0.28209479177387814
+    for m in range(l_max + 1):
+        if m > 0:
+            c_new = x * cm - y * sm
+            sm = x * sm + y * cm
+            cm = c_new
+            pmm *= fmm[m]
+        wc = sqrt2w * cm
+        ws = sqrt2w * sm
+        p2 = 0.0
+        p1 = pmm
+        for l in range(m, l_max + 1):
+            if l == m:
+                p = pmm
+            elif l == m + 1:
+                p = z * math.sqrt(2.0 * m + 3.0) * pmm
+                p2 = p1
+                p1 = p
+            else:
+                p = a[l, m] * (z * p1 - b[l, m] * p2)
+                p2 = p1
+                p1 = p
+            if even_only and (l & 1) == 1:
+                continue
+            base = l * l + l
+            if m == 0:
+                acc[base] += w * p
+            else:
+                acc[base + m] += wc * p
+                acc[base - m] += ws * p
+
+
 @njit_parallel
 def harmonic_sums(normals, weights, use_weights, l_max, even_only, a, b, fmm, n_chunks, out):
     """Weighted sums of Y_lm(n) over directions, by chunk; ``out`` (n_chunks, (l_max+1)^2).
@@ -139,7 +177,6 @@ def harmonic_sums(normals, weights, use_weights, l_max, even_only, a, b, fmm, n_
         start = (m_rows * c) // n_chunks
         stop = (m_rows * (c + 1)) // n_chunks
         acc = np.zeros(k_tot)
-        ylm = np.empty(k_tot)
         for r in range(start, stop):
             x = normals[r, 0]
             y = normals[r, 1]
@@ -148,13 +185,8 @@ def harmonic_sums(normals, weights, use_weights, l_max, even_only, a, b, fmm, n_
             if not (r2 > 0.0 and r2 < np.inf):
                 continue
             inv = 1.0 / math.sqrt(r2)
-            ylm_row(x * inv, y * inv, z * inv, l_max, a, b, fmm, ylm)
             w = weights[r] if use_weights else 1.0
-            for l in range(0, l_max + 1):
-                if even_only and (l % 2 == 1):
-                    continue
-                for k in range(l * l, (l + 1) * (l + 1)):
-                    acc[k] += w * ylm[k]
+            ylm_accumulate(x * inv, y * inv, z * inv, w, l_max, even_only, a, b, fmm, acc)
         for k in range(k_tot):
             out[c, k] = acc[k]
 
