@@ -1,0 +1,100 @@
+"""Top-surface height maps, roughness and layer heights."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bedstruct import Box, Frame
+from bedstruct.analysis import (bed_height, height_profile, layer_heights, surface_height_map,
+                                surface_roughness)
+from conftest import cubic_lattice
+
+
+def brute_heights(frame, xs, ys, probe=0.0):
+    box = frame.box
+    out = np.full((xs.size, ys.size), -np.inf)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    for p, r in zip(box.wrap(frame.positions), frame.radii):
+        for sx in (-1, 0, 1):
+            for sy in (-1, 0, 1):
+                if (sx and not box.periodic[0]) or (sy and not box.periodic[1]):
+                    continue
+                c = p + [sx * box.lengths[0], sy * box.lengths[1], 0]
+                d2 = (X - c[0]) ** 2 + (Y - c[1]) ** 2
+                R = r + probe
+                h = np.where(d2 < R * R, c[2] + np.sqrt(np.clip(R * R - d2, 0, None)) - probe, -np.inf)
+                out = np.maximum(out, h)
+    return out
+
+
+@pytest.mark.parametrize("probe", [0.0, 0.3])
+def test_height_map_matches_brute_force(probe, random_bed):
+    s = surface_height_map(random_bed, spacing=0.2, probe_radius=probe)
+    ref = brute_heights(random_bed, s.x, s.y, probe)
+    assert np.array_equal(np.isfinite(ref), s.covered)
+    np.testing.assert_allclose(s.heights[s.covered], ref[s.covered], rtol=1e-13)
+
+
+def test_probe_bridges_gaps():
+    box = Box([0, 0, 0], [4, 2, 4], boundary="ff pp ff")
+    f = Frame([[1.0, 1.0, 1.0], [3.0, 1.0, 1.0]], [0.9, 0.9], box=box)
+    x, h0 = height_profile(surface_height_map(f, spacing=0.01, bounds=((0, 4), (0, 2))), statistic="max")
+    x, h1 = height_profile(surface_height_map(f, spacing=0.01, bounds=((0, 4), (0, 2)), probe_radius=1.0),
+                           statistic="max")
+    mid = np.argmin(np.abs(x - 2.0))
+    assert np.isnan(h0[mid])                               # gap between the spheres (0.2 wide)
+    # probe of radius 1 resting on both: centre at 1 + sqrt(1.9^2 - 1), bottom 1 below
+    assert h1[mid] == pytest.approx(1 + math.sqrt(1.9 ** 2 - 1) - 1, abs=5e-3)   # node 0.005 off
+    assert np.all(h1[np.isfinite(h0)] >= h0[np.isfinite(h0)] - 1e-12)   # a probe cannot sink in
+
+
+def test_roughness_definitions():
+    z = np.array([[0.0, 1.0, 2.0, 5.0]])
+    r = surface_roughness(z)
+    dev = z - 2.0
+    assert r.mean_height == 2.0 and r.sz == 5.0
+    assert r.sa == pytest.approx(np.mean(np.abs(dev)))
+    assert r.sq == pytest.approx(np.sqrt(np.mean(dev ** 2)))
+    assert r.ssk == pytest.approx(np.mean(dev ** 3) / r.sq ** 3) and r.ssk > 0
+    assert surface_roughness(-z).ssk == pytest.approx(-r.ssk)
+    assert np.isnan(surface_roughness([np.nan]).sa)
+
+
+def test_flat_lattice_and_layers():
+    sc = cubic_lattice((6, 6, 3), boundary=("pp", "pp", "ff"))
+    s = surface_height_map(sc, spacing=0.02, base=0.0)
+    assert s.uncovered_fraction == pytest.approx(1 - math.pi / 4, abs=0.01)   # rasterised discs
+    assert s.heights.max() == pytest.approx(2.5 + math.sqrt(0.25 - 2 * 0.01 ** 2), abs=1e-12)
+    # mean over a unit cell: 2.5 (pi/4) + (2/3) pi 0.5^3 + 0 (bare nodes at base)
+    assert s.mean_height == pytest.approx(2.5 * math.pi / 4 + 2 / 3 * math.pi / 8, abs=0.01)
+    with_gaps = surface_height_map(sc, spacing=0.02)
+    assert with_gaps.heights.max() == s.heights.max() and np.isnan(with_gaps.heights).any()
+    hs = layer_heights([cubic_lattice((4, 4, k), boundary=("pp", "pp", "ff")) for k in (1, 2, 3)],
+                       0.0, spacing=0.05)
+    np.testing.assert_allclose(np.diff(hs), math.pi / 4, atol=0.01)   # one row of caps per layer
+    assert bed_height(sc, 0.0, spacing=0.02) == pytest.approx(s.mean_height)
+
+
+def test_periodic_wrap_and_translation_invariance():
+    rng = np.random.default_rng(1)
+    box = Box([0, 0, 0], [6, 5, 9], boundary="pp pp ff")
+    f = Frame(rng.uniform([0, 0, 0], [6, 5, 3], (150, 3)), rng.uniform(0.3, 0.6, 150), box=box)
+    a = surface_height_map(f, spacing=0.25)
+    # shift by whole grid steps: the map rolls
+    g = Frame(box.wrap(f.positions + [1.5, 0.75, 0.2]), f.radii, box=box)
+    b = surface_height_map(g, spacing=0.25)
+    np.testing.assert_allclose(np.roll(a.heights, (6, 3), axis=(0, 1)) + 0.2, b.heights, atol=1e-12)
+    assert a.roughness.sq == pytest.approx(b.roughness.sq, rel=1e-12)
+
+
+def test_errors():
+    f = Frame([[0, 0, 0]], [1.0], box=[3, 3, 3])
+    with pytest.raises(ValueError, match="spacing"):
+        surface_height_map(f, spacing=0.0)
+    with pytest.raises(ValueError, match="probe"):
+        surface_height_map(f, probe_radius=-1.0)
+    with pytest.raises(ValueError, match="no particles"):
+        surface_height_map(Frame(np.zeros((0, 3)), np.zeros(0), box=[1, 1, 1]))
