@@ -64,18 +64,18 @@ def test_roughness_definitions():
 
 
 def test_flat_lattice_and_layers():
-    sc = cubic_lattice((6, 6, 3), boundary=("pp", "pp", "ff"))
-    s = surface_height_map(sc, spacing=0.02, base=0.0)
-    assert s.uncovered_fraction == pytest.approx(1 - math.pi / 4, abs=0.01)   # rasterised discs
-    assert s.heights.max() == pytest.approx(2.5 + math.sqrt(0.25 - 2 * 0.01 ** 2), abs=1e-12)
+    sc = cubic_lattice((4, 4, 3), boundary=("pp", "pp", "ff"))
+    s = surface_height_map(sc, spacing=0.01, base=0.0)
+    assert s.uncovered_fraction == pytest.approx(1 - math.pi / 4, abs=0.002)   # rasterised discs
+    assert s.heights.max() == pytest.approx(2.5 + math.sqrt(0.25 - 2 * 0.005 ** 2), abs=1e-12)
     # mean over a unit cell: 2.5 (pi/4) + (2/3) pi 0.5^3 + 0 (bare nodes at base)
-    assert s.mean_height == pytest.approx(2.5 * math.pi / 4 + 2 / 3 * math.pi / 8, abs=0.01)
-    with_gaps = surface_height_map(sc, spacing=0.02)
+    assert s.mean_height == pytest.approx(2.5 * math.pi / 4 + 2 / 3 * math.pi / 8, abs=0.005)
+    with_gaps = surface_height_map(sc, spacing=0.01)
     assert with_gaps.heights.max() == s.heights.max() and np.isnan(with_gaps.heights).any()
     hs = layer_heights([cubic_lattice((4, 4, k), boundary=("pp", "pp", "ff")) for k in (1, 2, 3)],
-                       0.0, spacing=0.05)
-    np.testing.assert_allclose(np.diff(hs), math.pi / 4, atol=0.01)   # one row of caps per layer
-    assert bed_height(sc, 0.0, spacing=0.02) == pytest.approx(s.mean_height)
+                       0.0, spacing=0.01)
+    np.testing.assert_allclose(np.diff(hs), math.pi / 4, atol=0.003)   # one row of caps per layer
+    assert bed_height(sc, 0.0, spacing=0.01) == pytest.approx(s.mean_height)
 
 
 def test_periodic_wrap_and_translation_invariance():
