@@ -1,0 +1,310 @@
+"""Figures of scalar bed metrics: German's law, PSDs and segregation, packing and
+coordination along the bed, height maps, and angles of repose.
+
+Every function takes ``ax=None``; it draws on the given Axes and returns it, or
+creates a :class:`matplotlib.figure.Figure` (never pyplot) and returns
+``(fig, ax)``. Nothing is shown or saved.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_german", "plot_psd", "plot_psd_along_bed", "plot_packing_profile",
+           "plot_coordination", "plot_height_map", "plot_repose", "plot_repose_series"]
+
+
+def _figure(ax, nrows=1, **kw):
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as exc:  # pragma: no cover
+        raise ImportError("plotting needs matplotlib: pip install matplotlib") from exc
+    if ax is not None:
+        return None, ax
+    fig = Figure(figsize=kw.pop("figsize", (6.0, 4.0 if nrows == 1 else 6.0)), layout="constrained")
+    if nrows == 1:
+        return fig, fig.add_subplot(1, 1, 1)
+    axes = fig.subplots(nrows, 1, sharex=True, gridspec_kw=kw.pop("gridspec_kw", None))
+    return fig, axes
+
+
+def _ret(fig, ax):
+    return ax if fig is None else (fig, ax)
+
+
+def plot_german(fit, *, ax=None, residual_ax=None, label: str = "data"):
+    """Measured CN against packing fraction with German's law and the fitted law, plus residuals.
+
+    Parameters
+    ----------
+    fit : GermanFit
+        From :func:`bedstruct.analysis.fit_german_law`.
+    ax : Axes, optional
+        Where to draw data and laws. When None a figure with two panels
+        (laws above, residuals below) is created.
+    residual_ax : Axes, optional
+        Where to draw the residuals when ``ax`` is given.
+    label : str, optional
+        Legend label of the data points.
+
+    Returns
+    -------
+    Axes or (Figure, (Axes, Axes))
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.analysis import fit_german_law
+    >>> fit = fit_german_law([0.5, 0.55, 0.6], [3.98, 4.0, 4.03])
+    >>> fig, (top, bottom) = plot_german(fit)
+    >>> len(top.lines)
+    3
+    """
+    from ..analysis.german import german_cn
+    created = ax is None
+    if created:
+        fig, (ax, residual_ax) = _figure(None, nrows=2, gridspec_kw={"height_ratios": [3, 1]})
+    f = np.asarray(fit.f)
+    grid = np.linspace(f.min() - 0.02, f.max() + 0.02, 200)
+    ax.plot(f, fit.cn, "o", label=label)
+    ax.plot(grid, german_cn(grid), "--",
+            label=f"$CN_S = 2 + 11 f^2$ (mean |dev| {fit.unfitted_deviation:.2f})")
+    ax.plot(grid, fit.predict(grid), "-",
+            label=f"$CN_m = 2a + 11 b f^2$, a = {fit.a:.3f}, b = {fit.b:.4f}")
+    ax.set_ylabel("coordination number")
+    ax.legend(fontsize="small")
+    if residual_ax is not None:
+        residual_ax.axhline(0.0, color="0.5", lw=0.8)
+        residual_ax.plot(f, fit.residuals, "o", label="fitted law")
+        residual_ax.plot(f, fit.unfitted_residuals, "x", label="German's law")
+        residual_ax.set_xlabel("packing fraction f")
+        residual_ax.set_ylabel("residual")
+        residual_ax.legend(fontsize="small")
+    else:
+        ax.set_xlabel("packing fraction f")
+    return (fig, (ax, residual_ax)) if created else ax
+
+
+def plot_psd(results, *, labels=None, ax=None, cumulative: bool = False, unit: str = ""):
+    """Overlay particle size distributions (e.g. before and after spreading).
+
+    Parameters
+    ----------
+    results : PSDResult or sequence of PSDResult
+    labels : sequence of str, optional
+    ax : Axes, optional
+    cumulative : bool, optional
+        Plot the cumulative fraction instead of the density.
+    unit : str, optional
+        Length unit for the axis label.
+
+    Returns
+    -------
+    Axes or (Figure, Axes)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.analysis import particle_size_distribution
+    >>> p = particle_size_distribution(np.array([1.0, 1.5, 2.0]), bins=4)
+    >>> fig, ax = plot_psd([p, p], labels=["before", "after"])
+    >>> len(ax.lines)
+    2
+    """
+    if hasattr(results, "edges"):
+        results = [results]
+    results = list(results)
+    labels = [None] * len(results) if labels is None else list(labels)
+    fig, ax = _figure(ax)
+    for r, lab in zip(results, labels):
+        if cumulative:
+            ax.plot(r.edges[1:], r.cumulative, drawstyle="steps-post", label=lab)
+        else:
+            ax.plot(r.centres, r.fraction * 100, marker="o", ms=3, label=lab)
+    w = results[0].weighting if results else "volume"
+    ax.set_xlabel(f"diameter{f' ({unit})' if unit else ''}")
+    ax.set_ylabel(f"cumulative {w} fraction" if cumulative else f"{w} fraction per bin (%)")
+    if any(lab is not None for lab in labels):
+        ax.legend(fontsize="small")
+    return _ret(fig, ax)
+
+
+def plot_psd_along_bed(seg, *, ax=None, unit: str = ""):
+    """PSDs of the windows along the deposited bed, with heap and initial pile.
+
+    Parameters
+    ----------
+    seg : SegregationResult
+        From :func:`bedstruct.analysis.segregation`.
+
+    Returns
+    -------
+    Axes or (Figure, Axes)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> from bedstruct.analysis import segregation
+    >>> rng = np.random.default_rng(0)
+    >>> f = Frame(rng.uniform(0, 10, (300, 3)), rng.uniform(0.2, 0.3, 300), box=[10, 10, 10])
+    >>> fig, ax = plot_psd_along_bed(segregation(f, 8.0, initial=f))
+    >>> len(ax.lines)
+    5
+    """
+    results = [*seg.along_bed, seg.heap] + ([seg.initial] if seg.initial is not None else [])
+    n = len(seg.along_bed)
+    names = {3: ["start", "centre", "end"]}.get(n, [f"window {k + 1}" for k in range(n)])
+    labels = [f"bed {nm} (D50 {p.d50:.3g})" for nm, p in zip(names, seg.along_bed)]
+    labels.append(f"heap (D50 {seg.heap.d50:.3g})")
+    if seg.initial is not None:
+        labels.append(f"initial pile (D50 {seg.initial.d50:.3g})")
+    return plot_psd(results, labels=labels, ax=ax, unit=unit)
+
+
+def plot_packing_profile(profile, *, axis: int = 0, coordination=None, ax=None, unit: str = ""):
+    """Packing fraction of windows against their position (optionally CN on a twin axis).
+
+    Parameters
+    ----------
+    profile : PackingProfile
+    axis : int, optional
+        Coordinate of the window centres on the x axis of the plot.
+    coordination : WindowCoordination, optional
+        Mean CN of the same windows, drawn on a secondary y axis.
+
+    Returns
+    -------
+    Axes or (Figure, Axes)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> from bedstruct.analysis import packing_along, coordination_by_window
+    >>> f = Frame(np.random.default_rng(0).uniform(0, 6, (100, 3)), np.full(100, 0.4), box=[6, 6, 6])
+    >>> p = packing_along(f)
+    >>> fig, ax = plot_packing_profile(p, coordination=coordination_by_window(f, p.lower, p.upper))
+    >>> len(ax.lines)
+    1
+    """
+    fig, ax = _figure(ax)
+    x = profile.centres[:, axis]
+    ax.plot(x, profile.fractions, "o-", color="C0", label="packing fraction")
+    ax.set_xlabel(f"{'xyz'[axis]}{f' ({unit})' if unit else ''}")
+    ax.set_ylabel("packing fraction", color="C0")
+    if coordination is not None:
+        tw = ax.twinx()
+        tw.plot(x, coordination.mean, "s--", color="C3", label="mean CN")
+        tw.set_ylabel("coordination number", color="C3")
+    return _ret(fig, ax)
+
+
+def plot_coordination(result, *, ax=None, mechanical: bool = False):
+    """Histogram of per-particle coordination numbers with the mean marked.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> from bedstruct.analysis import coordination
+    >>> g = np.stack(np.meshgrid(*[np.arange(3)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    >>> fig, ax = plot_coordination(coordination(Frame(g + 0.5, np.full(27, 0.5), box=[3, 3, 3])))
+    >>> len(ax.patches) > 0
+    True
+    """
+    fig, ax = _figure(ax)
+    vals = result.per_particle_mechanical[~result.rattlers] if mechanical else result.per_particle
+    top = int(vals.max()) if vals.size else 1
+    ax.hist(vals, bins=np.arange(-0.5, top + 1.5), rwidth=0.85)
+    mean = result.mechanical if mechanical else result.mean
+    ax.axvline(mean, color="C3", label=f"mean {mean:.2f}")
+    ax.set_xlabel("mechanical coordination number" if mechanical else "coordination number")
+    ax.set_ylabel("particles")
+    ax.legend(fontsize="small")
+    return _ret(fig, ax)
+
+
+def plot_height_map(surface, *, ax=None, cmap: str = "viridis", unit: str = ""):
+    """Top-surface height map with its roughness in the title.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> from bedstruct.analysis import surface_height_map
+    >>> f = Frame(np.random.default_rng(0).uniform(0, 6, (100, 3)), np.full(100, 0.4), box=[6, 6, 6])
+    >>> fig, ax = plot_height_map(surface_height_map(f, spacing=0.2))
+    >>> len(ax.images)
+    1
+    """
+    fig, ax = _figure(ax)
+    dx = surface.x[1] - surface.x[0] if surface.x.size > 1 else 1.0
+    dy = surface.y[1] - surface.y[0] if surface.y.size > 1 else 1.0
+    ext = [surface.x[0] - dx / 2, surface.x[-1] + dx / 2, surface.y[0] - dy / 2, surface.y[-1] + dy / 2]
+    im = ax.imshow(surface.heights.T, origin="lower", extent=ext, cmap=cmap, aspect="equal")
+    cb = (fig or ax.figure).colorbar(im, ax=ax)
+    cb.set_label(f"height{f' ({unit})' if unit else ''}")
+    r = surface.roughness
+    ax.set_title(f"Sa {r.sa:.3g}  Sq {r.sq:.3g}  Sz {r.sz:.3g}  Ssk {r.ssk:.2f}  "
+                 f"uncovered {100 * surface.uncovered_fraction:.1f}%", fontsize="small")
+    return _ret(fig, ax)
+
+
+def plot_repose(result, *, ax=None, unit: str = ""):
+    """Free-surface profile with the fitted flank lines and their angles.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> from bedstruct.analysis import angle_of_repose
+    >>> x = np.arange(0.25, 40, 0.5)
+    >>> z = np.clip(10 - np.tan(np.radians(30)) * abs(x - 20), 0, None)
+    >>> f = Frame(np.c_[x, 0 * x, z], np.full(x.size, 0.25), box=([0, -1, -1], [40, 1, 12]))
+    >>> fig, ax = plot_repose(angle_of_repose(f, spacing=0.1))
+    >>> len(ax.lines)
+    3
+    """
+    fig, ax = _figure(ax)
+    ax.plot(result.profile_x, result.profile_h, "-", color="0.4", lw=1, label="free surface")
+    for name, fl in (("left", result.left), ("right", result.right)):
+        if fl is None:
+            continue
+        xs = np.array([fl.x.min(), fl.x.max()])
+        ax.plot(xs, fl.intercept + fl.slope * xs, "-", lw=2.5,
+                label=f"{name}: {fl.angle_deg:.1f} ± {fl.angle_std_deg:.1f}°")
+    ax.set_xlabel(f"position{f' ({unit})' if unit else ''}")
+    ax.set_ylabel(f"height{f' ({unit})' if unit else ''}")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize="small")
+    return _ret(fig, ax)
+
+
+def plot_repose_series(series, *, time=None, ax=None, label: str = "simulation"):
+    """Dynamic angle of repose against time (or timestep), with its uncertainty band.
+
+    Parameters
+    ----------
+    series : ReposeSeries
+    time : (F,) array_like, optional
+        Abscissa (default the timesteps).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.analysis import ReposeSeries
+    >>> s = ReposeSeries(np.arange(3), np.zeros(3), np.array([27.0, 28.0, 27.5]), np.full(3, 0.3))
+    >>> fig, ax = plot_repose_series(s)
+    >>> len(ax.lines)
+    1
+    """
+    fig, ax = _figure(ax)
+    t = series.timesteps if time is None else np.asarray(time)
+    ax.plot(t, series.angle_deg, "-o", ms=3, label=label)
+    ax.fill_between(t, series.angle_deg - series.angle_std_deg,
+                    series.angle_deg + series.angle_std_deg, alpha=0.3)
+    ax.set_xlabel("timestep" if time is None else "time")
+    ax.set_ylabel("dynamic angle of repose (°)")
+    ax.legend(fontsize="small")
+    return _ret(fig, ax)
