@@ -1,0 +1,47 @@
+"""Sim-to-real gap diagnosis: where the simulation misses the data, which unmodelled
+effect explains it, how far adding it closes the gap, and what to measure next.
+
+The diagnosis talks to simulations only through the simulator interface
+``simulator(base, effects, seed) -> Observations``; until the DEM workflows
+exist, :class:`SurrogateSimulator` (analytic, labelled ``"surrogate"``) stands in.
+"""
+
+from __future__ import annotations
+
+from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_model
+from .catalogue import CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness
+from .config import SimConfig, load_sim_config, make_simulator
+from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose,
+                        diagnosis_design, gap_size)
+from .fingerprints import (Fingerprint, FingerprintSet, Simulator, compute_fingerprints,
+                           nuisance_projector, simulate_replicates)
+from .measurements import (KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations,
+                           load_measurements, measurement_from_dict, write_measurements)
+from .observables import (AngleFit, angle_from_image, angle_from_particles, bed_height,
+                          fit_surface_angle, observe, packing_fraction_in_region, psd_percentiles,
+                          psd_percentiles_from_cumulative, read_image, render_side_view, roughness,
+                          surface_profile, windowed_mean)
+from .report import diagnosis_report, validation_report
+from .surrogate import BASE_PARAMETERS, SurrogateSimulator
+from .validate import GOALS, PRESETS, ValidationResult, twin_design, validate
+from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table
+
+__all__ = [
+    # measurements and observation operators
+    "KINDS", "ROLES", "Conditions", "Measurement", "MeasurementSet", "Observations",
+    "load_measurements", "write_measurements", "measurement_from_dict",
+    "windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative", "render_side_view",
+    "surface_profile", "AngleFit", "fit_surface_angle", "angle_from_image", "angle_from_particles",
+    "read_image", "bed_height", "packing_fraction_in_region", "roughness", "observe",
+    # catalogue and simulators
+    "CATALOGUE", "Effect", "catalogue", "effect", "engine_hooks", "halsey_film_thickness",
+    "BASE_PARAMETERS", "SurrogateSimulator", "SimConfig", "load_sim_config", "make_simulator",
+    # statistics
+    "standardised_residuals", "Residuals", "GapGroup", "WhereResult", "where", "where_table",
+    "Simulator", "simulate_replicates", "Fingerprint", "FingerprintSet", "compute_fingerprints",
+    "nuisance_projector", "ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute",
+    # orchestration
+    "candidate_design", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement", "Diagnosis",
+    "diagnose", "PRESETS", "GOALS", "ValidationResult", "twin_design", "validate",
+    "diagnosis_report", "validation_report",
+]

@@ -1,0 +1,312 @@
+"""Which effect: fingerprint regression, model comparison and the 'unexplained' verdict.
+
+The residual on the calibration observables, whitened by the combined noise, is
+fitted by models ``r = sum_e delta_e(a_e) + S beta``: a subset of effects with
+magnitudes ``a_e`` inside their prior ranges (bounded non-linear least squares on
+the fingerprint responses) plus free recalibration shifts ``beta`` of the
+nuisance parameters. Effects enter by forward selection when they lower the
+chi-square by more than the Bonferroni threshold; the chosen model must then
+fit within noise (goodness-of-fit p-value >= ``gof_alpha``), otherwise the
+verdict is ``"unexplained"``. All single effects and pairs are fitted for the
+model-comparison table (chi-square, p-value, AIC, BIC, BIC weight).
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize, stats
+
+from .fingerprints import FingerprintSet
+
+__all__ = ["ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute"]
+
+_Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True)
+class ModelFit:
+    """Fit of one candidate model (a set of effects plus recalibration).
+
+    Attributes
+    ----------
+    effects : tuple of str
+    magnitudes, stderr : (k,) ndarray
+        Fitted magnitudes (effect units) and their standard errors.
+    intervals : (k, 2) ndarray
+        95 % confidence intervals (normal approximation at the optimum).
+    nuisance : (p,) ndarray
+        Recalibration shifts of the nuisance parameters (their units).
+    chi2 : float
+        Whitened residual sum of squares on the fitted rows.
+    dof : int
+    p_value : float
+        Goodness of fit, ``P(chi2_dof > chi2)``.
+    aic, bic : float
+    weight : float
+        BIC weight among all fitted models.
+    """
+
+    effects: tuple[str, ...]
+    magnitudes: np.ndarray
+    stderr: np.ndarray
+    intervals: np.ndarray
+    nuisance: np.ndarray
+    chi2: float
+    dof: int
+    p_value: float
+    aic: float
+    bic: float
+    weight: float = float("nan")
+
+    @property
+    def label(self) -> str:
+        return " + ".join(self.effects) if self.effects else "none (recalibration only)"
+
+    def magnitude(self, name: str) -> float:
+        return float(self.magnitudes[self.effects.index(name)])
+
+    def as_dict(self) -> dict:
+        return {"effects": list(self.effects), "magnitudes": self.magnitudes.tolist(),
+                "intervals": self.intervals.tolist(), "nuisance": self.nuisance.tolist(),
+                "chi2": self.chi2, "dof": self.dof, "p_value": self.p_value, "aic": self.aic,
+                "bic": self.bic, "weight": self.weight}
+
+
+@dataclass(frozen=True)
+class EffectEstimate:
+    """One effect's fitted magnitude, interval and evidence."""
+
+    effect: str
+    unit: str
+    magnitude: float
+    interval: tuple[float, float]
+    scale: float
+    scale_interval: tuple[float, float]
+    delta_chi2: float
+    p_value: float
+    confidence: float
+    identifiable: bool
+
+    def as_dict(self) -> dict:
+        return {"effect": self.effect, "magnitude": self.magnitude, "interval": list(self.interval),
+                "unit": self.unit, "scale": self.scale, "scale_interval": list(self.scale_interval),
+                "delta_chi2": self.delta_chi2, "p_value": self.p_value,
+                "confidence": self.confidence, "identifiable": self.identifiable}
+
+
+@dataclass(frozen=True)
+class Attribution:
+    """Result of the attribution.
+
+    Attributes
+    ----------
+    verdict : str
+        ``"attributed"``, ``"unexplained"`` or ``"none"`` (no gap to explain).
+    selected : tuple of EffectEstimate
+        Effects of the chosen model, strongest first (empty unless attributed).
+    ranking : tuple of EffectEstimate
+        Every effect fitted alone, ranked by chi-square reduction.
+    models : tuple of ModelFit
+        Null, singles and pairs, ranked by BIC.
+    null, best : ModelFit
+        The recalibration-only model and the chosen model.
+    threshold : float
+        Chi-square reduction needed to select an effect.
+    gof_alpha : float
+        Minimum goodness-of-fit p-value of an acceptable model.
+    reason : str
+        One sentence explaining the verdict.
+    """
+
+    verdict: str
+    selected: tuple[EffectEstimate, ...]
+    ranking: tuple[EffectEstimate, ...]
+    models: tuple[ModelFit, ...]
+    null: ModelFit
+    best: ModelFit
+    threshold: float
+    gof_alpha: float
+    reason: str
+
+    def which(self):
+        """The ``which`` JSON field: selected effects, ``"unexplained"`` or ``[]``."""
+        if self.verdict == "unexplained":
+            return "unexplained"
+        return [e.as_dict() for e in self.selected]
+
+
+def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
+    """Fit ``residual`` on the given effects plus recalibration (bounded least squares).
+
+    Parameters
+    ----------
+    residual : (n,) array_like
+        ``real - mean(base runs)`` on all design rows (NaN allowed outside ``rows``).
+    fps : FingerprintSet
+    effects : sequence of str
+    rows : (n,) bool array, optional
+        Rows to fit; default the calibration rows.
+
+    Returns
+    -------
+    ModelFit (``weight`` NaN; set by :func:`attribute`)
+    """
+    rows = fps.rows_calibrate if rows is None else rows
+    sig = fps.sigma[rows]
+    r = np.asarray(residual, dtype=float)[rows] / sig
+    S = fps.sensitivities[rows] / sig[:, None]
+    fs = [fps[e] for e in effects]
+    k, p = len(fs), S.shape[1]
+    lo = np.array([f.effect.prior[0] for f in fs])
+    hi = np.array([f.effect.prior[1] for f in fs])
+    n = len(r)
+
+    def fun(x):
+        a, b = x[:k], x[k:]
+        out = r - S @ b
+        for f, ai in zip(fs, a):
+            out = out - f.predict(ai)[rows] / sig
+        return out
+
+    def jac(x):
+        a = x[:k]
+        Ja = (np.column_stack([-f.derivative(ai)[rows] / sig for f, ai in zip(fs, a)])
+              if k else np.zeros((n, 0)))
+        return np.hstack([Ja, -S])
+
+    if k == 0:
+        x = np.linalg.lstsq(S, r, rcond=None)[0] if p else np.zeros(0)
+    else:
+        best = None
+        starts = [np.clip(np.zeros(k), lo, hi), 0.5 * (lo + hi), hi * 0.9 + lo * 0.1]
+        for a0 in starts:
+            x0 = np.concatenate([a0, np.zeros(p)])
+            blo = np.concatenate([lo, np.full(p, -np.inf)])
+            bhi = np.concatenate([hi, np.full(p, np.inf)])
+            x0 = np.clip(x0, blo, bhi)
+            sol = optimize.least_squares(fun, x0, jac=jac, bounds=(blo, bhi), method="trf",
+                                         x_scale="jac")
+            if best is None or sol.cost < best.cost:
+                best = sol
+        x = best.x
+    res = fun(x)
+    chi2 = float(res @ res)
+    J = jac(x)
+    try:
+        cov = np.linalg.pinv(J.T @ J)
+        se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    except np.linalg.LinAlgError:  # pragma: no cover
+        se = np.full(len(x), np.inf)
+    a, b = x[:k], x[k:]
+    sea = se[:k]
+    intervals = np.column_stack([a - _Z95 * sea, a + _Z95 * sea]) if k else np.zeros((0, 2))
+    dof = n - k - p
+    pval = float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan")
+    npar = k + p
+    return ModelFit(tuple(effects), a, sea, intervals, b, chi2, dof, pval,
+                    chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)))
+
+
+def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_alpha: float = 0.01,
+              max_effects: int = 2, rows=None) -> Attribution:
+    """Attribute the calibration residual to catalogue effects, or say 'unexplained'.
+
+    Parameters
+    ----------
+    residual : (n,) array_like
+        ``real - mean(base runs)`` on the design rows.
+    fps : FingerprintSet
+    alpha : float, optional
+        Family-wise level of the effect selection (default ``fps.alpha``).
+    gof_alpha : float
+        A model whose goodness-of-fit p-value is below this does not explain the gap.
+    max_effects : int
+        Largest combination considered (1 or 2).
+
+    Returns
+    -------
+    Attribution
+    """
+    alpha = fps.alpha if alpha is None else alpha
+    names = fps.effect_names
+    n_eff = max(len(names), 1)
+    threshold = float(stats.chi2.isf(alpha / n_eff, 1))
+    null = fit_model(residual, fps, (), rows=rows)
+    singles = {e: fit_model(residual, fps, (e,), rows=rows) for e in names}
+    pairs = {}
+    if max_effects >= 2:
+        for a, b in itertools.combinations(names, 2):
+            pairs[(a, b)] = fit_model(residual, fps, (a, b), rows=rows)
+    allm = [null, *singles.values(), *pairs.values()]
+    bics = np.array([m.bic for m in allm])
+    w = np.exp(-0.5 * (bics - bics.min()))
+    w /= w.sum()
+    allm = [ModelFit(**{**m.__dict__, "weight": float(wi)}) for m, wi in zip(allm, w)]
+    null = allm[0]
+    singles = {e: allm[1 + i] for i, e in enumerate(names)}
+    pairs = {key: allm[1 + len(names) + i] for i, key in enumerate(pairs)}
+    conf = {e: float(sum(m.weight for m in allm if e in m.effects)) for e in names}
+
+    def estimate(e, fit):
+        f = fps[e]
+        i = fit.effects.index(e)
+        mag = float(fit.magnitudes[i])
+        lo, hi = (float(v) for v in fit.intervals[i])
+        mref = f.magnitudes[1]
+        dchi = null.chi2 - singles[e].chi2
+        return EffectEstimate(e, f.effect.unit, mag, (lo, hi), mag / mref, (lo / mref, hi / mref),
+                              float(dchi), float(stats.chi2.sf(max(dchi, 0.0), 1)), conf[e],
+                              f.identifiable)
+
+    ranking = tuple(sorted((estimate(e, singles[e]) for e in names), key=lambda x: -x.delta_chi2))
+
+    # forward selection
+    chosen: tuple[str, ...] = ()
+    current = null
+    for step in range(max(0, min(max_effects, 2))):
+        cands = [e for e in names if e not in chosen]
+        if not cands:
+            break
+        fits = {e: (singles[e] if not chosen else pairs.get(tuple(sorted((chosen[0], e),
+                                                                         key=names.index))))
+                for e in cands}
+        fits = {e: f for e, f in fits.items() if f is not None}
+        if not fits:
+            break
+        e_best = min(fits, key=lambda e: fits[e].chi2)
+        thr = float(stats.chi2.isf(alpha / len(cands), 1))
+        if current.chi2 - fits[e_best].chi2 > thr:
+            chosen = chosen + (e_best,)
+            current = fits[e_best]
+        else:
+            break
+
+    models = tuple(sorted(allm, key=lambda m: m.bic))
+    gof_ok = (not math.isnan(current.p_value)) and current.p_value >= gof_alpha
+    if chosen and gof_ok:
+        verdict = "attributed"
+        sel = tuple(sorted((estimate(e, current) for e in chosen), key=lambda x: -x.delta_chi2))
+        reason = (f"{current.label} lowers chi2 from {null.chi2:.1f} to {current.chi2:.1f} "
+                  f"(dof {current.dof}, goodness-of-fit p = {current.p_value:.3g})")
+    elif chosen:
+        verdict = "unexplained"
+        sel = ()
+        reason = (f"best candidate {current.label} leaves chi2 = {current.chi2:.1f} on {current.dof} "
+                  f"dof (p = {current.p_value:.2g} < {gof_alpha}): no catalogue effect fits within noise")
+    elif null.p_value >= gof_alpha or math.isnan(null.p_value):
+        verdict = "none"
+        sel = ()
+        reason = (f"recalibration alone fits the calibration observables (chi2 = {null.chi2:.1f}, "
+                  f"dof {null.dof}, p = {null.p_value:.3g}) and no effect is significant")
+    else:
+        verdict = "unexplained"
+        sel = ()
+        reason = (f"gap on calibration observables (chi2 = {null.chi2:.1f}, dof {null.dof}, "
+                  f"p = {null.p_value:.2g}) but no effect lowers it significantly")
+    return Attribution(verdict, sel, ranking, models, null, current, threshold, gof_alpha, reason)

@@ -1,0 +1,395 @@
+"""Catalogue of unmodelled effects: switchable engine extensions with one magnitude each.
+
+Every effect names the physics it adds, the magnitude parameter that switches it
+on (magnitude 0 is the base model), the prior range of that magnitude, sources,
+the expected signature, and the measurements that would identify it. The mapping
+from magnitude to engine parameters is kept as *data* (``engine_map``) so that the
+DEM engine can wire each extension without reading this module's code.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from ..errors import ConfigError
+
+__all__ = ["Effect", "CATALOGUE", "catalogue", "effect", "halsey_film_thickness",
+           "engine_hooks"]
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One unmodelled effect with a single magnitude parameter.
+
+    Parameters
+    ----------
+    name : str
+        Identifier used in magnitudes dicts, JSON and the CLI.
+    title : str
+        Human-readable name.
+    magnitude : str
+        Name of the magnitude parameter.
+    unit : str
+        Unit of the magnitude (SI; ``"1"`` for dimensionless).
+    prior : tuple of float
+        Prior range ``(lo, hi)`` of the magnitude; 0 (off) lies inside it.
+    physics : str
+        What the extension adds to the contact model, in words and formulas.
+    signature : str
+        Expected fingerprint on the observables.
+    sources : tuple of str
+        Literature (with DOI) behind the physics and the prior range.
+    engine_map : tuple of (str, str, float, float)
+        ``(engine_parameter, rule, a, b)`` rows mapping the magnitude ``m`` to
+        engine parameters: rule ``"linear"`` gives ``a * m + b``, ``"const"``
+        gives ``a``, ``"switch"`` gives ``m != 0``, ``"halsey"`` gives the water
+        film thickness (m) at relative humidity ``m`` (see
+        :func:`halsey_film_thickness`).
+    identify_with : tuple of dict
+        Measurements (``name``, ``kind``, ``conditions``, ``uncertainty``,
+        ``unit``) that would identify the effect when the current observables
+        cannot; used as candidate measurements by the diagnosis.
+    signed : bool
+        Whether negative magnitudes are physical.
+
+    Examples
+    --------
+    >>> e = effect("capillary_bridges")
+    >>> e.magnitude, e.unit, e.prior
+    ('relative_humidity', '1', (0.0, 0.8))
+    >>> sorted(e.engine_parameters(0.0))[:2]
+    ['capillary', 'capillary_contact_angle']
+    """
+
+    name: str
+    title: str
+    magnitude: str
+    unit: str
+    prior: tuple[float, float]
+    physics: str
+    signature: str
+    sources: tuple[str, ...]
+    engine_map: tuple[tuple[str, str, float, float], ...]
+    identify_with: tuple[Mapping[str, Any], ...] = field(default=())
+    signed: bool = False
+
+    @property
+    def reference_magnitudes(self) -> tuple[float, float]:
+        """The two magnitudes at which fingerprints are simulated: half and full prior top."""
+        hi = self.prior[1]
+        return (0.5 * hi, hi)
+
+    def engine_parameters(self, magnitude: float) -> dict[str, Any]:
+        """Engine parameters that switch this effect on at ``magnitude``.
+
+        Parameters
+        ----------
+        magnitude : float
+            The effect magnitude in :attr:`unit`.
+
+        Returns
+        -------
+        dict
+            ``{engine_parameter: value}`` in SI units; what the DEM engine must
+            accept to implement the extension.
+
+        Raises
+        ------
+        ValueError
+            If ``magnitude`` is not finite.
+        """
+        m = float(magnitude)
+        if not math.isfinite(m):
+            raise ValueError(f"magnitude of {self.name!r} must be finite; got {magnitude!r}")
+        out: dict[str, Any] = {}
+        for key, rule, a, b in self.engine_map:
+            if rule == "linear":
+                out[key] = a * m + b
+            elif rule == "const":
+                out[key] = a
+            elif rule == "switch":
+                out[key] = m != 0.0
+            elif rule == "halsey":
+                out[key] = halsey_film_thickness(m) if m > 0 else 0.0
+            else:  # pragma: no cover - catalogue data error
+                raise ValueError(f"unknown engine_map rule {rule!r} in {self.name!r}")
+        return out
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "title": self.title, "magnitude": self.magnitude,
+                "unit": self.unit, "prior": list(self.prior), "physics": self.physics,
+                "signature": self.signature, "sources": list(self.sources),
+                "engine_parameters_at_prior_top": self.engine_parameters(self.prior[1]),
+                "identify_with": [dict(d) for d in self.identify_with]}
+
+
+def halsey_film_thickness(relative_humidity: float, *, monolayer: float = 0.354e-9) -> float:
+    """Adsorbed water film thickness at a relative humidity (Halsey equation).
+
+    Parameters
+    ----------
+    relative_humidity : float
+        Relative humidity, dimensionless, in (0, 1).
+    monolayer : float, optional
+        Thickness of one water monolayer, length (m). Default 0.354 nm.
+
+    Returns
+    -------
+    float
+        Film thickness, length (m).
+
+    Notes
+    -----
+    .. math:: t = t_m \\left(\\frac{5}{\\ln(1/\\mathrm{RH})}\\right)^{1/3}
+
+    References
+    ----------
+    Halsey, G. (1948). J. Chem. Phys. 16, 931. doi:10.1063/1.1746689
+
+    Examples
+    --------
+    >>> round(halsey_film_thickness(0.5) * 1e9, 3)
+    0.686
+    """
+    rh = float(relative_humidity)
+    if not 0.0 < rh < 1.0:
+        raise ValueError(f"`relative_humidity` must lie in (0, 1); got {relative_humidity!r}")
+    return monolayer * (5.0 / math.log(1.0 / rh)) ** (1.0 / 3.0)
+
+
+def _m(name, kind, uncertainty, unit, **conditions):
+    return {"name": name, "kind": kind, "uncertainty": uncertainty, "unit": unit,
+            "conditions": conditions}
+
+
+CATALOGUE: tuple[Effect, ...] = (
+    Effect(
+        name="contact_ageing",
+        title="Humidity-driven contact ageing",
+        magnitude="bond_strength_ratio",
+        unit="1",
+        prior=(0.0, 2.0),
+        physics=(
+            "Contacts at rest grow a bond (capillary condensation in asperity gaps) whose strength "
+            "rises logarithmically with rest time t_w, F_b = r * F_coh * ln(1 + t_w/tau)/ln(1 + t_ref/tau) "
+            "(tau = 10 s, t_ref = 60 s, F_coh the SJKR cohesion force of the contact), and breaks for "
+            "good once the contact slides more than a critical tangential displacement. The magnitude r "
+            "is the aged bond strength relative to the SJKR cohesion after the reference rest time."),
+        signature=("Transient: the powder that rested before the stroke resists; the dynamic angle "
+                   "spikes in the first ~10 % of the stroke and relaxes to the unaged value; static "
+                   "angle of a freshly poured heap barely changes; avalanche angle after rest rises "
+                   "logarithmically with rest time."),
+        sources=(
+            "Bocquet, L., Charlaix, E., Ciliberto, S., Crassous, J. (1998). Moisture-induced ageing in "
+            "granular media and the kinetics of capillary condensation. Nature 396, 735-737. "
+            "doi:10.1038/25492",
+            "Restagno, F., Gayvallet, H., Bocquet, L., Charlaix, E. (1999). Humidity effects and aging "
+            "behavior in granular media. arXiv:cond-mat/9908142",
+            "Frye, K.M., Marone, C. (2002). Effect of humidity on granular friction at room "
+            "temperature. J. Geophys. Res. 107, 2309. doi:10.1029/2001JB000654",
+        ),
+        engine_map=(("contact_ageing", "switch", 0, 0),
+                    ("ageing_bond_ratio", "linear", 1.0, 0.0),
+                    ("ageing_time_constant", "const", 10.0, 0),
+                    ("ageing_reference_rest_time", "const", 60.0, 0),
+                    ("ageing_break_slip", "const", 1e-6, 0)),
+        identify_with=(_m("avalanche_angle_rest600", "static_angle", 0.5, "deg", rest_time=600.0,
+                          box_width=0.03),
+                       _m("dynamic_angle_x5_early", "dynamic_angle_series", 1.0, "deg",
+                          speed=0.127, layer=3, time_window=[0.0, 0.1])),
+    ),
+    Effect(
+        name="capillary_bridges",
+        title="Capillary liquid bridges (Willett)",
+        magnitude="relative_humidity",
+        unit="1",
+        prior=(0.0, 0.8),
+        physics=(
+            "Pendular water bridges between particles condensed from the adsorbed film (Halsey film "
+            "thickness t(RH); bridge volume V = 2 pi R* t R*). Force from the closed form of Willett et "
+            "al. (2000) for equal spheres, F = 2 pi R* gamma cos(theta) / (1 + 1.05 S + 2.5 S^2), "
+            "S = s sqrt(R*/V), acting until the rupture distance s_c = (1 + theta/2) V^(1/3) "
+            "(Lian et al. 1993); bridges re-form on contact. Magnitude: ambient relative humidity."),
+        signature=("Persistent extra cohesion that, unlike SJKR cohesion, acts across gaps up to "
+                   "s_c and barely weakens with rake speed: static and dynamic angles rise at all "
+                   "speeds, packing fraction drops, roughness rises, segregation weakens. Part of it "
+                   "is absorbed by recalibrating the cohesion energy density."),
+        sources=(
+            "Willett, C.D., Adams, M.J., Johnson, S.A., Seville, J.P.K. (2000). Capillary bridges "
+            "between two spherical bodies. Langmuir 16, 9396-9405. doi:10.1021/la000657y",
+            "Lian, G., Thornton, C., Adams, M.J. (1993). A theoretical study of the liquid bridge "
+            "forces between two rigid spherical bodies. J. Colloid Interface Sci. 161, 138-147. "
+            "doi:10.1006/jcis.1993.1452",
+            "Halsey, G. (1948). Physical adsorption on non-uniform surfaces. J. Chem. Phys. 16, 931. "
+            "doi:10.1063/1.1746689",
+            "Mitarai, N., Nori, F. (2006). Wet granular materials. Adv. Phys. 55, 1-45. "
+            "doi:10.1080/00018730600626065",
+        ),
+        engine_map=(("capillary", "switch", 0, 0),
+                    ("capillary_surface_tension", "const", 0.072, 0),
+                    ("capillary_contact_angle", "const", math.radians(20.0), 0),
+                    ("capillary_film_thickness", "halsey", 0, 0)),
+        identify_with=(_m("static_angle_dry", "static_angle", 0.5, "deg", relative_humidity=0.05,
+                          box_width=0.03),
+                       _m("packing_fraction_x1_center", "packing_fraction", 0.005, "1",
+                          speed=0.0254, layer=1, region="center")),
+    ),
+    Effect(
+        name="non_sphericity",
+        title="Particle non-sphericity via rolling resistance",
+        magnitude="extra_rolling_friction",
+        unit="1",
+        prior=(0.0, 0.3),
+        physics=(
+            "Shape is represented by an elastic-plastic spring-dashpot (EPSD) rolling resistance "
+            "torque, limited by M_r = mu_r,shape R* F_n, on top of the base constant-torque model; "
+            "the magnitude is the extra rolling friction coefficient mu_r,shape that mimics the "
+            "interlocking of non-spherical gas-atomised particles (satellites, ellipticity)."),
+        signature=("Static angles rise in any box; dynamic angles rise, increasingly with rake "
+                   "speed (rolling dominates in fast flow, interlocking under shear); packing "
+                   "fraction and coordination fall; roughness rises. Distinct from cohesion, whose "
+                   "effect on the dynamic angle weakens with speed."),
+        sources=(
+            "Ai, J., Chen, J.-F., Rotter, J.M., Ooi, J.Y. (2011). Assessment of rolling resistance "
+            "models in discrete element simulations. Powder Technol. 206, 269-282. "
+            "doi:10.1016/j.powtec.2010.09.030",
+            "Wensrich, C.M., Katterfeld, A. (2012). Rolling friction as a technique for modelling "
+            "particle shape in DEM. Powder Technol. 217, 409-417. doi:10.1016/j.powtec.2011.10.057",
+        ),
+        engine_map=(("rolling_model", "const", "epsd", 0),
+                    ("shape_rolling_friction", "linear", 1.0, 0.0),
+                    ("rolling_stiffness_factor", "const", 2.25, 0)),
+        identify_with=(_m("packing_fraction_x1_center", "packing_fraction", 0.005, "1",
+                          speed=0.0254, layer=1, region="center"),
+                       _m("coordination_x1_center", "coordination", 0.2, "1",
+                          speed=0.0254, layer=1, region="center")),
+    ),
+    Effect(
+        name="missing_fines",
+        title="Fines missing from the simulated PSD",
+        magnitude="fines_mass_fraction",
+        unit="1",
+        prior=(0.0, 0.12),
+        physics=(
+            "The simulated PSD is cut at 14 um radius (28 um diameter); the extension inserts the "
+            "measured tail below the cut-off as a log-normal fines population (median 20 um "
+            "diameter, sigma_ln 0.25) carrying the given mass fraction of the powder, with the "
+            "same contact law (their higher granular Bond number makes them more cohesive)."),
+        signature=("PSD before spreading: d10 falls strongly, d50 a little; packing fraction rises "
+                   "(fines fill voids), coordination rises; angles rise slightly; after spreading "
+                   "fines percolate, so the spread layer is finer than the pile."),
+        sources=(
+            "Meier, C., Weissbach, R., Weinberg, J., Wall, W.A., Hart, A.J. (2019). Critical "
+            "influences of particle size and adhesion on the powder layer uniformity in metal "
+            "additive manufacturing. J. Mater. Process. Technol. 266, 484-501. "
+            "doi:10.1016/j.jmatprotec.2018.10.037",
+            "Seed report: measured PSD 25-105 um with D10 = 29.84 um vs simulated radii 14-50 um.",
+        ),
+        engine_map=(("fines_mass_fraction", "linear", 1.0, 0.0),
+                    ("fines_median_diameter", "const", 20e-6, 0),
+                    ("fines_sigma_ln", "const", 0.25, 0),
+                    ("fines_min_diameter", "const", 8e-6, 0)),
+        identify_with=(_m("psd_before", "psd", 0.6e-6, "m", stage="before"),),
+    ),
+    Effect(
+        name="wall_friction",
+        title="Wall and blade friction differing from particle-particle friction",
+        magnitude="wall_friction_excess",
+        unit="1",
+        prior=(-0.2, 0.4),
+        signed=True,
+        physics=(
+            "Particle-wall (blade, plate and side walls) sliding friction mu_w = mu + d_mu instead "
+            "of the particle-particle value mu; rolling friction against walls unchanged. Magnitude: "
+            "d_mu (negative for polished walls)."),
+        signature=("Side walls of the narrow simulated repose box hold the heap: the static angle "
+                   "rises in a narrow box but hardly in a wide one; blade friction acts in a thin "
+                   "boundary layer, so the free-surface dynamic angle changes little; plate friction "
+                   "thickens the first layer and steepens the packing gradient along the plate."),
+        sources=(
+            "Zhou, Y.C., Xu, B.H., Yu, A.B., Zulli, P. (2002). An experimental and numerical study of "
+            "the angle of repose of coarse spheres. Powder Technol. 125, 45-54. "
+            "doi:10.1016/S0032-5910(01)00520-4",
+            "Haeri, S. (2017). Optimisation of blade type spreaders for powder bed preparation in "
+            "additive manufacturing using DEM simulations. Powder Technol. 321, 94-104. "
+            "doi:10.1016/j.powtec.2017.08.011",
+        ),
+        engine_map=(("wall_friction_excess", "linear", 1.0, 0.0),),
+        identify_with=(_m("static_angle_narrow_box", "static_angle", 0.5, "deg", box_width=0.003),
+                       _m("static_angle_wide_box", "static_angle", 0.5, "deg", box_width=0.03)),
+    ),
+    Effect(
+        name="blade_startup",
+        title="Blade start-up acceleration and vibration",
+        magnitude="ramp_time",
+        unit="s",
+        prior=(0.0, 0.25),
+        physics=(
+            "The stage does not start at full speed: v(t) = v (1 - exp(-t/tau)) with ramp time tau "
+            "(the magnitude), plus a sinusoidal blade vibration of fixed amplitude and frequency "
+            "(held at the values below, measured from a stage accelerometer when available)."),
+        signature=("Early-stroke dynamic angle is *lower* than steady (the pile sees a slower "
+                   "blade), most at the highest speed where the angle depends steeply on speed and "
+                   "the stroke is shortest; the start region of the bed is packed differently."),
+        sources=(
+            "Nan, W., Pasha, M., Ghadiri, M. (2018). Jamming during particle spreading in additive "
+            "manufacturing. Powder Technol. 338, 253-262. doi:10.1016/j.powtec.2018.07.030",
+            "Haeri, S. (2017). Powder Technol. 321, 94-104. doi:10.1016/j.powtec.2017.08.011",
+        ),
+        engine_map=(("blade_ramp_time", "linear", 1.0, 0.0),
+                    ("blade_vibration_amplitude", "const", 2e-6, 0),
+                    ("blade_vibration_frequency", "const", 120.0, 0)),
+        identify_with=(_m("dynamic_angle_x5_early", "dynamic_angle_series", 1.0, "deg",
+                          speed=0.127, layer=3, time_window=[0.0, 0.1]),
+                       _m("packing_fraction_x5_start", "packing_fraction", 0.005, "1",
+                          speed=0.127, layer=1, region="start")),
+    ),
+)
+
+
+def catalogue(names=None, *, exclude=()) -> tuple[Effect, ...]:
+    """The catalogue, optionally restricted to ``names`` and without ``exclude``.
+
+    Parameters
+    ----------
+    names : iterable of str, optional
+        Effects to keep (default: all).
+    exclude : iterable of str, optional
+        Effects to drop (used by the out-of-catalogue validation twins).
+
+    Raises
+    ------
+    ConfigError
+        If a name is not in the catalogue.
+
+    Examples
+    --------
+    >>> [e.name for e in catalogue(exclude=["blade_startup"])][-1]
+    'wall_friction'
+    """
+    known = {e.name: e for e in CATALOGUE}
+    for n in list(names or []) + list(exclude):
+        if n not in known:
+            raise ConfigError(f"catalogue: unknown effect {n!r}; known: {sorted(known)}")
+    keep = list(names) if names is not None else [e.name for e in CATALOGUE]
+    return tuple(known[n] for n in keep if n not in set(exclude))
+
+
+def effect(name: str) -> Effect:
+    """The catalogue entry called ``name`` (ConfigError if unknown)."""
+    return catalogue([name])[0]
+
+
+def engine_hooks() -> dict[str, dict[str, Any]]:
+    """Engine parameters every effect needs, at the top of its prior (the wiring contract).
+
+    Examples
+    --------
+    >>> engine_hooks()["wall_friction"]
+    {'wall_friction_excess': 0.4}
+    """
+    return {e.name: e.engine_parameters(e.prior[1]) for e in CATALOGUE}

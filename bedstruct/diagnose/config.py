@@ -1,0 +1,193 @@
+"""Simulation configuration of a diagnosis (``bedstruct diagnose --sim CONFIG``).
+
+A small TOML file names the simulator, the calibrated base parameters, the
+parameters recalibration may change, the catalogue and the statistical levels::
+
+    [simulator]
+    kind = "surrogate"        # "engine" once bedstruct.dem provides the workflows
+    replicates = 4
+    seed = 0
+
+    [base]
+    cohesion_energy_density = 3.6e7
+    friction = 0.4
+    rolling_friction = 0.05
+    restitution = 0.1
+
+    [recalibrate]
+    parameters = ["cohesion_energy_density"]
+
+    [catalogue]
+    exclude = []
+
+    [diagnosis]
+    alpha = 0.05              # level of the 'is there a gap' tests
+    select_alpha = 0.01       # family-wise level of the effect selection
+    gof_alpha = 0.01          # goodness of fit below which the answer is 'unexplained'
+    max_effects = 2
+
+``kind = "engine"`` calls the hook
+``bedstruct.dem.workflows.diagnosis_simulator(design, config) -> simulator``
+(the ``[engine]`` table is passed through as ``config``).
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import importlib
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import ConfigError
+from .catalogue import Effect, catalogue
+from .measurements import MeasurementSet
+from .surrogate import BASE_PARAMETERS, SurrogateSimulator
+
+__all__ = ["SimConfig", "load_sim_config", "make_simulator"]
+
+_ENGINE_HOOK = "bedstruct.dem.workflows"
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Parsed simulation configuration (see the module docstring for the file)."""
+
+    kind: str = "surrogate"
+    base: dict = field(default_factory=lambda: dict(BASE_PARAMETERS))
+    nuisance: tuple[str, ...] = ("cohesion_energy_density",)
+    effects: tuple[Effect, ...] = field(default_factory=catalogue)
+    replicates: int = 4
+    seed: int = 0
+    alpha: float = 0.05
+    select_alpha: float = 0.01
+    gof_alpha: float = 0.01
+    max_effects: int = 2
+    noise: float = 1.0
+    engine: dict = field(default_factory=dict)
+    path: str | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "base": dict(self.base), "recalibrate": list(self.nuisance),
+                "effects": [e.name for e in self.effects], "replicates": self.replicates,
+                "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
+                "gof_alpha": self.gof_alpha,
+                "max_effects": self.max_effects, "path": self.path}
+
+
+def _get(table, key, typ, where, default):
+    if key not in table:
+        return default
+    v = table[key]
+    if typ is float and isinstance(v, int) and not isinstance(v, bool):
+        v = float(v)
+    if not isinstance(v, typ) or isinstance(v, bool) and typ is not bool:
+        raise ConfigError(f"{where}: key {key!r}: expected {typ.__name__}; got {v!r}")
+    return v
+
+
+def load_sim_config(path) -> SimConfig:
+    """Read a simulation configuration; ``"surrogate"`` gives the default surrogate config.
+
+    Raises
+    ------
+    ConfigError
+        Naming the key when the file is invalid.
+
+    Examples
+    --------
+    >>> cfg = load_sim_config("surrogate")
+    >>> cfg.kind, cfg.nuisance, len(cfg.effects)
+    ('surrogate', ('cohesion_energy_density',), 6)
+    """
+    if str(path) == "surrogate":
+        return SimConfig(path="surrogate")
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"simulation config not found: {p}")
+    try:
+        doc = tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML ({exc})") from None
+    unknown = set(doc) - {"simulator", "base", "recalibrate", "catalogue", "diagnosis", "engine"}
+    if unknown:
+        raise ConfigError(f"{p}: key {sorted(unknown)[0]!r}: unknown table")
+    sim = doc.get("simulator", {})
+    kind = _get(sim, "kind", str, f"{p} [simulator]", "surrogate")
+    if kind not in ("surrogate", "engine"):
+        raise ConfigError(f"{p} [simulator]: key 'kind': expected 'surrogate' or 'engine'; got {kind!r}")
+    base = dict(BASE_PARAMETERS)
+    for k, v in doc.get("base", {}).items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ConfigError(f"{p} [base]: key {k!r}: expected a number; got {v!r}")
+        base[k] = float(v)
+    if kind == "surrogate":
+        unknown = set(base) - set(BASE_PARAMETERS)
+        if unknown:
+            raise ConfigError(f"{p} [base]: key {sorted(unknown)[0]!r}: unknown to the surrogate "
+                              f"(knows {sorted(BASE_PARAMETERS)})")
+    rec = doc.get("recalibrate", {})
+    nuisance = tuple(_get(rec, "parameters", list, f"{p} [recalibrate]", ["cohesion_energy_density"]))
+    for n in nuisance:
+        if n not in base:
+            raise ConfigError(f"{p} [recalibrate]: key 'parameters': {n!r} is not a base parameter")
+    cat = doc.get("catalogue", {})
+    try:
+        names = cat.get("effects")
+        effects = catalogue(names, exclude=cat.get("exclude", []))
+    except ConfigError as exc:
+        raise ConfigError(f"{p} [catalogue]: {exc}") from None
+    dg = doc.get("diagnosis", {})
+    cfg = SimConfig(kind=kind, base=base, nuisance=nuisance, effects=effects,
+                    replicates=_get(sim, "replicates", int, f"{p} [simulator]", 4),
+                    seed=_get(sim, "seed", int, f"{p} [simulator]", 0),
+                    noise=_get(sim, "noise", float, f"{p} [simulator]", 1.0),
+                    alpha=_get(dg, "alpha", float, f"{p} [diagnosis]", 0.05),
+                    select_alpha=_get(dg, "select_alpha", float, f"{p} [diagnosis]", 0.01),
+                    gof_alpha=_get(dg, "gof_alpha", float, f"{p} [diagnosis]", 0.01),
+                    max_effects=_get(dg, "max_effects", int, f"{p} [diagnosis]", 2),
+                    engine=dict(doc.get("engine", {})), path=str(p))
+    if cfg.replicates < 2:
+        raise ConfigError(f"{p} [simulator]: key 'replicates': need >= 2; got {cfg.replicates}")
+    for key in ("alpha", "select_alpha", "gof_alpha"):
+        if not 0 < getattr(cfg, key) < 1:
+            raise ConfigError(f"{p} [diagnosis]: key {key!r} must lie in (0, 1); got {getattr(cfg, key)}")
+    unknown = set(dg) - {"alpha", "select_alpha", "gof_alpha", "max_effects"}
+    if unknown:
+        raise ConfigError(f"{p} [diagnosis]: key {sorted(unknown)[0]!r}: unknown")
+    unknown = set(sim) - {"kind", "replicates", "seed", "noise"}
+    if unknown:
+        raise ConfigError(f"{p} [simulator]: key {sorted(unknown)[0]!r}: unknown")
+    if cfg.max_effects not in (1, 2):
+        raise ConfigError(f"{p} [diagnosis]: key 'max_effects': expected 1 or 2; got {cfg.max_effects}")
+    return cfg
+
+
+def make_simulator(config: SimConfig, design: MeasurementSet):
+    """The simulator callable for a configuration and a design.
+
+    ``kind = "surrogate"`` gives :class:`SurrogateSimulator`; ``kind = "engine"``
+    calls ``bedstruct.dem.workflows.diagnosis_simulator(design, config.engine)``.
+
+    Raises
+    ------
+    ConfigError
+        If the engine hook does not exist yet.
+    """
+    if config.kind == "surrogate":
+        return SurrogateSimulator(design, noise=config.noise)
+    try:
+        mod = importlib.import_module(_ENGINE_HOOK)
+        hook = getattr(mod, "diagnosis_simulator")
+    except (ImportError, AttributeError):
+        raise ConfigError(f"simulator kind 'engine': {_ENGINE_HOOK}.diagnosis_simulator(design, config) "
+                          f"is not available yet; use kind = 'surrogate'") from None
+    sim = hook(design, dict(config.engine))
+    if not hasattr(sim, "name"):
+        try:
+            sim.name = "engine"
+        except AttributeError:  # pragma: no cover
+            pass
+    return sim

@@ -1,0 +1,385 @@
+"""The sim-to-real gap diagnosis: where, which, how far, and what to measure next.
+
+:func:`diagnose` talks to simulations only through the simulator interface
+``simulator(base, effects, seed) -> Observations`` (see
+:data:`bedstruct.diagnose.fingerprints.Simulator`).
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..errors import ConfigError
+from .attribution import Attribution, attribute
+from .catalogue import Effect, catalogue as _catalogue
+from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simulate_replicates
+from .measurements import MeasurementSet, measurement_from_dict
+from .where import WhereResult, standardised_residuals, where
+
+__all__ = ["candidate_design", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement",
+           "Diagnosis", "diagnose"]
+
+SCHEMA = "bedstruct.diagnose/1"
+
+
+def candidate_design(effects: Sequence[Effect], existing: MeasurementSet | None = None) -> MeasurementSet:
+    """Design-only observables that would identify the effects (their ``identify_with`` lists).
+
+    Candidates whose name, or whose kind and conditions, already exist in
+    ``existing`` are left out.
+    """
+    seen = set(existing.names) if existing is not None else set()
+    same = {(m.kind, repr(sorted(m.conditions.as_dict().items()))) for m in (existing or ())}
+    out = []
+    for e in effects:
+        for spec in e.identify_with:
+            key = (spec["kind"], repr(sorted(dict(spec["conditions"], **(
+                {"time_window": list(spec["conditions"]["time_window"])}
+                if "time_window" in spec["conditions"] else {})).items())))
+            if spec["name"] in seen or key in same:
+                continue
+            seen.add(spec["name"])
+            same.add(key)
+            d = {"name": spec["name"], "kind": spec["kind"], "role": "candidate",
+                 "uncertainty": spec["uncertainty"], "unit": spec["unit"],
+                 "conditions": dict(spec["conditions"]),
+                 "note": f"candidate measurement suggested by the catalogue entry {e.name!r}"}
+            if spec["kind"] == "dynamic_angle_series":
+                d["windows"] = [list(spec["conditions"]["time_window"])]
+            if spec["kind"] == "psd":
+                d["percentiles"] = [10, 50, 90]
+            out.append(measurement_from_dict(d))
+    return MeasurementSet(tuple(out), title="candidate measurements")
+
+
+def diagnosis_design(measurements: MeasurementSet, effects: Sequence[Effect]) -> MeasurementSet:
+    """Measured observables (calibrate, validate) followed by candidate measurements."""
+    measured = measurements.select(("calibrate", "validate"))
+    return measured.merged(candidate_design(effects, measured))
+
+
+def gap_size(z) -> tuple[float, float]:
+    """RMS of standardised residuals and the *excess* gap beyond noise.
+
+    Returns
+    -------
+    rms, excess : float
+        ``sqrt(mean z^2)`` and ``sqrt(max(mean z^2 - 1, 0))``; the excess is 0
+        when the residuals are as large as the noise explains.
+
+    Examples
+    --------
+    >>> gap_size([3.0, 1.0, 1.0, 1.0])
+    (1.7320508075688772, 1.4142135623730951)
+    """
+    z = np.asarray(z, dtype=float)
+    if z.size == 0:
+        return float("nan"), float("nan")
+    ms = float(np.mean(z * z))
+    return math.sqrt(ms), math.sqrt(max(ms - 1.0, 0.0))
+
+
+@dataclass(frozen=True)
+class Shrink:
+    """Gap on the held-out observables before and after adding the attributed effect.
+
+    ``before``: the base model; ``recalibrated``: the base with the nuisance
+    parameters refitted on calibration observables only; ``after``: recalibrated
+    plus the attributed effect(s) at their fitted magnitudes (calibration-only fit).
+    Gaps are RMS standardised residuals; ``*_excess`` is the part beyond noise.
+    ``fraction`` = 1 - after_excess / before_excess (NaN without a gap).
+    """
+
+    model: str
+    magnitudes: dict
+    nuisance: dict
+    before: float
+    recalibrated: float
+    after: float
+    before_excess: float
+    recalibrated_excess: float
+    after_excess: float
+    fraction: float
+    fraction_rms: float
+    per_observable: tuple[dict, ...]
+    n_heldout: int
+
+    def as_dict(self) -> dict:
+        return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
+                "before": self.before, "recalibrated": self.recalibrated, "after": self.after,
+                "before_excess": self.before_excess, "recalibrated_excess": self.recalibrated_excess,
+                "after_excess": self.after_excess, "fraction": self.fraction,
+                "fraction_rms": self.fraction_rms, "n_heldout": self.n_heldout,
+                "per_observable": list(self.per_observable)}
+
+
+@dataclass(frozen=True)
+class NextMeasurement:
+    """A measurement ranked by how well it separates the top two candidate models."""
+
+    observable: str
+    kind: str
+    conditions: str
+    role: str
+    separation: float
+    separates: tuple[str, str]
+    measured: bool
+
+    def as_dict(self) -> dict:
+        return {"observable": self.observable, "kind": self.kind, "conditions": self.conditions,
+                "role": self.role, "separation_sigma": self.separation,
+                "separates": list(self.separates), "already_measured": self.measured}
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Everything :func:`diagnose` found; ``to_json()`` gives the compact answer."""
+
+    measurements: MeasurementSet
+    fingerprints: FingerprintSet
+    where: WhereResult
+    attribution: Attribution
+    shrink: Shrink
+    next: tuple[NextMeasurement, ...]
+    simulator: str
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def verdict(self) -> str:
+        return self.attribution.verdict
+
+    def to_json(self) -> dict:
+        """The compact JSON answer: where, which, how much, confidence, what next."""
+        att = self.attribution
+        confidence = (att.selected[0].confidence if att.selected else
+                      (att.null.weight if att.verdict == "none" else None))
+        return {
+            "schema": SCHEMA, "simulator": self.simulator,
+            "measurements": self.measurements.path or self.measurements.title,
+            "verdict": att.verdict, "reason": att.reason,
+            "gap_significant": self.where.significant,
+            "gap_chi2": {"chi2": self.where.chi2, "dof": self.where.dof, "p_value": self.where.p_value,
+                         "max_abs_z": self.where.max_abs_z, "p_max": self.where.p_max},
+            "where": self.where.ranked(), "where_summary": list(self.where.summary),
+            "which": att.which(),
+            "confidence": confidence,
+            "candidates": [e.as_dict() for e in att.ranking],
+            "models": [dict(m.as_dict(), label=m.label) for m in att.models[:12]],
+            "shrink": self.shrink.as_dict(),
+            "next": [n.as_dict() for n in self.next],
+            "identifiability": self.fingerprints.table(),
+            "not_identifiable": [{"effect": f.name, "identify_with":
+                                  list(f.identify_with) or [d["name"] for d in f.effect.identify_with]}
+                                 for f in self.fingerprints.fingerprints if not f.identifiable],
+            "settings": self.settings,
+        }
+
+    def report(self, *, title: str | None = None):
+        """The diagnosis as a :class:`bedstruct.report._model.Report` (HTML/JSON via write_report)."""
+        from .report import diagnosis_report
+        return diagnosis_report(self, title=title)
+
+
+def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):
+    rows = ~fps.rows_candidate
+    names = [n for n in fps.names if fps.design[n].role != "candidate"]
+    for n in names:
+        if n not in measurements:
+            raise ConfigError(f"measurements: observable {n!r} of the fingerprint design is missing")
+        if measurements[n].role != fps.design[n].role:
+            raise ConfigError(f"observable {n!r}: role {measurements[n].role!r} differs from the "
+                              f"fingerprint design ({fps.design[n].role!r})")
+    extra = set(measurements.select(("calibrate", "validate")).names) - set(names)
+    if extra:
+        raise ConfigError(f"measurements: observable {sorted(extra)[0]!r} is not in the fingerprint design")
+    y = np.concatenate([measurements[n].values for n in names])
+    sm = np.concatenate([measurements[n].uncertainty for n in names])
+    return rows, names, y, sm
+
+
+def _params_after(base, nuisance_names, shifts):
+    p = dict(base)
+    for name, b in zip(nuisance_names, shifts):
+        p[name] = p[name] + float(b)
+    return p
+
+
+def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mapping[str, float],
+             effects: Sequence[Effect] | None = None,
+             nuisance: Sequence[str] = ("cohesion_energy_density",), replicates: int = 4,
+             seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
+             gof_alpha: float = 0.01, max_effects: int = 2,
+             fingerprints: FingerprintSet | None = None, simulator_name: str | None = None,
+             refine: int = 2, progress: bool = False) -> Diagnosis:
+    """Diagnose the gap between a simulator and a measurement set.
+
+    Parameters
+    ----------
+    measurements : MeasurementSet
+        Real data (see :func:`load_measurements`).
+    simulator : callable
+        ``simulator(base, effects, seed) -> Observations`` producing every
+        measured observable (and, where it can, the candidate measurements of
+        :func:`diagnosis_design`).
+    base : mapping
+        Base parameters of the calibrated model (SI).
+    effects : sequence of Effect, optional
+        Catalogue to consider (default: all of :data:`CATALOGUE`).
+    nuisance : sequence of str
+        Base parameters that recalibration may change (projected out of the fingerprints).
+    replicates : int
+        Replicate seeds per parameter point.
+    seed : int
+        First seed.
+    alpha : float
+        Level of the "is there a gap" tests (where).
+    select_alpha : float
+        Family-wise level of the effect selection (Bonferroni over effects): the
+        expected false-attribution rate when there is no effect.
+    gof_alpha : float
+        Goodness-of-fit level below which the best model does not explain the gap.
+    max_effects : int
+        Largest combination of effects (1 or 2).
+    fingerprints : FingerprintSet, optional
+        Reuse fingerprints computed for the same design (the validation does).
+    simulator_name : str, optional
+        Label stored in the output (default the simulator's ``name`` attribute).
+    refine : int
+        Refinement rounds: the leading effects are simulated at their fitted
+        magnitudes and the fingerprints re-interpolated through those runs.
+
+    Returns
+    -------
+    Diagnosis
+    """
+    effects = tuple(_catalogue() if effects is None else effects)
+    name = simulator_name or getattr(simulator, "name", type(simulator).__name__)
+    if fingerprints is None:
+        design = diagnosis_design(measurements, effects)
+        fps = compute_fingerprints(simulator, design, base, effects, nuisance=nuisance,
+                                   replicates=replicates, seed=seed, alpha=select_alpha,
+                                   simulator_name=name, progress=progress)
+    else:
+        missing = [e.name for e in effects if e.name not in fingerprints.effect_names]
+        if missing:
+            raise ConfigError(f"fingerprints: no fingerprint for effect {missing[0]!r}")
+        fps = fingerprints.subset([e.name for e in effects])
+        fps = replace(fps, alpha=select_alpha)
+    rows_meas, names, y, sm = _measured_vectors(measurements, fps)
+    sigma_meas = fps.sigma_meas.copy()
+    sigma_meas[rows_meas] = sm
+    fps = replace(fps, sigma_meas=sigma_meas)
+
+    base_meas = fps.base_samples[:, rows_meas]
+    wh = where(measurements.select(("calibrate", "validate")), base_meas,
+               sim_var=fps.sim_var[rows_meas], alpha=alpha)
+    residual = np.full(len(fps.sigma), np.nan)
+    residual[rows_meas] = y - base_meas.mean(axis=0)
+    att = attribute(residual, fps, alpha=select_alpha, gof_alpha=gof_alpha, max_effects=max_effects)
+    # Refinement (Gauss-Newton with the simulator in the loop): simulate the leading
+    # effects at their fitted magnitudes, add those responses as fingerprint nodes, refit.
+    n_refine_runs = 0
+    for _ in range(max(int(refine), 0)):
+        if att.best.effects:
+            lead = list(zip(att.best.effects, att.best.magnitudes))
+        elif att.ranking and att.ranking[0].delta_chi2 > 0.5 * att.threshold:
+            top = att.ranking[0]
+            lead = [(top.effect, top.magnitude)]
+        else:
+            break
+        new = {}
+        for e, a in lead:
+            fp = fps[e]
+            a = float(a)
+            if a == 0.0 or np.min(np.abs(fp.nodes - a)) < 0.05 * abs(fp.magnitudes[1]):
+                continue
+            s_e = simulate_replicates(simulator, fps.base, {e: a}, fps.seeds, fps.names)
+            n_refine_runs += len(fps.seeds)
+            new[e] = fp.with_node(a, (s_e - fps.base_samples).mean(axis=0))
+        if not new:
+            break
+        fps = replace(fps, fingerprints=tuple(new.get(f.name, f) for f in fps.fingerprints))
+        att = attribute(residual, fps, alpha=select_alpha, gof_alpha=gof_alpha, max_effects=max_effects)
+
+    # ---- how far: rerun at recalibrated base (+ effects), compare held-out gaps
+    rerun_seeds = [int(seed) + 1000 + i for i in range(fps.n_replicates)]
+    held = fps.rows_validate
+    held_meas = held[rows_meas]
+    var_meas = fps.sim_var[rows_meas]
+
+    def z_of(samples):
+        z, _, _ = standardised_residuals(y, sm, samples, sim_var=var_meas)
+        return z
+
+    z_before = wh.residuals.z
+    p_recal = _params_after(fps.base, fps.nuisance, att.null.nuisance)
+    s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds, names)
+    z_recal = z_of(s_recal)
+    if att.verdict == "attributed":
+        model = att.best
+        p_after = _params_after(fps.base, fps.nuisance, model.nuisance)
+        mags = {e: float(a) for e, a in zip(model.effects, model.magnitudes)}
+        s_after = simulate_replicates(simulator, p_after, mags, rerun_seeds, names)
+        z_after = z_of(s_after)
+        label = model.label
+        nuis = {k: float(v) for k, v in zip(fps.nuisance, model.nuisance)}
+    else:
+        mags, z_after, label = {}, z_recal, att.null.label
+        nuis = {k: float(v) for k, v in zip(fps.nuisance, att.null.nuisance)}
+    per_obs = []
+    comp_names = np.asarray([n for n in names for _ in range(measurements[n].n_components)])
+    for n in dict.fromkeys(comp_names[held_meas]):
+        i = (comp_names == n) & held_meas
+        b, r_, a = gap_size(z_before[i]), gap_size(z_recal[i]), gap_size(z_after[i])
+        per_obs.append({"observable": str(n), "before": b[0], "recalibrated": r_[0], "after": a[0],
+                        "before_excess": b[1], "after_excess": a[1]})
+    b, r_, a = gap_size(z_before[held_meas]), gap_size(z_recal[held_meas]), gap_size(z_after[held_meas])
+    frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")
+    frac_rms = 1.0 - a[0] / b[0] if b[0] > 0 else float("nan")
+    shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
+                    tuple(per_obs), int(held_meas.sum()))
+
+    nxt = _next_measurements(att, fps)
+    settings = {"replicates": fps.n_replicates, "seed": seed, "alpha": alpha,
+                "select_alpha": select_alpha, "gof_alpha": gof_alpha,
+                "max_effects": max_effects, "nuisance": list(fps.nuisance),
+                "base": dict(fps.base), "effects": [e.name for e in effects],
+                "refine": refine,
+                "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
+                + 2 * len(rerun_seeds)}
+    return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)
+
+
+def _predict(model, fps: FingerprintSet) -> np.ndarray:
+    out = fps.sensitivities @ model.nuisance if len(model.nuisance) else np.zeros(len(fps.sigma))
+    for e, a in zip(model.effects, model.magnitudes):
+        out = out + fps[e].predict(float(a))
+    return out
+
+
+def _next_measurements(att: Attribution, fps: FingerprintSet, n: int = 5) -> tuple[NextMeasurement, ...]:
+    models = list(att.models)
+    first = att.best if att.verdict == "attributed" else models[0]
+    second = next((m for m in models if set(m.effects) != set(first.effects)), None)
+    if second is None:
+        return ()
+    rows = ~fps.rows_calibrate
+    if not rows.any():
+        return ()
+    sep = np.abs(_predict(first, fps) - _predict(second, fps)) / fps.sigma
+    comp = fps.design.component_names()
+    out = []
+    for name in dict.fromkeys(comp[rows]):
+        i = (comp == name) & rows
+        m = fps.design[name]
+        out.append(NextMeasurement(str(name), m.kind, m.conditions.label(), m.role,
+                                   float(np.sqrt(np.sum(sep[i] ** 2))), (first.label, second.label),
+                                   m.role != "candidate"))
+    out.sort(key=lambda x: -x.separation)
+    return tuple(out[:n])

@@ -1,0 +1,492 @@
+"""Observation operators: one per observable kind, applied identically to simulation and real data.
+
+Simulation output reaches the diagnosis only through these functions. The same
+operator turns a simulated heap (rendered to a side-view image by
+:func:`render_side_view`) and a camera image of the real heap into an angle
+(:func:`angle_from_image`); the same windowed mean turns a simulated and a
+measured angle time series into per-window values (:func:`windowed_mean`); the
+same volume-weighted percentiles turn simulated radii and a measured size
+distribution into d10/d50/d90 (:func:`psd_percentiles`,
+:func:`psd_percentiles_from_cumulative`).
+
+:func:`observe` dispatches on the kind with a documented dict of arrays, which is
+the contract a simulation workflow fills in.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative",
+           "render_side_view", "surface_profile", "AngleFit", "fit_surface_angle",
+           "angle_from_image", "angle_from_particles", "read_image", "bed_height",
+           "packing_fraction_in_region", "roughness", "observe"]
+
+
+def windowed_mean(times, values, windows) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard error of a time series in each time window.
+
+    Parameters
+    ----------
+    times : (T,) array_like of float
+        Sample times (stroke fractions, dimensionless, or any consistent unit).
+    values : (T,) array_like of float
+        The series (e.g. dynamic angle, deg).
+    windows : (n, 2) array_like of float
+        ``[t0, t1)`` windows in the unit of ``times`` (the last window includes ``t1``).
+
+    Returns
+    -------
+    mean, sem : (n,) ndarray
+        Window means and standard errors (``std/sqrt(k)``, 0 for a single sample).
+
+    Raises
+    ------
+    ValueError
+        If shapes disagree or a window holds no sample.
+
+    Examples
+    --------
+    >>> m, s = windowed_mean([0, 0.05, 0.5, 0.9], [40, 38, 27, 28], [[0, 0.1], [0.1, 1]])
+    >>> m
+    array([39. , 27.5])
+    """
+    t = np.asarray(times, dtype=float).ravel()
+    v = np.asarray(values, dtype=float).ravel()
+    w = np.atleast_2d(np.asarray(windows, dtype=float))
+    if t.shape != v.shape:
+        raise ValueError(f"`times` and `values` must have the same length; got {t.shape} and {v.shape}")
+    if w.shape[1] != 2:
+        raise ValueError(f"`windows` must have shape (n, 2); got {w.shape}")
+    mean = np.empty(len(w))
+    sem = np.empty(len(w))
+    for i, (t0, t1) in enumerate(w):
+        sel = (t >= t0) & ((t < t1) | ((i == len(w) - 1) & (t <= t1))) & np.isfinite(v)
+        k = int(sel.sum())
+        if k == 0:
+            raise ValueError(f"window [{t0:g}, {t1:g}] holds no sample")
+        mean[i] = v[sel].mean()
+        sem[i] = v[sel].std(ddof=1) / math.sqrt(k) if k > 1 else 0.0
+    return mean, sem
+
+
+def psd_percentiles(diameters, percentiles=(10, 50, 90), *, weights="volume") -> np.ndarray:
+    """Volume-weighted (laser-diffraction-like) percentiles of particle diameters.
+
+    Parameters
+    ----------
+    diameters : (N,) array_like of float, length
+        Particle diameters.
+    percentiles : sequence of float
+        Percentiles in (0, 100).
+    weights : {"volume", "number"}
+        ``"volume"`` weights each particle by d^3 as laser diffraction does.
+
+    Returns
+    -------
+    (k,) ndarray of float, length
+        Diameters below which the given percentage of volume (or number) lies
+        (linear interpolation of the cumulative distribution).
+
+    Examples
+    --------
+    >>> psd_percentiles([1.0, 1.0, 2.0], [50], weights="number")
+    array([1.])
+    """
+    d = np.sort(np.asarray(diameters, dtype=float).ravel())
+    if d.size == 0 or np.any(~np.isfinite(d)) or np.any(d <= 0):
+        raise ValueError("`diameters` must be a non-empty array of positive finite lengths")
+    if weights not in ("volume", "number"):
+        raise ValueError(f"`weights` must be 'volume' or 'number'; got {weights!r}")
+    w = d ** 3 if weights == "volume" else np.ones_like(d)
+    cum = 100.0 * (np.cumsum(w) - 0.5 * w) / w.sum()
+    return np.interp(np.asarray(percentiles, dtype=float), cum, d)
+
+
+def psd_percentiles_from_cumulative(sizes, cumulative, percentiles=(10, 50, 90)) -> np.ndarray:
+    """Percentiles from a measured cumulative size distribution (sizes vs % passing).
+
+    Parameters
+    ----------
+    sizes : (k,) array_like of float, length
+        Size classes (increasing).
+    cumulative : (k,) array_like of float
+        Cumulative volume percentage finer than each size (0..100, non-decreasing).
+    percentiles : sequence of float
+
+    Examples
+    --------
+    >>> psd_percentiles_from_cumulative([10, 20, 40], [0, 50, 100], [50, 75])
+    array([20., 30.])
+    """
+    s = np.asarray(sizes, dtype=float).ravel()
+    c = np.asarray(cumulative, dtype=float).ravel()
+    if s.shape != c.shape or s.size < 2:
+        raise ValueError("`sizes` and `cumulative` must be equal-length arrays of at least 2 values")
+    if np.any(np.diff(s) <= 0) or np.any(np.diff(c) < 0):
+        raise ValueError("`sizes` must increase and `cumulative` must not decrease")
+    return np.interp(np.asarray(percentiles, dtype=float), c, s)
+
+
+def render_side_view(positions, radii, *, pixel_size, axis=1, extent=None,
+                     background=0.0, foreground=1.0) -> np.ndarray:
+    """Project spheres onto a side plane as discs: the simulated camera image.
+
+    Parameters
+    ----------
+    positions : (N, 3) array_like of float, length
+    radii : (N,) array_like of float, length
+    pixel_size : float, length
+        Edge of one pixel in the units of ``positions``.
+    axis : int
+        Viewing axis (projected away); default 1 (view along y, image in x-z).
+    extent : (xmin, xmax, zmin, zmax), optional
+        Image window in the plane; default the bounding box of the discs.
+    background, foreground : float
+        Grey levels of empty and powder pixels.
+
+    Returns
+    -------
+    (rows, cols) ndarray of float
+        Row 0 is the top of the image (highest z), column 0 the smallest x.
+
+    Examples
+    --------
+    >>> img = render_side_view([[0.5, 0.0, 0.5]], [0.5], pixel_size=0.1, extent=(0, 1, 0, 1))
+    >>> img.shape, int(img.sum())
+    ((10, 10), 76)
+    """
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    r = np.asarray(radii, dtype=float).ravel()
+    if len(r) != len(p):
+        raise ValueError(f"`radii` must have shape (N,) matching `positions` (N={len(p)}); got {r.shape}")
+    if not pixel_size > 0:
+        raise ValueError(f"`pixel_size` must be > 0; got {pixel_size!r}")
+    keep = [a for a in range(3) if a != axis]
+    xy = p[:, keep]
+    if extent is None:
+        extent = (float((xy[:, 0] - r).min()), float((xy[:, 0] + r).max()),
+                  float((xy[:, 1] - r).min()), float((xy[:, 1] + r).max()))
+    x0, x1, z0, z1 = extent
+    ncol = max(int(math.ceil((x1 - x0) / pixel_size)), 1)
+    nrow = max(int(math.ceil((z1 - z0) / pixel_size)), 1)
+    img = np.full((nrow, ncol), float(background))
+    xc = x0 + (np.arange(ncol) + 0.5) * pixel_size
+    zc = z1 - (np.arange(nrow) + 0.5) * pixel_size
+    for (cx, cz), rad in zip(xy, r):
+        c0 = max(int((cx - rad - x0) / pixel_size), 0)
+        c1 = min(int((cx + rad - x0) / pixel_size) + 1, ncol)
+        r0 = max(int((z1 - (cz + rad)) / pixel_size), 0)
+        r1 = min(int((z1 - (cz - rad)) / pixel_size) + 1, nrow)
+        if c0 >= c1 or r0 >= r1:
+            continue
+        dx = xc[c0:c1][None, :] - cx
+        dz = zc[r0:r1][:, None] - cz
+        inside = dx * dx + dz * dz <= rad * rad
+        img[r0:r1, c0:c1][inside] = foreground
+    return img
+
+
+def read_image(path) -> np.ndarray:
+    """Read an image file as a float greyscale array (scikit-image)."""
+    from skimage import io
+    from skimage.color import rgb2gray
+    img = io.imread(str(path))
+    if img.ndim == 3:
+        img = rgb2gray(img[..., :3])
+    return np.asarray(img, dtype=float)
+
+
+def surface_profile(image, *, pixel_size, powder="bright", min_object=16) -> tuple[np.ndarray, np.ndarray]:
+    """Free-surface height per image column after Otsu segmentation.
+
+    Parameters
+    ----------
+    image : (rows, cols) array_like
+        Greyscale side view, row 0 at the top.
+    pixel_size : float, length
+    powder : {"bright", "dark"}
+        Whether the powder is brighter or darker than the background.
+    min_object : int
+        Foreground objects smaller than this many pixels are removed (dust, noise).
+
+    Returns
+    -------
+    x, height : (cols,) ndarray of float, length
+        Column centres and the height of the topmost powder pixel above the
+        image bottom (NaN where a column holds no powder).
+    """
+    from skimage.filters import threshold_otsu
+    from skimage.morphology import remove_small_objects
+
+    img = np.asarray(image, dtype=float)
+    if img.ndim != 2:
+        raise ValueError(f"`image` must be a 2-D greyscale array; got shape {img.shape}")
+    if powder not in ("bright", "dark"):
+        raise ValueError(f"`powder` must be 'bright' or 'dark'; got {powder!r}")
+    if np.ptp(img) == 0:
+        raise ValueError("`image` is uniform; nothing to segment")
+    t = threshold_otsu(img)
+    mask = img > t if powder == "bright" else img < t
+    if min_object > 1:
+        mask = remove_small_objects(mask, max_size=min_object - 1) if _has_max_size() else \
+            remove_small_objects(mask, min_size=min_object)
+    nrow, ncol = mask.shape
+    has = mask.any(axis=0)
+    top = np.argmax(mask, axis=0)
+    height = np.where(has, (nrow - top) * pixel_size, np.nan)
+    x = (np.arange(ncol) + 0.5) * pixel_size
+    return x, height
+
+
+def _has_max_size() -> bool:
+    import inspect
+    from skimage.morphology import remove_small_objects
+    return "max_size" in inspect.signature(remove_small_objects).parameters
+
+
+@dataclass(frozen=True)
+class AngleFit:
+    """A robust line fit of a free surface.
+
+    Attributes
+    ----------
+    angle : float
+        Inclination of the surface, deg (positive, 0..90).
+    slope : float
+        dz/dx of the fitted line (dimensionless; sign tells which way it falls).
+    intercept : float, length
+    n_points, n_inliers : int
+        Surface points used and those the robust fit kept.
+    """
+
+    angle: float
+    slope: float
+    intercept: float
+    n_points: int
+    n_inliers: int
+
+
+def fit_surface_angle(x, height, *, band=(0.15, 0.85), method="ransac", residual_threshold=None,
+                      seed=0) -> AngleFit:
+    """Robust line fit of the inclined part of a free-surface profile.
+
+    Parameters
+    ----------
+    x, height : (k,) array_like of float, length
+        Profile (NaN heights are ignored).
+    band : (float, float)
+        Only points between these fractions of the profile's height range are
+        fitted, which drops the flat top and the toe of the heap.
+    method : {"ransac", "theil-sen"}
+        RANSAC (scikit-image, then least squares on the inliers) or Theil-Sen (scipy).
+    residual_threshold : float, optional
+        RANSAC inlier distance; default 2 % of the height range.
+    seed : int
+        Seed of the RANSAC sampler.
+
+    Returns
+    -------
+    AngleFit
+
+    Examples
+    --------
+    >>> x = np.linspace(0, 1, 50)
+    >>> fit_surface_angle(x, 1 - x * np.tan(np.radians(30))).angle  # doctest: +ELLIPSIS
+    30.0...
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    h = np.asarray(height, dtype=float).ravel()
+    ok = np.isfinite(h) & np.isfinite(x)
+    x, h = x[ok], h[ok]
+    if len(x) < 3:
+        raise ValueError("too few surface points to fit an angle (need >= 3)")
+    lo, hi = np.min(h), np.max(h)
+    sel = (h >= lo + band[0] * (hi - lo)) & (h <= lo + band[1] * (hi - lo))
+    if sel.sum() < 3:
+        sel = np.ones_like(h, dtype=bool)
+    xs, hs = x[sel], h[sel]
+    if method == "theil-sen":
+        from scipy.stats import theilslopes
+        slope, intercept, _, _ = theilslopes(hs, xs)
+        n_in = len(xs)
+    elif method == "ransac":
+        from skimage.measure import LineModelND, ransac
+        thr = residual_threshold if residual_threshold is not None else 0.02 * max(hi - lo, 1e-300)
+        data = np.column_stack([xs, hs])
+        _, inliers = ransac(data, LineModelND, min_samples=2, residual_threshold=thr,
+                            max_trials=200, rng=np.random.default_rng(seed))
+        if inliers is None or inliers.sum() < 3:
+            inliers = np.ones(len(xs), dtype=bool)
+        slope, intercept = np.polyfit(xs[inliers], hs[inliers], 1)
+        n_in = int(inliers.sum())
+    else:
+        raise ValueError(f"`method` must be 'ransac' or 'theil-sen'; got {method!r}")
+    return AngleFit(float(np.degrees(np.arctan(abs(slope)))), float(slope), float(intercept),
+                    int(len(xs)), n_in)
+
+
+def angle_from_image(image, *, pixel_size=1.0, powder="bright", band=(0.15, 0.85),
+                     method="ransac", seed=0) -> float:
+    """Angle of a powder heap or pile from a side-view image.
+
+    Otsu segmentation, topmost powder pixel per column as the free surface, and
+    a robust line fit of the inclined part (:func:`fit_surface_angle`).
+
+    Parameters
+    ----------
+    image : (rows, cols) array_like
+        Greyscale side view (row 0 at the top).
+    pixel_size : float, length
+        Only the ratio of scales matters for the angle; square pixels assumed.
+
+    Returns
+    -------
+    float
+        Angle, deg.
+
+    Examples
+    --------
+    >>> rows, cols = np.mgrid[0:100, 0:200]
+    >>> img = (rows > 20 + 0.5 * cols).astype(float)   # surface falling at slope 0.5
+    >>> round(angle_from_image(img), 1)
+    26.6
+    """
+    x, h = surface_profile(image, pixel_size=pixel_size, powder=powder)
+    return fit_surface_angle(x, h, band=band, method=method, seed=seed).angle
+
+
+def angle_from_particles(positions, radii, *, pixel_size=None, axis=1, **kwargs) -> float:
+    """Angle of a simulated heap: rendered side view, then :func:`angle_from_image`.
+
+    The pixel size defaults to a third of the smallest radius.
+    """
+    r = np.asarray(radii, dtype=float)
+    px = float(pixel_size) if pixel_size is not None else float(r.min()) / 3.0
+    img = render_side_view(positions, radii, pixel_size=px, axis=axis)
+    return angle_from_image(img, pixel_size=px, **kwargs)
+
+
+def _top_surface(positions, radii, *, bin_size, x_range=None):
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    r = np.asarray(radii, dtype=float).ravel()
+    x = p[:, 0]
+    lo, hi = (x.min(), x.max()) if x_range is None else x_range
+    nb = max(int((hi - lo) / bin_size), 1)
+    idx = np.clip(((x - lo) / (hi - lo) * nb).astype(int), 0, nb - 1)
+    top = np.full(nb, -np.inf)
+    np.maximum.at(top, idx, p[:, 2] + r)
+    top[~np.isfinite(top)] = np.nan
+    return top
+
+
+def bed_height(positions, radii, *, plate_z=0.0, bin_size=None, x_range=None) -> float:
+    """Mean height of the top surface above the plate (length, frame units).
+
+    The top surface is the highest sphere top in each x bin (bin default: the
+    largest diameter), the same operator a profilometer line scan gives.
+    """
+    r = np.asarray(radii, dtype=float)
+    top = _top_surface(positions, radii, bin_size=bin_size or 2 * float(r.max()), x_range=x_range)
+    return float(np.nanmean(top) - plate_z)
+
+
+def roughness(heights) -> float:
+    """Rq roughness of a surface profile after removing its best-fit line (length).
+
+    Examples
+    --------
+    >>> round(roughness([0.0, 1.0, 0.0, 1.0]), 3)
+    0.447
+    """
+    h = np.asarray(heights, dtype=float).ravel()
+    h = h[np.isfinite(h)]
+    if len(h) < 3:
+        raise ValueError("`heights` needs at least 3 finite values")
+    x = np.arange(len(h))
+    resid = h - np.polyval(np.polyfit(x, h, 1), x)
+    return float(np.sqrt(np.mean(resid ** 2)))
+
+
+def packing_fraction_in_region(positions, radii, lo, hi) -> float:
+    """Solid fraction in an axis-aligned region, counting spheres by their centres.
+
+    Spheres whose centre lies in ``[lo, hi)`` contribute their whole volume; the
+    error is of order (mean radius / region size), so regions should be many
+    diameters wide.
+
+    Examples
+    --------
+    >>> round(packing_fraction_in_region([[0.5, 0.5, 0.5]], [0.5], [0, 0, 0], [1, 1, 1]), 4)
+    0.5236
+    """
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    r = np.asarray(radii, dtype=float).ravel()
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    inside = np.all((p >= lo) & (p < hi), axis=1)
+    return float((4.0 / 3.0) * np.pi * np.sum(r[inside] ** 3) / np.prod(hi - lo))
+
+
+def observe(kind: str, data: Mapping[str, Any], *, windows=None, percentiles=None) -> np.ndarray:
+    """Apply the observation operator of ``kind`` to a dict of arrays.
+
+    This is the contract between a simulation workflow (or a real-data reader)
+    and the diagnosis. Keys per kind:
+
+    ``static_angle``
+        ``image`` (+ ``pixel_size``) or ``positions`` + ``radii``.
+    ``dynamic_angle_series``
+        ``times`` (stroke fractions) and ``angles`` (deg) or ``images`` (+ ``pixel_size``);
+        needs ``windows``.
+    ``bed_height``
+        ``positions`` + ``radii`` (+ ``plate_z``) or ``surface_heights``.
+    ``packing_fraction``
+        ``positions`` + ``radii`` + ``region_lo`` + ``region_hi``.
+    ``psd``
+        ``diameters`` or ``sizes`` + ``cumulative``; needs ``percentiles``.
+    ``roughness``
+        ``surface_heights``.
+    ``coordination``
+        ``coordination`` (per-particle contact counts).
+
+    Returns
+    -------
+    (n,) ndarray
+        Component values in the kind's canonical unit (see :data:`KINDS`).
+    """
+    if kind == "static_angle":
+        if "image" in data:
+            return np.array([angle_from_image(data["image"], pixel_size=data.get("pixel_size", 1.0))])
+        return np.array([angle_from_particles(data["positions"], data["radii"])])
+    if kind == "dynamic_angle_series":
+        if windows is None:
+            raise ValueError("dynamic_angle_series needs `windows`")
+        if "images" in data:
+            angles = [angle_from_image(im, pixel_size=data.get("pixel_size", 1.0)) for im in data["images"]]
+        else:
+            angles = data["angles"]
+        return windowed_mean(data["times"], angles, windows)[0]
+    if kind == "bed_height":
+        if "surface_heights" in data:
+            return np.array([float(np.nanmean(data["surface_heights"]))])
+        return np.array([bed_height(data["positions"], data["radii"], plate_z=data.get("plate_z", 0.0))])
+    if kind == "packing_fraction":
+        return np.array([packing_fraction_in_region(data["positions"], data["radii"],
+                                                    data["region_lo"], data["region_hi"])])
+    if kind == "psd":
+        if percentiles is None:
+            raise ValueError("psd needs `percentiles`")
+        if "diameters" in data:
+            return psd_percentiles(data["diameters"], percentiles)
+        return psd_percentiles_from_cumulative(data["sizes"], data["cumulative"], percentiles)
+    if kind == "roughness":
+        return np.array([roughness(data["surface_heights"])])
+    if kind == "coordination":
+        return np.array([float(np.mean(data["coordination"]))])
+    raise ValueError(f"unknown observable kind {kind!r}")

@@ -1,0 +1,181 @@
+"""HTML/JSON report of a diagnosis or a validation (built on ``bedstruct.report``).
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+from .._version import __version__
+
+__all__ = ["diagnosis_report", "validation_report"]
+
+
+def _fmt(v, nd=3):
+    if isinstance(v, float):
+        return float(f"{v:.{nd}g}") if v == v else None
+    return v
+
+
+def diagnosis_report(diag, *, title: str | None = None):
+    """A :class:`bedstruct.report._model.Report` of a :class:`Diagnosis`."""
+    from ..report._model import Report, Table, run_section, skip
+    from ..plot import diagnose as pdg
+
+    j = diag.to_json()
+    sim_note = ("Simulations by the analytic SURROGATE (bedstruct.diagnose.surrogate), not the DEM "
+                "engine: numbers show what the method does, not what the powder does."
+                if diag.simulator == "surrogate" else f"Simulations by: {diag.simulator}.")
+    rep = Report(title or f"Sim-to-real gap diagnosis: {diag.measurements.title}",
+                 inputs={"measurements": diag.measurements.path or diag.measurements.title,
+                         "simulator": diag.simulator},
+                 settings=diag.settings, version=__version__)
+
+    def summary(s):
+        s.text = f"{sim_note} Verdict: {j['verdict']}. {j['reason']}."
+        s.add_number("verdict", j["verdict"], "", "attributed / unexplained / none (no gap to explain)")
+        s.add_number("gap_significant", j["gap_significant"], "",
+                     "whether the chi-square or max-|z| test rejects 'no gap' (all measured observables)")
+        s.add_number("gap_chi2", j["gap_chi2"]["chi2"], "1", "sum of squared standardised residuals")
+        s.add_number("gap_dof", j["gap_chi2"]["dof"], "1", "number of measured components")
+        s.add_number("confidence", j["confidence"], "1",
+                     "BIC weight of models containing the top effect (or of the null model)")
+        if isinstance(j["which"], list):
+            for e in j["which"]:
+                s.add_number(f"magnitude.{e['effect']}", e["magnitude"], e["unit"],
+                             f"fitted magnitude, 95 % CI [{e['interval'][0]:.4g}, {e['interval'][1]:.4g}]")
+        s.add_number("shrink", j["shrink"]["fraction"], "1",
+                     "1 - excess held-out gap after / before (NaN when there was no held-out gap)")
+        if j["next"]:
+            s.add_number("next_measurement", j["next"][0]["observable"], "",
+                         f"separates {' vs '.join(j['next'][0]['separates'])} by "
+                         f"{j['next'][0]['separation_sigma']:.1f} sigma")
+
+    def where_(s):
+        w = diag.where
+        s.text = " | ".join(w.summary[:6])
+        s.tables.append(Table(["observable", "component", "role", "conditions", "real", "simulated",
+                               "sigma", "z"],
+                              [[r["observable"], r["component"], r["role"], r["conditions"],
+                                _fmt(r["real"], 5), _fmt(r["simulated"], 5), _fmt(r["sigma"]),
+                                _fmt(r["z"])] for r in w.ranked()],
+                              caption="standardised residuals, largest |z| first"))
+        s.tables.append(Table(["group", "key", "n", "chi2", "rms z", "max z", "p"],
+                              [[g.group, g.key, g.n, _fmt(g.chi2), _fmt(g.rms_z), _fmt(g.max_z),
+                                _fmt(g.p_value)] for g in w.groups],
+                              caption="aggregates by observable, by kind and time window, by role"))
+        fig, _ = pdg.plot_where(w)
+        s.add_figure(fig, "largest standardised residuals")
+
+    def fingerprints_(s):
+        fps = diag.fingerprints
+        s.text = ("Change of every observable per effect at the top of its prior, whitened by the "
+                  "combined noise; identifiability judged on calibration observables after "
+                  "projecting out what recalibrating " + ", ".join(fps.nuisance) + " absorbs.")
+        s.tables.append(Table(["effect", "signal (sigma)", "noise (sigma)", "identifiable",
+                               "confounded with", "would be identified by"],
+                              [[r["effect"], _fmt(r["signal_sigma"]), _fmt(r["noise_sigma"]),
+                                r["identifiable"], ", ".join(r["confounded_with"]),
+                                ", ".join(r["identify_with"])] for r in fps.table()]))
+        fig, _ = pdg.plot_fingerprints(fps)
+        s.add_figure(fig, "fingerprints")
+
+    def which_(s):
+        att = diag.attribution
+        s.text = att.reason
+        s.tables.append(Table(["effect", "magnitude", "95 % CI", "unit", "scale", "dchi2", "p",
+                               "confidence", "identifiable"],
+                              [[e.effect, _fmt(e.magnitude), f"[{e.interval[0]:.3g}, {e.interval[1]:.3g}]",
+                                e.unit, _fmt(e.scale), _fmt(e.delta_chi2), _fmt(e.p_value),
+                                _fmt(e.confidence), e.identifiable] for e in att.ranking],
+                              caption="each effect fitted alone (with recalibration), ranked by chi-square drop"))
+        s.tables.append(Table(["model", "chi2", "dof", "p (fit)", "AIC", "BIC", "BIC weight"],
+                              [[m.label, _fmt(m.chi2), m.dof, _fmt(m.p_value), _fmt(m.aic), _fmt(m.bic),
+                                _fmt(m.weight)] for m in att.models[:12]],
+                              caption="model comparison (calibration observables only)"))
+        fig, _ = pdg.plot_attribution(att)
+        s.add_figure(fig, "fitted scale factors")
+
+    def shrink_(s):
+        sh = diag.shrink
+        if sh.n_heldout == 0:
+            skip("no held-out (validate) observables")
+        s.text = (f"Rerun of {sh.model} at the magnitude fitted on calibration observables only "
+                  f"(recalibration: {sh.nuisance}); gaps on held-out observables.")
+        for k in ("before", "recalibrated", "after"):
+            s.add_number(f"gap_{k}", getattr(sh, k), "1", f"RMS z on held-out components, {k}")
+        s.add_number("excess_before", sh.before_excess, "1", "sqrt(max(mean z^2 - 1, 0)), before")
+        s.add_number("excess_after", sh.after_excess, "1", "same, after")
+        s.add_number("shrink", sh.fraction, "1", "1 - excess after / excess before")
+        s.add_number("shrink_rms", sh.fraction_rms, "1", "1 - RMS after / RMS before")
+        s.tables.append(Table(["observable", "before", "recalibrated", "after"],
+                              [[r["observable"], _fmt(r["before"]), _fmt(r["recalibrated"]),
+                                _fmt(r["after"])] for r in sh.per_observable]))
+        fig, _ = pdg.plot_shrink(sh)
+        s.add_figure(fig, "held-out gap before and after")
+
+    def next_(s):
+        if not diag.next:
+            skip("no second candidate model to separate")
+        s.text = ("Observables (held-out or not yet measured) ranked by how far the predictions of "
+                  "the top two models differ, in units of the noise.")
+        s.tables.append(Table(["observable", "kind", "conditions", "status", "separation (sigma)",
+                               "separates"],
+                              [[n.observable, n.kind, n.conditions,
+                                "measured" if n.measured else "not measured", _fmt(n.separation),
+                                " vs ".join(n.separates)] for n in diag.next]))
+
+    def catalogue_(s):
+        s.tables.append(Table(["effect", "magnitude", "unit", "prior", "physics", "sources"],
+                              [[f.effect.name, f.effect.magnitude, f.effect.unit, list(f.effect.prior),
+                                f.effect.physics, " | ".join(f.effect.sources)]
+                               for f in diag.fingerprints.fingerprints]))
+
+    for key, title_, fn in (("summary", "Summary", summary), ("where", "Where is the gap", where_),
+                            ("fingerprints", "Fingerprints and identifiability", fingerprints_),
+                            ("which", "Which effect", which_), ("shrink", "How far", shrink_),
+                            ("next", "What to measure next", next_),
+                            ("catalogue", "Catalogue of effects", catalogue_)):
+        rep.sections.append(run_section(key, title_, fn))
+    return rep
+
+
+def validation_report(result):
+    """A report of a :class:`ValidationResult` (goals, confusion matrix, magnitude recovery)."""
+    from ..report._model import Report, Table, run_section
+    from ..plot import diagnose as pdg
+
+    rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
+                 inputs={"simulator": result.simulator, "preset": result.preset},
+                 settings=result.settings, version=__version__)
+
+    def goals(s):
+        s.text = ("Twins generated and diagnosed with the analytic SURROGATE simulator, not the DEM "
+                  "engine." if result.simulator == "surrogate" else "")
+        for k, g in result.goals.items():
+            s.add_number(k, g["value"], "1", f"goal {g['goal']}: {'met' if g['met'] else 'NOT met'}")
+        s.add_number("null_gap_flagged", result.null_gap_flagged, "1",
+                     "fraction of null twins where 'where' flagged a significant gap")
+        s.add_number("median_gap_shrink_rms", result.median_gap_shrink_rms, "1",
+                     "median shrink of the RMS held-out gap (noise floor included)")
+        s.add_number("magnitude_coverage", result.magnitude_coverage, "1",
+                     "fraction of correct attributions whose 95 % CI holds the true magnitude")
+        s.add_number("magnitude_median_relative_error", result.magnitude_median_relative_error, "1",
+                     "median |fitted - true| / true")
+
+    def confusion(s):
+        c = result.confusion
+        s.tables.append(Table(["truth \\ diagnosis", *c["columns"]],
+                              [[r, *row] for r, row in zip(c["rows"], c["matrix"])]))
+        fig, _ = pdg.plot_confusion(result)
+        s.add_figure(fig, "confusion matrix")
+
+    def magnitudes(s):
+        s.tables.append(Table(["effect", "true", "fitted", "95 % CI", "covered"],
+                              [[m["effect"], _fmt(m["true"]), _fmt(m["fitted"]),
+                                f"[{m['interval'][0]:.3g}, {m['interval'][1]:.3g}]", m["covered"]]
+                               for m in result.magnitudes]))
+
+    for key, t, fn in (("goals", "Goals", goals), ("confusion", "Confusion matrix", confusion),
+                       ("magnitudes", "Magnitude recovery", magnitudes)):
+        rep.sections.append(run_section(key, t, fn))
+    return rep

@@ -1,0 +1,136 @@
+"""Figures of the sim-to-real gap diagnosis (where, fingerprints, which, shrink, validation).
+
+Every function takes a result object, ``ax=None`` and returns the Axes (or
+``(fig, ax)`` when it created the figure); nothing is shown or saved.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_where", "plot_fingerprints", "plot_attribution", "plot_shrink", "plot_confusion"]
+
+
+def _axes(ax, size=(6.4, 4.0)):
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as exc:  # pragma: no cover
+        raise ImportError("plotting needs matplotlib: pip install matplotlib") from exc
+    if ax is not None:
+        return None, ax
+    fig = Figure(figsize=size)
+    return fig, fig.add_subplot(111)
+
+
+def _ret(fig, ax):
+    return ax if fig is None else (fig, ax)
+
+
+def plot_where(result, *, ax=None, n=15):
+    """Horizontal bars of the largest standardised residuals (``WhereResult``).
+
+    Bars are coloured by role (calibrate/validate); dashed lines mark +-2 sigma.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.diagnose import measurement_from_dict, MeasurementSet, where
+    >>> m = measurement_from_dict({"name": "a", "kind": "static_angle", "value": 33.0,
+    ...                            "uncertainty": 0.5})
+    >>> res = where(MeasurementSet((m,)), np.array([[30.0], [30.2]]))
+    >>> fig, ax = plot_where(res)
+    >>> len(ax.patches)
+    1
+    """
+    fig, ax = _axes(ax, (6.4, 0.35 * min(n, len(result.order)) + 1.2))
+    rows = result.ranked(n)[::-1]
+    z = [r["z"] for r in rows]
+    labels = [f"{r['observable']} [{r['component']}]" for r in rows]
+    colors = ["#2b6cb0" if r["role"] == "calibrate" else "#dd6b20" for r in rows]
+    ax.barh(np.arange(len(z)), z, color=colors)
+    ax.set_yticks(np.arange(len(z)))
+    ax.set_yticklabels(labels, fontsize=7)
+    for v in (-2, 2):
+        ax.axvline(v, color="0.5", ls="--", lw=0.8)
+    ax.axvline(0, color="k", lw=0.8)
+    ax.set_xlabel("standardised residual z (real - sim) / sigma")
+    ax.set_title("where: blue = calibrate, orange = held out", fontsize=9)
+    return _ret(fig, ax)
+
+
+def plot_fingerprints(fps, *, ax=None):
+    """Heat map of each effect's whitened change at the prior top, per design component."""
+    fig, ax = _axes(ax, (8.0, 0.45 * len(fps.fingerprints) + 2.2))
+    if not fps.fingerprints:
+        ax.text(0.5, 0.5, "no effects", ha="center", transform=ax.transAxes)
+        return _ret(fig, ax)
+    M = np.array([f.delta[1] / fps.sigma for f in fps.fingerprints])
+    lim = max(float(np.nanmax(np.abs(M))), 1e-9)
+    im = ax.imshow(M, aspect="auto", cmap="RdBu_r", vmin=-lim, vmax=lim)
+    ax.set_yticks(range(len(fps.fingerprints)))
+    ax.set_yticklabels([f.name + ("" if f.identifiable else " (n.i.)") for f in fps.fingerprints],
+                       fontsize=7)
+    names = fps.design.component_names()
+    labels = fps.design.component_labels()
+    roles = fps.design.roles()
+    ax.set_xticks(range(len(names)))
+    ax.set_xticklabels([f"{n}[{l}]{'*' if r == 'candidate' else ''}" for n, l, r in
+                        zip(names, labels, roles)], rotation=90, fontsize=6)
+    if ax.figure is not None:
+        ax.figure.colorbar(im, ax=ax, label="change / sigma at prior top")
+    ax.set_title("fingerprints (* = candidate measurement, n.i. = not identifiable)", fontsize=9)
+    return _ret(fig, ax)
+
+
+def plot_attribution(attribution, *, ax=None):
+    """Fitted scale factors (magnitude / prior top) with 95 % intervals, per effect."""
+    fig, ax = _axes(ax)
+    est = list(attribution.ranking)
+    y = np.arange(len(est))[::-1]
+    for yi, e in zip(y, est):
+        sel = any(s.effect == e.effect for s in attribution.selected)
+        ax.errorbar(e.scale, yi, xerr=[[e.scale - e.scale_interval[0]], [e.scale_interval[1] - e.scale]],
+                    fmt="o", color="#c53030" if sel else "#4a5568", capsize=3)
+    ax.set_yticks(y)
+    ax.set_yticklabels([f"{e.effect} (dchi2={e.delta_chi2:.1f})" for e in est], fontsize=7)
+    ax.axvline(0, color="k", lw=0.8)
+    ax.set_xlabel("fitted magnitude / prior top (95 % CI), each effect alone")
+    ax.set_title(f"which: {attribution.verdict}", fontsize=9)
+    return _ret(fig, ax)
+
+
+def plot_shrink(shrink, *, ax=None):
+    """Held-out gap (RMS z) per observable: before, recalibrated only, after."""
+    fig, ax = _axes(ax)
+    rows = list(shrink.per_observable)
+    x = np.arange(len(rows))
+    w = 0.27
+    for k, (key, c) in enumerate((("before", "#a0aec0"), ("recalibrated", "#63b3ed"),
+                                  ("after", "#c53030"))):
+        ax.bar(x + (k - 1) * w, [r[key] for r in rows], w, label=key, color=c)
+    ax.axhline(1.0, color="0.4", ls="--", lw=0.8)
+    ax.set_xticks(x)
+    ax.set_xticklabels([r["observable"] for r in rows], rotation=45, ha="right", fontsize=7)
+    ax.set_ylabel("RMS z on held-out components")
+    ax.legend(fontsize=7)
+    ax.set_title(f"how far: {shrink.model}", fontsize=9)
+    return _ret(fig, ax)
+
+
+def plot_confusion(validation, *, ax=None):
+    """Confusion matrix of a ``ValidationResult`` (true rows, predicted top label columns)."""
+    fig, ax = _axes(ax, (7.0, 5.0))
+    c = validation.confusion
+    M = np.asarray(c["matrix"], dtype=float)
+    ax.imshow(M, cmap="Blues")
+    for i in range(M.shape[0]):
+        for j in range(M.shape[1]):
+            if M[i, j]:
+                ax.text(j, i, int(M[i, j]), ha="center", va="center", fontsize=7)
+    ax.set_xticks(range(len(c["columns"])))
+    ax.set_xticklabels(c["columns"], rotation=45, ha="right", fontsize=7)
+    ax.set_yticks(range(len(c["rows"])))
+    ax.set_yticklabels(c["rows"], fontsize=7)
+    ax.set_xlabel("diagnosis (top label)")
+    ax.set_ylabel("twin truth")
+    return _ret(fig, ax)
