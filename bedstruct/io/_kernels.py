@@ -1,7 +1,7 @@
 """Numba kernels for parsing whitespace-separated numbers in dump files.
 
-Numbers are converted with Clinger's fast path: a decimal with at most 19
-significant digits, a mantissa ``m <= 2**53`` and a power of ten ``|e| <= 22``
+Numbers are converted with Clinger's fast path: a decimal with at most 18
+digits, a mantissa ``m <= 2**53`` and a power of ten ``|e| <= 22``
 becomes ``m * 10**e`` (or ``m / 10**-e``) in one IEEE operation on exact
 operands, which is the correctly rounded result (the same value ``strtod`` and
 Python's ``float`` give). Tokens outside the fast path (more digits, ``nan``,
@@ -15,7 +15,7 @@ import numpy as np
 
 from .._numba import njit, njit_parallel, prange
 
-__all__ = ["parse_rows", "POW10"]
+__all__ = ["parse_rows", "gather_rows", "POW10"]
 
 #: Exactly representable powers of ten, 1e0 .. 1e22.
 POW10 = np.array([10.0 ** k for k in range(23)], dtype=np.float64)
@@ -45,40 +45,31 @@ def _parse_line(buf, s, e, ncols, out, r, pow10):
             i += 1
         elif c == 43:
             i += 1
-        m = np.int64(0)
-        nd = 0
-        exp10 = 0
-        any_digit = False
-        inexact = False
-        ok = True
-        while i < e and buf[i] >= 48 and buf[i] <= 57:
-            d = np.int64(buf[i] - 48)
-            any_digit = True
-            if nd < 18:
-                if m > 0 or d > 0:
-                    m = m * 10 + d
-                    nd += 1
-            else:
-                exp10 += 1
-                if d != 0:
-                    inexact = True
+        # all mantissa digits, integer and fraction part, into one integer
+        m = 0
+        t0 = i
+        while i < e:
+            d = np.int64(buf[i]) - 48
+            if d < 0 or d > 9:
+                break
+            m = m * 10 + d
             i += 1
+        nd = i - t0
+        exp10 = 0
         if i < e and buf[i] == 46:
             i += 1
-            while i < e and buf[i] >= 48 and buf[i] <= 57:
-                d = np.int64(buf[i] - 48)
-                any_digit = True
-                if nd < 18:
-                    if m > 0 or d > 0:
-                        m = m * 10 + d
-                        nd += 1
-                    exp10 -= 1
-                elif d != 0:
-                    inexact = True
+            t1 = i
+            while i < e:
+                d = np.int64(buf[i]) - 48
+                if d < 0 or d > 9:
+                    break
+                m = m * 10 + d
                 i += 1
-        if not any_digit:
-            ok = False
-        if ok and i < e and (buf[i] == 101 or buf[i] == 69):
+            exp10 = t1 - i
+            nd += i - t1
+        # more than 18 digits (leading zeros included) could overflow: general parser
+        ok = nd > 0 and nd <= 18
+        if i < e and (buf[i] == 101 or buf[i] == 69):
             i += 1
             eneg = False
             if i < e and buf[i] == 45:
@@ -87,51 +78,47 @@ def _parse_line(buf, s, e, ncols, out, r, pow10):
             elif i < e and buf[i] == 43:
                 i += 1
             ex = 0
-            edig = False
-            while i < e and buf[i] >= 48 and buf[i] <= 57:
+            t2 = i
+            while i < e:
+                d = np.int64(buf[i]) - 48
+                if d < 0 or d > 9:
+                    break
                 if ex < 100000:
-                    ex = ex * 10 + (buf[i] - 48)
-                edig = True
+                    ex = ex * 10 + d
                 i += 1
-            if not edig:
+            if i == t2:
                 ok = False
             exp10 += -ex if eneg else ex
-        if i < e and buf[i] > 32:
+        if i < e and buf[i] > 32:  # junk glued to the number: general parser decides
             ok = False
             while i < e and buf[i] > 32:
                 i += 1
         v = np.nan
-        if not ok or inexact:
+        if not ok:
             slow = True
         elif m == 0:
             v = 0.0
         else:
-            if m > _MAX_EXACT:
+            if m > _MAX_EXACT or exp10 > 22 or exp10 < -22:
                 while m % 10 == 0:
                     m //= 10
                     exp10 += 1
-            if m > _MAX_EXACT:
-                slow = True
-            elif exp10 == 0:
-                v = float(m)
-            elif exp10 > 0 and exp10 <= 22:
-                v = float(m) * pow10[exp10]
-            elif exp10 < 0 and exp10 >= -22:
-                v = float(m) / pow10[-exp10]
-            elif exp10 > 22 and exp10 <= 37:
-                # m * 10**(exp10-22) may still be an exact integer
-                mm = m
+            if m <= _MAX_EXACT and exp10 >= -22 and exp10 <= 22:
+                if exp10 < 0:
+                    v = float(m) / pow10[-exp10]
+                else:
+                    v = float(m) * pow10[exp10]
+            elif m <= _MAX_EXACT and exp10 > 22 and exp10 <= 37:
+                # m * 10**(exp10 - 22) may still be an exact integer
                 k = exp10 - 22
-                exact = True
+                mm = m
                 for _ in range(k):
                     if mm > _MAX_EXACT // 10:
-                        exact = False
+                        slow = True
                         break
                     mm *= 10
-                if exact:
+                if not slow:
                     v = float(mm) * pow10[22]
-                else:
-                    slow = True
             else:
                 slow = True
         out[r, col] = -v if neg else v
@@ -150,3 +137,13 @@ def parse_rows(buf, starts, ends, ncols, out, status):
     """
     for r in prange(starts.shape[0]):
         status[r] = _parse_line(buf, starts[r], ends[r], ncols, out, r, POW10)
+
+
+@njit_parallel
+def gather_rows(data, order, cols, out):
+    """``out[r, k] = data[order[r], cols[k]]`` (row reordering and column selection at once)."""
+    m = cols.shape[0]
+    for r in prange(order.shape[0]):
+        src = order[r]
+        for k in range(m):
+            out[r, k] = data[src, cols[k]]

@@ -19,6 +19,7 @@ from ..core import Box, Frame, Provenance, Trajectory, Units
 from ..errors import BedstructWarning, DumpFormatError
 from ._binary import is_binary, parse_binary_frame, scan_binary
 from ._source import Source, scan_text
+from ._kernels import gather_rows
 from ._text import RawFrame, TruncatedFrame, parse_text_frame
 
 __all__ = ["read_dump", "iter_frames", "write_dump", "DumpTrajectory", "expand_paths",
@@ -67,15 +68,51 @@ def expand_paths(path_or_glob) -> list[str]:
 
 
 # --------------------------------------------------------------------------- mapping
-def _int_column(raw: RawFrame, k: int, name: str) -> np.ndarray:
-    col = raw.data[:, k]
+def _check_int(col: np.ndarray, raw: RawFrame, name: str, order) -> np.ndarray:
     ints = col.astype(np.int64)
     bad = np.flatnonzero(ints != col)
     if bad.size:
-        r = int(bad[0])
-        raise DumpFormatError(f"column {name!r} must hold integers; row {r + 1} has {float(col[r])!r}",
-                              path=raw.path, line=raw.data_line + r, text=raw.row_text(r))
+        width = col.shape[1] if col.ndim == 2 else 1
+        k = int(bad[0] // width)
+        r = int(k if order is None else order[k])
+        raise DumpFormatError(f"column {name!r} must hold integers; row {r + 1} has "
+                              f"{float(col.reshape(-1)[bad[0]])!r}", path=raw.path,
+                              line=raw.data_line + r, text=raw.row_text(r))
     return ints
+
+
+def _id_order(ids: np.ndarray):
+    """Row order that sorts ``ids`` (None when already strictly increasing)."""
+    n = ids.size
+    if n < 2 or np.all(ids[1:] > ids[:-1]):
+        return None
+    lo, hi = int(ids.min()), int(ids.max())
+    if hi - lo + 1 == n:  # a permutation of consecutive ids: O(N) scatter
+        order = np.full(n, -1, dtype=np.int64)
+        order[ids - lo] = np.arange(n, dtype=np.int64)
+        if not (order < 0).any():
+            return order
+    return np.argsort(ids, kind="stable").astype(np.int64)
+
+
+class _Columns:
+    """Gathers (reordered) columns of a parsed block into contiguous arrays."""
+
+    def __init__(self, data: np.ndarray, order):
+        self.data = data
+        n = data.shape[0]
+        self.order = np.arange(n, dtype=np.int64) if order is None else order
+        self.sorted = order is not None
+
+    def take(self, ks) -> np.ndarray:
+        ks = np.asarray(ks, dtype=np.int64)
+        if not self.sorted:
+            if ks.size == 1:
+                return np.ascontiguousarray(self.data[:, ks[0]])
+            return np.ascontiguousarray(self.data[:, ks])
+        out = np.empty((self.data.shape[0], ks.size), dtype=np.float64)
+        gather_rows(self.data, self.order, ks, out)
+        return out[:, 0] if ks.size == 1 else out
 
 
 def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_by_id=True,
@@ -92,12 +129,28 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
     data = raw.data
     box = Box.from_lammps_bounds(raw.bounds, raw.tilt, raw.boundary)
 
+    # ids first: they decide the row order
+    order = None
+    if "id" in idx:
+        raw_ids = _check_int(data[:, idx["id"]], raw, "id", None)
+        if sort_by_id:
+            order = _id_order(raw_ids)
+        ids = raw_ids if order is None else raw_ids[order]
+        used.add("id")
+    else:
+        ids = np.arange(1, n + 1, dtype=np.int64)
+        notes.append("no 'id' column: ids 1..N synthesised in file order")
+    cols = _Columns(data, order)
+
+    def row_of(r):  # row index in the file of sorted row r
+        return int(r if order is None else order[r])
+
     # positions
     positions = None
     for triple, scaled, unwrapped in _POSITION_SETS:
         have = [c in idx for c in triple]
         if all(have):
-            positions = np.stack([data[:, idx[c]] for c in triple], axis=1)
+            positions = cols.take([idx[c] for c in triple])
             used.update(triple)
             if scaled:
                 positions = box.cartesian(positions)
@@ -119,22 +172,16 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
         raise DumpFormatError("no position columns; expected x y z, xs ys zs, xu yu zu or "
                               "xsu ysu zsu", path=raw.path, line=raw.header_line,
                               text=" ".join(names))
-    positions = np.ascontiguousarray(positions)
+    positions = np.ascontiguousarray(positions).reshape(n, 3)
     finite = np.isfinite(positions).all(axis=1)
     if not finite.all():
         r = int(np.flatnonzero(~finite)[0])
-        raise DumpFormatError(f"position of row {r + 1} is not finite ({positions[r].tolist()})",
-                              path=raw.path, line=raw.data_line + r, text=raw.row_text(r))
+        raise DumpFormatError(f"position of row {row_of(r) + 1} is not finite "
+                              f"({positions[r].tolist()})", path=raw.path,
+                              line=raw.data_line + row_of(r), text=raw.row_text(row_of(r)))
 
-    # ids and types
-    if "id" in idx:
-        ids = _int_column(raw, idx["id"], "id")
-        used.add("id")
-    else:
-        ids = np.arange(1, n + 1, dtype=np.int64)
-        notes.append("no 'id' column: ids 1..N synthesised in file order")
     if "type" in idx:
-        types = _int_column(raw, idx["type"], "type")
+        types = _check_int(cols.take([idx["type"]]), raw, "type", order)
         used.add("type")
     else:
         types = np.ones(n, dtype=np.int32)
@@ -142,11 +189,11 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
 
     # radii
     if "radius" in idx:
-        radii = data[:, idx["radius"]].copy()
+        radii = cols.take([idx["radius"]])
         used.add("radius")
         rname = "radius"
     elif "diameter" in idx:
-        radii = data[:, idx["diameter"]] / 2.0
+        radii = cols.take([idx["diameter"]]) / 2.0
         used.add("diameter")
         rname = "diameter"
         notes.append("radii are the 'diameter' column halved")
@@ -161,23 +208,23 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
     if not good.all():
         r = int(np.flatnonzero(~good)[0])
         what = rname if rname else "radius="
-        raise DumpFormatError(f"{what} must be positive and finite; row {r + 1} gives radius "
-                              f"{float(radii[r])!r}", path=raw.path,
-                              line=raw.data_line + r if rname else None,
-                              text=raw.row_text(r) if rname else None)
+        raise DumpFormatError(f"{what} must be positive and finite; row {row_of(r) + 1} gives "
+                              f"radius {float(radii[r])!r}", path=raw.path,
+                              line=raw.data_line + row_of(r) if rname else None,
+                              text=raw.row_text(row_of(r)) if rname else None)
 
     kw = {}
     if all(c in idx for c in ("ix", "iy", "iz")):
-        kw["images"] = np.stack([_int_column(raw, idx[c], c) for c in ("ix", "iy", "iz")], axis=1)
+        img = cols.take([idx[c] for c in ("ix", "iy", "iz")]).reshape(n, 3)
+        kw["images"] = _check_int(img, raw, "ix iy iz", order)
         used.update(("ix", "iy", "iz"))
     for attr, options in _VECTORS:
         for triple in options:
             if all(c in idx for c in triple):
-                kw[attr] = np.stack([data[:, idx[c]] for c in triple], axis=1)
+                kw[attr] = cols.take([idx[c] for c in triple]).reshape(n, 3)
                 used.update(triple)
                 break
-    columns = {name: np.ascontiguousarray(data[:, k]) for k, name in enumerate(names)
-               if name not in used}
+    columns = {name: cols.take([k]) for k, name in enumerate(names) if name not in used}
 
     style = raw.units
     if units is not None:
@@ -190,7 +237,7 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
                   provenance=Provenance(source=raw.path, frame_index=frame_index,
                                         notes=tuple(notes)), **kw)
     if sort_by_id:
-        frame = frame.sorted_by_id()
+        frame = frame.sorted_by_id()  # no-op unless ids repeat
     return frame
 
 
@@ -308,9 +355,20 @@ class DumpTrajectory(Trajectory):
         if e.kind == "binary":
             return parse_binary_frame(buf, path=e.file.path, state=e.state,
                                       columns=self._columns, header_only=header_only)
-        return parse_text_frame(buf, path=e.file.path, line0=e.line, at_eof=e.at_eof,
-                                file_ends_with_newline=e.file.ends_with_newline,
-                                header_only=header_only, ncols_override=self._columns)
+        raw = parse_text_frame(buf, path=e.file.path, line0=e.line, at_eof=e.at_eof,
+                               file_ends_with_newline=e.file.ends_with_newline,
+                               header_only=header_only, ncols_override=self._columns)
+        del buf  # the frame text is not kept: messages re-read the line they need
+        raw._rows = self._row_reader(e, raw.data_line)
+        return raw
+
+    def _row_reader(self, e, data_line):
+        def row_text(r):
+            buf = e.file.source.read_range(e.start, e.end - e.start)
+            pos = _offset_of_line(buf, data_line + r - 1 - e.line)
+            end = buf.find(b"\n", pos)
+            return buf[pos:len(buf) if end < 0 else end].decode("latin-1").rstrip("\r")
+        return row_text
 
     def _read_frame(self, index: int) -> Frame:
         raw = self._raw(index)
