@@ -296,6 +296,20 @@ def test_bed_deck_runs_and_dumps_are_readable(engine, tmp_path):
     assert vz.min() == pytest.approx(-9.81 * steps * dt, rel=0.05)
 
 
+@pytest.mark.skipif(find_lammps() is None, reason="lammps is not installed")
+def test_lammps_fabric_of_vertical_columns(tmp_path):
+    # every contact is vertical: phi = diag(0, 0, 1); LAMMPS prints (15/2)(phi - I/3)
+    data = _columns_bed(tmp_path)
+    deck = tmp_path / "fab.in"
+    deck.write_text(bed_deck(data, GranularParams(youngs_modulus=1e8), engine="lammps", steps=5,
+                             dt=1e-8, thermo_every=5, fabric=True))
+    run = run_deck(deck).log.last
+    contact = [run.column(f"c_fab[{i}]")[-1] for i in range(1, 7)]
+    np.testing.assert_allclose(contact, [-2.5, -2.5, 5.0, 0, 0, 0], atol=1e-9)
+    with pytest.raises(ValueError, match="fabric"):
+        bed_deck(data, engine="liggghts", steps=5, dt=1e-8, fabric=True)
+
+
 @both_engines
 def test_two_ranks_match_one_rank(engine, tmp_path):
     info = ENGINES[engine]()

@@ -118,7 +118,8 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
              warmup_steps: int = 0, skin: float | None = None, write_data: str | None = None,
              boundary: str = "p p f", processors: str | None = "* * 1",
              cohesion_model: str | None = None, reference_radius: float = REFERENCE_RADIUS,
-             reference_overlap: float = REFERENCE_OVERLAP, _extra=None) -> str:
+             reference_overlap: float = REFERENCE_OVERLAP, fabric: bool = False,
+             _extra=None) -> str:
     """A deck that reads a settled bed, adds a bottom plane, gravity, and runs.
 
     The bed comes from a data file (``atom_style sphere``/``granular`` atoms
@@ -162,6 +163,12 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     reference_radius, reference_overlap : float
         LAMMPS only: the contact at which overlap-dependent LIGGGHTS
         coefficients are frozen.
+    fabric : bool
+        LAMMPS only (not with DMT/JKR): add ``compute fabric radius contact
+        force/normal`` to the thermo output, columns ``c_fab[1]`` ...
+        ``c_fab[12]``: the contact tensor xx yy zz xy xz yz, equal to
+        (15/2) (sum n n / N_c - I/3) over particle-particle contacts (walls
+        excluded), then the normal-force tensor in the same order.
 
     Returns
     -------
@@ -181,6 +188,8 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     """
     engine = _check_engine(engine)
     p = as_granular_params(params)
+    if fabric and (engine != "lammps" or (cohesion_model and p.cohesion_energy_density > 0)):
+        raise ValueError("`fabric` needs LAMMPS without DMT/JKR cohesion (compute fabric)")
     steps, warmup_steps = int(steps), int(warmup_steps)
     if steps < 0 or warmup_steps < 0:
         raise ValueError("`steps` and `warmup_steps` must be >= 0")
@@ -204,9 +213,13 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
                             reference_radius=reference_radius, reference_overlap=reference_overlap)
     if _extra is not None:
         lines += _extra(engine, p, wt, head)
+    fab = ""
+    if fabric:
+        lines.append("compute fab all fabric radius contact force/normal")
+        fab = " " + " ".join(f"c_fab[{i}]" for i in range(1, 13))
     lines += ["fix integr all nve/sphere",
               "compute rke all erotate/sphere",
-              "thermo_style custom step atoms ke c_rke",
+              "thermo_style custom step atoms ke c_rke" + fab,
               f"thermo {int(thermo_every)}",
               "thermo_modify lost ignore norm no flush yes"]
     dumps = []
