@@ -15,7 +15,7 @@ import numpy as np
 
 from .._numba import njit, njit_parallel, prange
 
-__all__ = ["parse_rows", "gather_rows", "POW10"]
+__all__ = ["parse_rows", "parse_column", "gather_rows", "POW10"]
 
 #: Exactly representable powers of ten, 1e0 .. 1e22.
 POW10 = np.array([10.0 ** k for k in range(23)], dtype=np.float64)
@@ -27,76 +27,66 @@ OK, BAD_COUNT, SLOW = 0, 1, 2
 
 
 @njit(inline="always")
-def _parse_line(buf, s, e, ncols, out, r, pow10):
-    col = 0
-    slow = False
-    i = s
-    while True:
-        while i < e and buf[i] <= 32:
-            i += 1
-        if i >= e:
+def _number(buf, i, e, pow10):
+    """Parse the token starting at ``buf[i]``: returns (value, index after it, exact)."""
+    neg = False
+    c = buf[i]
+    if c == 45:
+        neg = True
+        i += 1
+    elif c == 43:
+        i += 1
+    # all mantissa digits, integer and fraction part, into one integer
+    m = 0
+    t0 = i
+    while i < e:
+        d = np.int64(buf[i]) - 48
+        if d < 0 or d > 9:
             break
-        if col >= ncols:
-            return 1
-        neg = False
-        c = buf[i]
-        if c == 45:
-            neg = True
-            i += 1
-        elif c == 43:
-            i += 1
-        # all mantissa digits, integer and fraction part, into one integer
-        m = 0
-        t0 = i
+        m = m * 10 + d
+        i += 1
+    nd = i - t0
+    exp10 = 0
+    if i < e and buf[i] == 46:
+        i += 1
+        t1 = i
         while i < e:
             d = np.int64(buf[i]) - 48
             if d < 0 or d > 9:
                 break
             m = m * 10 + d
             i += 1
-        nd = i - t0
-        exp10 = 0
-        if i < e and buf[i] == 46:
+        exp10 = t1 - i
+        nd += i - t1
+    # more than 18 digits (leading zeros included) could overflow: general parser
+    ok = nd > 0 and nd <= 18
+    if i < e and (buf[i] == 101 or buf[i] == 69):
+        i += 1
+        eneg = False
+        if i < e and buf[i] == 45:
+            eneg = True
             i += 1
-            t1 = i
-            while i < e:
-                d = np.int64(buf[i]) - 48
-                if d < 0 or d > 9:
-                    break
-                m = m * 10 + d
-                i += 1
-            exp10 = t1 - i
-            nd += i - t1
-        # more than 18 digits (leading zeros included) could overflow: general parser
-        ok = nd > 0 and nd <= 18
-        if i < e and (buf[i] == 101 or buf[i] == 69):
+        elif i < e and buf[i] == 43:
             i += 1
-            eneg = False
-            if i < e and buf[i] == 45:
-                eneg = True
-                i += 1
-            elif i < e and buf[i] == 43:
-                i += 1
-            ex = 0
-            t2 = i
-            while i < e:
-                d = np.int64(buf[i]) - 48
-                if d < 0 or d > 9:
-                    break
-                if ex < 100000:
-                    ex = ex * 10 + d
-                i += 1
-            if i == t2:
-                ok = False
-            exp10 += -ex if eneg else ex
-        if i < e and buf[i] > 32:  # junk glued to the number: general parser decides
+        ex = 0
+        t2 = i
+        while i < e:
+            d = np.int64(buf[i]) - 48
+            if d < 0 or d > 9:
+                break
+            if ex < 100000:
+                ex = ex * 10 + d
+            i += 1
+        if i == t2:
             ok = False
-            while i < e and buf[i] > 32:
-                i += 1
-        v = np.nan
-        if not ok:
-            slow = True
-        elif m == 0:
+        exp10 += -ex if eneg else ex
+    if i < e and buf[i] > 32:  # junk glued to the number: the general parser decides
+        ok = False
+        while i < e and buf[i] > 32:
+            i += 1
+    v = np.nan
+    if ok:
+        if m == 0:
             v = 0.0
         else:
             if m > _MAX_EXACT or exp10 > 22 or exp10 < -22:
@@ -110,18 +100,35 @@ def _parse_line(buf, s, e, ncols, out, r, pow10):
                     v = float(m) * pow10[exp10]
             elif m <= _MAX_EXACT and exp10 > 22 and exp10 <= 37:
                 # m * 10**(exp10 - 22) may still be an exact integer
-                k = exp10 - 22
                 mm = m
-                for _ in range(k):
+                for _ in range(exp10 - 22):
                     if mm > _MAX_EXACT // 10:
-                        slow = True
+                        ok = False
                         break
                     mm *= 10
-                if not slow:
+                if ok:
                     v = float(mm) * pow10[22]
             else:
-                slow = True
-        out[r, col] = -v if neg else v
+                ok = False
+    return (-v if neg else v), i, ok
+
+
+@njit(inline="always")
+def _parse_line(buf, s, e, ncols, out, base, stride, drow, pow10):
+    col = 0
+    slow = False
+    i = s
+    while True:
+        while i < e and buf[i] <= 32:
+            i += 1
+        if i >= e:
+            break
+        if col >= ncols:
+            return 1
+        v, i, ok = _number(buf, i, e, pow10)
+        if not ok:
+            slow = True
+        out[base[col] + drow * stride[col]] = v
         col += 1
     if col != ncols:
         return 1
@@ -129,14 +136,44 @@ def _parse_line(buf, s, e, ncols, out, r, pow10):
 
 
 @njit_parallel
-def parse_rows(buf, starts, ends, ncols, out, status):
-    """Parse ``ncols`` numbers from each line ``buf[starts[r]:ends[r]]`` into ``out[r]``.
+def parse_rows(buf, starts, ends, ncols, out, base, stride, dest, status):
+    """Parse ``ncols`` numbers from each line ``buf[starts[r]:ends[r]]``.
 
-    ``status[r]`` becomes 0 (parsed exactly), 1 (wrong number of values) or
-    2 (a token needs the general parser: re-parse the line).
+    Value ``c`` of line ``r`` goes to ``out[base[c] + dest[r] * stride[c]]`` of
+    the flat array ``out`` (a row-major (N, ncols) block has ``base = 0..ncols-1``,
+    ``stride = ncols``, ``dest = 0..N-1``; other layouts scatter the columns
+    straight into their final arrays, rows in any order). ``status[r]`` becomes
+    0 (parsed exactly), 1 (wrong number of values) or 2 (a token needs the
+    general parser: re-parse the line).
     """
     for r in prange(starts.shape[0]):
-        status[r] = _parse_line(buf, starts[r], ends[r], ncols, out, r, POW10)
+        status[r] = _parse_line(buf, starts[r], ends[r], ncols, out, base, stride, dest[r], POW10)
+
+
+@njit_parallel
+def parse_column(buf, starts, ends, k, out, status):
+    """Parse only value ``k`` (0-based) of each line into ``out[r]``.
+
+    ``status[r]``: 0 exact, 1 the line has fewer values, 2 needs the general parser.
+    """
+    for r in prange(starts.shape[0]):
+        i = starts[r]
+        e = ends[r]
+        t = 0
+        status[r] = 1
+        while True:
+            while i < e and buf[i] <= 32:
+                i += 1
+            if i >= e:
+                break
+            if t == k:
+                v, i, ok = _number(buf, i, e, POW10)
+                out[r] = v
+                status[r] = 0 if ok else 2
+                break
+            while i < e and buf[i] > 32:
+                i += 1
+            t += 1
 
 
 @njit_parallel

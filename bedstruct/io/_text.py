@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import DumpFormatError
 from ._kernels import parse_rows
 
-__all__ = ["RawFrame", "TruncatedFrame", "parse_text_frame", "parse_block"]
+__all__ = ["RawFrame", "TruncatedFrame", "parse_text_frame", "parse_block", "line_bounds"]
 
 _KNOWN_ITEMS = ("TIMESTEP", "NUMBER OF ATOMS", "NUMBER OF ENTRIES", "BOX BOUNDS", "ATOMS",
                 "ENTRIES", "UNITS", "TIME")
@@ -46,6 +46,7 @@ class RawFrame:
     header_line: int = 0            # 1-based line number of the ITEM: ATOMS/ENTRIES line
     notes: list = field(default_factory=list)
     partial_tail: int | None = None  # line of a cut-off frame header after this frame
+    body_offset: int = 0             # byte offset of the data block in the frame text
     _rows: object = None             # callable r -> text of data row r (for messages)
 
     def row_text(self, r: int) -> str | None:
@@ -215,7 +216,7 @@ def parse_text_frame(buf: bytes, *, path: str, line0: int = 0, at_eof: bool = Tr
         raise DumpFormatError(f"duplicate column names {dup}", path=path, line=header_line)
     raw = RawFrame(path=path, timestep=timestep, n=n, bounds=bounds, tilt=tilt, boundary=boundary,
                    kind=kind, names=names, data=None, units=units, time=time,
-                   data_line=ln + 1, header_line=header_line, notes=notes)
+                   data_line=ln + 1, header_line=header_line, notes=notes, body_offset=p)
     if header_only:
         return raw
     raw.data, raw.partial_tail, raw._rows = parse_block(
@@ -229,6 +230,28 @@ def _is_space(c: int) -> bool:
     return c <= 32
 
 
+def line_bounds(buf: bytes, p: int):
+    """The data block ``buf[p:]`` without trailing blank space, as a uint8 array, with
+    the start and end offsets of its lines (relative to ``p``) and its end in ``buf``."""
+    end = len(buf)
+    while end > p and _is_space(buf[end - 1]):
+        end -= 1
+    body = np.frombuffer(buf, dtype=np.uint8)[p:end]
+    if body.size:
+        step = 1 << 22  # newline search in 4 MiB pieces: no frame-sized temporary
+        nl = np.concatenate([np.flatnonzero(body[k:k + step] == 10) + k
+                             for k in range(0, body.size, step)])
+        ends = np.empty(nl.size + 1, dtype=np.int64)
+        ends[:-1] = nl
+        ends[-1] = body.size
+        starts = np.empty_like(ends)
+        starts[0] = 0
+        starts[1:] = nl + 1
+    else:
+        starts = ends = np.zeros(0, dtype=np.int64)
+    return body, starts, ends, end
+
+
 def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line: int,
                 at_eof: bool, file_ends_with_newline: bool = True, parse_values: bool = True,
                 what: str = ""):
@@ -238,21 +261,7 @@ def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line:
     number of a cut-off frame header found after the data at the end of the file
     (else None).
     """
-    end = len(buf)
-    while end > p and _is_space(buf[end - 1]):
-        end -= 1
-    arr = np.frombuffer(buf, dtype=np.uint8)
-    body = arr[p:end]
-    if body.size:
-        nl = np.flatnonzero(body == 10)
-        ends = np.empty(nl.size + 1, dtype=np.int64)
-        ends[:-1] = nl
-        ends[-1] = body.size
-        starts = np.empty_like(ends)
-        starts[0] = 0
-        starts[1:] = nl + 1
-    else:
-        starts = ends = np.zeros(0, dtype=np.int64)
+    body, starts, ends, end = line_bounds(buf, p)
     m = starts.size
 
     def row_text(r):
@@ -285,7 +294,8 @@ def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line:
     if n == 0:
         return out, partial_tail, row_text
     status = np.empty(n, dtype=np.int8)
-    parse_rows(body, starts, ends, ncols, out, status)
+    parse_rows(body, starts, ends, ncols, out.reshape(-1), np.arange(ncols, dtype=np.int64),
+               np.full(ncols, ncols, dtype=np.int64), np.arange(n, dtype=np.int64), status)
     bad = np.flatnonzero(status == 1)
     if bad.size:
         r = int(bad[0])

@@ -115,8 +115,113 @@ class _Columns:
         return out[:, 0] if ks.size == 1 else out
 
 
+class _Planned:
+    """Columns parsed straight into their final arrays (see :func:`_fast_columns`)."""
+
+    def __init__(self, flat, slots, n, order, ids):
+        self.flat = flat
+        self.slots = slots      # column -> (base, stride); triples -> base
+        self.n = n
+        self.order = order
+        self.ids = ids
+        self.in_order = order is None
+
+    def sort(self):
+        """Reorder every slot by ``order`` (rows were parsed in file order)."""
+        if self.in_order:
+            return
+        n = self.n
+        out = np.empty_like(self.flat)
+        starts = sorted({v if isinstance(v, int) else v[0] for k, v in self.slots.items()
+                         if isinstance(k, tuple) or v[1] == 1})
+        for b in starts:
+            width = 3 if any(isinstance(k, tuple) and v == b for k, v in self.slots.items()) else 1
+            src = self.flat[b:b + width * n].reshape(n, width)
+            np.take(src, self.order, axis=0, out=out[b:b + width * n].reshape(n, width))
+        self.flat = out
+        self.in_order = True
+
+    def take(self, ks) -> np.ndarray:
+        ks = tuple(int(k) for k in ks)
+        n = self.n
+        if len(ks) == 3 and ks in self.slots:
+            b = self.slots[ks]
+            return self.flat[b:b + 3 * n].reshape(n, 3)
+        if len(ks) == 1:
+            b, stride = self.slots[ks[0]]
+            return np.ascontiguousarray(self.flat[b:b + stride * n:stride])
+        return np.stack([self.take([k]) for k in ks], axis=1)
+
+
+def _triples(names):
+    """Column triples that the reader maps to (N, 3) arrays, when all present."""
+    idx = {name: k for k, name in enumerate(names)}
+    groups = [t for t, _, _ in _POSITION_SETS] + [("ix", "iy", "iz")]
+    groups += [t for _, options in _VECTORS for t in options]
+    return [tuple(idx[c] for c in t) for t in groups if all(c in idx for c in t)]
+
+
+def _fast_columns(buf, raw: RawFrame, sort_by_id: bool):
+    """Parse the data block of a clean frame into final arrays in one pass.
+
+    Returns a :class:`_Planned` provider, or None when anything is irregular
+    (wrong counts, tokens for the general parser, non-integer ids); the caller
+    then takes the general path, which reports problems precisely.
+    """
+    from ._kernels import parse_column, parse_rows
+    from ._text import line_bounds
+
+    n, names = raw.n, raw.names
+    ncols = len(names)
+    if n == 0:
+        return None
+    body, starts, ends, _ = line_bounds(buf, raw.body_offset)
+    if starts.size != n:
+        return None
+    status = np.empty(n, dtype=np.int8)
+    order = None
+    ids = None
+    if "id" in names:
+        idf = np.empty(n)
+        parse_column(body, starts, ends, names.index("id"), idf, status)
+        if status.any():
+            return None
+        ids = idf.astype(np.int64)
+        if not np.array_equal(ids, idf):
+            return None
+        if sort_by_id:
+            order = _id_order(ids)
+    dest = np.arange(n, dtype=np.int64)  # rows in file order: sequential writes are fastest
+    if order is not None:
+        ids = ids[order]
+    base = np.empty(ncols, dtype=np.int64)
+    stride = np.empty(ncols, dtype=np.int64)
+    slots = {}
+    pos = 0
+    seen = set()
+    for t in _triples(names):
+        if seen & set(t):
+            continue
+        seen.update(t)
+        slots[t] = pos
+        for off, k in enumerate(t):
+            base[k], stride[k] = pos + off, 3
+            slots[k] = (pos + off, 3)
+        pos += 3 * n
+    for k in range(ncols):
+        if k not in seen:
+            base[k], stride[k] = pos, 1
+            slots[k] = (pos, 1)
+            pos += n
+    flat = np.empty(pos, dtype=np.float64)
+    parse_rows(body, starts, ends, ncols, flat, base, stride, dest, status)
+    if status.any():
+        return None
+    return _Planned(flat, slots, n, order, ids)
+
+
 def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_by_id=True,
-                   frame_index=None) -> Frame:
+                   frame_index=None, planned=None) -> Frame:
     """Map the columns of a parsed dump frame onto a :class:`Frame`.
 
     See :func:`read_dump` for the column mapping.
@@ -131,16 +236,23 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
 
     # ids first: they decide the row order
     order = None
+    if planned is not None:
+        order = planned.order
+        cols = planned
     if "id" in idx:
-        raw_ids = _check_int(data[:, idx["id"]], raw, "id", None)
-        if sort_by_id:
-            order = _id_order(raw_ids)
-        ids = raw_ids if order is None else raw_ids[order]
+        if planned is not None:
+            ids = planned.ids
+        else:
+            raw_ids = _check_int(data[:, idx["id"]], raw, "id", None)
+            if sort_by_id:
+                order = _id_order(raw_ids)
+            ids = raw_ids if order is None else raw_ids[order]
         used.add("id")
     else:
         ids = np.arange(1, n + 1, dtype=np.int64)
         notes.append("no 'id' column: ids 1..N synthesised in file order")
-    cols = _Columns(data, order)
+    if planned is None:
+        cols = _Columns(data, order)
 
     def row_of(r):  # row index in the file of sorted row r
         return int(r if order is None else order[r])
@@ -371,11 +483,25 @@ class DumpTrajectory(Trajectory):
         return row_text
 
     def _read_frame(self, index: int) -> Frame:
-        raw = self._raw(index)
+        e = self._entries[index]
+        planned = None
+        if e.kind == "text":
+            buf = e.file.source.read_range(e.start, e.end - e.start)
+            raw = parse_text_frame(buf, path=e.file.path, line0=e.line, at_eof=e.at_eof,
+                                   file_ends_with_newline=e.file.ends_with_newline,
+                                   header_only=True, ncols_override=self._columns)
+            if raw.kind == "ATOMS":
+                planned = _fast_columns(buf, raw, self._opts["sort_by_id"])
+            del buf
+            if planned is not None:
+                planned.sort()
+                raw._rows = self._row_reader(e, raw.data_line)
+        if planned is None:
+            raw = self._raw(index)
         if raw.kind != "ATOMS":
             raise DumpFormatError("this is a 'dump local' file (ITEM: ENTRIES); read it with "
                                   "read_dump_local", path=raw.path, line=raw.header_line)
-        return frame_from_raw(raw, frame_index=self._entries[index].index, **self._opts)
+        return frame_from_raw(raw, frame_index=e.index, planned=planned, **self._opts)
 
     def header(self, index: int) -> RawFrame:
         """The parsed header of frame ``index`` (box, columns, units) without its data."""
