@@ -373,3 +373,10 @@ def test_pour_bed_writes_settling_bed(engine, tmp_path):
     head = read_data_header(out)
     assert head["atoms"] == 40 and head["atom types"] == 2
     assert np.all(np.asarray(head["hi"][:2]) == pytest.approx(0.3e-3))
+
+
+def test_cached_bed_returns_existing_file(tmp_path):
+    from bedstruct.dem.backends import cached_bed
+    existing = write_sphere_data(tmp_path / "bed10_seed3.data", [[0, 0, 1e-4]] * 1, [5e-5],
+                                 box_lo=[-1e-4, -1e-4, 0], box_hi=[1e-4, 1e-4, 1e-3])
+    assert cached_bed(10, cache_dir=tmp_path, rng=3) == existing

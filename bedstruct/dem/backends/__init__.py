@@ -17,7 +17,7 @@ Examples
 
 from ._common import (EngineInfo, EngineLog, EngineRunError, GranularParams, RunResult, ThermoRun,
                       as_granular_params, parse_log, read_data_header, run_deck, write_sphere_data)
-from .bench import benchmark_external, loose_lattice, pour_bed
+from .bench import benchmark_external, cached_bed, loose_lattice, pour_bed
 from .decks import (DUMP_COLUMNS, ImpactResult, bed_deck, data_file_radii, hertz_contact_time,
                     impact_deck, impact_result, moving_wall_deck)
 from .lammps import find_lammps, lammps_granular_coeffs
@@ -27,7 +27,7 @@ from .stl import BladeGeometry, box_triangles, read_stl_triangles, stl_text, wri
 __all__ = [
     "EngineInfo", "EngineLog", "EngineRunError", "GranularParams", "RunResult", "ThermoRun",
     "as_granular_params", "parse_log", "read_data_header", "run_deck", "write_sphere_data",
-    "benchmark_external", "loose_lattice", "pour_bed",
+    "benchmark_external", "cached_bed", "loose_lattice", "pour_bed",
     "DUMP_COLUMNS", "ImpactResult", "bed_deck", "data_file_radii", "hertz_contact_time",
     "impact_deck", "impact_result", "moving_wall_deck",
     "find_lammps", "lammps_granular_coeffs", "find_liggghts", "liggghts_model_commands",
