@@ -7,59 +7,57 @@ code serves orthogonal and triclinic boxes; along a periodic axis a neighbour
 cell index outside ``[0, n)`` is wrapped and the matching image shift (an
 integer multiple of the box vector) is applied to the partner's position.
 
-Every distinct (unwrapped neighbour cell) is visited once, so a pair that
-touches through two different images (possible only when a periodic width is
-below twice the cutoff) is reported once per image, and a particle touching
-its own image is reported with ``i == j`` and a lexicographically positive
-shift.
+Each pair is visited once through a half stencil: unwrapped cell offsets
+``o`` that are lexicographically positive, plus ``o = 0`` with ``j > i``. Every
+distinct unwrapped neighbour cell is a distinct (cell, image) combination, so
+a pair that touches through two different images (possible only when a
+periodic width is below twice the cutoff) is reported once per image, and a
+particle touching its own image is reported once (``i == j``, positive shift).
 """
 
 from __future__ import annotations
 
-import numpy as np
+from .._numba import njit_parallel, prange
 
-from .._numba import njit, njit_parallel, prange
-
-__all__ = ["count_pairs", "fill_pairs"]
-
-
-@njit
-def _positive_shift(sx, sy, sz):
-    if sx != 0:
-        return sx > 0
-    if sy != 0:
-        return sy > 0
-    return sz > 0
+__all__ = ["scan_pairs", "pair_branches", "compact_pairs"]
 
 
 @njit_parallel
-def count_pairs(pos, radii, cell_xyz, cell_start, ncell, periodic, reach, matrix, tol, counts):
-    """Count partners ``j >= i`` of each (cell-sorted) particle ``i``.
+def scan_pairs(rows, pos, radii, cell_xyz, cell_start, ncell, periodic, reach, matrix, tol,
+               cap, out_j, out_shift, counts):
+    """Find the partners of the (cell-sorted) particles ``rows``.
 
-    Parameters are the cell-sorted Cartesian positions ``pos`` (N, 3) wrapped
-    into the box along periodic axes, ``radii`` (N,), the integer cell of each
-    particle ``cell_xyz`` (N, 3), the CSR start of each linear cell
-    ``cell_start`` (n_cells + 1,), cells per axis ``ncell`` (3,), periodic
-    flags (3,) as int, the stencil half-width ``reach`` (3,), the box matrix
-    (columns are the edge vectors) and the distance tolerance. Writes
-    ``counts`` (N,).
+    For ``rows[r] = i`` writes up to ``cap`` partners into ``out_j[r, :]`` and
+    their image shifts (integers per axis) into ``out_shift[r, :, :]``, and the
+    total number found into ``counts[r]`` (which may exceed ``cap``: the
+    caller then rescans those rows with a larger ``cap``).
+
+    ``pos`` (N, 3) are cell-sorted Cartesian positions wrapped along periodic
+    axes, ``cell_xyz`` (N, 3) the integer cells, ``cell_start`` the CSR start of
+    each linear cell, ``ncell`` cells per axis, ``periodic`` flags (as int),
+    ``reach`` the stencil half-width per axis, ``matrix`` the box matrix with
+    the edge vectors as columns and ``tol`` the contact tolerance.
     """
-    n = pos.shape[0]
-    for i in prange(n):
+    for r in prange(rows.shape[0]):
+        i = rows[r]
         c = 0
         xi = pos[i, 0]
         yi = pos[i, 1]
         zi = pos[i, 2]
         ri = radii[i]
         for ox in range(-reach[0], reach[0] + 1):
+            if ox < 0:
+                continue
             cx = cell_xyz[i, 0] + ox
             sx = 0
             if periodic[0]:
                 sx = cx // ncell[0]
                 cx -= sx * ncell[0]
-            elif cx < 0 or cx >= ncell[0]:
+            elif cx >= ncell[0]:
                 continue
             for oy in range(-reach[1], reach[1] + 1):
+                if ox == 0 and oy < 0:
+                    continue
                 cy = cell_xyz[i, 1] + oy
                 sy = 0
                 if periodic[1]:
@@ -68,6 +66,8 @@ def count_pairs(pos, radii, cell_xyz, cell_start, ncell, periodic, reach, matrix
                 elif cy < 0 or cy >= ncell[1]:
                     continue
                 for oz in range(-reach[2], reach[2] + 1):
+                    if ox == 0 and oy == 0 and oz < 0:
+                        continue
                     cz = cell_xyz[i, 2] + oz
                     sz = 0
                     if periodic[2]:
@@ -79,77 +79,64 @@ def count_pairs(pos, radii, cell_xyz, cell_start, ncell, periodic, reach, matrix
                     shy = matrix[1, 0] * sx + matrix[1, 1] * sy + matrix[1, 2] * sz
                     shz = matrix[2, 0] * sx + matrix[2, 1] * sy + matrix[2, 2] * sz
                     lin = (cx * ncell[1] + cy) * ncell[2] + cz
-                    for j in range(cell_start[lin], cell_start[lin + 1]):
-                        if j < i:
-                            continue
-                        if j == i and not _positive_shift(sx, sy, sz):
-                            continue
+                    start = cell_start[lin]
+                    if ox == 0 and oy == 0 and oz == 0:
+                        start = i + 1          # own cell, no image: only j > i
+                    for j in range(start, cell_start[lin + 1]):
                         dx = pos[j, 0] + shx - xi
                         dy = pos[j, 1] + shy - yi
                         dz = pos[j, 2] + shz - zi
                         cut = ri + radii[j] + tol
                         if dx * dx + dy * dy + dz * dz <= cut * cut:
+                            if c < cap:
+                                out_j[r, c] = j
+                                out_shift[r, c, 0] = sx
+                                out_shift[r, c, 1] = sy
+                                out_shift[r, c, 2] = sz
                             c += 1
-        counts[i] = c
+        counts[r] = c
 
 
 @njit_parallel
-def fill_pairs(pos, radii, cell_xyz, cell_start, ncell, periodic, reach, matrix, tol, offsets,
-               out_i, out_j, out_branch, out_periodic):
-    """Second pass of :func:`count_pairs`: write the pairs at ``offsets[i]``.
+def pair_branches(i, j, shift, pos, matrix, out):
+    """``out[k] = pos[j[k]] + matrix @ shift[k] - pos[i[k]]`` (branch vectors)."""
+    for k in prange(i.shape[0]):
+        a = i[k]
+        b = j[k]
+        sx = shift[k, 0]
+        sy = shift[k, 1]
+        sz = shift[k, 2]
+        for d in range(3):
+            out[k, d] = (pos[b, d] + matrix[d, 0] * sx + matrix[d, 1] * sy + matrix[d, 2] * sz
+                         - pos[a, d])
 
-    ``out_i``/``out_j`` are cell-sorted indices, ``out_branch`` the vector from
-    ``i`` to the image of ``j``, ``out_periodic`` whether an image shift was used.
+
+@njit_parallel
+def compact_pairs(rows, take, offsets, out_j, out_shift, order, i_out, j_out, s_out):
+    """Gather the scan buffers into flat arrays in original row indices.
+
+    Row ``r`` contributes ``take[r]`` pairs at ``offsets[r]``; indices are mapped
+    through ``order`` (cell-sorted -> original) and each pair is oriented so
+    that ``i <= j`` (the image shift changes sign when swapped).
     """
-    n = pos.shape[0]
-    for i in prange(n):
-        k = offsets[i]
-        xi = pos[i, 0]
-        yi = pos[i, 1]
-        zi = pos[i, 2]
-        ri = radii[i]
-        for ox in range(-reach[0], reach[0] + 1):
-            cx = cell_xyz[i, 0] + ox
-            sx = 0
-            if periodic[0]:
-                sx = cx // ncell[0]
-                cx -= sx * ncell[0]
-            elif cx < 0 or cx >= ncell[0]:
-                continue
-            for oy in range(-reach[1], reach[1] + 1):
-                cy = cell_xyz[i, 1] + oy
-                sy = 0
-                if periodic[1]:
-                    sy = cy // ncell[1]
-                    cy -= sy * ncell[1]
-                elif cy < 0 or cy >= ncell[1]:
-                    continue
-                for oz in range(-reach[2], reach[2] + 1):
-                    cz = cell_xyz[i, 2] + oz
-                    sz = 0
-                    if periodic[2]:
-                        sz = cz // ncell[2]
-                        cz -= sz * ncell[2]
-                    elif cz < 0 or cz >= ncell[2]:
-                        continue
-                    shx = matrix[0, 0] * sx + matrix[0, 1] * sy + matrix[0, 2] * sz
-                    shy = matrix[1, 0] * sx + matrix[1, 1] * sy + matrix[1, 2] * sz
-                    shz = matrix[2, 0] * sx + matrix[2, 1] * sy + matrix[2, 2] * sz
-                    lin = (cx * ncell[1] + cy) * ncell[2] + cz
-                    for j in range(cell_start[lin], cell_start[lin + 1]):
-                        if j < i:
-                            continue
-                        if j == i and not _positive_shift(sx, sy, sz):
-                            continue
-                        dx = pos[j, 0] + shx - xi
-                        dy = pos[j, 1] + shy - yi
-                        dz = pos[j, 2] + shz - zi
-                        cut = ri + radii[j] + tol
-                        if dx * dx + dy * dy + dz * dz <= cut * cut:
-                            out_i[k] = i
-                            out_j[k] = j
-                            out_branch[k, 0] = dx
-                            out_branch[k, 1] = dy
-                            out_branch[k, 2] = dz
-                            out_periodic[k] = (sx != 0) or (sy != 0) or (sz != 0)
-                            k += 1
+    for r in prange(rows.shape[0]):
+        base = offsets[r]
+        a = order[rows[r]]
+        for c in range(take[r]):
+            b = order[out_j[r, c]]
+            sx = out_shift[r, c, 0]
+            sy = out_shift[r, c, 1]
+            sz = out_shift[r, c, 2]
+            k = base + c
+            if a <= b:
+                i_out[k] = a
+                j_out[k] = b
+                s_out[k, 0] = sx
+                s_out[k, 1] = sy
+                s_out[k, 2] = sz
+            else:
+                i_out[k] = b
+                j_out[k] = a
+                s_out[k, 0] = -sx
+                s_out[k, 1] = -sy
+                s_out[k, 2] = -sz

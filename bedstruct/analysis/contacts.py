@@ -22,6 +22,7 @@ __all__ = ["find_contacts", "Wall", "ContactMatch", "compare_contacts"]
 
 log = logging.getLogger(__name__)
 
+_SUBDIVIDE = 1
 _FACES = {"xlo": (0, 0), "xhi": (0, 1), "ylo": (1, 0), "yhi": (1, 1), "zlo": (2, 0), "zhi": (2, 1)}
 
 
@@ -128,7 +129,7 @@ def _prepare(frame):
     return pos, s
 
 
-def _cell_list(s, periodic, widths, cutoff, n):
+def _cell_list(s, periodic, widths, cutoff, n, subdivide=1):
     """Cells per axis, stencil reach, integer cell of each particle."""
     ncell = np.ones(3, dtype=np.int64)
     origin = np.zeros(3)
@@ -140,7 +141,7 @@ def _cell_list(s, periodic, widths, cutoff, n):
             span[k] = hi_k - lo_k
         extent = span[k] * widths[k]
         if cutoff > 0 and extent > 0:
-            ncell[k] = max(1, int(math.floor(extent / (cutoff * (1.0 + 1e-9)))))
+            ncell[k] = max(1, int(math.floor(subdivide * extent / (cutoff * (1.0 + 1e-9)))))
     limit = max(2 * n, 64)
     while np.prod(ncell) > limit:
         k = int(np.argmax(ncell))
@@ -243,7 +244,7 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
         raise ValueError(f"`tolerance` ({tol}) leaves no positive cutoff (2 r_max + tolerance)")
     pos, s = _prepare(frame)
     widths = _perpendicular_widths(box)
-    ncell, reach, cell = _cell_list(s, periodic, widths, cutoff, n)
+    ncell, reach, cell = _cell_list(s, periodic, widths, cutoff, n, _SUBDIVIDE)
     lin = (cell[:, 0] * ncell[1] + cell[:, 1]) * ncell[2] + cell[:, 2]
     order = np.argsort(lin, kind="stable")
     n_cells = int(np.prod(ncell))
@@ -254,33 +255,24 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
     scell = np.ascontiguousarray(cell[order])
     per_i = periodic.astype(np.int64)
     matrix = np.ascontiguousarray(box.matrix)
-    counts = np.zeros(n, dtype=np.int64)
+    sdtype = np.int8 if int(reach.max()) < 100 else np.int64
+    jdtype = np.int32 if n < 2**31 - 1 else np.int64
     args = (spos, srad, scell, cell_start, ncell, per_i, reach, matrix, tol)
     from .._numba import get_num_threads, set_num_threads
     threads = get_num_threads()
     if not parallel:
         set_num_threads(1)
     try:
-        _k.count_pairs(*args, counts)
-        offsets = np.zeros(n, dtype=np.int64)
-        np.cumsum(counts[:-1], out=offsets[1:])
-        m = int(counts.sum())
-        a = np.empty(m, dtype=np.int64)
-        b = np.empty(m, dtype=np.int64)
-        branch = np.empty((m, 3), dtype=np.float64)
-        crosses = np.empty(m, dtype=np.bool_)
-        _k.fill_pairs(*args, offsets, a, b, branch, crosses)
+        i, j, shift = _scan(args, order, jdtype, sdtype)
+        rows = np.argsort(i * np.int64(n) + j, kind="stable")
+        i, j, shift = i[rows], j[rows], np.ascontiguousarray(shift[rows])
+        branch = np.empty((i.size, 3), dtype=np.float64)
+        _k.pair_branches(i, j, shift, np.ascontiguousarray(pos), matrix, branch)
     finally:
         if not parallel:
             set_num_threads(threads)
-    i = order[a]
-    j = order[b]
-    swap = i > j
-    if swap.any():
-        i[swap], j[swap] = j[swap], i[swap].copy()
-        branch[swap] *= -1.0
-    rows = np.lexsort((j, i))
-    i, j, branch, crosses = i[rows], j[rows], branch[rows], crosses[rows]
+    crosses = np.any(shift != 0, axis=1)
+    m = i.size
     ri = radii[i]
     rj = radii[j]
     d = np.sqrt(np.einsum("ij,ij->i", branch, branch))
@@ -291,6 +283,42 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
     return Contacts(i=i, j=j, branch=branch, radii_i=ri, radii_j=rj, ids_i=frame.ids[i],
                     ids_j=frame.ids[j], periodic=crosses, area=area, n_particles=n,
                     source="geometric", walls=wc)
+
+
+def _scan(args, order, jdtype, sdtype, cap=12):
+    """Pair scan with a fixed per-particle capacity (overflowing rows are rescanned).
+
+    Returns original-index pairs ``i <= j`` and their integer image shifts.
+    """
+    n = order.shape[0]
+    rows = np.arange(n, dtype=np.int64)
+    out_j = np.empty((n, cap), dtype=jdtype)
+    out_s = np.empty((n, cap, 3), dtype=sdtype)
+    counts = np.empty(n, dtype=np.int64)
+    _k.scan_pairs(rows, *args, cap, out_j, out_s, counts)
+    over = np.flatnonzero(counts > cap)
+    take = np.minimum(counts, cap)
+    take[over] = 0
+    parts = [(rows, take, out_j, out_s)]
+    if over.size:
+        cap2 = int(counts[over].max())
+        oj = np.empty((over.size, cap2), dtype=jdtype)
+        osh = np.empty((over.size, cap2, 3), dtype=sdtype)
+        oc = np.empty(over.size, dtype=np.int64)
+        _k.scan_pairs(over, *args, cap2, oj, osh, oc)
+        parts.append((over, oc, oj, osh))
+    m = int(sum(int(p[1].sum()) for p in parts))
+    i = np.empty(m, dtype=np.int64)
+    j = np.empty(m, dtype=np.int64)
+    shift = np.empty((m, 3), dtype=np.int64)
+    base = 0
+    for r, t, oj, osh in parts:
+        offsets = np.zeros(r.size, dtype=np.int64)
+        np.cumsum(t[:-1], out=offsets[1:])
+        offsets += base
+        _k.compact_pairs(r, t, offsets, oj, osh, order, i, j, shift)
+        base += int(t.sum())
+    return i, j, shift
 
 
 def _wall_contacts(pos, radii, walls, tol) -> WallContacts:
