@@ -111,8 +111,9 @@ class Source:
             length -= len(got)
         return parts[0] if len(parts) == 1 else b"".join(parts)
 
-    def chunks(self, size: int = _CHUNK):
+    def chunks(self, size: int | None = None):
         """Iterate over the whole decompressed stream in chunks (restarts the stream)."""
+        size = _CHUNK if size is None else size
         self._reopen()
         try:
             while True:
@@ -153,6 +154,7 @@ class TextScan:
     size: int = 0
     ends_with_newline: bool = True
     first_bytes: bytes = b""
+    tail: bytes | None = None   # text of the last frame (kept for compressed files)
 
     def end(self, k: int) -> int:
         return self.starts[k + 1] if k + 1 < len(self.starts) else self.size
@@ -183,6 +185,8 @@ def scan_text(source: Source) -> TextScan:
         If the file does not start with an ``ITEM:`` line.
     """
     scan = TextScan(path=source.path)
+    keep_tail = source.compression is not None  # re-reading the end would decompress it all
+    tail_parts: list = []
     carry = b""
     base = 0          # absolute offset of buf[0]
     nl_base = 0       # newlines before base
@@ -261,11 +265,20 @@ def scan_text(source: Source) -> TextScan:
                     want = ("n", len(scan.starts) - 1)
             p = min(e + 1, n)
         nl_count += buf.count(b"\n", counted_to, p)
+        if keep_tail and scan.starts:
+            last = scan.starts[-1]
+            if last >= base:
+                tail_parts = [buf[last - base:p]]
+            else:
+                tail_parts.append(buf[:p])
         carry = buf[p:]
         base += p
         nl_base = nl_count
         if eof:
             break
+    if keep_tail and scan.starts:
+        tail_parts.append(carry)
+        scan.tail = b"".join(tail_parts)
     scan.size = base + len(carry)
     scan.ends_with_newline = last_byte == b"\n"
     head = scan.first_bytes.lstrip()

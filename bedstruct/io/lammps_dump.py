@@ -409,13 +409,16 @@ class DumpTrajectory(Trajectory):
                                   count=scan.counts[k], at_eof=k == len(scan.starts) - 1,
                                   state=None, index=k))
         if entries:
-            self._check_last_text(f, entries, strict)
+            self._check_last_text(f, entries, strict, scan.tail)
         return entries
 
-    def _check_last_text(self, f, entries, strict):
+    def _check_last_text(self, f, entries, strict, tail=None):
         last = entries[-1]
-        buf = f.source.read_range(last.start, last.end - last.start)
-        f.source.close()
+        if tail is not None:
+            buf = tail
+        else:
+            buf = f.source.read_range(last.start, last.end - last.start)
+            f.source.close()
         try:
             raw = parse_text_frame(buf, path=f.path, line0=last.line, at_eof=True,
                                    file_ends_with_newline=f.ends_with_newline,

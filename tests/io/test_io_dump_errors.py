@@ -161,3 +161,37 @@ def test_slow_path_numbers_parse_exactly(write, dump_text):
     f = read_dump(write("slow.dump", dump_text(rows, cols="id type x y z radius c_q")))[0]
     assert f.positions[0].tolist() == [0.1, 1e300, 2.2250738585072014e-308]
     assert np.isnan(f.columns["c_q"]).all()
+
+
+@pytest.mark.parametrize("chunk", [7, 64, 1 << 23])
+def test_scan_is_independent_of_chunk_size(tmp_path, monkeypatch, dump_text, good_rows, chunk):
+    """Frame offsets, line numbers and the kept tail do not depend on where chunks end."""
+    import gzip
+    from bedstruct.io import _source
+    text = ("ITEM: UNITS\nsi\nITEM: TIME\n0.5\n" + dump_text(good_rows, step=1)
+            + dump_text(good_rows[:1], step=22) + dump_text(good_rows, step=333))
+    p = tmp_path / "chunks.dump.gz"
+    with gzip.open(p, "wb") as fh:
+        fh.write(text.encode())
+    monkeypatch.setattr(_source, "_CHUNK", chunk)
+    scan = _source.scan_text(_source.Source(p))
+    lines = text.splitlines(keepends=True)
+    assert scan.timesteps == [1, 22, 333] and scan.counts == [3, 1, 3]
+    assert scan.lines == [0, 4 + 12, 4 + 12 + 10]
+    assert scan.starts == [0, len("".join(lines[:16])), len("".join(lines[:26]))]
+    assert scan.tail == text[scan.starts[-1]:].encode() and scan.size == len(text)
+    traj = read_dump(p)
+    assert traj[0].units.style == "si" and traj[0].time == 0.5
+    assert [f.n_particles for f in traj] == [3, 1, 3]
+
+
+def test_truncated_gz_last_frame(tmp_path, dump_text, good_rows):
+    import gzip
+    text = dump_text(good_rows, step=1) + dump_text(good_rows, step=2)
+    p = tmp_path / "t.dump.gz"
+    with gzip.open(p, "wb") as fh:
+        fh.write(text[:-30].encode())
+    with pytest.raises(DumpFormatError, match="truncated"):
+        read_dump(p)
+    with pytest.warns(BedstructWarning):
+        assert read_dump(p, strict=False).timesteps.tolist() == [1]
