@@ -229,7 +229,7 @@ def write_liggghts_local(path, frame):
 
 
 def parse_local(path, frame):
-    """Parse the file above into Contacts (the io reader may replace this)."""
+    """Parse the file above into Contacts by hand (cross-check of the io reader)."""
     text = path.read_text().splitlines()
     k = next(i for i, ln in enumerate(text) if ln.startswith("ITEM: ENTRIES"))
     data = np.loadtxt(text[k + 1:], ndmin=2)
@@ -243,11 +243,14 @@ def parse_local(path, frame):
 
 
 def test_geometric_agrees_with_dumped_contacts(tmp_path):
+    from bedstruct import read_dump_local
     frame = relaxed_bed()
     path = tmp_path / "contacts.local"
     m = write_liggghts_local(path, frame)
-    dumped = parse_local(path, frame)
-    assert m > 1000 and dumped.periodic.any()
+    dumped = read_dump_local(path, keywords=["pos", "id"], frames=frame)[frame.timestep]
+    by_hand = parse_local(path, frame)
+    assert compare_contacts(dumped, by_hand).identical
+    assert m > 1000 and dumped.periodic.any() and dumped.n_contacts == m
     # strict '<' in the file: use the touching subset of the geometric contacts
     geo = find_contacts(frame).touching()
     match = compare_contacts(geo, dumped)
@@ -260,3 +263,20 @@ def test_geometric_agrees_with_dumped_contacts(tmp_path):
     assert np.array_equal(a.per_particle, b.per_particle)
     assert a.mean == pytest.approx(b.mean) and 3.0 < a.mean < 8.0
     assert np.allclose(np.sort(geo.overlap), np.sort(dumped.overlap), atol=1e-4)
+    # periodic flags agree pair by pair
+    key = lambda c: dict(zip(zip(np.minimum(c.ids_i, c.ids_j).tolist(),
+                                 np.maximum(c.ids_i, c.ids_j).tolist()), c.periodic.tolist()))
+    assert key(geo) == key(dumped)
+
+
+def test_real_liggghts_frame(realdata):
+    """A bed written by LIGGGHTS (1800 spheres settling in a shrink-wrapped box)."""
+    from bedstruct import read_dump
+    path = realdata / "CFDEMproject+LIGGGHTS-PUBLIC" / "contactModels_v3.2.0" / "dump20000.newModels"
+    frame = read_dump(path)[-1]
+    c = find_contacts(frame)
+    assert rows(c) == brute_force(frame, 0.0)
+    assert c.n_contacts > 0 and not c.periodic.any()
+    assert np.all(c.overlap < 0.2 * frame.radii.max())   # DEM overlaps are small
+    res = coordination(frame, c)
+    assert res.mean == pytest.approx(2 * c.n_contacts / frame.n_particles)
