@@ -184,6 +184,10 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
                 continue
             if t in _SECTIONS:
                 break
+            if t[0].isalpha():
+                raise DumpFormatError("unknown section name; expected one of "
+                                      + ", ".join(_SECTIONS[:5]) + ", ...", path=path,
+                                      line=k + 1, text=lines[k])
             rows.append((k + 1, t))
             k += 1
         sections[name] = (comment, rows)
