@@ -198,7 +198,10 @@ def haz_shape(tmap: TemperatureMap, threshold: float, *, center=None) -> HAZShap
     The zone is the connected set of cells (8-connectivity) at or above
     ``threshold`` that contains ``center`` (default the source centre of the
     map, else its hottest cell); if ``center`` falls outside every zone the
-    nearest zone is taken. Its area, axes and orientation come from
+    nearest zone is taken. Holes inside the zone (cells between particle
+    discs that no particle covers, or cooler pockets) are filled, so the area
+    is the area inside the outline, as measured from an outline in ImageJ in
+    the seed report. Its area, axes and orientation come from
     ``skimage.measure.regionprops``.
 
     Parameters
@@ -256,7 +259,9 @@ def haz_shape(tmap: TemperatureMap, threshold: float, *, center=None) -> HAZShap
         rr, cc = np.nonzero(lab)
         near = np.argmin((rr - row) ** 2 + (cc - col) ** 2)
         k = lab[rr[near], cc[near]]
-    mask = lab == k
+    # the outline counts (as in ImageJ): fill the gaps between particle discs inside it
+    from scipy.ndimage import binary_fill_holes
+    mask = binary_fill_holes(lab == k)
     props = regionprops(mask.astype(np.uint8))[0]
     cell = tmap.cell
     area = float(props.area) * cell * cell

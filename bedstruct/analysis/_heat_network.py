@@ -126,7 +126,8 @@ class GasGap:
         r_i = np.asarray(r_i, dtype=np.float64)
         r_j = np.asarray(r_j, dtype=np.float64)
         h0 = np.clip(np.asarray(gap, dtype=np.float64), 0.0, None)
-        rstar = np.where(np.isinf(r_j), r_i, r_i * r_j / (r_i + r_j))
+        with np.errstate(invalid="ignore"):
+            rstar = np.where(np.isinf(r_j), r_i, r_i * r_j / (r_i + r_j))
         rho_c = self.lens_fraction * np.minimum(r_i, r_j)
         g = 2.0 * math.pi * self.conductivity * rstar * np.log1p(
             rho_c ** 2 / (2.0 * rstar * (h0 + self.jump_distance + 1e-300)))
