@@ -7,7 +7,7 @@ import pytest
 
 import bedstruct
 from bedstruct import Contacts, Frame, FrameList
-from bedstruct.analysis import (bed_windows, coordination, coordination_by_window,
+from bedstruct.analysis import (TimeSeries, bed_windows, coordination, coordination_by_window,
                                 coordination_series, coordination_table, find_contacts,
                                 remove_rattlers)
 from conftest import cubic_lattice, fcc_lattice
@@ -76,3 +76,14 @@ def test_series_and_errors(sc_frame):
         remove_rattlers(find_contacts(sc_frame), min_contacts=-1)
     empty = coordination(Frame(np.zeros((0, 3)), np.zeros(0), box=[1, 1, 1]))
     assert np.isnan(empty.mean) and empty.n_particles == 0
+
+
+def test_timeseries_runner(sc_frame):
+    frames = FrameList([sc_frame, fcc_lattice(), sc_frame])
+    ts = TimeSeries(coordination, tolerance=1e-9)
+    with pytest.raises(AttributeError, match="run"):
+        ts.results
+    res = ts.run(frames, start=1).results
+    assert res.frames.tolist() == [1, 2] and res.field("mean").tolist() == [12.0, 6.0]
+    table = res.table()
+    assert table["mechanical"].tolist() == [12.0, 6.0] and "per_particle" not in table
