@@ -95,18 +95,20 @@ class RunDirectory:
         """Append the current frame, contacts and wall states."""
         frame = sim.frame()
         contacts = sim.contacts()
-        wrote = False
-        try:  # prefer the shared writers once bedstruct.io provides them
+        try:  # prefer the shared writers of bedstruct.io
             from .. import io as bio
-            if hasattr(bio, "write_dump") and hasattr(bio, "write_dump_local"):
-                bio.write_dump(self.dump_path, frame, append=True)
-                bio.write_dump_local(self.contacts_path, contacts, frame=frame, append=True)
-                wrote = True
-        except Exception:  # signature differences: fall back to the private writer
-            wrote = False
-        if not wrote:
+            dump_writer = getattr(bio, "write_dump", None)
+            local_writer = getattr(bio, "write_dump_local", None)
+        except ImportError:  # pragma: no cover - io always present in a full install
+            dump_writer = local_writer = None
+        if dump_writer is not None:
+            dump_writer(self.dump_path, frame, append=self.dump_path.exists())
+        else:  # pragma: no cover
             with open(self.dump_path, "a") as fh:
                 write_dump_text(fh, frame)
+        if local_writer is not None:
+            local_writer(self.contacts_path, frame, contacts, append=self.contacts_path.exists())
+        else:  # pragma: no cover
             with open(self.contacts_path, "a") as fh:
                 write_contacts_text(fh, frame, contacts, sim.step)
         with open(self.walls_path, "a") as fh:

@@ -123,6 +123,8 @@ class Simulation:
     n_threads : int, optional
         Number of threads (and force-buffer chunks); default all of numba's.
         Results are bitwise reproducible for a given seed and n_threads.
+        Systems of fewer than ``serial_below`` (5000) particles run the same
+        chunks on one thread (identical results, less overhead).
     seed : int, optional
         Seed of the generator used by insertion.
 
@@ -162,6 +164,7 @@ class Simulation:
         self._skin_user = skin
         self.force = bool(force)
         self.n_threads = int(n_threads or _numba.get_num_threads())
+        self.serial_below = 5000
         if self.n_threads < 1:
             raise ConfigError(f"`n_threads` must be >= 1; got {n_threads}")
         self.rng = np.random.default_rng(seed)
@@ -624,7 +627,11 @@ class Simulation:
         elif dump_every or checkpoint_every:
             raise ConfigError("`dump_every` and `checkpoint_every` need a `run_dir`")
         old_threads = _numba.get_num_threads()
-        _numba.set_num_threads(min(self.n_threads, _numba_max_threads()))
+        # the work is split into n_threads fixed chunks (so results depend only on
+        # n_threads); small systems run those chunks on one thread, where thread
+        # wake-up costs more than the work (ENGINE-NOTES point 10)
+        actual = 1 if self.n_particles < self.serial_below else self.n_threads
+        _numba.set_num_threads(min(actual, _numba_max_threads()))
         bar = None
         if progress:
             from tqdm.auto import tqdm
