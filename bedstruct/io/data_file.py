@@ -325,7 +325,8 @@ def _numeric_rows(rows, path, section, allowed):
 
 
 def _ints(col, rows, path, what):
-    ints = col.astype(np.int64)
+    with np.errstate(invalid="ignore"):
+        ints = col.astype(np.int64)
     bad = np.flatnonzero(ints != col)
     if bad.size:
         r = int(bad[0])

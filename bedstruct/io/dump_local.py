@@ -278,7 +278,8 @@ def _contacts_from_raw(raw, keywords, columns, lookup) -> Contacts:
     rows = []
     for name in ("id1", "id2"):
         col = data[:, idx[name]]
-        as_int = col.astype(np.int64)
+        with np.errstate(invalid="ignore"):
+            as_int = col.astype(np.int64)
         pos = np.searchsorted(sorted_ids, as_int)
         pos_c = np.minimum(pos, max(len(sorted_ids) - 1, 0))
         ok = (as_int == col) & (len(sorted_ids) > 0)

@@ -35,8 +35,8 @@ def to_universe(frame: Frame):
     Examples
     --------
     >>> from bedstruct import Frame, to_universe
-    >>> u = to_universe(Frame([[1.0, 2.0, 3.0]], [0.5], box=[4, 4, 4]))  # doctest: +SKIP
-    >>> u.atoms.positions.tolist(), u.dimensions.tolist()  # doctest: +SKIP
+    >>> u = to_universe(Frame([[1.0, 2.0, 3.0]], [0.5], box=[4, 4, 4]))
+    >>> u.atoms.positions.tolist(), u.dimensions.tolist()
     ([[1.0, 2.0, 3.0]], [4.0, 4.0, 4.0, 90.0, 90.0, 90.0])
     """
     try:

@@ -69,7 +69,8 @@ def expand_paths(path_or_glob) -> list[str]:
 
 # --------------------------------------------------------------------------- mapping
 def _check_int(col: np.ndarray, raw: RawFrame, name: str, order) -> np.ndarray:
-    ints = col.astype(np.int64)
+    with np.errstate(invalid="ignore"):
+        ints = col.astype(np.int64)
     bad = np.flatnonzero(ints != col)
     if bad.size:
         width = col.shape[1] if col.ndim == 2 else 1
@@ -186,7 +187,8 @@ def _fast_columns(buf, raw: RawFrame, sort_by_id: bool):
         parse_column(body, starts, ends, names.index("id"), idf, status)
         if status.any():
             return None
-        ids = idf.astype(np.int64)
+        with np.errstate(invalid="ignore"):
+            ids = idf.astype(np.int64)
         if not np.array_equal(ids, idf):
             return None
         if sort_by_id:
