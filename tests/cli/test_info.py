@@ -71,3 +71,23 @@ def test_info_help(capsys):
     assert info.value.code == 0
     out = capsys.readouterr().out
     assert "--json" in out and "--radius" in out and "Summarise" in out
+
+
+def test_info_binary_and_dump_local(tmp_path, capsys, sc_frame):
+    import numpy as np
+    from bedstruct import Contacts, write_dump_local
+    from bedstruct.io._binary import write_binary_dump
+    data = np.array([[1, 1, 0.1, 0.2, 0.3, 0.05]])
+    path = tmp_path / "d.bin"
+    write_binary_dump(path, [dict(timestep=9, bounds=np.array([[0, 1.0]] * 3), tilt=None,
+                                  boundary=("pp", "pp", "ff"), names="id type x y z radius".split(),
+                                  data=data, units="si")])
+    assert main(["info", str(path), "--json"]) == 0
+    s = _json(capsys)["files"][0]
+    assert s["format"] == "lammps-dump-binary" and s["timesteps"] == [9] and s["units"] == "si"
+    empty = Contacts(i=[], j=[], branch=np.zeros((0, 3)), radii_i=[], radii_j=[],
+                     n_particles=sc_frame.n_particles)
+    write_dump_local(tmp_path / "c.local", sc_frame, empty)
+    assert main(["info", str(tmp_path / "c.local"), "--json"]) == 0
+    s = _json(capsys)["files"][0]
+    assert s["format"] == "lammps-dump-local" and s["n_particles"] == [0]

@@ -11,7 +11,7 @@ import pytest
 
 import bedstruct
 from bedstruct import Box, Frame, read_dump, iter_frames, write_dump
-from bedstruct.errors import BedstructWarning, DumpFormatError
+from bedstruct.errors import DumpFormatError
 
 
 def test_basic_mapping_sorted_by_id(write, dump_text, good_rows):
