@@ -6,8 +6,8 @@ magnitudes ``a_e`` inside their prior ranges (bounded non-linear least squares o
 the fingerprint responses) plus free recalibration shifts ``beta`` of the
 nuisance parameters. Effects enter by forward selection when they lower the
 chi-square by more than the Bonferroni threshold; the chosen model must then
-fit within noise (goodness-of-fit p-value >= ``gof_alpha``), otherwise the
-verdict is ``"unexplained"``. All single effects and pairs are fitted for the
+fit within noise (combined chi-square and largest-residual goodness-of-fit
+p-value >= ``gof_alpha``), otherwise the verdict is ``"unexplained"``. All single effects and pairs are fitted for the
 model-comparison table (chi-square, p-value, AIC, BIC, BIC weight).
 
 .. versionadded:: 0.1
@@ -48,6 +48,12 @@ class ModelFit:
     p_value : float
         Goodness of fit, ``P(chi2_dof > chi2)``.
     aic, bic : float
+    max_resid, p_max : float
+        Largest leverage-corrected residual (in sigma) and its Sidak p-value: a
+        test against misfit concentrated in a few components.
+    p_fit : float
+        Combined goodness of fit, ``min(1, 2 min(p_value, p_max))`` (Bonferroni
+        over the two tests); a model explains the gap when ``p_fit >= gof_alpha``.
     weight : float
         BIC weight among all fitted models.
     """
@@ -62,6 +68,9 @@ class ModelFit:
     p_value: float
     aic: float
     bic: float
+    max_resid: float = float("nan")
+    p_max: float = float("nan")
+    p_fit: float = float("nan")
     weight: float = float("nan")
 
     @property
@@ -74,8 +83,9 @@ class ModelFit:
     def as_dict(self) -> dict:
         return {"effects": list(self.effects), "magnitudes": self.magnitudes.tolist(),
                 "intervals": self.intervals.tolist(), "nuisance": self.nuisance.tolist(),
-                "chi2": self.chi2, "dof": self.dof, "p_value": self.p_value, "aic": self.aic,
-                "bic": self.bic, "weight": self.weight}
+                "chi2": self.chi2, "dof": self.dof, "p_value": self.p_value,
+                "max_resid": self.max_resid, "p_max": self.p_max, "p_fit": self.p_fit,
+                "aic": self.aic, "bic": self.bic, "weight": self.weight}
 
 
 @dataclass(frozen=True)
@@ -208,9 +218,20 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     intervals = np.column_stack([a - _Z95 * sea, a + _Z95 * sea]) if k else np.zeros((0, 2))
     dof = n - k - p
     pval = float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan")
+    # Concentrated misfit: largest studentised residual (leverage-corrected), Sidak over rows.
+    if dof > 0:
+        H = J @ np.linalg.pinv(J.T @ J) @ J.T if J.shape[1] else np.zeros((n, n))
+        lev = np.clip(1.0 - np.diag(H), 1e-12, None)
+        tmax = float(np.max(np.abs(res) / np.sqrt(lev)))
+        p1 = min(2.0 * stats.norm.sf(tmax), 1.0 - 1e-16)
+        pmax = float(-np.expm1(n * np.log1p(-p1)))
+        pfit = min(1.0, 2.0 * min(pval, pmax))
+    else:
+        tmax, pmax, pfit = float("nan"), float("nan"), float("nan")
     npar = k + p
     return ModelFit(tuple(effects), a, sea, intervals, b, chi2, dof, pval,
-                    chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)))
+                    chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)), max_resid=tmax,
+                    p_max=pmax, p_fit=pfit)
 
 
 def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_alpha: float = 0.01,
@@ -288,25 +309,26 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
             break
 
     models = tuple(sorted(allm, key=lambda m: m.bic))
-    gof_ok = (not math.isnan(current.p_value)) and current.p_value >= gof_alpha
+    gof_ok = (not math.isnan(current.p_fit)) and current.p_fit >= gof_alpha
     if chosen and gof_ok:
         verdict = "attributed"
         sel = tuple(sorted((estimate(e, current) for e in chosen), key=lambda x: -x.delta_chi2))
         reason = (f"{current.label} lowers chi2 from {null.chi2:.1f} to {current.chi2:.1f} "
-                  f"(dof {current.dof}, goodness-of-fit p = {current.p_value:.3g})")
+                  f"(dof {current.dof}, goodness-of-fit p = {current.p_fit:.3g})")
     elif chosen:
         verdict = "unexplained"
         sel = ()
         reason = (f"best candidate {current.label} leaves chi2 = {current.chi2:.1f} on {current.dof} "
-                  f"dof (p = {current.p_value:.2g} < {gof_alpha}): no catalogue effect fits within noise")
-    elif null.p_value >= gof_alpha or math.isnan(null.p_value):
+                  f"dof, largest residual {current.max_resid:.1f} sigma (p = {current.p_fit:.2g} < "
+                  f"{gof_alpha}): no catalogue effect fits within noise")
+    elif null.p_fit >= gof_alpha or math.isnan(null.p_fit):
         verdict = "none"
         sel = ()
         reason = (f"recalibration alone fits the calibration observables (chi2 = {null.chi2:.1f}, "
-                  f"dof {null.dof}, p = {null.p_value:.3g}) and no effect is significant")
+                  f"dof {null.dof}, p = {null.p_fit:.3g}) and no effect is significant")
     else:
         verdict = "unexplained"
         sel = ()
         reason = (f"gap on calibration observables (chi2 = {null.chi2:.1f}, dof {null.dof}, "
-                  f"p = {null.p_value:.2g}) but no effect lowers it significantly")
+                  f"p = {null.p_fit:.2g}) but no effect lowers it significantly")
     return Attribution(verdict, sel, ranking, models, null, current, threshold, gof_alpha, reason)

@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 #: Twin counts and replicate seeds per preset.
 PRESETS = {
     "tiny": dict(per_effect=2, null=4, out_of_catalogue=1, replicates=3),
-    "small": dict(per_effect=10, null=40, out_of_catalogue=3, replicates=4),
+    "small": dict(per_effect=10, null=60, out_of_catalogue=3, replicates=4),
 }
 #: Goals of the issue at the small preset.
 GOALS = {"top1_accuracy": (">=", 0.90), "null_false_attribution": ("<=", 0.05),

@@ -1,0 +1,138 @@
+"""Catalogue entries and the surrogate's anchors on the seed report."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bedstruct.diagnose import (CATALOGUE, BASE_PARAMETERS, SurrogateSimulator, catalogue, effect,
+                                engine_hooks, halsey_film_thickness, load_sim_config,
+                                measurement_from_dict, MeasurementSet, make_simulator)
+from bedstruct.errors import ConfigError
+
+
+def test_catalogue_has_the_six_effects_documented():
+    names = [e.name for e in CATALOGUE]
+    assert names == ["contact_ageing", "capillary_bridges", "non_sphericity", "missing_fines",
+                     "wall_friction", "blade_startup"]
+    for e in CATALOGUE:
+        lo, hi = e.prior
+        assert lo <= 0.0 < hi
+        assert e.sources and all("doi:" in s or "Seed report" in s or "arXiv" in s for s in e.sources)
+        assert len(e.physics) > 80 and len(e.signature) > 40
+        assert e.identify_with
+        assert e.engine_parameters(0.0) is not None
+        assert e.reference_magnitudes == (0.5 * hi, hi)
+    hooks = engine_hooks()
+    assert hooks["capillary_bridges"]["capillary"] is True
+    assert hooks["capillary_bridges"]["capillary_film_thickness"] == pytest.approx(
+        halsey_film_thickness(0.8))
+    assert effect("capillary_bridges").engine_parameters(0.0)["capillary"] is False
+    assert effect("blade_startup").engine_parameters(0.1)["blade_ramp_time"] == pytest.approx(0.1)
+    with pytest.raises(ConfigError, match="unknown effect"):
+        catalogue(["humidity"])
+    with pytest.raises(ValueError, match="finite"):
+        effect("wall_friction").engine_parameters(float("nan"))
+
+
+def test_halsey_film_grows_with_humidity():
+    t = [halsey_film_thickness(rh) for rh in (0.1, 0.3, 0.5, 0.7, 0.9)]
+    assert all(b > a for a, b in zip(t, t[1:]))
+    assert halsey_film_thickness(math.exp(-5.0)) == pytest.approx(0.354e-9)
+    with pytest.raises(ValueError):
+        halsey_film_thickness(1.0)
+
+
+def _design(*specs):
+    ms = []
+    for s in specs:
+        d = dict(s)
+        d.setdefault("role", "candidate")
+        d.setdefault("uncertainty", 1.0)
+        ms.append(measurement_from_dict(d))
+    return MeasurementSet(tuple(ms))
+
+
+def _dyn(f, windows=((0.1, 1.0),), **cond):
+    return dict(name=f"dyn{f}", kind="dynamic_angle_series", windows=[list(w) for w in windows],
+                conditions=dict(speed=0.0254 * f, layer=3, **cond))
+
+
+def test_surrogate_reproduces_the_seed_anchors():
+    d = _design(dict(name="aor", kind="static_angle"), _dyn(1), _dyn(2), _dyn(5),
+                *[dict(name=f"pf{f}{r}", kind="packing_fraction",
+                       conditions=dict(speed=0.0254 * f, layer=1, region=r))
+                  for f in (1, 5) for r in ("start", "end")])
+    sim = SurrogateSimulator(d, noise=0)
+    o = sim({}, {}, 0)
+    assert o["aor"][0] == pytest.approx(32.1)
+    assert sim({"cohesion_energy_density": 3.0e7}, {}, 0)["aor"][0] == pytest.approx(28.9)
+    np.testing.assert_allclose([o[f"dyn{f}"][0] for f in (1, 2, 5)], [27.3, 29.6, 38.3], atol=1e-9)
+    mid = lambda f: 0.5 * (o[f"pf{f}start"][0] + o[f"pf{f}end"][0])   # noqa: E731
+    assert mid(1) - mid(5) == pytest.approx(0.05, abs=1e-9)
+    assert o["pf1start"][0] - o["pf1end"][0] == pytest.approx(0.035 * 2 / 3, abs=1e-9)
+
+
+def test_surrogate_effect_signatures():
+    w = ((0.0, 0.05), (0.05, 0.3), (0.3, 1.0))
+    d = _design(_dyn(1, w), _dyn(5, w), dict(name="psd", kind="psd", percentiles=[10, 50, 90],
+                                             unit="um", conditions=dict(stage="before")),
+                dict(name="aor", kind="static_angle", conditions=dict(box_width=3e-3)),
+                dict(name="aor_wide", kind="static_angle", conditions=dict(box_width=3e-2)),
+                dict(name="aor_rest", kind="static_angle", conditions=dict(rest_time=600.0)))
+    sim = SurrogateSimulator(d, noise=0)
+    b = sim({}, {}, 0)
+
+    def diff(**eff):
+        o = sim({}, eff, 0)
+        return {n: o[n] - b[n] for n in o.names}
+    age = diff(contact_ageing=1.0)
+    assert age["dyn1"][0] > 3.0 and age["dyn1"][2] < 0.2          # transient spike, then relaxed
+    assert age["aor_rest"][0] > 10 * age["aor"][0]                 # ageing needs rest
+    ramp = diff(blade_startup=0.1)
+    assert ramp["dyn5"][0] < ramp["dyn1"][0] < 0                   # lower early angle, most at x5
+    fines = diff(missing_fines=0.1)
+    assert fines["psd"][0] < -3e-6 and abs(fines["psd"][2]) < abs(fines["psd"][0])
+    wall = diff(wall_friction=0.3)
+    assert wall["aor"][0] > 5 * wall["aor_wide"][0] > 0            # a narrow-box effect
+    rough = diff(non_sphericity=0.2)
+    assert rough["dyn5"][2] > rough["dyn1"][2] > 0                 # grows with speed
+    cap = diff(capillary_bridges=0.6)
+    assert cap["aor"][0] == pytest.approx(cap["aor_wide"][0]) and cap["aor"][0] > 2
+
+
+def test_surrogate_noise_is_seeded_and_partly_common():
+    d = _design(dict(name="aor", kind="static_angle"))
+    sim = SurrogateSimulator(d, correlation=0.5)
+    a = np.array([sim({}, {}, s)["aor"][0] for s in range(400)])
+    b = np.array([sim({}, {"wall_friction": 0.1}, s)["aor"][0] for s in range(400)])
+    assert sim({}, {}, 3)["aor"][0] == a[3]
+    assert np.std(a) == pytest.approx(0.35, rel=0.12)
+    assert np.corrcoef(a, b)[0, 1] == pytest.approx(0.25, abs=0.12)   # rho^2 of the common part
+    with pytest.raises(ConfigError, match="unknown parameter"):
+        sim({"youngs_modulus": 1e9}, {}, 0)
+    with pytest.raises(ConfigError, match="unknown effect"):
+        sim({}, {"static_charge": 1.0}, 0)
+
+
+def test_sim_config_file_and_engine_hook(tmp_path):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nkind = "surrogate"\nreplicates = 3\n[base]\ncohesion_energy_density = 3.5e7\n'
+                 '[catalogue]\nexclude = ["blade_startup"]\n[diagnosis]\nselect_alpha = 0.02\n')
+    cfg = load_sim_config(p)
+    assert cfg.replicates == 3 and cfg.base["cohesion_energy_density"] == 3.5e7
+    assert "blade_startup" not in [e.name for e in cfg.effects] and cfg.select_alpha == 0.02
+    assert cfg.base["friction"] == BASE_PARAMETERS["friction"]
+    p.write_text('[simulator]\nkind = "engine"\n')
+    with pytest.raises(ConfigError, match="diagnosis_simulator"):
+        make_simulator(load_sim_config(p), _design(dict(name="aor", kind="static_angle")))
+    for text, key in (('[simulator]\nkind = "lammps"\n', "kind"),
+                      ('[simulator]\nreplicates = 1\n', "replicates"),
+                      ('[recalibrate]\nparameters = ["young"]\n', "parameters"),
+                      ('[diagnosis]\nalpha = 2.0\n', "alpha"),
+                      ('[base]\nyoung = 1e9\n', "young")):
+        p.write_text(text)
+        with pytest.raises(ConfigError, match=key):
+            load_sim_config(p)

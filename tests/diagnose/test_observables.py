@@ -1,0 +1,123 @@
+"""Observation operators against known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+
+from bedstruct.diagnose import (angle_from_image, angle_from_particles, bed_height, fit_surface_angle,
+                                observe, packing_fraction_in_region, psd_percentiles,
+                                psd_percentiles_from_cumulative, render_side_view, roughness,
+                                surface_profile, windowed_mean)
+from diagnose_helpers import cubic_positions, heap_particles
+
+
+@pytest.mark.parametrize("angle", [22.0, 27.3, 33.0, 38.3, 45.0])
+@pytest.mark.parametrize("method", ["ransac", "theil-sen"])
+def test_angle_from_rendered_heap_within_one_degree(angle, method):
+    pos, rad = heap_particles(angle, seed=int(angle * 10))
+    img = render_side_view(pos, rad, pixel_size=5e-6)
+    assert abs(angle_from_image(img, pixel_size=5e-6, method=method) - angle) < 1.0
+
+
+def test_angle_from_noisy_blurred_dark_powder_image():
+    from scipy.ndimage import gaussian_filter
+    pos, rad = heap_particles(33.0, seed=3)
+    img = render_side_view(pos, rad, pixel_size=5e-6, background=0.8, foreground=0.25)
+    rng = np.random.default_rng(0)
+    img = gaussian_filter(img, 1.5) + 0.08 * rng.standard_normal(img.shape)
+    assert abs(angle_from_image(img, pixel_size=5e-6, powder="dark") - 33.0) < 1.0
+
+
+def test_angle_is_mirror_and_scale_invariant():
+    pos, rad = heap_particles(30.0, seed=5)
+    img = render_side_view(pos, rad, pixel_size=5e-6)
+    a = angle_from_image(img, pixel_size=5e-6)
+    assert angle_from_image(img[:, ::-1], pixel_size=5e-6) == pytest.approx(a, abs=0.3)
+    # pixel size cancels: same image, other scale
+    assert angle_from_image(img, pixel_size=1.0) == pytest.approx(a, abs=1e-9)
+    assert angle_from_particles(pos, rad) == pytest.approx(30.0, abs=1.0)
+
+
+def test_surface_profile_of_step():
+    img = np.zeros((10, 4))
+    img[6:, :2] = 1.0
+    img[3:, 2:] = 1.0
+    x, h = surface_profile(img, pixel_size=0.5, min_object=1)
+    np.testing.assert_allclose(h, [2.0, 2.0, 3.5, 3.5])
+    np.testing.assert_allclose(x, [0.25, 0.75, 1.25, 1.75])
+
+
+def test_fit_surface_angle_rejects_outliers():
+    x = np.linspace(0, 1, 200)
+    h = 1.0 - np.tan(np.radians(35)) * x
+    h[::17] += 0.3   # spikes (dust on the surface)
+    assert fit_surface_angle(x, h, band=(0, 1)).angle == pytest.approx(35.0, abs=0.2)
+    with pytest.raises(ValueError, match="method"):
+        fit_surface_angle(x, h, method="ols")
+
+
+def test_uniform_image_is_an_error():
+    with pytest.raises(ValueError, match="uniform"):
+        surface_profile(np.ones((5, 5)), pixel_size=1.0)
+
+
+def test_windowed_mean_and_errors():
+    t = np.linspace(0, 1, 101)
+    v = np.where(t < 0.1, 35.0, 27.0) + 0 * t
+    m, s = windowed_mean(t, v, [[0, 0.1], [0.1, 1.0]])
+    np.testing.assert_allclose(m, [35.0, 27.0])
+    np.testing.assert_allclose(s, [0.0, 0.0])
+    with pytest.raises(ValueError, match="holds no sample"):
+        windowed_mean([0.5], [1.0], [[0, 0.1]])
+
+
+def test_psd_percentiles_volume_weighting():
+    # 1000 particles of 10 um and 1 of 100 um: by volume half the mass is in the big one
+    d = np.r_[np.full(1000, 10e-6), 100e-6]
+    assert psd_percentiles(d, [50], weights="number")[0] == pytest.approx(10e-6)
+    assert psd_percentiles(d, [90])[0] > 50e-6
+    # sampling a log-normal volume distribution: percentiles match the analytic ones
+    rng = np.random.default_rng(1)
+    mu, sig = np.log(50e-6), 0.3
+    # number-weighted log-normal with mu - 3 sig^2 is volume-weighted log-normal with mu
+    dn = np.exp(rng.normal(mu - 3 * sig ** 2, sig, 400_000))
+    from scipy.stats import norm
+    expect = np.exp(mu + sig * norm.ppf([0.1, 0.5, 0.9]))
+    np.testing.assert_allclose(psd_percentiles(dn, [10, 50, 90]), expect, rtol=0.01)
+
+
+def test_psd_from_cumulative():
+    np.testing.assert_allclose(psd_percentiles_from_cumulative([10, 20, 40], [0, 50, 100], [25, 50]),
+                               [15.0, 20.0])
+    with pytest.raises(ValueError):
+        psd_percentiles_from_cumulative([10, 5], [0, 100])
+
+
+def test_packing_fraction_and_bed_height_of_lattice():
+    pos = cubic_positions(6)
+    rad = np.full(len(pos), 0.5)
+    assert packing_fraction_in_region(pos, rad, [0, 0, 0], [6, 6, 6]) == pytest.approx(np.pi / 6)
+    assert bed_height(pos, rad) == pytest.approx(6.0)
+    assert bed_height(pos, rad, plate_z=1.0) == pytest.approx(5.0)
+
+
+def test_roughness_of_sine_and_tilt_removed():
+    x = np.linspace(0, 20 * np.pi, 20001)
+    h = 0.3 * np.sin(x) + 0.01 * x    # tilt is removed
+    # (a sine over whole periods has a small linear component that the detrend removes)
+    assert roughness(h) == pytest.approx(0.3 / np.sqrt(2), rel=5e-3)
+
+
+def test_observe_dispatch_matches_direct_operators():
+    t = np.linspace(0, 1, 50)
+    a = 27 + 5 * np.exp(-t / 0.03)
+    w = np.array([[0, 0.1], [0.1, 1]])
+    np.testing.assert_allclose(observe("dynamic_angle_series", {"times": t, "angles": a}, windows=w),
+                               windowed_mean(t, a, w)[0])
+    d = np.array([20e-6, 40e-6, 60e-6])
+    np.testing.assert_allclose(observe("psd", {"diameters": d}, percentiles=[50]), psd_percentiles(d, [50]))
+    assert observe("coordination", {"coordination": [4, 6]})[0] == 5.0
+    with pytest.raises(ValueError, match="unknown observable kind"):
+        observe("temperature", {})

@@ -1,0 +1,169 @@
+"""where / fingerprints / attribution on toy simulators with known truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bedstruct.diagnose import (Observations, attribute, compute_fingerprints, fit_model,
+                                nuisance_projector, standardised_residuals, where, where_table)
+from diagnose_helpers import ToySimulator, toy_design, toy_effect
+
+RNG = np.random.default_rng(12345)
+N = 12
+J = {"k": np.linspace(1.0, 2.0, N)}                              # nuisance: a smooth ramp
+F = {"A": np.r_[3, -3, 3, -3, 3, -3, 0, 0, 0, 3, -3, 0] * 1.0,   # alternating
+     "B": np.r_[0, 0, 0, 0, 4, 4, 4, -4, -4, 0, 4, -4] * 1.0,     # block
+     "C": np.r_[4, 0, 0, 4, 0, 0, 4, 0, 0, 0, 0, 4] * 1.0}        # comb
+EFFECTS = [toy_effect("A"), toy_effect("B"), toy_effect("C")]
+
+
+def _setup(noise_sd=0.0, effects=F, curvature=None, n_candidate=0, sens=J):
+    design = toy_design(N, n_validate=3, n_candidate=n_candidate)
+    sim = ToySimulator(design, sens=sens, effects=effects, curvature=curvature, noise_sd=noise_sd)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [e for e in EFFECTS if e.name in effects],
+                               nuisance=("k",), replicates=3, alpha=0.01)
+    return design, sim, fps
+
+
+def _real(sim, design, *, base=1.0, effects=None, noise=1.0, seed=0):
+    y = sim({"k": base}, effects or {}, 999)
+    rng = np.random.default_rng(seed)
+    return np.concatenate([y[m.name] for m in design if m.role != "candidate"]) \
+        + noise * rng.standard_normal(N)
+
+
+# ------------------------------------------------------------------- where
+def test_standardised_residuals_are_unit_normal_without_a_gap():
+    n, R = 4000, 4
+    rng = np.random.default_rng(0)
+    sim = rng.normal(0, 0.7, (R, n))
+    real = rng.normal(0, 0.7, n) + rng.normal(0, 0.5, n)    # process scatter + reading noise
+    z, sigma, mu = standardised_residuals(real, np.full(n, np.hypot(0.7, 0.5)), sim,
+                                          sim_var=np.full(n, 0.49))
+    assert np.mean(z) == pytest.approx(0, abs=0.05)
+    assert np.var(z) == pytest.approx(1.0, abs=0.07)
+    with pytest.raises(ValueError, match="replicate"):
+        standardised_residuals([1.0], [1.0], [[1.0]])
+
+
+def test_where_ranks_an_injected_gap_and_null_is_not_flagged():
+    design = toy_design(N, 3)
+    rng = np.random.default_rng(1)
+    sims = rng.normal(0, 0.2, (4, N))
+    real = rng.normal(0, 1.0, N)
+    null = where(design.with_values(Observations({f"o{i}": [real[i]] for i in range(N)})), sims,
+                 sim_var=np.full(N, 0.04))
+    assert not null.significant
+    real[7] += 8.0
+    res = where(design.with_values(Observations({f"o{i}": [real[i]] for i in range(N)})), sims,
+                sim_var=np.full(N, 0.04))
+    assert res.significant and res.p_max < 1e-6
+    top = res.ranked(1)[0]
+    assert top["observable"] == "o7" and top["z"] > 6
+    assert res.summary[0].startswith("o7") and "within noise" not in res.summary[0]
+    cols = where_table(res)
+    assert cols["observable"][0] == "o7" and len(cols["z"]) == N
+    assert {g.group for g in res.groups} == {"observable", "kind/window", "role"}
+
+
+# ------------------------------------------------------------------- fingerprints
+def test_fingerprints_recover_exact_responses_and_projection():
+    design, sim, fps = _setup()
+    for e in ("A", "B", "C"):
+        np.testing.assert_allclose(fps[e].slope, F[e], atol=1e-12)
+        assert fps[e].linear
+        np.testing.assert_allclose(fps[e].predict(0.37), 0.37 * F[e], atol=1e-12)
+    np.testing.assert_allclose(fps.sensitivities[:, 0], J["k"], rtol=1e-9)
+    P = nuisance_projector(J["k"][:, None])
+    np.testing.assert_allclose(P @ J["k"], 0, atol=1e-12)
+    np.testing.assert_allclose(P @ P, P, atol=1e-12)
+    assert all(f.identifiable for f in fps.fingerprints)
+
+
+def test_effect_absorbed_by_recalibration_is_not_identifiable_and_names_a_measurement():
+    # D looks exactly like a cohesion change on the calibration rows, differs on a candidate row
+    design = toy_design(N, n_validate=3, n_candidate=1)
+    d_resp = np.r_[2.0 * J["k"], 5.0]
+    sim = ToySimulator(design, sens={"k": np.r_[J["k"], 0.0]},
+                       effects={"D": d_resp, "A": np.r_[F["A"], 0.0]})
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("D"), toy_effect("A")],
+                               nuisance=("k",), replicates=2, alpha=0.01)
+    assert not fps["D"].identifiable and fps["D"].signal < 1e-9
+    assert fps["D"].identify_with[0] == "o12"
+    assert fps["A"].identifiable
+
+
+def test_parallel_fingerprints_are_reported_confounded():
+    eff = {"A": F["A"], "B": 2.0 * F["A"]}
+    design, sim, fps = _setup(effects=eff)
+    assert fps["A"].confounded_with == ("B",) and fps["B"].confounded_with == ("A",)
+
+
+def test_curved_response_is_interpolated_and_refinable():
+    design, sim, fps = _setup(effects={"A": F["A"]}, curvature={"A": 2.0 * F["A"]})
+    fa = fps["A"]
+    assert not fa.linear
+    np.testing.assert_allclose(fa.predict(1.0), 3.0 * F["A"], atol=1e-12)   # a node
+    np.testing.assert_allclose(fa.predict(0.5), 1.5 * 0.5 * F["A"] * 4 / 3, atol=1e-12)
+    # refinement node makes the prediction exact there
+    a = 0.2
+    fr = fa.with_node(a, F["A"] * a + 2 * F["A"] * a * a)
+    np.testing.assert_allclose(fr.predict(a), F["A"] * (a + 2 * a * a), atol=1e-12)
+    assert abs(fa.predict(a) - F["A"] * (a + 2 * a * a)).max() > 1e-3
+
+
+# ------------------------------------------------------------------- attribution
+def test_attribution_finds_the_effect_with_a_covering_interval():
+    design, sim, fps = _setup()
+    y = _real(sim, design, effects={"B": 0.6}, base=1.3)       # effect + recalibration shift
+    resid = y - fps.base_samples.mean(axis=0)
+    att = attribute(resid, fps)
+    assert att.verdict == "attributed"
+    top = att.selected[0]
+    assert top.effect == "B" and len(att.selected) == 1
+    assert top.interval[0] <= 0.6 <= top.interval[1]
+    assert att.best.nuisance[0] == pytest.approx(0.3, abs=0.3)
+    assert top.confidence > 0.9
+    assert att.ranking[0].effect == "B"
+
+
+def test_attribution_null_and_recalibration_only_give_none():
+    design, sim, fps = _setup()
+    for base in (1.0, 1.5):
+        resid = _real(sim, design, base=base, seed=3) - fps.base_samples.mean(axis=0)
+        att = attribute(resid, fps)
+        assert att.verdict == "none" and att.which() == []
+
+
+def test_attribution_combination_of_two_effects():
+    design, sim, fps = _setup()
+    resid = _real(sim, design, effects={"A": 0.5, "C": 0.7}, seed=4) - fps.base_samples.mean(axis=0)
+    att = attribute(resid, fps)
+    assert att.verdict == "attributed"
+    assert {e.effect for e in att.selected} == {"A", "C"}
+
+
+def test_out_of_span_residual_is_unexplained():
+    design, sim, fps = _setup()
+    pattern = np.r_[5, 5, -5, -5, 0, 5, -5, 5, 0, 0, 0, 0] * 1.0    # none of A, B, C, k
+    resid = pattern + np.random.default_rng(5).standard_normal(N)
+    att = attribute(resid, fps)
+    assert att.verdict == "unexplained" and att.which() == "unexplained"
+
+
+def test_interval_coverage_is_near_nominal():
+    design, sim, fps = _setup()
+    hits, n = 0, 300
+    rng = np.random.default_rng(7)
+    mean = fps.base_samples.mean(axis=0)
+    truth = sim({"k": 1.0}, {"C": 0.5}, 0).vector(fps.names) - mean
+    for _ in range(n):
+        fit = fit_model(truth + rng.standard_normal(N), fps, ("C",))
+        lo, hi = fit.intervals[0]
+        hits += lo <= 0.5 <= hi
+    assert 0.90 <= hits / n <= 0.99
+    # chi-square of the true model averages its degrees of freedom
+    chis = [fit_model(truth + rng.standard_normal(N), fps, ("C",)).chi2 for _ in range(200)]
+    dof = int(fps.rows_calibrate.sum()) - 2
+    assert np.mean(chis) == pytest.approx(dof, rel=0.15)
