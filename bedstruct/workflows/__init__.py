@@ -1,0 +1,17 @@
+"""Workflows on the embedded DEM engine: angle of repose, cohesion calibration, multi-layer spreading.
+
+Each workflow takes a configuration from :func:`load_config` (defaults, a
+preset ``tiny``/``small``/``seed``, a TOML file and ``key=value``
+overrides), runs the embedded engine (:mod:`bedstruct.dem`), writes a run
+directory (:class:`RunLayout`) and returns a frozen result dataclass. See
+docs/workflows.md.
+"""
+
+from .config import (DEFAULTS, PRESETS, apply_override, available_presets, config_to_toml,
+                     load_config, preset_path)
+from ._common import CONTACT_KEYWORDS, RunLayout, write_json_atomic
+from .repose import ReposeReplicate, ReposeResult, repose_replicate, run_repose
+
+__all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "available_presets",
+           "config_to_toml", "preset_path", "RunLayout", "write_json_atomic", "CONTACT_KEYWORDS",
+           "ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate"]

@@ -1,0 +1,266 @@
+"""Angle-of-repose workflow: fill a box by raindrop insertion, slide the bottom plate out, measure the pile.
+
+Geometry (SI, the box spans ``[0, L] x [0, W] x [0, H]``): side plates
+(:func:`bedstruct.dem.repose_box`), a bottom plate named ``plate`` and, when
+``repose.pedestal_fraction > 0``, a fixed ledge of that fraction of ``L``
+centred under the box. The box is filled to about ``fill_fraction`` of its
+height by raindrop insertion and settles; the plate then slides towards
+``-x`` at ``plate_speed`` by ``slide_fraction * L`` (by ``L`` with a ledge).
+Particles that fall leave the domain through the reservoir below (they are
+counted in ``n_fallen``). The remaining pile is measured with
+:func:`bedstruct.analysis.angle_of_repose`: with a ledge it has two free
+flanks (both fitted), without one a single free flank facing the opening.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConfigError
+from ._common import RunLayout, check_engine, contact_model, psd_sampler
+
+__all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ReposeReplicate:
+    """One angle-of-repose simulation.
+
+    Attributes
+    ----------
+    seed : int
+    cohesion : float, J/m^3
+    angle_deg, angle_std_deg : float, degrees
+        Mean of the fitted flanks and its uncertainty (from the flank fits).
+    left_deg, right_deg : float, degrees
+        Flank angles (NaN for a flank not fitted).
+    n_inserted, n_remaining, n_fallen : int
+        Particles inserted, left in the box, fallen into the reservoir.
+    pile_height : float, m
+        Crest height of the pile above the plate.
+    wall_time : float, s
+    stage : str
+        Sub-folder of the run directory (empty when nothing was written).
+    """
+
+    seed: int
+    cohesion: float
+    angle_deg: float
+    angle_std_deg: float
+    left_deg: float
+    right_deg: float
+    n_inserted: int
+    n_remaining: int
+    n_fallen: int
+    pile_height: float
+    wall_time: float
+    stage: str = ""
+
+
+@dataclass(frozen=True)
+class ReposeResult:
+    """Static angle of repose over replicate simulations.
+
+    Attributes
+    ----------
+    angle_deg : float, degrees
+        Mean over replicates (and flanks).
+    angle_std_deg : float, degrees
+        Standard uncertainty of that mean: the replicate standard error
+        combined with the mean flank-fit uncertainty (root sum of squares).
+    spread_deg : float, degrees
+        Standard deviation of the replicate angles (NaN for one replicate).
+    cohesion : float, J/m^3
+    replicates : tuple of ReposeReplicate
+    """
+
+    angle_deg: float
+    angle_std_deg: float
+    spread_deg: float
+    cohesion: float
+    replicates: tuple = field(default_factory=tuple)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (``angle_deg``, ``angle_std_deg``, replicates...)."""
+        from ._common import to_jsonable
+        return to_jsonable(self)
+
+
+def _n_steps(t, dt):
+    return max(1, int(math.ceil(t / dt - 1e-9)))
+
+
+def _record_run(sim, total_time, writer, n_frames):
+    """Run ``total_time`` recording ``n_frames`` frames evenly (at least at the end)."""
+    if writer is None or n_frames <= 0:
+        sim.run(time=total_time)
+        return
+    steps = _n_steps(total_time, sim.dt)
+    k = max(1, int(n_frames))
+    done = 0
+    for i in range(k):
+        nxt = int(round(steps * (i + 1) / k))
+        if nxt > done:
+            sim.run(nxt - done)
+            done = nxt
+        writer.record(sim)
+
+
+def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, layout=None,
+                     stage: str = "", progress: bool = False) -> ReposeReplicate:
+    """Run one angle-of-repose simulation of configuration ``cfg`` (see :func:`run_repose`)."""
+    from ..analysis import angle_of_repose
+    from ..core import Box
+    from ..dem import Rectangle, Simulation, repose_box
+
+    check_engine(cfg)
+    rc = cfg["repose"]
+    L, W, H = (float(v) for v in rc["box"])
+    model = contact_model(cfg, cohesion=cohesion)
+    k = float(model.cohesion)
+    draw = psd_sampler(cfg)
+    rmax = draw.r_max
+    periodic = bool(rc["periodic_width"])
+    depth = float(rc["reservoir_depth"])
+    margin = 4 * rmax
+    box = Box([-margin - L, 0.0 if periodic else -margin, -depth],
+              [L + margin, W if periodic else W + margin, 2.0 * H],
+              boundary=("ff", "pp" if periodic else "ff", "ff"))
+    walls = repose_box([0.0, 0.0, 0.0], [L, W, H])
+    if periodic:
+        walls = [w for w in walls if not w.name.endswith(("ylo", "yhi"))]
+    # the plate: wide enough along y to cover the periodic seam
+    plate = walls[0]
+    plate.half_sizes = (L / 2, W if periodic else W / 2)
+    ped = float(rc["pedestal_fraction"])
+    if ped > 0:
+        walls.append(Rectangle(center=(L / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
+                               half_sizes=(ped * L / 2, W if periodic else W / 2), name="ledge"))
+    sim = Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
+                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
+                     n_threads=cfg["n_threads"], seed=seed)
+    writer = layout.stage(stage) if layout is not None and stage else None
+    t0 = _time.perf_counter()
+    n_want = int(rc["n_particles"])
+    if n_want <= 0:  # auto: fill_fraction of the box at a packing fraction of 0.6
+        r = draw(20000, np.random.default_rng(0))
+        v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
+        n_want = int(0.6 * L * W * H * float(rc["fill_fraction"]) / v_mean)
+    region_top = H * 1.0
+    for _ in range(6):
+        need = n_want - sim.n_particles
+        if need <= 0:
+            break
+        zlo = 0.0
+        if sim.n_particles:
+            zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9
+        if region_top - zlo < 4 * rmax:
+            region_top = zlo + max(0.5 * H, 4 * rmax)
+        sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (L, W, region_top)))
+        sim.run(time=0.5 * rc["fill_time"])
+    n_inserted = sim.n_particles
+    if n_inserted < n_want:
+        log.warning("repose: inserted %d of %d particles (box full)", n_inserted, n_want)
+    sim.run(time=0.5 * rc["fill_time"])
+    if writer is not None:
+        writer.record(sim)
+    slide = L if ped > 0 else float(rc["slide_fraction"]) * L
+    v = float(rc["plate_speed"])
+    sim.set_wall_motion("plate", velocity=(-v, 0.0, 0.0))
+    _record_run(sim, slide / v, writer, max(1, int(rc["n_frames"]) // 2))
+    sim.set_wall_motion("plate", velocity=(0.0, 0.0, 0.0))
+    _record_run(sim, float(rc["drain_time"]), writer, max(1, int(rc["n_frames"]) - int(rc["n_frames"]) // 2))
+    frame = sim.frame()
+    if writer is not None:
+        writer.final(sim, "pile")
+    # measure the pile on what stays above the plate level
+    keep = frame.positions[:, 2] > -frame.radii
+    pile = frame.select(keep)
+    if pile.n_particles < 10:
+        raise ConfigError(f"repose: only {pile.n_particles} particles remain; no pile to measure "
+                          "(raise cohesion/friction or use a ledge: repose.pedestal_fraction)")
+    x_lo = (L - ped * L) / 2 if ped > 0 else 0.0
+    x_hi = (L + ped * L) / 2 if ped > 0 else L - slide
+    pad = 2 * rmax
+    bounds = ((x_lo - pad, x_hi + pad), (0.0, W))
+    sel = (pile.positions[:, 0] > x_lo - pad) & (pile.positions[:, 0] < x_hi + pad)
+    pile = pile.select(sel)
+    flanks = "both" if ped > 0 else "right"
+    try:
+        res = angle_of_repose(pile, axis=0, base=0.0, flanks=flanks, bounds=bounds,
+                              statistic="median", spacing=0.5 * float(np.median(pile.radii)))
+        a, s, left, right, top = (res.angle_deg, res.angle_std_deg, res.left_deg, res.right_deg,
+                                  res.top)
+    except ValueError as exc:
+        log.warning("repose: pile could not be measured: %s", exc)
+        a = s = left = right = float("nan")
+        top = float(np.max(pile.positions[:, 2] + pile.radii))
+    return ReposeReplicate(seed=int(seed), cohesion=k, angle_deg=float(a), angle_std_deg=float(s),
+                           left_deg=float(left), right_deg=float(right), n_inserted=n_inserted,
+                           n_remaining=int(frame.n_particles), n_fallen=int(sim.n_removed),
+                           pile_height=float(top), wall_time=_time.perf_counter() - t0,
+                           stage=stage if writer is not None else "")
+
+
+def combine_replicates(reps, cohesion: float) -> ReposeResult:
+    """Mean angle over replicates with its uncertainty (see :class:`ReposeResult`)."""
+    ang = np.array([r.angle_deg for r in reps], dtype=float)
+    fit = np.array([r.angle_std_deg for r in reps], dtype=float)
+    ok = np.isfinite(ang)
+    if not ok.any():
+        return ReposeResult(float("nan"), float("nan"), float("nan"), float(cohesion), tuple(reps))
+    a = ang[ok]
+    mean = float(a.mean())
+    spread = float(a.std(ddof=1)) if a.size > 1 else float("nan")
+    sem = spread / math.sqrt(a.size) if a.size > 1 else 0.0
+    fit_u = float(np.nanmean(fit[ok])) / math.sqrt(a.size) if np.isfinite(fit[ok]).any() else 0.0
+    return ReposeResult(mean, float(math.hypot(sem, fit_u)), spread, float(cohesion), tuple(reps))
+
+
+def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates: int | None = None,
+               progress: bool = False) -> ReposeResult:
+    """Static angle of repose of configuration ``cfg`` over replicate seeds.
+
+    Parameters
+    ----------
+    cfg : dict
+        From :func:`~bedstruct.workflows.load_config` (section ``repose``,
+        ``material``, ``contact``, ``psd``).
+    out : path, optional
+        Run directory (see :class:`~bedstruct.workflows.RunLayout`); nothing
+        is written without it.
+    cohesion : float, J/m^3, optional
+        Override ``contact.cohesion``.
+    replicates : int, optional
+        Override ``repose.replicates``; replicate ``i`` uses seed ``seed + i``.
+
+    Returns
+    -------
+    ReposeResult
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config, run_repose
+    >>> cfg = load_config(preset="tiny")
+    >>> res = run_repose(cfg, replicates=1)          # doctest: +SKIP
+    >>> 10 < res.angle_deg < 60                      # doctest: +SKIP
+    True
+    """
+    n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
+    if n < 1:
+        raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
+    layout = RunLayout(out, cfg) if out is not None else None
+    k = float(cfg["contact"]["cohesion"] if cohesion is None else cohesion)
+    reps = [repose_replicate(cfg, seed=int(cfg["seed"]) + i, cohesion=k, layout=layout,
+                             stage=f"rep{i:02d}", progress=progress) for i in range(n)]
+    res = combine_replicates(reps, k)
+    if layout is not None:
+        layout.write_results({"workflow": "repose", **res.to_dict()})
+    return res

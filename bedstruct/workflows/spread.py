@@ -1,0 +1,429 @@
+"""Multi-layer spreading workflow: pile, tool (blade/rake, plate or roller), platform lowered per layer.
+
+Geometry (SI): a build platform (``platform``, a plate of length
+``plate_length`` along x from x = 0) in a y-periodic strip of width
+``width``, a fixed back wall at x = 0 and an open front end: powder pushed
+beyond the platform falls and leaves the domain (counted as removed). The
+tool's lowest point stays at z = 0. Before layer k the platform is lowered
+by ``gaps[k]`` at ``lower_speed`` (the bed follows under gravity), so the
+tool skims ``H_k = gaps[0] + ... + gaps[k]`` above the platform. The pile is
+generated once (raindrop insertion into a box, settled) and reinserted in
+front of the tool before every layer. The tool then crosses the platform at
+``speed``; ``n_frames`` frames are recorded (atoms, contacts, wall states),
+the dynamic angle of the heap and the mean coordination are measured on
+each. After the tool has passed the end, the bed is measured per region
+(start, centre, end): height above the platform, packing fraction,
+coordination, fabric; the tool returns above the bed for the next layer.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConfigError
+from ._common import RunLayout, check_engine, contact_model, psd_sampler, to_jsonable
+
+__all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile"]
+
+log = logging.getLogger(__name__)
+
+_REGION_NAMES = {3: ("start", "centre", "end")}
+
+
+@dataclass(frozen=True)
+class LayerResult:
+    """Measurements of one spread layer (lengths in m, angles in degrees).
+
+    Attributes
+    ----------
+    index : int
+        1-based layer number.
+    gap : float, m
+        Platform lowering before this layer.
+    nominal_height : float, m
+        Cumulative gap: the tool height above the platform.
+    bed_height_m : float, m
+        Mean top-surface height of the bed above the platform (over the
+        platform, away from its ends).
+    packing_fraction : (R,) tuple of float
+        Solid fraction of each region (start, centre, end) between the
+        platform and the tool height.
+    coordination : (R,) tuple of float
+        Mean coordination number per region (particle-particle contacts).
+    fabric_anisotropy : (R,) tuple of float
+        Deviatoric anisotropy of the second-order fabric tensor per region.
+    dynamic_angle_deg : tuple of float
+        Dynamic angle of the heap in each recorded frame (NaN when it could
+        not be fitted).
+    mean_dynamic_angle_deg, dynamic_angle_std_deg : float
+        Mean and standard deviation over the frames where it was fitted.
+    mean_cn_series : tuple of float
+        Mean coordination of all particles in each recorded frame.
+    blade_positions : tuple of float, m
+        Front of the tool in each recorded frame.
+    heap_d50_shift : float, m
+        Volume D50 of the heap minus that of the deposited bed at mid-layer
+        (> 0: coarse particles enriched in the heap).
+    segregation_index : float
+    n_inserted, n_bed, n_heap, n_removed : int
+        Particles inserted this layer; in the bed (on the platform), still in
+        the domain beyond it, and removed so far (cumulative).
+    wall_time : float, s
+    """
+
+    index: int
+    gap: float
+    nominal_height: float
+    bed_height_m: float
+    packing_fraction: tuple
+    coordination: tuple
+    fabric_anisotropy: tuple
+    dynamic_angle_deg: tuple
+    mean_dynamic_angle_deg: float
+    dynamic_angle_std_deg: float
+    mean_cn_series: tuple
+    blade_positions: tuple
+    heap_d50_shift: float
+    segregation_index: float
+    n_inserted: int
+    n_bed: int
+    n_heap: int
+    n_removed: int
+    wall_time: float
+
+
+@dataclass(frozen=True)
+class SpreadResult:
+    """Result of a multi-layer spreading run.
+
+    Attributes
+    ----------
+    layers : tuple of LayerResult
+    tool : str
+    speed : float, m/s
+    regions : tuple of str
+    n_pile : int
+        Particles in the generated pile (inserted before every layer).
+    n_inserted_total : int
+    german_a, german_b : float
+        Fit of ``CN = 2a + 11 b f^2`` over all layers and regions (NaN with
+        fewer than 3 points).
+    german_r_squared : float
+    """
+
+    layers: tuple
+    tool: str
+    speed: float
+    regions: tuple
+    n_pile: int
+    n_inserted_total: int
+    german_a: float = float("nan")
+    german_b: float = float("nan")
+    german_r_squared: float = float("nan")
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def bed_height_m(self) -> tuple:
+        """Bed height above the platform after each layer (m)."""
+        return tuple(layer.bed_height_m for layer in self.layers)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary including ``bed_height_m``, ``packing_fraction`` per layer and region
+        and ``mean_dynamic_angle_deg`` per layer."""
+        d = to_jsonable(self)
+        d["bed_height_m"] = list(self.bed_height_m)
+        d["packing_fraction"] = [list(layer.packing_fraction) for layer in self.layers]
+        d["mean_dynamic_angle_deg"] = [to_jsonable(layer.mean_dynamic_angle_deg)
+                                       for layer in self.layers]
+        return d
+
+
+def generate_pile(cfg: dict, *, seed: int, draw=None):
+    """Settle ``spread.pile_particles`` by raindrop insertion in a walled box (x from 0, z from 0).
+
+    Returns the settled :class:`~bedstruct.Frame` (SI) and the number of steps run.
+    """
+    from ..core import Box
+    from ..dem import Plane, Simulation
+    sc = cfg["spread"]
+    draw = psd_sampler(cfg) if draw is None else draw
+    Lp, W = float(sc["pile_length"]), float(sc["width"])
+    n = int(sc["pile_particles"])
+    r = draw(20000, np.random.default_rng(0))
+    v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
+    h_est = n * v_mean / (0.55 * Lp * W)
+    top = 3.0 * h_est + 20 * draw.r_max
+    box = Box([-draw.r_max, 0.0, -draw.r_max], [Lp + draw.r_max, W, top], boundary="ff pp ff")
+    walls = [Plane((0, 0, 0), (0, 0, 1), name="floor"), Plane((0, 0, 0), (1, 0, 0), name="xlo"),
+             Plane((Lp, 0, 0), (-1, 0, 0), name="xhi")]
+    sim = Simulation(box, contact_model(cfg), walls=walls, safety=cfg["time"]["safety"],
+                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min, n_threads=cfg["n_threads"],
+                     seed=seed)
+    layer = 8 * draw.r_max          # insert in thin slabs so that nothing falls far
+    for _ in range(50):
+        need = n - sim.n_particles
+        if need <= 0:
+            break
+        zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9 if sim.n_particles else 0.0
+        sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (Lp, W, zlo + layer)))
+        sim.run(time=math.sqrt(2 * layer / 9.81))
+    # settle: until the fastest particle is slower than 1 mm/s (at most 4 pile_time)
+    t_end = sim.time + 4 * float(sc["pile_time"])
+    sim.run(time=0.25 * float(sc["pile_time"]))
+    while sim.time < t_end and float(np.max(np.linalg.norm(sim.v, axis=1))) > 1e-3:
+        sim.run(time=0.25 * float(sc["pile_time"]))
+    return sim.frame(), sim.step
+
+
+def _tool_walls(cfg, x0, draw):
+    from ..dem import Blade, Cylinder
+    sc = cfg["spread"]
+    tool = sc["tool"]
+    if tool in ("blade", "rake", "plate"):
+        bevel = 0.0 if tool == "plate" else float(sc["bevel_deg"])
+        w = Blade(gap=1e-12, speed=0.0, x0=x0, surface_z=0.0, thickness=float(sc["blade_thickness"]),
+                  bevel_deg=bevel, height=float(sc["blade_height"]), y_center=0.5 * float(sc["width"]),
+                  name="tool")
+        w.velocity = (0.0, 0.0, 0.0)
+        return w, 0.5 * float(sc["blade_thickness"])
+    R = float(sc["roller_radius"])
+    return Cylinder(point=(x0, 0.5 * float(sc["width"]), R), axis=(0, 1, 0), radius=R,
+                    name="tool"), R
+
+
+def _run_frames(sim, duration, n_frames, on_frame):
+    steps = max(1, int(math.ceil(duration / sim.dt - 1e-9)))
+    k = max(1, int(n_frames))
+    done = 0
+    for i in range(k):
+        nxt = int(round(steps * (i + 1) / k))
+        if nxt > done:
+            sim.run(nxt - done)
+            done = nxt
+        on_frame()
+
+
+def _move(sim, name, velocity, distance, speed):
+    if distance <= 0:
+        return
+    sim.set_wall_motion(name, velocity=velocity)
+    sim.run(time=distance / speed)
+    sim.set_wall_motion(name, velocity=(0.0, 0.0, 0.0))
+
+
+def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
+    """Spread ``len(spread.gaps)`` layers with the configured tool and measure each.
+
+    Parameters
+    ----------
+    cfg : dict
+        From :func:`~bedstruct.workflows.load_config` (section ``spread``).
+    out : path, optional
+        Run directory (see :class:`~bedstruct.workflows.RunLayout`): stage
+        ``pile`` (the generated pile) and ``layer01``, ``layer02``... with
+        frames, contacts, wall states and ``bed.dump.gz`` /
+        ``bed_contacts.dump.gz`` after the layer.
+
+    Returns
+    -------
+    SpreadResult
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config, run_spread
+    >>> res = run_spread(load_config(preset="tiny"))   # doctest: +SKIP
+    >>> [round(h * 1e6) for h in res.bed_height_m]      # doctest: +SKIP
+    [...]
+    """
+    from ..analysis import (coordination, coordination_by_window, dynamic_angle_of_repose,
+                            fit_german_law, packing_along, region_fabric, segregation, bed_height)
+    from ..core import Box
+    from ..dem import Plane, Rectangle, Simulation
+
+    check_engine(cfg)
+    sc = cfg["spread"]
+    layout = RunLayout(out, cfg) if out is not None else None
+    seed = int(cfg["seed"])
+    draw = psd_sampler(cfg)
+    rmax = draw.r_max
+    Lplat, W = float(sc["plate_length"]), float(sc["width"])
+    gaps = [float(g) for g in sc["gaps"]]
+    speed = float(sc["speed"])
+    n_reg = int(sc["regions"])
+    names = _REGION_NAMES.get(n_reg, tuple(f"region{i}" for i in range(n_reg)))
+    t_start = _time.perf_counter()
+
+    pile, _ = generate_pile(cfg, seed=seed, draw=draw)
+    if layout is not None:
+        from ..io import write_dump
+        st = layout.stage("pile")
+        write_dump(st.path / f"pile{st._ext}", pile)
+    n_pile = pile.n_particles
+    pile_top = float(np.max(pile.positions[:, 2] + pile.radii))
+
+    H_total = sum(gaps)
+    depth = H_total + 6 * rmax
+    tool_probe, half = _tool_walls(cfg, 0.0, draw)
+    x0 = half + 0.5 * rmax + (0.0 if sc["tool"] != "roller" else 0.0)
+    tool, half = _tool_walls(cfg, x0, draw)
+    front0 = x0 + half
+    x_end = Lplat + float(sc["stop_margin"]) + half
+    box = Box([-2 * rmax - 2 * half, 0.0, -depth],
+              [x_end + half + 4 * rmax, W, max(pile_top * 3, float(sc["blade_height"])) + depth],
+              boundary="ff pp ff")
+    walls = [Rectangle(center=(Lplat / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
+                       half_sizes=(Lplat / 2, W), name="platform"),
+             Plane((0.0, 0.0, 0.0), (1, 0, 0), name="back"), tool]
+    sim = Simulation(box, contact_model(cfg), walls=walls, safety=cfg["time"]["safety"],
+                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min, n_threads=cfg["n_threads"],
+                     seed=seed)
+    z_plat = 0.0
+    # spin about +y; the surface velocity is u + omega e_y x (R e_r), so omega = -speed/R
+    # (factor -1) moves the bottom of the roller forwards: counter-rotating
+    omega = float(sc["roller_omega_factor"]) * speed / float(sc["roller_radius"])
+    layers = []
+    f_all, cn_all = [], []
+    inserted_total = 0
+    clear = 3 * rmax
+    for k, gap in enumerate(gaps):
+        t_layer = _time.perf_counter()
+        writer = layout.stage(f"layer{k + 1:02d}") if layout is not None else None
+        # 1. lower the platform by this layer's gap; the bed follows under gravity
+        _move(sim, "platform", (0.0, 0.0, -float(sc["lower_speed"])), gap, float(sc["lower_speed"]))
+        z_plat -= gap
+        sim.run(time=min(float(sc["settle_time"]), 2 * gap / float(sc["lower_speed"])))
+        # 2. reinsert the pile in front of the tool, above whatever is there
+        x_off = front0 + 0.5 * rmax
+        foot = (sim.x[:, 0] > x_off - 2 * rmax) & (sim.x[:, 0] < x_off + float(sc["pile_length"]) + 2 * rmax)
+        z_base = max(z_plat, float(np.max(sim.x[foot, 2] + sim.rad[foot])) if foot.any() else z_plat)
+        n_before = sim.n_particles
+        sim.insert_frame(pile, offset=(x_off, 0.0, z_base + 0.25 * rmax))
+        n_ins = sim.n_particles - n_before
+        inserted_total += n_ins
+        sim.run(time=float(sc["settle_time"]))
+        # 3. spread, recording frames
+        if sc["tool"] == "roller":
+            sim.set_wall_motion("tool", velocity=(speed, 0.0, 0.0), omega=omega)
+        else:
+            sim.set_wall_motion("tool", velocity=(speed, 0.0, 0.0))
+        blade_pos, dyn, cn_series, mid = [], [], [], []
+
+        def on_frame():
+            fr = sim.frame()
+            ws = {w.name: w for w in sim.wall_states()}
+            front = float(ws["tool"].origin[0]) + half
+            blade_pos.append(front)
+            try:
+                ahead = fr.positions[:, 0] < Lplat
+                sub = fr.select(ahead & (fr.positions[:, 2] > z_plat - rmax))
+                r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
+                                            spacing=0.5 * float(np.median(fr.radii)), statistic="max")
+                dyn.append(float(r.angle_deg))
+            except ValueError:
+                dyn.append(float("nan"))
+            c = sim.contacts()
+            cn_series.append(float(2.0 * c.n_contacts / max(fr.n_particles, 1)))
+            if writer is not None:
+                writer.record(sim, frame=fr)
+            if len(blade_pos) == max(1, int(sc["n_frames"]) // 2):
+                mid.append((fr, front))
+        _run_frames(sim, (x_end - x0) / speed, int(sc["n_frames"]), on_frame)
+        sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **({"omega": 0.0} if sc["tool"] == "roller" else {}))
+        sim.run(time=float(sc["settle_time"]))
+        # 4. measure the bed
+        fr = sim.frame()
+        on_plat = fr.positions[:, 0] < Lplat
+        bed = fr.select(on_plat & (fr.positions[:, 2] > z_plat - rmax))
+        n_bed = bed.n_particles
+        n_heap = fr.n_particles - n_bed
+        H_k = sum(gaps[:k + 1])
+        xa, xb = front0 + 2 * rmax, Lplat - 2 * rmax
+        if writer is not None:
+            from ..io import write_dump, write_dump_local
+            write_dump(writer.path / f"bed{writer._ext}", bed)
+            write_dump_local(writer.path / f"bed_contacts{writer._ext}", fr, sim.contacts())
+        try:
+            h = bed_height(bed, z_plat, bounds=((xa, xb), (0.0, W)),
+                           spacing=0.5 * float(np.median(bed.radii)))
+        except ValueError:
+            h = float("nan")
+        lo = np.array([xa, 0.0, z_plat])
+        hi = np.array([xb, W, z_plat + H_k])
+        pack = packing_along(bed, n_reg, axis=0, bounds=(lo, hi)).fractions
+        contacts_all = sim.contacts()
+        coord = coordination(fr, contacts_all)
+        wlo, whi = _windows(lo, hi, n_reg)
+        cnw = coordination_by_window(fr, wlo, whi, contacts=contacts_all, result=coord).mean
+        try:
+            rf = region_fabric(contacts_all, fr, axis=0, n_regions=n_reg, bounds=(xa, xb))
+            aniso = tuple(float(rf[nm].anisotropy) for nm in rf.names)
+        except (ValueError, KeyError) as exc:
+            log.warning("spread: fabric failed: %s", exc)
+            aniso = (float("nan"),) * n_reg
+        d50s = seg_i = float("nan")
+        if mid:
+            mfr, mfront = mid[0]
+            try:
+                sg = segregation(mfr.select(mfr.positions[:, 0] < Lplat), mfront, direction=1, axis=0,
+                                 initial=pile)
+                d50s = float(sg.heap_vs_bed.d50_shift)
+                seg_i = float(sg.index)
+            except (ValueError, AttributeError) as exc:
+                log.warning("spread: segregation failed: %s", exc)
+        f_all.extend(np.asarray(pack, float).tolist())
+        cn_all.extend(np.asarray(cnw, float).tolist())
+        dyn_a = np.array(dyn, dtype=float)
+        ok = np.isfinite(dyn_a)
+        layers.append(LayerResult(
+            index=k + 1, gap=gap, nominal_height=H_k, bed_height_m=float(h),
+            packing_fraction=tuple(float(v) for v in pack),
+            coordination=tuple(float(v) for v in cnw), fabric_anisotropy=aniso,
+            dynamic_angle_deg=tuple(dyn), mean_dynamic_angle_deg=float(dyn_a[ok].mean()) if ok.any() else float("nan"),
+            dynamic_angle_std_deg=float(dyn_a[ok].std()) if ok.sum() > 1 else float("nan"),
+            mean_cn_series=tuple(cn_series), blade_positions=tuple(blade_pos), heap_d50_shift=d50s,
+            segregation_index=seg_i, n_inserted=n_ins, n_bed=n_bed, n_heap=n_heap,
+            n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer))
+        log.info("layer %d: bed height %.4g m (nominal %.4g), %d in bed", k + 1, h, H_k, n_bed)
+        # 5. return the tool above the bed to its start
+        if k + 1 < len(gaps):
+            vr = float(sc["return_speed"])
+            _move(sim, "tool", (0.0, 0.0, vr), clear, vr)
+            back = float(sim.wall_states()[2].origin[0]) - x0
+            _move(sim, "tool", (-vr, 0.0, 0.0), back, vr)
+            _move(sim, "tool", (0.0, 0.0, -vr), clear, vr)
+    ga = gb = gr = float("nan")
+    f_arr, c_arr = np.array(f_all), np.array(cn_all)
+    good = np.isfinite(f_arr) & np.isfinite(c_arr) & (f_arr > 0)
+    if good.sum() >= 3:
+        try:
+            g = fit_german_law(f_arr[good], c_arr[good])
+            ga, gb, gr = float(g.a), float(g.b), float(g.r_squared)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            log.warning("spread: German fit failed: %s", exc)
+    res = SpreadResult(layers=tuple(layers), tool=str(sc["tool"]), speed=speed, regions=tuple(names),
+                       n_pile=n_pile, n_inserted_total=inserted_total, german_a=ga, german_b=gb,
+                       german_r_squared=gr,
+                       extra={"wall_time": _time.perf_counter() - t_start, "dt": sim.dt,
+                              "steps": sim.step, "n_particles_final": sim.n_particles})
+    if layout is not None:
+        if writer is not None:
+            writer.final(sim, "final")
+        layout.write_results({"workflow": "spread", **res.to_dict()})
+    return res
+
+
+def _windows(lo, hi, n):
+    e = np.linspace(lo[0], hi[0], n + 1)
+    lower = np.tile(lo, (n, 1))
+    upper = np.tile(hi, (n, 1))
+    lower[:, 0] = e[:-1]
+    upper[:, 0] = e[1:]
+    return lower, upper
+
+
+_ = ConfigError
