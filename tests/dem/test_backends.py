@@ -296,6 +296,24 @@ def test_bed_deck_runs_and_dumps_are_readable(engine, tmp_path):
     assert vz.min() == pytest.approx(-9.81 * steps * dt, rel=0.05)
 
 
+@both_engines
+def test_rolling_resistance_decelerates_a_rolling_sphere(engine, tmp_path):
+    # full mobilisation: torque mu_r R m g on a sphere rolling without slip on the plate,
+    # (I + m R^2) dw/dt = -mu_r R m g  ->  dv/dt = -5 mu_r g / 7 (EPSD2 in LIGGGHTS, SDS in LAMMPS)
+    v0, mur = 0.01, 0.2
+    data = write_sphere_data(tmp_path / "one.data", [[2 * R, 2 * R, R * (1 - 1e-5)]], [R],
+                             box_lo=[0, 0, 0], box_hi=[4 * R, 4 * R, 4 * R], n_types=2,
+                             velocities=[[v0, 0, 0]], omegas=[[0, v0 / R, 0]])
+    p = GranularParams(youngs_modulus=1e8, restitution=0.5, friction=0.5, rolling_friction=mur)
+    deck = tmp_path / "roll.in"
+    deck.write_text(bed_deck(data, p, engine=engine, steps=8000, dt=1e-7, thermo_every=500,
+                             thermo_variables={"vx1": "vx[1]"}))
+    log = run_deck(deck).log
+    t, vx = log.column("Step") * 1e-7, log.column("v_vx1")
+    slope = np.polyfit(t[4:], vx[4:], 1)[0]
+    assert slope == pytest.approx(-5 * mur * 9.81 / 7, rel=0.01)
+
+
 @pytest.mark.skipif(find_lammps() is None, reason="lammps is not installed")
 def test_lammps_fabric_of_vertical_columns(tmp_path):
     # every contact is vertical: phi = diag(0, 0, 1); LAMMPS prints (15/2)(phi - I/3)

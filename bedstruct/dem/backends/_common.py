@@ -462,7 +462,8 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
 
 # --------------------------------------------------------------------------- data files
 def write_sphere_data(path, positions, radii, *, box_lo, box_hi, density=8300.0, types=None,
-                      velocities=None, n_types: int | None = None, title: str = "bedstruct"):
+                      velocities=None, omegas=None, n_types: int | None = None,
+                      title: str = "bedstruct"):
     """Write a LAMMPS/LIGGGHTS data file for ``atom_style sphere`` / ``granular``.
 
     Atom lines are ``id type diameter density x y z`` (the same for both
@@ -481,7 +482,9 @@ def write_sphere_data(path, positions, radii, *, box_lo, box_hi, density=8300.0,
     types : (N,) array_like of int, optional
         Atom types (default all 1).
     velocities : (N, 3) array_like of float, optional
-        Initial velocities (length/time); angular velocities are written as 0.
+        Initial velocities (length/time).
+    omegas : (N, 3) array_like of float, optional
+        Initial angular velocities (rad/time); 0 when only ``velocities`` is given.
     n_types : int, optional
         Number of atom types declared in the header (default ``max(types)``).
         Give one more than the particle types when walls have their own type.
@@ -527,10 +530,13 @@ def write_sphere_data(path, positions, radii, *, box_lo, box_hi, density=8300.0,
         fh.write("\nAtoms\n\n")
         table = np.column_stack([np.arange(1, n + 1), typ, 2 * rad, rho, pos])
         np.savetxt(fh, table, fmt=["%d", "%d", "%.17g", "%.17g", "%.17g", "%.17g", "%.17g"])
-        if velocities is not None:
-            vel = np.asarray(velocities, dtype=np.float64).reshape(n, 3)
+        if velocities is not None or omegas is not None:
+            vel = (np.zeros((n, 3)) if velocities is None
+                   else np.asarray(velocities, dtype=np.float64).reshape(n, 3))
+            om = (np.zeros((n, 3)) if omegas is None
+                  else np.asarray(omegas, dtype=np.float64).reshape(n, 3))
             fh.write("\nVelocities\n\n")
-            np.savetxt(fh, np.column_stack([np.arange(1, n + 1), vel, np.zeros((n, 3))]),
+            np.savetxt(fh, np.column_stack([np.arange(1, n + 1), vel, om]),
                        fmt=["%d"] + ["%.17g"] * 6)
     return path
 

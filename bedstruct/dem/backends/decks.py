@@ -119,7 +119,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
              boundary: str = "p p f", processors: str | None = "* * 1",
              cohesion_model: str | None = None, reference_radius: float = REFERENCE_RADIUS,
              reference_overlap: float = REFERENCE_OVERLAP, fabric: bool = False,
-             _extra=None) -> str:
+             thermo_variables=None, _extra=None) -> str:
     """A deck that reads a settled bed, adds a bottom plane, gravity, and runs.
 
     The bed comes from a data file (``atom_style sphere``/``granular`` atoms
@@ -169,6 +169,10 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
         ``c_fab[12]``: the contact tensor xx yy zz xy xz yz, equal to
         (15/2) (sum n n / N_c - I/3) over particle-particle contacts (walls
         excluded), then the normal-force tensor in the same order.
+    thermo_variables : mapping of str to str, optional
+        Extra thermo columns: name -> equal-style expression (e.g.
+        ``{"vx1": "vx[1]"}``), printed as ``v_name`` (LIGGGHTS prints ``name``;
+        :meth:`ThermoRun.column` accepts both).
 
     Returns
     -------
@@ -217,6 +221,12 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     if fabric:
         lines.append("compute fab all fabric radius contact force/normal")
         fab = " " + " ".join(f"c_fab[{i}]" for i in range(1, 13))
+    for name, expr in (thermo_variables or {}).items():
+        if not str(name).isidentifier() or any(c.isspace() for c in str(expr)):
+            raise ValueError(f"thermo variable {name!r} = {expr!r}: the name must be an "
+                             "identifier and the expression contain no spaces")
+        lines.append(f"variable {name} equal {expr}")
+        fab += f" v_{name}"
     lines += ["fix integr all nve/sphere",
               "compute rke all erotate/sphere",
               "thermo_style custom step atoms ke c_rke" + fab,

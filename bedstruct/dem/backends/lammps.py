@@ -7,9 +7,12 @@ Mapping (details and caveats in docs/backends.md):
   LIGGGHTS' Hertz + restitution damping when there is no cohesion);
 * tangential: ``mindlin NULL 1.0 mu`` (k_t = 8 G* a, tangential damping equal to
   the normal one, as LIGGGHTS ``tangential history``);
-* rolling: ``sds k_roll 0 mu_r`` with ``k_roll = 2.25 k_n mu_r^2`` where
-  ``k_n = 4/3 E* a_ref`` at a reference contact, the EPSD2 rolling stiffness of
-  LIGGGHTS frozen at one overlap (LAMMPS' rolling stiffness is constant);
+* rolling: ``sds k_roll 0 mu_r`` with ``k_roll = k_t = 8 G* a_ref`` at a
+  reference contact: LIGGGHTS' EPSD2 spring is ``k_r = k_t R*^2`` (torque per
+  radian, ``rolling_model_epsd2.h``) with the Hertz tangential stiffness k_t,
+  and LAMMPS' torque is ``R* k_roll xi_r`` with ``xi_r ~ R* dtheta``; LAMMPS'
+  rolling stiffness is constant, so it is frozen at one overlap. Both cap the
+  torque at ``mu_r R* |F_n|``;
 * cohesion: LAMMPS has no SJKR. ``cohesion_model="dmt"`` or ``"jkr"`` use a
   surface energy gamma matched to the SJKR force at the reference overlap, and,
   because LAMMPS refuses ``coeff_restitution`` (and ``tsuji``) damping with
@@ -124,10 +127,13 @@ def _reference_contact(params: GranularParams, *, wall: bool, reference_radius: 
         estar = 1.0 / (2 * (1 - nu ** 2) / E)
         rstar = reference_radius / 2
         mstar = 4.0 / 3.0 * math.pi * reference_radius ** 3 * params.density / 2
+    nuw = params.wall("poisson_ratio") if wall else nu
+    Ew = params.wall("youngs_modulus") if wall else E
+    gstar = 1.0 / (2 * (2 - nu) * (1 + nu) / E + 2 * (2 - nuw) * (1 + nuw) / Ew)
     delta = reference_overlap * rstar
     a = math.sqrt(rstar * delta)
-    return dict(estar=estar, rstar=rstar, mstar=mstar, delta=delta, a=a,
-                kn=4.0 / 3.0 * estar * a)
+    return dict(estar=estar, gstar=gstar, rstar=rstar, mstar=mstar, delta=delta, a=a,
+                kn=4.0 / 3.0 * estar * a, kt=8.0 * gstar * a)
 
 
 def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
@@ -192,6 +198,6 @@ def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
                   "damping viscoelastic")
     words = f"{normal} tangential mindlin NULL 1.0 {_fmt(mu)}"
     if mur > 0:
-        k_roll = 2.25 * ref["kn"] * mur ** 2
+        k_roll = ref["kt"]  # EPSD2: k_r = k_t R*^2 per radian = R* k_roll R*
         words += f" rolling sds {_fmt(k_roll)} 0.0 {_fmt(mur)}"
     return words
