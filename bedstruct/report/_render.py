@@ -23,7 +23,7 @@ th{background:#f3f6fa}td.num{text-align:right;font-variant-numeric:tabular-nums}
 .ok{background:#dff3e4;color:#185c2b}.failed{background:#fde2e1;color:#8a1c17}
 .skipped{background:#eceff3;color:#4a5568}figure{display:inline-block;margin:.6em .6em .6em 0}
 figure img{max-width:100%;border:1px solid #e5e9f0}figcaption{font-size:.85em;color:#4a5568}
-.def{color:#4a5568;font-size:.88em}.error{background:#fff5f5;border-left:4px solid #e53e3e;padding:.5em .8em}
+.def{color:#4a5568;font-size:.88em}.ref{color:#718096;font-style:italic}.error{background:#fff5f5;border-left:4px solid #e53e3e;padding:.5em .8em}
 nav a{margin-right:.8em}
 """
 
@@ -50,7 +50,7 @@ def _section_html(s: Section) -> str:
     if s.numbers:
         parts.append("<table><tr><th>quantity</th><th>value</th><th>unit</th><th>definition</th></tr>")
         for key, q in s.numbers.items():
-            link = (f' <a href="{html.escape(q.doc)}">docs</a>' if q.doc else "")
+            link = (f' <span class="ref">(see {html.escape(q.doc)})</span>' if q.doc else "")
             parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value)}</td>'
                          f'<td>{html.escape(q.unit)}</td><td class="def">{html.escape(q.definition)}{link}</td></tr>')
         parts.append("</table>")

@@ -22,7 +22,7 @@ __all__ = ["ReportOptions", "build_report", "select_frames"]
 
 log = logging.getLogger(__name__)
 
-DOCS = "https://bedstruct.readthedocs.io/en/latest/"
+DOCS = "docs/"  # definitions live in the project docs (docs/*.md)
 _REGION_NAMES = {1: ["bed"], 2: ["start", "end"], 3: ["start", "centre", "end"]}
 _AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -182,14 +182,14 @@ def _packing(ctx: _Context, s: Section) -> None:
     seed_def = packing_fraction(f)
     s.add_number("bounding_box_fraction", seed_def.fraction, "1",
                  "total particle volume over the volume of the box enclosing all particles "
-                 "(the seed report's definition)", DOCS + "analysis/#packing-fraction")
+                 "(the seed report's definition)", DOCS + "analysis.md, Packing fraction")
     prof = packing_along(f, opt.regions, axis=opt.axis_index)
     for name, value in zip(opt.region_names, prof.fractions):
         s.add_number(f"fraction_{name.replace(' ', '_')}", value, "1",
                      f"exact sphere-cuboid packing fraction of the {name} region of the bed")
     fine = packing_along(f, max(12, 4 * opt.regions), axis=opt.axis_index)
     fig, ax = _fig()
-    ax.plot(fine.centres, fine.fractions, "o-", label="12+ windows")
+    ax.plot(np.asarray(fine.centres)[:, opt.axis_index], fine.fractions, "o-", label=f"{len(fine.fractions)} windows")
     ax.step(np.r_[prof.lower[:, opt.axis_index], prof.upper[-1, opt.axis_index]],
             np.r_[prof.fractions, prof.fractions[-1]], where="post", label="regions")
     ax.set_xlabel(f"{opt.axis} ({ctx.length_unit})")
@@ -203,7 +203,7 @@ def _coordination(ctx: _Context, s: Section) -> None:
     f, opt = ctx.frame, ctx.options
     res = coordination(f, ctx.contacts)
     s.add_number("mean", res.mean, "1", "mean number of contacts per particle",
-                 DOCS + "analysis/#coordination-number")
+                 DOCS + "analysis.md, Coordination number")
     s.add_number("mean_excluding_rattlers", res.mean_excluding_rattlers, "1",
                  f"mean coordination after iterative removal of particles with fewer than "
                  f"{res.min_contacts} contacts")
@@ -228,7 +228,7 @@ def _coordination(ctx: _Context, s: Section) -> None:
                           caption="coordination and packing per region"))
     if len(fs) >= 3:
         fit = fit_german_law(fs, cns)
-        s.add_number("german_a", fit.a, "1", "fitted a in CN = 2a + 11 b f^2", DOCS + "analysis/#germans-law")
+        s.add_number("german_a", fit.a, "1", "fitted a in CN = 2a + 11 b f^2", DOCS + "analysis.md, German's law")
         s.add_number("german_b", fit.b, "1", "fitted b in CN = 2a + 11 b f^2")
         s.add_number("german_a_ci", list(fit.a_ci), "1", f"{fit.confidence:.0%} confidence interval of a")
         s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
@@ -259,7 +259,7 @@ def _psd(ctx: _Context, s: Section) -> None:
     whole = particle_size_distribution(f, weighting="volume")
     for q in ("d10", "d50", "d90"):
         s.add_number(q, getattr(whole, q), ctx.length_unit,
-                     f"volume-weighted {q.upper()} diameter of the whole frame", DOCS + "analysis/#psd")
+                     f"volume-weighted {q.upper()} diameter of the whole frame", DOCS + "analysis.md, Particle size distribution")
     lower, upper = ctx.windows()
     regions = psd_by_region(f, lower, upper, weighting="volume")
     rows = []
@@ -300,7 +300,7 @@ def _surface(ctx: _Context, s: Section) -> None:
     r = surf.roughness
     for key, text in (("sa", "arithmetic mean height deviation Sa"), ("sq", "root-mean-square height Sq"),
                       ("sz", "maximum height Sz (peak to valley)")):
-        s.add_number(key, getattr(r, key), ctx.length_unit, text, DOCS + "analysis/#surface")
+        s.add_number(key, getattr(r, key), ctx.length_unit, text, DOCS + "analysis.md, Surface and layers")
     s.add_number("ssk", r.ssk, "1", "skewness of the height distribution Ssk")
     s.add_number("mean_height", r.mean_height, ctx.length_unit, "mean surface height above the base")
     s.add_number("uncovered_fraction", surf.uncovered_fraction, "1", "fraction of grid cells with no particle")
@@ -321,7 +321,7 @@ def _fabric(ctx: _Context, s: Section) -> None:
         skip(f"only {c.n_contacts} touching contacts: too few for fabric tensors")
     whole = fabric_tensors(c.normals)
     s.add_number("eigenvalues_N2", whole.eigenvalues, "1", "eigenvalues of the moment tensor N_ij (sum 1)",
-                 DOCS + "fabric/")
+                 DOCS + "fabric.md")
     s.add_number("anisotropy", whole.anisotropy, "1", "rank-2 anisotropy of the contact normals")
     s.add_number("anisotropy_rank4", whole.anisotropy_rank4, "1", "rank-4 anisotropy of the contact normals")
     reg = region_fabric(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
@@ -371,7 +371,7 @@ def _repose(ctx: _Context, s: Section) -> None:
         skip(f"no pile found: the free surface has no clear slope "
              f"({res.angle_deg:.1f} +- {res.angle_std_deg:.1f} deg)")
     s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
-                 DOCS + "analysis/#angle-of-repose")
+                 DOCS + "analysis.md, Angle of repose")
     s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")
     s.add_number("left_deg", res.left_deg, "deg", "angle of the left flank")
     s.add_number("right_deg", res.right_deg, "deg", "angle of the right flank")
@@ -408,7 +408,7 @@ def _heat(ctx: _Context, s: Section) -> None:
         haz = haz_shape(tmap, threshold)
         rows.append([name, res.peak_temperature - 273.15, haz.roundness, haz.orientation_deg])
         s.add_number(f"roundness_{name}", haz.roundness, "1",
-                     f"heat-affected-zone roundness 4A/(pi L_major^2) in the {name} region", DOCS + "heat/")
+                     f"heat-affected-zone roundness 4A/(pi L_major^2) in the {name} region", DOCS + "heat.md")
         figs.append((_figure_of(plot_temperature_map(tmap, haz=haz)), f"Top-view temperature at the end, {name} region"))
     s.tables.append(Table(["region", "peak temperature (C)", "roundness", "orientation (deg)"], rows,
                           caption="hemispherical 500 um source at 1300 C, switched off, 2 ms of conduction"))
