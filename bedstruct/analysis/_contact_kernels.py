@@ -17,9 +17,13 @@ particle touching its own image is reported once (``i == j``, positive shift).
 
 from __future__ import annotations
 
-from .._numba import njit_parallel, prange
+import math
 
-__all__ = ["scan_pairs", "pair_branches", "compact_pairs"]
+import numpy as np
+
+from .._numba import njit, njit_parallel, prange
+
+__all__ = ["scan_pairs", "compact_pairs", "pair_geometry", "peel_rattlers"]
 
 
 @njit_parallel
@@ -98,20 +102,6 @@ def scan_pairs(rows, pos, radii, cell_xyz, cell_start, ncell, periodic, reach, m
 
 
 @njit_parallel
-def pair_branches(i, j, shift, pos, matrix, out):
-    """``out[k] = pos[j[k]] + matrix @ shift[k] - pos[i[k]]`` (branch vectors)."""
-    for k in prange(i.shape[0]):
-        a = i[k]
-        b = j[k]
-        sx = shift[k, 0]
-        sy = shift[k, 1]
-        sz = shift[k, 2]
-        for d in range(3):
-            out[k, d] = (pos[b, d] + matrix[d, 0] * sx + matrix[d, 1] * sy + matrix[d, 2] * sz
-                         - pos[a, d])
-
-
-@njit_parallel
 def compact_pairs(rows, take, offsets, out_j, out_shift, order, i_out, j_out, s_out):
     """Gather the scan buffers into flat arrays in original row indices.
 
@@ -140,3 +130,82 @@ def compact_pairs(rows, take, offsets, out_j, out_shift, order, i_out, j_out, s_
                 s_out[k, 0] = -sx
                 s_out[k, 1] = -sy
                 s_out[k, 2] = -sz
+
+
+@njit_parallel
+def pair_geometry(i, j, shift, pos, radii, matrix, out_branch, out_area):
+    """Branch vectors ``pos[j] + matrix @ shift - pos[i]`` and lens areas ``pi a^2``."""
+    for k in prange(i.shape[0]):
+        a = i[k]
+        b = j[k]
+        sx = shift[k, 0]
+        sy = shift[k, 1]
+        sz = shift[k, 2]
+        d2 = 0.0
+        for d in range(3):
+            v = (pos[b, d] + matrix[d, 0] * sx + matrix[d, 1] * sy + matrix[d, 2] * sz
+                 - pos[a, d])
+            out_branch[k, d] = v
+            d2 += v * v
+        dist = math.sqrt(d2)
+        r1 = radii[a]
+        r2 = radii[b]
+        if dist >= r1 + r2:
+            rad2 = 0.0
+        elif dist <= abs(r1 - r2):
+            rad2 = min(r1, r2) ** 2
+        else:
+            x = (d2 + r1 * r1 - r2 * r2) / (2.0 * dist)
+            rad2 = max(r1 * r1 - x * x, 0.0)
+        out_area[k] = math.pi * rad2
+
+
+@njit
+def peel_rattlers(i, j, fixed, min_contacts, removed):
+    """Iteratively remove particles with fewer than ``min_contacts`` contacts.
+
+    ``fixed`` (N,) holds contacts that never disappear (walls); ``removed``
+    (N,) bool is written. Queue-based peeling (O(N + M)); the result is the
+    same fixed point as repeated simultaneous removal (the k-core).
+    """
+    n = fixed.shape[0]
+    m = i.shape[0]
+    deg = fixed.copy()
+    start = np.zeros(n + 1, dtype=np.int64)
+    for k in range(m):
+        start[i[k] + 1] += 1
+        start[j[k] + 1] += 1
+    for p in range(n):
+        start[p + 1] += start[p]
+    fill = start[:-1].copy()
+    nbr = np.empty(2 * m, dtype=np.int64)
+    for k in range(m):
+        nbr[fill[i[k]]] = j[k]
+        fill[i[k]] += 1
+        nbr[fill[j[k]]] = i[k]
+        fill[j[k]] += 1
+    for p in range(n):
+        deg[p] += start[p + 1] - start[p]
+    queue = np.empty(n, dtype=np.int64)
+    queued = np.zeros(n, dtype=np.bool_)
+    head = 0
+    tail = 0
+    for p in range(n):
+        removed[p] = False
+        if deg[p] < min_contacts:
+            queue[tail] = p
+            tail += 1
+            queued[p] = True
+    while head < tail:
+        p = queue[head]
+        head += 1
+        removed[p] = True
+        for e in range(start[p], start[p + 1]):
+            q = nbr[e]
+            if removed[q]:
+                continue
+            deg[q] -= 1
+            if deg[q] < min_contacts and not queued[q]:
+                queue[tail] = q
+                tail += 1
+                queued[q] = True

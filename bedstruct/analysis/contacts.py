@@ -113,19 +113,34 @@ def _perpendicular_widths(box) -> np.ndarray:
 
 
 def _prepare(frame):
-    """Wrapped Cartesian positions and fractional coordinates (periodic axes in [0, 1))."""
+    """Positions wrapped into the box along periodic axes, and fractional coordinates.
+
+    Orthogonal boxes: particles already inside keep their coordinates exactly;
+    only those outside along a periodic axis are moved by whole periods.
+    """
     box = frame.box
     per = np.array(box.periodic)
-    pos = box.wrap(frame.positions) if per.any() else frame.positions.copy()
     if box.is_triclinic:
+        pos = box.wrap(frame.positions) if per.any() else frame.positions
         s = box.fractional(pos)
-    else:
-        lengths = np.where(box.lengths > 0, box.lengths, 1.0)
-        s = (pos - box.lo) / lengths
+        for k in np.flatnonzero(per):
+            col = s[:, k]
+            col -= np.floor(col)
+            col[col >= 1.0] = 0.0
+        return pos, s
+    lengths = np.where(box.lengths > 0, box.lengths, 1.0)
+    pos = frame.positions
+    s = (pos - box.lo) / lengths
     for k in np.flatnonzero(per):
         col = s[:, k]
-        col -= np.floor(col)
-        col[col >= 1.0] = 0.0
+        bad = np.flatnonzero((col < 0.0) | (col >= 1.0))
+        if bad.size:
+            if pos is frame.positions:
+                pos = pos.copy()
+            v = col[bad] - np.floor(col[bad])
+            v[v >= 1.0] = 0.0
+            col[bad] = v
+            pos[bad, k] = box.lo[k] + v * box.lengths[k]
     return pos, s
 
 
@@ -267,7 +282,8 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
         rows = np.argsort(i * np.int64(n) + j, kind="stable")
         i, j, shift = i[rows], j[rows], np.ascontiguousarray(shift[rows])
         branch = np.empty((i.size, 3), dtype=np.float64)
-        _k.pair_branches(i, j, shift, np.ascontiguousarray(pos), matrix, branch)
+        area = np.empty(i.size, dtype=np.float64)
+        _k.pair_geometry(i, j, shift, np.ascontiguousarray(pos), radii, matrix, branch, area)
     finally:
         if not parallel:
             set_num_threads(threads)
@@ -275,9 +291,6 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
     m = i.size
     ri = radii[i]
     rj = radii[j]
-    d = np.sqrt(np.einsum("ij,ij->i", branch, branch))
-    from ..core.contacts import lens_radius
-    area = math.pi * lens_radius(ri, rj, d) ** 2
     wc = _wall_contacts(pos, radii, wall_list, tol) if wall_list else None
     log.debug("find_contacts: %d particles, %d contacts, cells %s, reach %s", n, m, ncell, reach)
     return Contacts(i=i, j=j, branch=branch, radii_i=ri, radii_j=rj, ids_i=frame.ids[i],

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..core.contacts import Contacts
 from ..core.frame import _as_frame
+from . import _contact_kernels as _k
 from .contacts import find_contacts
 
 __all__ = ["CoordinationResult", "coordination", "remove_rattlers", "WindowCoordination",
@@ -81,7 +82,9 @@ def remove_rattlers(contacts: Contacts, *, min_contacts: int = 4, include_walls:
     """Iteratively flag particles with fewer than ``min_contacts`` contacts.
 
     Removing a rattler removes its contacts, which may turn neighbours into
-    rattlers; the loop stops when no particle changes.
+    rattlers; the result is the fixed point (the k-core of the contact
+    network with k = ``min_contacts``), found by queue-based peeling in
+    O(N + M).
 
     Parameters
     ----------
@@ -112,13 +115,12 @@ def remove_rattlers(contacts: Contacts, *, min_contacts: int = 4, include_walls:
     n = contacts.n_particles if n_particles is None else int(n_particles)
     if int(min_contacts) < 0:
         raise ValueError(f"`min_contacts` must be >= 0; got {min_contacts}")
-    active = np.ones(n, dtype=bool)
-    while True:
-        c = _counts(contacts, n, include_walls, active)
-        drop = active & (c < min_contacts)
-        if not drop.any():
-            return ~active
-        active &= ~drop
+    fixed = np.zeros(n, dtype=np.int64)
+    if include_walls and contacts.walls is not None and contacts.walls.n_contacts:
+        fixed += np.bincount(contacts.walls.particle, minlength=n)
+    removed = np.empty(n, dtype=np.bool_)
+    _k.peel_rattlers(contacts.i, contacts.j, fixed, int(min_contacts), removed)
+    return removed
 
 
 def coordination(frame, contacts: Contacts | None = None, *, tolerance: float = 0.0,

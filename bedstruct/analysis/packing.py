@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.frame import _as_frame
 from . import _packing_kernels as _k
+from .contacts import _prepare
 
 __all__ = ["PackingResult", "PackingProfile", "PackingGrid", "packing_fraction",
            "packing_fractions", "packing_along", "packing_sliding", "packing_grid",
@@ -136,7 +137,7 @@ def _rect_volumes(frame, ex, ey, ez, *, nodes=_N_NODES) -> np.ndarray:
     out = np.zeros((ex.size - 1, ey.size - 1, ez.size - 1))
     if frame.n_particles == 0:
         return out
-    pos = frame.box.wrap(frame.positions) if any(frame.box.periodic) else frame.positions
+    pos = _prepare(frame)[0]
     lo = np.array([ex[0], ey[0], ez[0]])
     hi = np.array([ex[-1], ey[-1], ez[-1]])
     shifts = _image_shifts(frame.box, lo, hi, float(frame.radii.max()))
