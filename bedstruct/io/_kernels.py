@@ -184,3 +184,4 @@ def gather_rows(data, order, cols, out):
         src = order[r]
         for k in range(m):
             out[r, k] = data[src, cols[k]]
+

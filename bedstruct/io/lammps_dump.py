@@ -133,12 +133,15 @@ class _Planned:
             return
         n = self.n
         out = np.empty_like(self.flat)
-        starts = sorted({v if isinstance(v, int) else v[0] for k, v in self.slots.items()
-                         if isinstance(k, tuple) or v[1] == 1})
-        for b in starts:
-            width = 3 if any(isinstance(k, tuple) and v == b for k, v in self.slots.items()) else 1
-            src = self.flat[b:b + width * n].reshape(n, width)
-            np.take(src, self.order, axis=0, out=out[b:b + width * n].reshape(n, width))
+        for key, v in self.slots.items():
+            if isinstance(key, tuple):
+                b, w = v, 3
+            elif v[1] == 1:
+                b, w = v[0], 1
+            else:
+                continue
+            np.take(self.flat[b:b + w * n].reshape(n, w), self.order, axis=0,
+                    out=out[b:b + w * n].reshape(n, w))
         self.flat = out
         self.in_order = True
 
@@ -169,7 +172,7 @@ def _fast_columns(buf, raw: RawFrame, sort_by_id: bool):
     (wrong counts, tokens for the general parser, non-integer ids); the caller
     then takes the general path, which reports problems precisely.
     """
-    from ._kernels import parse_column, parse_rows
+    from ._kernels import parse_rows
     from ._text import line_bounds
 
     n, names = raw.n, raw.names
@@ -180,22 +183,6 @@ def _fast_columns(buf, raw: RawFrame, sort_by_id: bool):
     if starts.size != n:
         return None
     status = np.empty(n, dtype=np.int8)
-    order = None
-    ids = None
-    if "id" in names:
-        idf = np.empty(n)
-        parse_column(body, starts, ends, names.index("id"), idf, status)
-        if status.any():
-            return None
-        with np.errstate(invalid="ignore"):
-            ids = idf.astype(np.int64)
-        if not np.array_equal(ids, idf):
-            return None
-        if sort_by_id:
-            order = _id_order(ids)
-    dest = np.arange(n, dtype=np.int64)  # rows in file order: sequential writes are fastest
-    if order is not None:
-        ids = ids[order]
     base = np.empty(ncols, dtype=np.int64)
     stride = np.empty(ncols, dtype=np.int64)
     slots = {}
@@ -216,9 +203,23 @@ def _fast_columns(buf, raw: RawFrame, sort_by_id: bool):
             slots[k] = (pos, 1)
             pos += n
     flat = np.empty(pos, dtype=np.float64)
+    dest = np.arange(n, dtype=np.int64)  # rows in file order: sequential writes are fastest
     parse_rows(body, starts, ends, ncols, flat, base, stride, dest, status)
     if status.any():
         return None
+    order = None
+    ids = None
+    if "id" in names:
+        b, st = slots[names.index("id")]
+        idf = flat[b:b + st * n:st]
+        with np.errstate(invalid="ignore"):
+            ids = idf.astype(np.int64)
+        if not np.array_equal(ids, idf):
+            return None
+        if sort_by_id:
+            order = _id_order(ids)
+            if order is not None:
+                ids = ids[order]
     return _Planned(flat, slots, n, order, ids)
 
 
