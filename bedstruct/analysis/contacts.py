@@ -102,6 +102,9 @@ def _as_walls(walls, box) -> list[Wall]:
 
 
 def _perpendicular_widths(box) -> np.ndarray:
+    """Distances between opposite box faces (length), matching ``_prepare``'s scaling."""
+    if not box.is_triclinic:
+        return np.where(box.lengths > 0, box.lengths, 1.0)
     m = box.matrix
     a, b, c = m[:, 0], m[:, 1], m[:, 2]
     vol = abs(float(np.dot(a, np.cross(b, c))))

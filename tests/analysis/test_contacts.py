@@ -70,6 +70,17 @@ def test_boxes_narrower_than_three_cells(length):
     assert rows(c) == brute_force(frame, 0.0, max_image=5)
 
 
+def test_flat_box_and_particles_outside_fixed_box():
+    """A box of zero height (2-D data) and spheres far outside a fixed box."""
+    rng = np.random.default_rng(8)
+    flat = Box([0, 0, 0], [8, 8, 0], boundary="pp pp ff")
+    f = Frame(np.c_[rng.uniform(0, 8, (200, 2)), np.zeros(200)], rng.uniform(0.2, 0.5, 200), box=flat)
+    assert rows(find_contacts(f)) == brute_force(f, 0.0)
+    tiny = Box([0, 0, 0], [1, 1, 1], boundary="ff ff ff")
+    g = Frame(rng.uniform(-5, 5, (200, 3)), rng.uniform(0.2, 0.8, 200), box=tiny)
+    assert rows(find_contacts(g)) == brute_force(g, 0.0)
+
+
 def test_serial_equals_parallel(random_bed):
     a = find_contacts(random_bed, parallel=False)
     b = find_contacts(random_bed)
