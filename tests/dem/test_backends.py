@@ -8,9 +8,12 @@ under a minute on a loaded 2-core machine.
 from __future__ import annotations
 
 import math
+from contextlib import nullcontext
 
 import numpy as np
 import pytest
+
+from bedstruct.errors import BedstructWarning
 
 from bedstruct.dem.backends import (BladeGeometry, EngineRunError, GranularParams, as_granular_params,
                                     bed_deck, box_triangles, find_lammps, find_liggghts,
@@ -352,14 +355,53 @@ def test_moving_blade_pushes_particles(engine, tmp_path):
                           bevel_deg=10)
     stl = blade.write_stl(tmp_path / "blade.stl", 0.0, 7.5 * R, caps=False)
     deck = tmp_path / "blade.in"
-    deck.write_text(moving_wall_deck(data, GranularParams(youngs_modulus=1e8), engine=engine,
-                                     blade=blade, stl_path=stl, steps=300, dt=1e-7,
-                                     thermo_every=300))
+    ctx = pytest.warns(BedstructWarning, match="unbevelled") if engine == "lammps" else nullcontext()
+    with ctx:
+        text = moving_wall_deck(data, GranularParams(youngs_modulus=1e8), engine=engine,
+                                blade=blade, stl_path=stl, steps=300, dt=1e-7, thermo_every=300)
+    deck.write_text(text)
     res = run_deck(deck)
     # the blade's leading face (x = 0.2 R) reaches the first column (surface at 0.25 R) after
     # 5e-6 s and shoves it at 0.5 m/s; without the blade the bed would be at rest
     m = 4 / 3 * math.pi * R ** 3 * 8300
     assert res.log.last.column("KinEng")[-1] > 0.05 * 0.5 * m * 0.5 ** 2
+
+
+def _single_sphere_blade(engine, tmp_path, blade, position, *, restitution=0.5, steps=200):
+    r = 20e-6
+    data = write_sphere_data(tmp_path / "one.data", [position], [r], box_lo=[-1e-4, 0, 0],
+                             box_hi=[7e-4, 2e-4, 2e-3], n_types=2)
+    stl = blade.write_stl(tmp_path / "blade.stl", 0.0, 2e-4, caps=False)
+    deck = tmp_path / "one_blade.in"
+    deck.write_text(moving_wall_deck(
+        data, GranularParams(youngs_modulus=1e8, gravity=0.0, restitution=restitution),
+        engine=engine, blade=blade, stl_path=stl, steps=steps, dt=1e-8, thermo_every=steps,
+        thermo_variables={"vx1": "vx[1]", "vz1": "vz[1]"}))
+    log = run_deck(deck).log
+    return log.column("v_vx1")[-1], log.column("v_vz1")[-1]
+
+
+@both_engines
+def test_static_bevel_pushes_along_its_normal(engine, tmp_path):
+    # bevel 10 deg, bottom edge at z = 100 um: above x = 400 um the bevel face is at 170.5 um
+    r, tan10 = 20e-6, math.tan(math.radians(10))
+    blade = BladeGeometry(x0=0.0, z_bottom=100e-6, speed=0.0, thickness=500e-6, height=1e-3,
+                          bevel_deg=10)
+    face = 100e-6 + 400e-6 * tan10
+    vx, vz = _single_sphere_blade(engine, tmp_path, blade, [400e-6, 1e-4, face - r - 2e-6])
+    assert vx == 0 and vz == 0  # 2 um below the bevel: untouched
+    vx, vz = _single_sphere_blade(engine, tmp_path, blade, [400e-6, 1e-4, face - r + 2e-6])
+    assert vz < 0 and vx / -vz == pytest.approx(tan10, rel=1e-3)  # pushed along the bevel normal
+
+
+@both_engines
+def test_moving_flat_blade_rebound(engine, tmp_path):
+    # an infinitely heavy wall at speed V hitting a sphere at rest sends it off at (1 + e) V
+    blade = BladeGeometry(x0=0.0, z_bottom=100e-6, speed=0.1, thickness=100e-6, height=1e-3,
+                          bevel_deg=0)
+    vx, vz = _single_sphere_blade(engine, tmp_path, blade, [100e-6 + 21e-6, 1e-4, 5e-4],
+                                  restitution=0.5, steps=3000)
+    assert vx == pytest.approx(1.5 * 0.1, rel=0.01) and vz == 0
 
 
 @both_engines

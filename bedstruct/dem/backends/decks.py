@@ -10,11 +10,13 @@ absolute paths.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ...errors import BedstructWarning
 from ._common import EngineLog, GranularParams, as_granular_params, read_data_header
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
 from .liggghts import liggghts_model_commands, liggghts_wall_model
@@ -263,8 +265,10 @@ def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometr
     ``blade.write_stl(stl_path, ylo, yhi)``) + ``fix move/mesh linear`` +
     ``fix wall/gran ... mesh``. LAMMPS: a block region moved by
     ``move v_bx NULL NULL`` (``bx = speed * time``) + ``fix wall/gran/region``;
-    LAMMPS regions cannot carry the bevel, so the LAMMPS blade is the
-    unbevelled slab (documented in docs/backends.md).
+    a static bevelled blade is the intersection of the slab block and the
+    half-space above the bevel plane; a moving one is the unbevelled slab (with
+    a :class:`~bedstruct.errors.BedstructWarning`), because LAMMPS' wall/gran/region
+    does not see the velocity of moving parts of an intersect region.
 
     Parameters
     ----------
@@ -299,10 +303,25 @@ def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometr
                                         reference_radius=ref_r, reference_overlap=ref_o)
         x0, x1 = blade.x0, blade.x0 + blade.thickness
         z0, z1 = blade.z_bottom, blade.z_bottom + blade.height
-        return [f"variable bx equal {blade.speed:.10g}*time",
-                f"region blade block {x0:.10g} {x1:.10g} INF INF {z0:.10g} {z1:.10g} "
-                "side out move v_bx NULL NULL units box",
-                f"fix wblade all wall/gran/region granular {coeffs} region blade"]
+        out = [f"variable bx equal {blade.speed:.10g}*time"]
+        if blade.bevel_deg > 0 and blade.speed != 0:
+            warnings.warn(
+                "LAMMPS: a moving bevelled blade would need a moving intersect region, whose "
+                "velocity fix wall/gran/region ignores (measured: wrong rebound speeds); the "
+                "LAMMPS deck uses the unbevelled slab instead", BedstructWarning, stacklevel=3)
+        if blade.bevel_deg > 0 and blade.speed == 0:
+            # the blade is the slab above the bevel plane through the lowest edge (x0, z0)
+            th = math.radians(blade.bevel_deg)
+            # (static only: LAMMPS refuses a moving intersect region, and moving its parts
+            # leaves fix wall/gran/region without the wall velocity)
+            out += [f"region bslab block {x0:.10g} {x1:.10g} INF INF {z0:.10g} {z1:.10g} units box",
+                    f"region bbevel plane {x0:.10g} 0 {z0:.10g} {-math.sin(th):.10g} 0 "
+                    f"{math.cos(th):.10g} units box",
+                    "region blade intersect 2 bslab bbevel side out units box"]
+        else:
+            out.append(f"region blade block {x0:.10g} {x1:.10g} INF INF {z0:.10g} {z1:.10g} "
+                       "side out move v_bx NULL NULL units box")
+        return out + [f"fix wblade all wall/gran/region granular {coeffs} region blade"]
 
     return bed_deck(data_file, params, engine=engine, steps=steps, dt=dt, _extra=extra,
                     **bed_kwargs)
