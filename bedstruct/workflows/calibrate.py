@@ -1,0 +1,237 @@
+"""Calibrate the SJKR cohesion energy density against a target static angle of repose.
+
+A bracketing search (regula falsi with the Illinois modification) over
+replicate repose simulations: the angle is evaluated at the two ends of
+``calibrate.cohesion_bracket`` (the bracket widens geometrically until it
+contains the target), then at the secant crossing, keeping a bracket, until
+the mean angle is within ``tolerance_deg`` of the target or ``max_iter``
+evaluations were made. The calibrated value and its uncertainty come from a
+weighted straight-line fit of angle against cohesion through the points of
+the final bracket and the best point (inverse prediction with the delta
+method), so the noise of the replicate angles propagates into the answer.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigError
+from ._common import RunLayout, to_jsonable
+from .repose import ReposeResult, run_repose
+
+__all__ = ["CalibrationPoint", "CalibrationResult", "calibrate_cohesion", "inverse_linear"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class CalibrationPoint:
+    """One point of the angle-cohesion curve: cohesion (J/m^3), mean angle and uncertainty (deg)."""
+
+    cohesion: float
+    angle_deg: float
+    angle_std_deg: float
+    replicate_angles_deg: tuple
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """Calibrated SJKR cohesion energy density.
+
+    Attributes
+    ----------
+    cohesion : float, J/m^3
+        Cohesion at which the fitted angle equals the target.
+    cohesion_std : float, J/m^3
+        Its standard uncertainty (from the angle uncertainties of the
+        points and the slope of the fit).
+    target_deg : float
+    slope_deg_per_unit : float, degrees per J/m^3
+        Slope of the local angle-cohesion line.
+    converged : bool
+        A point within ``tolerance_deg`` of the target was found.
+    bracketed : bool
+        The target lay between two evaluated angles.
+    curve : tuple of CalibrationPoint
+        Every evaluated point, sorted by cohesion.
+    n_runs : int
+        Repose simulations run.
+    """
+
+    cohesion: float
+    cohesion_std: float
+    target_deg: float
+    slope_deg_per_unit: float
+    converged: bool
+    bracketed: bool
+    curve: tuple
+    n_runs: int
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary."""
+        return to_jsonable(self)
+
+
+def inverse_linear(x, y, sy, target: float) -> tuple[float, float, float]:
+    """Weighted straight line ``y = a + b x`` through points; return ``(x*, sigma_x*, b)`` at ``y = target``.
+
+    Parameters
+    ----------
+    x, y : (n,) array_like
+        Abscissae and ordinates (n >= 2).
+    sy : (n,) array_like
+        Standard uncertainties of ``y`` (non-positive or NaN values are
+        replaced by the mean of the valid ones, or 1).
+    target : float
+
+    Returns
+    -------
+    x_star, sigma_x_star, slope : float
+
+    Examples
+    --------
+    >>> xs, s, b = inverse_linear([0.0, 1.0], [10.0, 20.0], [1.0, 1.0], 15.0)
+    >>> round(xs, 6), round(s, 4), b
+    (0.5, 0.0707, 10.0)
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    sy = np.asarray(sy, dtype=float).copy()
+    good = np.isfinite(sy) & (sy > 0)
+    sy[~good] = float(sy[good].mean()) if good.any() else 1.0
+    if x.size < 2 or np.ptp(x) == 0:
+        raise ValueError("need at least two distinct abscissae")
+    xm = x.mean()
+    xs = (x - xm)
+    w = 1.0 / sy ** 2
+    A = np.c_[np.ones_like(xs), xs]
+    cov = np.linalg.inv(A.T @ (A * w[:, None]))
+    a, b = cov @ (A.T @ (w * y))
+    if b == 0:
+        return float("nan"), float("nan"), 0.0
+    xstar = (target - a) / b
+    # delta method: d x*/d a = -1/b, d x*/d b = -(target - a)/b^2
+    g = np.array([-1.0 / b, -(target - a) / b ** 2])
+    var = float(g @ cov @ g)
+    return float(xstar + xm), math.sqrt(max(var, 0.0)), float(b)
+
+
+def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=None,
+                       replicates: int | None = None, max_iter: int | None = None,
+                       tolerance_deg: float | None = None, out=None,
+                       evaluate=None) -> CalibrationResult:
+    """Find the cohesion energy density whose repose angle matches ``target_deg``.
+
+    Parameters
+    ----------
+    cfg : dict
+        Configuration (sections ``repose`` and ``calibrate``).
+    target_deg, bracket, replicates, max_iter, tolerance_deg : optional
+        Override the ``calibrate`` section (bracket: ``(low, high)`` J/m^3).
+    out : path, optional
+        Run directory: each evaluation goes into ``k<value>/``; the
+        calibration is written to ``results.json``.
+    evaluate : callable, optional
+        ``evaluate(cohesion) -> (angle_deg, angle_std_deg, replicate_angles)``
+        replacing the simulation (for tests and other models).
+
+    Returns
+    -------
+    CalibrationResult
+
+    Examples
+    --------
+    A linear model with angle 20 + 1e-6 k reaches 33 deg at k = 1.3e7:
+
+    >>> cfg = load_config(preset="tiny")
+    >>> res = calibrate_cohesion(cfg, target_deg=33.0, bracket=(1e6, 5e6), max_iter=8,
+    ...                          evaluate=lambda k: (20 + 1e-6 * k, 0.5, ()))
+    >>> round(res.cohesion / 1e7, 3), res.bracketed, res.converged
+    (1.3, True, True)
+    """
+    cc = cfg["calibrate"]
+    target = float(cc["target_deg"] if target_deg is None else target_deg)
+    lo, hi = (float(v) for v in (cc["cohesion_bracket"] if bracket is None else bracket))
+    if not 0 <= lo < hi:
+        raise ConfigError(f"config key `calibrate.cohesion_bracket` must be 0 <= low < high; got {lo}, {hi}")
+    nrep = int(cc["replicates"] if replicates is None else replicates)
+    nmax = int(cc["max_iter"] if max_iter is None else max_iter)
+    tol = float(cc["tolerance_deg"] if tolerance_deg is None else tolerance_deg)
+    layout = RunLayout(out, cfg) if out is not None else None
+    pts: dict[float, CalibrationPoint] = {}
+    n_runs = 0
+
+    def ev(k):
+        nonlocal n_runs
+        if k in pts:
+            return pts[k]
+        if evaluate is not None:
+            a, s, reps = evaluate(k)
+        else:
+            sub = None if layout is None else layout.path / f"k{k:.4g}"
+            r: ReposeResult = run_repose(cfg, cohesion=k, replicates=nrep, out=sub)
+            a, s, reps = r.angle_deg, r.angle_std_deg, tuple(x.angle_deg for x in r.replicates)
+            n_runs += len(r.replicates)
+        p = CalibrationPoint(float(k), float(a), float(s), tuple(float(v) for v in reps))
+        pts[k] = p
+        log.info("calibrate: cohesion %.4g -> %.2f +- %.2f deg", k, a, s)
+        return p
+
+    p_lo, p_hi = ev(lo), ev(hi)
+    it = 2
+    # widen until bracketed (angle assumed to rise with cohesion)
+    while it < nmax + 2 and not (p_lo.angle_deg <= target <= p_hi.angle_deg):
+        if p_hi.angle_deg < target:
+            lo, p_lo = hi, p_hi
+            hi = hi * 1.5
+            p_hi = ev(hi)
+        else:
+            hi, p_hi = lo, p_lo
+            lo = lo / 1.5
+            p_lo = ev(lo)
+        it += 1
+    bracketed = p_lo.angle_deg <= target <= p_hi.angle_deg
+    side = 0
+    best = min(pts.values(), key=lambda p: abs(p.angle_deg - target))
+    while bracketed and it < nmax + 2 and abs(best.angle_deg - target) > tol:
+        f_lo, f_hi = p_lo.angle_deg - target, p_hi.angle_deg - target
+        if side == -1:
+            f_hi *= 0.5
+        elif side == 1:
+            f_lo *= 0.5
+        k = lo - f_lo * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+        k = float(min(max(k, lo + 0.05 * (hi - lo)), hi - 0.05 * (hi - lo)))
+        p = ev(k)
+        it += 1
+        if p.angle_deg < target:
+            lo, p_lo = k, p
+            side = 1
+        else:
+            hi, p_hi = k, p
+            side = -1
+        best = min(pts.values(), key=lambda q: abs(q.angle_deg - target))
+    use = {p_lo.cohesion: p_lo, p_hi.cohesion: p_hi, best.cohesion: best}
+    xs = [p.cohesion for p in use.values()]
+    try:
+        if len(set(xs)) < 2:
+            raise ValueError("one point")
+        kstar, sk, slope = inverse_linear(xs, [p.angle_deg for p in use.values()],
+                                          [p.angle_std_deg for p in use.values()], target)
+    except (ValueError, np.linalg.LinAlgError):
+        kstar, sk, slope = best.cohesion, float("nan"), float("nan")
+    if not bracketed:
+        log.warning("calibrate: target %.2f deg not bracketed by the angles found", target)
+    res = CalibrationResult(cohesion=float(kstar), cohesion_std=float(sk), target_deg=target,
+                            slope_deg_per_unit=float(slope),
+                            converged=bool(abs(best.angle_deg - target) <= tol), bracketed=bracketed,
+                            curve=tuple(sorted(pts.values(), key=lambda p: p.cohesion)), n_runs=n_runs)
+    if layout is not None:
+        layout.write_results({"workflow": "calibrate", **res.to_dict()})
+    return res
+
+
+from .config import load_config  # noqa: E402  (doctest namespace)

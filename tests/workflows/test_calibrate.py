@@ -1,0 +1,49 @@
+import math
+
+import numpy as np
+import pytest
+
+from bedstruct.workflows import calibrate_cohesion, inverse_linear, load_config
+
+
+def test_inverse_linear_against_numpy():
+    rng = np.random.default_rng(3)
+    x = np.array([1.0, 2.0, 3.0, 4.0])
+    y = 10 + 2 * x + rng.normal(0, 0.1, 4)
+    xs, sx, b = inverse_linear(x, y, np.full(4, 0.1), 15.0)
+    bb, aa = np.polyfit(x, y, 1)
+    assert b == pytest.approx(bb)
+    assert xs == pytest.approx((15.0 - aa) / bb)
+    assert 0 < sx < 0.2
+
+
+def test_bracketing_finds_a_nonlinear_root():
+    cfg = load_config(preset="tiny")
+    calls = []
+
+    def model(k):   # saturating angle-cohesion curve, noise-free
+        calls.append(k)
+        return 20 + 20 * (1 - math.exp(-k / 1e4)), 0.3, ()
+    res = calibrate_cohesion(cfg, target_deg=33.0, bracket=(1e3, 5e3), max_iter=12,
+                             tolerance_deg=0.05, evaluate=model)
+    exact = -1e4 * math.log(1 - 13 / 20)
+    assert res.bracketed and res.converged
+    assert res.cohesion == pytest.approx(exact, rel=0.02)
+    assert 0 < res.cohesion_std < 0.1 * exact
+    ks = [p.cohesion for p in res.curve]
+    assert ks == sorted(ks) and len(ks) == len(set(calls))
+
+
+def test_unbracketed_target_is_reported():
+    cfg = load_config(preset="tiny")
+    res = calibrate_cohesion(cfg, target_deg=80.0, bracket=(1e3, 2e3), max_iter=2,
+                             evaluate=lambda k: (20 + 1e-3 * k, 0.5, ()))
+    assert not res.bracketed and not res.converged
+
+
+@pytest.mark.slow
+def test_calibration_on_tiny_repose(tmp_path):
+    cfg = load_config(preset="tiny", overrides=["calibrate.replicates=2"])
+    res = calibrate_cohesion(cfg, target_deg=26.0, bracket=(0.0, 8e3), max_iter=3, out=tmp_path)
+    assert res.n_runs >= 4
+    assert (tmp_path / "results.json").is_file()

@@ -1,0 +1,74 @@
+"""Multi-layer spreading at tiny scale: bed heights, conservation, dumps, dynamic angle."""
+
+import json
+
+import numpy as np
+import pytest
+
+from bedstruct.io import read_dump, read_dump_local
+from bedstruct.workflows import CONTACT_KEYWORDS
+
+
+def test_particles_conserved(tiny_spread):
+    _, res, _ = tiny_spread
+    inserted = 0
+    for layer in res.layers:
+        inserted += layer.n_inserted
+        assert layer.n_inserted == res.n_pile
+        # every inserted particle is in the bed, beyond the platform, or was removed
+        assert inserted == layer.n_bed + layer.n_heap + layer.n_removed
+    assert inserted == res.n_inserted_total
+
+
+def test_bed_height_follows_the_gaps(tiny_spread):
+    cfg, res, _ = tiny_spread
+    gaps = cfg["spread"]["gaps"]
+    h = res.bed_height_m
+    nominal = np.cumsum(gaps)
+    assert [la.nominal_height for la in res.layers] == pytest.approx(nominal)
+    # a bed of a few particle diameters: the mean top surface lies below the blade, but
+    # not far (the blade scrapes at the nominal height, the loose bed settles)
+    for hk, nk in zip(h, nominal):
+        assert 0.4 * nk < hk < 1.1 * nk
+    # the second layer adds roughly its gap on top of the first
+    assert h[1] - h[0] > 0.4 * gaps[1]
+
+
+def test_bed_metrics_are_physical(tiny_spread):
+    _, res, _ = tiny_spread
+    assert res.regions == ("start", "centre", "end")
+    for layer in res.layers:
+        assert len(layer.packing_fraction) == 3
+        assert all(0.15 < f < 0.7 for f in layer.packing_fraction)
+        assert all(0.5 < c < 8 for c in layer.coordination)
+        assert all(np.isfinite(a) and a >= 0 for a in layer.fabric_anisotropy)
+        ok = np.isfinite(layer.dynamic_angle_deg)
+        assert ok.any()
+        assert 3 < layer.mean_dynamic_angle_deg < 85
+        # the blade moves forwards between frames
+        assert np.all(np.diff(layer.blade_positions) > 0)
+    assert len(res.layers[0].mean_cn_series) == len(res.layers[0].blade_positions)
+
+
+def test_run_directory_and_dumps(tiny_spread):
+    cfg, res, out = tiny_spread
+    data = json.loads((out / "results.json").read_text())
+    assert data["workflow"] == "spread"
+    assert data["bed_height_m"] == pytest.approx(list(res.bed_height_m))
+    assert len(data["packing_fraction"]) == len(cfg["spread"]["gaps"])
+    layer = out / "layer01"
+    frames = read_dump(layer / "frames.dump.gz")
+    assert len(frames) == cfg["spread"]["n_frames"]
+    bed = read_dump(layer / "bed.dump.gz")[0]
+    assert bed.n_particles == res.layers[0].n_bed
+    cts = read_dump_local(layer / "contacts.dump.gz", keywords=CONTACT_KEYWORDS, frames=list(frames))
+    assert len(cts) == len(frames)
+    c = cts[frames[-1].timestep]
+    assert c.n_contacts > 0 and c.force_normal is not None
+    walls = [json.loads(s) for s in (layer / "walls.jsonl").read_text().splitlines()]
+    tool = [w for w in walls if w["name"] == "tool"]
+    assert len(tool) == len(frames)
+    assert tool[-1]["origin"][0] > tool[0]["origin"][0]
+    plat = [w for w in walls if w["name"] == "platform"]
+    assert plat[0]["origin"][2] == pytest.approx(-cfg["spread"]["gaps"][0], rel=0.05)
+    assert (out / "pile" / "pile.dump.gz").is_file()
