@@ -117,7 +117,7 @@ class _Columns:
 
 
 class _Planned:
-    """Columns parsed straight into their final arrays (see :func:`_fast_columns`)."""
+    """Columns parsed straight into their final arrays (see :func:`_stream_columns`)."""
 
     def __init__(self, flat, slots, n, order, ids):
         self.flat = flat
@@ -132,7 +132,6 @@ class _Planned:
         if self.in_order:
             return
         n = self.n
-        out = np.empty_like(self.flat)
         for key, v in self.slots.items():
             if isinstance(key, tuple):
                 b, w = v, 3
@@ -140,9 +139,8 @@ class _Planned:
                 b, w = v[0], 1
             else:
                 continue
-            np.take(self.flat[b:b + w * n].reshape(n, w), self.order, axis=0,
-                    out=out[b:b + w * n].reshape(n, w))
-        self.flat = out
+            block = self.flat[b:b + w * n].reshape(n, w)
+            np.copyto(block, np.take(block, self.order, axis=0))  # one block-sized temporary
         self.in_order = True
 
     def take(self, ks) -> np.ndarray:
@@ -165,24 +163,12 @@ def _triples(names):
     return [tuple(idx[c] for c in t) for t in groups if all(c in idx for c in t)]
 
 
-def _fast_columns(buf, raw: RawFrame, sort_by_id: bool):
-    """Parse the data block of a clean frame into final arrays in one pass.
+_STREAM_CHUNK = 1 << 21  # 2 MiB of text per parse call keeps the peak memory low
 
-    Returns a :class:`_Planned` provider, or None when anything is irregular
-    (wrong counts, tokens for the general parser, non-integer ids); the caller
-    then takes the general path, which reports problems precisely.
-    """
-    from ._kernels import parse_rows
-    from ._text import line_bounds
 
-    n, names = raw.n, raw.names
+def _plan(names, n):
+    """Flat layout of the output arrays: (base, stride) per column, (N, 3) triples."""
     ncols = len(names)
-    if n == 0:
-        return None
-    body, starts, ends, _ = line_bounds(buf, raw.body_offset)
-    if starts.size != n:
-        return None
-    status = np.empty(n, dtype=np.int8)
     base = np.empty(ncols, dtype=np.int64)
     stride = np.empty(ncols, dtype=np.int64)
     slots = {}
@@ -202,10 +188,101 @@ def _fast_columns(buf, raw: RawFrame, sort_by_id: bool):
             base[k], stride[k] = pos, 1
             slots[k] = (pos, 1)
             pos += n
-    flat = np.empty(pos, dtype=np.float64)
-    dest = np.arange(n, dtype=np.int64)  # rows in file order: sequential writes are fastest
-    parse_rows(body, starts, ends, ncols, flat, base, stride, dest, status)
-    if status.any():
+    return base, stride, slots, pos
+
+
+def _parse_piece(piece: bytes, final: bool, row0: int, n: int, ncols: int, flat, base,
+                 stride) -> int:
+    """Parse the whole lines of ``piece`` as rows ``row0...`` into ``flat``.
+
+    Returns the number of rows, or -1 when anything is irregular.
+    """
+    from ._kernels import parse_rows
+
+    end = len(piece)
+    if final:
+        while end > 0 and piece[end - 1] <= 32:
+            end -= 1
+    arr = np.frombuffer(piece, dtype=np.uint8)[:end]
+    if arr.size == 0:
+        return 0
+    nl = np.flatnonzero(arr == 10)
+    if final:
+        ends = np.append(nl, arr.size).astype(np.int64)
+    else:
+        ends = nl.astype(np.int64)
+    starts = np.empty_like(ends)
+    starts[0] = 0
+    starts[1:] = ends[:-1] + 1
+    k = starts.size
+    if row0 + k > n:
+        return -1
+    status = np.empty(k, dtype=np.int8)
+    rows = np.arange(row0, row0 + k, dtype=np.int64)
+    parse_rows(arr, starts, ends, ncols, flat, base, stride, rows, status)
+    if (status == 1).any():
+        return -1
+    slow = np.flatnonzero(status == 2)
+    if slow.size > max(64, k // 20):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            vals = np.fromstring(bytes(piece[:end]), dtype=np.float64, sep=" ")
+        if vals.size != k * ncols:
+            return -1
+        vals = vals.reshape(k, ncols)
+        for c in range(ncols):
+            flat[base[c] + rows * stride[c]] = vals[:, c]
+    else:
+        for r in slow.tolist():
+            tokens = piece[starts[r]:ends[r]].split()
+            try:
+                values = [float(t) for t in tokens]
+            except ValueError:
+                return -1
+            if len(values) != ncols:
+                return -1
+            flat[base + (row0 + r) * stride] = values
+    return k
+
+
+def _stream_columns(source, pos: int, end: int, first: bytes, raw: RawFrame, sort_by_id: bool):
+    """Parse a frame's data block into final arrays, reading it in small pieces.
+
+    ``first`` holds the start of the block (read with the header) and ``pos`` is
+    the stream offset right after it. Returns a :class:`_Planned` provider, or
+    None when anything is irregular (wrong counts, bad tokens, non-integer ids);
+    the caller then takes the general path, which reports problems precisely.
+    """
+    n, names = raw.n, raw.names
+    ncols = len(names)
+    base, stride, slots, size = _plan(names, n)
+    flat = np.empty(size, dtype=np.float64)
+    row = 0
+    carry = first
+    while True:
+        final = pos >= end
+        if not final:
+            chunk = source.read_range(pos, min(_STREAM_CHUNK, end - pos))
+            if not chunk:
+                return None
+            pos += len(chunk)
+            carry = carry + chunk if carry else chunk
+            del chunk
+            final = pos >= end
+        if final:
+            piece, carry = carry, b""
+        else:
+            cut = carry.rfind(b"\n") + 1
+            if cut == 0:
+                continue
+            piece, carry = carry[:cut], carry[cut:]
+        k = _parse_piece(piece, final, row, n, ncols, flat, base, stride)
+        if k < 0:
+            return None
+        row += k
+        if final:
+            break
+    if row != n:
         return None
     order = None
     ids = None
@@ -490,23 +567,37 @@ class DumpTrajectory(Trajectory):
 
     def _read_frame(self, index: int) -> Frame:
         e = self._entries[index]
-        planned = None
         if e.kind == "text":
-            buf = e.file.source.read_range(e.start, e.end - e.start)
-            raw = parse_text_frame(buf, path=e.file.path, line0=e.line, at_eof=e.at_eof,
-                                   file_ends_with_newline=e.file.ends_with_newline,
-                                   header_only=True, ncols_override=self._columns)
-            if raw.kind == "ATOMS":
-                planned = _fast_columns(buf, raw, self._opts["sort_by_id"])
-            del buf
-            if planned is not None:
-                planned.sort()
-                raw._rows = self._row_reader(e, raw.data_line)
-        if planned is None:
-            raw = self._raw(index)
+            frame = self._read_text_fast(e)
+            if frame is not None:
+                return frame
+        raw = self._raw(index)  # general path: exact error messages, rare tokens
         if raw.kind != "ATOMS":
             raise DumpFormatError("this is a 'dump local' file (ITEM: ENTRIES); read it with "
                                   "read_dump_local", path=raw.path, line=raw.header_line)
+        return frame_from_raw(raw, frame_index=e.index, **self._opts)
+
+    def _read_text_fast(self, e):
+        """A clean text frame read in pieces straight into its arrays, else None."""
+        total = e.end - e.start
+        head = e.file.source.read_range(e.start, min(total, 1 << 16))
+        try:
+            raw = parse_text_frame(head, path=e.file.path, line0=e.line,
+                                   at_eof=e.at_eof and len(head) == total,
+                                   file_ends_with_newline=e.file.ends_with_newline,
+                                   header_only=True, ncols_override=self._columns)
+        except DumpFormatError:
+            return None
+        if raw.kind != "ATOMS" or raw.n == 0:
+            return None
+        first = head[raw.body_offset:]
+        del head
+        planned = _stream_columns(e.file.source, e.start + raw.body_offset + len(first), e.end,
+                                  first, raw, self._opts["sort_by_id"])
+        if planned is None:
+            return None
+        planned.sort()
+        raw._rows = self._row_reader(e, raw.data_line)
         return frame_from_raw(raw, frame_index=e.index, planned=planned, **self._opts)
 
     def header(self, index: int) -> RawFrame:
