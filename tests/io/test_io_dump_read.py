@@ -194,10 +194,14 @@ def test_top_level_names():
         assert name in bedstruct.io.__all__
 
 
-def test_fast_path_equals_general_path(tmp_path):
-    """The one-pass scatter parser and the general parser give identical frames."""
+@pytest.mark.parametrize("chunk,slow_rows", [(37, 0), (1000, 3), (1000, 400), (1 << 21, 0)])
+def test_fast_path_equals_general_path(tmp_path, monkeypatch, chunk, slow_rows):
+    """The streaming one-pass parser and the general parser give identical frames,
+    wherever the pieces end and however many tokens need the general number parser."""
+    from bedstruct.io import lammps_dump
     from bedstruct.io._text import parse_text_frame
     from bedstruct.io.lammps_dump import frame_from_raw
+    monkeypatch.setattr(lammps_dump, "_STREAM_CHUNK", chunk)
     rng = np.random.default_rng(3)
     n = 500
     cols = "id type x y z xu yu zu ix iy iz vx vy vz omegax omegay omegaz fx fy fz radius c_a f_b[2]"
@@ -205,12 +209,18 @@ def test_fast_path_equals_general_path(tmp_path):
                             rng.uniform(0, 10, (n, 6)).round(6), rng.integers(-2, 3, (n, 3)),
                             rng.normal(size=(n, 9)).round(7), rng.uniform(0.1, 0.3, n).round(4),
                             rng.normal(size=(n, 2)).round(3)])
+    data[:slow_rows, -1] = rng.normal(size=slow_rows)        # 17-digit round-trip reprs
+    data[:slow_rows:2, -2] = np.nan
     lines = [" ".join(("%d" if k in (0, 1, 8, 9, 10) else "%r") % v for k, v in enumerate(row))
              for row in data.tolist()]
     text = ("ITEM: TIMESTEP\n3\nITEM: NUMBER OF ATOMS\n%d\nITEM: BOX BOUNDS pp pp ff\n0 10\n0 10\n"
             "0 10\nITEM: ATOMS %s\n" % (n, cols)) + "\n".join(lines) + "\n"
     p = tmp_path / "both.dump"
     p.write_text(text)
+    def general_path_used(*args, **kwargs):
+        raise AssertionError("the streaming parser fell back to the general path")
+
+    monkeypatch.setattr(lammps_dump.DumpTrajectory, "_raw", general_path_used)
     for sort in (True, False):
         fast = read_dump(p, sort_by_id=sort)[0]
         general = frame_from_raw(parse_text_frame(text.encode(), path=str(p)), sort_by_id=sort)
@@ -220,6 +230,9 @@ def test_fast_path_equals_general_path(tmp_path):
         assert fast.columns.keys() == general.columns.keys() == {"xu", "yu", "zu", "c_a", "f_b[2]"}
         for name in fast.columns:
             np.testing.assert_array_equal(fast.columns[name], general.columns[name])
+        if slow_rows:
+            order = np.argsort(data[:, 0]) if sort else np.arange(n)
+            np.testing.assert_array_equal(fast.columns["f_b[2]"], data[order, -1])
             assert fast.columns[name].flags.c_contiguous
         assert fast.positions.flags.c_contiguous and fast.velocities.flags.c_contiguous
     assert fast.ids.tolist() == data[:, 0].astype(int).tolist()  # file order when not sorting
