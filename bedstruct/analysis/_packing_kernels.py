@@ -3,13 +3,15 @@
 The volume of a ball of radius ``r`` inside a cuboid is integrated over one
 clipped axis ``t`` of the exact area of the disc of radius
 ``rho(t) = sqrt(r^2 - t^2)`` inside the rectangle spanned by the other two
-axes. The area has a closed form (below); its derivatives jump only where
-``rho`` equals the distance from the centre to an edge line or to a corner, so
-the integral is split at those points and each piece is integrated with
-Gauss-Legendre nodes after the substitution ``t = a + (b - a)(3u^2 - 2u^3)``,
-which turns the square-root behaviour at both ends of a piece into smooth
-functions of ``u``. With 16 nodes per piece the result is exact to ~1e-13
-relative (tested against adaptive quadrature and Monte Carlo).
+axes. The area has a closed form (below). The integral is taken over the polar
+angle, ``t = r sin(theta)``, ``rho = r cos(theta)``, which removes the
+square-root branch points of ``rho`` at the poles; the integrand's remaining
+kinks (``rho`` equal to the distance from the centre to an edge line or a
+corner) split the range, and each piece is integrated with Gauss-Legendre
+nodes after the substitution ``theta = a + (b - a)(3u^2 - 2u^3)`` (smooth at
+both ends), refined by adaptive bisection until the halves agree with the
+whole to 1e-13 r^3. Tested against adaptive quadrature, Monte Carlo,
+additivity under splitting and permutation of the integration axis.
 """
 
 from __future__ import annotations
@@ -119,10 +121,14 @@ def sphere_box_volume_one(cx, cy, cz, r, x0, x1, y0, y1, z0, z1, nodes, weights)
     va = max(va, -r)
     vb = min(vb, r)
     # breakpoints: rho(t) equal to edge distances and corner distances
+    # breakpoints in the polar angle theta (t = r sin theta, rho = r cos theta):
+    # rho equal to an edge or corner distance d <=> theta = +-acos(d / r)
     bp = np.empty(22)
     nb = 0
-    nb = _insert_sorted(bp, nb, ta)
-    nb = _insert_sorted(bp, nb, tb)
+    tha = math.asin(max(-1.0, min(1.0, ta / r)))
+    thb = math.asin(max(-1.0, min(1.0, tb / r)))
+    nb = _insert_sorted(bp, nb, tha)
+    nb = _insert_sorted(bp, nb, thb)
     cu = ua > -r or ub < r
     cv = va > -r or vb < r
     for k in range(4):
@@ -135,42 +141,68 @@ def sphere_box_volume_one(cx, cy, cz, r, x0, x1, y0, y1, z0, z1, nodes, weights)
         else:
             d = abs(vb) if cv and vb < r else -1.0
         if 0.0 <= d < r:
-            z = math.sqrt(r * r - d * d)
-            if ta < z < tb:
-                nb = _insert_sorted(bp, nb, z)
-            if ta < -z < tb:
-                nb = _insert_sorted(bp, nb, -z)
+            th = math.acos(d / r)
+            if tha < th < thb:
+                nb = _insert_sorted(bp, nb, th)
+            if tha < -th < thb:
+                nb = _insert_sorted(bp, nb, -th)
     if cu and cv:
         for p in range(2):
             uu = ua if p == 0 else ub
             for q in range(2):
                 vv = va if q == 0 else vb
-                d2 = uu * uu + vv * vv
-                if d2 < r * r:
-                    z = math.sqrt(r * r - d2)
-                    if ta < z < tb:
-                        nb = _insert_sorted(bp, nb, z)
-                    if ta < -z < tb:
-                        nb = _insert_sorted(bp, nb, -z)
+                dc = math.sqrt(uu * uu + vv * vv)
+                if dc < r:
+                    th = math.acos(dc / r)
+                    if tha < th < thb:
+                        nb = _insert_sorted(bp, nb, th)
+                    if tha < -th < thb:
+                        nb = _insert_sorted(bp, nb, -th)
     total = 0.0
-    m = nodes.shape[0]
+    scale = r * r * r
+    stack = np.empty((64, 2))
     for s in range(nb - 1):
-        a = bp[s]
-        b = bp[s + 1]
-        h = b - a
-        if h <= 0.0:
+        if bp[s + 1] <= bp[s]:
             continue
-        acc = 0.0
-        for q in range(m):
-            u = nodes[q]
-            t = a + h * (3.0 * u * u - 2.0 * u * u * u)
-            jac = 6.0 * u * (1.0 - u)
-            rho2 = r * r - t * t
-            if rho2 <= 0.0:
-                continue
-            acc += weights[q] * jac * _disc_rect(ua, ub, va, vb, math.sqrt(rho2))
-        total += acc * h
+        # adaptive bisection: accept a piece when its two halves agree with it
+        top = 0
+        stack[0, 0] = bp[s]
+        stack[0, 1] = bp[s + 1]
+        top = 1
+        while top > 0:
+            top -= 1
+            a = stack[top, 0]
+            b = stack[top, 1]
+            m = 0.5 * (a + b)
+            whole = _piece(a, b, r, ua, ub, va, vb, nodes, weights)
+            left = _piece(a, m, r, ua, ub, va, vb, nodes, weights)
+            right = _piece(m, b, r, ua, ub, va, vb, nodes, weights)
+            if abs(left + right - whole) <= 1e-13 * scale or top >= 62 or b - a < 1e-12:
+                total += left + right
+            else:
+                stack[top, 0] = a
+                stack[top, 1] = m
+                stack[top + 1, 0] = m
+                stack[top + 1, 1] = b
+                top += 2
     return total
+
+
+@njit
+def _piece(a, b, r, ua, ub, va, vb, nodes, weights):
+    """Gauss-Legendre integral over theta in [a, b] of A(r cos theta) r cos theta, with the
+    end-smoothing substitution theta = a + (b - a)(3u^2 - 2u^3)."""
+    h = b - a
+    acc = 0.0
+    for q in range(nodes.shape[0]):
+        u = nodes[q]
+        th = a + h * (3.0 * u * u - 2.0 * u * u * u)
+        jac = 6.0 * u * (1.0 - u)
+        rho = r * math.cos(th)
+        if rho <= 0.0:
+            continue
+        acc += weights[q] * jac * rho * _disc_rect(ua, ub, va, vb, rho)
+    return acc * h
 
 
 @njit

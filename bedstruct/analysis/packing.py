@@ -19,7 +19,7 @@ __all__ = ["PackingResult", "PackingProfile", "PackingGrid", "packing_fraction",
            "packing_fractions", "packing_along", "packing_sliding", "packing_grid",
            "layer_packing", "bed_bounds", "bed_windows", "sphere_box_volume", "packing_table"]
 
-_N_NODES = 24
+_N_NODES = 16
 
 
 def _gauss(n=_N_NODES):
@@ -186,10 +186,11 @@ def sphere_box_volume(centres, radii, lower, upper) -> np.ndarray:
     -----
     The volume is :math:`\\int A(t)\\,dt` of the closed-form area :math:`A`
     of the disc of radius :math:`\\sqrt{r^2 - t^2}` inside the cross-section
-    rectangle, split where the disc meets an edge or corner and integrated by
-    Gauss-Legendre after a smoothing substitution (relative error below
-    1e-11; see ``_packing_kernels``). Spheres cut by one plane pair use the
-    exact cap formula.
+    rectangle, integrated over the polar angle :math:`t = r \\sin\\theta`, split
+    where the disc meets an edge or corner, by Gauss-Legendre after a
+    smoothing substitution with adaptive bisection (error below
+    :math:`10^{-12} r^3`; see ``_packing_kernels``). Spheres cut by one plane
+    pair use the exact cap formula.
 
     Examples
     --------

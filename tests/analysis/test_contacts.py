@@ -291,3 +291,21 @@ def test_real_liggghts_frame(realdata):
     assert np.all(c.overlap < 0.2 * frame.radii.max())   # DEM overlaps are small
     res = coordination(frame, c)
     assert res.mean == pytest.approx(2 * c.n_contacts / frame.n_particles)
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.sampled_from(["pp", "ff"]), min_size=3, max_size=3),
+       st.lists(st.floats(-0.45, 0.45), min_size=3, max_size=3),
+       st.lists(st.floats(1.0, 6.0), min_size=3, max_size=3),
+       st.integers(1, 60), st.integers(0, 2**31 - 1), st.floats(0.0, 0.3))
+def test_random_boxes_match_brute_force(flags, tilt_frac, lengths, n, seed, tol):
+    """Random orthogonal/triclinic boxes (LAMMPS tilt limits), sizes and tolerances."""
+    lx, ly, lz = lengths
+    tilt = [tilt_frac[0] * lx, tilt_frac[1] * lx, tilt_frac[2] * ly]
+    box = Box([0, 0, 0], lengths, tilt=tilt, boundary=flags)
+    rng = np.random.default_rng(seed)
+    frame = random_frame(box, n, rng, rmin=0.1, rmax=0.7)
+    assert rows(find_contacts(frame, tolerance=tol)) == brute_force(frame, tol, max_image=8)

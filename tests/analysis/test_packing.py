@@ -188,3 +188,26 @@ def test_errors(sc_frame):
         packing_fraction(sc_frame, 3.0)
     with pytest.raises(ValueError, match="exceeds"):
         packing_sliding(sc_frame, 10.0)
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+coord = st.floats(-1.5, 1.5, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(coord, min_size=3, max_size=3), st.floats(0.2, 1.5), st.lists(coord, min_size=3, max_size=3),
+       st.lists(st.floats(0.05, 2.0), min_size=3, max_size=3), st.integers(0, 2), st.floats(0.01, 0.99))
+def test_volume_is_additive(c, r, lo, size, axis, frac):
+    """Splitting a cuboid in two along any axis splits the sphere's volume exactly."""
+    lo = np.array(lo)
+    hi = lo + np.array(size)
+    cut = lo[axis] + frac * (hi[axis] - lo[axis])
+    hi1 = hi.copy()
+    hi1[axis] = cut
+    lo2 = lo.copy()
+    lo2[axis] = cut
+    whole = sphere_box_volume([c], [r], lo, hi)[0]
+    parts = sphere_box_volume([c], [r], lo, hi1)[0] + sphere_box_volume([c], [r], lo2, hi)[0]
+    assert parts == pytest.approx(whole, abs=1e-11 * r ** 3)
+    assert -1e-15 <= whole <= min(BALL * r ** 3, np.prod(size)) * (1 + 1e-12)
