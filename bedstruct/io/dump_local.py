@@ -374,6 +374,18 @@ def write_dump_local(path, frame: Frame, contacts: Contacts, *, append=False,
     -------
     tuple of str
         The keywords written; pass them to :func:`read_dump_local`.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from bedstruct import Contacts, Frame, write_dump_local
+    >>> frame = Frame([[0.5, 0.5, 0.5], [1.4, 0.5, 0.5]], [0.5, 0.5], box=[2, 1, 1])
+    >>> c = Contacts(i=[0], j=[1], branch=[[0.9, 0, 0]], radii_i=[0.5], radii_j=[0.5],
+    ...              n_particles=2)
+    >>> write_dump_local(os.path.join(tempfile.mkdtemp(), "pairs.local"), frame, c)
+    ('pos', 'id', 'contactArea')
+
+    .. versionadded:: 0.1
     """
     if not isinstance(frame, Frame) or not isinstance(contacts, Contacts):
         raise TypeError("write_dump_local(path, frame, contacts) needs a Frame and a Contacts")

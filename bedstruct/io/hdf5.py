@@ -206,6 +206,8 @@ def save_hdf5(path, frames, contacts=None, results=None) -> None:
     >>> stored = load_hdf5(path)
     >>> len(stored.frames), stored.results["phi"]
     (1, 0.52)
+
+    .. versionadded:: 0.1
     """
     import h5py
 
@@ -261,6 +263,18 @@ def load_hdf5(path) -> HDF5Contents:
     ------
     ValueError
         If the file is not a bedstruct HDF5 file.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from bedstruct import Frame, load_hdf5, save_hdf5
+    >>> path = os.path.join(tempfile.mkdtemp(), "bed.h5")
+    >>> save_hdf5(path, [Frame([[0.5, 0.5, 0.5]], [0.5], box=[1, 1, 1], timestep=t)
+    ...                  for t in (0, 10)])
+    >>> load_hdf5(path).frames.timesteps.tolist()
+    [0, 10]
+
+    .. versionadded:: 0.1
     """
     import h5py
 

@@ -85,6 +85,16 @@ def from_universe(universe, *, radius=None, boundary=None) -> Frame:
     -------
     Frame
         Positions in float64 (from MDAnalysis' float32), rows sorted by id.
+
+    Examples
+    --------
+    >>> from bedstruct import Frame, from_universe, to_universe
+    >>> u = to_universe(Frame([[1.0, 2.0, 3.0]], [0.5], box=[4, 4, 4], timestep=7))
+    >>> f = from_universe(u)
+    >>> f.timestep, f.positions.tolist(), f.radii.tolist()
+    (7, [[1.0, 2.0, 3.0]], [0.5])
+
+    .. versionadded:: 0.1
     """
     atoms = universe.atoms
     u = atoms.universe

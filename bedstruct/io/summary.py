@@ -113,7 +113,23 @@ def summarise(path, radius=None) -> dict:
 
 
 def format_summary(summary: dict) -> str:
-    """Human-readable text of a :func:`summarise` result (one block)."""
+    """Human-readable text of a :func:`summarise` result (one block).
+
+    Examples
+    --------
+    >>> s = {"path": "dump.x", "format": "lammps-dump-text", "files": ["dump.x"],
+    ...      "n_frames": 2, "timesteps": [0, 100], "n_particles": [10, 12],
+    ...      "box": {"lo": [0, 0, 0], "hi": [1, 1, 1], "tilt": [0, 0, 0],
+    ...              "boundary": ["pp", "pp", "ff"], "periodic": [True, True, False]},
+    ...      "columns": ["id", "x", "y", "z", "radius"], "units": None, "notes": []}
+    >>> print(format_summary(s))
+    dump.x: lammps-dump-text
+      frames: 2 (timesteps 0 .. 100)
+      particles per frame: 10 .. 12 (first 10, last 12)
+      box: lo 0 0 0, hi 1 1 1, boundary pp pp ff
+      columns: id x y z radius
+      units: not stated
+    """
     s = summary
     lines = [f"{s['path']}: {s['format']}"]
     if len(s.get("files", [])) > 1:
