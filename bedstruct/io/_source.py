@@ -153,7 +153,7 @@ class TextScan:
     size: int = 0
     ends_with_newline: bool = True
     first_bytes: bytes = b""
-    tail: bytes | None = None   # text of the last frame (kept for compressed files)
+    tail: bytes | None = None   # text of the last frame
 
     def end(self, k: int) -> int:
         return self.starts[k + 1] if k + 1 < len(self.starts) else self.size
@@ -184,7 +184,7 @@ def scan_text(source: Source) -> TextScan:
         If the file does not start with an ``ITEM:`` line.
     """
     scan = TextScan(path=source.path)
-    keep_tail = source.compression is not None  # re-reading the end would decompress it all
+    keep_tail = True  # the last frame is checked for truncation without reading it again
     tail_parts: list = []
     carry = b""
     base = 0          # absolute offset of buf[0]
