@@ -236,3 +236,11 @@ def test_fast_path_equals_general_path(tmp_path, monkeypatch, chunk, slow_rows):
             assert fast.columns[name].flags.c_contiguous
         assert fast.positions.flags.c_contiguous and fast.velocities.flags.c_contiguous
     assert fast.ids.tolist() == data[:, 0].astype(int).tolist()  # file order when not sorting
+
+
+def test_crlf_line_endings_and_tabs(write, dump_text, good_rows):
+    text = dump_text([r.replace(" ", "\t") for r in good_rows], step=5)
+    p = write("crlf.dump", text.replace("\n", "\r\n").encode())
+    f = read_dump(p)[0]
+    assert f.timestep == 5 and f.ids.tolist() == [1, 2, 3]
+    assert f.positions.tolist() == [[4, 5, 6], [1, 2, 3], [7.5, 8.5, 9.5]]
