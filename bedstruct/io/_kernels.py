@@ -15,7 +15,7 @@ import numpy as np
 
 from .._numba import njit, njit_parallel, prange
 
-__all__ = ["parse_rows", "parse_column", "gather_rows", "POW10"]
+__all__ = ["parse_rows", "gather_rows", "POW10"]
 
 #: Exactly representable powers of ten, 1e0 .. 1e22.
 POW10 = np.array([10.0 ** k for k in range(23)], dtype=np.float64)
@@ -148,32 +148,6 @@ def parse_rows(buf, starts, ends, ncols, out, base, stride, dest, status):
     """
     for r in prange(starts.shape[0]):
         status[r] = _parse_line(buf, starts[r], ends[r], ncols, out, base, stride, dest[r], POW10)
-
-
-@njit_parallel
-def parse_column(buf, starts, ends, k, out, status):
-    """Parse only value ``k`` (0-based) of each line into ``out[r]``.
-
-    ``status[r]``: 0 exact, 1 the line has fewer values, 2 needs the general parser.
-    """
-    for r in prange(starts.shape[0]):
-        i = starts[r]
-        e = ends[r]
-        t = 0
-        status[r] = 1
-        while True:
-            while i < e and buf[i] <= 32:
-                i += 1
-            if i >= e:
-                break
-            if t == k:
-                v, i, ok = _number(buf, i, e, POW10)
-                out[r] = v
-                status[r] = 0 if ok else 2
-                break
-            while i < e and buf[i] > 32:
-                i += 1
-            t += 1
 
 
 @njit_parallel

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bedstruct.io._kernels import parse_column, parse_rows
+from bedstruct.io._kernels import parse_rows
 
 
 def parse(lines, ncols):
@@ -58,25 +58,19 @@ def test_counts_and_typical_dump_numbers():
     assert out[3].tolist() == [-0.0328584, 1e-05, 4.53791e-05]
 
 
-def test_scatter_layout_and_single_column():
+def test_scatter_layout():
+    """Columns go straight into separate (N,) and (N, 3) blocks, rows to any destination."""
     lines = ["3 1.5 2.5 3.5", "1 4.5 5.5 6.5", "2 7.5 8.5 9.5"]
     body = "\n".join(lines).encode()
     buf = np.frombuffer(body, dtype=np.uint8)
     nl = np.flatnonzero(buf == 10)
     ends = np.append(nl, buf.size).astype(np.int64)
     starts = np.concatenate([[0], nl + 1]).astype(np.int64)
-    ids = np.empty(3)
     st = np.empty(3, dtype=np.int8)
-    parse_column(buf, starts, ends, 0, ids, st)
-    assert ids.tolist() == [3, 1, 2] and st.tolist() == [0, 0, 0]
-    parse_column(buf, starts, ends, 4, ids, st)
-    assert st.tolist() == [1, 1, 1]
-    # ids into a (3,) slot, xyz into a (3, 3) slot, rows in id order
     flat = np.full(12, -1.0)
-    dest = ids.astype(np.int64) - 1
-    parse_column(buf, starts, ends, 0, ids, st)
-    dest = ids.astype(np.int64) - 1
+    dest = np.array([2, 0, 1])  # row r goes to position id - 1
     parse_rows(buf, starts, ends, 4, flat, np.array([0, 3, 4, 5]), np.array([1, 3, 3, 3]),
                dest, st)
+    assert st.tolist() == [0, 0, 0]
     assert flat[:3].tolist() == [1, 2, 3]
     assert flat[3:].reshape(3, 3).tolist() == [[4.5, 5.5, 6.5], [7.5, 8.5, 9.5], [1.5, 2.5, 3.5]]
