@@ -22,7 +22,6 @@ __all__ = ["find_contacts", "Wall", "ContactMatch", "compare_contacts"]
 
 log = logging.getLogger(__name__)
 
-_SUBDIVIDE = 1
 _FACES = {"xlo": (0, 0), "xhi": (0, 1), "ylo": (1, 0), "yhi": (1, 1), "zlo": (2, 0), "zhi": (2, 1)}
 
 
@@ -262,7 +261,7 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
         raise ValueError(f"`tolerance` ({tol}) leaves no positive cutoff (2 r_max + tolerance)")
     pos, s = _prepare(frame)
     widths = _perpendicular_widths(box)
-    ncell, reach, cell = _cell_list(s, periodic, widths, cutoff, n, _SUBDIVIDE)
+    ncell, reach, cell = _cell_list(s, periodic, widths, cutoff, n)
     lin = (cell[:, 0] * ncell[1] + cell[:, 1]) * ncell[2] + cell[:, 2]
     order = np.argsort(lin, kind="stable")
     n_cells = int(np.prod(ncell))
