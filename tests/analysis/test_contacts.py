@@ -309,3 +309,23 @@ def test_random_boxes_match_brute_force(flags, tilt_frac, lengths, n, seed, tol)
     rng = np.random.default_rng(seed)
     frame = random_frame(box, n, rng, rmin=0.1, rmax=0.7)
     assert rows(find_contacts(frame, tolerance=tol)) == brute_force(frame, tol, max_image=8)
+
+
+@pytest.mark.parametrize("n", [20_000, pytest.param(400_000, marks=pytest.mark.slow)])
+def test_against_scipy_kdtree_at_scale(n):
+    """An independent neighbour search (scipy cKDTree, periodic x and y) on a larger bed."""
+    from scipy.spatial import cKDTree
+    rng = np.random.default_rng(n)
+    L = np.array([40.0, 30.0, 1e3]) * (n / 20_000) ** (1 / 3)
+    box = Box([0, 0, 0], [L[0], L[1], 12.0], boundary="pp pp ff")
+    pos = rng.uniform([0, 0, 0], [L[0], L[1], 12.0], (n, 3))
+    r = rng.uniform(0.25, 0.6, n)
+    c = find_contacts(Frame(pos, r, box=box))
+    tree = cKDTree(pos + [0, 0, L[2] / 4], boxsize=[L[0], L[1], L[2]])
+    pairs = tree.query_pairs(2 * r.max(), output_type="ndarray")
+    d = pos[pairs[:, 1]] - pos[pairs[:, 0]]
+    d[:, :2] -= L[:2] * np.round(d[:, :2] / L[:2])
+    ok = np.einsum("ij,ij->i", d, d) <= (r[pairs[:, 0]] + r[pairs[:, 1]]) ** 2
+    ref = np.sort(pairs[ok, 0] * n + pairs[ok, 1])
+    got = np.sort(np.minimum(c.i, c.j) * n + np.maximum(c.i, c.j))
+    assert got.size > n and np.array_equal(got, ref)
