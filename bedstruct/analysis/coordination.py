@@ -163,6 +163,8 @@ def coordination(frame, contacts: Contacts | None = None, *, tolerance: float = 
        temperature and zero applied stress", Phys. Rev. E 68, 011306 (2003),
        doi:10.1103/PhysRevE.68.011306.
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> import numpy as np

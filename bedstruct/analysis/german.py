@@ -131,6 +131,8 @@ def fit_german_law(f, cn, *, confidence: float = 0.95, weights=None) -> GermanFi
     Ordinary (or weighted) linear least squares on the design matrix
     ``[2, 11 f^2]``; intervals are ``estimate +- t_{(1+c)/2, n-2} * se``.
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> f = np.array([0.50, 0.55, 0.60, 0.62])

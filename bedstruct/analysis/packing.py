@@ -192,6 +192,8 @@ def sphere_box_volume(centres, radii, lower, upper) -> np.ndarray:
     :math:`10^{-12} r^3`; see ``_packing_kernels``). Spheres cut by one plane
     pair use the exact cap formula.
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> v = sphere_box_volume([[0, 0, 0], [0, 0, 1], [1, 1, 1]], [1, 1, 1], [-1, -1, -1], [1, 1, 1])
@@ -275,6 +277,8 @@ def packing_fraction(frame, window=None, *, exact_bounding_box: bool = False) ->
     .. math:: \\phi = \\frac{\\sum_i V(B_i \\cap W)}{|W|}
 
     where :math:`B_i` is ball :math:`i` and :math:`W` the window.
+
+    .. versionadded:: 0.1
 
     Examples
     --------

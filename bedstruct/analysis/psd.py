@@ -153,6 +153,8 @@ def particle_size_distribution(data, *, weighting: str = "volume", bins=40,
     -------
     PSDResult
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> r = np.array([1.0, 1.0, 1.0, 2.0])
@@ -456,6 +458,8 @@ def psd_from_percentiles(d10: float, d50: float, d90: float, bounds, *, weightin
     p = 0.1, 0.5, 0.9 (Levenberg-Marquardt from the closed-form untruncated
     fit). Number-weighted draws from volume-weighted percentiles use the
     number density :math:`q_0(d) \\propto q_3(d)/d^3`.
+
+    .. versionadded:: 0.1
 
     Examples
     --------

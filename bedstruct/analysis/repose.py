@@ -205,6 +205,8 @@ def angle_of_repose(frame, *, axis: int = 0, vertical: int = 2, spacing: float |
        Kendall's tau", J. Am. Stat. Assoc. 63 (1968) 1379-1389,
        doi:10.1080/01621459.1968.10480934.
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> import numpy as np
@@ -264,6 +266,8 @@ def dynamic_angle_of_repose(frame, blade_position: float, *, direction: int = 1,
         ``angle_deg`` is the angle of the heap's front flank (the flank on the
         side of travel, reported as ``right`` for ``direction=1`` and ``left``
         for ``-1``).
+
+    .. versionadded:: 0.1
 
     Examples
     --------

@@ -238,6 +238,8 @@ def segregation(frame, blade_position: float, *, direction: int = 1, axis: int =
     -------
     SegregationResult
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> from bedstruct import Frame

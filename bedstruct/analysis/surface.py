@@ -179,6 +179,8 @@ def surface_height_map(frame, *, spacing: float | None = None, probe_radius: flo
     over spheres whose grown footprint covers the node (:math:`\\rho_i` the
     lateral distance). Roughness follows ISO 25178-2.
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> from bedstruct import Frame
