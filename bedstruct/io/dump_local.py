@@ -349,12 +349,15 @@ def _contacts_from_raw(raw, keywords, columns, lookup) -> Contacts:
 
 
 def write_dump_local(path, frame: Frame, contacts: Contacts, *, append=False,
-                     compute_id: str = "pgl") -> tuple:
+                     compute_id: str | None = None) -> tuple:
     """Write contacts in the LIGGGHTS ``compute pair/gran/local`` layout.
 
     The columns are those of the keywords ``pos id force force_normal
-    force_tangential contactArea`` (forces only when ``contacts`` has them),
-    named ``c_<compute_id>[k]`` as LIGGGHTS does. Positions are the frame's,
+    force_tangential contactArea`` (forces only when ``contacts`` has them), in
+    the LIGGGHTS order. They are named by meaning (``x1 y1 z1 x2 y2 z2 id1 id2
+    periodic fx fy fz fnx ... area``), so :func:`read_dump_local` needs no
+    ``keywords`` for these files; with ``compute_id`` they are named
+    ``c_<compute_id>[k]`` as LIGGGHTS names them. Positions are the frame's,
     floats are written round-trip exact.
 
     Parameters
@@ -368,7 +371,8 @@ def write_dump_local(path, frame: Frame, contacts: Contacts, *, append=False,
     append : bool, optional
         Append a frame to an existing file.
     compute_id : str, optional
-        Compute id used in the column names.
+        Name the columns ``c_<compute_id>[1..k]`` (LIGGGHTS style) instead of
+        by meaning.
 
     Returns
     -------
@@ -406,7 +410,10 @@ def write_dump_local(path, frame: Frame, contacts: Contacts, *, append=False,
             arrays += [vecs[:, 0], vecs[:, 1], vecs[:, 2]]
     keywords.append("contactArea")
     arrays.append(np.asarray(contacts.contact_area, dtype=np.float64))
-    names = [f"c_{compute_id}[{k + 1}]" for k in range(len(arrays))]
+    if compute_id is None:
+        names = liggghts_local_columns(keywords, len(arrays))
+    else:
+        names = [f"c_{compute_id}[{k + 1}]" for k in range(len(arrays))]
     head = (f"ITEM: TIMESTEP\n{frame.timestep}\nITEM: NUMBER OF ENTRIES\n{contacts.n_contacts}\n"
             + _box_header(frame.box) + "ITEM: ENTRIES " + " ".join(names) + "\n")
     with _open_write(path, append) as fh:

@@ -178,6 +178,19 @@ def test_dump_local_round_trip(tmp_path, boundary):
     # keywords in any order describe the same fixed layout
     again = read_dump_local(path, keywords=list(reversed(kw)), frames=[frame])[frame.timestep]
     np.testing.assert_array_equal(again.force_normal, c.force_normal)
+    # the columns are named by meaning, so no keywords are needed for these files
+    plain = read_dump_local(path, frames=frame)[frame.timestep]
+    np.testing.assert_array_equal(plain.force_tangential, c.force_tangential)
+    np.testing.assert_array_equal(plain.area, c.contact_area)
+    # LIGGGHTS-style names need the keywords, and two frames append to one file
+    lig = tmp_path / "lig.dump"
+    write_dump_local(lig, frame, c, compute_id="pgl")
+    f2 = Frame(frame.positions, frame.radii, box=frame.box, timestep=50)
+    write_dump_local(lig, f2, c, compute_id="pgl", append=True)
+    assert "c_pgl[19]" in lig.read_text().splitlines()[8]
+    both = read_dump_local(lig, keywords=kw, frames=[frame, f2])
+    assert list(both) == [0, 50]
+    np.testing.assert_array_equal(both[50].branch, c.branch)
 
 
 def test_dump_local_total_force_is_split_along_the_branch(tmp_path, sc_frame):
@@ -188,9 +201,9 @@ def test_dump_local_total_force_is_split_along_the_branch(tmp_path, sc_frame):
     path = tmp_path / "f.dump"
     write_dump_local(path, sc_frame, c)
     # read only the total force (columns 10-12), as if only 'pos id force' had been dumped
-    cmap = {f"c_pgl[{k}]": v for k, v in zip(range(7, 13), ["id1", "id2", "periodic",
-                                                            "fx", "fy", "fz"])}
+    cmap = [None] * 6 + ["id1", "id2", "periodic", "fx", "fy", "fz"] + [f"u{k}" for k in range(7)]
     back = read_dump_local(path, columns=cmap, frames=sc_frame)[0]
+    assert "u0" in back.columns and "force" not in back.columns
     np.testing.assert_allclose(back.force_normal, c.force_normal, atol=1e-12)
     np.testing.assert_allclose(back.force_tangential, c.force_tangential, atol=1e-12)
 
@@ -217,8 +230,9 @@ def test_dump_local_bad_keywords_and_ids(tmp_path, sc_frame):
     write_dump_local(path, sc_frame, c)
     with pytest.raises(DumpFormatError, match="give 12 columns but the file has 19"):
         read_dump_local(path, keywords=["pos", "id", "force"], frames=sc_frame)
+    write_dump_local(tmp_path / "k2.dump", sc_frame, c, compute_id="x")
     with pytest.raises(DumpFormatError, match="keywords="):
-        read_dump_local(path, frames=sc_frame)
+        read_dump_local(tmp_path / "k2.dump", frames=sc_frame)
     fewer = sc_frame.select(np.arange(10))
     with pytest.raises(DumpFormatError, match="not in the atom frame") as info:
         read_dump_local(path, keywords=["pos", "id", "force", "force_normal",
