@@ -73,3 +73,16 @@ def test_windows_pipeline(random_bed):
     cn = coordination_by_window(random_bed, prof.lower, prof.upper)
     fit = fit_german_law(prof.fractions, cn.mean, weights=cn.n_particles)
     assert np.isfinite(fit.a) and fit.n_points == 4
+
+
+def test_plot_on_given_axes():
+    from matplotlib.figure import Figure
+    from bedstruct.plot import plot_german
+    f = np.array([0.5, 0.55, 0.6, 0.62])
+    fit = fit_german_law(f, german_cn(f, a=1.925, b=0.04545) + [0.01, -0.02, 0.0, 0.01])
+    fig = Figure()
+    ax, rax = fig.subplots(2, 1)
+    assert plot_german(fit, ax=ax, residual_ax=rax) is ax
+    assert len(ax.lines) == 3 and len(rax.lines) == 3            # zero line + two residual sets
+    np.testing.assert_allclose(rax.lines[1].get_ydata(), fit.residuals)
+    assert "a = 1.9" in ax.get_legend().get_texts()[2].get_text()

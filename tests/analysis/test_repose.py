@@ -112,3 +112,14 @@ def test_profile_statistic():
     f = Frame([[0.5, 0.5, 0.5], [0.5, 1.5, 1.5]], [0.5, 0.5], box=([0, 0, 0], [1, 2, 3]))
     x, h = free_surface_profile(f, spacing=0.5, statistic="max")
     assert np.allclose(h, 1.5 + math.sqrt(0.125))
+
+
+def test_plots():
+    from bedstruct.plot import plot_repose, plot_repose_series
+    f = wedge_pile(30.0, seed=7)
+    res = angle_of_repose(f, spacing=0.25)
+    fig, ax = plot_repose(res)
+    assert len(ax.lines) == 3 and "30." in ax.get_legend().get_texts()[1].get_text()
+    s = dynamic_repose_series([heap_frame(30.0, 20.0, 1)], [20.0], spacing=0.25)
+    fig, ax = plot_repose_series(s, time=[0.5])
+    assert ax.get_xlabel() == "time"

@@ -70,3 +70,14 @@ def test_heap_vs_bed_vs_initial():
     assert heap_mask(f, 6.0, direction=-1).sum() == back.heap.n_particles
     with pytest.raises(ValueError, match="direction"):
         heap_mask(f, 6.0, direction=0)
+
+
+def test_plots():
+    from bedstruct.plot import plot_psd, plot_psd_along_bed
+    f = graded_bed(0.5)
+    s = segregation(f, 25.0, initial=f.radii, n_windows=3)
+    fig, ax = plot_psd_along_bed(s)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels[0].startswith("bed start") and labels[-1].startswith("initial pile")
+    fig, ax = plot_psd([s.bed, s.heap], labels=["bed", "heap"], cumulative=True)
+    assert ax.lines[0].get_ydata()[-1] == pytest.approx(1.0)
