@@ -10,6 +10,8 @@ import pytest
 from bedstruct import read_dump
 from bedstruct.errors import BedstructWarning, DumpFormatError
 
+from _iohelpers import _dump_text_fixture, good_rows, write  # noqa: F401 (fixtures)
+
 # rows of the frame written by dump_text start at line 10 (9 header lines)
 FIRST_ROW = 10
 

@@ -13,6 +13,8 @@ import bedstruct
 from bedstruct import Box, Frame, read_dump, iter_frames, write_dump
 from bedstruct.errors import DumpFormatError
 
+from _iohelpers import _dump_text_fixture, good_rows, write  # noqa: F401 (fixtures)
+
 
 def test_basic_mapping_sorted_by_id(write, dump_text, good_rows):
     p = write("a.dump", dump_text(good_rows, step=42, flags="pp ff mm"))

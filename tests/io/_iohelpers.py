@@ -1,4 +1,9 @@
-"""Helpers for the io tests: small hand-written dump files."""
+"""Helpers and fixtures for the io tests: small hand-written dump files.
+
+Kept out of a ``conftest.py`` on purpose: several ``conftest`` modules in one
+tree shadow each other for ``from conftest import ...``. Test modules import
+the fixtures from here.
+"""
 
 from __future__ import annotations
 
