@@ -73,29 +73,34 @@ def compare_psd(reference: PSDResult, other: PSDResult) -> PSDComparison:
                          wasserstein_psd(reference, other))
 
 
-def segregation_index(frame, *, n_windows=(6, 1, 1), weighting: str = "volume",
-                      bounds=None, min_particles: int = 10) -> float:
+def segregation_index(frame, lower=None, upper=None, *, n_windows=(6, 1, 1),
+                      weighting: str = "volume", bounds=None, min_particles: int = 10) -> float:
     """Spread of the local mean size: relative standard deviation over windows.
 
     Parameters
     ----------
     frame : Frame
+    lower, upper : (K, 3) array_like of float, length, optional
+        Explicit windows (e.g. from :func:`bedstruct.analysis.bed_windows`);
+        particles count in a window by centre. Default: a regular grid of
+        ``n_windows`` over ``bounds``.
     n_windows : int or tuple of 3 int, optional
-        Windows along x, y, z of the bed region (an int splits x only).
+        Grid windows along x, y, z of the bed region (an int splits x only).
         Default 6 along the spreading direction.
     weighting : {"volume", "number"}, optional
         Mean diameter per window: number mean or D[4,3] (default volume).
     bounds : pair of (3,) array_like, optional
-        Region (default :func:`bedstruct.analysis.bed_bounds`).
+        Region of the grid (default :func:`bedstruct.analysis.bed_bounds`).
     min_particles : int, optional
         Windows with fewer particles are ignored.
 
     Returns
     -------
     float
-        :math:`S = \\sigma(\\bar d_w) / \\bar d`, the particle-count-weighted
-        standard deviation of the windows' mean diameters over the global
-        mean (0 for a perfectly mixed bed; NaN with fewer than 2 windows).
+        :math:`S = \\sigma_w(\\bar d_k) / \\mu_w(\\bar d_k)`, the coefficient of
+        variation of the windows' mean diameters :math:`\\bar d_k`, weighted by
+        their particle counts (0 for a perfectly mixed bed; NaN with fewer
+        than 2 usable windows).
 
     Examples
     --------
@@ -106,31 +111,50 @@ def segregation_index(frame, *, n_windows=(6, 1, 1), weighting: str = "volume",
     >>> graded = Frame(mixed.positions, np.where(x < 5, 0.2, 0.4), box=mixed.box)
     >>> segregation_index(mixed, n_windows=2) < 0.01 < segregation_index(graded, n_windows=2)
     True
+    >>> round(segregation_index(graded, [[0, 0, 0], [5, 0, 0]], [[5, 2, 2], [10, 2, 2]]), 3)
+    0.333
     """
     from .packing import bed_bounds
     frame = _as_frame(frame)
-    shape = (int(n_windows), 1, 1) if np.ndim(n_windows) == 0 else tuple(int(v) for v in n_windows)
-    lo, hi = bed_bounds(frame) if bounds is None else (np.asarray(bounds[0], float), np.asarray(bounds[1], float))
+    if weighting not in ("volume", "number"):
+        raise ValueError(f"`weighting` must be 'number' or 'volume'; got {weighting!r}")
     pos = frame.box.wrap(frame.positions)
     d = 2.0 * frame.radii
     w = d ** 3 if weighting == "volume" else np.ones_like(d)
-    idx = []
-    for k in range(3):
-        e = np.linspace(lo[k], hi[k], shape[k] + 1)
-        idx.append(np.clip(np.searchsorted(e, pos[:, k], side="right") - 1, 0, shape[k] - 1))
-    inside = np.all((pos >= lo) & (pos <= hi), axis=1)
-    lin = np.ravel_multi_index(tuple(i[inside] for i in idx), shape)
-    m = int(np.prod(shape))
-    cnt = np.bincount(lin, minlength=m)
-    sw = np.bincount(lin, weights=w[inside], minlength=m)
-    swd = np.bincount(lin, weights=(w * d)[inside], minlength=m)
+    if lower is not None or upper is not None:
+        lo = np.atleast_2d(np.asarray(lower, dtype=np.float64))
+        hi = np.atleast_2d(np.asarray(upper, dtype=np.float64))
+        if lo.shape != hi.shape or lo.shape[1:] != (3,):
+            raise ValueError(f"`lower` and `upper` must both have shape (K, 3); got {lo.shape}, {hi.shape}")
+        cnt = np.zeros(lo.shape[0])
+        sw = np.zeros(lo.shape[0])
+        swd = np.zeros(lo.shape[0])
+        for k in range(lo.shape[0]):
+            inside = np.all((pos >= lo[k]) & (pos < hi[k]), axis=1)
+            cnt[k] = inside.sum()
+            sw[k] = w[inside].sum()
+            swd[k] = (w * d)[inside].sum()
+    else:
+        shape = (int(n_windows), 1, 1) if np.ndim(n_windows) == 0 else tuple(int(v) for v in n_windows)
+        blo, bhi = bed_bounds(frame) if bounds is None else (np.asarray(bounds[0], float),
+                                                           np.asarray(bounds[1], float))
+        idx = []
+        for k in range(3):
+            e = np.linspace(blo[k], bhi[k], shape[k] + 1)
+            idx.append(np.clip(np.searchsorted(e, pos[:, k], side="right") - 1, 0, shape[k] - 1))
+        inside = np.all((pos >= blo) & (pos <= bhi), axis=1)
+        lin = np.ravel_multi_index(tuple(i[inside] for i in idx), shape)
+        m = int(np.prod(shape))
+        cnt = np.bincount(lin, minlength=m).astype(np.float64)
+        sw = np.bincount(lin, weights=w[inside], minlength=m)
+        swd = np.bincount(lin, weights=(w * d)[inside], minlength=m)
     ok = cnt >= min_particles
     if ok.sum() < 2:
         return float("nan")
     local = swd[ok] / sw[ok]
-    glob = swd[ok].sum() / sw[ok].sum()
-    var = np.average((local - glob) ** 2, weights=cnt[ok])
-    return float(np.sqrt(var) / glob)
+    mean = np.average(local, weights=cnt[ok])
+    var = np.average((local - mean) ** 2, weights=cnt[ok])
+    return float(np.sqrt(var) / mean)
 
 
 def heap_mask(frame, blade_position: float, *, direction: int = 1, axis: int = 0,

@@ -81,3 +81,15 @@ def test_plots():
     assert labels[0].startswith("bed start") and labels[-1].startswith("initial pile")
     fig, ax = plot_psd([s.bed, s.heap], labels=["bed", "heap"], cumulative=True)
     assert ax.lines[0].get_ydata()[-1] == pytest.approx(1.0)
+
+
+def test_index_value_and_explicit_windows():
+    # two windows of equal counts, mean diameters 0.4 and 0.8: CV = 0.2 / 0.6
+    x = np.linspace(0.5, 9.5, 200)
+    f = Frame(np.c_[x, np.ones(200), np.ones(200)], np.where(x < 5, 0.2, 0.4), box=([0, 0, 0], [10, 2, 2]))
+    lo, hi = [[0, 0, 0], [5, 0, 0]], [[5, 2, 2], [10, 2, 2]]
+    for w in ("number", "volume"):
+        assert segregation_index(f, lo, hi, weighting=w) == pytest.approx(1 / 3)
+        assert segregation_index(f, n_windows=2, weighting=w) == pytest.approx(1 / 3)
+    with pytest.raises(ValueError, match="weighting"):
+        segregation_index(f, weighting="mass")
