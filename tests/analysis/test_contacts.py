@@ -329,3 +329,16 @@ def test_against_scipy_kdtree_at_scale(n):
     ref = np.sort(pairs[ok, 0] * n + pairs[ok, 1])
     got = np.sort(np.minimum(c.i, c.j) * n + np.maximum(c.i, c.j))
     assert got.size > n and np.array_equal(got, ref)
+
+
+def test_many_partners_overflow_path():
+    """A big sphere touched by hundreds of small ones (more than the per-row buffer)."""
+    rng = np.random.default_rng(12)
+    u = rng.normal(size=(400, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    pos = np.vstack([[10.0, 10.0, 10.0], 10.0 + u * 5.25])
+    r = np.r_[5.0, rng.uniform(0.2, 0.35, 400)]
+    f = Frame(pos, r, box=Box([0, 0, 0], [20, 20, 20], boundary="pp pp ff"))
+    c = find_contacts(f)
+    assert rows(c) == brute_force(f, 0.0)
+    assert c.per_particle_count()[0] > 100
