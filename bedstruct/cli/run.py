@@ -50,7 +50,9 @@ def _summary(workflow, res) -> dict:
         return {"workflow": "calibrate", **res.to_dict()}
     d = res.to_dict()
     return {"workflow": "spread", "tool": d["tool"], "speed": d["speed"], "regions": d["regions"],
-            "bed_height_m": d["bed_height_m"], "packing_fraction": d["packing_fraction"],
+            "bed_height_m": d["bed_height_m"],
+            "bed_top_m": [layer["bed_top_m"] for layer in d["layers"]],
+            "packing_fraction": d["packing_fraction"],
             "mean_dynamic_angle_deg": d["mean_dynamic_angle_deg"],
             "coordination": [layer["coordination"] for layer in d["layers"]],
             "nominal_height_m": [layer["nominal_height"] for layer in d["layers"]],

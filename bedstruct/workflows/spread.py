@@ -49,7 +49,11 @@ class LayerResult:
         Cumulative gap: the tool height above the platform.
     bed_height_m : float, m
         Mean top-surface height of the bed above the platform (over the
-        platform, away from its ends).
+        platform, away from its ends; :func:`bedstruct.analysis.bed_height`).
+    bed_top_m : float, m
+        95th percentile of the top-surface height (the "top" of the bed).
+    bed_height_regions_m : (R,) tuple of float, m
+        Mean top-surface height in each region (start, centre, end).
     packing_fraction : (R,) tuple of float
         Solid fraction of each region (start, centre, end) between the
         platform and the tool height.
@@ -80,6 +84,8 @@ class LayerResult:
     gap: float
     nominal_height: float
     bed_height_m: float
+    bed_top_m: float
+    bed_height_regions_m: tuple
     packing_fraction: tuple
     coordination: tuple
     fabric_anisotropy: tuple
@@ -241,7 +247,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     [...]
     """
     from ..analysis import (coordination, coordination_by_window, dynamic_angle_of_repose,
-                            fit_german_law, packing_along, region_fabric, segregation, bed_height)
+                            fit_german_law, packing_along, region_fabric, segregation,
+                            surface_height_map)
     from ..core import Box
     from ..dem import Plane, Rectangle, Simulation
 
@@ -346,12 +353,21 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         if writer is not None:
             from ..io import write_dump, write_dump_local
             write_dump(writer.path / f"bed{writer._ext}", bed)
-            write_dump_local(writer.path / f"bed_contacts{writer._ext}", fr, sim.contacts())
+            write_dump_local(writer.path / f"bed_contacts{writer._ext}", bed,
+                             _subset_contacts(sim.contacts(), on_plat & (fr.positions[:, 2] > z_plat - rmax)))
         try:
-            h = bed_height(bed, z_plat, bounds=((xa, xb), (0.0, W)),
-                           spacing=0.5 * float(np.median(bed.radii)))
+            surf = surface_height_map(bed, base=z_plat, bounds=((xa, xb), (0.0, W)),
+                                      spacing=0.5 * float(np.median(bed.radii)))
+            hmap = np.asarray(surf.heights) - z_plat
+            h = float(np.mean(hmap))
+            h_top = float(np.percentile(hmap, 95))
+            xs = np.asarray(surf.x)
+            e = np.linspace(xa, xb, n_reg + 1)
+            h_reg = tuple(float(np.mean(hmap[(xs >= e[i]) & (xs <= e[i + 1])]))
+                          for i in range(n_reg))
         except ValueError:
-            h = float("nan")
+            h = h_top = float("nan")
+            h_reg = (float("nan"),) * n_reg
         lo = np.array([xa, 0.0, z_plat])
         hi = np.array([xb, W, z_plat + H_k])
         pack = packing_along(bed, n_reg, axis=0, bounds=(lo, hi)).fractions
@@ -380,7 +396,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         dyn_a = np.array(dyn, dtype=float)
         ok = np.isfinite(dyn_a)
         layers.append(LayerResult(
-            index=k + 1, gap=gap, nominal_height=H_k, bed_height_m=float(h),
+            index=k + 1, gap=gap, nominal_height=H_k, bed_height_m=float(h), bed_top_m=h_top,
+            bed_height_regions_m=h_reg,
             packing_fraction=tuple(float(v) for v in pack),
             coordination=tuple(float(v) for v in cnw), fabric_anisotropy=aniso,
             dynamic_angle_deg=tuple(dyn), mean_dynamic_angle_deg=float(dyn_a[ok].mean()) if ok.any() else float("nan"),
@@ -415,6 +432,15 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
             writer.final(sim, "final")
         layout.write_results({"workflow": "spread", **res.to_dict()})
     return res
+
+
+def _subset_contacts(contacts, mask):
+    """Contacts between particles of ``mask`` only, re-indexed to ``frame.select(mask)``."""
+    from dataclasses import replace
+    keep = mask[contacts.i] & mask[contacts.j]
+    c = contacts.select(keep)
+    new = np.cumsum(mask) - 1
+    return replace(c, i=new[c.i], j=new[c.j], n_particles=int(mask.sum()), walls=None)
 
 
 def _windows(lo, hi, n):
