@@ -101,6 +101,8 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
     >>> f.radii.tolist(), round(float(f.columns["mass"][0]), 3)
     ([0.5], 1308.997)
     """
+    from .lammps_dump import _check_radius
+    _check_radius(radius)
     path = os.fspath(path)
     with open(path, "r", encoding="latin-1") as fh:
         lines = fh.read().splitlines()

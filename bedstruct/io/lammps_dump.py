@@ -717,8 +717,20 @@ def read_dump(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=
 
     .. versionadded:: 0.1
     """
+    _check_radius(radius)
     return DumpTrajectory(expand_paths(path_or_glob), radius=radius, units=units, strict=strict,
                           sort_by_id=sort_by_id, wrap=wrap, columns=columns)
+
+
+def _check_radius(radius):
+    if radius is None:
+        return
+    try:
+        r = float(radius)
+    except (TypeError, ValueError):
+        raise TypeError(f"`radius` must be a number (length); got {radius!r}") from None
+    if not (np.isfinite(r) and r > 0):
+        raise ValueError(f"`radius` must be positive and finite (length); got {radius!r}")
 
 
 def iter_frames(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=True,

@@ -60,6 +60,8 @@ def test_missing_radius_needs_radius_argument(write, dump_text):
     with pytest.raises(DumpFormatError, match="radius") as err:
         read_dump(p)[0]
     assert err.value.line == 9
+    with pytest.raises(ValueError, match="`radius` must be positive"):
+        read_dump(p, radius=-0.3)
     f = read_dump(p, radius=0.3)[0]
     assert f.radii.tolist() == [0.3]
     assert any("given by the caller" in n for n in f.provenance.notes)
