@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize, stats
@@ -42,6 +42,8 @@ class ModelFit:
         95 % confidence intervals (normal approximation at the optimum).
     nuisance : (p,) ndarray
         Recalibration shifts of the nuisance parameters (their units).
+    nuisance_stderr : (p,) ndarray
+        Their standard errors.
     chi2 : float
         Whitened residual sum of squares on the fitted rows.
     dof : int
@@ -68,6 +70,7 @@ class ModelFit:
     p_value: float
     aic: float
     bic: float
+    nuisance_stderr: np.ndarray = field(default_factory=lambda: np.zeros(0))
     max_resid: float = float("nan")
     p_max: float = float("nan")
     p_fit: float = float("nan")
@@ -230,7 +233,8 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
         tmax, pmax, pfit = float("nan"), float("nan"), float("nan")
     npar = k + p
     return ModelFit(tuple(effects), a, sea, intervals, b, chi2, dof, pval,
-                    chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)), max_resid=tmax,
+                    chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)), nuisance_stderr=se[k:],
+                    max_resid=tmax,
                     p_max=pmax, p_fit=pfit)
 
 

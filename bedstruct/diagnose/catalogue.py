@@ -216,8 +216,9 @@ CATALOGUE: tuple[Effect, ...] = (
             "(Lian et al. 1993); bridges re-form on contact. Magnitude: ambient relative humidity."),
         signature=("Persistent extra cohesion that, unlike SJKR cohesion, acts across gaps up to "
                    "s_c and barely weakens with rake speed: static and dynamic angles rise at all "
-                   "speeds, packing fraction drops, roughness rises, segregation weakens. Part of it "
-                   "is absorbed by recalibrating the cohesion energy density."),
+                   "speeds; bridges across gaps hold loose agglomerates, so the packing fraction "
+                   "of spread layers drops markedly; roughness rises; segregation weakens. Part "
+                   "of it is absorbed by recalibrating the cohesion energy density."),
         sources=(
             "Willett, C.D., Adams, M.J., Johnson, S.A., Seville, J.P.K. (2000). Capillary bridges "
             "between two spherical bodies. Langmuir 16, 9396-9405. doi:10.1021/la000657y",

@@ -313,8 +313,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     held_meas = held[rows_meas]
     var_meas = fps.sim_var[rows_meas]
 
-    def z_of(samples):
-        z, _, _ = standardised_residuals(y, sm, samples, sim_var=var_meas)
+    def z_of(samples, extra_var=None):
+        sm_eff = sm if extra_var is None else np.sqrt(sm ** 2 + extra_var)
+        z, _, _ = standardised_residuals(y, sm_eff, samples, sim_var=var_meas)
         return z
 
     z_before = wh.residuals.z
@@ -327,10 +328,19 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         mags = {e: float(a) for e, a in zip(model.effects, model.magnitudes)}
         s_after = simulate_replicates(simulator, p_after, mags, rerun_seeds, names)
         z_after = z_of(s_after)
+        # for the held-out consistency check, add the variance that the calibration-fit
+        # uncertainty of the magnitudes and recalibration shifts puts on the prediction
+        pred_var = np.zeros(len(fps.sigma))
+        for e, a_e, se_e in zip(model.effects, model.magnitudes, model.stderr):
+            pred_var += (fps[e].derivative(float(a_e)) * se_e) ** 2
+        for j, se_b in enumerate(model.nuisance_stderr):
+            pred_var += (fps.sensitivities[:, j] * se_b) ** 2
+        z_check = z_of(s_after, pred_var[rows_meas])
         label = model.label
         nuis = {k: float(v) for k, v in zip(fps.nuisance, model.nuisance)}
     else:
         mags, z_after, label = {}, z_recal, att.null.label
+        z_check = z_after
         nuis = {k: float(v) for k, v in zip(fps.nuisance, att.null.nuisance)}
     per_obs = []
     comp_names = np.asarray([n for n in names for _ in range(measurements[n].n_components)])
@@ -345,6 +355,22 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
                     tuple(per_obs), int(held_meas.sum()))
 
+    # Verdict checks that use the held-out observables (they never enter a fit):
+    # a significant gap that the calibration observables cannot attribute, or an
+    # attribution that the held-out observables contradict, is 'unexplained'.
+    verdict_note = ""
+    if att.verdict == "none" and wh.significant:
+        verdict_note = ("the gap is significant (where) but the calibration observables neither show "
+                        "it beyond recalibration nor attribute it; " + att.reason)
+    elif att.verdict == "attributed" and held_meas.any():
+        p_held = _p_fit_z(z_check[held_meas])
+        if p_held < gof_alpha:
+            verdict_note = (f"{att.best.label} fits the calibration observables but the rerun leaves "
+                            f"the held-out observables inconsistent (p = {p_held:.2g} < {gof_alpha}): "
+                            f"not confirmed")
+    if verdict_note:
+        att = replace(att, verdict="unexplained", selected=(), reason=verdict_note)
+
     nxt = _next_measurements(att, fps)
     settings = {"replicates": fps.n_replicates, "seed": seed, "alpha": alpha,
                 "select_alpha": select_alpha, "gof_alpha": gof_alpha,
@@ -354,6 +380,17 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
                 + 2 * len(rerun_seeds)}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)
+
+
+def _p_fit_z(z) -> float:
+    """Combined (chi-square and largest-|z|, Bonferroni) p-value of standardised residuals."""
+    from scipy import stats
+    z = np.asarray(z, dtype=float)
+    n = z.size
+    p_chi = float(stats.chi2.sf(float(z @ z), n))
+    p1 = min(2.0 * stats.norm.sf(float(np.max(np.abs(z)))), 1.0 - 1e-16)
+    p_max = float(-np.expm1(n * np.log1p(-p1)))
+    return min(1.0, 2.0 * min(p_chi, p_max))
 
 
 def _predict(model, fps: FingerprintSet) -> np.ndarray:

@@ -242,7 +242,7 @@ class SurrogateSimulator:
             return np.array([nominal * 1e-6 * (1 + eps)])
         if k == "packing_fraction":
             phi = (0.55 - 0.0125 * (s - 1) - 0.035 * xr - 0.03 * rel_k - 0.02 * lmu
-                   - 0.05 * cap - 0.10 * R + 0.25 * F - 0.04 * W * xr
+                   - 0.08 * cap - 0.06 * R + 0.25 * F - 0.04 * W * xr
                    - 0.04 * (T / 0.25) * math.exp(-xr / 0.15) * s / 5
                    - 0.01 * A * math.exp(-xr / 0.1))
             return np.array([phi])
@@ -255,7 +255,7 @@ class SurrogateSimulator:
                                                  + 0.2 * (T / 0.25) * s / 5)
             return np.array([rq])
         if k == "coordination":
-            phi = (0.55 - 0.0125 * (s - 1) - 0.035 * xr - 0.03 * rel_k - 0.05 * cap - 0.10 * R + 0.25 * F)
+            phi = (0.55 - 0.0125 * (s - 1) - 0.035 * xr - 0.03 * rel_k - 0.08 * cap - 0.06 * R + 0.25 * F)
             return np.array([2 * 1.925 + 11 * 0.04545 * phi ** 2 + 0.5 * rel_k + 0.4 * cap
                              - 1.0 * R + 1.5 * F])
         raise ValueError(k)  # pragma: no cover

@@ -39,7 +39,7 @@ log = logging.getLogger(__name__)
 
 #: Twin counts and replicate seeds per preset.
 PRESETS = {
-    "tiny": dict(per_effect=2, null=4, out_of_catalogue=1, replicates=3),
+    "tiny": dict(per_effect=2, null=4, out_of_catalogue=2, replicates=3),
     "small": dict(per_effect=10, null=60, out_of_catalogue=3, replicates=4),
 }
 #: Goals of the issue at the small preset.

@@ -1,0 +1,142 @@
+"""End to end on the surrogate: the seed file, withheld-effect twins, the tiny validation, the CLI."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+from bedstruct.cli import main
+from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, compute_fingerprints,
+                                diagnose, diagnosis_design, load_measurements, validate)
+from bedstruct.diagnose.validate import _magnitude_for_snr, _twin_measurements, twin_design
+
+SEED = pathlib.Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
+
+
+@pytest.fixture(scope="module")
+def twin_setup():
+    eff = catalogue()
+    design = diagnosis_design(twin_design(), eff)
+    sim = SurrogateSimulator(design)
+    fps = compute_fingerprints(sim, design, BASE_PARAMETERS, eff, replicates=3, alpha=0.01)
+    return eff, sim, fps
+
+
+def _twin(sim, fps, tmp_path, effects, seed):
+    return _twin_measurements(twin_design(), sim, dict(BASE_PARAMETERS), effects, seed, tmp_path, seed)
+
+
+def test_withheld_effect_is_found_with_magnitude(twin_setup, tmp_path):
+    eff, sim, fps = twin_setup
+    a = _magnitude_for_snr(fps, "blade_startup", 8.0)
+    real = _twin(sim, fps, tmp_path, {"blade_startup": a}, 11)
+    d = diagnose(real, sim, base=BASE_PARAMETERS, fingerprints=fps)
+    assert d.verdict == "attributed" and d.where.significant
+    top = d.attribution.selected[0]
+    assert top.effect == "blade_startup"
+    assert top.interval[0] <= a <= top.interval[1]
+    assert d.shrink.after <= d.shrink.before
+    j = d.to_json()
+    assert j["simulator"] == "surrogate" and j["which"][0]["effect"] == "blade_startup"
+    assert {"where", "which", "shrink", "next", "confidence"} <= set(j)
+    json.dumps(j, allow_nan=True)
+
+
+def test_null_twin_shows_no_gap(twin_setup, tmp_path):
+    eff, sim, fps = twin_setup
+    real = _twin(sim, fps, tmp_path, {}, 21)
+    d = diagnose(real, sim, base=BASE_PARAMETERS, fingerprints=fps)
+    assert not d.where.significant
+    assert d.verdict == "none" and d.to_json()["which"] == []
+
+
+def test_out_of_catalogue_twin_is_unexplained(twin_setup, tmp_path):
+    eff, sim, fps = twin_setup
+    a = _magnitude_for_snr(fps, "missing_fines", 8.0)
+    real = _twin(sim, fps, tmp_path, {"missing_fines": a}, 31)
+    without = [e for e in eff if e.name != "missing_fines"]
+    d = diagnose(real, sim, base=BASE_PARAMETERS, effects=without, fingerprints=fps)
+    assert d.where.significant
+    assert d.verdict == "unexplained" and d.to_json()["which"] == "unexplained"
+    # with the effect back in the catalogue the same data are explained
+    d2 = diagnose(real, sim, base=BASE_PARAMETERS, fingerprints=fps)
+    assert d2.attribution.selected[0].effect == "missing_fines"
+
+
+def test_seed_measurements_end_to_end():
+    ms = load_measurements(SEED)
+    eff = catalogue()
+    sim = SurrogateSimulator(diagnosis_design(ms, eff))
+    d = diagnose(ms, sim, base=BASE_PARAMETERS, replicates=3)
+    top = d.where.ranked(1)[0]
+    # the simulated PSD is cut at 28 um: the d10 gap dominates, and fines explain it
+    assert top["observable"] == "psd_before" and top["component"] == "d10" and top["z"] < -4
+    assert d.verdict == "attributed" and d.attribution.selected[0].effect == "missing_fines"
+    ident = {r["effect"]: r["identifiable"] for r in d.fingerprints.table()}
+    assert ident["contact_ageing"] is False          # the qualitative spike (4 deg) cannot decide it
+    assert "avalanche_angle_rest600" in d.to_json()["not_identifiable"][0]["identify_with"]
+    assert d.next and not d.next[0].measured
+    rep = d.report()
+    assert rep.failed == []
+
+
+def test_tiny_validation_meets_the_goals():
+    r = validate("tiny")
+    j = r.to_json()
+    assert j["simulator"] == "surrogate"
+    assert r.top1_accuracy >= 0.9
+    assert r.null_false_attribution <= 0.05
+    assert r.out_of_catalogue_unexplained >= 0.8
+    assert r.median_gap_shrink >= 0.7
+    assert r.magnitude_coverage >= 0.7
+    m = np.asarray(r.confusion["matrix"])
+    assert m.sum() == len(r.twins) == 28
+    assert r.report().failed == []
+
+
+def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "d"),
+                 "--json"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    j = json.loads(last)
+    assert j["simulator"] == "surrogate" and j["where"] and "shrink" in j and "which" in j
+    assert (tmp_path / "d" / "report.html").is_file() and (tmp_path / "d" / "diagnosis.json").is_file()
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED)]) == 1
+    assert "missing --out" in capsys.readouterr().err
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(tmp_path / "none.toml"),
+                 "--out", str(tmp_path)]) == 1
+    from bedstruct.diagnose import PRESETS
+    monkeypatch.setitem(PRESETS, "tiny", dict(per_effect=1, null=1, out_of_catalogue=0, replicates=2))
+    assert main(["diagnose", "validate", "--preset", "tiny", "--json", "--out", str(tmp_path / "v")]) == 0
+    j = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    for k in ("top1_accuracy", "null_false_attribution", "out_of_catalogue_unexplained",
+              "median_gap_shrink"):
+        assert k in j
+    assert j["simulator"] == "surrogate"
+    assert (tmp_path / "v" / "report.html").is_file()
+
+
+def test_cli_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["diagnose", "--help"])
+    assert exc.value.code == 0
+    assert "--sim CONFIG" in capsys.readouterr().out
+
+
+def test_plots_return_axes():
+    import matplotlib
+    matplotlib.use("Agg")
+    from bedstruct.plot import diagnose as pdg
+    ms = load_measurements(SEED)
+    sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
+    d = diagnose(ms, sim, base=BASE_PARAMETERS, replicates=2, refine=0)
+    for fn, obj in ((pdg.plot_where, d.where), (pdg.plot_fingerprints, d.fingerprints),
+                    (pdg.plot_attribution, d.attribution), (pdg.plot_shrink, d.shrink)):
+        fig, ax = fn(obj)
+        assert ax.figure is fig
+        from matplotlib.figure import Figure
+        ax2 = fn(obj, ax=Figure().add_subplot(111))
+        assert ax2 is not None
