@@ -11,6 +11,7 @@ from __future__ import annotations
 import bz2
 import gzip
 import os
+import zlib
 from dataclasses import dataclass, field
 
 from ..errors import DumpFormatError
@@ -20,6 +21,21 @@ __all__ = ["Source", "compression_of", "scan_text", "TextScan"]
 _CHUNK = 1 << 23  # 8 MiB
 _EXT = {".gz": "gz", ".gzip": "gz", ".bz2": "bz2", ".zst": "zst", ".zstd": "zst"}
 _MAGIC = ((b"\x1f\x8b", "gz"), (b"BZh", "bz2"), (b"\x28\xb5\x2f\xfd", "zst"))
+
+
+def _decompress_errors():
+    errors = [EOFError, OSError, gzip.BadGzipFile, zlib.error]
+    try:
+        from isal import isal_zlib
+        errors.append(isal_zlib.error)
+    except ImportError:
+        pass
+    try:
+        import zstandard
+        errors.append(zstandard.ZstdError)
+    except ImportError:
+        pass
+    return tuple(errors)
 
 
 def compression_of(path) -> str | None:
@@ -39,7 +55,11 @@ def _open_stream(path, compression):
     if compression is None:
         return open(path, "rb")
     if compression == "gz":
-        return gzip.GzipFile(path, "rb")
+        try:  # ISA-L inflates about three times faster when the optional 'isal' is installed
+            from isal import igzip
+        except ImportError:
+            return gzip.GzipFile(path, "rb")
+        return igzip.IGzipFile(path, "rb")
     if compression == "bz2":
         return bz2.BZ2File(path, "rb")
     if compression == "zst":
@@ -80,6 +100,16 @@ class Source:
 
     def read_range(self, start: int, length: int) -> bytes:
         """``length`` bytes of the decompressed stream from ``start`` (fewer at the end)."""
+        if self.compression is None:
+            return self._read_range(start, length)
+        try:
+            return self._read_range(start, length)
+        except _decompress_errors() as exc:
+            self.close()
+            raise DumpFormatError(f"cannot decompress ({self.compression}): {exc}",
+                                  path=self.path) from None
+
+    def _read_range(self, start: int, length: int) -> bytes:
         if self._fh is None:
             self._reopen()
         if self.compression is None:
@@ -118,7 +148,7 @@ class Source:
             while True:
                 try:
                     got = self._fh.read(size)
-                except (EOFError, OSError, gzip.BadGzipFile) as exc:
+                except _decompress_errors() as exc:
                     raise DumpFormatError(f"cannot decompress ({self.compression}): {exc}",
                                           path=self.path) from None
                 if not got:

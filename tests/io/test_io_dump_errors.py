@@ -197,3 +197,12 @@ def test_truncated_gz_last_frame(tmp_path, dump_text, good_rows):
         read_dump(p)
     with pytest.warns(BedstructWarning):
         assert read_dump(p, strict=False).timesteps.tolist() == [1]
+
+
+def test_corrupt_gzip_stream(tmp_path, dump_text, good_rows):
+    import gzip
+    raw = gzip.compress((dump_text(good_rows, step=1) * 50).encode())
+    p = tmp_path / "bad.dump.gz"
+    p.write_bytes(raw[: len(raw) // 2])  # the compressed stream itself is cut
+    with pytest.raises(DumpFormatError, match="cannot decompress"):
+        read_dump(p)

@@ -248,3 +248,18 @@ def test_crlf_line_endings_and_tabs(write, dump_text, good_rows):
     f = read_dump(p)[0]
     assert f.timestep == 5 and f.ids.tolist() == [1, 2, 3]
     assert f.positions.tolist() == [[4, 5, 6], [1, 2, 3], [7.5, 8.5, 9.5]]
+
+
+@pytest.mark.parametrize("hide_isal", [True, False])
+def test_gzip_with_and_without_isal(tmp_path, monkeypatch, dump_text, good_rows, hide_isal):
+    import sys
+    if hide_isal:
+        monkeypatch.setitem(sys.modules, "isal", None)  # import fails: standard gzip is used
+    else:
+        pytest.importorskip("isal")
+    p = tmp_path / "s.dump.gz"
+    with gzip.open(p, "wb") as fh:
+        fh.write("".join(dump_text(good_rows, step=s) for s in (5, 6, 7)).encode())
+    traj = read_dump(p)
+    assert [f.timestep for f in traj] == [5, 6, 7]
+    assert traj[0].positions.tolist() == traj[2].positions.tolist()
