@@ -21,13 +21,14 @@ def sample_radii(n: int, psd, *, rng=None) -> np.ndarray:
     ----------
     n : int
         Number of radii.
-    psd : float, array_like, callable or mapping
+    psd : float, array_like, callable, PSDFit or mapping
         A single radius; an array of radii to resample from; a callable
-        ``psd(n, rng) -> radii``; or a mapping of diameter percentiles
-        ``{10: d10, 50: d50, 90: d90}`` (m), passed to
-        :func:`bedstruct.analysis.psd_from_percentiles` when that exists
-        (object with ``sample``/``rvs``), else interpolated log-linearly
-        between the percentiles.
+        ``psd(n, rng) -> radii``; a fitted distribution with
+        ``sample_radii(n, seed=)`` (:func:`bedstruct.analysis.psd_from_percentiles`);
+        or a mapping of diameter percentiles ``{10: d10, 50: d50, 90: d90}``
+        (m, optional ``"bounds": (d_min, d_max)``, default ``(d10/3, 3 d90)``),
+        fitted with :func:`bedstruct.analysis.psd_from_percentiles`. Other
+        percentile sets are interpolated log-linearly in probit space.
     rng : int or numpy Generator, optional
 
     Returns
@@ -36,15 +37,19 @@ def sample_radii(n: int, psd, *, rng=None) -> np.ndarray:
 
     Examples
     --------
-    >>> r = sample_radii(5, {10: 20e-6, 50: 30e-6, 90: 45e-6}, rng=0)
-    >>> bool(np.all((r > 5e-6) & (r < 30e-6)))
+    >>> r = sample_radii(1000, {10: 20e-6, 50: 30e-6, 90: 45e-6}, rng=0)
+    >>> bool(np.all((2 * r >= 20e-6 / 3) & (2 * r <= 3 * 45e-6)))
     True
+    >>> round(float(np.median(2 * r)) * 1e6)  # number median < volume median d50
+    27
     >>> sample_radii(2, 1e-5).tolist()
     [1e-05, 1e-05]
     """
     rng = np.random.default_rng(rng)
     n = int(n)
-    if callable(psd):
+    if hasattr(psd, "sample_radii"):  # a fitted PSD (bedstruct.analysis.PSDFit)
+        out = np.asarray(psd.sample_radii(n, seed=rng), dtype=np.float64)
+    elif callable(psd):
         out = np.asarray(psd(n, rng), dtype=np.float64)
     elif isinstance(psd, dict):
         out = _from_percentiles(n, psd, rng)
@@ -58,20 +63,19 @@ def sample_radii(n: int, psd, *, rng=None) -> np.ndarray:
 
 
 def _from_percentiles(n, pct: dict, rng) -> np.ndarray:
+    pct = dict(pct)
+    bounds = pct.pop("bounds", None)
     try:
-        mod = importlib.import_module("bedstruct.analysis.psd")
-        func = getattr(mod, "psd_from_percentiles")
-    except (ImportError, AttributeError):
+        func = getattr(importlib.import_module("bedstruct.analysis.psd"), "psd_from_percentiles")
+    except (ImportError, AttributeError):  # pragma: no cover - analysis always present
         func = None
-    if func is not None:
-        try:
-            dist = func(pct)
-            for meth in ("sample", "rvs"):
-                if hasattr(dist, meth):
-                    d = np.asarray(getattr(dist, meth)(n, rng=rng), dtype=np.float64)
-                    return 0.5 * d
-        except TypeError:
-            pass
+    keys = {float(k) for k in pct}
+    if func is not None and keys == {10.0, 50.0, 90.0}:
+        d = {float(k): float(v) for k, v in pct.items()}
+        if bounds is None:
+            bounds = (d[10.0] / 3.0, d[90.0] * 3.0)
+        return np.asarray(func(d[10.0], d[50.0], d[90.0], bounds).sample_radii(n, seed=rng),
+                          dtype=np.float64)
     q = np.array(sorted(float(k) for k in pct), dtype=np.float64)
     d = np.array([float(pct[k]) for k in sorted(pct, key=float)], dtype=np.float64)
     if q.size < 2 or np.any(np.diff(d) < 0) or q[0] <= 0 or q[-1] >= 100:

@@ -1,0 +1,179 @@
+"""Benchmark the embedded DEM engine against LIGGGHTS and LAMMPS on the same bed.
+
+A dense polydisperse bed (radii 14-50 um, the seed's soft CoCr model) is
+poured and settled by bedstruct once, cached in ``<tempdir>/bedstruct-engines``
+as a checkpoint and a LAMMPS data file, then timed:
+
+* bedstruct with 1 and 2 threads, with a blade moving over the bed (its
+  contacts, neighbour rebuilds and wall forces are counted; compilation and
+  I/O are not: a warm-up run precedes the timed run);
+* LIGGGHTS and LAMMPS (``bedstruct.dem.backends.benchmark_external``) with 1
+  and 2 MPI ranks on the same data file and model, when installed (nan
+  otherwise).
+
+Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N]``.
+The last line is ``RESULT bedstruct_steps_per_s=... liggghts_steps_per_s=...
+lammps_steps_per_s=... ratio_1core=... speedup_2threads=... ...`` (particle-steps
+per second; bedstruct_steps_per_s is the 2-thread figure; ratio_1core is
+bedstruct over LIGGGHTS on one core).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bedstruct import Box
+from bedstruct.dem import Blade, ContactModel, Material, Plane, Simulation
+
+R_MIN, R_MAX = 14e-6, 50e-6
+WIDTH = 2e-3
+
+
+def seed_model() -> ContactModel:
+    """The seed's contact model (soft CoCr; hertz, history, epsd2; no cohesion)."""
+    return ContactModel(Material(1e7, 0.3, 8300.0, name="CoCr (soft)"), restitution=0.1,
+                        friction=0.4, rolling_friction=0.05, rolling_model="epsd2")
+
+
+def pour(n: int, path: Path, *, n_threads: int = 2, log=print) -> Simulation:
+    """Pour ``n`` spheres into a 2 x 2 mm periodic box and settle them (bedstruct only)."""
+    rng = np.random.default_rng(0)
+    radii = rng.uniform(R_MIN, R_MAX, n)
+    vol = float(np.sum(4 / 3 * np.pi * radii ** 3))
+    width = WIDTH * math.sqrt(n / 20000)
+    height = vol / 0.32 / width ** 2
+    box = Box([0, 0, 0], [width, width, 1.6 * height + 4 * R_MAX], boundary="pp pp ff")
+    # a large skin and strong gravity make the pour cheap; the bed is re-timed later
+    sim = Simulation(box, seed_model(), walls=[Plane((0, 0, 0), (0, 0, 1), name="floor")],
+                     gravity=(0, 0, -9.81 * 5), skin=0.5 * R_MIN * 2, n_threads=n_threads, seed=0)
+    placed = 0
+    z0 = 0.0
+    while placed < n:  # raindrop in slabs until all are in
+        k = sim.insert_raindrop(n - placed, radii[placed:],
+                                region=((0, 0, z0), (width, width, 1.6 * height + 3 * R_MAX)))
+        placed += k
+        if k == 0:
+            break
+    log(f"# pouring {sim.n_particles} spheres, dt = {sim.dt if sim.dt else 0:.3g} s")
+    t0 = time.perf_counter()
+    for _ in range(200):
+        sim.run(2000)
+        ke = sim.kinetic_energy()
+        log(f"#   t = {sim.time * 1e3:.2f} ms  KE = {ke:.3g} J  top = {sim.x[:, 2].max() * 1e3:.3f} mm"
+            f"  ({time.perf_counter() - t0:.0f} s)")
+        if ke < 1e-10 * sim.n_particles / 20000 and sim.time > 5e-3:
+            break
+    sim.gravity = np.array([0.0, 0.0, -9.81])
+    sim.run(3000)
+    sim.save_checkpoint(path)
+    return sim
+
+
+def write_data_file(sim: Simulation, path: Path) -> Path:
+    """The bed as a LAMMPS/LIGGGHTS data file (atom_style sphere, SI)."""
+    from bedstruct.dem.backends import write_sphere_data
+    fr = sim.frame()
+    top = float((fr.positions[:, 2] + fr.radii).max())
+    write_sphere_data(path, fr.positions, fr.radii, box_lo=fr.box.lo,
+                      box_hi=[fr.box.hi[0], fr.box.hi[1], max(fr.box.hi[2], top + 4 * R_MAX)],
+                      density=8300.0)
+    return path
+
+
+def load_bed(data: Path):
+    """The bed of a data file as a Frame (SI, x/y periodic, z fixed)."""
+    from bedstruct.io import read_data
+    return read_data(data, boundary="pp pp ff")
+
+
+def time_bedstruct(fr, *, n_threads: int, steps: int, warmup: int, dt: float | None = None) -> dict:
+    top = float((fr.positions[:, 2] + fr.radii).max())
+    # the blade enters the bed from x < 0 at 0.05 m/s and skims its top layer
+    blade = Blade(gap=top - 1.5 * R_MAX, surface_z=0.0, speed=0.05, x0=-0.25e-3 - 0.5 * R_MIN)
+    sim = Simulation(fr.box, seed_model(), walls=[Plane((0, 0, 0), (0, 0, 1), name="floor"), blade],
+                     n_threads=n_threads, dt=dt, force=dt is not None)
+    sim.add_particles(fr.positions, fr.radii, velocities=fr.velocities, omegas=fr.omegas)
+    sim.run(warmup)  # compile, contact histories
+    reb0 = sim.n_rebuilds
+    stats = sim.run(steps)
+    c = sim.contacts()
+    per_p, per_pair = sim.memory_bytes()
+    n_contacts = c.n_contacts + c.walls.n_contacts
+    return {"pss": stats.particle_steps_per_s, "n": sim.n_particles, "rebuilds": sim.n_rebuilds - reb0,
+            "contacts_per_particle": 2 * c.n_contacts / sim.n_particles,
+            "pairs_per_particle": sim.n_pairs / sim.n_particles,
+            "bytes_per_particle": per_p,
+            "bytes_per_contact": per_pair * sim.n_pairs / max(n_contacts, 1),
+            "ns_per_contact": stats.wall_time / steps / max(c.n_contacts, 1) * 1e9,
+            "dt": sim.dt, "kinetic_energy": sim.kinetic_energy()}
+
+
+def time_external(engine: str, data: Path, *, np_: int, steps: int, dt: float) -> float:
+    try:
+        from bedstruct.dem.backends import benchmark_external
+        res = benchmark_external(data, engine=engine, np=np_, steps=steps, dt=dt,
+                                 model_params=seed_model(), warmup_steps=100, timeout=900)
+        return float(res["particle_steps_per_s"])
+    except Exception as exc:  # engine missing or failed: report nan, say why
+        print(f"# {engine} np={np_}: not timed ({type(exc).__name__}: {str(exc)[:160]})")
+        return math.nan
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="4,000 spheres, 300 steps")
+    ap.add_argument("--particles", type=int, default=None)
+    ap.add_argument("--steps", type=int, default=None)
+    ap.add_argument("--no-external", action="store_true", help="skip LIGGGHTS/LAMMPS")
+    ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
+    args = ap.parse_args(argv)
+    n = args.particles or (4000 if args.quick else 20000)
+    steps = args.steps or (300 if args.quick else 1000)
+    warmup = 100
+    cache = Path(args.cache_dir)
+    cache.mkdir(parents=True, exist_ok=True)
+    data = cache / f"bedstruct_bed{n}.data"
+    other = cache / f"bed{n}_seed0.data"  # poured by bedstruct.dem.backends.cached_bed
+    if data.exists():
+        origin = "poured by bedstruct"
+    elif other.exists():
+        data, origin = other, "poured by LAMMPS/LIGGGHTS (bedstruct.dem.backends.cached_bed)"
+    else:
+        sim = pour(n, cache / f"bedstruct_bed{n}.npz")
+        write_data_file(sim, data)
+        origin = "poured by bedstruct"
+    fr = load_bed(data)
+    print(f"# bed: {data} ({fr.n_particles} spheres, {origin}); {steps} timed steps after {warmup}; "
+          "timings on a shared, loaded 2-core machine")
+    b1 = time_bedstruct(fr, n_threads=1, steps=steps, warmup=warmup)
+    b2 = time_bedstruct(fr, n_threads=2, steps=steps, warmup=warmup)
+    dt = b1["dt"]
+    for k, v in b1.items():
+        print(f"# bedstruct 1 thread: {k} = {v:.4g}")
+    print(f"# bedstruct 2 threads: particle-steps/s = {b2['pss']:.4g}, rebuilds = {b2['rebuilds']}")
+    ext = {}
+    for engine in ("liggghts", "lammps"):
+        for np_ in (1, 2):
+            ext[engine, np_] = (math.nan if args.no_external
+                                else time_external(engine, data, np_=np_, steps=steps, dt=dt))
+            print(f"# {engine} np={np_}: particle-steps/s = {ext[engine, np_]:.4g}")
+    ratio = b1["pss"] / ext["liggghts", 1] if ext["liggghts", 1] > 0 else math.nan
+    print(f"RESULT bedstruct_steps_per_s={b2['pss']:.4g} liggghts_steps_per_s={ext['liggghts', 1]:.4g} "
+          f"lammps_steps_per_s={ext['lammps', 1]:.4g} ratio_1core={ratio:.3g} "
+          f"speedup_2threads={b2['pss'] / b1['pss']:.3g} bedstruct_1thread_steps_per_s={b1['pss']:.4g} "
+          f"liggghts_2rank_steps_per_s={ext['liggghts', 2]:.4g} "
+          f"lammps_2rank_steps_per_s={ext['lammps', 2]:.4g} n_particles={b1['n']} steps={steps} "
+          f"rebuilds={b1['rebuilds']} bytes_per_particle={b1['bytes_per_particle']:.0f} "
+          f"bytes_per_contact={b1['bytes_per_contact']:.0f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

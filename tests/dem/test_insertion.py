@@ -1,0 +1,54 @@
+"""Insertion: raindrop positions never overlap; PSD sampling; saved piles."""
+
+import numpy as np
+import pytest
+
+from bedstruct import Box
+from bedstruct.dem import ContactModel, Material, Simulation, raindrop_positions, sample_radii
+
+
+def test_raindrop_positions_do_not_overlap_and_fit_region():
+    rng = np.random.default_rng(0)
+    radii = rng.uniform(20e-6, 60e-6, 400)
+    ex = np.array([[0.5e-3, 0.5e-3, 0.5e-3]])
+    pos, ok = raindrop_positions((0, 0, 0), (1e-3, 1e-3, 1e-3), radii, existing=ex,
+                                 existing_radii=[2e-4], rng=1)
+    r = radii[ok]
+    allp = np.vstack([pos, ex])
+    allr = np.concatenate([r, [2e-4]])
+    d = np.sqrt(((allp[:, None] - allp[None]) ** 2).sum(-1))
+    np.fill_diagonal(d, np.inf)
+    assert np.all(d >= allr[:, None] + allr[None] - 1e-15)
+    assert np.all(pos - r[:, None] >= 0) and np.all(pos + r[:, None] <= 1e-3)
+    assert ok.sum() > 300
+
+
+def test_sample_radii_forms():
+    assert np.all(sample_radii(3, 1e-5) == 1e-5)
+    arr = sample_radii(100, [1e-5, 2e-5], rng=0)
+    assert set(np.unique(arr)) <= {1e-5, 2e-5}
+    r = sample_radii(20000, {10: 20e-6, 50: 30e-6, 90: 45e-6, "bounds": (10e-6, 90e-6)}, rng=0)
+    assert np.all((2 * r >= 10e-6) & (2 * r <= 90e-6))
+    with pytest.raises(ValueError):
+        sample_radii(3, lambda n, g: -np.ones(n))
+
+
+def test_psd_fit_object_is_sampled():
+    from bedstruct.analysis.psd import psd_from_percentiles
+    fit = psd_from_percentiles(29.84e-6, 52.08e-6, 86.11e-6, (25e-6, 105e-6))
+    r = sample_radii(5000, fit, rng=2)
+    assert r.min() >= 12.5e-6 and r.max() <= 52.5e-6
+
+
+def test_insert_saved_pile_twice_keeps_geometry():
+    model = ContactModel(Material(1e7, 0.3, 2500.0))
+    box = Box([0, 0, 0], [2e-3, 2e-3, 4e-3], boundary="pp pp ff")
+    sim = Simulation(box, model, n_threads=1, seed=3)
+    n = sim.insert_raindrop(50, 1e-4, region=((0, 0, 0), (2e-3, 2e-3, 1e-3)))
+    pile = sim.frame()
+    sim2 = Simulation(box, model, n_threads=1)
+    sim2.insert_frame(pile)
+    sim2.insert_frame(pile, offset=(0, 0, 2e-3))
+    fr = sim2.frame()
+    assert fr.n_particles == 2 * n and len(np.unique(fr.ids)) == 2 * n
+    assert np.allclose(fr.positions[n:] - fr.positions[:n], [0, 0, 2e-3])
