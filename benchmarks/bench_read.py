@@ -120,6 +120,11 @@ def bench_mdanalysis(path, n_frames):
     return first, (float(np.mean(later)) if later else math.nan)
 
 
+def _threads():
+    from bedstruct._numba import get_num_threads
+    return get_num_threads()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, default=200_000)
@@ -145,6 +150,12 @@ def main():
         bedstruct.read_dump(small)[0]
         print(f"bedstruct kernel load/compile: {time.perf_counter() - t0:.2f} s")
 
+        try:
+            import isal  # noqa: F401
+            backend = "isal (ISA-L)"
+        except ImportError:
+            backend = "gzip (zlib)"
+        print(f"bedstruct gz backend: {backend}; numba threads: {_threads()}")
         res = {}
         for label, path in (("text", text), ("gz", gz)):
             b_first, b_later, frame = bench_bedstruct(path)
