@@ -45,6 +45,8 @@ class ReportOptions:
         Run the heat-conduction section (needs SI or a known unit system).
     heat_length_unit : float or None
         Metres per length unit of the dump when its unit system is unknown.
+    heat_time : float
+        Simulated conduction time after the source pulse (s), default 20 ms.
     tolerance : float
         Contact detection tolerance (length) for geometric contacts.
     l_max : int
@@ -56,6 +58,7 @@ class ReportOptions:
     frames: str = "-1"
     heat: bool = False
     heat_length_unit: float | None = None
+    heat_time: float = 20e-3
     tolerance: float = 0.0
     l_max: int = 8
 
@@ -370,6 +373,13 @@ def _repose(ctx: _Context, s: Section) -> None:
             and res.angle_deg > 2.0 * np.nan_to_num(res.angle_std_deg, nan=np.inf)):
         skip(f"no pile found: the free surface has no clear slope "
              f"({res.angle_deg:.1f} +- {res.angle_std_deg:.1f} deg)")
+    # A pile narrows to its top; a spread layer is a plateau with sloped ends.
+    h = np.asarray(res.profile_h, dtype=float)
+    h = h[np.isfinite(h)]
+    plateau = float(np.mean(h >= h.max() - 0.25 * (h.max() - h.min()))) if h.size else 1.0
+    if plateau > 0.4:
+        skip(f"no pile found: {plateau:.0%} of the free surface lies in its top quarter "
+             f"(a layer, not a heap)")
     s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
                  DOCS + "analysis.md, Angle of repose")
     s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")
@@ -391,27 +401,27 @@ def _heat(ctx: _Context, s: Section) -> None:
         skip("the dump's unit system is unknown: give --heat-length-unit (metres per length unit)")
     net = thermal_network(f, ctx.contacts, length_unit=opt.heat_length_unit)
     lower, upper = ctx.windows()
-    ax_i = opt.axis_index
     rows = []
     figs = []
     scale = 1.0 if opt.heat_length_unit is None else opt.heat_length_unit
     if f.units.style in ("cgs", "micro", "nano"):
         scale = f.units.to_si("length")
-    top = float(np.max(f.positions[:, 2] + f.radii)) * scale
     for name, lo, hi in zip(opt.region_names, lower, upper):
         centre = 0.5 * (lo + hi) * scale
-        centre[2] = top
-        src = HemisphereSource(center=tuple(centre), diameter=500e-6, temperature=1573.15, duration=0.0)
-        res = conduct_heat(net, t_end=2e-3, source=src)
+        # (x, y) only: the source sits on the local bed surface there (seed: 500 um, 1300 C pulse)
+        src = HemisphereSource(center=(float(centre[0]), float(centre[1])), diameter=500e-6,
+                               temperature=1573.15, duration=None)
+        res = conduct_heat(net, t_end=opt.heat_time, source=src)
         tmap = temperature_map(res)
         threshold = 0.5 * (float(np.nanmax(tmap.values)) + float(res.final_temperature.min()))
         haz = haz_shape(tmap, threshold)
-        rows.append([name, res.peak_temperature - 273.15, haz.roundness, haz.orientation_deg])
+        rows.append([name, float(res.final_temperature.max()) - 273.15, haz.roundness, haz.orientation_deg])
         s.add_number(f"roundness_{name}", haz.roundness, "1",
                      f"heat-affected-zone roundness 4A/(pi L_major^2) in the {name} region", DOCS + "heat.md")
         figs.append((_figure_of(plot_temperature_map(tmap, haz=haz)), f"Top-view temperature at the end, {name} region"))
     s.tables.append(Table(["region", "peak temperature (C)", "roundness", "orientation (deg)"], rows,
-                          caption="hemispherical 500 um source at 1300 C, switched off, 2 ms of conduction"))
+                          caption=f"hemispherical 500 um source pulse at 1300 C, then {opt.heat_time * 1e3:g} ms of "
+                                  f"conduction; peak = hottest particle at the end"))
     for fig, cap in figs:
         s.add_figure(fig, cap)
 
