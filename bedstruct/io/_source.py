@@ -253,6 +253,10 @@ def scan_text(source: Source) -> TextScan:
                 if raw.strip():
                     value = _int_value(raw, source.path, nl_count + 1)
                     (scan.timesteps if kind == "ts" else scan.counts)[k] = value
+                elif not (eof and e >= n):  # an empty value line before the end of the file
+                    what = "the timestep" if kind == "ts" else "the number of atoms"
+                    raise DumpFormatError(f"expected {what} on this line", path=source.path,
+                                          line=nl_count + 1, text="")
                 want = None
                 p = min(e + 1, n)
                 continue

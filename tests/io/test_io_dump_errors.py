@@ -206,3 +206,11 @@ def test_corrupt_gzip_stream(tmp_path, dump_text, good_rows):
     p.write_bytes(raw[: len(raw) // 2])  # the compressed stream itself is cut
     with pytest.raises(DumpFormatError, match="cannot decompress"):
         read_dump(p)
+
+
+def test_missing_timestep_value(write, dump_text, good_rows):
+    text = dump_text(good_rows, step=1) + dump_text(good_rows, step=2).replace("\n2\n", "\n\n", 1)
+    err = _err(write("nots.dump", text))
+    assert "expected the timestep" in err.message and err.line == 14
+    err = _err(write("bad_ts.dump", dump_text(good_rows).replace("\n0\n", "\nzero\n", 1)))
+    assert "integer" in err.message and err.line == 2
