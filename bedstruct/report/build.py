@@ -51,6 +51,10 @@ class ReportOptions:
         Contact detection tolerance (length) for geometric contacts.
     l_max : int
         Highest degree of the spherical-harmonic expansion.
+    min_contacts : int
+        Rattler threshold of the mechanical coordination number (default 2:
+        with friction and cohesion a particle needs two contacts to be held
+        in a spread bed; use 4 for frictionless packings).
     """
 
     regions: int = 3
@@ -61,6 +65,7 @@ class ReportOptions:
     heat_time: float = 20e-3
     tolerance: float = 0.0
     l_max: int = 8
+    min_contacts: int = 2
 
     def __post_init__(self):
         if self.axis not in _AXES:
@@ -204,7 +209,7 @@ def _packing(ctx: _Context, s: Section) -> None:
 def _coordination(ctx: _Context, s: Section) -> None:
     from ..analysis import coordination, coordination_by_window, fit_german_law, packing_along
     f, opt = ctx.frame, ctx.options
-    res = coordination(f, ctx.contacts)
+    res = coordination(f, ctx.contacts, min_contacts=opt.min_contacts)
     s.add_number("mean", res.mean, "1", "mean number of contacts per particle",
                  DOCS + "analysis.md, Coordination number")
     s.add_number("mean_excluding_rattlers", res.mean_excluding_rattlers, "1",
@@ -299,13 +304,16 @@ def _accepts_windows(func) -> bool:
 def _surface(ctx: _Context, s: Section) -> None:
     from ..analysis import surface_height_map
     f = ctx.frame
+    plate = float(np.min(f.positions[:, 2] - f.radii)) if f.n_particles else 0.0
     surf = surface_height_map(f)
     r = surf.roughness
     for key, text in (("sa", "arithmetic mean height deviation Sa"), ("sq", "root-mean-square height Sq"),
                       ("sz", "maximum height Sz (peak to valley)")):
         s.add_number(key, getattr(r, key), ctx.length_unit, text, DOCS + "analysis.md, Surface and layers")
     s.add_number("ssk", r.ssk, "1", "skewness of the height distribution Ssk")
-    s.add_number("mean_height", r.mean_height, ctx.length_unit, "mean surface height above the base")
+    s.add_number("mean_surface_z", r.mean_height, ctx.length_unit, "mean height (z) of the top surface")
+    s.add_number("bed_thickness", r.mean_height - plate, ctx.length_unit,
+                 "mean top-surface height above the lowest particle bottom (taken as the plate)")
     s.add_number("uncovered_fraction", surf.uncovered_fraction, "1", "fraction of grid cells with no particle")
     fig, ax = _fig(size=(7.0, 3.2))
     extent = [surf.x[0], surf.x[-1], surf.y[0], surf.y[-1]]
@@ -468,7 +476,8 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     ctx = _Context(frames, contacts, options, idx)
     report = Report(title="bedstruct report", inputs=dict(inputs or {}),
                     settings={"regions": options.regions, "axis": options.axis, "frames": options.frames,
-                              "heat": options.heat, "tolerance": options.tolerance, "l_max": options.l_max},
+                              "heat": options.heat, "tolerance": options.tolerance, "l_max": options.l_max,
+                              "min_contacts": options.min_contacts},
                     version=__version__)
     todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
     from tqdm.auto import tqdm
