@@ -589,10 +589,12 @@ def _wall_contact(i, w, hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, x, v, om,
 
 @njit(parallel=True, **_FM)
 def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gravity, bounds,
-                W, tri, time, wslot, whist, wbuf, Y, G, B, MU, MUR, COH, rolling, tdamp, limit,
+                W, tri, time, wstart, wcand, wslot, whist, wbuf, Y, G, B, MU, MUR, COH, rolling, tdamp, limit,
                 eta_r, dt, store, wfn_out, wdelta_out, wnorm_out, overflow):
     """Reduce per-chunk forces, add gravity and wall forces, second half kick.
 
+    Only the walls listed for particle i in ``wcand[wstart[i]:wstart[i+1]]``
+    (see :func:`wall_candidates`) are evaluated.
     Wall contacts keep their tangential/rolling history in per-particle slots
     ``wslot[i, s]`` (wall index or -1) and ``whist[i, s, 0:6]``. The reaction
     on each wall is summed per chunk into ``wbuf[t, w, 0:6]`` (force, torque
@@ -634,7 +636,8 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
                     wfn_out[i, s] = 0.0
                     wdelta_out[i, s] = 0.0
             ri = rad[i]
-            for w in range(nw):
+            for cw in range(wstart[i], wstart[i + 1]):
+                w = wcand[cw]
                 if int(W[w, 0]) == WALL_MESH:
                     hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(
                         W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
@@ -698,6 +701,43 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
             om[i, 0] += b * tx
             om[i, 1] += b * ty
             om[i, 2] += b * tz
+
+
+@njit(**_FM)
+def wall_candidates(x, rad, W, tri, time, skin, fill, wstart, wcand, wslot, whist):
+    """Particle-wall candidate list (CSR): walls closer than ``r + skin``.
+
+    With ``fill=False`` writes per-particle counts to ``wstart[i+1]``; with
+    ``fill=True`` (``wstart`` then holding offsets) writes the wall indices and
+    frees history slots of walls that are no longer candidates.
+    """
+    n = x.shape[0]
+    nw = W.shape[0]
+    ns = wslot.shape[1]
+    for i in range(n):
+        pos = wstart[i]
+        cnt = 0
+        for w in range(nw):
+            if int(W[w, 0]) == WALL_MESH:
+                hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(
+                    W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
+            else:
+                hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = wall_geometry(
+                    W, w, x[i, 0], x[i, 1], x[i, 2], time)
+            near = hit and dist < rad[i] + skin and dist > -rad[i] - skin
+            if near:
+                if fill:
+                    wcand[pos] = w
+                    pos += 1
+                cnt += 1
+            elif fill:
+                for sl in range(ns):
+                    if wslot[i, sl] == w:
+                        wslot[i, sl] = -1
+                        for c in range(6):
+                            whist[i, sl, c] = 0.0
+        if not fill:
+            wstart[i + 1] = cnt
 
 
 # --------------------------------------------------------------- neighbour lists

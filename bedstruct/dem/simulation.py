@@ -371,6 +371,8 @@ class Simulation:
             if int(row[0]) != K.WALL_CYLINDER:
                 raise ConfigError(f"wall {name!r} is not a Cylinder; only rollers spin")
             row[16] = float(omega)
+        if self._ready:
+            self._build_wall_list()
 
     def wall_states(self) -> list[WallState]:
         """Position, velocity and particle load of every wall now."""
@@ -523,6 +525,25 @@ class Simulation:
                             np.ascontiguousarray(old_sign[o]), np.ascontiguousarray(old_ht[o]),
                             np.ascontiguousarray(old_hr[o]), qb, self.ht, self.hr)
         self._alloc_buffers()
+        self._build_wall_list()
+
+    def _build_wall_list(self):
+        """Candidate walls of each particle (closer than r + skin), built at the
+        current time; rebuilt when a wall has moved skin/2 or at pair rebuilds."""
+        n = self.n_particles
+        self._wstart = np.zeros(n + 1, dtype=np.int64)
+        empty = np.zeros(0, dtype=np.int64)
+        K.wall_candidates(self.x, self.rad, self._W, self._tri, self.time, self.skin, False,
+                          self._wstart, empty, self.wslot, self.whist)
+        np.cumsum(self._wstart, out=self._wstart)
+        self._wcand = np.zeros(int(self._wstart[-1]), dtype=np.int64)
+        K.wall_candidates(self.x, self.rad, self._W, self._tri, self.time, self.skin, True,
+                          self._wstart, self._wcand, self.wslot, self.whist)
+        self._wall_list_time = self.time
+        # fastest wall surface speed (translation plus roller rim speed), m/s
+        W = self._W
+        sp = np.sqrt((W[:, 10:13] ** 2).sum(axis=1)) if len(W) else np.zeros(0)
+        self._wall_speed = float(sp.max(initial=0.0))
 
     def _alloc_buffers(self):
         n = self.n_particles
@@ -557,7 +578,7 @@ class Simulation:
         m = self.model
         K.finish_step(self.x, v, om, f, tq, fbuf, tbuf, self.mass, self.inv_m, self.inv_i,
                       self.rad, self.ptype, self.gravity, self._pbounds, self._W, self._tri,
-                      self.time, wslot, whist, self._wbuf, Y, G, B, MU, MUR, COH, m.rolling_code,
+                      self.time, self._wstart, self._wcand, wslot, whist, self._wbuf, Y, G, B, MU, MUR, COH, m.rolling_code,
                       m.tangential_damping, m.limit_force, float(m.rolling_damping), dt, store,
                       wfn, wdel, wnrm, self._overflow)
 
@@ -578,6 +599,10 @@ class Simulation:
                      dt, self._pbounds, self._disp)
         if self._disp.max() > (0.5 * self.skin) ** 2:
             self._rebuild()
+        elif self._wall_speed * (self.time + dt - self._wall_list_time) > 0.5 * self.skin:
+            self.time += dt  # build the wall list at the time the walls are evaluated
+            self._build_wall_list()
+            self.time -= dt
         self._pair_pass(dt, self.ht, self.hr, self._fbuf, self._tbuf, False, self._fn_out,
                         self._ft_out)
         self.step += 1
@@ -775,7 +800,8 @@ class Simulation:
 
     # ---------------------------------------------------------- checkpoints
     _STATE = ("x", "v", "om", "f", "tq", "rad", "mass", "inv_m", "inv_i", "ptype", "ids", "images",
-              "x_ref", "wslot", "whist", "pi", "pj", "psh", "ht", "hr", "_W", "_tri")
+              "x_ref", "wslot", "whist", "pi", "pj", "psh", "ht", "hr", "_W", "_tri", "_wstart",
+              "_wcand")
 
     def save_checkpoint(self, path) -> Path:
         """Write the complete state (incl. contact history and rng) atomically to ``path`` (.npz)."""
@@ -787,7 +813,8 @@ class Simulation:
                     skin=self.skin, n_removed=self.n_removed, n_rebuilds=self.n_rebuilds,
                     next_id=self._next_id, n_threads=self.n_threads, wall_names=self.wall_names,
                     rng=self.rng.bit_generator.state, config=self.config(),
-                    t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz)
+                    t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz,
+                    wall_list_time=self._wall_list_time, wall_speed=self._wall_speed)
         arrays["meta"] = np.array(json.dumps(meta, default=_json_default))
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
@@ -836,6 +863,8 @@ class Simulation:
         sim.rng.bit_generator.state = meta["rng"]
         sim._wall_cfg = cfg["walls"]
         sim._alloc_buffers()
+        sim._wall_list_time = meta["wall_list_time"]
+        sim._wall_speed = meta["wall_speed"]
         sim._ready = True
         return sim
 
