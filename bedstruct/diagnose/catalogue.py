@@ -153,7 +153,7 @@ def halsey_film_thickness(relative_humidity: float, *, monolayer: float = 0.354e
     Examples
     --------
     >>> round(halsey_film_thickness(0.5) * 1e9, 3)
-    0.686
+    0.684
     """
     rh = float(relative_humidity)
     if not 0.0 < rh < 1.0:

@@ -4,7 +4,7 @@ A small TOML file names the simulator, the calibrated base parameters, the
 parameters recalibration may change, the catalogue and the statistical levels::
 
     [simulator]
-    kind = "surrogate"        # "engine" once bedstruct.dem provides the workflows
+    kind = "surrogate"        # "engine" once bedstruct.workflows provides the hook
     replicates = 4
     seed = 0
 
@@ -27,7 +27,7 @@ parameters recalibration may change, the catalogue and the statistical levels::
     max_effects = 2
 
 ``kind = "engine"`` calls the hook
-``bedstruct.dem.workflows.diagnosis_simulator(design, config) -> simulator``
+``bedstruct.workflows.diagnosis_simulator(design, config) -> simulator``
 (the ``[engine]`` table is passed through as ``config``).
 
 .. versionadded:: 0.1
@@ -48,7 +48,7 @@ from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 
 __all__ = ["SimConfig", "load_sim_config", "make_simulator"]
 
-_ENGINE_HOOK = "bedstruct.dem.workflows"
+_ENGINE_HOOK = "bedstruct.workflows"
 
 
 @dataclass(frozen=True)
@@ -169,7 +169,7 @@ def make_simulator(config: SimConfig, design: MeasurementSet):
     """The simulator callable for a configuration and a design.
 
     ``kind = "surrogate"`` gives :class:`SurrogateSimulator`; ``kind = "engine"``
-    calls ``bedstruct.dem.workflows.diagnosis_simulator(design, config.engine)``.
+    calls ``bedstruct.workflows.diagnosis_simulator(design, config.engine)``.
 
     Raises
     ------

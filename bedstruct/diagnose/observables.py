@@ -160,7 +160,7 @@ def render_side_view(positions, radii, *, pixel_size, axis=1, extent=None,
     --------
     >>> img = render_side_view([[0.5, 0.0, 0.5]], [0.5], pixel_size=0.1, extent=(0, 1, 0, 1))
     >>> img.shape, int(img.sum())
-    ((10, 10), 76)
+    ((10, 10), 80)
     """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     r = np.asarray(radii, dtype=float).ravel()

@@ -47,7 +47,7 @@ def standardised_residuals(real, sigma_meas, sim_samples, *, sim_var=None):
     --------
     >>> z, sig, mu = standardised_residuals([10.0], [0.3], [[9.0], [9.8], [9.2]])
     >>> mu, np.round(sig, 3), np.round(z, 2)
-    (array([9.33333333]), array([0.361]), array([1.85]))
+    (array([9.33333333]), array([0.384]), array([1.73]))
     """
     y = np.asarray(real, dtype=float).ravel()
     sm = np.asarray(sigma_meas, dtype=float).ravel()
