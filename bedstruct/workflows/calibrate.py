@@ -3,7 +3,9 @@
 A bracketing search (regula falsi with the Illinois modification) over
 replicate repose simulations: the angle is evaluated at the two ends of
 ``calibrate.cohesion_bracket`` (the bracket widens geometrically until it
-contains the target), then at the secant crossing, keeping a bracket, until
+contains the target; it stops early when the angle stops rising with
+cohesion, as it does once cohesive blocks break off irregularly), then at the
+secant crossing, keeping a bracket, until
 the mean angle is within ``tolerance_deg`` of the target or ``max_iter``
 evaluations were made. The calibrated value and its uncertainty come from a
 weighted straight-line fit of angle against cohesion through the points of
@@ -45,10 +47,11 @@ class CalibrationResult:
     Attributes
     ----------
     cohesion : float, J/m^3
-        Cohesion at which the fitted angle equals the target.
+        Cohesion at which the fitted angle equals the target; when the target
+        was not bracketed, the evaluated cohesion closest to it.
     cohesion_std : float, J/m^3
         Its standard uncertainty (from the angle uncertainties of the
-        points and the slope of the fit).
+        points and the slope of the fit); NaN when not bracketed.
     target_deg : float
     slope_deg_per_unit : float, degrees per J/m^3
         Slope of the local angle-cohesion line.
@@ -74,6 +77,10 @@ class CalibrationResult:
     def to_dict(self) -> dict:
         """JSON-ready summary."""
         return to_jsonable(self)
+
+
+def _miss(p, target):
+    return abs(p.angle_deg - target) if math.isfinite(p.angle_deg) else math.inf
 
 
 def inverse_linear(x, y, sy, target: float) -> tuple[float, float, float]:
@@ -184,7 +191,8 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
     p_lo, p_hi = ev(lo), ev(hi)
     it = 2
     # widen until bracketed (angle assumed to rise with cohesion)
-    while it < nmax + 2 and not (p_lo.angle_deg <= target <= p_hi.angle_deg):
+    monotonic = p_hi.angle_deg > p_lo.angle_deg
+    while monotonic and it < nmax + 2 and not (p_lo.angle_deg <= target <= p_hi.angle_deg):
         if p_hi.angle_deg < target:
             lo, p_lo = hi, p_hi
             hi = hi * 1.5
@@ -194,9 +202,16 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
             lo = lo / 1.5
             p_lo = ev(lo)
         it += 1
+        # stop widening once the angle no longer rises with cohesion (cohesive blocks
+        # break off irregularly; the curve has a maximum)
+        monotonic = p_hi.angle_deg > p_lo.angle_deg
+    if not monotonic:
+        log.warning("calibrate: the angle does not rise with cohesion between %.4g and %.4g "
+                    "J/m^3 (%.2f -> %.2f deg)", p_lo.cohesion, p_hi.cohesion, p_lo.angle_deg,
+                    p_hi.angle_deg)
     bracketed = p_lo.angle_deg <= target <= p_hi.angle_deg
     side = 0
-    best = min(pts.values(), key=lambda p: abs(p.angle_deg - target))
+    best = min(pts.values(), key=lambda p: _miss(p, target))
     while bracketed and it < nmax + 2 and abs(best.angle_deg - target) > tol:
         f_lo, f_hi = p_lo.angle_deg - target, p_hi.angle_deg - target
         if side == -1:
@@ -213,7 +228,19 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
         else:
             hi, p_hi = k, p
             side = -1
-        best = min(pts.values(), key=lambda q: abs(q.angle_deg - target))
+        best = min(pts.values(), key=lambda q: _miss(q, target))
+    if not bracketed:
+        # no crossing: report the closest point, without an uncertainty
+        res = CalibrationResult(cohesion=float(best.cohesion), cohesion_std=float("nan"),
+                                target_deg=target, slope_deg_per_unit=float("nan"),
+                                converged=bool(abs(best.angle_deg - target) <= tol), bracketed=False,
+                                curve=tuple(sorted(pts.values(), key=lambda p: p.cohesion)),
+                                n_runs=n_runs)
+        log.warning("calibrate: target %.2f deg not bracketed; closest %.2f deg at %.4g J/m^3",
+                    target, best.angle_deg, best.cohesion)
+        if layout is not None:
+            layout.write_results({"workflow": "calibrate", **res.to_dict()})
+        return res
     use = {p_lo.cohesion: p_lo, p_hi.cohesion: p_hi, best.cohesion: best}
     xs = [p.cohesion for p in use.values()]
     try:
@@ -223,8 +250,6 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
                                           [p.angle_std_deg for p in use.values()], target)
     except (ValueError, np.linalg.LinAlgError):
         kstar, sk, slope = best.cohesion, float("nan"), float("nan")
-    if not bracketed:
-        log.warning("calibrate: target %.2f deg not bracketed by the angles found", target)
     res = CalibrationResult(cohesion=float(kstar), cohesion_std=float(sk), target_deg=target,
                             slope_deg_per_unit=float(slope),
                             converged=bool(abs(best.angle_deg - target) <= tol), bracketed=bracketed,

@@ -47,3 +47,16 @@ def test_calibration_on_tiny_repose(tmp_path):
     res = calibrate_cohesion(cfg, target_deg=26.0, bracket=(0.0, 8e3), max_iter=3, out=tmp_path)
     assert res.n_runs >= 4
     assert (tmp_path / "results.json").is_file()
+
+
+def test_angle_with_a_maximum_stops_widening():
+    cfg = load_config(preset="tiny")
+    seen = []
+
+    def model(k):   # rises to 28 deg at 1.5e4, then falls (blocks break off)
+        seen.append(k)
+        return 28 - 1e-8 * (k - 1.5e4) ** 2, 0.5, ()
+    res = calibrate_cohesion(cfg, target_deg=33.0, bracket=(5e3, 1.5e4), max_iter=6, evaluate=model)
+    assert not res.bracketed and not res.converged
+    assert res.cohesion == 1.5e4 and math.isnan(res.cohesion_std)
+    assert len(seen) == 3      # widened once, saw the angle fall, stopped

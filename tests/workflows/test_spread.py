@@ -72,3 +72,19 @@ def test_run_directory_and_dumps(tiny_spread):
     plat = [w for w in walls if w["name"] == "platform"]
     assert plat[0]["origin"][2] == pytest.approx(-cfg["spread"]["gaps"][0], rel=0.05)
     assert (out / "pile" / "pile.dump.gz").is_file()
+
+
+def test_roller_spreads_one_layer(tmp_path):
+    from bedstruct.workflows import load_config, run_spread
+    cfg = load_config(preset="tiny", overrides=["spread.tool=roller", "spread.gaps=[4.5e-4]",
+                                                "spread.n_frames=3"])
+    res = run_spread(cfg, out=tmp_path)
+    layer = res.layers[0]
+    assert res.tool == "roller"
+    assert layer.n_inserted == layer.n_bed + layer.n_heap + layer.n_removed
+    # the roller leaves a bed on the platform, not higher than its lowest point
+    assert 0.2 * 4.5e-4 < layer.bed_height_m < 1.1 * 4.5e-4
+    assert layer.bed_top_m < 4.5e-4 + 2 * cfg["psd"]["d_max"] * cfg["psd"]["scale"]
+    walls = [json.loads(s) for s in (tmp_path / "layer01" / "walls.jsonl").read_text().splitlines()]
+    x = [w["origin"][0] for w in walls if w["name"] == "tool"]
+    assert x[-1] - x[0] > 1e-3
