@@ -122,6 +122,17 @@ def pcg_solve(indptr, indices, data, diag, b, x, tol, maxiter, bounds, r, z, p, 
     return it
 
 
+@njit_parallel
+def be_system(C, d, x_old, inv_h, rhs_const, bounds, diag, rhs):
+    """Backward-Euler system: ``diag = C/h + d`` and ``rhs = C/h x_old + rhs_const``."""
+    nc = bounds.shape[0] - 1
+    for c in prange(nc):
+        for i in range(bounds[c], bounds[c + 1]):
+            ch = C[i] * inv_h
+            diag[i] = ch + d[i]
+            rhs[i] = ch * x_old[i] + rhs_const[i]
+
+
 @njit
 def rasterize_top(x, y, ztop_centre, radii, values, x0, y0, cell, nx, ny, mode, out, height,
                   owner):
