@@ -49,32 +49,47 @@ def generate(path, n, frames, seed=0):
             fh.write("\n")
 
 
-REPEATS = 3  # later frames are read this many times (cycling) and the fastest read counts
+REPEATS = 3  # later frames are read this many times and the fastest read counts
 
 
-def _later(read, n_frames):
-    """Mean over frames 1.. of the fastest of REPEATS reads, cycling through the frames
-    so that no reader can answer from a one-frame cache."""
-    best = {}
-    for _ in range(REPEATS):
-        for k in range(1, n_frames):
-            t0 = time.perf_counter()
-            read(k)
-            dt = time.perf_counter() - t0
-            best[k] = min(best.get(k, math.inf), dt)
-    return float(np.mean(list(best.values()))) if best else math.nan
-
-
-def bench_bedstruct(path):
+def open_readers(path):
+    """Open the file with bedstruct and OVITO; returns first-frame times and readers."""
     import bedstruct
     t0 = time.perf_counter()
     traj = bedstruct.read_dump(path)
-    f = traj[0]
-    first = time.perf_counter() - t0
-    later = _later(lambda k: traj[k], len(traj))
-    f = traj[len(traj) - 1]
-    traj.close()
-    return first, later, f
+    traj[0]
+    b_first = time.perf_counter() - t0
+    pipe, o_first = None, math.nan
+    try:
+        from ovito.io import import_file
+    except Exception as exc:  # noqa: BLE001 - report any import failure
+        print(f"ovito: not available ({type(exc).__name__}: {exc})")
+    else:
+        t0 = time.perf_counter()
+        pipe = import_file(path)
+        assert pipe.compute(0).particles.count > 0
+        o_first = time.perf_counter() - t0
+    return traj, b_first, pipe, o_first
+
+
+def later_frames(traj, pipe, n_frames):
+    """Mean over frames 1.. of the fastest of REPEATS reads for bedstruct and OVITO.
+
+    Reads alternate between the two readers and cycle through the frames, so
+    both see the same machine load and neither can answer from a one-frame cache.
+    """
+    best_b, best_o = {}, {}
+    for _ in range(REPEATS):
+        for k in range(1, n_frames):
+            t0 = time.perf_counter()
+            traj[k]
+            best_b[k] = min(best_b.get(k, math.inf), time.perf_counter() - t0)
+            if pipe is not None:
+                t0 = time.perf_counter()
+                pipe.compute(k)
+                best_o[k] = min(best_o.get(k, math.inf), time.perf_counter() - t0)
+    mean = (lambda d: float(np.mean(list(d.values()))) if d else math.nan)
+    return mean(best_b), mean(best_o)
 
 
 def frame_nbytes(f):
@@ -95,20 +110,6 @@ def bench_memory(path):
     return peak, frame_nbytes(f)
 
 
-def bench_ovito(path, n_frames):
-    try:
-        from ovito.io import import_file
-    except Exception as exc:  # noqa: BLE001 - report any import failure
-        print(f"ovito: not available ({type(exc).__name__}: {exc})")
-        return math.nan, math.nan
-    t0 = time.perf_counter()
-    pipe = import_file(path)
-    data = pipe.compute(0)
-    first = time.perf_counter() - t0
-    assert data.particles.count > 0
-    return first, _later(pipe.compute, n_frames)
-
-
 def bench_mdanalysis(path, n_frames):
     try:
         import MDAnalysis as mda
@@ -120,8 +121,13 @@ def bench_mdanalysis(path, n_frames):
         u = mda.Universe(path, topology_format="LAMMPSDUMP", format="LAMMPSDUMP")
         u.trajectory[0]
         first = time.perf_counter() - t0
-        later = _later(lambda k: u.trajectory[k], n_frames)
-    return first, later
+        best = {}
+        for _ in range(REPEATS):
+            for k in range(1, n_frames):
+                t0 = time.perf_counter()
+                u.trajectory[k]
+                best[k] = min(best.get(k, math.inf), time.perf_counter() - t0)
+    return first, (float(np.mean(list(best.values()))) if best else math.nan)
 
 
 def _threads():
@@ -162,9 +168,10 @@ def main():
         print(f"bedstruct gz backend: {backend}; numba threads: {_threads()}")
         res = {}
         for label, path in (("text", text), ("gz", gz)):
-            b_first, b_later, frame = bench_bedstruct(path)
-            assert frame.n_particles == args.n
-            o_first, o_later = bench_ovito(path, args.frames)
+            traj, b_first, pipe, o_first = open_readers(path)
+            b_later, o_later = later_frames(traj, pipe, args.frames)
+            assert traj[len(traj) - 1].n_particles == args.n
+            traj.close()
             print(f"[{label}] bedstruct: first frame {b_first:.3f} s (incl. scan), later "
                   f"{b_later:.3f} s/frame")
             print(f"[{label}] ovito:     first frame {o_first:.3f} s (incl. scan), later "
