@@ -781,12 +781,14 @@ HALF_STENCIL = np.array([(dx, dy, dz) for dz in (-1, 0, 1) for dy in (-1, 0, 1) 
 
 @njit(parallel=True, **_FM)
 def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, counts, fill,
-               pi, pj, psh):
+               pi, pj, psh, chunk_off, chunk_cap, chunk_cnt):
     """Half-stencil pair list with cutoff ``r_i + r_j + skin``.
 
-    Called twice: with ``fill=False`` it writes per-particle pair counts;
-    with ``fill=True`` (``counts`` then holding exclusive offsets) it writes
-    the pairs ``(i, j, image of j)``. Particles must be sorted by cell.
+    ``fill=0``: write per-particle pair counts. ``fill=1`` (``counts`` holding
+    exclusive offsets): write the pairs ``(i, j, image of j)``. ``fill=2``:
+    one pass, chunk t writing its pairs from ``chunk_off[t]`` with room for
+    ``chunk_cap[t]``; ``chunk_cnt[t]`` gets the number written, or -1 when
+    the room was too small. Particles must be sorted by cell.
     """
     nt = bounds.shape[0] - 1
     ns = stencil.shape[0]
@@ -794,7 +796,12 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
     ny = ncell[1]
     nz = ncell[2]
     for t in prange(nt):
+        tpos = chunk_off[t] if fill == 2 else 0
+        tend = tpos + chunk_cap[t] if fill == 2 else 0
+        over = False
         for i in range(bounds[t], bounds[t + 1]):
+            if over:
+                break
             c = cells[i]
             cx = c % nx
             cy = (c // nx) % ny
@@ -804,7 +811,7 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
             xi2 = x[i, 2]
             ri = rad[i] + skin
             cnt = 0
-            pos = counts[i] if fill else 0
+            pos = counts[i] if fill == 1 else tpos
             for s in range(ns + 1):
                 sx = 0
                 sy = 0
@@ -858,6 +865,9 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
                     d2 = a2 - x[j, 2]
                     rc = ri + rad[j]
                     if d0 * d0 + d1 * d1 + d2 * d2 < rc * rc:
+                        if fill == 2 and pos >= tend:
+                            over = True
+                            break
                         if fill:
                             pi[pos] = i
                             pj[pos] = j
@@ -866,8 +876,13 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
                             psh[pos, 2] = sz
                             pos += 1
                         cnt += 1
-            if not fill:
+                if over:
+                    break
+            if fill == 0:
                 counts[i] = cnt
+            tpos = pos
+        if fill == 2:
+            chunk_cnt[t] = -1 if over else tpos - chunk_off[t]
 
 
 @njit(parallel=True)
