@@ -455,11 +455,24 @@ def observe(kind: str, data: Mapping[str, Any], *, windows=None, percentiles=Non
     ``coordination``
         ``coordination`` (per-particle contact counts).
 
+    A :class:`bedstruct.Frame` (or any object with ``positions`` and ``radii``)
+    may be passed instead of a dict for the particle-based kinds.
+
     Returns
     -------
     (n,) ndarray
         Component values in the kind's canonical unit (see :data:`KINDS`).
+
+    Examples
+    --------
+    >>> observe("coordination", {"coordination": [3, 4, 5]})
+    array([4.])
     """
+    if not isinstance(data, Mapping):
+        if hasattr(data, "positions") and hasattr(data, "radii"):
+            data = {"positions": np.asarray(data.positions), "radii": np.asarray(data.radii)}
+        else:
+            raise TypeError(f"`data` must be a dict of arrays or a Frame; got {type(data).__name__}")
     if kind == "static_angle":
         if "image" in data:
             return np.array([angle_from_image(data["image"], pixel_size=data.get("pixel_size", 1.0))])

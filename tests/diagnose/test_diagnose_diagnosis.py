@@ -140,3 +140,9 @@ def test_plots_return_axes():
         from matplotlib.figure import Figure
         ax2 = fn(obj, ax=Figure().add_subplot(111))
         assert ax2 is not None
+
+
+@pytest.mark.slow
+def test_small_validation_meets_the_goals():
+    r = validate("small")
+    assert all(g["met"] for g in r.goals.values()), r.goals

@@ -121,3 +121,12 @@ def test_observe_dispatch_matches_direct_operators():
     assert observe("coordination", {"coordination": [4, 6]})[0] == 5.0
     with pytest.raises(ValueError, match="unknown observable kind"):
         observe("temperature", {})
+
+
+def test_observe_accepts_a_frame():
+    from bedstruct import Frame
+    pos = cubic_positions(4)
+    f = Frame(pos, np.full(len(pos), 0.5), box=[4, 4, 4])
+    assert observe("bed_height", f)[0] == pytest.approx(4.0)
+    with pytest.raises(TypeError, match="Frame"):
+        observe("bed_height", 3.0)
