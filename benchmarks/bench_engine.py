@@ -111,6 +111,7 @@ def time_bedstruct(fr, *, n_threads: int, steps: int, warmup: int, dt: float | N
             "pairs_per_particle": sim.n_pairs / sim.n_particles,
             "bytes_per_particle": per_p,
             "bytes_per_contact": per_pair * sim.n_pairs / max(n_contacts, 1),
+            "bytes_per_pair": per_pair,
             "ns_per_contact": stats.wall_time / steps / max(c.n_contacts, 1) * 1e9,
             "dt": sim.dt, "kinetic_energy": sim.kinetic_energy()}
 
@@ -171,7 +172,8 @@ def main(argv=None) -> int:
           f"liggghts_2rank_steps_per_s={ext['liggghts', 2]:.4g} "
           f"lammps_2rank_steps_per_s={ext['lammps', 2]:.4g} n_particles={b1['n']} steps={steps} "
           f"rebuilds={b1['rebuilds']} bytes_per_particle={b1['bytes_per_particle']:.0f} "
-          f"bytes_per_contact={b1['bytes_per_contact']:.0f}")
+          f"bytes_per_contact={b1['bytes_per_contact']:.0f} bytes_per_pair={b1['bytes_per_pair']:.0f} "
+          f"bytes_per_particle_2threads={b2['bytes_per_particle']:.0f}")
     return 0
 
 
