@@ -277,7 +277,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     fps = replace(fps, sigma_meas=sigma_meas)
 
     base_meas = fps.base_samples[:, rows_meas]
-    wh = where(measurements.select(("calibrate", "validate")), base_meas,
+    # the measured observables in the fingerprints' row order (a file may list them otherwise)
+    measured = replace(measurements, measurements=tuple(measurements[n] for n in names))
+    wh = where(measured, base_meas,
                sim_var=fps.sim_var[rows_meas], alpha=alpha)
     residual = np.full(len(fps.sigma), np.nan)
     residual[rows_meas] = y - base_meas.mean(axis=0)

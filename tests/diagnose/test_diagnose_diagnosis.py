@@ -146,3 +146,16 @@ def test_plots_return_axes():
 def test_small_validation_meets_the_goals():
     r = validate("small")
     assert all(g["met"] for g in r.goals.values()), r.goals
+
+
+def test_observable_order_in_the_file_does_not_matter(twin_setup, tmp_path):
+    from dataclasses import replace
+    eff, sim, fps = twin_setup
+    a = _magnitude_for_snr(fps, "non_sphericity", 8.0)
+    real = _twin(sim, fps, tmp_path, {"non_sphericity": a}, 41)
+    shuffled = replace(real, measurements=real.measurements[::-1])
+    d1 = diagnose(real, sim, base=BASE_PARAMETERS, fingerprints=fps)
+    d2 = diagnose(shuffled, sim, base=BASE_PARAMETERS, fingerprints=fps)
+    assert d1.where.chi2 == pytest.approx(d2.where.chi2)
+    assert d1.where.ranked(1) == d2.where.ranked(1)
+    assert d2.attribution.selected[0].effect == "non_sphericity"
