@@ -11,8 +11,8 @@ from . import _heat_kernels as _k
 from ._heat_network import ThermalNetwork
 from ._heat_solver import HeatResult
 
-__all__ = ["TemperatureMap", "temperature_map", "HAZShape", "haz_shape", "ConductivityTensor",
-           "conductivity_tensor"]
+__all__ = ["TemperatureMap", "temperature_map", "HAZShape", "haz_shape", "haz_table",
+           "ConductivityTensor", "conductivity_tensor"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +75,8 @@ def temperature_map(result, *, which="final", temperature=None, cell=None, exten
     Returns
     -------
     TemperatureMap
+
+    .. versionadded:: 0.1
 
     Examples
     --------
@@ -221,6 +223,8 @@ def haz_shape(tmap: TemperatureMap, threshold: float, *, center=None) -> HAZShap
 
     as in the seed report (eq. 9, there written without the square).
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     A disc of radius 20 cells has roundness close to 1:
@@ -276,6 +280,41 @@ def haz_shape(tmap: TemperatureMap, threshold: float, *, center=None) -> HAZShap
     centroid = np.array([tmap.extent[0] + (c0 + 0.5) * cell, tmap.extent[2] + (r0 + 0.5) * cell])
     roundness = 4.0 * area / (math.pi * major * major) if major > 0 else float("nan")
     return HAZShape(threshold, area, major, minor, phi, roundness, centroid, int(props.area), mask)
+
+
+def haz_table(shapes, labels=None) -> dict:
+    """Heat-affected-zone shapes as equal-length columns (for pandas).
+
+    Parameters
+    ----------
+    shapes : sequence of HAZShape
+    labels : sequence of str, optional
+        One label per shape (e.g. ``"start"``, ``"center"``, ``"end"``).
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``label``, ``threshold`` (K), ``area`` (m^2), ``major_axis``,
+        ``minor_axis`` (m), ``orientation_deg`` (degrees), ``roundness``;
+        zero-length, correctly typed columns for no shapes.
+
+    .. versionadded:: 0.1
+
+    Examples
+    --------
+    >>> haz_table([])["roundness"]
+    array([], dtype=float64)
+    """
+    shapes = list(shapes)
+    if labels is None:
+        labels = [str(k) for k in range(len(shapes))]
+    labels = [str(v) for v in labels]
+    if len(labels) != len(shapes):
+        raise ValueError(f"`labels` must have one entry per shape ({len(shapes)}); got {len(labels)}")
+    f = lambda name: np.array([getattr(s, name) for s in shapes], dtype=np.float64)  # noqa: E731
+    return {"label": np.array(labels, dtype=str), "threshold": f("threshold"), "area": f("area"),
+            "major_axis": f("major_axis"), "minor_axis": f("minor_axis"),
+            "orientation_deg": np.degrees(f("orientation")), "roundness": f("roundness")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -370,6 +409,8 @@ def conductivity_tensor(network: ThermalNetwork, *, region=None, boundary_width=
     -----
     For a periodic simple cubic lattice of spacing ``s`` with conductance
     ``G`` per contact, ``K = (G / s) I``.
+
+    .. versionadded:: 0.1
 
     Examples
     --------

@@ -34,6 +34,8 @@ class Material:
     conductivity : float, W/(m K)
     name : str, optional
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> m = Material(8300.0, 450.0, 13.0, name="CoCr")
@@ -94,6 +96,8 @@ class GasGap:
     max_gap : float or None, m
         Pairs with a surface gap above this get no gas term (default: every
         pair in the contacts given; for the plate, gaps below 0.1 r).
+
+    .. versionadded:: 0.1
 
     Examples
     --------
@@ -347,6 +351,8 @@ def thermal_network(frame, contacts: Contacts | None = None, *, materials=None, 
     .. [2] A. V. Gusarov, T. Laoui, L. Froyen, V. I. Titov, Contact thermal
        conductivity of a powder bed in selective laser sintering, Int. J. Heat
        Mass Transf. 46 (2003) 1103-1109, doi:10.1016/S0017-9310(02)00370-8
+
+    .. versionadded:: 0.1
 
     Examples
     --------

@@ -48,6 +48,8 @@ class HemisphereSource:
     A particle is inside when its centre lies in the half ball of radius
     ``diameter / 2`` below the centre (periodic images are not considered).
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> HemisphereSource((1e-3, 1e-3)).diameter
@@ -83,6 +85,8 @@ def source_nodes(network: ThermalNetwork, source: HemisphereSource) -> tuple[np.
     nodes : ndarray of int
         Row indices of the particles inside.
     center : (3,) ndarray, m
+
+    .. versionadded:: 0.1
 
     Examples
     --------
@@ -331,6 +335,8 @@ def conduct_heat(network: ThermalNetwork, *, t_end: float, source: HemisphereSou
     ``sum C_i dT_i`` equals the energy through the source and the
     boundaries to round-off whatever the CG tolerance (checked in the tests
     to 1e-10 relative with insulated boundaries).
+
+    .. versionadded:: 0.1
 
     Examples
     --------

@@ -46,6 +46,8 @@ def plot_temperature_map(tmap, *, ax=None, haz=None, vmin=None, vmax=None, cmap=
     -------
     Axes, or (Figure, Axes) when ``ax`` is None.
 
+    .. versionadded:: 0.1
+
     Examples
     --------
     >>> import numpy as np

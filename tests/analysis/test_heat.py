@@ -8,7 +8,6 @@ anisotropy of stretched lattices (conductivity tensor and HAZ shape).
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import pytest
@@ -540,3 +539,33 @@ def test_large_random_network_cg_conserves_energy():
     src = HemisphereSource((400e-6, 400e-6), diameter=100e-6)
     res = conduct_heat(net, t_end=5e-3, source=src, solver="cg", times=[5e-3])
     assert res.energy.relative_error < 1e-10
+    # self-convergence: ten times tighter tolerance changes the field by about the tolerance
+    fine = conduct_heat(net, t_end=5e-3, source=src, solver="cg", times=[5e-3], atol=0.1 * 1.28)
+    assert fine.n_steps > res.n_steps
+    assert np.abs(fine.final_temperature - res.final_temperature).max() < 2 * 1.28
+
+
+def test_default_contacts_from_find_contacts_match_brute_force():
+    pytest.importorskip("bedstruct.analysis.contacts")
+    f, c = random_bed(n=200, seed=12)
+    net_default = thermal_network(f)                # finds the contacts itself
+    net_ref = thermal_network(f, c)
+    key = lambda net: sorted(zip(np.minimum(net.i, net.j), np.maximum(net.i, net.j),  # noqa: E731
+                                 np.round(net.conductance, 18)))
+    got = [k for k in key(net_default) if k[2] > 0]
+    ref = [k for k in key(net_ref) if k[2] > 0]
+    assert len(got) == len(ref) > 50
+    np.testing.assert_allclose([g[2] for g in got], [r[2] for r in ref], rtol=1e-9)
+
+
+def test_haz_table_columns():
+    yy, xx = np.mgrid[0:50, 0:50]
+    vals = np.where((xx - 25) ** 2 + (yy - 25) ** 2 <= 100, 500.0, 300.0)
+    m = TemperatureMap(vals, np.arange(50) + 0.5, np.arange(50) + 0.5, 1.0, np.array([0, 50, 0, 50.0]),
+                       "top")
+    from bedstruct.analysis.heat import haz_table
+    t = haz_table([haz_shape(m, 400.0), haz_shape(m, 1e4)], labels=["a", "b"])
+    assert {len(v) for v in t.values()} == {2}
+    assert t["label"].tolist() == ["a", "b"] and t["roundness"][0] > 0.95 and np.isnan(t["roundness"][1])
+    with pytest.raises(ValueError, match="labels"):
+        haz_table([haz_shape(m, 400.0)], labels=[])
