@@ -154,7 +154,7 @@ def rolling_torque(model, h1, h2, h3, w1, w2, w3, e1, e2, e3, kn, kt, delta, ref
 
 
 # ---------------------------------------------------------------------- walls
-@njit(**_FM)
+@njit(inline="always", **_FM)
 def wall_geometry(W, w, px, py, pz, time):
     """Closest-approach data of wall ``w`` for a sphere centre p.
 
@@ -337,7 +337,7 @@ def closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     return ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w
 
 
-@njit(**_FM)
+@njit(inline="always", **_FM)
 def mesh_geometry(W, w, tri, px, py, pz, time):
     """Closest triangle of a mesh wall (rows ``W[w,14]..W[w,15]`` of ``tri``)."""
     dt0 = time - W[w, 13]
@@ -517,74 +517,46 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
 
 
 @njit(**_FM)
-def _wall_contact(i, w, hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, x, v, om, rad, mass, inv_i,
-                  ptype, wt, slot, whist, Y, G, B, MU, MUR, COH, rolling, tdamp, limit, eta_r, dt):
-    """Force and torque of one particle-wall contact; updates history slot ``slot``."""
-    ri = rad[i]
+def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v2, v3, w1, w2, w3,
+                 ystar, gstar, beta, mu, mur, kc, rolling, tdamp, limit, eta_r, dt,
+                 h1, h2, h3, r1, r2, r3):
+    """One particle-wall contact (scalars only): force and torque on the particle,
+    normal force, overlap and the updated tangential (h) and rolling (r) history."""
     delta = ri - dist
-    ti = ptype[i]
-    mi = mass[i]
-    kn, kt, gn, gt = hertz_coefficients(delta, ri, mi, Y[ti, wt], G[ti, wt], B[ti, wt])
+    kn, kt, gn, gt = hertz_coefficients(delta, ri, mi, ystar, gstar, beta)
     if not tdamp:
         gt = 0.0
-    vr1 = v[i, 0] - u1
-    vr2 = v[i, 1] - u2
-    vr3 = v[i, 2] - u3
+    vr1 = v1 - u1
+    vr2 = v2 - u2
+    vr3 = v3 - u3
     vn = vr1 * n1 + vr2 * n2 + vr3 * n3
     fn = kn * delta - gn * vn
     if limit and fn < 0.0:
         fn = 0.0
-    kc = COH[ti, wt]
     if kc != 0.0:
         fn -= kc * sjkr_area_wall(dist, ri)
     cr = ri - 0.5 * delta
-    w1 = cr * om[i, 0]
-    w2 = cr * om[i, 1]
-    w3 = cr * om[i, 2]
-    vt1 = vr1 - vn * n1 - (w2 * n3 - w3 * n2)
-    vt2 = vr2 - vn * n2 - (w3 * n1 - w1 * n3)
-    vt3 = vr3 - vn * n3 - (w1 * n2 - w2 * n1)
-    if slot >= 0:
-        h1 = whist[i, slot, 0]
-        h2 = whist[i, slot, 1]
-        h3 = whist[i, slot, 2]
-    else:
-        h1 = 0.0
-        h2 = 0.0
-        h3 = 0.0
-    s1, s2, s3, f1, f2, f3 = tangential_history(h1, h2, h3, vt1, vt2, vt3, n1, n2, n3, kt, gt,
-                                                MU[ti, wt], fn, dt)
-    c1 = n2 * f3 - n3 * f2
-    c2 = n3 * f1 - n1 * f3
-    c3 = n1 * f2 - n2 * f1
-    t1 = -cr * c1
-    t2 = -cr * c2
-    t3 = -cr * c3
-    r1 = 0.0
-    r2 = 0.0
-    r3 = 0.0
-    if slot >= 0:
-        whist[i, slot, 0] = s1
-        whist[i, slot, 1] = s2
-        whist[i, slot, 2] = s3
-        r1 = whist[i, slot, 3]
-        r2 = whist[i, slot, 4]
-        r3 = whist[i, slot, 5]
-    if rolling != ROLL_NONE:
-        mur = MUR[ti, wt]
-        if mur > 0.0:
-            ieff = 1.0 / inv_i[i] + mi * ri * ri
-            r1, r2, r3, m1, m2, m3 = rolling_torque(rolling, r1, r2, r3, om[i, 0] - o1,
-                                                    om[i, 1] - o2, om[i, 2] - o3, n1, n2, n3,
-                                                    kn, kt, delta, ri, fn, mur, dt, ieff, eta_r)
-            t1 -= m1
-            t2 -= m2
-            t3 -= m3
-            if slot >= 0:
-                whist[i, slot, 3] = r1
-                whist[i, slot, 4] = r2
-                whist[i, slot, 5] = r3
-    return fn * n1 + f1, fn * n2 + f2, fn * n3 + f3, t1, t2, t3, fn, delta
+    c1 = cr * w1
+    c2 = cr * w2
+    c3 = cr * w3
+    vt1 = vr1 - vn * n1 - (c2 * n3 - c3 * n2)
+    vt2 = vr2 - vn * n2 - (c3 * n1 - c1 * n3)
+    vt3 = vr3 - vn * n3 - (c1 * n2 - c2 * n1)
+    h1, h2, h3, f1, f2, f3 = tangential_history(h1, h2, h3, vt1, vt2, vt3, n1, n2, n3, kt, gt,
+                                                mu, fn, dt)
+    t1 = -cr * (n2 * f3 - n3 * f2)
+    t2 = -cr * (n3 * f1 - n1 * f3)
+    t3 = -cr * (n1 * f2 - n2 * f1)
+    if rolling != ROLL_NONE and mur > 0.0:
+        ieff = 1.0 / inv_ii + mi * ri * ri
+        r1, r2, r3, m1, m2, m3 = rolling_torque(rolling, r1, r2, r3, w1 - o1, w2 - o2, w3 - o3,
+                                                n1, n2, n3, kn, kt, delta, ri, fn, mur, dt, ieff,
+                                                eta_r)
+        t1 -= m1
+        t2 -= m2
+        t3 -= m3
+    return (fn * n1 + f1, fn * n2 + f2, fn * n3 + f3, t1, t2, t3, fn, delta,
+            h1, h2, h3, r1, r2, r3)
 
 
 @njit(parallel=True, **_FM)
@@ -611,26 +583,10 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
         for w in range(nw):
             for c in range(6):
                 wbuf[t, w, c] = 0.0
+        # wall contacts of the chunk's particles (added to this chunk's buffer)
         for i in range(bounds[t], bounds[t + 1]):
-            fx = gravity[0] * mass[i]
-            fy = gravity[1] * mass[i]
-            fz = gravity[2] * mass[i]
-            tx = 0.0
-            ty = 0.0
-            tz = 0.0
-            for b in range(nb):
-                fx += fbuf[b, i, 0]
-                fy += fbuf[b, i, 1]
-                fz += fbuf[b, i, 2]
-                tx += tbuf[b, i, 0]
-                ty += tbuf[b, i, 1]
-                tz += tbuf[b, i, 2]
-                fbuf[b, i, 0] = 0.0
-                fbuf[b, i, 1] = 0.0
-                fbuf[b, i, 2] = 0.0
-                tbuf[b, i, 0] = 0.0
-                tbuf[b, i, 1] = 0.0
-                tbuf[b, i, 2] = 0.0
+            if not store and wstart[i] == wstart[i + 1]:
+                continue
             if store:
                 for s in range(ns):
                     wfn_out[i, s] = 0.0
@@ -666,16 +622,39 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
                             whist[i, slot, c] = 0.0
                     else:
                         overflow[t] += 1
-                gx, gy, gz, g1, g2, g3, fnw, delta = _wall_contact(
-                    i, w, hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, x, v, om, rad, mass,
-                    inv_i, ptype, wt, slot, whist, Y, G, B, MU, MUR, COH, rolling, tdamp, limit,
-                    eta_r, dt)
-                fx += gx
-                fy += gy
-                fz += gz
-                tx += g1
-                ty += g2
-                tz += g3
+                ti = ptype[i]
+                if slot >= 0:
+                    h1 = whist[i, slot, 0]
+                    h2 = whist[i, slot, 1]
+                    h3 = whist[i, slot, 2]
+                    q1 = whist[i, slot, 3]
+                    q2 = whist[i, slot, 4]
+                    q3 = whist[i, slot, 5]
+                else:
+                    h1 = 0.0
+                    h2 = 0.0
+                    h3 = 0.0
+                    q1 = 0.0
+                    q2 = 0.0
+                    q3 = 0.0
+                (gx, gy, gz, g1, g2, g3, fnw, delta, h1, h2, h3, q1, q2, q3) = wall_contact(
+                    dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mass[i], inv_i[i],
+                    v[i, 0], v[i, 1], v[i, 2], om[i, 0], om[i, 1], om[i, 2],
+                    Y[ti, wt], G[ti, wt], B[ti, wt], MU[ti, wt], MUR[ti, wt], COH[ti, wt],
+                    rolling, tdamp, limit, eta_r, dt, h1, h2, h3, q1, q2, q3)
+                if slot >= 0:
+                    whist[i, slot, 0] = h1
+                    whist[i, slot, 1] = h2
+                    whist[i, slot, 2] = h3
+                    whist[i, slot, 3] = q1
+                    whist[i, slot, 4] = q2
+                    whist[i, slot, 5] = q3
+                fbuf[t, i, 0] += gx
+                fbuf[t, i, 1] += gy
+                fbuf[t, i, 2] += gz
+                tbuf[t, i, 0] += g1
+                tbuf[t, i, 1] += g2
+                tbuf[t, i, 2] += g3
                 wbuf[t, w, 0] -= gx
                 wbuf[t, w, 1] -= gy
                 wbuf[t, w, 2] -= gz
@@ -687,6 +666,27 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
                     wnorm_out[i, slot, 0] = -n1
                     wnorm_out[i, slot, 1] = -n2
                     wnorm_out[i, slot, 2] = -n3
+        # reduction, gravity and half kick (a simple, vectorisable loop)
+        for i in range(bounds[t], bounds[t + 1]):
+            fx = gravity[0] * mass[i]
+            fy = gravity[1] * mass[i]
+            fz = gravity[2] * mass[i]
+            tx = 0.0
+            ty = 0.0
+            tz = 0.0
+            for b in range(nb):
+                fx += fbuf[b, i, 0]
+                fy += fbuf[b, i, 1]
+                fz += fbuf[b, i, 2]
+                tx += tbuf[b, i, 0]
+                ty += tbuf[b, i, 1]
+                tz += tbuf[b, i, 2]
+                fbuf[b, i, 0] = 0.0
+                fbuf[b, i, 1] = 0.0
+                fbuf[b, i, 2] = 0.0
+                tbuf[b, i, 0] = 0.0
+                tbuf[b, i, 1] = 0.0
+                tbuf[b, i, 2] = 0.0
             f[i, 0] = fx
             f[i, 1] = fy
             f[i, 2] = fz
@@ -694,13 +694,13 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
             tq[i, 1] = ty
             tq[i, 2] = tz
             a = h * inv_m[i]
-            b = h * inv_i[i]
+            ab = h * inv_i[i]
             v[i, 0] += a * fx
             v[i, 1] += a * fy
             v[i, 2] += a * fz
-            om[i, 0] += b * tx
-            om[i, 1] += b * ty
-            om[i, 2] += b * tz
+            om[i, 0] += ab * tx
+            om[i, 1] += ab * ty
+            om[i, 2] += ab * tz
 
 
 @njit(**_FM)
