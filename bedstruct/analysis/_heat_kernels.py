@@ -26,16 +26,19 @@ def chunk_bounds(n, n_chunks):
 
 
 @njit_parallel
-def pcg_solve(indptr, indices, data, diag, b, x, tol, maxiter, bounds, r, z, p, q, partial,
-              partial_max):
+def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, z, p, q, partial,
+              partial_max, out):
     """Jacobi-preconditioned CG for ``A x = b`` with ``A = diag(diag) - W``.
 
     ``W`` is the symmetric, non-negative CSR matrix ``(indptr, indices,
     data)``; ``A`` must be symmetric positive definite. ``x`` holds the first
     guess on entry and the solution on exit. Iterates until the largest
     preconditioned residual ``max |r_i / diag_i|`` is at most ``tol`` (the
-    units of ``x``). On exit ``r`` holds the *true* residual ``b - A x``.
-    Returns the number of iterations (``maxiter + 1`` if not converged).
+    units of ``x``). ``wrow`` holds the row sums of ``W``; on exit
+    ``out[0]`` is the exact sum of the true residual, ``sum(b - A x) =
+    sum(b) - sum((diag - wrow) x)`` (``W`` is symmetric), computed without
+    another product. Returns the number of iterations (``maxiter + 1`` if
+    not converged).
     """
     n = b.shape[0]
     nc = bounds.shape[0] - 1
@@ -112,13 +115,16 @@ def pcg_solve(indptr, indices, data, diag, b, x, tol, maxiter, bounds, r, z, p, 
         for c in prange(nc):
             for i in range(bounds[c], bounds[c + 1]):
                 p[i] = z[i] + beta * p[i]
-    # true residual
+    # sum of the true residual: sum_i b_i - sum_i (diag_i - wrow_i) x_i
     for c in prange(nc):
+        s = 0.0
         for i in range(bounds[c], bounds[c + 1]):
-            acc = diag[i] * x[i]
-            for k in range(indptr[i], indptr[i + 1]):
-                acc -= data[k] * x[indices[k]]
-            r[i] = b[i] - acc
+            s += b[i] - (diag[i] - wrow[i]) * x[i]
+        partial[c] = s
+    tot = 0.0
+    for c in range(nc):
+        tot += partial[c]
+    out[0] = tot
     return it
 
 

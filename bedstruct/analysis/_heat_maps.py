@@ -11,6 +11,8 @@ from . import _heat_kernels as _k
 from ._heat_network import ThermalNetwork
 from ._heat_solver import HeatResult
 
+_STEADY_DIRECT_MAX = 200_000   # conductivity_tensor: sparse LU up to this many free nodes, else CG
+
 __all__ = ["TemperatureMap", "temperature_map", "HAZShape", "haz_shape", "haz_table",
            "ConductivityTensor", "conductivity_tensor"]
 
@@ -503,13 +505,14 @@ def conductivity_tensor(network: ThermalNetwork, *, region=None, boundary_width=
         for beta in range(3):
             gl = G * l[:, beta]
             B[:, beta] = np.bincount(ci, gl, minlength=n) - np.bincount(cj, gl, minlength=n)
-        if free.size <= 200_000:
+        if free.size <= _STEADY_DIRECT_MAX:
             from scipy.sparse.linalg import splu
             theta_f = splu(Lff).solve(np.ascontiguousarray(B[free]))
         else:
             Wf = W[free][:, free].tocsr()
             Wf.sort_indices()
             d = np.asarray(L.diagonal())[free]
+            wrow = np.asarray(Wf.sum(axis=1)).ravel()
             theta_f = np.zeros((free.size, 3))
             nf = free.size
             bounds = _k.chunk_bounds(nf, 64)
@@ -518,8 +521,9 @@ def conductivity_tensor(network: ThermalNetwork, *, region=None, boundary_width=
             for beta in range(3):
                 x = np.zeros(nf)
                 it = _k.pcg_solve(Wf.indptr.astype(np.int64), Wf.indices.astype(np.int64),
-                                  Wf.data.astype(np.float64), d, np.ascontiguousarray(B[free, beta]),
-                                  x, tol, 20 * nf, bounds, *work, np.empty(64), np.empty(64))
+                                  Wf.data.astype(np.float64), d, wrow,
+                                  np.ascontiguousarray(B[free, beta]), x, tol, 20 * nf, bounds,
+                                  *work, np.empty(64), np.empty(64), np.zeros(1))
                 if it > 20 * nf:
                     raise RuntimeError("conductivity_tensor: CG did not converge")
                 theta_f[:, beta] = x

@@ -232,7 +232,9 @@ class _Phase:
         self.rhs = np.empty(nf)
         if self.solver == "cg":
             self.indptr = np.ascontiguousarray(self.W.indptr, dtype=np.int64)
-            self.indices = np.ascontiguousarray(self.W.indices, dtype=np.int64)
+            self.indices = np.ascontiguousarray(self.W.indices, dtype=np.int32 if nf < 2**31 else np.int64)
+            self.wrow = np.ascontiguousarray(np.asarray(self.W.sum(axis=1)).ravel())
+            self.out = np.zeros(1)
             self.data = np.ascontiguousarray(self.W.data, dtype=np.float64)
             self.work = [np.empty(nf) for _ in range(4)]
             self.partial = np.empty(_N_CHUNKS)
@@ -254,21 +256,23 @@ class _Phase:
                     self._lu.clear()
                 lu = self._lu[h] = (splu(A), A)
             x = lu[0].solve(rhs)
-            r = rhs - lu[1] @ x
+            r_sum = float((rhs - lu[1] @ x).sum())
         else:
             diag, rhs = self.diag, self.rhs
             _k.be_system(self.C, self.d, x_old, 1.0 / h, self.rhs_const, self.bounds, diag, rhs)
             x = np.array(guess, dtype=np.float64, copy=True)
             r, z, p, qv = self.work
-            it = _k.pcg_solve(self.indptr, self.indices, self.data, diag, rhs, x, cg_tol, maxiter,
-                              self.bounds, r, z, p, qv, self.partial, self.partial_max)
+            it = _k.pcg_solve(self.indptr, self.indices, self.data, diag, self.wrow, rhs, x, cg_tol,
+                              maxiter, self.bounds, r, z, p, qv, self.partial, self.partial_max,
+                              self.out)
+            r_sum = float(self.out[0])
             if it > maxiter:
                 raise RuntimeError(f"conjugate gradients did not converge in {maxiter} iterations "
                                    f"(step {h:g} s); raise cg_maxiter or loosen cg_tol")
         # make the step conserve energy exactly: remove the summed residual with a uniform shift
         a1 = self.sum_C / h + self.sum_a1
         if a1 > 0:
-            x += r.sum() / a1
+            x += r_sum / a1
         e_src = h * (self.sum_b_src - (float(np.dot(self.g_src, x)) if self.has_src else 0.0))
         e_bnd = h * (self.sum_b_bnd - (float(np.dot(self.g_bnd, x)) if self.has_bnd else 0.0))
         return x, e_src, e_bnd, it

@@ -340,13 +340,23 @@ def test_pcg_kernel_against_scipy_solve():
     b = rng.normal(size=n)
     A = sp.diags(d) - W
     ref = spla.spsolve(A.tocsc(), b)
+    wrow = np.asarray(W.sum(axis=1)).ravel()
+    for idx_dtype in (np.int64, np.int32):
+        x = np.zeros(n)
+        work = [np.empty(n) for _ in range(4)]
+        out = np.zeros(1)
+        it = hk.pcg_solve(W.indptr.astype(np.int64), W.indices.astype(idx_dtype), W.data, d, wrow, b,
+                          x, 1e-12, 5000, hk.chunk_bounds(n, 64), *work, np.empty(64), np.empty(64),
+                          out)
+        assert 0 < it <= 5000
+        np.testing.assert_allclose(x, ref, atol=1e-9)
+        assert out[0] == pytest.approx((b - A @ x).sum(), abs=1e-12)   # exact residual sum
+    # a loose tolerance stops early, and the residual sum is still exact
     x = np.zeros(n)
-    work = [np.empty(n) for _ in range(4)]
-    it = hk.pcg_solve(W.indptr.astype(np.int64), W.indices.astype(np.int64), W.data, d, b, x, 1e-12,
-                      5000, hk.chunk_bounds(n, 64), *work, np.empty(64), np.empty(64))
-    assert 0 < it <= 5000
-    np.testing.assert_allclose(x, ref, atol=1e-9)
-    np.testing.assert_allclose(work[0], b - A @ x, atol=1e-12)   # true residual returned
+    it = hk.pcg_solve(W.indptr.astype(np.int64), W.indices.astype(np.int64), W.data, d, wrow, b, x,
+                      1e-1, 5000, hk.chunk_bounds(n, 64), *work, np.empty(64), np.empty(64), out)
+    assert it < 20 and np.abs(x - ref).max() > 1e-6
+    assert out[0] == pytest.approx((b - A @ x).sum(), abs=1e-12)
 
 
 def test_rasterize_top_against_numpy_reference():
@@ -569,3 +579,13 @@ def test_haz_table_columns():
     assert t["label"].tolist() == ["a", "b"] and t["roundness"][0] > 0.95 and np.isnan(t["roundness"][1])
     with pytest.raises(ValueError, match="labels"):
         haz_table([haz_shape(m, 400.0)], labels=[])
+
+
+def test_conductivity_tensor_cg_path_matches_lu(monkeypatch):
+    from bedstruct.analysis import _heat_maps
+    f, c = random_bed(n=400, seed=8, box=(10, 10, 8))
+    net = thermal_network(f, c)
+    ref = conductivity_tensor(net)
+    monkeypatch.setattr(_heat_maps, "_STEADY_DIRECT_MAX", 0)
+    k = conductivity_tensor(net)
+    np.testing.assert_allclose(k.tensor, ref.tensor, rtol=1e-7, atol=1e-9 * np.abs(ref.tensor).max())
