@@ -245,3 +245,36 @@ def test_box_walls_contain_particles():
     assert sim.n_removed == 0
     p = sim.frame().positions
     assert np.all((p[:, :2] > 0) & (p[:, :2] < 1e-3))
+
+
+def test_mesh_floor_matches_plane_floor():
+    """A sphere bouncing on a two-triangle STL-like floor rebounds as on a plane."""
+    model = ContactModel(Material(E, NU, RHO), restitution=0.6, friction=0.3)
+    tri = np.array([[[0, 0, 0], [2e-3, 0, 0], [2e-3, 2e-3, 0]],
+                    [[0, 0, 0], [2e-3, 2e-3, 0], [0, 2e-3, 0]]], dtype=float)
+    out = []
+    for wall in (Plane((0, 0, 0), (0, 0, 1)), TriangleMesh(tri)):
+        sim = Simulation(Box([0, 0, 0], [2e-3] * 3, boundary="ff ff ff"), model, walls=[wall],
+                         gravity=(0, 0, 0), n_threads=1, v_max=0.3)
+        sim.add_particles([[0.7e-3, 1.1e-3, 1.01 * R]], [R], velocities=[[0.05, 0, -0.3]])
+        sim.run(time=2e-4)
+        out.append(sim.v[0].copy())
+    assert np.allclose(out[0], out[1], rtol=1e-9, atol=1e-12)
+    assert out[0][2] == pytest.approx(0.6 * 0.3, rel=0.02)
+
+
+def test_roller_drags_particle_at_surface_speed():
+    """A sphere pressed on a spinning roller is dragged along the roller surface."""
+    model = ContactModel(Material(E, NU, RHO), restitution=0.3, friction=0.5)
+    roller = Cylinder(point=(1e-3, 1e-3, 0.0), axis=(0, 1, 0), radius=5e-4, omega=20.0)
+    sim = Simulation(Box([0, 0, 0], [2e-3, 2e-3, 2e-3], boundary="ff ff ff"), model,
+                     walls=[roller], gravity=(0, 0, -9.81), n_threads=1)
+    sim.add_particles([[1e-3, 1e-3, 5e-4 + 0.999 * R]], [R])
+    sim.run(time=3e-4)
+    # omega = +20 rad/s about +y: the top of the roller moves along (y x z) = +x at 10 mm/s
+    assert 0.0 < sim.v[0, 0] < 20.0 * 5e-4
+    sim.set_wall_motion("roller", omega=-20.0)
+    sim.run(time=6e-4)
+    assert sim.v[0, 0] < 0.0
+    st = sim.wall_states()[0]
+    assert st.n_contacts == 1 and st.force[2] < 0  # the sphere presses down on the roller
