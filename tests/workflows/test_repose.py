@@ -65,7 +65,9 @@ def test_run_directory(two_frictions):
 @pytest.mark.slow
 def test_angle_rises_with_cohesion():
     angles = []
-    for k in (0.0, 8e3):
+    # tiny, 3 replicates each: 23.3 +- 1.6 deg at 0 and 26.4 +- 3.1 deg at 1.5e4 J/m^3 (measured);
+    # below ~8e3 J/m^3 the effect is within the replicate noise
+    for k in (0.0, 1.5e4):
         cfg = load_config(preset="tiny", overrides=[f"contact.cohesion={k}", "repose.replicates=3"])
         angles.append(run_repose(cfg).angle_deg)
     assert angles[1] > angles[0]
