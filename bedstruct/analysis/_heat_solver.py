@@ -202,17 +202,24 @@ class _Phase:
         n = net.n_particles
         self.free = np.flatnonzero(~held)
         w = net.weights
-        wf = w[self.free]
-        self.W = wf[:, self.free].tocsr()
-        self.W.sort_indices()
-        cols_src = np.flatnonzero(held & held_src)
-        cols_bnd = np.flatnonzero(held & ~held_src)
-        ws = wf[:, cols_src]
-        wb = wf[:, cols_bnd]
-        self.b_src = ws @ T_held[cols_src]
-        self.g_src = np.asarray(ws.sum(axis=1)).ravel()
-        self.b_bnd = wb @ T_held[cols_bnd] + plate_g[self.free] * T_plate
-        self.g_bnd = np.asarray(wb.sum(axis=1)).ravel() + plate_g[self.free]
+        nf = self.free.shape[0]
+        if nf == n:            # nothing held: no slicing of the (possibly huge) matrix
+            self.W = w
+            self.b_src = self.g_src = self.b_bnd = np.zeros(n)
+            self.g_bnd = plate_g.copy()
+            self.b_bnd = plate_g * T_plate
+        else:
+            wf = w[self.free]
+            self.W = wf[:, self.free].tocsr()
+            self.W.sort_indices()
+            cols_src = np.flatnonzero(held & held_src)
+            cols_bnd = np.flatnonzero(held & ~held_src)
+            ws = wf[:, cols_src]
+            wb = wf[:, cols_bnd]
+            self.b_src = ws @ T_held[cols_src]
+            self.g_src = np.asarray(ws.sum(axis=1)).ravel()
+            self.b_bnd = wb @ T_held[cols_bnd] + plate_g[self.free] * T_plate
+            self.g_bnd = np.asarray(wb.sum(axis=1)).ravel() + plate_g[self.free]
         self.d = net.weight_sums[self.free] + plate_g[self.free]
         self.C = net.capacity[self.free]
         self.q = q[self.free]
@@ -224,7 +231,6 @@ class _Phase:
         self.sum_b_bnd = float(self.b_bnd.sum())
         self.has_src = bool(np.any(self.g_src))
         self.has_bnd = bool(np.any(self.g_bnd))
-        nf = self.free.shape[0]
         self.solver = solver if solver != "auto" else ("direct" if nf <= _DIRECT_MAX else "cg")
         self._lu: dict = {}
         self.bounds = _k.chunk_bounds(nf, _N_CHUNKS)
