@@ -42,7 +42,7 @@ def seed_model() -> ContactModel:
                         friction=0.4, rolling_friction=0.05, rolling_model="epsd2")
 
 
-def pour(n: int, path: Path, *, n_threads: int = 2, log=print) -> Simulation:
+def pour(n: int, path: Path, *, n_threads: int = 1, log=print) -> Simulation:
     """Pour ``n`` spheres into a 2 x 2 mm periodic box and settle them (bedstruct only)."""
     rng = np.random.default_rng(0)
     radii = rng.uniform(R_MIN, R_MAX, n)
@@ -93,14 +93,19 @@ def load_bed(data: Path):
     return read_data(data, boundary="pp pp ff")
 
 
-def time_bedstruct(fr, *, n_threads: int, steps: int, warmup: int, dt: float | None = None) -> dict:
+def make_bedstruct(fr, *, n_threads: int, warmup: int, dt: float | None = None) -> Simulation:
+    """The bed with the floor and the moving blade, warmed up (compiled, histories formed)."""
     top = float((fr.positions[:, 2] + fr.radii).max())
     # the blade enters the bed from x < 0 at 0.05 m/s and skims its top layer
     blade = Blade(gap=top - 1.5 * R_MAX, surface_z=0.0, speed=0.05, x0=-0.25e-3 - 0.5 * R_MIN)
     sim = Simulation(fr.box, seed_model(), walls=[Plane((0, 0, 0), (0, 0, 1), name="floor"), blade],
                      n_threads=n_threads, dt=dt, force=dt is not None)
     sim.add_particles(fr.positions, fr.radii, velocities=fr.velocities, omegas=fr.omegas)
-    sim.run(warmup)  # compile, contact histories
+    sim.run(warmup)
+    return sim
+
+
+def time_bedstruct(sim: Simulation, *, steps: int) -> dict:
     reb0 = sim.n_rebuilds
     stats = sim.run(steps)
     c = sim.contacts()
@@ -133,11 +138,13 @@ def main(argv=None) -> int:
     ap.add_argument("--particles", type=int, default=None)
     ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--no-external", action="store_true", help="skip LIGGGHTS/LAMMPS")
+    ap.add_argument("--repeat", type=int, default=None, help="best of N interleaved runs (3; 1 quick)")
     ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
     args = ap.parse_args(argv)
     n = args.particles or (4000 if args.quick else 20000)
     steps = args.steps or (300 if args.quick else 1000)
     warmup = 100
+    args.repeat = args.repeat or (1 if args.quick else 3)
     cache = Path(args.cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
     data = cache / f"bedstruct_bed{n}.data"
@@ -153,18 +160,28 @@ def main(argv=None) -> int:
     fr = load_bed(data)
     print(f"# bed: {data} ({fr.n_particles} spheres, {origin}); {steps} timed steps after {warmup}; "
           "timings on a shared, loaded 2-core machine")
-    b1 = time_bedstruct(fr, n_threads=1, steps=steps, warmup=warmup)
-    b2 = time_bedstruct(fr, n_threads=2, steps=steps, warmup=warmup)
-    dt = b1["dt"]
+    s1 = make_bedstruct(fr, n_threads=1, warmup=warmup)
+    s2 = make_bedstruct(fr, n_threads=2, warmup=warmup)
+    dt = s1.dt
+    b1 = b2 = None
+    ext = {key: math.nan for key in (("liggghts", 1), ("liggghts", 2), ("lammps", 1), ("lammps", 2))}
+    for rep in range(args.repeat):  # interleaved, best of `repeat` (the machine is shared)
+        r1 = time_bedstruct(s1, steps=steps)
+        r2 = time_bedstruct(s2, steps=steps)
+        b1 = r1 if b1 is None or r1["pss"] > b1["pss"] else b1
+        b2 = r2 if b2 is None or r2["pss"] > b2["pss"] else b2
+        print(f"# repeat {rep + 1}: bedstruct 1 thread {r1['pss']:.4g}, 2 threads {r2['pss']:.4g} "
+              f"particle-steps/s")
+        for engine, np_ in list(ext):
+            if args.no_external:
+                continue
+            val = time_external(engine, data, np_=np_, steps=steps, dt=dt)
+            print(f"# repeat {rep + 1}: {engine} np={np_}: {val:.4g} particle-steps/s")
+            if not math.isnan(val) and not (val <= ext[engine, np_]):
+                ext[engine, np_] = val
     for k, v in b1.items():
-        print(f"# bedstruct 1 thread: {k} = {v:.4g}")
-    print(f"# bedstruct 2 threads: particle-steps/s = {b2['pss']:.4g}, rebuilds = {b2['rebuilds']}")
-    ext = {}
-    for engine in ("liggghts", "lammps"):
-        for np_ in (1, 2):
-            ext[engine, np_] = (math.nan if args.no_external
-                                else time_external(engine, data, np_=np_, steps=steps, dt=dt))
-            print(f"# {engine} np={np_}: particle-steps/s = {ext[engine, np_]:.4g}")
+        print(f"# bedstruct 1 thread (best): {k} = {v:.4g}")
+    print(f"# bedstruct 2 threads (best): particle-steps/s = {b2['pss']:.4g}, rebuilds = {b2['rebuilds']}")
     ratio = b1["pss"] / ext["liggghts", 1] if ext["liggghts", 1] > 0 else math.nan
     print(f"RESULT bedstruct_steps_per_s={b2['pss']:.4g} liggghts_steps_per_s={ext['liggghts', 1]:.4g} "
           f"lammps_steps_per_s={ext['lammps', 1]:.4g} ratio_1core={ratio:.3g} "
