@@ -77,7 +77,7 @@ def _counts(contacts: Contacts, n: int, include_walls: bool, active=None) -> np.
     return c.astype(np.int64)
 
 
-def remove_rattlers(contacts: Contacts, *, min_contacts: int = 4, include_walls: bool = False,
+def remove_rattlers(contacts: Contacts, *, min_contacts: int = 2, include_walls: bool = False,
                     n_particles: int | None = None) -> np.ndarray:
     """Iteratively flag particles with fewer than ``min_contacts`` contacts.
 
@@ -92,8 +92,10 @@ def remove_rattlers(contacts: Contacts, *, min_contacts: int = 4, include_walls:
         Contacts of the frame.
     min_contacts : int, optional
         A particle needs at least this many contacts with non-rattlers to
-        stay. Default 4 (``d + 1`` in 3-D, the usual frictionless jamming
-        convention); frictional packings often use 2.
+        stay. Default 2: a particle with 0 or 1 contacts carries no stable
+        load in a frictional bed (Thornton's mechanical coordination number
+        excludes them); use 4 (``d + 1``) for the frictionless jamming
+        convention.
     include_walls : bool, optional
         Count particle-wall contacts (``contacts.walls``) towards the minimum.
     n_particles : int, optional
@@ -124,7 +126,7 @@ def remove_rattlers(contacts: Contacts, *, min_contacts: int = 4, include_walls:
 
 
 def coordination(frame, contacts: Contacts | None = None, *, tolerance: float = 0.0,
-                 walls=None, include_walls: bool = False, min_contacts: int = 4
+                 walls=None, include_walls: bool = False, min_contacts: int = 2
                  ) -> CoordinationResult:
     """Coordination number of every particle, its mean, and the mechanical CN.
 
@@ -144,7 +146,7 @@ def coordination(frame, contacts: Contacts | None = None, *, tolerance: float = 
         False: particle-particle only, as the seed report).
     min_contacts : int, optional
         Threshold of the iterative rattler removal (see
-        :func:`remove_rattlers`). Default 4.
+        :func:`remove_rattlers`). Default 2.
 
     Returns
     -------
@@ -155,11 +157,17 @@ def coordination(frame, contacts: Contacts | None = None, *, tolerance: float = 
     Mean coordination :math:`Z = 2M/N` for :math:`M` pair contacts and
     :math:`N` particles. After iterative removal of rattlers (particles with
     fewer than ``min_contacts`` contacts), the mechanical coordination number
-    is :math:`Z_m = 2M'/N'` over the remaining particles [1]_.
+    is :math:`Z_m = 2M'/N'` over the remaining particles. The default
+    threshold follows Thornton's mechanical coordination number [1]_, which
+    leaves out particles with 0 or 1 contacts (here the removal is iterated
+    to a fixed point); frictionless jamming studies use ``d + 1 = 4`` [2]_.
 
     References
     ----------
-    .. [1] C. S. O'Hern, L. E. Silbert, A. J. Liu, S. R. Nagel, "Jamming at zero
+    .. [1] C. Thornton, "Numerical simulations of deviatoric shear deformation
+       of granular media", Geotechnique 50 (2000) 43-53,
+       doi:10.1680/geot.2000.50.1.43.
+    .. [2] C. S. O'Hern, L. E. Silbert, A. J. Liu, S. R. Nagel, "Jamming at zero
        temperature and zero applied stress", Phys. Rev. E 68, 011306 (2003),
        doi:10.1103/PhysRevE.68.011306.
 

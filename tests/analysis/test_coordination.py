@@ -106,3 +106,29 @@ def test_timeseries_runner(sc_frame):
     assert res.frames.tolist() == [1, 2] and res.field("mean").tolist() == [12.0, 6.0]
     table = res.table()
     assert table["mechanical"].tolist() == [12.0, 6.0] and "per_particle" not in table
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
+def test_peeling_matches_simultaneous_removal(random_bed, k):
+    """The O(N+M) queue kernel equals repeated simultaneous removal in NumPy (with walls)."""
+    c = find_contacts(random_bed, walls=["zlo"])
+    n = random_bed.n_particles
+    wall = np.bincount(c.walls.particle, minlength=n)
+    active = np.ones(n, dtype=bool)
+    while True:
+        keep = active[c.i] & active[c.j]
+        cnt = (np.bincount(c.i[keep], minlength=n) + np.bincount(c.j[keep], minlength=n)
+               + wall * active)
+        drop = active & (cnt < k)
+        if not drop.any():
+            break
+        active &= ~drop
+    got = remove_rattlers(c, min_contacts=k, include_walls=True)
+    assert np.array_equal(got, ~active)
+    assert 0 < got.sum() < n or k in (1, 5)
+
+
+def test_default_threshold_is_two(random_bed):
+    res = coordination(random_bed)
+    assert res.min_contacts == 2
+    assert np.all(res.per_particle_mechanical[~res.rattlers] >= 2)
