@@ -15,7 +15,7 @@ from ..core import Contacts, Frame, UNIT_STYLES
 from ..core.frame import _as_frame
 from ..errors import BedstructWarning
 
-__all__ = ["Material", "COCR", "GasGap", "ThermalNetwork", "thermal_network"]
+__all__ = ["ThermalMaterial", "COCR", "GasGap", "ThermalNetwork", "thermal_network"]
 
 log = logging.getLogger(__name__)
 
@@ -24,7 +24,7 @@ _LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "mic
 
 
 @dataclass(frozen=True)
-class Material:
+class ThermalMaterial:
     """Thermal properties of a particle material (SI).
 
     Parameters
@@ -38,7 +38,7 @@ class Material:
 
     Examples
     --------
-    >>> m = Material(8300.0, 450.0, 13.0, name="CoCr")
+    >>> m = ThermalMaterial(8300.0, 450.0, 13.0, name="CoCr")
     >>> m.volumetric_heat_capacity  # J/(m^3 K)
     3735000.0
     """
@@ -52,7 +52,8 @@ class Material:
         for attr in ("density", "specific_heat", "conductivity"):
             v = float(getattr(self, attr))
             if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"Material `{attr}` must be positive and finite; got {v!r}")
+                raise ValueError(f"ThermalMaterial `{attr}` must be positive and finite; "
+                                 f"got {v!r}")
             object.__setattr__(self, attr, v)
 
     @property
@@ -64,7 +65,7 @@ class Material:
 #: Co-28Cr-6Mo (ASTM F75) near room temperature: 8300 kg/m^3, 450 J/(kg K),
 #: 13 W/(m K). Sources in docs/heat.md (ASTM F75 data sheets; MakeItFrom
 #: R30075 lists 8.4 g/cm^3, 450 J/(kg K), 13 W/(m K)).
-COCR = Material(8300.0, 450.0, 13.0, name="CoCr (ASTM F75, ~300 K)")
+COCR = ThermalMaterial(8300.0, 450.0, 13.0, name="CoCr (ASTM F75, ~300 K)")
 
 
 @dataclass(frozen=True)
@@ -261,13 +262,13 @@ def _length_scale(frame: Frame, length_unit) -> tuple[float, str]:
 def _materials_per_particle(types: np.ndarray, materials) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if materials is None:
         materials = COCR
-    if isinstance(materials, Material):
+    if isinstance(materials, ThermalMaterial):
         n = types.shape[0]
         return (np.full(n, materials.density), np.full(n, materials.specific_heat),
                 np.full(n, materials.conductivity))
     if not isinstance(materials, Mapping):
-        raise TypeError(f"`materials` must be a Material or a mapping type -> Material; got "
-                        f"{type(materials).__name__}")
+        raise TypeError(f"`materials` must be a ThermalMaterial or a mapping type -> "
+                        f"ThermalMaterial; got {type(materials).__name__}")
     uniq = np.unique(types)
     missing = [int(t) for t in uniq if int(t) not in materials]
     if missing:
@@ -278,8 +279,8 @@ def _materials_per_particle(types: np.ndarray, materials) -> tuple[np.ndarray, n
     k = np.empty(types.shape[0])
     for t in uniq:
         m = materials[int(t)]
-        if not isinstance(m, Material):
-            raise TypeError(f"`materials[{int(t)}]` must be a Material; got {type(m).__name__}")
+        if not isinstance(m, ThermalMaterial):
+            raise TypeError(f"`materials[{int(t)}]` must be a ThermalMaterial; got {type(m).__name__}")
         sel = types == t
         rho[sel], cp[sel], k[sel] = m.density, m.specific_heat, m.conductivity
     return rho, cp, k
@@ -287,7 +288,7 @@ def _materials_per_particle(types: np.ndarray, materials) -> tuple[np.ndarray, n
 
 def thermal_network(frame, contacts: Contacts | None = None, *, materials=None, length_unit=None,
                     gas: GasGap | None = None, contact_area: str = "auto", plate_z=None,
-                    plate_material: Material | None = None) -> ThermalNetwork:
+                    plate_material: ThermalMaterial | None = None) -> ThermalNetwork:
     """Build the thermal network of a frame from its contacts (converted to SI).
 
     Every particle is a node of heat capacity ``C = rho c V``; every contact
@@ -308,7 +309,7 @@ def thermal_network(frame, contacts: Contacts | None = None, *, materials=None, 
     contacts : Contacts, optional
         Contacts of ``frame`` (frame length unit). When omitted they are
         found with ``bedstruct.analysis.contacts.find_contacts(frame)``.
-    materials : Material or mapping of int to Material, optional
+    materials : ThermalMaterial or mapping of int to ThermalMaterial, optional
         Properties per particle type; default :data:`COCR` for all.
     length_unit : float or str, optional
         Metres per frame length unit (or ``"um"``, ``"mm"``, ``"micro"``,
@@ -325,7 +326,7 @@ def thermal_network(frame, contacts: Contacts | None = None, *, materials=None, 
         Height of the build plate (frame length unit); default the box's
         lower z bound. Particles overlapping it get a contact conductance
         ``2 k a`` to the plate (harmonic mean of the two conductivities).
-    plate_material : Material, optional
+    plate_material : ThermalMaterial, optional
         Plate material; default that of each particle.
 
     Returns

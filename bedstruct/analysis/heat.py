@@ -31,9 +31,12 @@ array([440., 440., 440., 440., 440.])
 
 from ._heat_maps import (ConductivityTensor, HAZShape, TemperatureMap, conductivity_tensor,
                          haz_shape, haz_table, temperature_map)
-from ._heat_network import COCR, GasGap, Material, ThermalNetwork, thermal_network
+from ._heat_network import COCR, GasGap, ThermalMaterial, ThermalNetwork, thermal_network
 from ._heat_solver import EnergyRecord, HeatResult, HemisphereSource, conduct_heat, source_nodes
 
-__all__ = ["Material", "COCR", "GasGap", "ThermalNetwork", "thermal_network", "HemisphereSource",
-           "source_nodes", "EnergyRecord", "HeatResult", "conduct_heat", "TemperatureMap",
-           "temperature_map", "HAZShape", "haz_shape", "haz_table", "ConductivityTensor", "conductivity_tensor"]
+__all__ = [
+    "ThermalMaterial", "COCR", "GasGap", "ThermalNetwork", "thermal_network",
+    "HemisphereSource", "source_nodes", "EnergyRecord", "HeatResult", "conduct_heat",
+    "TemperatureMap", "temperature_map", "HAZShape", "haz_shape", "haz_table",
+    "ConductivityTensor", "conductivity_tensor",
+]

@@ -19,7 +19,7 @@ import scipy.sparse.linalg as spla
 from bedstruct.core import Box, Contacts, Frame, Units
 from bedstruct.errors import BedstructWarning
 from bedstruct.analysis import _heat_kernels as hk
-from bedstruct.analysis.heat import (COCR, GasGap, HemisphereSource, Material, TemperatureMap,
+from bedstruct.analysis.heat import (COCR, GasGap, HemisphereSource, ThermalMaterial, TemperatureMap,
                                      conduct_heat, conductivity_tensor, haz_shape, source_nodes,
                                      temperature_map, thermal_network)
 
@@ -116,7 +116,7 @@ def test_contact_conductance_is_2ka_and_capacity_rhocv():
 def test_dissimilar_materials_use_series_constriction():
     f, c = two_spheres(2.0)
     f = Frame(f.positions, f.radii, box=f.box, types=[1, 2], units=Units("micro"))
-    m1, m2 = Material(8000, 500, 10.0), Material(8000, 500, 40.0)
+    m1, m2 = ThermalMaterial(8000, 500, 10.0), ThermalMaterial(8000, 500, 40.0)
     net = thermal_network(f, c, materials={1: m1, 2: m2})
     # 1/G = 1/(4 k1 a) + 1/(4 k2 a)
     assert net.conductance[0] == pytest.approx(1 / (1 / (4 * 10 * 2e-6) + 1 / (4 * 40 * 2e-6)))
