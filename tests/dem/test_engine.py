@@ -143,9 +143,17 @@ def test_run_directory_output(tmp_path):
         from bedstruct.io import read_dump
     except ImportError:
         return
+    from bedstruct.io import read_dump_local
     traj = read_dump(tmp_path / "run" / "dump.liggghts")
     fr = traj[-1]
     assert np.allclose(fr.positions, sim.frame().positions, rtol=1e-9, atol=1e-15)
+    cons = read_dump_local(tmp_path / "run" / "contacts.local", frames=list(traj))
+    last = cons[sim.step]
+    ref = sim.contacts()
+    assert last.n_contacts == ref.n_contacts
+    key = lambda c: np.lexsort((c.ids_j, c.ids_i))  # noqa: E731
+    assert np.allclose(last.force_normal[key(last)], ref.force_normal[key(ref)], rtol=1e-6,
+                       atol=1e-15)
 
 
 def test_frame_and_contacts_are_consistent():
@@ -278,3 +286,24 @@ def test_roller_drags_particle_at_surface_speed():
     assert sim.v[0, 0] < 0.0
     st = sim.wall_states()[0]
     assert st.n_contacts == 1 and st.force[2] < 0  # the sphere presses down on the roller
+
+
+def test_read_stl_ascii_and_binary(tmp_path):
+    from bedstruct.dem import read_stl
+    tri = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 0, 1], [0, 1, 1]]], float)
+    lines = ["solid t"]
+    for t in tri:
+        lines += ["facet normal 0 0 1", "outer loop"] + [f"vertex {a} {b} {c}" for a, b, c in t] + \
+                 ["endloop", "endfacet"]
+    (tmp_path / "a.stl").write_text("\n".join(lines + ["endsolid t"]))
+    rec = np.zeros(2, dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["v"] = tri
+    (tmp_path / "b.stl").write_bytes(b"\0" * 80 + np.uint32(2).tobytes() + rec.tobytes())
+    assert np.allclose(read_stl(tmp_path / "a.stl", scale=1e-3), tri * 1e-3)
+    assert np.allclose(read_stl(tmp_path / "b.stl"), tri)
+
+
+def test_progress_bar_runs(capsys):
+    sim = _gas(30, seed=1, n_threads=1)
+    stats = sim.run(60, progress=True)
+    assert stats.n_steps == 60 and "p-steps/s" in capsys.readouterr().err
