@@ -128,13 +128,6 @@ def _figure_of(obj):
     return obj.figure
 
 
-def _fig(nrows=1, ncols=1, size=(6.0, 3.6)):
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=size, layout="constrained")
-    axes = fig.subplots(nrows, ncols)
-    return fig, axes
-
-
 class _Context:
     """What the sections share: the frames, contacts and derived regions."""
 
@@ -195,15 +188,10 @@ def _packing(ctx: _Context, s: Section) -> None:
     for name, value in zip(opt.region_names, prof.fractions):
         s.add_number(f"fraction_{name.replace(' ', '_')}", value, "1",
                      f"exact sphere-cuboid packing fraction of the {name} region of the bed")
+    from ..plot import plot_packing_profile
     fine = packing_along(f, max(12, 4 * opt.regions), axis=opt.axis_index)
-    fig, ax = _fig()
-    ax.plot(np.asarray(fine.centres)[:, opt.axis_index], fine.fractions, "o-", label=f"{len(fine.fractions)} windows")
-    ax.step(np.r_[prof.lower[:, opt.axis_index], prof.upper[-1, opt.axis_index]],
-            np.r_[prof.fractions, prof.fractions[-1]], where="post", label="regions")
-    ax.set_xlabel(f"{opt.axis} ({ctx.length_unit})")
-    ax.set_ylabel("packing fraction")
-    ax.legend()
-    s.add_figure(fig, "Packing fraction along the bed")
+    fig = _figure_of(plot_packing_profile(fine, axis=opt.axis_index, unit=ctx.length_unit))
+    s.add_figure(fig, f"Packing fraction in {len(fine.fractions)} windows along the bed")
 
 
 def _coordination(ctx: _Context, s: Section) -> None:
@@ -213,9 +201,10 @@ def _coordination(ctx: _Context, s: Section) -> None:
     s.add_number("mean", res.mean, "1", "mean number of contacts per particle",
                  DOCS + "analysis.md, Coordination number")
     s.add_number("mean_excluding_rattlers", res.mean_excluding_rattlers, "1",
-                 f"mean coordination after iterative removal of particles with fewer than "
-                 f"{res.min_contacts} contacts")
-    s.add_number("mechanical", res.mechanical, "1", "mechanical coordination number (rattlers removed)")
+                 f"mean coordination over particles that are not rattlers (all their contacts "
+                 f"counted); rattlers: fewer than {res.min_contacts} contacts after iterative removal")
+    s.add_number("mechanical", res.mechanical, "1",
+                 "mechanical coordination number: mean contacts after iterative rattler removal")
     s.add_number("rattler_fraction", res.rattler_fraction, "1", "fraction of particles that are rattlers")
     s.add_number("n_contacts", ctx.contacts.n_contacts, "1", f"particle-particle contacts ({ctx.contacts.source})")
     # German's law over windows along the bed (and over frames when several are given)
@@ -242,20 +231,8 @@ def _coordination(ctx: _Context, s: Section) -> None:
         s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
         s.add_number("german_unfitted_deviation", fit.unfitted_deviation, "1",
                      "mean absolute difference between CN = 2 + 11 f^2 and the measured CN")
-        fig, (ax, axr) = _fig(1, 2, size=(8.0, 3.4))
-        ff = np.linspace(min(fs) * 0.95, max(fs) * 1.05, 50)
-        ax.plot(fs, cns, "o", label="windows")
-        ax.plot(ff, 2 + 11 * ff ** 2, "--", label="German: 2 + 11 f²")
-        ax.plot(ff, 2 * fit.a + 11 * fit.b * ff ** 2, "-", label=f"fit a={fit.a:.3g}, b={fit.b:.3g}")
-        ax.set_xlabel("packing fraction f")
-        ax.set_ylabel("coordination number")
-        ax.legend(fontsize=8)
-        axr.axhline(0, color="0.6")
-        axr.plot(fs, fit.residuals, "o", label="fitted")
-        axr.plot(fs, fit.unfitted_residuals, "x", label="unfitted")
-        axr.set_xlabel("packing fraction f")
-        axr.set_ylabel("residual CN")
-        axr.legend(fontsize=8)
+        from ..plot import plot_german
+        fig = _figure_of(plot_german(fit, label="windows"))
         s.add_figure(fig, "Coordination number against packing fraction with German's law")
     else:
         s.text = "Too few populated windows for a German's-law fit (need at least 3)."
@@ -270,16 +247,11 @@ def _psd(ctx: _Context, s: Section) -> None:
                      f"volume-weighted {q.upper()} diameter of the whole frame", DOCS + "analysis.md, Particle size distribution")
     lower, upper = ctx.windows()
     regions = psd_by_region(f, lower, upper, weighting="volume")
-    rows = []
-    fig, ax = _fig()
-    ax.plot(whole.edges[1:], whole.cumulative, "k-", lw=2, label="whole bed")
-    for name, r in zip(opt.region_names, regions):
-        rows.append([name, r.n_particles, r.d10, r.d50, r.d90])
-        if r.n_particles:
-            ax.plot(r.edges[1:], r.cumulative, label=name)
-    ax.set_xlabel(f"diameter ({ctx.length_unit})")
-    ax.set_ylabel("cumulative volume fraction")
-    ax.legend(fontsize=8)
+    from ..plot import plot_psd
+    rows = [[name, r.n_particles, r.d10, r.d50, r.d90] for name, r in zip(opt.region_names, regions)]
+    shown = [(name, r) for name, r in zip(opt.region_names, regions) if r.n_particles]
+    fig = _figure_of(plot_psd([whole] + [r for _, r in shown], labels=["whole bed"] + [n for n, _ in shown],
+                              cumulative=True, unit=ctx.length_unit))
     s.add_figure(fig, "Cumulative size distribution per region")
     s.tables.append(Table(["region", "particles", "D10", "D50", "D90"], rows,
                           caption=f"volume-weighted percentiles per region ({ctx.length_unit})"))
@@ -315,12 +287,8 @@ def _surface(ctx: _Context, s: Section) -> None:
     s.add_number("bed_thickness", r.mean_height - plate, ctx.length_unit,
                  "mean top-surface height above the lowest particle bottom (taken as the plate)")
     s.add_number("uncovered_fraction", surf.uncovered_fraction, "1", "fraction of grid cells with no particle")
-    fig, ax = _fig(size=(7.0, 3.2))
-    extent = [surf.x[0], surf.x[-1], surf.y[0], surf.y[-1]]
-    im = ax.imshow(np.asarray(surf.heights).T, origin="lower", extent=extent, aspect="auto", cmap="viridis")
-    fig.colorbar(im, ax=ax, label=f"height ({ctx.length_unit})")
-    ax.set_xlabel(f"x ({ctx.length_unit})")
-    ax.set_ylabel(f"y ({ctx.length_unit})")
+    from ..plot import plot_height_map
+    fig = _figure_of(plot_height_map(surf, unit=ctx.length_unit))
     s.add_figure(fig, "Top-surface height map (highest particle cap per cell)")
 
 
@@ -393,11 +361,8 @@ def _repose(ctx: _Context, s: Section) -> None:
     s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")
     s.add_number("left_deg", res.left_deg, "deg", "angle of the left flank")
     s.add_number("right_deg", res.right_deg, "deg", "angle of the right flank")
-    fig, ax = _fig()
-    ax.plot(res.profile_x, res.profile_h, ".", ms=3, label="free surface")
-    ax.set_xlabel(f"{opt.axis} ({ctx.length_unit})")
-    ax.set_ylabel(f"height ({ctx.length_unit})")
-    ax.set_aspect("equal", adjustable="datalim")
+    from ..plot import plot_repose
+    fig = _figure_of(plot_repose(res, unit=ctx.length_unit))
     s.add_figure(fig, "Free-surface profile of the pile")
 
 
