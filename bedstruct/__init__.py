@@ -34,6 +34,12 @@ _LAZY = {
     "packing_fraction": "bedstruct.analysis", "fit_german_law": "bedstruct.analysis",
     "psd_from_percentiles": "bedstruct.analysis", "angle_of_repose": "bedstruct.analysis",
     "fabric_tensors": "bedstruct.analysis", "harmonic_expansion": "bedstruct.analysis",
+    "packing_along": "bedstruct.analysis", "surface_height_map": "bedstruct.analysis",
+    "segregation": "bedstruct.analysis", "dynamic_angle_of_repose": "bedstruct.analysis",
+    "particle_size_distribution": "bedstruct.analysis", "region_fabric": "bedstruct.analysis",
+    "conduct_heat": "bedstruct.analysis", "thermal_network": "bedstruct.analysis",
+    # report
+    "build_report": "bedstruct.report", "report_on_files": "bedstruct.report",
     # plots
     "plot_rose": "bedstruct.plot",
 }
