@@ -100,6 +100,7 @@ def make_bedstruct(fr, *, n_threads: int, warmup: int, dt: float | None = None) 
     blade = Blade(gap=top - 1.5 * R_MAX, surface_z=0.0, speed=0.05, x0=-0.25e-3 - 0.5 * R_MIN)
     sim = Simulation(fr.box, seed_model(), walls=[Plane((0, 0, 0), (0, 0, 1), name="floor"), blade],
                      n_threads=n_threads, dt=dt, force=dt is not None)
+    sim.serial_below = 0  # use the threads even for the --quick bed
     sim.add_particles(fr.positions, fr.radii, velocities=fr.velocities, omegas=fr.omegas)
     sim.run(warmup)
     return sim
