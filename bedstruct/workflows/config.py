@@ -86,7 +86,8 @@ DEFAULTS: dict = {
         "bevel_deg": 10.0,
         "blade_height": 2e-3,
         "roller_radius": 0.5e-3,
-        "roller_omega_factor": -1.0,    # spin about +y = factor * speed / radius: -1 counter-rotating, 1 rolling, 0 none
+        "roller_omega_factor": -1.0,    # spin about +y = factor * speed / radius:
+                                        # -1 counter-rotating, 1 rolling, 0 none
         "stop_margin": 0.5e-3,          # m, the tool stops this far beyond the platform end
         "n_frames": 10,                 # frames per layer (dynamic angle, dumps)
         "regions": 3,

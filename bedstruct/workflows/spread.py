@@ -54,6 +54,8 @@ class LayerResult:
         95th percentile of the top-surface height (the "top" of the bed).
     bed_height_regions_m : (R,) tuple of float, m
         Mean top-surface height in each region (start, centre, end).
+    roughness_sa_m : float, m
+        Arithmetic mean deviation Sa of the top surface (ISO 25178).
     packing_fraction : (R,) tuple of float
         Solid fraction of each region (start, centre, end) between the
         platform and the tool height.
@@ -86,6 +88,7 @@ class LayerResult:
     bed_height_m: float
     bed_top_m: float
     bed_height_regions_m: tuple
+    roughness_sa_m: float
     packing_fraction: tuple
     coordination: tuple
     fabric_anisotropy: tuple
@@ -275,8 +278,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
 
     H_total = sum(gaps)
     depth = H_total + 6 * rmax
-    tool_probe, half = _tool_walls(cfg, 0.0, draw)
-    x0 = half + 0.5 * rmax + (0.0 if sc["tool"] != "roller" else 0.0)
+    _, half = _tool_walls(cfg, 0.0, draw)      # half thickness (blade) or radius (roller)
+    x0 = half + 0.5 * rmax                     # the tool starts just in front of the back wall
     tool, half = _tool_walls(cfg, x0, draw)
     front0 = x0 + half
     x_end = Lplat + float(sc["stop_margin"]) + half
@@ -340,7 +343,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
             if len(blade_pos) == max(1, int(sc["n_frames"]) // 2):
                 mid.append((fr, front))
         _run_frames(sim, (x_end - x0) / speed, int(sc["n_frames"]), on_frame)
-        sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **({"omega": 0.0} if sc["tool"] == "roller" else {}))
+        stop = {"omega": 0.0} if sc["tool"] == "roller" else {}
+        sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **stop)
         sim.run(time=float(sc["settle_time"]))
         # 4. measure the bed
         fr = sim.frame()
@@ -361,12 +365,13 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
             hmap = np.asarray(surf.heights) - z_plat
             h = float(np.mean(hmap))
             h_top = float(np.percentile(hmap, 95))
+            sa = float(surf.sa)
             xs = np.asarray(surf.x)
             e = np.linspace(xa, xb, n_reg + 1)
             h_reg = tuple(float(np.mean(hmap[(xs >= e[i]) & (xs <= e[i + 1])]))
                           for i in range(n_reg))
         except ValueError:
-            h = h_top = float("nan")
+            h = h_top = sa = float("nan")
             h_reg = (float("nan"),) * n_reg
         lo = np.array([xa, 0.0, z_plat])
         hi = np.array([xb, W, z_plat + H_k])
@@ -397,10 +402,12 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         ok = np.isfinite(dyn_a)
         layers.append(LayerResult(
             index=k + 1, gap=gap, nominal_height=H_k, bed_height_m=float(h), bed_top_m=h_top,
+            roughness_sa_m=sa,
             bed_height_regions_m=h_reg,
             packing_fraction=tuple(float(v) for v in pack),
             coordination=tuple(float(v) for v in cnw), fabric_anisotropy=aniso,
-            dynamic_angle_deg=tuple(dyn), mean_dynamic_angle_deg=float(dyn_a[ok].mean()) if ok.any() else float("nan"),
+            dynamic_angle_deg=tuple(dyn),
+            mean_dynamic_angle_deg=float(dyn_a[ok].mean()) if ok.any() else float("nan"),
             dynamic_angle_std_deg=float(dyn_a[ok].std()) if ok.sum() > 1 else float("nan"),
             mean_cn_series=tuple(cn_series), blade_positions=tuple(blade_pos), heap_d50_shift=d50s,
             segregation_index=seg_i, n_inserted=n_ins, n_bed=n_bed, n_heap=n_heap,
