@@ -520,7 +520,7 @@ def conductivity_tensor(network: ThermalNetwork, *, region=None, boundary_width=
             tol = 1e-10 * float(np.max(box_len))
             for beta in range(3):
                 x = np.zeros(nf)
-                it = _k.pcg_solve(Wf.indptr.astype(np.int64), Wf.indices.astype(np.int64),
+                it = _k.pcg_solve(Wf.indptr.astype(np.int64), Wf.indices.astype(np.int32),
                                   Wf.data.astype(np.float64), d, wrow,
                                   np.ascontiguousarray(B[free, beta]), x, tol, 20 * nf, bounds,
                                   *work, np.empty(64), np.empty(64), np.zeros(1))
