@@ -16,7 +16,8 @@ def two_frictions(tmp_path_factory):
     low = load_config(preset="tiny", overrides=base + ["contact.friction=0.05",
                                                         "contact.rolling_friction=0.0"])
     high = load_config(preset="tiny", overrides=base + ["contact.friction=0.5",
-                                                         "contact.rolling_friction=0.1"])
+                                                         "contact.rolling_friction=0.1",
+                                                         "output.checkpoint=true"])
     return run_repose(low), run_repose(high, out=out), out
 
 
@@ -60,6 +61,11 @@ def test_run_directory(two_frictions):
     walls = [json.loads(line) for line in (stage / "walls.jsonl").read_text().splitlines()]
     plate_x = [w["origin"][0] for w in walls if w["name"] == "plate"]
     assert plate_x[-1] < plate_x[0] - 1e-3  # the plate slid out towards -x
+    # the checkpoint restores the final state
+    from bedstruct.dem import Simulation
+    sim = Simulation.from_checkpoint(stage / "checkpoint.npz")
+    assert sim.n_particles == pile.n_particles
+    np.testing.assert_array_equal(np.sort(sim.frame().ids), np.sort(pile.ids))
 
 
 @pytest.mark.slow
