@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import logging
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import BedstructWarning
 from . import _heat_kernels as _k
 from ._heat_network import ThermalNetwork
 
@@ -395,6 +397,10 @@ def conduct_heat(network: ThermalNetwork, *, t_end: float, source: HemisphereSou
             raise ValueError(f"`plate_temperature` must be positive (K); got {plate_temperature!r}")
         plate_g = net.plate_conductance
         T_plate = plate_temperature
+        if not np.any(plate_g > 0):
+            warnings.warn(f"plate_temperature={plate_temperature:g} K is given but no particle "
+                          f"touches the plate at z = {net.plate_z:g} m (no overlap), so the plate "
+                          f"exchanges no heat", BedstructWarning, stacklevel=2)
     else:
         plate_g = np.zeros(n)
         T_plate = 0.0

@@ -325,6 +325,8 @@ def test_bad_inputs_raise_clear_errors():
         HemisphereSource((1.0,))
     with pytest.raises(ValueError, match="times"):
         conduct_heat(net, t_end=1, times=[2.0])
+    with pytest.warns(BedstructWarning, match="no particle touches the plate"):
+        conduct_heat(net, t_end=1e-4, plate_temperature=300.0)
 
 
 # --------------------------------------------------------------- kernels
