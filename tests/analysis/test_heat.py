@@ -325,8 +325,9 @@ def test_bad_inputs_raise_clear_errors():
         HemisphereSource((1.0,))
     with pytest.raises(ValueError, match="times"):
         conduct_heat(net, t_end=1, times=[2.0])
+    lifted = Frame(f.positions + [0, 0, 50.0], f.radii, box=f.box, units=f.units)
     with pytest.warns(BedstructWarning, match="no particle touches the plate"):
-        conduct_heat(net, t_end=1e-4, plate_temperature=300.0)
+        conduct_heat(thermal_network(lifted, c), t_end=1e-4, plate_temperature=300.0)
 
 
 # --------------------------------------------------------------- kernels
