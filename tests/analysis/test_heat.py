@@ -592,3 +592,18 @@ def test_conductivity_tensor_cg_path_matches_lu(monkeypatch):
     monkeypatch.setattr(_heat_maps, "_STEADY_DIRECT_MAX", 0)
     k = conductivity_tensor(net)
     np.testing.assert_allclose(k.tensor, ref.tensor, rtol=1e-7, atol=1e-9 * np.abs(ref.tensor).max())
+
+
+def test_sphere_on_fixed_temperature_plate_relaxes_exponentially():
+    r, h = 10.0, 0.2                                  # um; overlap with the plate plane z = 0
+    f = Frame([[50.0, 50.0, r - h]], [r], box=[100, 100, 100], units=Units("micro"))
+    net = thermal_network(f, Contacts([], [], np.zeros((0, 3)), [], [], n_particles=1))
+    a = math.sqrt(2 * r * h - h * h) * 1e-6
+    assert net.plate_conductance[0] == pytest.approx(2 * K_S * a, rel=1e-12)
+    tau = net.capacity[0] / net.plate_conductance[0]
+    times = np.array([0.0, 0.5, 1.0, 2.0]) * tau
+    res = conduct_heat(net, t_end=2 * tau, times=times, initial_temperature=800.0,
+                       plate_temperature=300.0, atol=1e-3)
+    np.testing.assert_allclose(res.temperatures[:, 0], 300 + 500 * np.exp(-times / tau), atol=5e-3)
+    # all the heat that left went into the plate
+    np.testing.assert_allclose(res.energy.boundary, res.energy.stored, rtol=1e-12, atol=1e-20)
