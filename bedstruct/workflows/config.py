@@ -73,6 +73,7 @@ DEFAULTS: dict = {
     "spread": {
         "tool": "blade",                # blade (= rake) | plate | roller
         "plate_length": 18.9e-3,        # m, build platform along x
+        "chamber": True,                # front wall up to the tool level (platform in a chamber)
         "width": 3e-3,                  # m, periodic along y
         "gaps": [508e-6, 508e-6, 102e-6, 127e-6],
         "speed": 0.0254,                # m/s

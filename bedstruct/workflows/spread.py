@@ -2,8 +2,11 @@
 
 Geometry (SI): a build platform (``platform``, a plate of length
 ``plate_length`` along x from x = 0) in a y-periodic strip of width
-``width``, a fixed back wall at x = 0 and an open front end: powder pushed
-beyond the platform falls and leaves the domain (counted as removed). The
+``width``, a fixed back wall at x = 0 and, with ``spread.chamber`` (default),
+a front wall at x = ``plate_length`` reaching up to the tool level, so that
+the platform is a piston in a build chamber; powder pushed over the front wall
+(or, without it, off the platform end) falls into the overflow and leaves the
+domain (counted as removed). The
 tool's lowest point stays at z = 0. Before layer k the platform is lowered
 by ``gaps[k]`` at ``lower_speed`` (the bed follows under gravity), so the
 tool skims ``H_k = gaps[0] + ... + gaps[k]`` above the platform. The pile is
@@ -289,6 +292,12 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     walls = [Rectangle(center=(Lplat / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
                        half_sizes=(Lplat / 2, W), name="platform"),
              Plane((0.0, 0.0, 0.0), (1, 0, 0), name="back"), tool]
+    if sc["chamber"]:
+        # front wall of the build chamber: from below the lowest platform position up to the
+        # tool level (z = 0); the excess is pushed over its top into the overflow
+        zc = 0.5 * (depth - 2 * rmax)
+        walls.append(Rectangle(center=(Lplat, W / 2, -zc), normal=(-1, 0, 0), axis=(0, 0, 1),
+                               half_sizes=(zc, W), name="front"))
     sim = Simulation(box, contact_model(cfg), walls=walls, safety=cfg["time"]["safety"],
                      v_max=cfg["time"]["v_max"], min_radius=draw.r_min, n_threads=cfg["n_threads"],
                      seed=seed)
@@ -417,7 +426,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         if k + 1 < len(gaps):
             vr = float(sc["return_speed"])
             _move(sim, "tool", (0.0, 0.0, vr), clear, vr)
-            back = float(sim.wall_states()[2].origin[0]) - x0
+            back = float(sim.wall_states()[sim.wall_names.index("tool")].origin[0]) - x0
             _move(sim, "tool", (-vr, 0.0, 0.0), back, vr)
             _move(sim, "tool", (0.0, 0.0, -vr), clear, vr)
     ga = gb = gr = float("nan")
