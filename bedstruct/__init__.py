@@ -38,10 +38,12 @@ _LAZY = {
     "segregation": "bedstruct.analysis", "dynamic_angle_of_repose": "bedstruct.analysis",
     "particle_size_distribution": "bedstruct.analysis", "region_fabric": "bedstruct.analysis",
     "conduct_heat": "bedstruct.analysis", "thermal_network": "bedstruct.analysis",
+    "temperature_map": "bedstruct.analysis", "haz_shape": "bedstruct.analysis",
+    "conductivity_tensor": "bedstruct.analysis",
     # report
     "build_report": "bedstruct.report", "report_on_files": "bedstruct.report",
     # plots
-    "plot_rose": "bedstruct.plot",
+    "plot_rose": "bedstruct.plot", "plot_temperature_map": "bedstruct.plot",
 }
 
 __all__ = ["__version__", "Box", "Frame", "FrameList", "Trajectory", "Units", "Provenance",

@@ -160,9 +160,10 @@ class Frame:
         if pos.ndim != 2 or pos.shape[1] != 3:
             raise ValueError(f"`positions` must have shape (N, 3); got {pos.shape}")
         n = pos.shape[0]
-        radii = np.ascontiguousarray(self.radii, dtype=np.float64)
+        radii = np.asarray(self.radii, dtype=np.float64)
         if radii.ndim == 0:
             radii = np.full(n, float(radii))
+        radii = np.ascontiguousarray(radii)
         if radii.shape != (n,):
             raise ValueError(f"`radii` must have shape (N,) matching `positions` (N={n}); "
                              f"got {radii.shape}")

@@ -71,3 +71,8 @@ def test_contacts_geometry_and_counts():
     assert np.allclose(np.linalg.norm(c.normals, axis=1), 1)
     with pytest.raises(ValueError, match="indices"):
         Contacts(i=[0], j=[5], branch=[[1, 0, 0]], radii_i=[1], radii_j=[1], n_particles=2)
+
+
+def test_scalar_radius_broadcasts():
+    f = Frame(np.zeros((3, 3)), 0.5, box=[2, 2, 2])
+    assert f.radii.tolist() == [0.5, 0.5, 0.5]
