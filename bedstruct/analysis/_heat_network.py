@@ -34,6 +34,8 @@ class ThermalMaterial:
     conductivity : float, W/(m K)
     name : str, optional
 
+    Notes
+    -----
     .. versionadded:: 0.1
 
     Examples
@@ -98,6 +100,8 @@ class GasGap:
         Pairs with a surface gap above this get no gas term (default: every
         pair in the contacts given; for the plate, gaps below 0.1 r).
 
+    Notes
+    -----
     .. versionadded:: 0.1
 
     Examples
