@@ -68,7 +68,7 @@ class LayerResult:
         Deviatoric anisotropy of the second-order fabric tensor per region.
     dynamic_angle_deg : tuple of float
         Dynamic angle of the heap in each recorded frame (NaN when it could
-        not be fitted).
+        not be fitted or the heap is less than two diameters high).
     mean_dynamic_angle_deg, dynamic_angle_std_deg : float
         Mean and standard deviation over the frames where it was fitted.
     mean_cn_series : tuple of float
@@ -340,9 +340,11 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
             try:
                 ahead = fr.positions[:, 0] < Lplat
                 sub = fr.select(ahead & (fr.positions[:, 2] > z_plat - rmax))
+                rmed = float(np.median(fr.radii))
                 r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
-                                            spacing=0.5 * float(np.median(fr.radii)), statistic="max")
-                dyn.append(float(r.angle_deg))
+                                            spacing=0.5 * rmed, statistic="max")
+                # a heap lower than two particle diameters has no measurable flank
+                dyn.append(float(r.angle_deg) if r.top - r.base > 4 * rmed else float("nan"))
             except ValueError:
                 dyn.append(float("nan"))
             c = sim.contacts()
