@@ -10,7 +10,9 @@ the mean angle is within ``tolerance_deg`` of the target or ``max_iter``
 evaluations were made. The calibrated value and its uncertainty come from a
 weighted straight-line fit of angle against cohesion through the points of
 the final bracket and the best point (inverse prediction with the delta
-method), so the noise of the replicate angles propagates into the answer.
+method), so the noise of the replicate angles propagates into the answer; the
+uncertainty is at least the angle uncertainty divided by the slope of a line
+through every evaluated point (two close, noisy points can fake a steep slope).
 """
 
 from __future__ import annotations
@@ -219,7 +221,9 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
         elif side == 1:
             f_lo *= 0.5
         k = lo - f_lo * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
-        k = float(min(max(k, lo + 0.05 * (hi - lo)), hi - 0.05 * (hi - lo)))
+        # keep new points away from the bracket ends: replicate noise would otherwise
+        # cluster them and fake a steep slope
+        k = float(min(max(k, lo + 0.2 * (hi - lo)), hi - 0.2 * (hi - lo)))
         p = ev(k)
         it += 1
         if p.angle_deg < target:
@@ -250,6 +254,18 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
                                           [p.angle_std_deg for p in use.values()], target)
     except (ValueError, np.linalg.LinAlgError):
         kstar, sk, slope = best.cohesion, float("nan"), float("nan")
+    # noise floor: the angle uncertainty at the crossing divided by the slope of a line
+    # through every point (a local slope from two noisy points can be far too steep)
+    allp = [p for p in pts.values() if math.isfinite(p.angle_deg)]
+    if len({p.cohesion for p in allp}) >= 2:
+        try:
+            _, _, b_all = inverse_linear([p.cohesion for p in allp], [p.angle_deg for p in allp],
+                                         [p.angle_std_deg for p in allp], target)
+            s_a = float(np.nanmean([p.angle_std_deg for p in use.values()]))
+            if b_all > 0 and math.isfinite(s_a):
+                sk = max(sk, s_a / b_all) if math.isfinite(sk) else s_a / b_all
+        except (ValueError, np.linalg.LinAlgError):
+            pass
     res = CalibrationResult(cohesion=float(kstar), cohesion_std=float(sk), target_deg=target,
                             slope_deg_per_unit=float(slope),
                             converged=bool(abs(best.angle_deg - target) <= tol), bracketed=bracketed,
