@@ -43,7 +43,12 @@ def seed_model() -> ContactModel:
 
 
 def pour(n: int, path: Path, *, n_threads: int = 1, log=print) -> Simulation:
-    """Pour ``n`` spheres into a 2 x 2 mm periodic box and settle them (bedstruct only)."""
+    """Pour ``n`` spheres into a 2 x 2 mm periodic box and settle them (bedstruct only).
+
+    Raindrop insertion at about 20 % packing, a pour at 5 g with a large skin, then
+    settling at 1 g until the kinetic energy is below 1e-12 J per 20,000 spheres
+    (or 30 ms). Takes a few minutes for 20,000 spheres.
+    """
     rng = np.random.default_rng(0)
     radii = rng.uniform(R_MIN, R_MAX, n)
     vol = float(np.sum(4 / 3 * np.pi * radii ** 3))
@@ -71,7 +76,12 @@ def pour(n: int, path: Path, *, n_threads: int = 1, log=print) -> Simulation:
         if ke < 1e-10 * sim.n_particles / 20000 and sim.time > 5e-3:
             break
     sim.gravity = np.array([0.0, 0.0, -9.81])
-    sim.run(3000)
+    for _ in range(45):  # settle at 1 g (about 30 ms) until the bed is at rest
+        sim.run(2000)
+        ke = sim.kinetic_energy()
+        log(f"#   t = {sim.time * 1e3:.2f} ms  KE = {ke:.3g} J (1 g)")
+        if ke < 1e-12 * sim.n_particles / 20000:
+            break
     sim.save_checkpoint(path)
     return sim
 
