@@ -396,8 +396,13 @@ def kick_drift(x, v, om, f, tq, inv_m, inv_i, x_ref, dt, bounds, disp_out):
 
 @njit(parallel=True, **_FM)
 def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf, tbuf,
-                Y, G, B, MU, MUR, COH, rolling, tdamp, limit, eta_r, dt, store, fn_out, ft_out):
-    """Contact forces of the pair list into per-chunk buffers (history updated in place)."""
+                Y, G, B, GTR, MU, MUR, COH, rolling, limit, eta_r, dt, store, fn_out, ft_out):
+    """Contact forces of the pair list into per-chunk buffers (history updated in place).
+
+    ``B = -2 sqrt(5/6) beta sqrt(2 Y*)`` and ``GTR = sqrt(4 G*/Y*)`` (0 without
+    tangential damping) per type pair, so that ``gamma_n = B sqrt(sqrt(R* delta) m*)``
+    and ``gamma_t = GTR gamma_n`` equal :func:`hertz_coefficients`.
+    """
     nt = bounds.shape[0] - 1
     for t in prange(nt):
         for k in range(bounds[t], bounds[t + 1]):
@@ -437,9 +442,13 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
             mi = mass[i]
             mj = mass[j]
             meff = mi * mj / (mi + mj)
-            kn, kt, gn, gt = hertz_coefficients(delta, reff, meff, Y[ti, tj], G[ti, tj], B[ti, tj])
-            if not tdamp:
-                gt = 0.0
+            # hertz_coefficients with one square root less: B holds
+            # -2 sqrt(5/6) beta sqrt(2 Y*) and GTR sqrt(4 G*/Y*) (0: no tangential damping)
+            sq = math.sqrt(reff * delta)
+            kn = 4.0 / 3.0 * Y[ti, tj] * sq
+            kt = 8.0 * G[ti, tj] * sq
+            gn = B[ti, tj] * math.sqrt(sq * meff)
+            gt = gn * GTR[ti, tj]
             vr1 = v[i, 0] - v[j, 0]
             vr2 = v[i, 1] - v[j, 1]
             vr3 = v[i, 2] - v[j, 2]

@@ -182,6 +182,10 @@ class Simulation:
         self._tabs = tuple(np.ascontiguousarray(a) for a in
                            (tabs.youngs, tabs.shear, tabs.beta, tabs.friction,
                             tabs.rolling_friction, tabs.cohesion))
+        Y, G, B = self._tabs[:3]
+        self._gn_coef = np.ascontiguousarray(-2.0 * math.sqrt(5.0 / 6.0) * B * np.sqrt(2.0 * Y))
+        self._gt_ratio = np.ascontiguousarray(np.sqrt(4.0 * G / Y) if model.tangential_damping
+                                              else np.zeros_like(Y))
         self._L = np.ascontiguousarray(self.box.lengths, dtype=np.float64)
         self._lo = np.ascontiguousarray(self.box.lo, dtype=np.float64)
         self._hi = np.ascontiguousarray(self.box.hi, dtype=np.float64)
@@ -600,8 +604,8 @@ class Simulation:
         m = self.model
         K.pair_forces(self.x, self.v, self.om, self.rad, self.mass, self.inv_i, self.ptype,
                       self.pi, self.pj, self.psh, self._L, ht, hr, self._qbounds, fbuf, tbuf,
-                      Y, G, B, MU, MUR, COH, m.rolling_code, m.tangential_damping, m.limit_force,
-                      float(m.rolling_damping), dt, store, fn_out, ft_out)
+                      Y, G, self._gn_coef, self._gt_ratio, MU, MUR, COH, m.rolling_code,
+                      m.limit_force, float(m.rolling_damping), dt, store, fn_out, ft_out)
 
     def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm):
         Y, G, B, MU, MUR, COH = self._tabs
