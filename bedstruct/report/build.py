@@ -349,13 +349,16 @@ def _repose(ctx: _Context, s: Section) -> None:
             and res.angle_deg > 2.0 * np.nan_to_num(res.angle_std_deg, nan=np.inf)):
         skip(f"no pile found: the free surface has no clear slope "
              f"({res.angle_deg:.1f} +- {res.angle_std_deg:.1f} deg)")
-    # A pile narrows to its top; a spread layer is a plateau with sloped ends.
+    # A heap has two flanks, or one steep wedge against a wall; a spread layer is long and thin
+    # with a sloped end, whose slope is not an angle of repose.
     h = np.asarray(res.profile_h, dtype=float)
-    h = h[np.isfinite(h)]
-    plateau = float(np.mean(h >= h.max() - 0.25 * (h.max() - h.min()))) if h.size else 1.0
-    if plateau > 0.4:
-        skip(f"no pile found: {plateau:.0%} of the free surface lies in its top quarter "
-             f"(a layer, not a heap)")
+    x = np.asarray(res.profile_x, dtype=float)
+    ok = np.isfinite(h)
+    aspect = float(np.ptp(h[ok]) / max(np.ptp(x[ok]), 1e-300)) if ok.sum() > 1 else 0.0
+    two_flanks = np.isfinite(res.left_deg) and np.isfinite(res.right_deg)
+    if not (two_flanks or aspect >= 0.2):
+        skip(f"no pile found: one sloped flank on a layer {aspect:.2f} times as high as long "
+             f"(a spread layer, not a heap)")
     s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
                  DOCS + "analysis.md, Angle of repose")
     s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")

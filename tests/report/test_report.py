@@ -124,3 +124,17 @@ def test_report_renders_in_headless_chromium(bed_dump, tmp_path):
     subprocess.run([exe, *flags, "--window-size=1200,2400", f"--screenshot={shot}", html_path.as_uri()],
                    capture_output=True, timeout=120)
     assert shot.exists() and shot.stat().st_size > 10_000
+
+
+def test_repose_section_on_a_pile(tmp_path):
+    """A synthetic conical heap of known slope gives its angle; a layer is skipped."""
+    rng = np.random.default_rng(3)
+    angle = np.radians(30.0)
+    pts = rng.uniform([-10, 0, 0], [10, 4, 6], size=(60000, 3))
+    pile = pts[pts[:, 2] <= (10 - np.abs(pts[:, 0])) * np.tan(angle)]
+    frame = bedstruct.Frame(pile, np.full(len(pile), 0.05),
+                            box=bedstruct.Box([-12, 0, 0], [12, 4, 8], boundary="ff pp ff"))
+    rep = build_report(frame)
+    sec = rep.section("repose")
+    assert sec.status == "ok", sec.text
+    assert abs(sec.numbers["angle_deg"].value - 30.0) < 1.5
