@@ -40,6 +40,9 @@ _LAZY = {
     "conduct_heat": "bedstruct.analysis", "thermal_network": "bedstruct.analysis",
     "temperature_map": "bedstruct.analysis", "haz_shape": "bedstruct.analysis",
     "conductivity_tensor": "bedstruct.analysis",
+    # workflows
+    "load_config": "bedstruct.workflows", "run_repose": "bedstruct.workflows",
+    "run_spread": "bedstruct.workflows", "calibrate_cohesion": "bedstruct.workflows",
     # report
     "build_report": "bedstruct.report", "report_on_files": "bedstruct.report",
     # plots

@@ -14,26 +14,9 @@ from bedstruct.analysis import (bed_bounds, bed_windows, layer_packing, packing_
                                 packing_fraction, packing_fractions, packing_grid,
                                 packing_sliding, packing_table, sphere_box_volume)
 from bedstruct.analysis._packing_kernels import _disc_rect
+from lattices import cubic_lattice, fcc_lattice
 
 
-def _root_conftest():
-    """The shared lattice helpers of tests/conftest.py, loaded by path: a bare
-    ``from conftest import`` picks up whichever conftest module was imported first."""
-    import importlib.util
-    import pathlib
-    import sys
-    name = "_bedstruct_tests_root_conftest"
-    if name not in sys.modules:
-        path = pathlib.Path(__file__).resolve().parents[1] / "conftest.py"
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        sys.modules[name] = module
-    return sys.modules[name]
-
-
-cubic_lattice = _root_conftest().cubic_lattice
-fcc_lattice = _root_conftest().fcc_lattice
 
 
 BALL = 4.0 / 3.0 * math.pi

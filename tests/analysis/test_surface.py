@@ -10,25 +10,9 @@ import pytest
 from bedstruct import Box, Frame
 from bedstruct.analysis import (bed_height, height_profile, layer_heights, surface_height_map,
                                 surface_roughness)
+from lattices import cubic_lattice
 
 
-def _root_conftest():
-    """The shared lattice helpers of tests/conftest.py, loaded by path: a bare
-    ``from conftest import`` picks up whichever conftest module was imported first."""
-    import importlib.util
-    import pathlib
-    import sys
-    name = "_bedstruct_tests_root_conftest"
-    if name not in sys.modules:
-        path = pathlib.Path(__file__).resolve().parents[1] / "conftest.py"
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        sys.modules[name] = module
-    return sys.modules[name]
-
-
-cubic_lattice = _root_conftest().cubic_lattice
 
 
 def brute_heights(frame, xs, ys, probe=0.0):

@@ -9,7 +9,7 @@ from bedstruct import Box
 from bedstruct.core import lens_radius
 from bedstruct.dem import ContactModel, Material, Plane, Simulation, hertz_time
 from bedstruct.dem import _kernels as K
-from conftest import closed_box, two_sphere_sim
+from dem_helpers import closed_box, two_sphere_sim
 
 E, NU, RHO, R = 1e7, 0.3, 2500.0, 1e-4
 
