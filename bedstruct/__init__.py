@@ -40,6 +40,8 @@ _LAZY = {
     "conduct_heat": "bedstruct.analysis", "thermal_network": "bedstruct.analysis",
     "temperature_map": "bedstruct.analysis", "haz_shape": "bedstruct.analysis",
     "conductivity_tensor": "bedstruct.analysis",
+    # engine
+    "Simulation": "bedstruct.dem", "ContactModel": "bedstruct.dem", "Material": "bedstruct.dem",
     # workflows
     "load_config": "bedstruct.workflows", "run_repose": "bedstruct.workflows",
     "run_spread": "bedstruct.workflows", "calibrate_cohesion": "bedstruct.workflows",
