@@ -1,4 +1,4 @@
-"""Run a workflow on the embedded DEM engine and write a run directory.
+"""Run a workflow on the embedded DEM engine (or LIGGGHTS/LAMMPS) and write a run directory.
 
 Workflows:
   repose     angle of repose: box filled by raindrop insertion, bottom plate
@@ -14,17 +14,25 @@ Configuration: a TOML file and/or --preset tiny|small|seed, then
 --set section.key=value overrides (TOML values; bare words are strings),
 e.g. --set spread.speed=0.0508 --set "spread.gaps=[5e-4, 5e-4]".
 
+Engines: --engine embedded (default), or liggghts / lammps for repose
+(same particles, walls, contact model and time step; --np N MPI ranks,
+--exe PATH for your own binary, --write-only to write the deck and inputs
+into the run directory without running). Spreading and calibration run on
+the embedded engine only.
+
 Examples:
   bedstruct run repose --preset tiny --out runs/repose --json
+  bedstruct run repose --preset tiny --engine liggghts --np 2 --out runs/repose-lig
   bedstruct run spread --preset small --set spread.tool=roller --out runs/roller
 """
 
 from __future__ import annotations
 
+import json
 import sys
 
 NAME = "run"
-HELP = "run a workflow (repose, spread, calibrate) on the embedded DEM engine"
+HELP = "run a workflow (repose, spread, calibrate) on the embedded DEM engine or LIGGGHTS/LAMMPS"
 
 
 def add_arguments(parser) -> None:
@@ -36,7 +44,13 @@ def add_arguments(parser) -> None:
                         help="override a configuration key (repeatable)")
     parser.add_argument("--out", required=True, metavar="DIR", help="run directory")
     parser.add_argument("--engine", default=None, choices=["embedded", "liggghts", "lammps"],
-                        help="DEM engine (only 'embedded' runs workflows for now)")
+                        help="DEM engine (liggghts/lammps: repose only)")
+    parser.add_argument("--np", type=int, default=None, metavar="N",
+                        help="MPI ranks for liggghts/lammps (external.np)")
+    parser.add_argument("--exe", default=None, metavar="PATH",
+                        help="engine binary for liggghts/lammps (external.exe)")
+    parser.add_argument("--write-only", action="store_true",
+                        help="liggghts/lammps: write the deck and inputs, do not run")
     parser.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
 
 
@@ -69,10 +83,28 @@ def run(args) -> int:
     overrides = list(args.overrides)
     if args.engine is not None:
         overrides.append(f'engine="{args.engine}"')
+    if getattr(args, "np", None) is not None:
+        overrides.append(f"external.np={int(args.np)}")
+    if getattr(args, "exe", None):
+        overrides.append(f"external.exe={json.dumps(str(args.exe))}")
+    if getattr(args, "write_only", False):
+        overrides.append("external.write_only=true")
     cfg = load_config(args.config, preset=args.preset, overrides=overrides)
+    if cfg["external"]["write_only"] and (cfg["engine"] == "embedded" or args.workflow != "repose"):
+        raise ConfigError("--write-only writes LIGGGHTS/LAMMPS decks of the repose workflow: use "
+                          "it with `run repose --engine liggghts|lammps`")
     func = {"repose": run_repose, "spread": run_spread, "calibrate": calibrate_cohesion}[args.workflow]
     res = func(cfg, out=args.out)
+    if getattr(res, "decks", None) is not None and not hasattr(res, "angle_deg"):  # write-only
+        for cmd in res.commands:
+            print(f"deck written; run it with: {cmd}")
+        print(f"results: {args.out}/results.json", file=sys.stderr)
+        if args.json:
+            print_json({"workflow": args.workflow, "engine": res.engine, **res.to_dict()})
+        return 0
     summary = _summary(args.workflow, res)
+    if cfg["engine"] != "embedded":
+        summary["engine"] = cfg["engine"]
     if args.workflow == "repose":
         print(f"angle of repose: {res.angle_deg:.2f} +- {res.angle_std_deg:.2f} deg "
               f"({len(res.replicates)} replicate(s), cohesion {res.cohesion:.4g} J/m^3)")

@@ -1,7 +1,7 @@
 """Workflow configuration: TOML files, presets, defaults and ``key=value`` overrides.
 
 A configuration is a nested mapping of sections (``material``, ``contact``,
-``psd``, ``repose``, ``spread``, ``calibrate``, ``output``) to scalar or list
+``psd``, ``repose``, ``spread``, ``calibrate``, ``external``, ``output``) to scalar or list
 values, all in SI units. :func:`load_config` starts from :data:`DEFAULTS`,
 applies a preset (``tiny``, ``small``, ``seed``; files in
 ``bedstruct/workflows/presets``), then a user TOML file, then ``--set``
@@ -99,6 +99,13 @@ DEFAULTS: dict = {
         "replicates": 2,
         "max_iter": 4,
         "tolerance_deg": 1.0,
+    },
+    "external": {                   # --engine liggghts|lammps (bedstruct.workflows.external)
+        "np": 1,                    # MPI ranks
+        "exe": "",                  # engine binary ("": the one found on this machine)
+        "write_only": False,        # write decks and inputs, do not run
+        "cohesion_model": "dmt",    # LAMMPS stand-in for SJKR: dmt | jkr | none (drop cohesion)
+        "timeout": 0.0,             # s per engine run (0: none)
     },
     "output": {
         "frames": True,
@@ -337,6 +344,12 @@ def _validate(cfg: dict) -> None:
     if cfg["engine"] not in ("embedded", "liggghts", "lammps"):
         raise ConfigError(f"config key `engine` must be embedded, liggghts or lammps; "
                           f"got {cfg['engine']!r}")
+    ext = cfg["external"]
+    if ext["np"] < 1:
+        raise ConfigError(f"config key `external.np` must be >= 1; got {ext['np']}")
+    if ext["cohesion_model"] not in ("dmt", "jkr", "none"):
+        raise ConfigError("config key `external.cohesion_model` must be dmt, jkr or none; "
+                          f"got {ext['cohesion_model']!r}")
     b = cfg["calibrate"]["cohesion_bracket"]
     if len(b) != 2 or not b[0] < b[1]:
         raise ConfigError(f"config key `calibrate.cohesion_bracket` must be [low, high] with "

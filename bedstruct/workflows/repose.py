@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import ConfigError
 from ._common import RunLayout, check_engine, contact_model, psd_sampler
 
-__all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate"]
+__all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile"]
 
 log = logging.getLogger(__name__)
 
@@ -116,7 +116,6 @@ def _record_run(sim, total_time, writer, n_frames):
 def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, layout=None,
                      stage: str = "", progress: bool = False) -> ReposeReplicate:
     """Run one angle-of-repose simulation of configuration ``cfg`` (see :func:`run_repose`)."""
-    from ..analysis import angle_of_repose
     from ..core import Box
     from ..dem import Rectangle, Simulation, repose_box
 
@@ -180,6 +179,39 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     frame = sim.frame()
     if writer is not None:
         writer.final(sim, "pile")
+    a, s, left, right, top = measure_pile(frame, cfg, r_max=rmax)
+    return ReposeReplicate(seed=int(seed), cohesion=k, angle_deg=float(a), angle_std_deg=float(s),
+                           left_deg=float(left), right_deg=float(right), n_inserted=n_inserted,
+                           n_remaining=int(frame.n_particles), n_fallen=int(sim.n_removed),
+                           pile_height=float(top), wall_time=_time.perf_counter() - t0,
+                           stage=stage if writer is not None else "")
+
+
+def measure_pile(frame, cfg: dict, *, r_max: float):
+    """Angle of the pile left in ``frame`` (SI) by a repose run of ``cfg``.
+
+    The same measurement for every engine: spheres above the plate level,
+    within the ledge (or the part of the floor left after the slide) plus a
+    pad of ``2 r_max``, fitted by :func:`bedstruct.analysis.angle_of_repose`
+    (both flanks with a ledge, else the flank facing the opening).
+
+    Returns
+    -------
+    tuple of float
+        ``(angle_deg, angle_std_deg, left_deg, right_deg, top)``; NaN angles
+        (with a logged warning) when the pile cannot be fitted.
+
+    Raises
+    ------
+    ConfigError
+        Fewer than 10 spheres remain.
+    """
+    from ..analysis import angle_of_repose
+
+    rc = cfg["repose"]
+    L, W, _ = (float(v) for v in rc["box"])
+    ped = float(rc["pedestal_fraction"])
+    slide = L if ped > 0 else float(rc["slide_fraction"]) * L
     # measure the pile on what stays above the plate level
     keep = frame.positions[:, 2] > -frame.radii
     pile = frame.select(keep)
@@ -188,7 +220,7 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
                           "(raise cohesion/friction or use a ledge: repose.pedestal_fraction)")
     x_lo = (L - ped * L) / 2 if ped > 0 else 0.0
     x_hi = (L + ped * L) / 2 if ped > 0 else L - slide
-    pad = 2 * rmax
+    pad = 2 * r_max
     bounds = ((x_lo - pad, x_hi + pad), (0.0, W))
     sel = (pile.positions[:, 0] > x_lo - pad) & (pile.positions[:, 0] < x_hi + pad)
     pile = pile.select(sel)
@@ -196,17 +228,12 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     try:
         res = angle_of_repose(pile, axis=0, base=0.0, flanks=flanks, bounds=bounds,
                               statistic="median", spacing=0.5 * float(np.median(pile.radii)))
-        a, s, left, right, top = (res.angle_deg, res.angle_std_deg, res.left_deg, res.right_deg,
-                                  res.top)
+        return (float(res.angle_deg), float(res.angle_std_deg), float(res.left_deg),
+                float(res.right_deg), float(res.top))
     except ValueError as exc:
         log.warning("repose: pile could not be measured: %s", exc)
-        a = s = left = right = float("nan")
-        top = float(np.max(pile.positions[:, 2] + pile.radii))
-    return ReposeReplicate(seed=int(seed), cohesion=k, angle_deg=float(a), angle_std_deg=float(s),
-                           left_deg=float(left), right_deg=float(right), n_inserted=n_inserted,
-                           n_remaining=int(frame.n_particles), n_fallen=int(sim.n_removed),
-                           pile_height=float(top), wall_time=_time.perf_counter() - t0,
-                           stage=stage if writer is not None else "")
+        nan = float("nan")
+        return nan, nan, nan, nan, float(np.max(pile.positions[:, 2] + pile.radii))
 
 
 def combine_replicates(reps, cohesion: float) -> ReposeResult:
@@ -244,6 +271,9 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
     Returns
     -------
     ReposeResult
+        (:class:`~bedstruct.workflows.external.ExternalDecks` for an external
+        engine with ``external.write_only``.) ``cfg["engine"]`` = ``liggghts``
+        or ``lammps`` runs :func:`~bedstruct.workflows.external.run_repose_external`.
 
     Examples
     --------
@@ -253,6 +283,9 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
     >>> 10 < res.angle_deg < 60                      # doctest: +SKIP
     True
     """
+    if cfg.get("engine", "embedded") != "embedded":
+        from .external import run_repose_external
+        return run_repose_external(cfg, out=out, cohesion=cohesion, replicates=replicates)
     n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
     if n < 1:
         raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")

@@ -258,6 +258,10 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     from ..core import Box
     from ..dem import Plane, Rectangle, Simulation
 
+    if cfg.get("engine", "embedded") != "embedded":
+        raise ConfigError(f"spreading on engine {cfg['engine']!r} is not implemented yet (the "
+                          "repose workflow runs on liggghts/lammps; spreading and the blade decks: "
+                          "see bedstruct.dem.backends.moving_wall_deck); use engine = \"embedded\"")
     check_engine(cfg)
     sc = cfg["spread"]
     layout = RunLayout(out, cfg) if out is not None else None

@@ -77,9 +77,10 @@ def test_toml_round_trip():
 
 
 def test_other_engines_not_yet_supported():
+    # repose runs on liggghts/lammps (tests/workflows/test_external_engines.py); spreading does not
     from bedstruct.workflows import run_repose, run_spread
-    cfg = load_config(preset="tiny", overrides=['engine="liggghts"'])
-    with pytest.raises(ConfigError, match="not yet supported"):
+    cfg = load_config(preset="tiny", overrides=['engine="liggghts"', 'external.exe="/nonexistent/x"'])
+    with pytest.raises(ConfigError, match="not available"):
         run_repose(cfg)
-    with pytest.raises(ConfigError, match="not yet supported"):
+    with pytest.raises(ConfigError, match="not implemented yet"):
         run_spread(cfg)

@@ -1,0 +1,302 @@
+"""Workflows on the external engines (``engine = "liggghts"`` or ``"lammps"``).
+
+:func:`run_repose_external` runs the angle-of-repose workflow of
+:mod:`bedstruct.workflows.repose` on LIGGGHTS 3.8 or LAMMPS: per replicate it
+places the spheres with the embedded engine's raindrop insertion (same size
+distribution, same seed: the first insertion round of an embedded run places
+exactly these spheres), writes them as a data file, writes the deck
+(:func:`bedstruct.dem.backends.repose_deck`, the same walls, contact model,
+gravity and time step as the embedded run), runs it through MPI
+(``external.np`` ranks, ``external.exe`` for a user's binary), reads the
+dumps back with :func:`bedstruct.io.read_dump` and measures the pile with
+:func:`bedstruct.workflows.repose.measure_pile`, the embedded run's code path.
+The run directory has the embedded layout (``config.toml``, ``results.json``,
+``rep00/frames.dump.gz``, ``rep00/contacts.dump.gz``, ``rep00/pile.dump.gz``)
+plus the inputs (``rep00/in.repose``, ``initial.data``, STL meshes) and the
+engine log (``rep00/in.log``).
+
+Differences from the embedded run (docs/workflows.md): all spheres are
+inserted at once (the embedded engine inserts in rounds when the box is full);
+LAMMPS has no SJKR cohesion (``external.cohesion_model`` picks the DMT/JKR
+stand-in of docs/backends.md, or ``none``); LAMMPS' rolling stiffness is
+frozen at a reference contact. Spreading is not available on the external
+engines yet.
+"""
+
+from __future__ import annotations
+
+import gzip
+import logging
+import shutil
+import time as _time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from ._common import RunLayout, contact_model, psd_sampler
+
+__all__ = ["ExternalDecks", "engine_for", "run_repose_external", "repose_inputs"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ExternalDecks:
+    """What a ``external.write_only`` run wrote instead of running.
+
+    Attributes
+    ----------
+    engine : str
+    workflow : str
+    decks : tuple of str
+        Deck paths (one per replicate); inputs sit next to them.
+    commands : tuple of str
+        Shell commands that would run each deck (from its folder).
+    """
+
+    engine: str
+    workflow: str
+    decks: tuple = ()
+    commands: tuple = ()
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary."""
+        from ._common import to_jsonable
+        return {"write_only": True, **to_jsonable(self)}
+
+
+def engine_for(cfg: dict, *, required: bool = True):
+    """The :class:`~bedstruct.dem.backends.EngineInfo` of ``cfg["engine"]``.
+
+    ``external.exe`` names a user's binary. Raises :class:`ConfigError` when
+    the engine is not installed and ``required`` (else returns None).
+    """
+    from ..dem.backends import find_lammps, find_liggghts
+    name = cfg["engine"]
+    if name not in ("liggghts", "lammps"):
+        raise ConfigError(f"engine {name!r} is not an external engine (liggghts or lammps)")
+    exe = cfg["external"]["exe"] or None
+    info = find_liggghts(exe) if name == "liggghts" else find_lammps(exe)
+    if info is None and required:
+        where = f"`external.exe` = {exe!r} was not found" if exe else (
+            f"{name} was not found (install it with .ci/install-engines.sh, or give the binary "
+            "with --exe PATH / external.exe; set BEDSTRUCT_LIGGGHTS / BEDSTRUCT_LAMMPS)")
+        raise ConfigError(f"engine {name!r} is not available: {where}")
+    return info
+
+
+def _granular_params(cfg: dict, cohesion: float):
+    """GranularParams of ``cfg`` and the LAMMPS cohesion model (or None)."""
+    from ..dem.backends import as_granular_params
+    model = contact_model(cfg, cohesion=cohesion)
+    p = as_granular_params(model)
+    cm = cfg["external"]["cohesion_model"]
+    coh = max(p.cohesion_energy_density, p.wall("cohesion_energy_density"))
+    if cfg["engine"] == "lammps" and coh > 0:
+        if cm == "none":
+            log.warning("lammps: cohesion dropped (external.cohesion_model = none)")
+            p = as_granular_params(p, cohesion_energy_density=0.0, wall_cohesion_energy_density=0.0)
+            return p, None, model
+        log.warning("lammps has no SJKR cohesion; using the %s stand-in (docs/backends.md)", cm)
+        return p, cm, model
+    return p, None, model
+
+
+def repose_inputs(cfg: dict, *, seed: int):
+    """Spheres, box and time step of one repose replicate of ``cfg`` (SI).
+
+    The spheres are those the embedded engine's raindrop insertion places in
+    ``[0, L] x [0, W] x [0, H]`` with ``seed`` (more above ``H`` when the
+    box is full).
+
+    Returns
+    -------
+    dict
+        ``positions`` (N, 3), ``radii`` (N,), ``box_lo``, ``box_hi`` (3,),
+        ``dt`` (s), ``n_wanted``, ``r_max`` (m).
+    """
+    from ..core import Box
+    from ..dem import Simulation
+
+    rc = cfg["repose"]
+    L, W, H = (float(v) for v in rc["box"])
+    model = contact_model(cfg)
+    draw = psd_sampler(cfg)
+    rmax = draw.r_max
+    periodic = bool(rc["periodic_width"])
+    depth = float(rc["reservoir_depth"])
+    margin = 4 * rmax
+    lo = [-margin - L, 0.0 if periodic else -margin, -depth]
+    hi = [L + margin, W if periodic else W + margin, 2.0 * H]
+    box = Box(lo, hi, boundary=("ff", "pp" if periodic else "ff", "ff"))
+    sim = Simulation(box, model, walls=[], safety=cfg["time"]["safety"],
+                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min, n_threads=1, seed=seed)
+    n_want = int(rc["n_particles"])
+    if n_want <= 0:  # as repose_replicate: fill_fraction of the box at a packing fraction of 0.6
+        r = draw(20000, np.random.default_rng(0))
+        v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
+        n_want = int(0.6 * L * W * H * float(rc["fill_fraction"]) / v_mean)
+    sim.insert_raindrop(n_want, draw, region=((0.0, 0.0, 0.0), (L, W, H)))
+    if sim.n_particles < n_want:
+        sim.insert_raindrop(n_want - sim.n_particles, draw,
+                            region=((0.0, 0.0, H + rmax), (L, W, 2.0 * H - 2 * rmax)))
+    if sim.n_particles < n_want:
+        log.warning("repose: inserted %d of %d particles (box full)", sim.n_particles, n_want)
+    dt = min(cfg["time"]["safety"] * model.rayleigh_time(draw.r_min),
+             0.1 * model.hertz_time(draw.r_min, cfg["time"]["v_max"]))
+    return {"positions": np.array(sim.x), "radii": np.array(sim.rad), "box_lo": np.array(lo),
+            "box_hi": np.array(hi), "dt": float(dt), "n_wanted": n_want, "r_max": float(rmax)}
+
+
+def _reference_contact(p, radii, *, height: float) -> dict:
+    """LAMMPS' reference contact for this bed: the median sphere under the weight of the bed.
+
+    LAMMPS' rolling stiffness (and the DMT/JKR stand-in for SJKR) is frozen at
+    one contact (docs/backends.md); the defaults describe the seed's 26 um
+    spheres. Here: the median radius r, and the Hertz overlap of two such
+    spheres pressed by the weight of a column of ``height`` (packing 0.6).
+    """
+    r = float(np.median(radii))
+    rstar = r / 2
+    estar = p.effective_youngs_modulus()
+    m = 4.0 / 3.0 * np.pi * r ** 3 * p.density
+    n_layers = max(1.0, 0.6 * height / (2 * r))
+    force = n_layers * m * max(p.gravity, 1e-12)
+    delta = (3 * force / (4 * estar * np.sqrt(rstar))) ** (2.0 / 3.0)
+    return {"reference_radius": r, "reference_overlap": float(min(max(delta / rstar, 1e-5), 0.05))}
+
+
+def _gzip(path: Path) -> Path:
+    out = path.with_name(path.name + ".gz")
+    with open(path, "rb") as src, gzip.open(out, "wb", compresslevel=5) as dst:
+        shutil.copyfileobj(src, dst)
+    path.unlink()
+    return out
+
+
+def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only):
+    from ..dem.backends import (ReposeGeometry, ReposeSchedule, repose_deck, run_deck,
+                                write_sphere_data)
+    from ..io import read_dump, write_dump
+    from .repose import ReposeReplicate, measure_pile
+
+    rc = cfg["repose"]
+    L, W, H = (float(v) for v in rc["box"])
+    engine = cfg["engine"]
+    p, cm, model = _granular_params(cfg, cohesion)
+    inp = repose_inputs(cfg, seed=seed)
+    stage_dir.mkdir(parents=True, exist_ok=True)
+    data = write_sphere_data(stage_dir / "initial.data", inp["positions"], inp["radii"],
+                             box_lo=inp["box_lo"], box_hi=inp["box_hi"], density=p.density,
+                             n_types=2, title=f"bedstruct repose seed {seed}")
+    ped = float(rc["pedestal_fraction"])
+    slide = L if ped > 0 else float(rc["slide_fraction"]) * L
+    v = float(rc["plate_speed"])
+    geom = ReposeGeometry(L, W, H, periodic_width=bool(rc["periodic_width"]), ledge_fraction=ped,
+                          plate_speed=v, slide=slide, wall_thickness=4 * inp["r_max"])
+    sched = ReposeSchedule.from_times(inp["dt"], fill=float(rc["fill_time"]), slide=slide / v,
+                                      drain=float(rc["drain_time"]),
+                                      n_frames=max(1, int(rc["n_frames"])))
+    ref = _reference_contact(p, inp["radii"], height=float(rc["fill_fraction"]) * H)
+    deck = repose_deck(data, p, engine=engine, geometry=geom, schedule=sched, stl_folder=stage_dir,
+                       contacts=bool(cfg["output"]["contacts"]), cohesion_model=cm, **ref)
+    deck_path = stage_dir / "in.repose"
+    deck_path.write_text(deck)
+    n_inserted = len(inp["radii"])
+    if write_only:
+        return deck_path
+    timeout = float(cfg["external"]["timeout"]) or None
+    t0 = _time.perf_counter()
+    run_deck(deck_path, engine=info, np=int(cfg["external"]["np"]), cwd=stage_dir, timeout=timeout)
+    wall = _time.perf_counter() - t0
+    traj = read_dump(stage_dir / "frames.dump", units="si")
+    frame = traj[len(traj) - 1]
+    write_dump(stage_dir / ("pile.dump.gz" if cfg["output"]["compress"] else "pile.dump"), frame)
+    if cfg["output"]["compress"]:
+        for name in ("frames.dump", "contacts.dump"):
+            if (stage_dir / name).exists():
+                _gzip(stage_dir / name)
+    if not cfg["output"]["frames"]:
+        for name in ("frames.dump", "frames.dump.gz"):
+            (stage_dir / name).unlink(missing_ok=True)
+    a, s, left, right, top = measure_pile(frame, cfg, r_max=inp["r_max"])
+    return ReposeReplicate(seed=int(seed), cohesion=float(model.cohesion), angle_deg=a,
+                           angle_std_deg=s, left_deg=left, right_deg=right, n_inserted=n_inserted,
+                           n_remaining=int(frame.n_particles),
+                           n_fallen=int(n_inserted - frame.n_particles), pile_height=float(top),
+                           wall_time=wall, stage=stage_dir.name)
+
+
+def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
+                        replicates: int | None = None):
+    """Angle of repose of ``cfg`` on LIGGGHTS or LAMMPS (``cfg["engine"]``).
+
+    Parameters are those of :func:`~bedstruct.workflows.run_repose`; the
+    section ``external`` (``np``, ``exe``, ``write_only``, ``cohesion_model``,
+    ``timeout``) drives the engine. Without ``out`` the run happens in a
+    temporary folder that is removed afterwards.
+
+    Returns
+    -------
+    ReposeResult or ExternalDecks
+        ExternalDecks when ``external.write_only``.
+
+    Raises
+    ------
+    ConfigError
+        The engine is not installed (unless ``write_only``).
+    bedstruct.dem.backends.EngineRunError
+        The engine failed (the message ends with its log).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from bedstruct.workflows import load_config
+    >>> cfg = load_config(preset="tiny", overrides=["engine=liggghts", "external.write_only=true"])
+    >>> res = run_repose_external(cfg, out=tempfile.mkdtemp())
+    >>> res.engine, len(res.decks)
+    ('liggghts', 1)
+    """
+    import tempfile
+
+    from .repose import combine_replicates
+
+    n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
+    if n < 1:
+        raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
+    write_only = bool(cfg["external"]["write_only"])
+    info = engine_for(cfg, required=not write_only)
+    k = float(cfg["contact"]["cohesion"] if cohesion is None else cohesion)
+    tmp = None
+    if out is None:
+        tmp = tempfile.mkdtemp(prefix="bedstruct-repose-")
+        out = tmp
+    try:
+        layout = RunLayout(out, cfg)
+        reps = [_repose_replicate(cfg, seed=int(cfg["seed"]) + i, cohesion=k,
+                                  stage_dir=layout.path / f"rep{i:02d}", info=info,
+                                  write_only=write_only) for i in range(n)]
+        if write_only:
+            np_ = int(cfg["external"]["np"])
+            cmds = []
+            for d in reps:
+                if info is not None:
+                    argv = info.command(["-in", d.name, "-log", "in.log"], np=np_)
+                else:
+                    argv = ([] if np_ == 1 else ["mpirun", "-np", str(np_)]) + [
+                        "liggghts" if cfg["engine"] == "liggghts" else "lmp", "-in", d.name]
+                cmds.append(f"cd {d.parent} && " + " ".join(argv))
+            res = ExternalDecks(cfg["engine"], "repose", tuple(str(d) for d in reps), tuple(cmds))
+            layout.write_results({"workflow": "repose", "engine": cfg["engine"], **res.to_dict()})
+            return res
+        res = combine_replicates(reps, k)
+        layout.write_results({"workflow": "repose", "engine": cfg["engine"],
+                              "np": int(cfg["external"]["np"]), "executable": info.executable,
+                              **res.to_dict()})
+        return res
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+
