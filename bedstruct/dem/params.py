@@ -206,6 +206,31 @@ class ContactModel:
     limit_force : bool
         Clip the Hertz + damping normal force at 0 (LIGGGHTS ``limitForce``,
         default off).
+    capillary : bool
+        Switch on pendular liquid bridges between particles (Willett et al.
+        2000 closed form; docs/engine.md, "Extensions for the diagnosis").
+        Default off.
+    capillary_surface_tension : float, N/m
+        Liquid surface tension gamma (water: 0.072).
+    capillary_contact_angle : float, rad
+        Liquid-solid contact angle theta, in [0, pi/2).
+    capillary_film_thickness : float, m
+        Adsorbed film thickness t; bridge volume ``V = 2 pi R*^2 t``.
+    capillary_bridge_volume : float, m^3, optional
+        A fixed bridge volume for every pair instead of the film rule.
+    contact_ageing : bool
+        Switch on humidity-driven contact ageing bonds. Default off.
+    ageing_bond_ratio : float, dimensionless
+        Bond strength relative to the SJKR cohesion force after the reference
+        rest time.
+    ageing_time_constant, ageing_reference_rest_time : float, s
+        tau and t_ref of the logarithmic ageing law.
+    ageing_break_slip : float, m
+        Accumulated tangential slip beyond which the bond breaks for good (until
+        the contact opens).
+    rolling_stiffness_factor : float, dimensionless
+        Prefactor of the ``"epsd"`` rolling stiffness ``k_r = f k_n mu_r^2 R*^2``
+        (Ai et al. 2011 use 2.25).
 
     Examples
     --------
@@ -232,6 +257,17 @@ class ContactModel:
     wall_cohesion: object = None
     tangential_damping: bool = True
     limit_force: bool = False
+    capillary: bool = False
+    capillary_surface_tension: float = 0.072
+    capillary_contact_angle: float = 0.3490658503988659
+    capillary_film_thickness: float = 0.0
+    capillary_bridge_volume: float | None = None
+    contact_ageing: bool = False
+    ageing_bond_ratio: float = 0.0
+    ageing_time_constant: float = 10.0
+    ageing_reference_rest_time: float = 60.0
+    ageing_break_slip: float = 1e-6
+    rolling_stiffness_factor: float = 2.25
     _tables: ModelTables | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
@@ -246,7 +282,67 @@ class ContactModel:
         if self.rolling_model not in ROLLING_MODELS:
             raise ConfigError(f"`rolling_model` must be one of {sorted(ROLLING_MODELS)}; "
                               f"got {self.rolling_model!r}")
+        self._check_extensions()
         object.__setattr__(self, "_tables", self._build_tables())
+
+    def _check_extensions(self):
+        def num(name, lo=0.0, hi=math.inf, strict=False):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                raise ConfigError(f"`{name}` must be a number; got {v!r}")
+            v = float(v)
+            if not (math.isfinite(v) and (v > lo if strict else v >= lo) and v <= hi):
+                raise ConfigError(f"`{name}` must lie in {'(' if strict else '['}{lo}, {hi}]; "
+                                  f"got {v!r}")
+            object.__setattr__(self, name, v)
+        for b in ("capillary", "contact_ageing"):
+            if not isinstance(getattr(self, b), (bool, np.bool_)):
+                raise ConfigError(f"`{b}` must be true or false; got {getattr(self, b)!r}")
+            object.__setattr__(self, b, bool(getattr(self, b)))
+        num("capillary_surface_tension")
+        num("capillary_contact_angle", hi=0.5 * math.pi - 1e-9)
+        num("capillary_film_thickness")
+        if self.capillary_bridge_volume is not None:
+            num("capillary_bridge_volume", strict=True)
+        num("ageing_bond_ratio")
+        num("ageing_time_constant", strict=True)
+        num("ageing_reference_rest_time", strict=True)
+        num("ageing_break_slip")
+        num("rolling_stiffness_factor", strict=True)
+        if self.capillary and self.capillary_bridge_volume is None \
+                and self.capillary_film_thickness <= 0.0:
+            raise ConfigError("`capillary` needs `capillary_film_thickness` > 0 or a "
+                              "`capillary_bridge_volume`")
+
+    @property
+    def extension_code(self) -> int:
+        """Kernel flags of the switched-on extensions (1 capillary, 2 ageing)."""
+        return (1 if self.capillary else 0) | (2 if self.contact_ageing else 0)
+
+    def bridge_volume(self, reff):
+        """Liquid bridge volume of a pair with reduced radius ``reff`` (m^3).
+
+        ``V = 2 pi R*^2 t`` from the film thickness t, or the fixed
+        ``capillary_bridge_volume``.
+        """
+        if self.capillary_bridge_volume is not None:
+            return float(self.capillary_bridge_volume) + 0.0 * np.asarray(reff)
+        return 2.0 * math.pi * np.asarray(reff) ** 2 * self.capillary_film_thickness
+
+    def rupture_distance(self, reff):
+        """Willett/Lian rupture distance ``s_c = (1 + theta/2) V^(1/3)`` (m)."""
+        return (1.0 + 0.5 * self.capillary_contact_angle) * np.cbrt(self.bridge_volume(reff))
+
+    def extension_arrays(self):
+        """(capillary, ageing) parameter arrays read by the pair kernel."""
+        cap = np.array([self.capillary_surface_tension * math.cos(self.capillary_contact_angle),
+                        self.capillary_contact_angle, self.capillary_film_thickness,
+                        -1.0 if self.capillary_bridge_volume is None
+                        else float(self.capillary_bridge_volume)])
+        age = np.array([self.ageing_bond_ratio, self.ageing_time_constant,
+                        1.0 / math.log1p(self.ageing_reference_rest_time / self.ageing_time_constant),
+                        self.ageing_break_slip, self.rolling_stiffness_factor])
+        return cap, age
 
     @property
     def n_types(self) -> int:
@@ -309,7 +405,11 @@ class ContactModel:
         out = {}
         for k in ("restitution", "friction", "rolling_friction", "cohesion", "rolling_model",
                   "rolling_damping", "wall_restitution", "wall_friction", "wall_rolling_friction",
-                  "wall_cohesion", "tangential_damping", "limit_force"):
+                  "wall_cohesion", "tangential_damping", "limit_force", "capillary",
+                  "capillary_surface_tension", "capillary_contact_angle",
+                  "capillary_film_thickness", "capillary_bridge_volume", "contact_ageing",
+                  "ageing_bond_ratio", "ageing_time_constant", "ageing_reference_rest_time",
+                  "ageing_break_slip", "rolling_stiffness_factor"):
             out[k] = conv(np.asarray(getattr(self, k)) if isinstance(getattr(self, k), (list, tuple))
                           else getattr(self, k))
         out["materials"] = [conv(m) for m in self.materials]

@@ -183,6 +183,8 @@ class Simulation:
                            (tabs.youngs, tabs.shear, tabs.beta, tabs.friction,
                             tabs.rolling_friction, tabs.cohesion))
         Y, G, B = self._tabs[:3]
+        self._cap, self._age = model.extension_arrays()
+        self._programs = {}
         self._gn_coef = np.ascontiguousarray(-2.0 * math.sqrt(5.0 / 6.0) * B * np.sqrt(2.0 * Y))
         self._gt_ratio = np.ascontiguousarray(np.sqrt(4.0 * G / Y) if model.tangential_damping
                                               else np.zeros_like(Y))
@@ -236,6 +238,7 @@ class Simulation:
         self.psh = np.zeros((m, 3), dtype=np.int8)
         self.ht = np.zeros((m, 3))
         self.hr = np.zeros((m, 3))
+        self.hx = np.zeros((m, 3))
 
     @property
     def n_particles(self) -> int:
@@ -365,6 +368,7 @@ class Simulation:
             w = self.wall_names.index(name)
         except ValueError:
             raise ConfigError(f"no wall named {name!r}; walls: {self.wall_names}") from None
+        self._programs.pop(name, None)
         row = self._W[w]
         dt0 = self.time - row[13]
         row[1:4] = row[1:4] + row[10:13] * dt0
@@ -377,6 +381,89 @@ class Simulation:
             row[16] = float(omega)
         if self._ready:
             self._build_wall_list()
+
+    def set_wall_program(self, name: str, *, velocity, ramp_time: float = 0.0,
+                         vibration_amplitude: float = 0.0, vibration_frequency: float = 0.0,
+                         vibration_direction=(0.0, 0.0, 1.0)) -> None:
+        """Prescribe a wall's translation from now on: start-up ramp plus vibration.
+
+        With ``s`` the time since this call, ``tau`` the ramp time, ``A`` the
+        amplitude, ``f`` the frequency and **d** the unit vibration direction::
+
+            x(s) = x(0) + v [s - tau (1 - exp(-s/tau))] + A sin(2 pi f s) d
+            u(s) = v (1 - exp(-s/tau)) + 2 pi f A cos(2 pi f s) d
+
+        (``tau = 0``: ``x = x(0) + v s``). The wall row is updated every step
+        (position and velocity exact at the time the walls are evaluated).
+        :meth:`set_wall_motion` on the same wall ends the program.
+
+        Parameters
+        ----------
+        name : str
+            Wall name.
+        velocity : (3,) float, m/s
+            Steady translation velocity v.
+        ramp_time : float, s
+            Start-up time constant tau (>= 0).
+        vibration_amplitude : float, m
+            Vibration amplitude A (>= 0).
+        vibration_frequency : float, Hz
+            Vibration frequency f (>= 0).
+        vibration_direction : (3,) float
+            Direction of the vibration (normalised here).
+        """
+        try:
+            w = self.wall_names.index(name)
+        except ValueError:
+            raise ConfigError(f"no wall named {name!r}; walls: {self.wall_names}") from None
+        for key, val in (("ramp_time", ramp_time), ("vibration_amplitude", vibration_amplitude),
+                         ("vibration_frequency", vibration_frequency)):
+            if not (math.isfinite(float(val)) and float(val) >= 0.0):
+                raise ConfigError(f"`{key}` must be a number >= 0; got {val!r}")
+        d = _vec3("vibration_direction", vibration_direction)
+        nd = float(np.linalg.norm(d))
+        if nd == 0.0:
+            raise ConfigError("`vibration_direction` must be a non-zero vector")
+        row = self._W[w]
+        origin = row[1:4] + row[10:13] * (self.time - row[13])
+        self._programs[name] = dict(t0=float(self.time), origin=origin.tolist(),
+                                    velocity=_vec3("velocity", velocity).tolist(),
+                                    ramp_time=float(ramp_time),
+                                    amplitude=float(vibration_amplitude),
+                                    frequency=float(vibration_frequency),
+                                    direction=(d / nd).tolist())
+        self._apply_programs(self.time)
+        if self._ready:
+            self._build_wall_list()
+
+    @staticmethod
+    def wall_program_state(program: dict, time: float):
+        """Position and velocity of a programmed wall at ``time`` (see :meth:`set_wall_program`)."""
+        s = time - program["t0"]
+        v = np.asarray(program["velocity"])
+        tau = program["ramp_time"]
+        if tau > 0.0:
+            e = math.exp(-s / tau)
+            x = np.asarray(program["origin"]) + v * (s - tau * (1.0 - e))
+            u = v * (1.0 - e)
+        else:
+            x = np.asarray(program["origin"]) + v * s
+            u = v.copy()
+        amp = program["amplitude"]
+        if amp > 0.0:
+            om = 2.0 * math.pi * program["frequency"]
+            d = np.asarray(program["direction"])
+            x = x + amp * math.sin(om * s) * d
+            u = u + amp * om * math.cos(om * s) * d
+        return x, u
+
+    def _apply_programs(self, time):
+        for name, prog in self._programs.items():
+            row = self._W[self.wall_names.index(name)]
+            x, u = self.wall_program_state(prog, time)
+            row[1:4] = x
+            row[10:13] = u
+            row[13] = time
 
     def wall_states(self) -> list[WallState]:
         """Position, velocity and particle load of every wall now."""
@@ -440,7 +527,7 @@ class Simulation:
     # ------------------------------------------------------- neighbour list
     def _cell_grid(self):
         rmax = float(self.rad.max(initial=0.0))
-        cut = 2.0 * rmax + self.skin
+        cut = 2.0 * rmax + self.skin + self._extra_cutoff()
         nc = np.maximum(1, np.floor(self._L / cut)).astype(np.int64)
         for a in range(3):
             if self._periodic[a] and nc[a] < 3:
@@ -453,6 +540,12 @@ class Simulation:
                 if self._periodic[a] and nc[a] < 3:
                     nc[a] = 3
         return nc, self._L / nc
+
+    def _extra_cutoff(self) -> float:
+        """Neighbour cutoff beyond contact: the largest capillary rupture distance (m)."""
+        if not self.model.capillary or self.rad.size == 0:
+            return 0.0
+        return float(self.model.rupture_distance(0.5 * float(self.rad.max())))
 
     def _chunks(self, n):
         return np.linspace(0, n, self.n_threads + 1).astype(np.int64)
@@ -476,6 +569,9 @@ class Simulation:
             out |= bad
         # keep old list (for history) keyed by ids before permuting
         act = K.active_history(self.ht, self.hr)
+        ext = self.model.extension_code
+        if ext & 2:
+            act = np.union1d(act, np.flatnonzero(np.any(self.hx != 0.0, axis=1)))
         old_keys = np.zeros(act.size, dtype=np.int64)
         old_sign = np.zeros(act.size)
         if act.size:
@@ -486,6 +582,7 @@ class Simulation:
             old_sign = ss[act]
         old_ht = self.ht[act]
         old_hr = self.hr[act]
+        old_hx = self.hx[act]
         n_out = int(out.sum())
         if n_out:
             self.n_removed += n_out
@@ -508,6 +605,7 @@ class Simulation:
         #    two passes (count, fill) on the first build or when the room is short
         pb = self._chunks(n)
         T = self.n_threads
+        skin_c = self.skin + self._extra_cutoff()
         none_i = np.zeros(0, dtype=np.int64)
         m_prev = getattr(self, "_m_hint", 0)
         done = False
@@ -522,7 +620,7 @@ class Simulation:
             bs = np.empty((tot, 3), dtype=np.int8)
             cnt = np.zeros(T, dtype=np.int64)
             K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
-                         K.HALF_STENCIL, self.skin, pb, none_i, 2, bi, bj, bs, off, cap, cnt)
+                         K.HALF_STENCIL, skin_c, pb, none_i, 2, bi, bj, bs, off, cap, cnt)
             if np.all(cnt >= 0):
                 sel = np.concatenate([np.arange(o, o + c) for o, c in zip(off, cnt)])
                 self._alloc_pairs(0)
@@ -530,6 +628,7 @@ class Simulation:
                 m = sel.size
                 self.ht = np.zeros((m, 3))
                 self.hr = np.zeros((m, 3))
+                self.hx = np.zeros((m, 3))
                 done = True
         if not done:
             counts = np.zeros(n, dtype=np.int64)
@@ -537,7 +636,7 @@ class Simulation:
             dummy_s = np.zeros((0, 3), dtype=np.int8)
             z = np.zeros(T, dtype=np.int64)
             K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
-                         K.HALF_STENCIL, self.skin, pb, counts, 0, dummy_i, dummy_i, dummy_s,
+                         K.HALF_STENCIL, skin_c, pb, counts, 0, dummy_i, dummy_i, dummy_s,
                          z, z, z)
             offs = np.zeros(n, dtype=np.int64)
             if n:
@@ -545,7 +644,7 @@ class Simulation:
             m = int(counts.sum())
             self._alloc_pairs(m)
             K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
-                         K.HALF_STENCIL, self.skin, pb, offs, 1, self.pi, self.pj, self.psh,
+                         K.HALF_STENCIL, skin_c, pb, offs, 1, self.pi, self.pj, self.psh,
                          z, z, z)
         self._m_hint = m
         # 4. history remap by sorted key
@@ -558,6 +657,11 @@ class Simulation:
             K.remap_history(keys, sign, np.ascontiguousarray(old_keys[o]),
                             np.ascontiguousarray(old_sign[o]), np.ascontiguousarray(old_ht[o]),
                             np.ascontiguousarray(old_hr[o]), qb, self.ht, self.hr)
+            if ext & 2:
+                ks = old_keys[o]
+                idx = np.minimum(np.searchsorted(ks, keys), ks.size - 1)
+                hit = ks[idx] == keys
+                self.hx[hit] = old_hx[o][idx[hit]]
         self._alloc_buffers()
         self._build_wall_list()
 
@@ -578,6 +682,10 @@ class Simulation:
         W = self._W
         sp = np.sqrt((W[:, 10:13] ** 2).sum(axis=1)) if len(W) else np.zeros(0)
         self._wall_speed = float(sp.max(initial=0.0))
+        for prog in self._programs.values():
+            bound = (float(np.linalg.norm(prog["velocity"]))
+                     + 2.0 * math.pi * prog["frequency"] * prog["amplitude"])
+            self._wall_speed = max(self._wall_speed, bound)
 
     def _alloc_buffers(self):
         n = self.n_particles
@@ -599,13 +707,22 @@ class Simulation:
         self._wnrm = np.zeros((0, _WALL_SLOTS, 3))
 
     # ------------------------------------------------------------- stepping
-    def _pair_pass(self, dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out):
+    def _pair_pass(self, dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out, hx=None):
         Y, G, B, MU, MUR, COH = self._tabs
         m = self.model
-        K.pair_forces(self.x, self.v, self.om, self.rad, self.mass, self.inv_i, self.ptype,
-                      self.pi, self.pj, self.psh, self._L, ht, hr, self._qbounds, fbuf, tbuf,
-                      Y, G, self._gn_coef, self._gt_ratio, MU, MUR, COH, m.rolling_code,
-                      m.limit_force, float(m.rolling_damping), dt, store, fn_out, ft_out)
+        ext = m.extension_code
+        if ext == 0 and m.rolling_stiffness_factor == 2.25:
+            K.pair_forces(self.x, self.v, self.om, self.rad, self.mass, self.inv_i, self.ptype,
+                          self.pi, self.pj, self.psh, self._L, ht, hr, self._qbounds, fbuf, tbuf,
+                          Y, G, self._gn_coef, self._gt_ratio, MU, MUR, COH, m.rolling_code,
+                          m.limit_force, float(m.rolling_damping), dt, store, fn_out, ft_out)
+        else:
+            K.pair_forces_ext(self.x, self.v, self.om, self.rad, self.mass, self.inv_i,
+                              self.ptype, self.pi, self.pj, self.psh, self._L, ht, hr,
+                              self._qbounds, fbuf, tbuf, Y, G, self._gn_coef, self._gt_ratio, MU,
+                              MUR, COH, m.rolling_code, m.limit_force, float(m.rolling_damping),
+                              dt, store, fn_out, ft_out, ext, self.hx if hx is None else hx,
+                              self._cap, self._age)
 
     def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm):
         Y, G, B, MU, MUR, COH = self._tabs
@@ -614,7 +731,7 @@ class Simulation:
                       self.rad, self.ptype, self.gravity, self._pbounds, self._W, self._tri,
                       self.time, self._wstart, self._wcand, wslot, whist, self._wbuf, Y, G, B, MU, MUR, COH, m.rolling_code,
                       m.tangential_damping, m.limit_force, float(m.rolling_damping), dt, store,
-                      wfn, wdel, wnrm, self._overflow)
+                      wfn, wdel, wnrm, self._overflow, float(m.rolling_stiffness_factor))
 
     def _setup(self):
         if self.dt is None:
@@ -641,6 +758,8 @@ class Simulation:
                         self._ft_out)
         self.step += 1
         self.time = self.time + dt
+        if self._programs:
+            self._apply_programs(self.time)
         self._finish_pass(dt, self.v, self.om, self.f, self.tq, self._fbuf, self._tbuf,
                           self.wslot, self.whist, False, self._wfn, self._wdel, self._wnrm)
 
@@ -736,7 +855,7 @@ class Simulation:
         ft = np.zeros((m, 3))
         fb = np.zeros((T, n, 3))
         tb = np.zeros((T, n, 3))
-        self._pair_pass(0.0, self.ht.copy(), self.hr.copy(), fb, tb, True, fn, ft)
+        self._pair_pass(0.0, self.ht.copy(), self.hr.copy(), fb, tb, True, fn, ft, self.hx.copy())
         wfn = np.zeros((n, _WALL_SLOTS))
         wdel = np.zeros((n, _WALL_SLOTS))
         wnrm = np.zeros((n, _WALL_SLOTS, 3))
@@ -834,8 +953,8 @@ class Simulation:
 
     # ---------------------------------------------------------- checkpoints
     _STATE = ("x", "v", "om", "f", "tq", "rad", "mass", "inv_m", "inv_i", "ptype", "ids", "images",
-              "x_ref", "wslot", "whist", "pi", "pj", "psh", "ht", "hr", "_W", "_tri", "_wstart",
-              "_wcand")
+              "x_ref", "wslot", "whist", "pi", "pj", "psh", "ht", "hr", "hx", "_W", "_tri",
+              "_wstart", "_wcand")
 
     def save_checkpoint(self, path) -> Path:
         """Write the complete state (incl. contact history and rng) atomically to ``path`` (.npz)."""
@@ -848,7 +967,8 @@ class Simulation:
                     next_id=self._next_id, n_threads=self.n_threads, wall_names=self.wall_names,
                     rng=self.rng.bit_generator.state, config=self.config(),
                     t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz,
-                    wall_list_time=self._wall_list_time, wall_speed=self._wall_speed)
+                    wall_list_time=self._wall_list_time, wall_speed=self._wall_speed,
+                    wall_programs=self._programs)
         arrays["meta"] = np.array(json.dumps(meta, default=_json_default))
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
@@ -883,6 +1003,8 @@ class Simulation:
         sim.walls = list(walls) if walls is not None else []
         sim.wall_names = meta["wall_names"]
         for name in cls._STATE:
+            if name == "hx" and "hx" not in data:  # checkpoints written before the extensions
+                data["hx"] = np.zeros((data["pi"].shape[0], 3))
             setattr(sim, name, np.ascontiguousarray(data[name.lstrip("_")]))
         sim.dt = meta["dt"]
         sim.skin = meta["skin"]
@@ -899,6 +1021,7 @@ class Simulation:
         sim._alloc_buffers()
         sim._wall_list_time = meta["wall_list_time"]
         sim._wall_speed = meta["wall_speed"]
+        sim._programs = dict(meta.get("wall_programs", {}))
         sim._ready = True
         return sim
 
@@ -918,6 +1041,12 @@ def _json_default(o):
     return str(o)
 
 
+_EXTENSION_KEYS = ("capillary", "capillary_surface_tension", "capillary_contact_angle",
+                   "capillary_film_thickness", "capillary_bridge_volume", "contact_ageing",
+                   "ageing_bond_ratio", "ageing_time_constant", "ageing_reference_rest_time",
+                   "ageing_break_slip", "rolling_stiffness_factor")
+
+
 def _model_from_dict(d: dict) -> ContactModel:
     def mat(m):
         return None if m is None else Material(m["youngs_modulus"], m["poisson_ratio"], m["density"],
@@ -926,5 +1055,6 @@ def _model_from_dict(d: dict) -> ContactModel:
                             "rolling_model", "rolling_damping", "wall_restitution", "wall_friction",
                             "wall_rolling_friction", "wall_cohesion", "tangential_damping",
                             "limit_force")}
+    kw.update({k: d[k] for k in _EXTENSION_KEYS if k in d})
     return ContactModel(tuple(mat(m) for m in d["materials"]), wall_material=mat(d["wall_material"]),
                         **kw)
