@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import RunLayout, check_engine, contact_model, psd_sampler, to_jsonable
+from ._common import RunLayout, check_engine, contact_model, psd_sampler, to_jsonable, tool_motion
 
 __all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile"]
 
@@ -252,16 +252,13 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     >>> [round(h * 1e6) for h in res.bed_height_m]      # doctest: +SKIP
     [...]
     """
-    from ..analysis import (coordination, coordination_by_window, dynamic_angle_of_repose,
-                            fit_german_law, packing_along, region_fabric, segregation,
-                            surface_height_map)
+    from ..analysis import fit_german_law
     from ..core import Box
     from ..dem import Plane, Rectangle, Simulation
 
-    if cfg.get("engine", "embedded") != "embedded":
-        raise ConfigError(f"spreading on engine {cfg['engine']!r} is not implemented yet (the "
-                          "repose workflow runs on liggghts/lammps; spreading and the blade decks: "
-                          "see bedstruct.dem.backends.moving_wall_deck); use engine = \"embedded\"")
+    if cfg.get("engine", "embedded") != "embedded":  # one layer on LIGGGHTS/LAMMPS
+        from .external import run_spread_external
+        return run_spread_external(cfg, out=out)
     check_engine(cfg)
     sc = cfg["spread"]
     layout = RunLayout(out, cfg) if out is not None else None
@@ -331,9 +328,9 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         sim.run(time=float(sc["settle_time"]))
         # 3. spread, recording frames
         if sc["tool"] == "roller":
-            sim.set_wall_motion("tool", velocity=(speed, 0.0, 0.0), omega=omega)
+            tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0), omega=omega)
         else:
-            sim.set_wall_motion("tool", velocity=(speed, 0.0, 0.0))
+            tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0))
         blade_pos, dyn, cn_series, mid = [], [], [], []
 
         def on_frame():
@@ -341,18 +338,10 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
             ws = {w.name: w for w in sim.wall_states()}
             front = float(ws["tool"].origin[0]) + half
             blade_pos.append(front)
-            try:
-                ahead = fr.positions[:, 0] < Lplat
-                sub = fr.select(ahead & (fr.positions[:, 2] > z_plat - rmax))
-                rmed = float(np.median(fr.radii))
-                r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
-                                            spacing=0.5 * rmed, statistic="max")
-                # a heap lower than two particle diameters has no measurable flank
-                dyn.append(float(r.angle_deg) if r.top - r.base > 4 * rmed else float("nan"))
-            except ValueError:
-                dyn.append(float("nan"))
-            c = sim.contacts()
-            cn_series.append(float(2.0 * c.n_contacts / max(fr.n_particles, 1)))
+            d_, c_ = frame_metrics(fr, sim.contacts(), front, plate_length=Lplat, z_plat=z_plat,
+                                   r_max=rmax)
+            dyn.append(d_)
+            cn_series.append(c_)
             if writer is not None:
                 writer.record(sim, frame=fr)
             if len(blade_pos) == max(1, int(sc["n_frames"]) // 2):
@@ -363,70 +352,22 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         sim.run(time=float(sc["settle_time"]))
         # 4. measure the bed
         fr = sim.frame()
-        on_plat = fr.positions[:, 0] < Lplat
-        bed = fr.select(on_plat & (fr.positions[:, 2] > z_plat - rmax))
-        n_bed = bed.n_particles
-        n_heap = fr.n_particles - n_bed
-        H_k = sum(gaps[:k + 1])
-        xa, xb = front0 + 2 * rmax, Lplat - 2 * rmax
+        contacts_all = sim.contacts()
         if writer is not None:
             from ..io import write_dump, write_dump_local
-            write_dump(writer.path / f"bed{writer._ext}", bed)
-            write_dump_local(writer.path / f"bed_contacts{writer._ext}", bed,
-                             _subset_contacts(sim.contacts(), on_plat & (fr.positions[:, 2] > z_plat - rmax)))
-        try:
-            surf = surface_height_map(bed, base=z_plat, bounds=((xa, xb), (0.0, W)),
-                                      spacing=0.5 * float(np.median(bed.radii)))
-            hmap = np.asarray(surf.heights) - z_plat
-            h = float(np.mean(hmap))
-            h_top = float(np.percentile(hmap, 95))
-            sa = float(surf.sa)
-            xs = np.asarray(surf.x)
-            e = np.linspace(xa, xb, n_reg + 1)
-            h_reg = tuple(float(np.mean(hmap[(xs >= e[i]) & (xs <= e[i + 1])]))
-                          for i in range(n_reg))
-        except ValueError:
-            h = h_top = sa = float("nan")
-            h_reg = (float("nan"),) * n_reg
-        lo = np.array([xa, 0.0, z_plat])
-        hi = np.array([xb, W, z_plat + H_k])
-        pack = packing_along(bed, n_reg, axis=0, bounds=(lo, hi)).fractions
-        contacts_all = sim.contacts()
-        coord = coordination(fr, contacts_all)
-        wlo, whi = _windows(lo, hi, n_reg)
-        cnw = coordination_by_window(fr, wlo, whi, contacts=contacts_all, result=coord).mean
-        try:
-            rf = region_fabric(contacts_all, fr, axis=0, n_regions=n_reg, bounds=(xa, xb))
-            aniso = tuple(float(rf[nm].anisotropy) for nm in rf.names)
-        except (ValueError, KeyError) as exc:
-            log.warning("spread: fabric failed: %s", exc)
-            aniso = (float("nan"),) * n_reg
-        d50s = seg_i = float("nan")
-        if mid:
-            mfr, mfront = mid[0]
-            try:
-                sg = segregation(mfr.select(mfr.positions[:, 0] < Lplat), mfront, direction=1, axis=0,
-                                 initial=pile)
-                d50s = float(sg.heap_vs_bed.d50_shift)
-                seg_i = float(sg.index)
-            except (ValueError, AttributeError) as exc:
-                log.warning("spread: segregation failed: %s", exc)
+            on_plat = fr.positions[:, 0] < Lplat
+            keep = on_plat & (fr.positions[:, 2] > z_plat - rmax)
+            write_dump(writer.path / f"bed{writer._ext}", fr.select(keep))
+            write_dump_local(writer.path / f"bed_contacts{writer._ext}", fr.select(keep),
+                             _subset_contacts(contacts_all, keep))
+        layer, pack, cnw = measure_layer(
+            fr, contacts_all, cfg, index=k + 1, z_plat=z_plat, front0=front0, r_max=rmax,
+            pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid, n_inserted=n_ins,
+            n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer)
+        layers.append(layer)
         f_all.extend(np.asarray(pack, float).tolist())
         cn_all.extend(np.asarray(cnw, float).tolist())
-        dyn_a = np.array(dyn, dtype=float)
-        ok = np.isfinite(dyn_a)
-        layers.append(LayerResult(
-            index=k + 1, gap=gap, nominal_height=H_k, bed_height_m=float(h), bed_top_m=h_top,
-            roughness_sa_m=sa,
-            bed_height_regions_m=h_reg,
-            packing_fraction=tuple(float(v) for v in pack),
-            coordination=tuple(float(v) for v in cnw), fabric_anisotropy=aniso,
-            dynamic_angle_deg=tuple(dyn),
-            mean_dynamic_angle_deg=float(dyn_a[ok].mean()) if ok.any() else float("nan"),
-            dynamic_angle_std_deg=float(dyn_a[ok].std()) if ok.sum() > 1 else float("nan"),
-            mean_cn_series=tuple(cn_series), blade_positions=tuple(blade_pos), heap_d50_shift=d50s,
-            segregation_index=seg_i, n_inserted=n_ins, n_bed=n_bed, n_heap=n_heap,
-            n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer))
+        h, H_k, n_bed = layer.bed_height_m, layer.nominal_height, layer.n_bed
         log.info("layer %d: bed height %.4g m (nominal %.4g), %d in bed", k + 1, h, H_k, n_bed)
         # 5. return the tool above the bed to its start
         if k + 1 < len(gaps):
@@ -454,6 +395,100 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
             writer.final(sim, "final")
         layout.write_results({"workflow": "spread", **res.to_dict()})
     return res
+
+
+def frame_metrics(fr, contacts, front: float, *, plate_length: float, z_plat: float, r_max: float):
+    """Dynamic angle of the heap in front of the tool (degrees, NaN when too low) and mean
+    coordination ``2 N_c / N`` of one spreading frame (SI)."""
+    from ..analysis import dynamic_angle_of_repose
+    try:
+        ahead = fr.positions[:, 0] < plate_length
+        sub = fr.select(ahead & (fr.positions[:, 2] > z_plat - r_max))
+        rmed = float(np.median(fr.radii))
+        r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
+                                    spacing=0.5 * rmed, statistic="max")
+        # a heap lower than two particle diameters has no measurable flank
+        dyn = float(r.angle_deg) if r.top - r.base > 4 * rmed else float("nan")
+    except ValueError:
+        dyn = float("nan")
+    return dyn, float(2.0 * contacts.n_contacts / max(fr.n_particles, 1))
+
+
+def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, front0: float,
+                  r_max: float, pile, dyn, cn_series, blade_pos, mid, n_inserted: int,
+                  n_removed: int, wall_time: float):
+    """Measure the bed of spread layer ``index`` in frame ``fr`` (SI) with its contacts.
+
+    The same measurement for every engine (see :func:`run_spread`). Returns
+    ``(LayerResult, packing_per_region, coordination_per_region)``.
+    """
+    from ..analysis import (coordination, coordination_by_window, packing_along, region_fabric,
+                            segregation, surface_height_map)
+    sc = cfg["spread"]
+    rmax = r_max
+    Lplat, W = float(sc["plate_length"]), float(sc["width"])
+    gaps = [float(g) for g in sc["gaps"]]
+    n_reg = int(sc["regions"])
+    k = index - 1
+    gap = gaps[k]
+    n_ins = n_inserted
+    on_plat = fr.positions[:, 0] < Lplat
+    bed = fr.select(on_plat & (fr.positions[:, 2] > z_plat - rmax))
+    n_bed = bed.n_particles
+    n_heap = fr.n_particles - n_bed
+    H_k = sum(gaps[:k + 1])
+    xa, xb = front0 + 2 * rmax, Lplat - 2 * rmax
+    try:
+        surf = surface_height_map(bed, base=z_plat, bounds=((xa, xb), (0.0, W)),
+                                  spacing=0.5 * float(np.median(bed.radii)))
+        hmap = np.asarray(surf.heights) - z_plat
+        h = float(np.mean(hmap))
+        h_top = float(np.percentile(hmap, 95))
+        sa = float(surf.sa)
+        xs = np.asarray(surf.x)
+        e = np.linspace(xa, xb, n_reg + 1)
+        h_reg = tuple(float(np.mean(hmap[(xs >= e[i]) & (xs <= e[i + 1])]))
+                      for i in range(n_reg))
+    except ValueError:
+        h = h_top = sa = float("nan")
+        h_reg = (float("nan"),) * n_reg
+    lo = np.array([xa, 0.0, z_plat])
+    hi = np.array([xb, W, z_plat + H_k])
+    pack = packing_along(bed, n_reg, axis=0, bounds=(lo, hi)).fractions
+    coord = coordination(fr, contacts_all)
+    wlo, whi = _windows(lo, hi, n_reg)
+    cnw = coordination_by_window(fr, wlo, whi, contacts=contacts_all, result=coord).mean
+    try:
+        rf = region_fabric(contacts_all, fr, axis=0, n_regions=n_reg, bounds=(xa, xb))
+        aniso = tuple(float(rf[nm].anisotropy) for nm in rf.names)
+    except (ValueError, KeyError) as exc:
+        log.warning("spread: fabric failed: %s", exc)
+        aniso = (float("nan"),) * n_reg
+    d50s = seg_i = float("nan")
+    if mid:
+        mfr, mfront = mid[0]
+        try:
+            sg = segregation(mfr.select(mfr.positions[:, 0] < Lplat), mfront, direction=1, axis=0,
+                             initial=pile)
+            d50s = float(sg.heap_vs_bed.d50_shift)
+            seg_i = float(sg.index)
+        except (ValueError, AttributeError) as exc:
+            log.warning("spread: segregation failed: %s", exc)
+    dyn_a = np.array(dyn, dtype=float)
+    ok = np.isfinite(dyn_a)
+    layer = (LayerResult(
+        index=k + 1, gap=gap, nominal_height=H_k, bed_height_m=float(h), bed_top_m=h_top,
+        roughness_sa_m=sa,
+        bed_height_regions_m=h_reg,
+        packing_fraction=tuple(float(v) for v in pack),
+        coordination=tuple(float(v) for v in cnw), fabric_anisotropy=aniso,
+        dynamic_angle_deg=tuple(dyn),
+        mean_dynamic_angle_deg=float(dyn_a[ok].mean()) if ok.any() else float("nan"),
+        dynamic_angle_std_deg=float(dyn_a[ok].std()) if ok.sum() > 1 else float("nan"),
+        mean_cn_series=tuple(cn_series), blade_positions=tuple(blade_pos), heap_d50_shift=d50s,
+        segregation_index=seg_i, n_inserted=n_ins, n_bed=n_bed, n_heap=n_heap,
+        n_removed=int(n_removed), wall_time=float(wall_time)))
+    return layer, pack, cnw
 
 
 def _subset_contacts(contacts, mask):

@@ -110,3 +110,41 @@ def test_cli_write_only_json(tmp_path, capsys, engine):
 def test_cli_write_only_needs_an_external_engine(tmp_path, capsys):
     assert main(["run", "repose", "--preset", "tiny", "--write-only", "--out", str(tmp_path)]) == 1
     assert "--write-only" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ spreading: one layer
+def _spread_cfg(engine, *extra):
+    return load_config(preset="tiny", overrides=["contact.cohesion=0.0", f"engine={engine}",
+                                                 "spread.gaps=[4.5e-4]", *extra])
+
+
+@pytest.mark.parametrize("engine", sorted(ENGINES))
+def test_spread_write_only_deck_is_parsed(tmp_path, engine):
+    _need(engine)
+    from bedstruct.workflows import run_spread
+    out = run_spread(_spread_cfg(engine, "external.write_only=true"), out=tmp_path)
+    deck = tmp_path / "layer01" / "in.spread"
+    assert out.decks == (str(deck),)
+    text = re.sub(r"^run \d+$", "run 0", deck.read_text(), flags=re.MULTILINE)
+    zero = tmp_path / "layer01" / "in.zero"
+    zero.write_text(text)
+    log = run_deck(zero, np=1, cwd=tmp_path / "layer01").log
+    assert log.last.n_atoms == res_atoms(tmp_path / "layer01" / "initial.data")
+
+
+def test_spread_one_layer_liggghts(tmp_path):
+    """The bevelled blade spreads the pile into a layer no thicker than the gap; nothing is lost."""
+    _need("liggghts")
+    from bedstruct.workflows import run_spread
+    res = run_spread(_spread_cfg("liggghts", "spread.n_frames=3"), out=tmp_path)
+    (layer,) = res.layers
+    assert layer.n_bed + layer.n_heap + layer.n_removed == res.n_pile
+    assert layer.n_bed > 0.3 * res.n_pile
+    # mean surface below the blade, its 95th percentile near the blade's lowest edge
+    assert 0.5 * 4.5e-4 < layer.bed_height_m < layer.bed_top_m
+    assert 0.85 * 4.5e-4 < layer.bed_top_m < 1.2 * 4.5e-4
+    assert all(0.4 < f < 0.66 for f in layer.packing_fraction)
+    assert all(2.5 < c < 6.5 for c in layer.coordination)
+    d = json.loads((tmp_path / "results.json").read_text())
+    assert d["engine"] == "liggghts" and len(d["layers"]) == 1
+    assert (tmp_path / "layer01" / "frames.dump.gz").is_file()

@@ -23,7 +23,8 @@ from .decks import (DUMP_COLUMNS, ImpactResult, bed_deck, data_file_radii, hertz
 from .lammps import find_lammps, lammps_granular_coeffs
 from .liggghts import find_liggghts, liggghts_model_commands
 from .stl import BladeGeometry, box_triangles, read_stl_triangles, stl_text, write_stl
-from .workflow_decks import ReposeGeometry, ReposeSchedule, repose_deck, repose_wall_stls
+from .workflow_decks import (ReposeGeometry, ReposeSchedule, SpreadGeometry, SpreadSchedule,
+                             repose_deck, repose_wall_stls, spread_deck)
 
 __all__ = [
     "EngineInfo", "EngineLog", "EngineRunError", "GranularParams", "RunResult", "ThermoRun",
@@ -33,5 +34,6 @@ __all__ = [
     "impact_deck", "impact_result", "moving_wall_deck",
     "find_lammps", "lammps_granular_coeffs", "find_liggghts", "liggghts_model_commands",
     "BladeGeometry", "box_triangles", "read_stl_triangles", "stl_text", "write_stl",
-    "ReposeGeometry", "ReposeSchedule", "repose_deck", "repose_wall_stls",
+    "ReposeGeometry", "ReposeSchedule", "repose_deck", "repose_wall_stls", "SpreadGeometry",
+    "SpreadSchedule", "spread_deck",
 ]

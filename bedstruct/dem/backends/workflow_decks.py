@@ -36,9 +36,10 @@ from ._common import as_granular_params, read_data_header
 from .decks import DUMP_COLUMNS, _path_word, _setup
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
 from .liggghts import liggghts_model_commands, liggghts_wall_model
-from .stl import write_stl
+from .stl import BladeGeometry, write_stl
 
-__all__ = ["ReposeGeometry", "ReposeSchedule", "repose_deck", "repose_wall_stls"]
+__all__ = ["ReposeGeometry", "ReposeSchedule", "repose_deck", "repose_wall_stls", "SpreadGeometry",
+           "SpreadSchedule", "spread_deck"]
 
 
 @dataclass(frozen=True)
@@ -320,3 +321,177 @@ def repose_deck(data_file, params=None, *, engine: str, geometry: ReposeGeometry
     lines.append(f"run {schedule.drain_steps}")
     return "\n".join(lines) + "\n"
 
+
+
+@dataclass(frozen=True)
+class SpreadGeometry:
+    """One spreading layer (SI): platform ``[0, L]`` at ``z = -gap``, tool bottom at ``z = 0``.
+
+    Parameters
+    ----------
+    plate_length, width : float, m
+        Platform length L along x; y period W.
+    gap : float, m
+        Layer thickness: the platform sits ``gap`` below the tool's lowest edge.
+    blade : BladeGeometry
+        The tool at t = 0 (``z_bottom = 0``; ``bevel_deg = 0`` for a flat plate).
+    chamber_depth : float, m
+        Front wall of the build chamber at ``x = L`` from ``z = -chamber_depth``
+        up to 0 (0: no front wall). The back wall is the plane ``x = 0``.
+    wall_thickness : float, m
+        LAMMPS only: thickness of the block regions.
+    """
+
+    plate_length: float
+    width: float
+    gap: float
+    blade: BladeGeometry
+    chamber_depth: float = 0.0
+    wall_thickness: float = 1e-4
+
+
+@dataclass(frozen=True)
+class SpreadSchedule:
+    """Steps: ``settle_steps`` before and after the tool moves for ``spread_steps``;
+    dumps every ``every`` steps from ``settle_steps`` on (the final step is a dump step).
+
+    Examples
+    --------
+    >>> s = SpreadSchedule.from_times(1e-6, settle=1e-4, spread=1e-3, n_frames=6)
+    >>> s.settle_steps % s.every, (s.spread_steps + s.settle_after) % s.every
+    (0, 0)
+    """
+
+    dt: float
+    settle_steps: int
+    spread_steps: int
+    settle_after: int
+    every: int
+
+    @classmethod
+    def from_times(cls, dt: float, *, settle: float, spread: float, n_frames: int):
+        if not (dt > 0 and math.isfinite(dt)):
+            raise ValueError(f"`dt` must be a positive number of seconds; got {dt!r}")
+
+        def steps(t):
+            return max(1, int(math.ceil(t / dt - 1e-9)))
+        s, m = steps(settle), steps(spread)
+        every = max(1, int(math.ceil(m / max(1, int(n_frames)))))
+        m = every * int(math.ceil(m / every))
+        s0 = every * int(math.ceil(s / every))
+        s1 = every * int(math.ceil(s / every))
+        return cls(float(dt), s0, m, s1, every)
+
+
+def spread_deck(data_file, params=None, *, engine: str, geometry: SpreadGeometry,
+                schedule: SpreadSchedule, stl_folder=None, contacts: bool = True,
+                skin: float | None = None, cohesion_model: str | None = None,
+                reference_radius: float = REFERENCE_RADIUS,
+                reference_overlap: float = REFERENCE_OVERLAP) -> str:
+    """One spreading layer: settle the pile, move the tool across the platform, settle.
+
+    The pile (data file, 2 atom types, y periodic over ``[0, W]``) lies on
+    the platform in front of the tool. LIGGGHTS: platform, front wall and the
+    bevelled blade are meshes in one ``fix wall/gran`` (the blade STL without
+    end caps, moved by ``fix move/mesh``), the back wall a primitive
+    ``xplane``. LAMMPS: block regions with ``fix wall/gran/region``; the moving
+    blade is the unbevelled slab (LAMMPS' wall/gran/region ignores the velocity
+    of a moving intersect region; see docs/backends.md). Spheres pushed over
+    the front wall fall out of the domain (deleted).
+
+    Outputs: ``frames.dump`` (and ``contacts.dump``) every ``schedule.every``
+    steps from the start of the tool motion to the end.
+    """
+    if engine not in ("liggghts", "lammps"):
+        raise ValueError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
+    p = as_granular_params(params)
+    head = read_data_header(data_file)
+    if head["atom types"] < 2:
+        raise ValueError("the data file must declare 2 atom types (walls use type 2)")
+    if skin is None:
+        from .decks import data_file_radii
+        r = data_file_radii(data_file)
+        skin = 0.2 * float(r.min()) if r.size else 1e-6
+    g, b = geometry, geometry.blade
+    L, W, t = g.plate_length, g.width, g.wall_thickness
+    lines = [f"# bedstruct deck for {engine}: one spreading layer (settle, spread, settle)",
+             *_setup(engine, "f p f", "* 1 1"),
+             f"read_data {_path_word(data_file)}",
+             f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
+    if engine == "liggghts":
+        model, wt = liggghts_model_commands(p, n_types=head["atom types"])
+        if min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
+            lines.append("soft_particles yes")
+        lines += model
+    else:
+        coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
+                                        reference_radius=reference_radius,
+                                        reference_overlap=reference_overlap)
+        lines += ["pair_style granular", f"pair_coeff * * {coeffs}"]
+    lines.append(f"timestep {schedule.dt:.10g}")
+    if p.gravity > 0:
+        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+    s0 = schedule.settle_steps
+    s1 = s0 + schedule.spread_steps
+    if engine == "liggghts":
+        if stl_folder is None:
+            raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
+        folder = Path(stl_folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        meshes = {"platform": write_stl(folder / "platform.stl",
+                                        _rect(0.0, L, 0.0, W, -g.gap, -g.gap), name="platform")}
+        if g.chamber_depth > 0:
+            meshes["front"] = write_stl(folder / "front.stl",
+                                        _rect(L, L, 0.0, W, -g.chamber_depth, 0.0), name="front")
+        meshes["blade"] = b.write_stl(folder / "blade.stl", 0.0, W, caps=False)
+        for name, path in meshes.items():
+            lines.append(f"fix {name} all mesh/surface file {_path_word(path)} type {wt} "
+                         "curvature_tolerant yes")
+        wm = liggghts_wall_model(p)
+        lines += [f"fix wmesh all wall/gran {wm} mesh n_meshes {len(meshes)} meshes "
+                  + " ".join(meshes),
+                  f"fix wback all wall/gran {wm} primitive type {wt} xplane 0.0"]
+    else:
+        wc = lammps_granular_coeffs(p, wall=True, cohesion_model=cohesion_model,
+                                    reference_radius=reference_radius,
+                                    reference_overlap=reference_overlap)
+        dx = b.speed * schedule.dt
+        x0, x1 = b.x0, b.x0 + b.thickness
+        lines += [f"variable bx equal {dx:.12g}*((step-{s0})*(step>{s0})-(step-{s1})*(step>{s1}))",
+                  f"region platform block 0 {L:.10g} INF INF {-g.gap - t:.10g} {-g.gap:.10g} "
+                  "side out units box",
+                  f"region blade block {x0:.10g} {x1:.10g} INF INF {b.z_bottom:.10g} "
+                  f"{b.z_bottom + b.height:.10g} side out move v_bx NULL NULL units box",
+                  f"fix wplatform all wall/gran/region granular {wc} region platform",
+                  f"fix wblade all wall/gran/region granular {wc} region blade",
+                  f"fix wback all wall/gran granular {wc} xplane 0.0 NULL"]
+        if g.chamber_depth > 0:
+            lines += [f"region front block {L:.10g} {L + t:.10g} INF INF {-g.chamber_depth:.10g} 0 "
+                      "side out units box",
+                      f"fix wfront all wall/gran/region granular {wc} region front"]
+    every = int(schedule.every)
+    lines += ["fix integr all nve/sphere",
+              "compute rke all erotate/sphere",
+              "thermo_style custom step atoms ke c_rke",
+              f"thermo {every}",
+              "thermo_modify lost ignore norm no flush yes"]
+    dumps = [f"dump dmp all custom {every} frames.dump {DUMP_COLUMNS}"]
+    if contacts:
+        if engine == "liggghts":
+            lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
+            cols = " ".join(f"c_cpl[{i}]" for i in range(1, 15))
+            dumps.append(f"dump dloc all local {every} contacts.dump {cols}")
+        else:
+            lines += ["compute cpa all property/local patom1 patom2",
+                      "compute cpf all pair/local dist fx fy fz"]
+            dumps.append(f"dump dloc all local {every} contacts.dump c_cpa[1] c_cpa[2] c_cpf[1] "
+                         "c_cpf[2] c_cpf[3] c_cpf[4]")
+    lines.append(f"run {schedule.settle_steps}")
+    lines += dumps
+    if engine == "liggghts":
+        lines += [f"fix mvblade all move/mesh mesh blade linear {b.speed:.10g} 0 0",
+                  f"run {schedule.spread_steps}", "unfix mvblade"]
+    else:
+        lines.append(f"run {schedule.spread_steps}")
+    lines.append(f"run {schedule.settle_after}")
+    return "\n".join(lines) + "\n"
