@@ -25,9 +25,11 @@ def test_bad_override_names_the_key(tmp_path, capsys):
 
 @pytest.mark.parametrize("engine", ["liggghts", "lammps"])
 def test_external_engines_not_yet_supported(tmp_path, capsys, engine):
-    # repose runs on the external engines (tests/workflows/test_external_engines.py); spreading not yet
-    assert main(["run", "spread", "--preset", "tiny", "--engine", engine, "--out", str(tmp_path)]) == 1
-    assert "not implemented yet" in capsys.readouterr().err
+    # repose and one-layer blade spreading run on the external engines
+    # (tests/workflows/test_external_engines.py); the roller does not
+    assert main(["run", "spread", "--preset", "tiny", "--engine", engine, "--set", "spread.tool=roller",
+                 "--out", str(tmp_path)]) == 1
+    assert "roller" in capsys.readouterr().err
 
 
 def test_repose_json(tmp_path, capsys):

@@ -77,10 +77,12 @@ def test_toml_round_trip():
 
 
 def test_other_engines_not_yet_supported():
-    # repose runs on liggghts/lammps (tests/workflows/test_external_engines.py); spreading does not
+    # repose and one-layer spreading run on liggghts/lammps (tests/workflows/test_external_engines.py)
     from bedstruct.workflows import run_repose, run_spread
     cfg = load_config(preset="tiny", overrides=['engine="liggghts"', 'external.exe="/nonexistent/x"'])
     with pytest.raises(ConfigError, match="not available"):
         run_repose(cfg)
-    with pytest.raises(ConfigError, match="not implemented yet"):
+    with pytest.raises(ConfigError, match="not available"):
         run_spread(cfg)
+    with pytest.raises(ConfigError, match="roller"):
+        run_spread(load_config(preset="tiny", overrides=['engine="lammps"', "spread.tool=roller"]))
