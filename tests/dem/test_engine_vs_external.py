@@ -1,0 +1,137 @@
+"""Independent engines: one bed settled by bedstruct, LIGGGHTS and LAMMPS.
+
+The same initial state (300 polydisperse spheres, radii 15-30 um, on a loose
+lattice in a 0.4 x 0.4 mm periodic box over a plate, written as a LAMMPS data
+file) settles under gravity in each engine with identical parameters (the
+seed's soft model: E = 1e7 Pa, e = 0.1, mu = 0.4, mu_r = 0.05 epsd2) and time
+step. The driver is ``benchmarks/compare_engines.py``.
+
+Trajectories of a granular bed are chaotic, so the engines are compared through
+statistics with tolerances set from the spread of replicates (initial
+velocities perturbed by +-1e-4 m/s; 3 replicates on each engine, measured with
+``python benchmarks/compare_engines.py --quick``, see docs/validation.md):
+
+=====================  ======================  ==========================
+statistic              replicate range (max)   tolerance here
+=====================  ======================  ==========================
+mean coordination      0.11                    0.25
+packing (window)       0.022                   0.03
+t(KE < 1e-2 peak)      1.7 ms of 14 ms (12 %)  25 %
+=====================  ======================  ==========================
+
+Before the first contacts dominate (free fall up to the kinetic-energy peak)
+the runs are deterministic and must agree closely: bedstruct and LIGGGHTS
+implement the same laws, LAMMPS differs by its constant rolling stiffness.
+"""
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bedstruct.dem.backends import find_lammps, find_liggghts
+
+_SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "compare_engines.py"
+_spec = importlib.util.spec_from_file_location("bedstruct_compare_engines", _SCRIPT)
+ce = importlib.util.module_from_spec(_spec)
+sys.modules[_spec.name] = ce
+_spec.loader.exec_module(ce)
+
+N_PARTICLES, WIDTH = 300, 0.4e-3
+STEPS, EVERY = 62000, 200          # 22 ms at dt = 3.5e-7 s: KE < 1e-3 of its peak
+TOL_CN, TOL_PHI, TOL_T = 0.25, 0.03, 0.25
+COHESION = ce.COHESION             # 3e4 J/m^3 at E = 1e7 Pa
+
+need_liggghts = pytest.mark.skipif(find_liggghts() is None,
+                                   reason="LIGGGHTS not installed (.ci/install-engines.sh)")
+need_lammps = pytest.mark.skipif(find_lammps() is None,
+                                 reason="LAMMPS not installed (.ci/install-engines.sh)")
+
+_cache = {}
+
+
+def _run(engine, cohesion, tmp_path_factory):
+    key = (engine, cohesion)
+    if key not in _cache:
+        case = ce.make_case(N_PARTICLES, width=WIDTH)
+        p = ce.params(cohesion)
+        dt = ce.time_step(p)
+        if engine == "bedstruct":
+            res = ce.run_bedstruct(case, p, dt=dt, steps=STEPS, every=EVERY)
+        else:
+            wd = tmp_path_factory.mktemp(f"{engine}_k{cohesion:g}")
+            res = ce.run_external(engine, case, p, dt=dt, steps=STEPS, every=EVERY, workdir=wd)
+        _cache[key] = (res, ce.statistics(res, case))
+    return _cache[key]
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    return lambda engine, cohesion=0.0: _run(engine, cohesion, tmp_path_factory)
+
+
+def _compare(a, b, *, tol_cn=TOL_CN, tol_phi=TOL_PHI, tol_t=TOL_T):
+    sa, sb = a[1], b[1]
+    assert math.isfinite(sa["t_1e2"]) and math.isfinite(sb["t_1e2"]), (sa, sb)
+    assert abs(sa["cn"] - sb["cn"]) <= tol_cn, (sa["cn"], sb["cn"])
+    assert abs(sa["packing"] - sb["packing"]) <= tol_phi, (sa["packing"], sb["packing"])
+    assert abs(sa["t_1e2"] - sb["t_1e2"]) <= tol_t * sb["t_1e2"], (sa["t_1e2"], sb["t_1e2"])
+    # the whole decay curve, in log space: median distance in decades
+    assert ce.log_curve_distance(a[0], b[0]) < 0.15
+
+
+def test_bed_settles_in_every_run(runs):
+    res, s = runs("bedstruct")
+    assert s["n"] == N_PARTICLES
+    assert s["ke_end"] < 1e-3 * s["peak"]
+    assert 3.5 < s["cn"] < 5.0 and 0.5 < s["packing"] < 0.6   # a loose random packing
+
+
+@need_liggghts
+def test_free_fall_and_first_impacts_identical_to_liggghts(runs):
+    a, b = runs("bedstruct")[0], runs("liggghts")[0]
+    n = int(np.argmax(b.ke)) + 1           # up to the kinetic-energy peak
+    np.testing.assert_allclose(a.ke[1:n], b.ke[1:n], rtol=0.02)
+    assert abs(a.t_peak - b.t_peak) <= EVERY * ce.time_step(ce.params())
+
+
+@need_liggghts
+def test_settling_statistics_match_liggghts_without_cohesion(runs):
+    _compare(runs("bedstruct"), runs("liggghts"))
+
+
+@need_lammps
+def test_settling_statistics_match_lammps_without_cohesion(runs):
+    a, b = runs("bedstruct"), runs("lammps")
+    n = int(np.argmax(b[0].ke)) + 1
+    # LAMMPS' SDS rolling stiffness is frozen at a reference contact: a few % differences
+    np.testing.assert_allclose(a[0].ke[1:n // 2], b[0].ke[1:n // 2], rtol=0.05)
+    _compare(a, b)
+
+
+@need_liggghts
+def test_cohesive_settling_matches_liggghts_with_tangential_reduce(runs):
+    # bedstruct counts SJKR in the Coulomb and rolling limits: LIGGGHTS `tangential_reduce on`
+    _compare(runs("bedstruct", COHESION), runs("liggghts_tr", COHESION))
+
+
+@need_liggghts
+@pytest.mark.xfail(strict=True, reason=(
+    "bedstruct's SJKR enters |F_n| of the Coulomb and rolling limits, as LIGGGHTS with "
+    "`tangential_reduce on`; the seed's deck (LIGGGHTS default, off) caps friction with "
+    "Hertz + damping only, which gives a looser cohesive bed (CN 3.4 vs 4.3)"))
+def test_cohesive_settling_matches_liggghts_default(runs):
+    _compare(runs("bedstruct", COHESION), runs("liggghts", COHESION))
+
+
+@need_liggghts
+def test_liggghts_replicate_spread_is_within_tolerance(runs, tmp_path_factory):
+    # the tolerances are meaningful only if one engine reproduces itself within them
+    case = ce.make_case(N_PARTICLES, width=WIDTH, perturbation=1e-4, perturb_seed=1)
+    p = ce.params(0.0)
+    res = ce.run_external("liggghts", case, p, dt=ce.time_step(p), steps=STEPS, every=EVERY,
+                          workdir=tmp_path_factory.mktemp("liggghts_rep1"))
+    _compare((res, ce.statistics(res, case)), runs("liggghts"))
