@@ -18,7 +18,7 @@ from .config import config_to_toml
 log = logging.getLogger(__name__)
 
 __all__ = ["RunLayout", "write_json_atomic", "contact_model", "psd_sampler", "check_engine",
-           "to_jsonable", "CONTACT_KEYWORDS"]
+           "to_jsonable", "tool_motion", "CONTACT_KEYWORDS"]
 
 #: LIGGGHTS ``compute pair/gran/local`` keywords of the contact dumps written by the workflows.
 CONTACT_KEYWORDS = ("pos", "id", "force", "force_normal", "force_tangential", "contactArea")
@@ -46,9 +46,46 @@ def contact_model(cfg: dict, *, cohesion: float | None = None):
         kw["wall_friction"] = c["wall_friction"]
     if c["wall_cohesion"] >= 0:
         kw["wall_cohesion"] = c["wall_cohesion"]
+    rolling_friction, rolling_model = c["rolling_friction"], c["rolling_model"]
+    fx = cfg.get("effects")
+    if fx:  # diagnosis extensions; every one off at its default (the base model)
+        if fx["wall_friction_excess"] != 0.0:
+            mu_w = c["wall_friction"] if c["wall_friction"] >= 0 else c["friction"]
+            kw["wall_friction"] = max(0.0, mu_w + fx["wall_friction_excess"])
+        if fx["shape_rolling_friction"] > 0.0:
+            rolling_model = fx["rolling_model"]
+            rolling_friction = rolling_friction + fx["shape_rolling_friction"]
+            kw["rolling_stiffness_factor"] = fx["rolling_stiffness_factor"]
+        if fx["capillary"]:
+            kw.update(capillary=True, capillary_surface_tension=fx["capillary_surface_tension"],
+                      capillary_contact_angle=fx["capillary_contact_angle"],
+                      capillary_film_thickness=fx["capillary_film_thickness"])
+        if fx["contact_ageing"] and fx["ageing_bond_ratio"] > 0.0:
+            kw.update(contact_ageing=True, ageing_bond_ratio=fx["ageing_bond_ratio"],
+                      ageing_time_constant=fx["ageing_time_constant"],
+                      ageing_reference_rest_time=fx["ageing_reference_rest_time"],
+                      ageing_break_slip=fx["ageing_break_slip"])
     return ContactModel(mat, restitution=c["restitution"], friction=c["friction"],
-                        rolling_friction=c["rolling_friction"], cohesion=k,
-                        rolling_model=c["rolling_model"], **kw)
+                        rolling_friction=rolling_friction, cohesion=k,
+                        rolling_model=rolling_model, **kw)
+
+
+def tool_motion(sim, cfg: dict, name: str, velocity, **kw) -> None:
+    """Start the spreading tool: constant velocity, or the start-up ramp and vibration of
+    ``effects.blade_ramp_time`` / ``blade_vibration_*`` when set
+    (:meth:`~bedstruct.dem.Simulation.set_wall_program`, vibration along z)."""
+    fx = cfg.get("effects") or {}
+    tau = float(fx.get("blade_ramp_time", 0.0))
+    amp = float(fx.get("blade_vibration_amplitude", 0.0))
+    freq = float(fx.get("blade_vibration_frequency", 0.0))
+    if tau > 0.0 or (amp > 0.0 and freq > 0.0):
+        if kw:
+            sim.set_wall_motion(name, **kw)
+        sim.set_wall_program(name, velocity=velocity, ramp_time=tau,
+                             vibration_amplitude=amp if freq > 0.0 else 0.0,
+                             vibration_frequency=freq)
+    else:
+        sim.set_wall_motion(name, velocity=velocity, **kw)
 
 
 def psd_sampler(cfg: dict):
@@ -65,11 +102,54 @@ def psd_sampler(cfg: dict):
                                weighting="volume")
     scale = float(p["scale"])
 
+    fx = cfg.get("effects") or {}
+    phi = float(fx.get("fines_mass_fraction", 0.0))
+
     def draw(n, rng):
         return scale * fit.sample_radii(int(n), seed=rng)
     draw.r_min = 0.5 * scale * p["d_min"]
     draw.r_max = 0.5 * scale * p["d_max"]
     draw.fit = fit
+    if phi <= 0.0:
+        return draw
+    return _with_fines(draw, phi, fx, d_cut=p["d_min"], scale=scale)
+
+
+def _fines_diameters(n, rng, fx, d_cut):
+    """Number-weighted draw of the fines: log-normal with volume-weighted median
+    ``fines_median_diameter`` (number median ``d50_v exp(-3 sigma^2)``), truncated to
+    ``[fines_min_diameter, d_cut]`` by inverse-CDF sampling (m, unscaled)."""
+    from scipy.special import ndtr, ndtri
+    s = float(fx["fines_sigma_ln"])
+    mu = math.log(float(fx["fines_median_diameter"])) - 3.0 * s * s
+    lo = ndtr((math.log(float(fx["fines_min_diameter"])) - mu) / s)
+    hi = ndtr((math.log(float(d_cut)) - mu) / s)
+    if not hi > lo:
+        raise ConfigError("config keys `effects.fines_*`: the fines distribution has no mass "
+                          f"between fines_min_diameter and psd.d_min ({d_cut})")
+    u = lo + (hi - lo) * rng.random(int(n))
+    return np.exp(mu + s * ndtri(u))
+
+
+def _with_fines(base, phi, fx, *, d_cut, scale):
+    """Mix a fines population carrying mass fraction ``phi`` into the sampler ``base``."""
+    if float(fx["fines_min_diameter"]) >= d_cut:
+        raise ConfigError("config key `effects.fines_min_diameter` must lie below `psd.d_min`")
+    ref = np.random.default_rng(12345)
+    v_c = float(np.mean((2.0 * base(20000, ref) / scale) ** 3))
+    v_f = float(np.mean(_fines_diameters(20000, ref, fx, d_cut) ** 3))
+    p_f = (phi / v_f) / (phi / v_f + (1.0 - phi) / v_c)   # number fraction of fines
+
+    def draw(n, rng):
+        n = int(n)
+        k = int(rng.binomial(n, p_f))
+        r = np.concatenate([base(n - k, rng), 0.5 * scale * _fines_diameters(k, rng, fx, d_cut)])
+        rng.shuffle(r)
+        return r
+    draw.r_min = 0.5 * scale * float(fx["fines_min_diameter"])
+    draw.r_max = base.r_max
+    draw.fit = base.fit
+    draw.fines_number_fraction = p_f
     return draw
 
 

@@ -1,7 +1,7 @@
 """Workflow configuration: TOML files, presets, defaults and ``key=value`` overrides.
 
 A configuration is a nested mapping of sections (``material``, ``contact``,
-``psd``, ``repose``, ``spread``, ``calibrate``, ``external``, ``output``) to scalar or list
+``psd``, ``repose``, ``spread``, ``calibrate``, ``external``, ``effects``, ``output``) to scalar or list
 values, all in SI units. :func:`load_config` starts from :data:`DEFAULTS`,
 applies a preset (``tiny``, ``small``, ``seed``; files in
 ``bedstruct/workflows/presets``), then a user TOML file, then ``--set``
@@ -106,6 +106,29 @@ DEFAULTS: dict = {
         "write_only": False,        # write decks and inputs, do not run
         "cohesion_model": "dmt",    # LAMMPS stand-in for SJKR: dmt | jkr | none (drop cohesion)
         "timeout": 0.0,             # s per engine run (0: none)
+    },
+    "effects": {                    # diagnosis extensions (bedstruct.diagnose catalogue
+                                    # engine_map names); the defaults are the base model
+        "capillary": False,         # Willett liquid bridges between particles
+        "capillary_surface_tension": 0.072,     # N/m
+        "capillary_contact_angle": 0.3490658503988659,  # rad (20 deg)
+        "capillary_film_thickness": 0.0,        # m; bridge volume 2 pi R*^2 t
+        "contact_ageing": False,    # bonds at resting contacts
+        "ageing_bond_ratio": 0.0,   # bond / SJKR force after the reference rest time
+        "ageing_time_constant": 10.0,           # s
+        "ageing_reference_rest_time": 60.0,     # s
+        "ageing_break_slip": 1e-6,  # m of tangential slip that breaks a bond
+        "rolling_model": "epsd",    # rolling model carrying shape_rolling_friction (if > 0)
+        "shape_rolling_friction": 0.0,          # added to contact.rolling_friction
+        "rolling_stiffness_factor": 2.25,       # epsd k_r = f k_n mu_r^2 R*^2
+        "fines_mass_fraction": 0.0, # mass fraction of fines below psd.d_min
+        "fines_median_diameter": 20e-6,         # m, volume-weighted median of the fines
+        "fines_sigma_ln": 0.25,
+        "fines_min_diameter": 8e-6, # m
+        "wall_friction_excess": 0.0,            # wall friction = particle friction + excess
+        "blade_ramp_time": 0.0,     # s, tool speed v (1 - exp(-t/tau))
+        "blade_vibration_amplitude": 0.0,       # m, vertical tool vibration
+        "blade_vibration_frequency": 0.0,       # Hz
     },
     "output": {
         "frames": True,
@@ -350,10 +373,35 @@ def _validate(cfg: dict) -> None:
     if ext["cohesion_model"] not in ("dmt", "jkr", "none"):
         raise ConfigError("config key `external.cohesion_model` must be dmt, jkr or none; "
                           f"got {ext['cohesion_model']!r}")
+    _validate_effects(cfg["effects"])
     b = cfg["calibrate"]["cohesion_bracket"]
     if len(b) != 2 or not b[0] < b[1]:
         raise ConfigError(f"config key `calibrate.cohesion_bracket` must be [low, high] with "
                           f"low < high; got {b!r}")
+
+
+def _validate_effects(fx: dict) -> None:
+    for key in ("capillary_surface_tension", "capillary_film_thickness", "ageing_bond_ratio",
+                "ageing_break_slip", "shape_rolling_friction", "fines_mass_fraction",
+                "blade_ramp_time", "blade_vibration_amplitude", "blade_vibration_frequency"):
+        if fx[key] < 0:
+            raise ConfigError(f"config key `effects.{key}` must be >= 0; got {fx[key]!r}")
+    for key in ("ageing_time_constant", "ageing_reference_rest_time", "rolling_stiffness_factor",
+                "fines_median_diameter", "fines_sigma_ln", "fines_min_diameter"):
+        if not fx[key] > 0:
+            raise ConfigError(f"config key `effects.{key}` must be positive; got {fx[key]!r}")
+    if not 0 <= fx["capillary_contact_angle"] < 0.5 * math.pi:
+        raise ConfigError("config key `effects.capillary_contact_angle` must lie in [0, pi/2) rad; "
+                          f"got {fx['capillary_contact_angle']!r}")
+    if fx["fines_mass_fraction"] >= 1:
+        raise ConfigError("config key `effects.fines_mass_fraction` must lie in [0, 1); "
+                          f"got {fx['fines_mass_fraction']!r}")
+    if fx["capillary"] and fx["capillary_film_thickness"] <= 0:
+        raise ConfigError("config key `effects.capillary_film_thickness` must be positive when "
+                          "`effects.capillary` is true")
+    if fx["rolling_model"] not in ("epsd", "epsd2", "cdt"):
+        raise ConfigError("config key `effects.rolling_model` must be epsd, epsd2 or cdt; "
+                          f"got {fx['rolling_model']!r}")
 
 
 def _toml_value(v) -> str:
