@@ -122,7 +122,8 @@ def _spread_cfg(engine, *extra):
 def test_spread_write_only_deck_is_parsed(tmp_path, engine):
     _need(engine)
     from bedstruct.workflows import run_spread
-    out = run_spread(_spread_cfg(engine, "external.write_only=true"), out=tmp_path)
+    out = run_spread(_spread_cfg(engine, "external.write_only=true", "spread.pile_particles=60",
+                                 "spread.pile_time=0.002"), out=tmp_path)
     deck = tmp_path / "layer01" / "in.spread"
     assert out.decks == (str(deck),)
     text = re.sub(r"^run \d+$", "run 0", deck.read_text(), flags=re.MULTILINE)
