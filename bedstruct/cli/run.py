@@ -14,11 +14,12 @@ Configuration: a TOML file and/or --preset tiny|small|seed, then
 --set section.key=value overrides (TOML values; bare words are strings),
 e.g. --set spread.speed=0.0508 --set "spread.gaps=[5e-4, 5e-4]".
 
-Engines: --engine embedded (default), or liggghts / lammps for repose
-(same particles, walls, contact model and time step; --np N MPI ranks,
---exe PATH for your own binary, --write-only to write the deck and inputs
-into the run directory without running). Spreading and calibration run on
-the embedded engine only.
+Engines: --engine embedded (default), or liggghts / lammps (same particles,
+walls, contact model and time step; --np N MPI ranks, --exe PATH for your
+own binary, --write-only to write the deck and inputs into the run directory
+without running). On liggghts/lammps, repose runs in full and spread runs
+ONE layer (the first gap; blade or plate, no roller); calibrate runs its
+repose points on the chosen engine.
 
 Examples:
   bedstruct run repose --preset tiny --out runs/repose --json
@@ -44,13 +45,13 @@ def add_arguments(parser) -> None:
                         help="override a configuration key (repeatable)")
     parser.add_argument("--out", required=True, metavar="DIR", help="run directory")
     parser.add_argument("--engine", default=None, choices=["embedded", "liggghts", "lammps"],
-                        help="DEM engine (liggghts/lammps: repose only)")
+                        help="DEM engine (liggghts/lammps: repose; spread one layer)")
     parser.add_argument("--np", type=int, default=None, metavar="N",
                         help="MPI ranks for liggghts/lammps (external.np)")
     parser.add_argument("--exe", default=None, metavar="PATH",
                         help="engine binary for liggghts/lammps (external.exe)")
     parser.add_argument("--write-only", action="store_true",
-                        help="liggghts/lammps: write the deck and inputs, do not run")
+                        help="liggghts/lammps: write the deck and inputs, do not run (repose, spread)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
 
 
@@ -90,9 +91,9 @@ def run(args) -> int:
     if getattr(args, "write_only", False):
         overrides.append("external.write_only=true")
     cfg = load_config(args.config, preset=args.preset, overrides=overrides)
-    if cfg["external"]["write_only"] and (cfg["engine"] == "embedded" or args.workflow != "repose"):
-        raise ConfigError("--write-only writes LIGGGHTS/LAMMPS decks of the repose workflow: use "
-                          "it with `run repose --engine liggghts|lammps`")
+    if cfg["external"]["write_only"] and (cfg["engine"] == "embedded" or args.workflow == "calibrate"):
+        raise ConfigError("--write-only writes LIGGGHTS/LAMMPS decks of the repose or spread "
+                          "workflow: use it with `run repose|spread --engine liggghts|lammps`")
     func = {"repose": run_repose, "spread": run_spread, "calibrate": calibrate_cohesion}[args.workflow]
     res = func(cfg, out=args.out)
     if getattr(res, "decks", None) is not None and not hasattr(res, "angle_deg"):  # write-only

@@ -110,6 +110,8 @@ def test_cli_write_only_json(tmp_path, capsys, engine):
 def test_cli_write_only_needs_an_external_engine(tmp_path, capsys):
     assert main(["run", "repose", "--preset", "tiny", "--write-only", "--out", str(tmp_path)]) == 1
     assert "--write-only" in capsys.readouterr().err
+    assert main(["run", "calibrate", "--preset", "tiny", "--engine", "lammps", "--write-only",
+                 "--out", str(tmp_path)]) == 1
 
 
 # ------------------------------------------------------------------ spreading: one layer
