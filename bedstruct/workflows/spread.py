@@ -460,7 +460,8 @@ def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, fro
     cnw = coordination_by_window(fr, wlo, whi, contacts=contacts_all, result=coord).mean
     try:
         rf = region_fabric(contacts_all, fr, axis=0, n_regions=n_reg, bounds=(xa, xb))
-        aniso = tuple(float(rf[nm].anisotropy) for nm in rf.names)
+        aniso = tuple(float(rf[nm].anisotropy) if rf[nm] is not None else float("nan")
+                      for nm in rf.names)
     except (ValueError, KeyError) as exc:
         log.warning("spread: fabric failed: %s", exc)
         aniso = (float("nan"),) * n_reg

@@ -125,8 +125,11 @@ def test_sim_config_file_and_engine_hook(tmp_path):
     assert cfg.replicates == 3 and cfg.base["cohesion_energy_density"] == 3.5e7
     assert "blade_startup" not in [e.name for e in cfg.effects] and cfg.select_alpha == 0.02
     assert cfg.base["friction"] == BASE_PARAMETERS["friction"]
-    p.write_text('[simulator]\nkind = "engine"\n')
-    with pytest.raises(ConfigError, match="diagnosis_simulator"):
+    p.write_text('[simulator]\nkind = "engine"\n[engine]\npreset = "tiny"\n')
+    sim = make_simulator(load_sim_config(p), _design(dict(name="aor", kind="static_angle")))
+    assert sim.name == "engine"  # bedstruct.workflows.diagnosis_simulator (not run here)
+    p.write_text('[simulator]\nkind = "engine"\n[engine]\npresett = "tiny"\n')
+    with pytest.raises(ConfigError, match="presett"):
         make_simulator(load_sim_config(p), _design(dict(name="aor", kind="static_angle")))
     for text, key in (('[simulator]\nkind = "lammps"\n', "kind"),
                       ('[simulator]\nreplicates = 1\n', "replicates"),
