@@ -931,7 +931,7 @@ class Simulation:
                     ("x", "v", "om", "f", "tq", "rad", "mass", "inv_m", "inv_i", "ptype", "ids",
                      "images", "x_ref", "wslot", "whist"))
         per_p += self._fbuf.nbytes + self._tbuf.nbytes + self._wstart.nbytes + self._wcand.nbytes
-        per_c = sum(getattr(self, a).nbytes for a in ("pi", "pj", "psh", "ht", "hr"))
+        per_c = sum(getattr(self, a).nbytes for a in ("pi", "pj", "psh", "ht", "hr", "hx"))
         n = max(self.n_particles, 1)
         m = max(self.n_pairs, 1)
         return int(per_p / n), int(per_c / m)
