@@ -18,8 +18,9 @@ Engines: --engine embedded (default), or liggghts / lammps (same particles,
 walls, contact model and time step; --np N MPI ranks, --exe PATH for your
 own binary, --write-only to write the deck and inputs into the run directory
 without running). On liggghts/lammps, repose runs in full and spread runs
-ONE layer (the first gap; blade or plate, no roller); calibrate runs its
-repose points on the chosen engine.
+every layer as one engine run each (contact histories restart between
+layers; blade or plate, no roller; --write-only writes layer 1's deck);
+calibrate runs its repose points on the chosen engine.
 
 Examples:
   bedstruct run repose --preset tiny --out runs/repose --json
@@ -45,7 +46,7 @@ def add_arguments(parser) -> None:
                         help="override a configuration key (repeatable)")
     parser.add_argument("--out", required=True, metavar="DIR", help="run directory")
     parser.add_argument("--engine", default=None, choices=["embedded", "liggghts", "lammps"],
-                        help="DEM engine (liggghts/lammps: repose; spread one layer)")
+                        help="DEM engine (liggghts/lammps: repose, spread with blade/plate)")
     parser.add_argument("--np", type=int, default=None, metavar="N",
                         help="MPI ranks for liggghts/lammps (external.np)")
     parser.add_argument("--exe", default=None, metavar="PATH",

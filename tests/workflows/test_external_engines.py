@@ -135,19 +135,26 @@ def test_spread_write_only_deck_is_parsed(tmp_path, engine):
     assert log.last.n_atoms == res_atoms(tmp_path / "layer01" / "initial.data")
 
 
-def test_spread_one_layer_liggghts(tmp_path):
-    """The bevelled blade spreads the pile into a layer no thicker than the gap; nothing is lost."""
+def test_spread_two_layers_liggghts(tmp_path):
+    """The bevelled blade spreads each layer no thicker than the blade height above the
+    platform; every sphere is accounted for (bed + heap + removed = inserted)."""
     _need("liggghts")
     from bedstruct.workflows import run_spread
-    res = run_spread(_spread_cfg("liggghts", "spread.n_frames=3"), out=tmp_path)
-    (layer,) = res.layers
-    assert layer.n_bed + layer.n_heap + layer.n_removed == res.n_pile
-    assert layer.n_bed > 0.3 * res.n_pile
-    # mean surface below the blade, its 95th percentile near the blade's lowest edge
-    assert 0.5 * 4.5e-4 < layer.bed_height_m < layer.bed_top_m
-    assert 0.85 * 4.5e-4 < layer.bed_top_m < 1.2 * 4.5e-4
-    assert all(0.4 < f < 0.66 for f in layer.packing_fraction)
-    assert all(2.5 < c < 6.5 for c in layer.coordination)
+    cfg = load_config(preset="tiny", overrides=["contact.cohesion=0.0", "engine=liggghts",
+                                                "spread.n_frames=3"])
+    res = run_spread(cfg, out=tmp_path)
+    assert len(res.layers) == 2 and res.n_inserted_total == 2 * res.n_pile
+    inserted = 0
+    for layer in res.layers:
+        inserted += layer.n_inserted
+        assert layer.n_bed + layer.n_heap + layer.n_removed == inserted
+        H = layer.nominal_height
+        # mean surface below the blade, its 95th percentile near the blade's lowest edge
+        assert 0.6 * H < layer.bed_height_m < layer.bed_top_m < 1.15 * H
+        assert layer.bed_top_m > 0.85 * H
+        assert all(0.4 < f < 0.66 for f in layer.packing_fraction)
+        assert all(2.5 < c < 6.5 for c in layer.coordination)
+    assert res.layers[1].n_bed > res.layers[0].n_bed
     d = json.loads((tmp_path / "results.json").read_text())
-    assert d["engine"] == "liggghts" and len(d["layers"]) == 1
-    assert (tmp_path / "layer01" / "frames.dump.gz").is_file()
+    assert d["engine"] == "liggghts" and len(d["layers"]) == 2
+    assert (tmp_path / "layer02" / "frames.dump.gz").is_file()
