@@ -135,20 +135,30 @@ def main(argv=None):
               f"| {tab['orientation_deg'][k]:.0f} | {tab['k_roundness'][k]:.3f} | {tab['k_orientation_deg'][k]:.0f} "
               f"| {tab['fabric_ratio'][k]:.3f} | {tab['fabric_orientation_deg'][k]:.0f} "
               f"| {tab['k_min'][k]:.3f}-{tab['k_max'][k]:.3f} |")
-    # sensitivity of the roundness to the unstated settings
-    print("\nroundness sensitivity (start, centre, end):")
-    rows = []
-    for label, kw in [("outline 30 %", {"threshold_fraction": 0.3}),
-                      ("outline 70 %", {"threshold_fraction": 0.7}),
-                      ("map linear", {"map_method": "linear"}),
-                      ("stop 15 %", {"stop_fraction": 0.15}),
-                      ("stop 40 %", {"stop_fraction": 0.40}),
+    # sensitivity of the roundness to the unstated settings: outline level and map rendering from the
+    # stored end temperatures (all sources); end time and tiling by rerunning (first source only)
+    print("\nroundness sensitivity (start, centre, end; mean +- std over sources):")
+    from bedstruct.analysis.heat import haz_shape, temperature_map
+    T0 = res.initial_temperature
+    for label, q, method in [("outline 30 %", 0.3, "top"), ("outline 70 %", 0.7, "top"),
+                             ("map linear", 0.5, "linear"), ("map max", 0.5, "max")]:
+        rr = np.empty(res.roundness.shape)
+        for k in range(rr.shape[0]):
+            for s in range(rr.shape[1]):
+                m0 = res.maps[k][s]
+                m = temperature_map(res.network, temperature=res.temperatures[k, s], cell=m0.cell,
+                                    extent=m0.extent, method=method)
+                rr[k, s] = haz_shape(m, T0 + q * (np.nanmax(m.values) - T0), center=m0.source_center).roundness
+        print(f"| {label} | " + " | ".join(f"{m:.2f} ± {d:.2f}" for m, d in zip(rr.mean(1), rr.std(1))) + " | |")
+    base1 = heat_regions(frame, contacts, n_sources=1) if not a.no_sensitivity else None
+    if base1 is not None:
+        print(f"| first source only | " + " | ".join(f"{v:.2f}" for v in base1.roundness[:, 0])
+              + " | " + " / ".join(f"{v - 273.15:.0f}" for v in base1.peak_temperature[:, 0]) + " |")
+    for label, kw in [("stop 15 %", {"stop_fraction": 0.15}), ("stop 40 %", {"stop_fraction": 0.40}),
                       ("tiles x10", {"tiles": (1, 10, 1)})] * (not a.no_sensitivity):
-        r = heat_regions(frame, contacts, n_sources=a.sources, **kw)
-        rows.append((label, r))
-        tb = heat_regions_table(r)
-        print(f"| {label} | " + " | ".join(f"{m:.2f} +- {d:.2f}" for m, d in zip(tb["roundness"], tb["roundness_std"]))
-              + " | " + " / ".join(f"{v:.0f}" for v in tb["peak_temperature_C"]) + " |")
+        r = heat_regions(frame, contacts, n_sources=1, **kw)
+        print(f"| {label}, first source | " + " | ".join(f"{v:.2f}" for v in r.roundness[:, 0])
+              + " | " + " / ".join(f"{v - 273.15:.0f}" for v in r.peak_temperature[:, 0]) + " |")
     if not a.no_figures:
         out = Path(a.figures)
         out.mkdir(parents=True, exist_ok=True)

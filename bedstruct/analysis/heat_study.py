@@ -20,6 +20,8 @@ chosen by rule:
 - **HAZ outline.** The connected zone of the top-view map at or above
   ``T0 + q (T_map,max - T0)`` (default ``q = 0.5``, the half-maximum
   contour) around the source.
+- **Several sources per region** (``n_sources``), shifted across the bed,
+  give the scatter due to the particles under the source.
 - **Narrow periodic strips** are replicated (tiled) along their periodic
   horizontal axes until they are at least ``min_width`` wide (default six
   source diameters), so that the source does not meet its own periodic
@@ -82,6 +84,9 @@ class HeatRegionsResult:
         Top views at ``time`` around each source (one region long and wide).
     conductivity : tuple of ConductivityTensor
         Effective conductivity and fabric of each region (untiled bed).
+    temperatures : (K, S, N) ndarray, K
+        Particle temperatures of every run at ``time`` (rows of ``network``),
+        to re-map or re-threshold without rerunning.
     history_times, history_peak : tuple of tuple of ndarray, s and K
         Hottest-particle temperature over time of each run.
     network : ThermalNetwork
@@ -106,6 +111,7 @@ class HeatRegionsResult:
     haz: tuple
     maps: tuple
     conductivity: tuple
+    temperatures: np.ndarray
     history_times: tuple
     history_peak: tuple
     network: ThermalNetwork
@@ -457,6 +463,7 @@ def heat_regions(frame, contacts=None, *, n_regions: int = 3, axis: int = 0, bou
     peak = np.empty(cross.shape)
     thr = np.empty(cross.shape)
     hazs, maps = [], []
+    finals = np.empty(cross.shape + (net.n_particles,))
     for k in range(n_regions):
         hz, mp = [], []
         for q, run in enumerate(runs[k]):
@@ -480,6 +487,7 @@ def heat_regions(frame, contacts=None, *, n_regions: int = 3, axis: int = 0, bou
             top = float(np.nanmax(m.values))
             thr[k, q] = T0 + float(threshold_fraction) * (top - T0)
             peak[k, q] = float(T.max())
+            finals[k, q] = T
             hz.append(haz_shape(m, thr[k, q]))
             mp.append(m)
             run[4] = None                                 # free the snapshots
@@ -492,7 +500,7 @@ def heat_regions(frame, contacts=None, *, n_regions: int = 3, axis: int = 0, bou
         crossing_times=cross, initial_temperature=T0, source_temperature=Ts,
         stop_fraction=float(stop_fraction), threshold_fraction=float(threshold_fraction),
         peak_temperature=peak, thresholds=thr, haz=tuple(hazs), maps=tuple(maps), conductivity=kt,
-        history_times=tuple(tuple(r[2] for r in row) for row in runs),
+        temperatures=finals, history_times=tuple(tuple(r[2] for r in row) for row in runs),
         history_peak=tuple(tuple(r[3] for r in row) for row in runs), network=net, tiles=tiles)
 
 
