@@ -238,7 +238,7 @@ class Simulation:
         self.psh = np.zeros((m, 3), dtype=np.int8)
         self.ht = np.zeros((m, 3))
         self.hr = np.zeros((m, 3))
-        self.hx = np.zeros((m, 3))
+        self.hx = np.zeros((m if self.model.contact_ageing else 0, 3))  # ageing history
 
     @property
     def n_particles(self) -> int:
@@ -582,7 +582,7 @@ class Simulation:
             old_sign = ss[act]
         old_ht = self.ht[act]
         old_hr = self.hr[act]
-        old_hx = self.hx[act]
+        old_hx = self.hx[act] if ext & 2 else self.hx
         n_out = int(out.sum())
         if n_out:
             self.n_removed += n_out
@@ -628,7 +628,7 @@ class Simulation:
                 m = sel.size
                 self.ht = np.zeros((m, 3))
                 self.hr = np.zeros((m, 3))
-                self.hx = np.zeros((m, 3))
+                self.hx = np.zeros((m if self.model.contact_ageing else 0, 3))  # ageing history
                 done = True
         if not done:
             counts = np.zeros(n, dtype=np.int64)
