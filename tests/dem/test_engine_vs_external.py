@@ -137,3 +137,48 @@ def test_liggghts_replicate_spread_is_within_tolerance(runs, tmp_path_factory):
     res = ce.run_external("liggghts", case, p, dt=ce.time_step(p), steps=STEPS, every=EVERY,
                           workdir=tmp_path_factory.mktemp("liggghts_rep1"))
     _compare((res, ce.statistics(res, case)), runs("liggghts"))
+
+
+def _tilted_sphere(engine, cohesion, tmp_path):
+    """x displacement (m) of one sphere resting on the plate, gravity tilted 30 deg, after 6 ms."""
+    from bedstruct import Box
+    from bedstruct.dem import Plane, Simulation
+    from bedstruct.dem.backends import bed_deck, run_deck, write_sphere_data
+    from bedstruct.io import read_data
+    R, th, g, dt, steps = 25e-6, math.radians(30), 9.81, 3e-7, 20000
+    p = ce.params(cohesion)
+    pos, lo, hi = [[2e-4, 2e-4, R - 2e-8]], [0, 0, 0], [4e-4, 4e-4, 4e-4]
+    if engine == "bedstruct":
+        sim = Simulation(Box(lo, hi, boundary="pp pp ff"), ce.engine_model(p),
+                         walls=[Plane((0, 0, 0), (0, 0, 1))], dt=dt, n_threads=1,
+                         gravity=(g * math.sin(th), 0, -g * math.cos(th)))
+        sim.add_particles(pos, [R])
+        sim.run(steps)
+        return sim.frame().positions[0, 0] - pos[0][0]
+    data = write_sphere_data(tmp_path / "one.data", pos, [R], box_lo=lo, box_hi=hi, n_types=2)
+    deck = bed_deck(data, p, engine=engine, steps=steps, dt=dt, thermo_every=steps,
+                    write_data="end.data").replace(
+        "vector 0.0 0.0 -1.0", f"vector {math.sin(th):.9f} 0.0 {-math.cos(th):.9f}")
+    (tmp_path / "one.in").write_text(deck)
+    run_deck(tmp_path / "one.in", cwd=tmp_path)
+    return read_data(tmp_path / "end.data").positions[0, 0] - pos[0][0]
+
+
+@need_liggghts
+def test_sphere_rolling_down_tilted_gravity_matches_liggghts_without_cohesion(tmp_path):
+    # epsd2 caps the torque at mu_r R |F_n| < the gravity torque: it rolls ~58 um in 6 ms
+    a = _tilted_sphere("bedstruct", 0.0, tmp_path)
+    b = _tilted_sphere("liggghts", 0.0, tmp_path)
+    assert b > 1e-5
+    assert a == pytest.approx(b, rel=1e-3)
+
+
+@need_liggghts
+@pytest.mark.xfail(strict=True, reason=(
+    "minimal reproduction of the SJKR cap difference: with k = 3e4 J/m^3 the seed's LIGGGHTS "
+    "holds the sphere (Coulomb and rolling caps use Hertz + damping ~ 19 m g), bedstruct "
+    "lets it roll as without cohesion (caps use Hertz + damping - SJKR ~ m g)"))
+def test_cohesive_sphere_on_tilted_plate_matches_liggghts(tmp_path):
+    a = _tilted_sphere("bedstruct", 3e4, tmp_path)
+    b = _tilted_sphere("liggghts", 3e4, tmp_path)
+    assert a == pytest.approx(b, rel=0.1, abs=1e-7)
