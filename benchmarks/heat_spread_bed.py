@@ -136,7 +136,7 @@ def main(argv=None):
               f"| {tab['fabric_ratio'][k]:.3f} | {tab['fabric_orientation_deg'][k]:.0f} "
               f"| {tab['k_min'][k]:.3f}-{tab['k_max'][k]:.3f} |")
     # sensitivity of the roundness to the unstated settings: outline level and map rendering from the
-    # stored end temperatures (all sources); end time and tiling by rerunning (first source only)
+    # stored end temperatures (all sources); end time and tiling by rerunning (one source per region)
     print("\nroundness sensitivity (start, centre, end; mean +- std over sources):")
     from bedstruct.analysis.heat import haz_shape, temperature_map
     T0 = res.initial_temperature
@@ -152,12 +152,12 @@ def main(argv=None):
         print(f"| {label} | " + " | ".join(f"{m:.2f} ± {d:.2f}" for m, d in zip(rr.mean(1), rr.std(1))) + " | |")
     base1 = heat_regions(frame, contacts, n_sources=1) if not a.no_sensitivity else None
     if base1 is not None:
-        print(f"| first source only | " + " | ".join(f"{v:.2f}" for v in base1.roundness[:, 0])
+        print(f"| one source at the window centre | " + " | ".join(f"{v:.2f}" for v in base1.roundness[:, 0])
               + " | " + " / ".join(f"{v - 273.15:.0f}" for v in base1.peak_temperature[:, 0]) + " |")
     for label, kw in [("stop 15 %", {"stop_fraction": 0.15}), ("stop 40 %", {"stop_fraction": 0.40}),
                       ("tiles x10", {"tiles": (1, 10, 1)})] * (not a.no_sensitivity):
         r = heat_regions(frame, contacts, n_sources=1, **kw)
-        print(f"| {label}, first source | " + " | ".join(f"{v:.2f}" for v in r.roundness[:, 0])
+        print(f"| one source, {label} | " + " | ".join(f"{v:.2f}" for v in r.roundness[:, 0])
               + " | " + " / ".join(f"{v - 273.15:.0f}" for v in r.peak_temperature[:, 0]) + " |")
     if not a.no_figures:
         out = Path(a.figures)
