@@ -455,7 +455,10 @@ def heat_regions(frame, contacts=None, *, n_regions: int = 3, axis: int = 0, bou
             e0, e1 = math.log(peaks[k - 1] - T0), math.log(max(peaks[k] - T0, 1e-300))
             et = math.log(target - T0)
             frac = (e0 - et) / (e0 - e1) if e0 != e1 else 1.0
-            row.append([centre, nodes, ts, peaks, snaps, ts[k - 1] + frac * (ts[k] - ts[k - 1])])
+            tc = ts[k - 1] + frac * (ts[k] - ts[k - 1])
+            # keep the start and the snapshots near the crossing (the common end time is usually near)
+            snaps = [snaps[0]] + [sn for sn in snaps[1:] if sn[0] >= 0.25 * tc]
+            row.append([centre, nodes, ts, peaks, snaps, tc])
         runs.append(row)
     cross = np.array([[r[5] for r in row] for row in runs])
     t_end = float(np.median(cross))
