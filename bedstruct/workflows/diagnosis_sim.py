@@ -170,6 +170,12 @@ class EngineSimulator:
         with tempfile.TemporaryDirectory(dir=root) as tmp:
             runs = _Runs(self, cfg, effects, Path(tmp))
             values = {m.name: runs.observe(m) for m in self.design}
+        bad = [k for k, v in values.items() if not np.all(np.isfinite(v))]
+        if bad:  # the diagnosis' linear algebra cannot use them: say which and where
+            raise ValueError(f"engine simulator: observable(s) {bad} not finite (no fit: e.g. a "
+                             f"pile without flanks or a heap below two diameters) for "
+                             f"base={dict(base)}, effects={dict(effects)}, seed={seed}; values "
+                             f"{ {k: values[k].tolist() for k in bad} }")
         return Observations(values, source="engine")
 
 
