@@ -32,8 +32,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
     parser.add_argument("--heat-length-unit", type=float, default=None, metavar="M",
                         help="metres per dump length unit (heat needs SI when the unit is unknown)")
-    parser.add_argument("--heat-time", type=float, default=20e-3, metavar="S",
-                        help="conduction time after the source pulse in seconds (default 0.02)")
+    parser.add_argument("--heat-stop-fraction", type=float, default=0.25, metavar="F",
+                        help="end the heat runs when the hottest particle has cooled to this fraction "
+                             "of the pulse excess (default 0.25)")
     parser.add_argument("--json", action="store_true", help="print the JSON summary as the last line")
     parser.add_argument("--progress", action="store_true", default=None,
                         help="show a progress bar (default: when stderr is a terminal)")
@@ -44,7 +45,7 @@ def run(args) -> int:
     from . import print_json
 
     options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames, heat=args.heat,
-                            heat_length_unit=args.heat_length_unit, heat_time=args.heat_time)
+                            heat_length_unit=args.heat_length_unit, heat_stop_fraction=args.heat_stop_fraction)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     kw = args.contact_keywords.split() if args.contact_keywords else None
     report, html_path, json_path = report_on_files(

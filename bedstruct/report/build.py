@@ -45,8 +45,10 @@ class ReportOptions:
         Run the heat-conduction section (needs SI or a known unit system).
     heat_length_unit : float or None
         Metres per length unit of the dump when its unit system is unknown.
-    heat_time : float
-        Simulated conduction time after the source pulse (s), default 20 ms.
+    heat_stop_fraction : float
+        The heat runs end when the hottest particle has cooled to this fraction
+        of the pulse excess temperature (default 0.25; see
+        :func:`bedstruct.analysis.heat_study.heat_regions`).
     tolerance : float
         Contact detection tolerance (length) for geometric contacts.
     l_max : int
@@ -62,7 +64,7 @@ class ReportOptions:
     frames: str = "-1"
     heat: bool = False
     heat_length_unit: float | None = None
-    heat_time: float = 20e-3
+    heat_stop_fraction: float = 0.25
     tolerance: float = 0.0
     l_max: int = 8
     min_contacts: int = 2
@@ -370,36 +372,31 @@ def _repose(ctx: _Context, s: Section) -> None:
 
 
 def _heat(ctx: _Context, s: Section) -> None:
-    from ..analysis import HemisphereSource, conduct_heat, haz_shape, temperature_map, thermal_network
+    from ..analysis import heat_regions, heat_regions_table
     from ..plot import plot_temperature_map
     f, opt = ctx.frame, ctx.options
     if f.units.style not in ("si", "cgs", "micro", "nano") and opt.heat_length_unit is None:
-        skip("the dump's unit system is unknown: give --heat-length-unit (metres per length unit)")
-    net = thermal_network(f, ctx.contacts, length_unit=opt.heat_length_unit)
-    lower, upper = ctx.windows()
-    rows = []
-    figs = []
-    scale = 1.0 if opt.heat_length_unit is None else opt.heat_length_unit
-    if f.units.style in ("cgs", "micro", "nano"):
-        scale = f.units.to_si("length")
-    for name, lo, hi in zip(opt.region_names, lower, upper):
-        centre = 0.5 * (lo + hi) * scale
-        # (x, y) only: the source sits on the local bed surface there (seed: 500 um, 1300 C pulse)
-        src = HemisphereSource(center=(float(centre[0]), float(centre[1])), diameter=500e-6,
-                               temperature=1573.15, duration=None)
-        res = conduct_heat(net, t_end=opt.heat_time, source=src)
-        tmap = temperature_map(res)
-        threshold = 0.5 * (float(np.nanmax(tmap.values)) + float(res.final_temperature.min()))
-        haz = haz_shape(tmap, threshold)
-        rows.append([name, float(res.final_temperature.max()) - 273.15, haz.roundness, haz.orientation_deg])
-        s.add_number(f"roundness_{name}", haz.roundness, "1",
-                     f"heat-affected-zone roundness 4A/(pi L_major^2) in the {name} region", DOCS + "heat.md")
-        figs.append((_figure_of(plot_temperature_map(tmap, haz=haz)), f"Top-view temperature at the end, {name} region"))
-    s.tables.append(Table(["region", "peak temperature (C)", "roundness", "orientation (deg)"], rows,
-                          caption=f"hemispherical 500 um source pulse at 1300 C, then {opt.heat_time * 1e3:g} ms of "
-                                  f"conduction; peak = hottest particle at the end"))
-    for fig, cap in figs:
-        s.add_figure(fig, cap)
+        skip("the dump's unit system is unknown: give --units or --heat-length-unit (metres per length unit)")
+    res = heat_regions(f, ctx.contacts, n_regions=opt.regions, axis=opt.axis_index,
+                       names=opt.region_names, length_unit=opt.heat_length_unit,
+                       n_sources=1, stop_fraction=opt.heat_stop_fraction)
+    table = heat_regions_table(res)
+    columns = list(table)
+    s.tables.append(Table(columns, [list(row) for row in zip(*table.values())],
+                          caption=(f"500 um hemispherical pulse at {res.source_temperature - 273.15:.0f} C on the "
+                                   f"bed surface at each region's centre; all regions reported at "
+                                   f"t = {res.time * 1e3:.3g} ms, when the hottest particle has cooled to "
+                                   f"{res.stop_fraction:.0%} of the pulse excess (median over regions); "
+                                   f"HAZ outline at {res.threshold_fraction:.0%} between the initial and the "
+                                   f"hottest temperature")))
+    for k, name in enumerate(res.names):
+        s.add_number(f"peak_temperature_{name}", float(res.peak_temperature[k][0]) - 273.15, "degC",
+                     f"hottest particle at the common end time, {name} region", DOCS + "heat.md")
+        s.add_number(f"roundness_{name}", res.haz[k][0].roundness, "1",
+                     f"heat-affected-zone roundness 4A/(pi L_major^2), {name} region", DOCS + "heat.md")
+        s.add_figure(_figure_of(plot_temperature_map(res.maps[k][0], haz=res.haz[k][0])),
+                     f"Top-view temperature at the end, {name} region")
+    s.add_number("end_time", res.time, "s", "common end time of the conduction runs")
 
 
 SECTIONS = [

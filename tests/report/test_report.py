@@ -138,3 +138,19 @@ def test_repose_section_on_a_pile(tmp_path):
     sec = rep.section("repose")
     assert sec.status == "ok", sec.text
     assert abs(sec.numbers["angle_deg"].value - 30.0) < 1.5
+
+
+def test_heat_section_needs_units_and_reports_each_region(bed_dump):
+    frame = bedstruct.read_dump(bed_dump)[-1]               # no ITEM: UNITS in the file
+    rep = build_report(frame, options=ReportOptions(heat=True))
+    assert rep.section("heat").status == "skipped" and "unit" in rep.section("heat").text
+    from lattices import cubic_lattice
+    lattice = cubic_lattice((24, 8, 4), spacing=50.0, radius=25.5, boundary=("ff", "pp", "ff"))
+    rep = build_report(lattice.with_units("micro"), options=ReportOptions(heat=True))
+    heat = rep.section("heat")
+    assert heat.status == "ok", heat.error
+    for name in ("start", "centre", "end"):
+        # the pulse starts at 1300 C and the runs stop at a quarter of the excess over 20 C
+        assert 20.0 < heat.numbers[f"peak_temperature_{name}"].value < 1300.0
+        assert 0.8 < heat.numbers[f"roundness_{name}"].value <= 1.0   # isotropic lattice: round
+    assert len(heat.figures) == 3
