@@ -2,13 +2,14 @@
 
 Runs one repose replicate and the spreading workflow of the preset (default
 ``small``; ``--preset tiny`` for a quick check) on the embedded engine, and
-reports the external engines (LIGGGHTS, LAMMPS) as ``unsupported`` until
-the workflows drive their decks. Run::
+times the same workflows on LIGGGHTS and LAMMPS when installed (``nan`` otherwise),
+through the decks the workflows generate. Run::
 
     python benchmarks/bench_workflows.py [--preset small] [--layers N] [--threads 1]
 
 Ends with ``RESULT preset=... engine=embedded repose_s=... repose_particles=...
-spread_s=... spread_layers=... spread_steps=... spread_final_particles=... liggghts=... lammps=...``.
+spread_s=... spread_layers=... spread_steps=... spread_final_particles=... liggghts_repose_s=...
+liggghts_spread_s=... lammps_repose_s=... lammps_spread_s=...``.
 Timings include numba compilation on the first call unless the cache is warm;
 on a shared machine they are indicative only.
 """
@@ -51,12 +52,27 @@ def main(argv=None) -> int:
             out["spread_layers"] = len(spr.layers)
             out["spread_steps"] = spr.extra["steps"]
             out["spread_final_particles"] = spr.extra["n_particles_final"]
+    from bedstruct.dem.backends import find_lammps, find_liggghts
+    found = {"liggghts": find_liggghts(), "lammps": find_lammps()}
     for eng in ("liggghts", "lammps"):
-        try:
-            run_repose(load_config(preset=args.preset, overrides=[f'engine="{eng}"']))
-            out[eng] = "ran"
-        except ConfigError:
-            out[eng] = "unsupported"
+        if found[eng] is None:
+            out[f"{eng}_repose_s"] = "nan"
+            continue
+        ecfg = load_config(preset=args.preset, overrides=over + [f'engine="{eng}"'])
+        if args.layers:
+            ecfg["spread"]["gaps"] = ecfg["spread"]["gaps"][:args.layers]
+        with tempfile.TemporaryDirectory() as tmp:
+            try:
+                t0 = time.perf_counter()
+                rep = run_repose(ecfg, out=f"{tmp}/repose")
+                out[f"{eng}_repose_s"] = round(time.perf_counter() - t0, 2)
+                out[f"{eng}_repose_angle_deg"] = round(rep.angle_deg, 2)
+                if not args.skip_spread:
+                    t0 = time.perf_counter()
+                    run_spread(ecfg, out=f"{tmp}/spread")
+                    out[f"{eng}_spread_s"] = round(time.perf_counter() - t0, 2)
+            except ConfigError as exc:   # e.g. the roller on an external engine
+                out[f"{eng}_status"] = f'"{exc}"'.replace(" ", "_")[:60]
     print("RESULT " + " ".join(f"{k}={v}" for k, v in out.items()))
     return 0
 
