@@ -481,6 +481,9 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
             fn = kn * delta - gn * vn
             if limit and fn < 0.0:
                 fn = 0.0
+            # Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
+            # (`tangential_reduce off`) adds cohesion to the force, not to the caps.
+            fn_cap = fn
             k_coh = COH[ti, tj]
             if k_coh != 0.0:
                 fn -= k_coh * sjkr_area_pair(r, ri, rj)
@@ -493,7 +496,7 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
             vt2 = vr2 - vn * e2 - (w3 * e1 - w1 * e3)
             vt3 = vr3 - vn * e3 - (w1 * e2 - w2 * e1)
             s1, s2, s3, f1, f2, f3 = tangential_history(ht[k, 0], ht[k, 1], ht[k, 2], vt1, vt2, vt3,
-                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn, dt)
+                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn_cap, dt)
             ht[k, 0] = s1
             ht[k, 1] = s2
             ht[k, 2] = s3
@@ -518,7 +521,7 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
                     h1, h2, h3, m1, m2, m3 = rolling_torque(
                         rolling, hr[k, 0], hr[k, 1], hr[k, 2], om[i, 0] - om[j, 0],
                         om[i, 1] - om[j, 1], om[i, 2] - om[j, 2], e1, e2, e3, kn, kt, delta,
-                        reff, fn, mur, dt, ieff, eta_r)
+                        reff, fn_cap, mur, dt, ieff, eta_r)
                     hr[k, 0] = h1
                     hr[k, 1] = h2
                     hr[k, 2] = h3
@@ -643,6 +646,9 @@ def pair_forces_ext(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, b
             fn = kn * delta - gn * vn
             if limit and fn < 0.0:
                 fn = 0.0
+            # Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
+            # (`tangential_reduce off`) adds cohesion to the force, not to the caps.
+            fn_cap = fn
             k_coh = COH[ti, tj]
             if k_coh != 0.0:
                 fn -= k_coh * sjkr_area_pair(r, ri, rj)
@@ -661,7 +667,7 @@ def pair_forces_ext(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, b
             vt2 = vr2 - vn * e2 - (w3 * e1 - w1 * e3)
             vt3 = vr3 - vn * e3 - (w1 * e2 - w2 * e1)
             s1, s2, s3, f1, f2, f3 = tangential_history(ht[k, 0], ht[k, 1], ht[k, 2], vt1, vt2, vt3,
-                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn, dt)
+                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn_cap, dt)
             ht[k, 0] = s1
             ht[k, 1] = s2
             ht[k, 2] = s3
@@ -691,7 +697,7 @@ def pair_forces_ext(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, b
                     h1, h2, h3, m1, m2, m3 = rolling_torque(
                         rolling, hr[k, 0], hr[k, 1], hr[k, 2], om[i, 0] - om[j, 0],
                         om[i, 1] - om[j, 1], om[i, 2] - om[j, 2], e1, e2, e3, kn, kt, delta,
-                        reff, fn, mur, dt, ieff, eta_r, kr_fac)
+                        reff, fn_cap, mur, dt, ieff, eta_r, kr_fac)
                     hr[k, 0] = h1
                     hr[k, 1] = h2
                     hr[k, 2] = h3
@@ -740,6 +746,9 @@ def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v
     fn = kn * delta - gn * vn
     if limit and fn < 0.0:
         fn = 0.0
+    # Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
+    # (`tangential_reduce off`) adds cohesion to the force, not to the caps.
+    fn_cap = fn
     if kc != 0.0:
         fn -= kc * sjkr_area_wall(dist, ri)
     cr = ri - 0.5 * delta
@@ -750,14 +759,14 @@ def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v
     vt2 = vr2 - vn * n2 - (c3 * n1 - c1 * n3)
     vt3 = vr3 - vn * n3 - (c1 * n2 - c2 * n1)
     h1, h2, h3, f1, f2, f3 = tangential_history(h1, h2, h3, vt1, vt2, vt3, n1, n2, n3, kt, gt,
-                                                mu, fn, dt)
+                                                mu, fn_cap, dt)
     t1 = -cr * (n2 * f3 - n3 * f2)
     t2 = -cr * (n3 * f1 - n1 * f3)
     t3 = -cr * (n1 * f2 - n2 * f1)
     if rolling != ROLL_NONE and mur > 0.0:
         ieff = 1.0 / inv_ii + mi * ri * ri
         r1, r2, r3, m1, m2, m3 = rolling_torque(rolling, r1, r2, r3, w1 - o1, w2 - o2, w3 - o3,
-                                                n1, n2, n3, kn, kt, delta, ri, fn, mur, dt, ieff,
+                                                n1, n2, n3, kn, kt, delta, ri, fn_cap, mur, dt, ieff,
                                                 eta_r, kr_fac)
         t1 -= m1
         t2 -= m2
