@@ -3,14 +3,15 @@
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--json]
   bedstruct diagnose validate --preset tiny|small [--out DIR] [--json]
 
-CONFIG is a simulation TOML (see docs/diagnose.md) or the word ``surrogate``;
+CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
+workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
 MEASUREMENTS is a measurement TOML (example: data/measurements/seed.toml).
 Writes DIR/report.html, DIR/report.json and DIR/diagnosis.json (or
 validation.json). With --json the last line printed is one JSON object: for a
 diagnosis at least ``where``, ``which`` and ``shrink``; for validation at least
 ``top1_accuracy``, ``null_false_attribution``, ``out_of_catalogue_unexplained``
-and ``median_gap_shrink``. Until the DEM workflows exist the simulator is the
-analytic surrogate, and every output says so (``"simulator": "surrogate"``).
+and ``median_gap_shrink``. ``validate`` runs its twins on the analytic surrogate,
+and every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
 """
 
 from __future__ import annotations

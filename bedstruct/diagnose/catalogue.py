@@ -211,8 +211,9 @@ CATALOGUE: tuple[Effect, ...] = (
         physics=(
             "Pendular water bridges between particles condensed from the adsorbed film (Halsey film "
             "thickness t(RH); bridge volume V = 2 pi R* t R*). Force from the closed form of Willett et "
-            "al. (2000) for equal spheres, F = 2 pi R* gamma cos(theta) / (1 + 1.05 S + 2.5 S^2), "
-            "S = s sqrt(R*/V), acting until the rupture distance s_c = (1 + theta/2) V^(1/3) "
+            "al. (2000) with R = 2 R* (R* the effective radius), F = 2 pi R gamma cos(theta) / "
+            "(1 + 2.1 S + 10 S^2), S = (s/2) sqrt(R/V) (pull-off at contact 2 pi R gamma cos(theta), "
+            "as implemented in bedstruct.dem), acting until the rupture distance s_c = (1 + theta/2) V^(1/3) "
             "(Lian et al. 1993); bridges re-form on contact. Magnitude: ambient relative humidity."),
         signature=("Persistent extra cohesion that, unlike SJKR cohesion, acts across gaps up to "
                    "s_c and barely weakens with rake speed: static and dynamic angles rise at all "
