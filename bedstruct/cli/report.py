@@ -29,6 +29,8 @@ def add_arguments(parser) -> None:
                         help="frames: -1 (last, default), all, an index or start:stop:step")
     parser.add_argument("--radius", type=float, default=None, help="radius when the dump has none")
     parser.add_argument("--units", default=None, help="unit style of the dump when it does not say (si, cgs, micro)")
+    parser.add_argument("--repose-base", type=float, default=None, metavar="Z",
+                        help="height of the plate a pile stands on (length unit of the dump)")
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
     parser.add_argument("--heat-length-unit", type=float, default=None, metavar="M",
                         help="metres per dump length unit (heat needs SI when the unit is unknown)")
@@ -45,7 +47,8 @@ def run(args) -> int:
     from . import print_json
 
     options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames, heat=args.heat,
-                            heat_length_unit=args.heat_length_unit, heat_stop_fraction=args.heat_stop_fraction)
+                            heat_length_unit=args.heat_length_unit, heat_stop_fraction=args.heat_stop_fraction,
+                            repose_base=args.repose_base)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     kw = args.contact_keywords.split() if args.contact_keywords else None
     report, html_path, json_path = report_on_files(

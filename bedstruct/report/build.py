@@ -53,6 +53,9 @@ class ReportOptions:
         Contact detection tolerance (length) for geometric contacts.
     l_max : int
         Highest degree of the spherical-harmonic expansion.
+    repose_base : float or None
+        Height (length) of the plate the pile stands on; particles below it
+        are ignored by the angle of repose. Default: found from the profile.
     min_contacts : int
         Rattler threshold of the mechanical coordination number (default 2:
         with friction and cohesion a particle needs two contacts to be held
@@ -68,6 +71,7 @@ class ReportOptions:
     tolerance: float = 0.0
     l_max: int = 8
     min_contacts: int = 2
+    repose_base: float | None = None
 
     def __post_init__(self):
         if self.axis not in _AXES:
@@ -344,7 +348,8 @@ def _repose(ctx: _Context, s: Section) -> None:
     from ..analysis import angle_of_repose
     f, opt = ctx.frame, ctx.options
     try:
-        res = angle_of_repose(f, axis=opt.axis_index)
+        frame = f if opt.repose_base is None else f.select(f.positions[:, 2] > opt.repose_base - f.radii)
+        res = angle_of_repose(frame, axis=opt.axis_index, base=opt.repose_base)
     except ValueError as exc:
         skip(f"no pile with two flanks found ({exc})")
     if not (np.isfinite(res.angle_deg) and res.angle_deg > 5.0
@@ -361,6 +366,10 @@ def _repose(ctx: _Context, s: Section) -> None:
     if not (two_flanks or aspect >= 0.2):
         skip(f"no pile found: one sloped flank on a layer {aspect:.2f} times as high as long "
              f"(a spread layer, not a heap)")
+    s.text = ("Measured on the whole frame: the base is " + ("the given plate height" if opt.repose_base
+              is not None else "the lowest free-surface level found (particles still falling below a "
+              "ledge lower it and steepen the angle; give --repose-base)") + "; flanks fitted robustly "
+              "between 20 % and 80 % of the pile height.")
     s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
                  DOCS + "analysis.md, Angle of repose")
     s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")
