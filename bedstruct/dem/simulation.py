@@ -12,8 +12,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import os
-import tempfile
 import time as _time
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import _numba
+from .._atomic import atomic_path
 from ..core import Box, Contacts, Frame, WallContacts
 from ..errors import ConfigError, UnsafeTimestepError
 from . import _kernels as K
@@ -970,16 +969,9 @@ class Simulation:
                     wall_list_time=self._wall_list_time, wall_speed=self._wall_speed,
                     wall_programs=self._programs)
         arrays["meta"] = np.array(json.dumps(meta, default=_json_default))
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as fh:
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as fh:
                 np.savez(fh, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
         return path
 
     @classmethod

@@ -19,11 +19,11 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
 
+from .._atomic import atomic_path
 from .._version import __version__
 from ..core import Box, Contacts, Frame, FrameList, Provenance, Units
 
@@ -215,11 +215,7 @@ def save_hdf5(path, frames, contacts=None, results=None) -> None:
         frames = [frames]
     if isinstance(contacts, Contacts):
         contacts = [contacts]
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".bedstruct-", suffix=".h5.tmp", dir=folder)
-    os.close(fd)
-    try:
+    with atomic_path(os.fspath(path), suffix=".h5.tmp") as tmp:
         with h5py.File(tmp, "w") as h:
             h.attrs["format"] = _FORMAT
             h.attrs["format_version"] = _VERSION
@@ -244,11 +240,6 @@ def save_hdf5(path, frames, contacts=None, results=None) -> None:
                         _write_contacts(cg.create_group(f"{k:06d}"), c)
             if results is not None:
                 _write_results(h.create_group("results"), dict(results))
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def load_hdf5(path) -> HDF5Contents:

@@ -5,13 +5,12 @@ from __future__ import annotations
 import json
 import logging
 import math
-import os
-import tempfile
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .._atomic import atomic_path
 from ..errors import ConfigError
 from .config import config_to_toml
 
@@ -175,17 +174,10 @@ def to_jsonable(obj):
 def write_json_atomic(path, data) -> Path:
     """Write JSON to ``path`` atomically (temporary file in the same folder, then rename)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
+    with atomic_path(path) as tmp:
+        with open(tmp, "w") as fh:
             json.dump(to_jsonable(data), fh, indent=2)
             fh.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
     return path
 
 
@@ -263,3 +255,31 @@ class StageWriter:
         if self.out.get("checkpoint", False):
             sim.save_checkpoint(self.path / "checkpoint.npz")
         return frame
+
+
+def run_in_frames(sim, duration: float, n_frames: int, on_frame) -> None:
+    """Run ``duration`` seconds in ``n_frames`` even chunks, calling ``on_frame()`` after each."""
+    steps = max(1, int(math.ceil(duration / sim.dt - 1e-9)))
+    k = max(1, int(n_frames))
+    done = 0
+    for i in range(k):
+        nxt = int(round(steps * (i + 1) / k))
+        if nxt > done:
+            sim.run(nxt - done)
+            done = nxt
+        on_frame()
+
+
+def german_fit_values(fractions, coordinations) -> tuple[float, float, float]:
+    """``(a, b, r_squared)`` of German's law over the finite points; NaN with fewer than 3."""
+    from ..analysis import fit_german_law
+    f_arr, c_arr = np.asarray(fractions, dtype=float), np.asarray(coordinations, dtype=float)
+    good = np.isfinite(f_arr) & np.isfinite(c_arr) & (f_arr > 0)
+    if good.sum() >= 3:
+        try:
+            g = fit_german_law(f_arr[good], c_arr[good])
+            return float(g.a), float(g.b), float(g.r_squared)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            log.warning("German's-law fit failed: %s", exc)
+    nan = float("nan")
+    return nan, nan, nan

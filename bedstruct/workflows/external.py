@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import RunLayout, contact_model, psd_sampler
+from ._common import RunLayout, contact_model, german_fit_values, psd_sampler
 
 __all__ = ["ExternalDecks", "engine_for", "run_repose_external", "repose_inputs",
            "run_spread_external"]
@@ -334,7 +334,7 @@ def run_spread_external(cfg: dict, *, out=None):
     import tempfile
     import warnings
 
-    from ..analysis import find_contacts, fit_german_law
+    from ..analysis import find_contacts
     from ..dem.backends import (BladeGeometry, SpreadGeometry, SpreadSchedule, run_deck,
                                 spread_deck, write_sphere_data)
     from ..io import read_dump, write_dump
@@ -480,15 +480,7 @@ def run_spread_external(cfg: dict, *, out=None):
                   else np.zeros_like(X))
             log.info("layer %d on %s: bed height %.4g m (nominal %.4g)", k + 1, cfg["engine"],
                      layer.bed_height_m, H_k)
-        ga = gb = gr = float("nan")
-        f_arr, c_arr = np.array(f_all), np.array(cn_all)
-        good = np.isfinite(f_arr) & np.isfinite(c_arr) & (f_arr > 0)
-        if good.sum() >= 3:
-            try:
-                g = fit_german_law(f_arr[good], c_arr[good])
-                ga, gb, gr = float(g.a), float(g.b), float(g.r_squared)
-            except (ValueError, np.linalg.LinAlgError) as exc:
-                log.warning("spread: German fit failed: %s", exc)
+        ga, gb, gr = german_fit_values(f_all, cn_all)
         res = SpreadResult(layers=tuple(layers), tool=str(sc["tool"]), speed=speed,
                            regions=tuple(names), n_pile=pile.n_particles,
                            n_inserted_total=inserted_total, german_a=ga, german_b=gb,

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import RunLayout, check_engine, contact_model, psd_sampler
+from ._common import RunLayout, check_engine, contact_model, psd_sampler, run_in_frames
 
 __all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile"]
 
@@ -93,24 +93,12 @@ class ReposeResult:
         return to_jsonable(self)
 
 
-def _n_steps(t, dt):
-    return max(1, int(math.ceil(t / dt - 1e-9)))
-
-
 def _record_run(sim, total_time, writer, n_frames):
     """Run ``total_time`` recording ``n_frames`` frames evenly (at least at the end)."""
     if writer is None or n_frames <= 0:
         sim.run(time=total_time)
         return
-    steps = _n_steps(total_time, sim.dt)
-    k = max(1, int(n_frames))
-    done = 0
-    for i in range(k):
-        nxt = int(round(steps * (i + 1) / k))
-        if nxt > done:
-            sim.run(nxt - done)
-            done = nxt
-        writer.record(sim)
+    run_in_frames(sim, total_time, n_frames, lambda: writer.record(sim))
 
 
 def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, layout=None,

@@ -29,7 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import RunLayout, check_engine, contact_model, psd_sampler, to_jsonable, tool_motion
+from ._common import (RunLayout, check_engine, contact_model, german_fit_values, psd_sampler,
+                      run_in_frames, to_jsonable, tool_motion)
 
 __all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile"]
 
@@ -208,17 +209,6 @@ def _tool_walls(cfg, x0, draw):
                     name="tool"), R
 
 
-def _run_frames(sim, duration, n_frames, on_frame):
-    steps = max(1, int(math.ceil(duration / sim.dt - 1e-9)))
-    k = max(1, int(n_frames))
-    done = 0
-    for i in range(k):
-        nxt = int(round(steps * (i + 1) / k))
-        if nxt > done:
-            sim.run(nxt - done)
-            done = nxt
-        on_frame()
-
 
 def _move(sim, name, velocity, distance, speed):
     if distance <= 0:
@@ -252,7 +242,6 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     >>> [round(h * 1e6) for h in res.bed_height_m]      # doctest: +SKIP
     [...]
     """
-    from ..analysis import fit_german_law
     from ..core import Box
     from ..dem import Plane, Rectangle, Simulation
 
@@ -346,7 +335,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
                 writer.record(sim, frame=fr)
             if len(blade_pos) == max(1, int(sc["n_frames"]) // 2):
                 mid.append((fr, front))
-        _run_frames(sim, (x_end - x0) / speed, int(sc["n_frames"]), on_frame)
+        run_in_frames(sim, (x_end - x0) / speed, int(sc["n_frames"]), on_frame)
         stop = {"omega": 0.0} if sc["tool"] == "roller" else {}
         sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **stop)
         sim.run(time=float(sc["settle_time"]))
@@ -376,15 +365,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
             back = float(sim.wall_states()[sim.wall_names.index("tool")].origin[0]) - x0
             _move(sim, "tool", (-vr, 0.0, 0.0), back, vr)
             _move(sim, "tool", (0.0, 0.0, -vr), clear, vr)
-    ga = gb = gr = float("nan")
-    f_arr, c_arr = np.array(f_all), np.array(cn_all)
-    good = np.isfinite(f_arr) & np.isfinite(c_arr) & (f_arr > 0)
-    if good.sum() >= 3:
-        try:
-            g = fit_german_law(f_arr[good], c_arr[good])
-            ga, gb, gr = float(g.a), float(g.b), float(g.r_squared)
-        except (ValueError, np.linalg.LinAlgError) as exc:
-            log.warning("spread: German fit failed: %s", exc)
+    ga, gb, gr = german_fit_values(f_all, cn_all)
     res = SpreadResult(layers=tuple(layers), tool=str(sc["tool"]), speed=speed, regions=tuple(names),
                        n_pile=n_pile, n_inserted_total=inserted_total, german_a=ga, german_b=gb,
                        german_r_squared=gr,
