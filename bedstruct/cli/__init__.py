@@ -76,7 +76,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bedstruct: interrupted", file=sys.stderr)
         return 130
-    except (BedstructError, FileNotFoundError, IsADirectoryError, PermissionError, ValueError) as exc:
+    except (BedstructError, FileNotFoundError, IsADirectoryError, PermissionError, ValueError,
+            ImportError) as exc:  # ImportError: an optional dependency, named in the message
         if getattr(args, "traceback", False):
             raise
         print(f"bedstruct {args.command}: error: {exc}", file=sys.stderr)

@@ -54,6 +54,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--write-only", action="store_true",
                         help="liggghts/lammps: write the deck and inputs, do not run (repose, spread)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    parser.add_argument("--progress", action="store_true", default=None,
+                        help="show a progress bar (default: when stderr is a terminal)")
 
 
 def _summary(workflow, res) -> dict:
@@ -96,7 +98,8 @@ def run(args) -> int:
         raise ConfigError("--write-only writes LIGGGHTS/LAMMPS decks of the repose or spread "
                           "workflow: use it with `run repose|spread --engine liggghts|lammps`")
     func = {"repose": run_repose, "spread": run_spread, "calibrate": calibrate_cohesion}[args.workflow]
-    res = func(cfg, out=args.out)
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    res = func(cfg, out=args.out, **({"progress": progress} if args.workflow != "calibrate" else {}))
     if getattr(res, "decks", None) is not None and not hasattr(res, "angle_deg"):  # write-only
         for cmd in res.commands:
             print(f"deck written; run it with: {cmd}")

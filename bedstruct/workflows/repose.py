@@ -102,7 +102,7 @@ def _record_run(sim, total_time, writer, n_frames):
 
 
 def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, layout=None,
-                     stage: str = "", progress: bool = False) -> ReposeReplicate:
+                     stage: str = "") -> ReposeReplicate:
     """Run one angle-of-repose simulation of configuration ``cfg`` (see :func:`run_repose`)."""
     from ..core import Box
     from ..dem import Rectangle, Simulation, repose_box
@@ -255,6 +255,8 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
         Override ``contact.cohesion``.
     replicates : int, optional
         Override ``repose.replicates``; replicate ``i`` uses seed ``seed + i``.
+    progress : bool, optional
+        Show a progress bar over the replicates (stderr; embedded engine).
 
     Returns
     -------
@@ -279,8 +281,10 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
         raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
     layout = RunLayout(out, cfg) if out is not None else None
     k = float(cfg["contact"]["cohesion"] if cohesion is None else cohesion)
+    from tqdm.auto import tqdm
     reps = [repose_replicate(cfg, seed=int(cfg["seed"]) + i, cohesion=k, layout=layout,
-                             stage=f"rep{i:02d}", progress=progress) for i in range(n)]
+                             stage=f"rep{i:02d}")
+            for i in tqdm(range(n), desc="repose", unit="replicate", disable=not progress)]
     res = combine_replicates(reps, k)
     if layout is not None:
         layout.write_results({"workflow": "repose", **res.to_dict()})

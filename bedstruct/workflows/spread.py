@@ -230,6 +230,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         ``pile`` (the generated pile) and ``layer01``, ``layer02``... with
         frames, contacts, wall states and ``bed.dump.gz`` /
         ``bed_contacts.dump.gz`` after the layer.
+    progress : bool, optional
+        Show a progress bar over the layers (stderr; embedded engine).
 
     Returns
     -------
@@ -299,7 +301,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     f_all, cn_all = [], []
     inserted_total = 0
     clear = 3 * rmax
-    for k, gap in enumerate(gaps):
+    from tqdm.auto import tqdm
+    for k, gap in enumerate(tqdm(gaps, desc="spread", unit="layer", disable=not progress)):
         t_layer = _time.perf_counter()
         writer = layout.stage(f"layer{k + 1:02d}") if layout is not None else None
         # 1. lower the platform by this layer's gap; the bed follows under gravity

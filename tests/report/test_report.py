@@ -154,3 +154,20 @@ def test_heat_section_needs_units_and_reports_each_region(bed_dump):
         assert 20.0 < heat.numbers[f"peak_temperature_{name}"].value < 1300.0
         assert 0.8 < heat.numbers[f"roundness_{name}"].value <= 1.0   # isotropic lattice: round
     assert len(heat.figures) == 3
+
+
+def test_cli_missing_optional_dependency_is_one_line(tmp_path, capsys, monkeypatch):
+    import builtins
+    real_import = builtins.__import__
+
+    def no_zstd(name, *args, **kwargs):
+        if name.startswith("zstandard"):
+            raise ImportError("No module named 'zstandard'")
+        return real_import(name, *args, **kwargs)
+
+    path = tmp_path / "bed.dump.zst"
+    path.write_bytes(b"\x28\xb5\x2f\xfd")
+    monkeypatch.setattr(builtins, "__import__", no_zstd)
+    assert main(["info", str(path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "zstandard" in err[0]
