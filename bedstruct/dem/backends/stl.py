@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["stl_text", "write_stl", "box_triangles", "blade_triangles", "BladeGeometry",
+__all__ = ["stl_text", "write_stl", "box_triangles", "BladeGeometry",
            "read_stl_triangles"]
 
 
