@@ -1,0 +1,283 @@
+"""numba neighbour-list kernels of the DEM engine: cell list, pair list, history remap.
+
+Counting-sort cell list, half-stencil Verlet pair list with an integer
+periodic image per pair, orientation-free pair keys and the remap of contact
+history onto a new pair list; plus the grid-hash acceptance test of raindrop
+insertion.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._numba import njit, prange
+
+__all__ = ["cell_indices", "counting_sort", "HALF_STENCIL", "pair_build", "pair_keys",
+           "remap_history", "active_history", "raindrop_accept"]
+
+_FM = dict(fastmath=True)
+
+
+@njit(**_FM)
+def cell_indices(x, lo, cell_len, ncell, out):
+    """Linear cell index ``(cz*ny + cy)*nx + cx`` of each particle (clamped to the grid)."""
+    n = x.shape[0]
+    for i in range(n):
+        c0 = int(math.floor((x[i, 0] - lo[0]) / cell_len[0]))
+        c1 = int(math.floor((x[i, 1] - lo[1]) / cell_len[1]))
+        c2 = int(math.floor((x[i, 2] - lo[2]) / cell_len[2]))
+        c0 = min(max(c0, 0), ncell[0] - 1)
+        c1 = min(max(c1, 0), ncell[1] - 1)
+        c2 = min(max(c2, 0), ncell[2] - 1)
+        out[i] = (c2 * ncell[1] + c1) * ncell[0] + c0
+
+
+@njit
+def counting_sort(cells, ncells):
+    """Stable counting sort: returns (perm, cell_start) with particles grouped by cell."""
+    n = cells.shape[0]
+    start = np.zeros(ncells + 1, dtype=np.int64)
+    for i in range(n):
+        start[cells[i] + 1] += 1
+    for c in range(ncells):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    perm = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        c = cells[i]
+        perm[fill[c]] = i
+        fill[c] += 1
+    return perm, start
+
+
+# the 13 forward neighbour cells of the half stencil
+HALF_STENCIL = np.array([(dx, dy, dz) for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)
+                         if (dz > 0) or (dz == 0 and dy > 0) or (dz == 0 and dy == 0 and dx > 0)],
+                        dtype=np.int64)
+
+
+@njit(parallel=True, **_FM)
+def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, counts, fill,
+               pi, pj, psh, chunk_off, chunk_cap, chunk_cnt):
+    """Half-stencil pair list with cutoff ``r_i + r_j + skin``.
+
+    ``fill=0``: write per-particle pair counts. ``fill=1`` (``counts`` holding
+    exclusive offsets): write the pairs ``(i, j, image of j)``. ``fill=2``:
+    one pass, chunk t writing its pairs from ``chunk_off[t]`` with room for
+    ``chunk_cap[t]``; ``chunk_cnt[t]`` gets the number written, or -1 when
+    the room was too small. Particles must be sorted by cell.
+    """
+    nt = bounds.shape[0] - 1
+    ns = stencil.shape[0]
+    nx = ncell[0]
+    ny = ncell[1]
+    nz = ncell[2]
+    for t in prange(nt):
+        tpos = chunk_off[t] if fill == 2 else 0
+        tend = tpos + chunk_cap[t] if fill == 2 else 0
+        over = False
+        for i in range(bounds[t], bounds[t + 1]):
+            if over:
+                break
+            c = cells[i]
+            cx = c % nx
+            cy = (c // nx) % ny
+            cz = c // (nx * ny)
+            xi0 = x[i, 0]
+            xi1 = x[i, 1]
+            xi2 = x[i, 2]
+            ri = rad[i] + skin
+            cnt = 0
+            pos = counts[i] if fill == 1 else tpos
+            for s in range(ns + 1):
+                sx = 0
+                sy = 0
+                sz = 0
+                if s == ns:  # own cell, j > i
+                    j0 = i + 1
+                    j1 = start[c + 1]
+                else:
+                    ox = cx + stencil[s, 0]
+                    oy = cy + stencil[s, 1]
+                    oz = cz + stencil[s, 2]
+                    if ox < 0:
+                        if not periodic[0]:
+                            continue
+                        ox += nx
+                        sx = -1
+                    elif ox >= nx:
+                        if not periodic[0]:
+                            continue
+                        ox -= nx
+                        sx = 1
+                    if oy < 0:
+                        if not periodic[1]:
+                            continue
+                        oy += ny
+                        sy = -1
+                    elif oy >= ny:
+                        if not periodic[1]:
+                            continue
+                        oy -= ny
+                        sy = 1
+                    if oz < 0:
+                        if not periodic[2]:
+                            continue
+                        oz += nz
+                        sz = -1
+                    elif oz >= nz:
+                        if not periodic[2]:
+                            continue
+                        oz -= nz
+                        sz = 1
+                    cc = (oz * ny + oy) * nx + ox
+                    j0 = start[cc]
+                    j1 = start[cc + 1]
+                a0 = xi0 - sx * L[0]
+                a1 = xi1 - sy * L[1]
+                a2 = xi2 - sz * L[2]
+                for j in range(j0, j1):
+                    d0 = a0 - x[j, 0]
+                    d1 = a1 - x[j, 1]
+                    d2 = a2 - x[j, 2]
+                    rc = ri + rad[j]
+                    if d0 * d0 + d1 * d1 + d2 * d2 < rc * rc:
+                        if fill == 2 and pos >= tend:
+                            over = True
+                            break
+                        if fill:
+                            pi[pos] = i
+                            pj[pos] = j
+                            psh[pos, 0] = sx
+                            psh[pos, 1] = sy
+                            psh[pos, 2] = sz
+                            pos += 1
+                        cnt += 1
+                if over:
+                    break
+            if fill == 0:
+                counts[i] = cnt
+            tpos = pos
+        if fill == 2:
+            chunk_cnt[t] = -1 if over else tpos - chunk_off[t]
+
+
+@njit(parallel=True)
+def pair_keys(ids, pi, pj, bounds, keys, sign):
+    """Orientation-free key ``min(id) * 2^31 + max(id)`` and sign (+1 if id_i < id_j)."""
+    nt = bounds.shape[0] - 1
+    for t in prange(nt):
+        for k in range(bounds[t], bounds[t + 1]):
+            a = ids[pi[k]]
+            b = ids[pj[k]]
+            if a < b:
+                keys[k] = a * 2147483648 + b
+                sign[k] = 1.0
+            else:
+                keys[k] = b * 2147483648 + a
+                sign[k] = -1.0
+
+
+@njit(parallel=True)
+def remap_history(new_keys, new_sign, old_keys_sorted, old_sign_sorted, old_ht_sorted,
+                  old_hr_sorted, bounds, ht, hr):
+    """Carry history to the new pair list by binary search of the sorted old keys.
+
+    History vectors flip sign when the pair's (i, j) orientation flips.
+    """
+    nt = bounds.shape[0] - 1
+    m = old_keys_sorted.shape[0]
+    for t in prange(nt):
+        for k in range(bounds[t], bounds[t + 1]):
+            key = new_keys[k]
+            idx = np.searchsorted(old_keys_sorted, key)
+            if idx < m and old_keys_sorted[idx] == key:
+                s = new_sign[k] * old_sign_sorted[idx]
+                for c in range(3):
+                    ht[k, c] = s * old_ht_sorted[idx, c]
+                    hr[k, c] = s * old_hr_sorted[idx, c]
+            else:
+                for c in range(3):
+                    ht[k, c] = 0.0
+                    hr[k, c] = 0.0
+
+
+@njit
+def active_history(ht, hr):
+    """Indices of pairs with nonzero history."""
+    m = ht.shape[0]
+    n = 0
+    for k in range(m):
+        if (ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 or hr[k, 0] != 0.0
+                or hr[k, 1] != 0.0 or hr[k, 2] != 0.0):
+            n += 1
+    out = np.empty(n, dtype=np.int64)
+    n = 0
+    for k in range(m):
+        if (ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 or hr[k, 0] != 0.0
+                or hr[k, 1] != 0.0 or hr[k, 2] != 0.0):
+            out[n] = k
+            n += 1
+    return out
+
+
+@njit
+def raindrop_accept(cand, crad, ex, erad, lo, cell_len, ncell, out_mask):
+    """Greedy acceptance of candidate spheres that overlap neither existing spheres nor
+    earlier accepted candidates (grid hash, serial; deterministic)."""
+    nc = ncell[0] * ncell[1] * ncell[2]
+    ne = ex.shape[0]
+    nn = cand.shape[0]
+    head = -np.ones(nc, dtype=np.int64)
+    nxt = -np.ones(ne + nn, dtype=np.int64)
+    px = np.empty((ne + nn, 3))
+    pr = np.empty(ne + nn)
+    cnt = 0
+
+    for k in range(ne + nn):
+        if k < ne:
+            p0 = ex[k, 0]
+            p1 = ex[k, 1]
+            p2 = ex[k, 2]
+            rr = erad[k]
+        else:
+            p0 = cand[k - ne, 0]
+            p1 = cand[k - ne, 1]
+            p2 = cand[k - ne, 2]
+            rr = crad[k - ne]
+        c0 = min(max(int(math.floor((p0 - lo[0]) / cell_len[0])), 0), ncell[0] - 1)
+        c1 = min(max(int(math.floor((p1 - lo[1]) / cell_len[1])), 0), ncell[1] - 1)
+        c2 = min(max(int(math.floor((p2 - lo[2]) / cell_len[2])), 0), ncell[2] - 1)
+        ok = True
+        if k >= ne:
+            for a in range(max(c0 - 1, 0), min(c0 + 2, ncell[0])):
+                for b in range(max(c1 - 1, 0), min(c1 + 2, ncell[1])):
+                    for c in range(max(c2 - 1, 0), min(c2 + 2, ncell[2])):
+                        q = head[(c * ncell[1] + b) * ncell[0] + a]
+                        while q >= 0:
+                            d0 = p0 - px[q, 0]
+                            d1 = p1 - px[q, 1]
+                            d2 = p2 - px[q, 2]
+                            rs = rr + pr[q]
+                            if d0 * d0 + d1 * d1 + d2 * d2 < rs * rs:
+                                ok = False
+                                break
+                            q = nxt[q]
+                        if not ok:
+                            break
+                    if not ok:
+                        break
+                if not ok:
+                    break
+            out_mask[k - ne] = ok
+        if ok:
+            px[cnt, 0] = p0
+            px[cnt, 1] = p1
+            px[cnt, 2] = p2
+            pr[cnt] = rr
+            cell = (c2 * ncell[1] + c1) * ncell[0] + c0
+            nxt[cnt] = head[cell]
+            head[cell] = cnt
+            cnt += 1

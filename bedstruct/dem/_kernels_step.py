@@ -1,0 +1,183 @@
+"""numba integrator passes of the DEM engine (velocity Verlet, two passes per step).
+
+:func:`kick_drift` (first half kick, drift, displacement since the last
+neighbour build) and :func:`finish_step` (reduction of the per-chunk pair
+forces, gravity, wall contacts, second half kick).
+"""
+
+from __future__ import annotations
+
+from .._numba import njit, prange
+from ._kernels_contact import wall_contact
+from ._kernels_walls import WALL_MESH, mesh_geometry, wall_geometry
+
+__all__ = ["kick_drift", "finish_step"]
+
+_FM = dict(fastmath=True)
+
+
+@njit(parallel=True, **_FM)
+def kick_drift(x, v, om, f, tq, inv_m, inv_i, x_ref, dt, bounds, disp_out):
+    """First half kick, drift, and per-chunk max squared displacement since the last build."""
+    h = 0.5 * dt
+    nt = bounds.shape[0] - 1
+    for t in prange(nt):
+        m2 = 0.0
+        for i in range(bounds[t], bounds[t + 1]):
+            a = h * inv_m[i]
+            b = h * inv_i[i]
+            for k in range(3):
+                v[i, k] += a * f[i, k]
+                om[i, k] += b * tq[i, k]
+                x[i, k] += dt * v[i, k]
+            d0 = x[i, 0] - x_ref[i, 0]
+            d1 = x[i, 1] - x_ref[i, 1]
+            d2 = x[i, 2] - x_ref[i, 2]
+            dd = d0 * d0 + d1 * d1 + d2 * d2
+            if dd > m2:
+                m2 = dd
+        disp_out[t] = m2
+
+
+@njit(parallel=True, **_FM)
+def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gravity, bounds,
+                W, tri, time, wstart, wcand, wslot, whist, wbuf, Y, G, B, MU, MUR, COH, rolling, tdamp, limit,
+                eta_r, dt, store, wfn_out, wdelta_out, wnorm_out, overflow, kr_fac=2.25):
+    """Reduce per-chunk forces, add gravity and wall forces, second half kick.
+
+    Only the walls listed for particle i in ``wcand[wstart[i]:wstart[i+1]]``
+    (see :func:`wall_candidates`) are evaluated.
+    Wall contacts keep their tangential/rolling history in per-particle slots
+    ``wslot[i, s]`` (wall index or -1) and ``whist[i, s, 0:6]``. The reaction
+    on each wall is summed per chunk into ``wbuf[t, w, 0:6]`` (force, torque
+    about the wall origin is not needed: 3:6 hold the sum of normal force
+    magnitudes and contact counts).
+    """
+    nt = bounds.shape[0] - 1
+    nb = fbuf.shape[0]
+    nw = W.shape[0]
+    ns = wslot.shape[1]
+    h = 0.5 * dt
+    wt = Y.shape[0] - 1
+    for t in prange(nt):
+        for w in range(nw):
+            for c in range(6):
+                wbuf[t, w, c] = 0.0
+        # wall contacts of the chunk's particles (added to this chunk's buffer)
+        for i in range(bounds[t], bounds[t + 1]):
+            if not store and wstart[i] == wstart[i + 1]:
+                continue
+            if store:
+                for s in range(ns):
+                    wfn_out[i, s] = 0.0
+                    wdelta_out[i, s] = 0.0
+            ri = rad[i]
+            for cw in range(wstart[i], wstart[i + 1]):
+                w = wcand[cw]
+                if int(W[w, 0]) == WALL_MESH:
+                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(
+                        W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
+                else:
+                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = wall_geometry(
+                        W, w, x[i, 0], x[i, 1], x[i, 2], time)
+                slot = -1
+                for s in range(ns):
+                    if wslot[i, s] == w:
+                        slot = s
+                touching = hit and dist < ri and dist > -ri
+                if not touching:
+                    if slot >= 0:
+                        wslot[i, slot] = -1
+                        for c in range(6):
+                            whist[i, slot, c] = 0.0
+                    continue
+                if slot < 0:
+                    for s in range(ns):
+                        if wslot[i, s] < 0:
+                            slot = s
+                            break
+                    if slot >= 0:
+                        wslot[i, slot] = w
+                        for c in range(6):
+                            whist[i, slot, c] = 0.0
+                    else:
+                        overflow[t] += 1
+                ti = ptype[i]
+                if slot >= 0:
+                    h1 = whist[i, slot, 0]
+                    h2 = whist[i, slot, 1]
+                    h3 = whist[i, slot, 2]
+                    q1 = whist[i, slot, 3]
+                    q2 = whist[i, slot, 4]
+                    q3 = whist[i, slot, 5]
+                else:
+                    h1 = 0.0
+                    h2 = 0.0
+                    h3 = 0.0
+                    q1 = 0.0
+                    q2 = 0.0
+                    q3 = 0.0
+                (gx, gy, gz, g1, g2, g3, fnw, delta, h1, h2, h3, q1, q2, q3) = wall_contact(
+                    dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mass[i], inv_i[i],
+                    v[i, 0], v[i, 1], v[i, 2], om[i, 0], om[i, 1], om[i, 2],
+                    Y[ti, wt], G[ti, wt], B[ti, wt], MU[ti, wt], MUR[ti, wt], COH[ti, wt],
+                    rolling, tdamp, limit, eta_r, dt, h1, h2, h3, q1, q2, q3, kr_fac)
+                if slot >= 0:
+                    whist[i, slot, 0] = h1
+                    whist[i, slot, 1] = h2
+                    whist[i, slot, 2] = h3
+                    whist[i, slot, 3] = q1
+                    whist[i, slot, 4] = q2
+                    whist[i, slot, 5] = q3
+                fbuf[t, i, 0] += gx
+                fbuf[t, i, 1] += gy
+                fbuf[t, i, 2] += gz
+                tbuf[t, i, 0] += g1
+                tbuf[t, i, 1] += g2
+                tbuf[t, i, 2] += g3
+                wbuf[t, w, 0] -= gx
+                wbuf[t, w, 1] -= gy
+                wbuf[t, w, 2] -= gz
+                wbuf[t, w, 3] += fnw
+                wbuf[t, w, 4] += 1.0
+                if store and slot >= 0:
+                    wfn_out[i, slot] = fnw
+                    wdelta_out[i, slot] = delta
+                    wnorm_out[i, slot, 0] = -n1
+                    wnorm_out[i, slot, 1] = -n2
+                    wnorm_out[i, slot, 2] = -n3
+        # reduction, gravity and half kick (a simple, vectorisable loop)
+        for i in range(bounds[t], bounds[t + 1]):
+            fx = gravity[0] * mass[i]
+            fy = gravity[1] * mass[i]
+            fz = gravity[2] * mass[i]
+            tx = 0.0
+            ty = 0.0
+            tz = 0.0
+            for b in range(nb):
+                fx += fbuf[b, i, 0]
+                fy += fbuf[b, i, 1]
+                fz += fbuf[b, i, 2]
+                tx += tbuf[b, i, 0]
+                ty += tbuf[b, i, 1]
+                tz += tbuf[b, i, 2]
+                fbuf[b, i, 0] = 0.0
+                fbuf[b, i, 1] = 0.0
+                fbuf[b, i, 2] = 0.0
+                tbuf[b, i, 0] = 0.0
+                tbuf[b, i, 1] = 0.0
+                tbuf[b, i, 2] = 0.0
+            f[i, 0] = fx
+            f[i, 1] = fy
+            f[i, 2] = fz
+            tq[i, 0] = tx
+            tq[i, 1] = ty
+            tq[i, 2] = tz
+            a = h * inv_m[i]
+            ab = h * inv_i[i]
+            v[i, 0] += a * fx
+            v[i, 1] += a * fy
+            v[i, 2] += a * fz
+            om[i, 0] += ab * tx
+            om[i, 1] += ab * ty
+            om[i, 2] += ab * tz

@@ -1,0 +1,209 @@
+"""Neighbour lists of a :class:`~bedstruct.dem.Simulation`: rebuild, sort, history remap.
+
+The :class:`_NeighbourList` mixin owns the displacement-triggered rebuild:
+wrap periodic axes and remove particles that left the domain, sort the
+particles by cell (an internal permutation: ids travel with the rows, and
+:meth:`~bedstruct.dem.Simulation.frame` reports rows sorted by id), build the
+half-stencil pair list, carry contact history over by pair key, and build the
+particle-wall candidate list.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+from ..errors import ConfigError
+from . import _kernels as K
+from ._sim_walls import _WALL_SLOTS
+
+__all__: list[str] = []
+
+log = logging.getLogger("bedstruct.dem.simulation")
+
+
+class _NeighbourList:
+    """Cell grid, pair-list rebuild, wall candidates and per-chunk buffers (mixed into Simulation)."""
+
+    def _cell_grid(self):
+        rmax = float(self.rad.max(initial=0.0))
+        cut = 2.0 * rmax + self.skin + self._extra_cutoff()
+        nc = np.maximum(1, np.floor(self._L / cut)).astype(np.int64)
+        for a in range(3):
+            if self._periodic[a] and nc[a] < 3:
+                raise ConfigError(f"periodic box length along {'xyz'[a]} ({self._L[a]:.3g} m) must "
+                                  f"be at least 3 neighbour cutoffs (3 x {cut:.3g} m)")
+            # limit the number of cells for very sparse systems
+        while np.prod(nc) > max(8 * self.n_particles, 1000):
+            nc = np.maximum(1, nc // 2)
+            for a in range(3):
+                if self._periodic[a] and nc[a] < 3:
+                    nc[a] = 3
+        return nc, self._L / nc
+
+    def _extra_cutoff(self) -> float:
+        """Neighbour cutoff beyond contact: the largest capillary rupture distance (m)."""
+        if not self.model.capillary or self.rad.size == 0:
+            return 0.0
+        return float(self.model.rupture_distance(0.5 * float(self.rad.max())))
+
+    def _chunks(self, n):
+        return np.linspace(0, n, self.n_threads + 1).astype(np.int64)
+
+    def _rebuild(self):
+        self.n_rebuilds += 1
+        # 1. wrap periodic axes, remove particles outside fixed faces
+        for a in range(3):
+            if self._periodic[a]:
+                k = np.floor((self.x[:, a] - self._lo[a]) / self._L[a]).astype(np.int64)
+                if np.any(k):
+                    self.x[:, a] -= k * self._L[a]
+                    self.images[:, a] += k
+        out = np.zeros(self.n_particles, dtype=bool)
+        for a in range(3):
+            if not self._periodic[a]:
+                out |= (self.x[:, a] < self._lo[a]) | (self.x[:, a] >= self._hi[a])
+        if not np.all(np.isfinite(self.x)):
+            bad = ~np.all(np.isfinite(self.x), axis=1)
+            log.warning("%d particles with non-finite positions removed", int(bad.sum()))
+            out |= bad
+        # keep old list (for history) keyed by ids before permuting
+        act = K.active_history(self.ht, self.hr)
+        ext = self.model.extension_code
+        if ext & 2:
+            act = np.union1d(act, np.flatnonzero(np.any(self.hx != 0.0, axis=1)))
+        old_keys = np.zeros(act.size, dtype=np.int64)
+        old_sign = np.zeros(act.size)
+        if act.size:
+            kk = np.zeros(self.n_pairs, dtype=np.int64)
+            ss = np.zeros(self.n_pairs)
+            K.pair_keys(self.ids, self.pi, self.pj, self._chunks(self.n_pairs), kk, ss)
+            old_keys = kk[act]
+            old_sign = ss[act]
+        old_ht = self.ht[act]
+        old_hr = self.hr[act]
+        old_hx = self.hx[act] if ext & 2 else self.hx
+        n_out = int(out.sum())
+        if n_out:
+            self.n_removed += n_out
+            log.info("removed %d particles that left the domain (total %d)", n_out, self.n_removed)
+        keep = np.flatnonzero(~out)
+        # 2. sort by cell
+        nc, cell_len = self._cell_grid()
+        cells = np.zeros(keep.size, dtype=np.int64)
+        xk = np.ascontiguousarray(self.x[keep])
+        K.cell_indices(xk, self._lo, cell_len, nc, cells)
+        perm, start = K.counting_sort(cells, int(np.prod(nc)))
+        order = keep[perm]
+        for name in ("x", "v", "om", "f", "tq", "rad", "mass", "inv_m", "inv_i", "ptype", "ids",
+                     "images", "wslot", "whist"):
+            setattr(self, name, np.ascontiguousarray(getattr(self, name)[order]))
+        cells = np.ascontiguousarray(cells[perm])
+        n = self.n_particles
+        self.x_ref = self.x.copy()
+        # 3. pair list: one pass into per-chunk room sized from the last list,
+        #    two passes (count, fill) on the first build or when the room is short
+        pb = self._chunks(n)
+        T = self.n_threads
+        skin_c = self.skin + self._extra_cutoff()
+        none_i = np.zeros(0, dtype=np.int64)
+        m_prev = getattr(self, "_m_hint", 0)
+        done = False
+        if m_prev and n:
+            share = np.diff(pb).astype(np.float64) / n
+            cap = (1.25 * m_prev * share + 64 + 8 * np.diff(pb)).astype(np.int64)
+            off = np.zeros(T, dtype=np.int64)
+            np.cumsum(cap[:-1], out=off[1:])
+            tot = int(cap.sum())
+            bi = np.empty(tot, dtype=np.int32)
+            bj = np.empty(tot, dtype=np.int32)
+            bs = np.empty((tot, 3), dtype=np.int8)
+            cnt = np.zeros(T, dtype=np.int64)
+            K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
+                         K.HALF_STENCIL, skin_c, pb, none_i, 2, bi, bj, bs, off, cap, cnt)
+            if np.all(cnt >= 0):
+                sel = np.concatenate([np.arange(o, o + c) for o, c in zip(off, cnt)])
+                self._alloc_pairs(0)
+                self.pi, self.pj, self.psh = bi[sel], bj[sel], bs[sel]
+                m = sel.size
+                self.ht = np.zeros((m, 3))
+                self.hr = np.zeros((m, 3))
+                self.hx = np.zeros((m if self.model.contact_ageing else 0, 3))  # ageing history
+                done = True
+        if not done:
+            counts = np.zeros(n, dtype=np.int64)
+            dummy_i = np.zeros(0, dtype=np.int32)
+            dummy_s = np.zeros((0, 3), dtype=np.int8)
+            z = np.zeros(T, dtype=np.int64)
+            K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
+                         K.HALF_STENCIL, skin_c, pb, counts, 0, dummy_i, dummy_i, dummy_s,
+                         z, z, z)
+            offs = np.zeros(n, dtype=np.int64)
+            if n:
+                np.cumsum(counts[:-1], out=offs[1:])
+            m = int(counts.sum())
+            self._alloc_pairs(m)
+            K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
+                         K.HALF_STENCIL, skin_c, pb, offs, 1, self.pi, self.pj, self.psh,
+                         z, z, z)
+        self._m_hint = m
+        # 4. history remap by sorted key
+        if old_keys.size and m:
+            o = np.argsort(old_keys, kind="stable")
+            keys = np.zeros(m, dtype=np.int64)
+            sign = np.zeros(m)
+            qb = self._chunks(m)
+            K.pair_keys(self.ids, self.pi, self.pj, qb, keys, sign)
+            K.remap_history(keys, sign, np.ascontiguousarray(old_keys[o]),
+                            np.ascontiguousarray(old_sign[o]), np.ascontiguousarray(old_ht[o]),
+                            np.ascontiguousarray(old_hr[o]), qb, self.ht, self.hr)
+            if ext & 2:
+                ks = old_keys[o]
+                idx = np.minimum(np.searchsorted(ks, keys), ks.size - 1)
+                hit = ks[idx] == keys
+                self.hx[hit] = old_hx[o][idx[hit]]
+        self._alloc_buffers()
+        self._build_wall_list()
+
+    def _build_wall_list(self):
+        """Candidate walls of each particle (closer than r + skin), built at the
+        current time; rebuilt when a wall has moved skin/2 or at pair rebuilds."""
+        n = self.n_particles
+        self._wstart = np.zeros(n + 1, dtype=np.int64)
+        empty = np.zeros(0, dtype=np.int64)
+        K.wall_candidates(self.x, self.rad, self._W, self._tri, self.time, self.skin, False,
+                          self._wstart, empty, self.wslot, self.whist)
+        np.cumsum(self._wstart, out=self._wstart)
+        self._wcand = np.zeros(int(self._wstart[-1]), dtype=np.int64)
+        K.wall_candidates(self.x, self.rad, self._W, self._tri, self.time, self.skin, True,
+                          self._wstart, self._wcand, self.wslot, self.whist)
+        self._wall_list_time = self.time
+        # fastest wall surface speed (translation plus roller rim speed), m/s
+        W = self._W
+        sp = np.sqrt((W[:, 10:13] ** 2).sum(axis=1)) if len(W) else np.zeros(0)
+        self._wall_speed = float(sp.max(initial=0.0))
+        for prog in self._programs.values():
+            bound = (float(np.linalg.norm(prog["velocity"]))
+                     + 2.0 * math.pi * prog["frequency"] * prog["amplitude"])
+            self._wall_speed = max(self._wall_speed, bound)
+
+    def _alloc_buffers(self):
+        n = self.n_particles
+        T = self.n_threads
+        if getattr(self, "_fbuf", None) is None or self._fbuf.shape != (T, n, 3):
+            self._fbuf = np.zeros((T, n, 3))
+            self._tbuf = np.zeros((T, n, 3))
+        nw = self._W.shape[0]
+        if getattr(self, "_wbuf", None) is None or self._wbuf.shape != (T, nw, 6):
+            self._wbuf = np.zeros((T, nw, 6))
+        self._disp = np.zeros(T)
+        self._overflow = np.zeros(T, dtype=np.int64)
+        self._pbounds = self._chunks(n)
+        self._qbounds = self._chunks(self.n_pairs)
+        self._fn_out = np.zeros(0)
+        self._ft_out = np.zeros((0, 3))
+        self._wfn = np.zeros((0, _WALL_SLOTS))
+        self._wdel = np.zeros((0, _WALL_SLOTS))
+        self._wnrm = np.zeros((0, _WALL_SLOTS, 3))
