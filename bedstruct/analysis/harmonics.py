@@ -47,8 +47,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _fabric_kernels as _k
-from .fabric import (FabricTensors, _as_directions, _n_chunks, _resolve_weights, fabric_density,
-                     fabric_tensors)
+from ._fabric_tensors import (FabricTensors, _as_directions, _n_chunks, _resolve_weights,
+                              fabric_density, fabric_tensors)
 
 __all__ = [
     "HarmonicExpansion", "harmonic_expansion", "real_spherical_harmonics", "harmonic_density",

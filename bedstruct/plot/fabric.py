@@ -17,8 +17,9 @@ from typing import Sequence
 
 import numpy as np
 
+from ..analysis._fabric_tensors import _PLANES
 from ..analysis.fabric import (FabricTensors, RegionFabric, fabric_tensors, fabric_density,
-                               projected_density, _PLANES)
+                               projected_density)
 from ..analysis.harmonics import HarmonicExpansion, harmonic_density, sphere_grid
 
 __all__ = [
@@ -286,7 +287,7 @@ def plot_rose_2d(normals, *, weights=None, tensors=None, planes=("xy", "xz", "yz
     >>> [a.get_title() for a in fig.axes]
     ['xy', 'xz', 'yz']
     """
-    from ..analysis.fabric import _as_directions, _resolve_weights
+    from ..analysis._fabric_tensors import _as_directions, _resolve_weights
     Figure = _mpl()
     arr = _as_directions(normals)
     w = _resolve_weights(normals, weights, arr.shape[0])
