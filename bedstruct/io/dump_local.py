@@ -19,7 +19,8 @@ from ..core import Contacts, Frame, Trajectory
 from ..errors import BedstructWarning, DumpFormatError
 from ._source import Source, scan_text
 from ._text import TruncatedFrame, parse_text_frame
-from .lammps_dump import _box_header, _format_rows, _open_write, expand_paths, read_dump
+from ._writer import _box_header, _format_rows, _open_write
+from .lammps_dump import expand_paths, read_dump
 
 __all__ = ["read_dump_local", "write_dump_local", "liggghts_local_columns",
            "PAIR_GRAN_LOCAL_ORDER", "PAIR_GRAN_LOCAL_DEFAULT"]

@@ -202,10 +202,10 @@ def test_top_level_names():
 def test_fast_path_equals_general_path(tmp_path, monkeypatch, chunk, slow_rows):
     """The streaming one-pass parser and the general parser give identical frames,
     wherever the pieces end and however many tokens need the general number parser."""
-    from bedstruct.io import lammps_dump
+    from bedstruct.io import _stream, lammps_dump
     from bedstruct.io._text import parse_text_frame
     from bedstruct.io.lammps_dump import frame_from_raw
-    monkeypatch.setattr(lammps_dump, "_STREAM_CHUNK", chunk)
+    monkeypatch.setattr(_stream, "_STREAM_CHUNK", chunk)
     rng = np.random.default_rng(3)
     n = 500
     cols = "id type x y z xu yu zu ix iy iz vx vy vz omegax omegay omegaz fx fy fz radius c_a f_b[2]"

@@ -1,0 +1,232 @@
+"""The lazy trajectory of dump files: one scan for the byte offset of every frame
+(text or binary), then one frame parsed per access.
+
+Implementation module of :mod:`bedstruct.io.lammps_dump` (import from there).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..core import Frame, Trajectory
+from ..errors import BedstructWarning, DumpFormatError
+from ._binary import is_binary, parse_binary_frame, scan_binary
+from ._columns import frame_from_raw
+from ._source import Source, scan_text
+from ._stream import _stream_columns
+from ._text import RawFrame, TruncatedFrame, parse_text_frame
+
+__all__ = ["DumpTrajectory"]
+
+
+class _Entry:
+    __slots__ = ("file", "kind", "start", "end", "line", "timestep", "count", "at_eof", "state",
+                 "index")
+
+    def __init__(self, **kw):
+        for k, v in kw.items():
+            setattr(self, k, v)
+
+
+class _File:
+    def __init__(self, path):
+        self.source = Source(path)
+        self.path = self.source.path
+        self.ends_with_newline = True
+
+
+class DumpTrajectory(Trajectory):
+    """A lazily read sequence of frames from LAMMPS/LIGGGHTS dump files.
+
+    Created by :func:`read_dump`. The files are scanned once for the byte
+    offsets of the frames; each access parses one frame. Supports ``len()``,
+    indexing, slicing, iteration, :attr:`timesteps`, :attr:`n_particles`,
+    ``close()`` and use as a context manager.
+    """
+
+    def __init__(self, paths, *, radius=None, units=None, strict=True, sort_by_id=True,
+                 wrap=False, columns=None):
+        self._opts = dict(radius=radius, units=units, sort_by_id=sort_by_id, wrap=wrap)
+        self._columns = columns
+        self._files = [_File(p) for p in paths]
+        entries = []
+        for f in self._files:
+            entries.extend(self._scan(f, strict))
+        if len(self._files) > 1:
+            entries.sort(key=lambda e: e.timestep)  # stable: file order, then file position
+        self._entries = entries
+
+    # ----------------------------------------------------------------- scanning
+    def _scan(self, f: _File, strict: bool) -> list:
+        src = f.source
+        head = src.read_range(0, 64)
+        src.close()
+        if not head.strip():
+            return []
+        if is_binary(head):
+            return self._scan_binary(f, strict)
+        scan = scan_text(src)
+        f.ends_with_newline = scan.ends_with_newline
+        entries = []
+        for k, start in enumerate(scan.starts):
+            entries.append(_Entry(file=f, kind="text", start=start, end=scan.end(k),
+                                  line=scan.lines[k], timestep=scan.timesteps[k],
+                                  count=scan.counts[k], at_eof=k == len(scan.starts) - 1,
+                                  state=None, index=k))
+        if entries:
+            self._check_last_text(f, entries, strict, scan.tail)
+        return entries
+
+    def _check_last_text(self, f, entries, strict, tail=None):
+        last = entries[-1]
+        if tail is not None:
+            buf = tail
+        else:
+            buf = f.source.read_range(last.start, last.end - last.start)
+            f.source.close()
+        try:
+            raw = parse_text_frame(buf, path=f.path, line0=last.line, at_eof=True,
+                                   file_ends_with_newline=f.ends_with_newline,
+                                   parse_values=False, ncols_override=self._columns)
+        except TruncatedFrame as exc:
+            if strict:
+                raise
+            warnings.warn(f"skipping the truncated last frame of {f.path} "
+                          f"(timestep {last.timestep}): {exc.message}", BedstructWarning,
+                          stacklevel=4)
+            entries.pop()
+            if entries:
+                entries[-1].at_eof = False
+            return
+        except DumpFormatError:
+            return  # any other defect is reported when that frame is read
+        if raw.partial_tail is not None:
+            if strict:
+                raise DumpFormatError("truncated frame: a frame header is cut off at the end of "
+                                      "the file", path=f.path, line=raw.partial_tail)
+            warnings.warn(f"ignoring a cut-off frame header at the end of {f.path} "
+                          f"(line {raw.partial_tail})", BedstructWarning, stacklevel=4)
+            cut = buf.find(b"ITEM:", _offset_of_line(buf, raw.partial_tail - last.line - 1))
+            last.end = last.start + cut
+            last.at_eof = False
+        elif last.timestep is None:
+            last.timestep = raw.timestep
+
+    def _scan_binary(self, f, strict):
+        scan = scan_binary(f.source)
+        if scan.truncated_at is not None:
+            if strict or not scan.starts:
+                raise DumpFormatError(f"truncated frame: binary snapshot {len(scan.starts) + 1} "
+                                      f"is cut off at byte {scan.truncated_at}", path=f.path)
+            warnings.warn(f"skipping the truncated last snapshot of {f.path} (byte "
+                          f"{scan.truncated_at})", BedstructWarning, stacklevel=4)
+        return [_Entry(file=f, kind="binary", start=s, end=e, line=None, timestep=t, count=c,
+                       at_eof=False, state=st, index=k)
+                for k, (s, e, t, c, st) in enumerate(zip(scan.starts, scan.ends, scan.timesteps,
+                                                        scan.counts, scan.states))]
+
+    # ----------------------------------------------------------------- access
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def _raw(self, index: int, *, header_only=False) -> RawFrame:
+        e = self._entries[index]
+        buf = e.file.source.read_range(e.start, e.end - e.start)
+        if e.kind == "binary":
+            return parse_binary_frame(buf, path=e.file.path, state=e.state,
+                                      columns=self._columns, header_only=header_only)
+        raw = parse_text_frame(buf, path=e.file.path, line0=e.line, at_eof=e.at_eof,
+                               file_ends_with_newline=e.file.ends_with_newline,
+                               header_only=header_only, ncols_override=self._columns)
+        del buf  # the frame text is not kept: messages re-read the line they need
+        raw._rows = self._row_reader(e, raw.data_line)
+        return raw
+
+    def _row_reader(self, e, data_line):
+        def row_text(r):
+            buf = e.file.source.read_range(e.start, e.end - e.start)
+            pos = _offset_of_line(buf, data_line + r - 1 - e.line)
+            end = buf.find(b"\n", pos)
+            return buf[pos:len(buf) if end < 0 else end].decode("latin-1").rstrip("\r")
+        return row_text
+
+    def _read_frame(self, index: int) -> Frame:
+        e = self._entries[index]
+        if e.kind == "text":
+            frame = self._read_text_fast(e)
+            if frame is not None:
+                return frame
+        raw = self._raw(index)  # general path: exact error messages, rare tokens
+        if raw.kind != "ATOMS":
+            raise DumpFormatError("this is a 'dump local' file (ITEM: ENTRIES); read it with "
+                                  "read_dump_local", path=raw.path, line=raw.header_line)
+        return frame_from_raw(raw, frame_index=e.index, **self._opts)
+
+    def _read_text_fast(self, e):
+        """A clean text frame read in pieces straight into its arrays, else None."""
+        total = e.end - e.start
+        head = e.file.source.read_range(e.start, min(total, 1 << 16))
+        try:
+            raw = parse_text_frame(head, path=e.file.path, line0=e.line,
+                                   at_eof=e.at_eof and len(head) == total,
+                                   file_ends_with_newline=e.file.ends_with_newline,
+                                   header_only=True, ncols_override=self._columns)
+        except DumpFormatError:
+            return None
+        if raw.kind != "ATOMS" or raw.n == 0:
+            return None
+        first = head[raw.body_offset:]
+        del head
+        planned = _stream_columns(e.file.source, e.start + raw.body_offset + len(first), e.end,
+                                  first, raw, self._opts["sort_by_id"])
+        if planned is None:
+            return None
+        planned.sort()
+        raw._rows = self._row_reader(e, raw.data_line)
+        return frame_from_raw(raw, frame_index=e.index, planned=planned, **self._opts)
+
+    def header(self, index: int) -> RawFrame:
+        """The parsed header of frame ``index`` (box, columns, units) without its data."""
+        n = len(self)
+        k = index + n if index < 0 else index
+        if not 0 <= k < n:
+            raise IndexError(f"frame index {index} out of range for {n} frames")
+        return self._raw(k, header_only=True)
+
+    @property
+    def timesteps(self) -> np.ndarray:
+        """Timestep of every frame (int64), from the scan (no frame is parsed)."""
+        return np.array([e.timestep for e in self._entries], dtype=np.int64)
+
+    @property
+    def n_particles(self) -> np.ndarray:
+        """Number of particles of every frame (int64), from the headers."""
+        return np.array([-1 if e.count is None else e.count for e in self._entries],
+                        dtype=np.int64)
+
+    @property
+    def paths(self) -> list[str]:
+        """The files read, in the order given."""
+        return [f.path for f in self._files]
+
+    def close(self) -> None:
+        """Close the open files (reading again reopens them)."""
+        for f in self._files:
+            f.source.close()
+
+    def __repr__(self) -> str:
+        what = self._files[0].path if len(self._files) == 1 else f"{len(self._files)} files"
+        return f"DumpTrajectory({what!r}, n_frames={len(self)})"
+
+
+def _offset_of_line(buf: bytes, k: int) -> int:
+    """Byte offset of the 0-based line ``k`` of ``buf``."""
+    pos = 0
+    for _ in range(k):
+        nxt = buf.find(b"\n", pos)
+        if nxt < 0:
+            return len(buf)
+        pos = nxt + 1
+    return pos
