@@ -69,6 +69,29 @@ def _dataset(group, name, arr):
     return group.create_dataset(name, data=arr)
 
 
+def _write_arrays(g, obj, names):
+    """The arrays ``names`` of a Frame or Contacts (those not None) and its extra
+    ``columns`` (as ``columns/<k>`` with a ``name`` attribute, in order)."""
+    for name in names:
+        arr = getattr(obj, name)
+        if arr is not None:
+            _dataset(g, name, arr)
+    cols = g.create_group("columns")
+    for k, (name, arr) in enumerate(obj.columns.items()):
+        ds = _dataset(cols, str(k), arr)
+        ds.attrs["name"] = name
+
+
+def _read_arrays(g, names):
+    """(arrays by name, columns by name) as written by :func:`_write_arrays`."""
+    kw = {name: g[name][()] for name in names if name in g}
+    cols = {}
+    for key in sorted(g["columns"], key=int):
+        ds = g["columns"][key]
+        cols[str(ds.attrs["name"])] = ds[()]
+    return kw, cols
+
+
 def _write_frame(g, frame: Frame):
     g.attrs["timestep"] = frame.timestep
     g.attrs["time"] = np.nan if frame.time is None else frame.time
@@ -84,24 +107,13 @@ def _write_frame(g, frame: Frame):
     g.attrs["source"] = "" if prov.source is None else prov.source
     g.attrs["frame_index"] = -1 if prov.frame_index is None else prov.frame_index
     g.attrs["notes"] = json.dumps(list(prov.notes))
-    for name in _FRAME_ARRAYS:
-        arr = getattr(frame, name)
-        if arr is not None:
-            _dataset(g, name, arr)
-    cols = g.create_group("columns")
-    for k, (name, arr) in enumerate(frame.columns.items()):
-        ds = _dataset(cols, str(k), arr)
-        ds.attrs["name"] = name
+    _write_arrays(g, frame, _FRAME_ARRAYS)
 
 
 def _read_frame(g) -> Frame:
     a = g.attrs
     box = Box(a["box_lo"], a["box_hi"], a["box_tilt"], str(a["box_boundary"]))
-    kw = {name: g[name][()] for name in _FRAME_ARRAYS if name in g}
-    cols = {}
-    for key in sorted(g["columns"], key=int):
-        ds = g["columns"][key]
-        cols[str(ds.attrs["name"])] = ds[()]
+    kw, cols = _read_arrays(g, _FRAME_ARRAYS)
     positions = kw.pop("positions").reshape(-1, 3)
     radii = kw.pop("radii")
     units = Units(str(a["units_style"]) if a["units_known"] else None,
@@ -117,22 +129,13 @@ def _read_frame(g) -> Frame:
 def _write_contacts(g, c: Contacts):
     g.attrs["n_particles"] = c.n_particles
     g.attrs["source"] = c.source
-    for name in _CONTACT_ARRAYS:
-        arr = getattr(c, name)
-        if arr is not None:
-            _dataset(g, name, arr)
-    cols = g.create_group("columns")
-    for k, (name, arr) in enumerate(c.columns.items()):
-        ds = _dataset(cols, str(k), arr)
-        ds.attrs["name"] = name
+    _write_arrays(g, c, _CONTACT_ARRAYS)
 
 
 def _read_contacts(g) -> Contacts:
-    kw = {name: g[name][()] for name in _CONTACT_ARRAYS if name in g}
+    kw, cols = _read_arrays(g, _CONTACT_ARRAYS)
     if "periodic" in kw:
         kw["periodic"] = kw["periodic"].astype(bool)
-    cols = {str(g["columns"][k].attrs["name"]): g["columns"][k][()]
-            for k in sorted(g["columns"], key=int)}
     m = kw["i"].shape[0]
     for name in ("branch", "force_normal", "force_tangential"):
         if name in kw:

@@ -132,6 +132,14 @@ def test_hdf5_contacts_provenance_time_and_version(tmp_path, sc_frame):
     for name in ("i", "j", "branch", "radii_i", "periodic", "force_normal"):
         np.testing.assert_array_equal(getattr(back, name), getattr(c, name))
     assert back.n_particles == c.n_particles
+
+    # extra per-contact columns come back by name, in order (also for frames, above)
+    c.columns = {"c_id": np.arange(c.n_contacts) * 3, "f_torque": np.ones((c.n_contacts, 3))}
+    save_hdf5(tmp_path / "cols.h5", [f], contacts=[c])
+    back = load_hdf5(tmp_path / "cols.h5").contacts[0]
+    assert list(back.columns) == ["c_id", "f_torque"]
+    for name in c.columns:
+        np.testing.assert_array_equal(back.columns[name], c.columns[name])
     with pytest.raises(ValueError, match="align"):
         save_hdf5(tmp_path / "bad.h5", [f], contacts=[c, c])
     assert not (tmp_path / "bad.h5").exists()
