@@ -18,12 +18,9 @@ from bedstruct.analysis.fabric import (
 )
 from bedstruct.analysis.harmonics import _sphere_quadrature
 
+from _directions import random_rotation, unit
+
 DELTA = np.eye(3)
-
-
-def unit(x):
-    x = np.asarray(x, dtype=float)
-    return x / np.linalg.norm(x, axis=-1, keepdims=True)
 
 
 def icosahedron():
@@ -33,14 +30,6 @@ def icosahedron():
     for a, b in itertools.product((-1, 1), repeat=2):
         v += [(0, a, b * g), (a, b * g, 0), (b * g, 0, a)]
     return unit(v)
-
-
-def random_rotation(rng):
-    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    q = q * np.sign(np.diag(r))
-    if np.linalg.det(q) < 0:
-        q[:, 0] *= -1
-    return q
 
 
 def brute_moments(n, w=None):

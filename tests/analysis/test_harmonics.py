@@ -14,10 +14,7 @@ from bedstruct.analysis.harmonics import (
     harmonic_expansion, harmonics_from_fabric, real_spherical_harmonics, sphere_grid,
 )
 
-
-def unit(x):
-    x = np.asarray(x, dtype=float)
-    return x / np.linalg.norm(x, axis=-1, keepdims=True)
+from _directions import random_rotation, unit
 
 
 def scipy_real_ylm(l_max, d):
@@ -36,14 +33,6 @@ def scipy_real_ylm(l_max, d):
                 v = sph_harm_y(l, 0, th, ph).real
             out[:, l * l + l + m] = v
     return out
-
-
-def random_rotation(rng):
-    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    q = q * np.sign(np.diag(r))
-    if np.linalg.det(q) < 0:
-        q[:, 0] *= -1
-    return q
 
 
 def test_real_harmonics_match_scipy():
