@@ -1,7 +1,8 @@
 """Diagnose the sim-to-real gap, or validate the diagnosis on synthetic twins.
 
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--json]
-  bedstruct diagnose validate --preset tiny|small [--out DIR] [--json]
+  bedstruct diagnose validate --preset tiny|small [--simulator surrogate|engine]
+                             [--sim CONFIG] [--cache DIR] [--out DIR] [--json]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -10,8 +11,11 @@ Writes DIR/report.html, DIR/report.json and DIR/diagnosis.json (or
 validation.json). With --json the last line printed is one JSON object: for a
 diagnosis at least ``where``, ``which`` and ``shrink``; for validation at least
 ``top1_accuracy``, ``null_false_attribution``, ``out_of_catalogue_unexplained``
-and ``median_gap_shrink``. ``validate`` runs its twins on the analytic surrogate,
-and every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
+and ``median_gap_shrink``. ``validate`` runs its twins on the analytic surrogate
+by default (seconds); ``--simulator engine`` runs them on the embedded DEM engine
+(the ``[engine]`` table of ``--sim CONFIG``, default the tiny preset; ``--cache DIR``
+keeps every engine run on disk for reruns; ``--preset mini`` is a one-effect smoke
+run). Every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
 """
 
 from __future__ import annotations
@@ -26,8 +30,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--sim", metavar="CONFIG", help="simulation config TOML, or 'surrogate'")
     parser.add_argument("--real", metavar="MEASUREMENTS", help="measurement TOML file")
     parser.add_argument("--out", metavar="DIR", help="output folder (HTML + JSON)")
-    parser.add_argument("--preset", choices=["tiny", "small"], default="tiny",
-                        help="validation size (default tiny)")
+    parser.add_argument("--preset", choices=["mini", "tiny", "small"], default="tiny",
+                        help="validation size (default tiny; mini: engine only)")
+    parser.add_argument("--simulator", choices=["surrogate", "engine"], default="surrogate",
+                        help="validate: simulator of the twins (default surrogate; engine = DEM, slow)")
+    parser.add_argument("--cache", metavar="DIR",
+                        help="engine: folder caching every run (overrides [engine] cache)")
     parser.add_argument("--seed", type=int, default=None, help="override the replicate/twin seed")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
@@ -49,7 +57,19 @@ def _run_validate(args) -> int:
     from ..report._render import write_report
     from . import print_json
 
-    result = validate(args.preset, seed=args.seed or 0, progress=args.progress)
+    from ..errors import ConfigError
+    engine = None
+    if args.simulator == "engine":
+        engine = {"preset": "tiny"}
+        if args.sim:
+            from ..diagnose import load_sim_config
+            engine = dict(load_sim_config(args.sim).engine) or engine
+        if args.cache:
+            engine["cache"] = args.cache
+    elif args.sim or args.cache:
+        raise ConfigError("--sim/--cache with validate need --simulator engine")
+    result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
+                      simulator=args.simulator, engine=engine)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)

@@ -15,9 +15,19 @@ density of the diagnosis (calibrated for the seed's stiff, fine powder) is
 multiplied by ``cohesion_scale`` (default: the preset's cohesion / 3.6e7), rake
 speeds are the preset's spreading speed times the ratio of the observable's speed
 to the seed's x1 speed (0.0254 m/s), layers beyond the preset's are mapped to
-its last layer, and lengths come out in the scale model's units. Numbers from
-such runs test the wiring and the method on real contact physics; they are not
-predictions for the seed powder.
+its last layer, and lengths come out in the scale model's units. Effect
+parameters are mapped to the scale model too (:meth:`EngineSimulator.scale_effects`:
+ageing and blade start-up times by the ratio of the stroke times, fines
+diameters relative to the preset's cut-off, capillary bridges at the same Bond
+number). Numbers from such runs test the wiring and the method on real contact
+physics; they are not predictions for the seed powder.
+
+With ``cache = DIR`` in the ``[engine]`` table every call's observations are
+stored on disk (``DIR/<hash>.json``, one file per call, keyed by the fully
+resolved workflow configuration of the call, i.e. preset, overrides, base
+parameters, effects and seed, plus each observable's kind and conditions): a
+rerun, a validation twin or another measurement file with observables of the
+same kinds and conditions reuses them instead of simulating again.
 
 .. versionadded:: 0.1
 """
@@ -25,8 +35,11 @@ predictions for the seed powder.
 from __future__ import annotations
 
 import copy
+import hashlib
+import json
 import logging
 import math
+import os
 import tempfile
 from pathlib import Path
 from typing import Any, Mapping
@@ -36,15 +49,23 @@ import numpy as np
 from ..errors import ConfigError
 from .config import load_config
 
-__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config"]
+__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
 
 _SPEED_X1 = 0.0254          # m/s, the seed's x1 rake speed
 _K_SEED = 3.6e7             # J/m^3, the diagnosis' base cohesion energy density
 _REGIONS = {"start": 0, "center": 1, "centre": 1, "middle": 1, "end": 2}
+_STROKE_SEED = 18.9e-3 / _SPEED_X1   # s, the seed's x1 stroke over its 18.9 mm platform
 _ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_time_scale",
-                "n_threads", "seed", "workdir"}
+                "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
+                "seed", "workdir", "cache"}
+_CACHE_SCHEMA = 2   # bump when the simulator's observation semantics change
+#: Workflow overrides applied to a preset before the user's (the scale model of the
+#: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
+#: the stroke, leaving most frames without a heap whose angle can be measured.
+PRESET_OVERRIDES = {"tiny": ("spread.pile_particles=1000", "spread.pile_length=0.9e-3",
+                             "spread.n_frames=16")}
 
 
 def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1.0) -> dict:
@@ -104,8 +125,14 @@ class EngineSimulator:
         The ``[engine]`` table: ``preset`` (default ``"tiny"``), ``overrides``
         (list of ``section.key=value``), ``cohesion_scale``, ``speed_scale``
         (default: preset speed / 0.0254), ``ageing_time_scale`` (default 1),
+        ``blade_time_scale`` (default: the preset's stroke time over the seed's,
+        1 for ``seed``), ``capillary_scale`` (factor on the bridge force;
+        default ``psd.scale**2``, the same Bond number at coarse-grained sizes),
+        ``fines_scale`` (default: ``psd.d_min`` / 28 um), ``wide_box`` (m; a
+        ``box_width`` below it is simulated with side walls, default 0.01),
         ``n_threads``, ``seed`` (offset added to the replicate seed),
-        ``workdir`` (folder for run directories; default a temporary one).
+        ``workdir`` (folder for run directories; default a temporary one),
+        ``cache`` (folder of the observation cache; default none).
 
     Notes
     -----
@@ -124,7 +151,8 @@ class EngineSimulator:
                               f"(known: {sorted(_ENGINE_KEYS)})")
         self.design = design
         self.preset = str(cfg.get("preset", "tiny"))
-        self.overrides = [str(s) for s in cfg.get("overrides", [])]
+        self.overrides = list(PRESET_OVERRIDES.get(self.preset, ())) + \
+            [str(s) for s in cfg.get("overrides", [])]
         self.base_cfg = load_config(preset=self.preset, overrides=self.overrides)
         if "n_threads" in cfg:
             self.base_cfg["n_threads"] = int(cfg["n_threads"])
@@ -133,9 +161,27 @@ class EngineSimulator:
                                             1.0 if self.preset == "seed" else k0 / _K_SEED))
         self.speed_scale = float(cfg.get("speed_scale",
                                          float(self.base_cfg["spread"]["speed"]) / _SPEED_X1))
-        self.ageing_time_scale = float(cfg.get("ageing_time_scale", 1.0))
+        seed_preset = self.preset == "seed"
+        sc = self.base_cfg["spread"]
+        stroke = float(sc["plate_length"]) / float(sc["speed"])
+        # scale model: rest times of the ageing law fit into the preset's settling times
+        self.ageing_time_scale = float(cfg.get("ageing_time_scale", 1.0 if seed_preset else 1000.0))
+        self.blade_time_scale = float(cfg.get("blade_time_scale",
+                                              1.0 if seed_preset else stroke / _STROKE_SEED))
+        psd = self.base_cfg["psd"]
+        self.capillary_scale = float(cfg.get("capillary_scale", float(psd["scale"]) ** 2))
+        self.fines_scale = float(cfg.get("fines_scale",
+                                         1.0 if seed_preset else float(psd["d_min"]) / 28e-6))
+        self.wide_box = float(cfg.get("wide_box", 0.01))
+        for key in ("ageing_time_scale", "blade_time_scale", "capillary_scale", "fines_scale",
+                    "wide_box"):
+            v = getattr(self, key)
+            if not (math.isfinite(v) and v > 0):
+                raise ConfigError(f"[engine]: key {key!r} must be positive and finite; got {v!r}")
         self.seed_offset = int(cfg.get("seed", 0))
         self.workdir = cfg.get("workdir")
+        self.cache = Path(cfg["cache"]).expanduser() if cfg.get("cache") else None
+        self.n_cached = 0
         for m in design:
             if m.kind not in ("static_angle", "dynamic_angle_series", "bed_height",
                               "packing_fraction", "psd", "roughness", "coordination"):
@@ -158,18 +204,122 @@ class EngineSimulator:
             raise ConfigError(f"base parameter {sorted(unknown)[0]!r} is not known to the engine "
                               "simulator (cohesion_energy_density, friction, rolling_friction, "
                               "restitution)")
-        cfg["effects"].update(effects_config(effects, ageing_time_scale=self.ageing_time_scale))
+        cfg["effects"].update(self.scale_effects(effects_config(effects)))
         cfg["seed"] = int(seed) + self.seed_offset
         return load_config(cfg)  # type checks and validation
+
+    def scale_effects(self, fx: Mapping[str, Any]) -> dict:
+        """Map catalogue engine parameters (seed scale) to the preset's scale model.
+
+        Ageing times are divided by ``ageing_time_scale``; the blade ramp time is
+        multiplied and the vibration frequency divided by ``blade_time_scale`` (the
+        same fraction of the stroke); the vibration amplitude is multiplied by
+        ``psd.scale``; fines diameters by ``fines_scale`` (the same ratio to the
+        preset's cut-off ``psd.d_min``); the capillary surface tension by
+        ``capillary_scale`` and the film thickness by ``psd.scale`` (the bridge
+        force per particle weight and the bridge volume per particle volume of
+        the coarse-grained particles stay those of the seed powder).
+        """
+        out = dict(fx)
+        ps = float(self.base_cfg["psd"]["scale"])
+        rules = {"ageing_time_constant": 1.0 / self.ageing_time_scale,
+                 "ageing_reference_rest_time": 1.0 / self.ageing_time_scale,
+                 "blade_ramp_time": self.blade_time_scale,
+                 "blade_vibration_frequency": 1.0 / self.blade_time_scale,
+                 "blade_vibration_amplitude": ps,
+                 "fines_median_diameter": self.fines_scale,
+                 "fines_min_diameter": self.fines_scale,
+                 "capillary_surface_tension": self.capillary_scale,
+                 "capillary_film_thickness": ps}
+        for key, f in rules.items():
+            if key in out and not isinstance(out[key], (bool, str)):
+                out[key] = float(out[key]) * f
+        return out
+
+    # ------------------------------------------------------------------ cache
+    def _spec(self, m) -> dict:
+        """What an observable's simulated value depends on besides the run configuration
+        (conditions the engine ignores or maps together are canonicalised, so that equal
+        simulations share cache entries)."""
+        c = m.conditions
+        spec: dict[str, Any] = {"kind": m.kind}
+        if m.kind == "static_angle":
+            bw = c.get("box_width")
+            spec["walled"] = bool(bw is not None and float(bw) < self.wide_box)
+            rh = c.get("relative_humidity")
+            spec["relative_humidity"] = None if rh is None else float(rh)
+        elif m.kind == "psd" and c.get("stage", "before") == "before":
+            pass
+        else:
+            n = len(self.base_cfg["spread"]["gaps"])
+            spec["layer"] = n if c.layer is None else min(max(int(c.layer), 1), n)
+            spec["speed"] = None if c.speed is None else round(float(c.speed), 12)
+            if m.kind in ("packing_fraction", "coordination"):
+                spec["region"] = _REGIONS.get(str(c.region or "center").lower(), 1)
+        if m.kind == "psd":
+            spec["stage"] = c.get("stage", "before")
+        if m.windows is not None:
+            spec["windows"] = np.asarray(m.windows, float).round(12).tolist()
+        if m.percentiles is not None:
+            spec["percentiles"] = np.asarray(m.percentiles, float).tolist()
+        return spec
+
+    def cache_key(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int) -> str:
+        """Hash of one call (the fully resolved workflow configuration and the scale model)."""
+        doc = {"schema": _CACHE_SCHEMA, "config": self.run_config(base, effects, seed),
+               "wide_box": self.wide_box, "speed_scale": self.speed_scale}
+        text = json.dumps(doc, sort_keys=True, default=float)
+        return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+    def _cache_read(self, key: str) -> dict:
+        if self.cache is None:
+            return {}
+        f = self.cache / f"{key}.json"
+        if not f.is_file():
+            return {}
+        try:
+            return json.loads(f.read_text(encoding="utf-8")).get("observables", {})
+        except (OSError, ValueError):
+            log.warning("engine cache: unreadable entry %s ignored", f)
+            return {}
+
+    def _cache_write(self, key: str, entries: dict, meta: dict) -> None:
+        if self.cache is None:
+            return
+        self.cache.mkdir(parents=True, exist_ok=True)
+        f = self.cache / f"{key}.json"
+        tmp = f.with_suffix(f".tmp{os.getpid()}")
+        tmp.write_text(json.dumps({"meta": meta, "observables": entries}, indent=0,
+                                  sort_keys=True), encoding="utf-8")
+        os.replace(tmp, f)
 
     # ------------------------------------------------------------------- runs
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int):
         from ..diagnose.measurements import Observations
         cfg = self.run_config(base, effects, seed)
-        root = Path(self.workdir) if self.workdir else None
-        with tempfile.TemporaryDirectory(dir=root) as tmp:
-            runs = _Runs(self, cfg, effects, Path(tmp))
-            values = {m.name: runs.observe(m) for m in self.design}
+        key = self.cache_key(base, effects, seed) if self.cache is not None else ""
+        cached = self._cache_read(key) if key else {}
+        specs = {m.name: json.dumps(self._spec(m), sort_keys=True) for m in self.design}
+        values = {n: np.asarray(cached[sp]["value"], float) for n, sp in specs.items()
+                  if sp in cached}
+        todo = [m for m in self.design if m.name not in values]
+        if todo:
+            root = Path(self.workdir) if self.workdir else None
+            with tempfile.TemporaryDirectory(dir=root) as tmp:
+                runs = _Runs(self, cfg, effects, Path(tmp))
+                for m in todo:
+                    values[m.name] = runs.observe(m)
+            if key:
+                entries = dict(cached)
+                for m in todo:
+                    if np.all(np.isfinite(values[m.name])):
+                        entries[specs[m.name]] = {"value": values[m.name].tolist(), "name": m.name}
+                self._cache_write(key, entries, {"base": dict(base), "effects": dict(effects),
+                                                 "seed": int(seed), "preset": self.preset,
+                                                 "overrides": self.overrides})
+        else:
+            self.n_cached += 1
+        values = {m.name: values[m.name] for m in self.design}
         bad = [k for k, v in values.items() if not np.all(np.isfinite(v))]
         if bad:  # the diagnosis' linear algebra cannot use them: say which and where
             raise ValueError(f"engine simulator: observable(s) {bad} not finite (no fit: e.g. a "
@@ -189,17 +339,18 @@ class _Runs:
         self.tmp = tmp
         self.cache: dict = {}
 
-    def _repose(self, rh):
-        key = ("repose", rh)
+    def _repose(self, rh, walled=False):
+        key = ("repose", rh, walled)
         if key not in self.cache:
             from .repose import run_repose
-            cfg = self.cfg
+            cfg = copy.deepcopy(self.cfg)
             if rh is not None:  # the observable's humidity overrides the capillary magnitude
                 eff = dict(self.effects, capillary_bridges=float(rh))
-                cfg = copy.deepcopy(self.cfg)
                 fx = copy.deepcopy(self.owner.base_cfg["effects"])
-                fx.update(effects_config(eff, ageing_time_scale=self.owner.ageing_time_scale))
+                fx.update(self.owner.scale_effects(effects_config(eff)))
                 cfg["effects"] = fx
+            if walled:  # a narrow box: side walls at the preset's box width
+                cfg["repose"]["periodic_width"] = False
             out = self.tmp / f"repose{len(self.cache)}"
             res = run_repose(cfg, out=out, replicates=1)
             self.owner.n_runs += 1
@@ -231,7 +382,9 @@ class _Runs:
         from ..io import read_dump
         c = m.conditions
         if m.kind == "static_angle":
-            res, out = self._repose(c.get("relative_humidity"))
+            bw = c.get("box_width")
+            walled = bw is not None and float(bw) < self.owner.wide_box
+            res, out = self._repose(c.get("relative_humidity"), walled)
             fr = _last_frame(read_dump, out / "rep00" / "pile.dump.gz")
             try:
                 val = observe("static_angle", fr)
@@ -250,13 +403,21 @@ class _Runs:
         res, out, cfg = self._spread(c.speed)
         lay = self._layer(res, c.layer)
         if m.kind == "dynamic_angle_series":
+            # stroke fraction over the platform: frames with the tool beyond the platform end
+            # (the overrun) have no heap on the platform and are not part of the stroke
             pos = np.asarray(lay.blade_positions, float)
-            stroke = max(float(pos.max() - pos.min()), 1e-12) if pos.size else 1.0
-            times = (pos - pos.min()) / stroke if pos.size else pos
             ang = np.asarray(lay.dynamic_angle_deg, float)
+            plate = float(cfg["spread"]["plate_length"])
+            on = pos <= plate
+            pos, ang = pos[on], ang[on]
+            p0 = float(pos.min()) if pos.size else 0.0
+            times = (pos - p0) / max(plate - p0, 1e-12)
             ok = np.isfinite(ang)
             if not ok.any():
-                return np.full(len(m.windows), np.nan)
+                raise ValueError(f"engine simulator: observable {m.name!r}: no frame of layer "
+                                 f"{lay.index} at speed {cfg['spread']['speed']:.3g} m/s has a heap "
+                                 "of two diameters or more in front of the tool (no dynamic angle); "
+                                 "a larger pile (spread.pile_particles) or an earlier layer is needed")
             t_ok, a_ok = times[ok], ang[ok]
             vals = []
             for w in np.asarray(m.windows, float).reshape(-1, 2):
@@ -277,7 +438,9 @@ class _Runs:
             return np.array([float(lay.roughness_sa_m)])
         if m.kind == "psd":  # after spreading: the particles on the platform after the layer
             idx = res.layers.index(lay) + 1
-            fr = _last_frame(read_dump, out / f"layer{idx:02d}" / "final.dump.gz")
+            stage = out / f"layer{idx:02d}"
+            bed = stage / "bed.dump.gz"
+            fr = _last_frame(read_dump, bed if bed.is_file() else stage / "final.dump.gz")
             x = np.asarray(fr.positions)[:, 0]
             on = (x >= 0.0) & (x <= float(cfg["spread"]["plate_length"]))
             d = 2.0 * np.asarray(fr.radii)[on] / float(cfg["psd"]["scale"])

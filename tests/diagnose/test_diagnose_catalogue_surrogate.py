@@ -10,6 +10,7 @@ import pytest
 from bedstruct.diagnose import (CATALOGUE, BASE_PARAMETERS, SurrogateSimulator, catalogue, effect,
                                 engine_hooks, halsey_film_thickness, load_sim_config,
                                 measurement_from_dict, MeasurementSet, make_simulator)
+from bedstruct.diagnose.catalogue import CAPILLARY_ASPERITY, kelvin_radius
 from bedstruct.errors import ConfigError
 
 
@@ -27,8 +28,9 @@ def test_catalogue_has_the_six_effects_documented():
         assert e.reference_magnitudes == (0.5 * hi, hi)
     hooks = engine_hooks()
     assert hooks["capillary_bridges"]["capillary"] is True
+    ca = CAPILLARY_ASPERITY
     assert hooks["capillary_bridges"]["capillary_film_thickness"] == pytest.approx(
-        halsey_film_thickness(0.8))
+        halsey_film_thickness(0.8) * (ca["asperity_radius"] / ca["reference_radius"]) ** 2)
     assert effect("capillary_bridges").engine_parameters(0.0)["capillary"] is False
     assert effect("blade_startup").engine_parameters(0.1)["blade_ramp_time"] == pytest.approx(0.1)
     with pytest.raises(ConfigError, match="unknown effect"):
@@ -139,3 +141,21 @@ def test_sim_config_file_and_engine_hook(tmp_path):
         p.write_text(text)
         with pytest.raises(ConfigError, match=key):
             load_sim_config(p)
+
+
+def test_capillary_asperity_force_is_a_few_particle_weights_and_grows_with_humidity():
+    # Bond number of the pull-off force the engine's Willett form gives at contact,
+    # 2 pi (2 R*) gamma' cos(theta), for two equal 52 um CoCr spheres (R* = D50/4)
+    d = 52.08e-6
+    weight = math.pi / 6 * d ** 3 * 8300.0 * 9.81
+    bo = []
+    for rh in (0.1, 0.3, 0.5, 0.8):
+        p = effect("capillary_bridges").engine_parameters(rh)
+        bo.append(2 * math.pi * (d / 2) * p["capillary_surface_tension"]
+                  * math.cos(p["capillary_contact_angle"]) / weight)
+    assert all(b2 > b1 for b1, b2 in zip(bo, bo[1:]))
+    assert 2.0 < bo[0] and bo[-1] < 50.0       # not the full-sphere ~2000 weights
+    full = 2 * math.pi * (d / 2) * 0.072 * math.cos(math.radians(20)) / weight
+    assert 1500 < full < 2500
+    # Kelvin radius: gamma V_m / (R T ln(1/RH)); at RH = 1/e it is 0.53 nm
+    assert kelvin_radius(math.exp(-1.0)) == pytest.approx(0.072 * 1.8e-5 / (8.314462618 * 293.15))

@@ -26,7 +26,8 @@ def twin_setup():
 
 
 def _twin(sim, fps, tmp_path, effects, seed):
-    return _twin_measurements(twin_design(), sim, dict(BASE_PARAMETERS), effects, seed, tmp_path, seed)
+    return _twin_measurements(twin_design(), sim, dict(BASE_PARAMETERS), effects, seed, tmp_path, seed,
+                              sim.noise_sd())
 
 
 def test_withheld_effect_is_found_with_magnitude(twin_setup, tmp_path):
