@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from .._numba import njit
+from .._numba import njit, prange
 
 __all__ = ["wall_geometry", "closest_on_triangle", "mesh_geometry", "wall_candidates",
            "WALL_PLANE", "WALL_RECT", "WALL_PRISM", "WALL_CYLINDER", "WALL_MESH", "WALL_NCOL"]
@@ -241,38 +241,31 @@ def mesh_geometry(W, w, tri, px, py, pz, time):
     return True, d, gx / d, gy / d, gz / d, W[w, 10], W[w, 11], W[w, 12], 0.0, 0.0, 0.0
 
 
-@njit(**_FM)
-def wall_candidates(x, rad, W, tri, time, skin, fill, wstart, wcand, wslot, whist):
-    """Particle-wall candidate list (CSR): walls closer than ``r + skin``.
+@njit(parallel=True, **_FM)
+def wall_candidates(x, rad, W, tri, time, skin, bounds, near, wslot, whist):
+    """Particle-wall candidates: ``near[i, w]`` is True when wall w is closer than ``r + skin``.
 
-    With ``fill=False`` writes per-particle counts to ``wstart[i+1]``; with
-    ``fill=True`` (``wstart`` then holding offsets) writes the wall indices and
-    frees history slots of walls that are no longer candidates.
+    One parallel pass over particle chunks (``bounds``); history slots of walls
+    that are no longer candidates are freed. The orchestration compacts
+    ``near`` into a CSR list (walls of a particle in increasing order).
     """
-    n = x.shape[0]
     nw = W.shape[0]
     ns = wslot.shape[1]
-    for i in range(n):
-        pos = wstart[i]
-        cnt = 0
-        for w in range(nw):
-            if int(W[w, 0]) == WALL_MESH:
-                hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(
-                    W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
-            else:
-                hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = wall_geometry(
-                    W, w, x[i, 0], x[i, 1], x[i, 2], time)
-            near = hit and dist < rad[i] + skin and dist > -rad[i] - skin
-            if near:
-                if fill:
-                    wcand[pos] = w
-                    pos += 1
-                cnt += 1
-            elif fill:
-                for sl in range(ns):
-                    if wslot[i, sl] == w:
-                        wslot[i, sl] = -1
-                        for c in range(6):
-                            whist[i, sl, c] = 0.0
-        if not fill:
-            wstart[i + 1] = cnt
+    nt = bounds.shape[0] - 1
+    for t in prange(nt):
+        for i in range(bounds[t], bounds[t + 1]):
+            for w in range(nw):
+                if int(W[w, 0]) == WALL_MESH:
+                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(
+                        W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
+                else:
+                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = wall_geometry(
+                        W, w, x[i, 0], x[i, 1], x[i, 2], time)
+                ok = hit and dist < rad[i] + skin and dist > -rad[i] - skin
+                near[i, w] = ok
+                if not ok:
+                    for sl in range(ns):
+                        if wslot[i, sl] == w:
+                            wslot[i, sl] = -1
+                            for c in range(6):
+                                whist[i, sl, c] = 0.0

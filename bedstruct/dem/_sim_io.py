@@ -197,6 +197,7 @@ class _StateIO:
         sim.rng.bit_generator.state = meta["rng"]
         sim._wall_cfg = cfg["walls"]
         sim._alloc_buffers()
+        sim._balance_finish()
         sim._wall_list_time = meta["wall_list_time"]
         sim._wall_speed = meta["wall_speed"]
         sim._programs = dict(meta.get("wall_programs", {}))

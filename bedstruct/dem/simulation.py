@@ -399,7 +399,7 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
         Y, G, B, MU, MUR, COH = self._tabs
         m = self.model
         K.finish_step(self.x, v, om, f, tq, fbuf, tbuf, self.mass, self.inv_m, self.inv_i,
-                      self.rad, self.ptype, self.gravity, self._pbounds, self._W, self._tri,
+                      self.rad, self.ptype, self.gravity, self._fbounds, self._W, self._tri,
                       self.time, self._wstart, self._wcand, wslot, whist, self._wbuf, Y, G, B, MU, MUR, COH, m.rolling_code,
                       m.tangential_damping, m.limit_force, float(m.rolling_damping), dt, store,
                       wfn, wdel, wnrm, self._overflow, float(m.rolling_stiffness_factor))
