@@ -27,6 +27,18 @@ OK, BAD_COUNT, SLOW = 0, 1, 2
 
 
 @njit(inline="always")
+def _digits(buf, i, e, m):
+    """Append the decimal digits starting at ``buf[i]`` to ``m``: (m, index after them)."""
+    while i < e:
+        d = np.int64(buf[i]) - 48
+        if d < 0 or d > 9:
+            break
+        m = m * 10 + d
+        i += 1
+    return m, i
+
+
+@njit(inline="always")
 def _number(buf, i, e, pow10):
     """Parse the token starting at ``buf[i]``: returns (value, index after it, exact)."""
     neg = False
@@ -37,25 +49,14 @@ def _number(buf, i, e, pow10):
     elif c == 43:
         i += 1
     # all mantissa digits, integer and fraction part, into one integer
-    m = 0
     t0 = i
-    while i < e:
-        d = np.int64(buf[i]) - 48
-        if d < 0 or d > 9:
-            break
-        m = m * 10 + d
-        i += 1
+    m, i = _digits(buf, i, e, np.int64(0))
     nd = i - t0
     exp10 = 0
     if i < e and buf[i] == 46:
         i += 1
         t1 = i
-        while i < e:
-            d = np.int64(buf[i]) - 48
-            if d < 0 or d > 9:
-                break
-            m = m * 10 + d
-            i += 1
+        m, i = _digits(buf, i, e, m)
         exp10 = t1 - i
         nd += i - t1
     # more than 18 digits (leading zeros included) could overflow: general parser
