@@ -14,7 +14,8 @@ import numpy as np
 from ..analysis._fabric_tensors import _PLANES
 from ..analysis.fabric import FabricTensors, RegionFabric, fabric_density, projected_density
 from ..analysis.harmonics import HarmonicExpansion, sphere_grid
-from ._fabric_roses import _draw_rose, _mpl, _named_results, _normalise_kind
+from ._fabric_roses import _draw_rose, _named_results, _normalise_kind
+from ._mpl import figure_class
 
 __all__ = ["plot_fabric_difference", "plot_fabric_differences", "plot_fabric_evolution",
            "plot_harmonic_power"]
@@ -67,7 +68,7 @@ def plot_fabric_difference(first, second, *, rank=4, views=("3d", "xy", "xz"), n
     '3d: second - first'
     """
     _as_pair(first, second)
-    Figure = _mpl()
+    Figure = figure_class(three_d=True)
     from matplotlib.cm import ScalarMappable
     from matplotlib import colors
     rank = _normalise_kind(rank)
@@ -143,7 +144,7 @@ def plot_fabric_differences(results, *, names=None, pairs=None, rank=4, views=("
     >>> [a.get_title() for a in fig.axes if a.name == "polar"][:2]
     ['xy: centre - start', 'xz: centre - start']
     """
-    Figure = _mpl()
+    Figure = figure_class(three_d=True)
     names, items = _named_results(results, names)
     pairs = list(combinations(range(len(items)), 2)) if pairs is None else [tuple(p) for p in pairs]
     views = list(views)
@@ -188,7 +189,7 @@ def plot_fabric_evolution(results, *, x=None, xlabel=None, axes=None):
     >>> len(fig.axes[0].get_lines()), len(fig.axes[1].get_lines())  # + the 1/3 guide line
     (4, 2)
     """
-    Figure = _mpl()
+    Figure = figure_class(three_d=True)
     if isinstance(results, RegionFabric):
         items = list(results.tensors)
         if x is None:
@@ -253,7 +254,7 @@ def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlab
     >>> len(fig.axes[0].get_lines())   # l = 4 and l = 6 (l = 2 is zero for cubic data)
     2
     """
-    Figure = _mpl()
+    Figure = figure_class(three_d=True)
     if isinstance(expansions, RegionFabric):
         if expansions.expansions is None:
             raise ValueError("this RegionFabric has no expansions; call region_fabric(..., l_max=8)")

@@ -15,20 +15,11 @@ from ..analysis._fabric_tensors import _PLANES
 from ..analysis.fabric import (FabricTensors, RegionFabric, fabric_tensors, fabric_density,
                                projected_density)
 from ..analysis.harmonics import HarmonicExpansion, harmonic_density, sphere_grid
+from ._mpl import figure_class
 
 __all__ = ["plot_rose", "plot_rose_grid", "plot_rose_2d", "rose_mesh"]
 
 _KIND_TITLES = {2: "rank 2", 4: "rank 4", "difference": "rank 4 - rank 2"}
-
-
-def _mpl():
-    try:
-        import matplotlib  # noqa: F401
-        from matplotlib.figure import Figure
-        import mpl_toolkits.mplot3d  # noqa: F401  (registers the 3-D projection)
-    except ImportError as exc:  # pragma: no cover
-        raise ImportError("plotting needs matplotlib: pip install matplotlib") from exc
-    return Figure
 
 
 def _normalise_kind(kind):
@@ -136,7 +127,7 @@ def plot_rose(source, *, kind=None, ax=None, n_theta: int = 41, n_phi: int = 81,
     >>> len(fig.axes)   # the rose and its colour bar
     2
     """
-    Figure = _mpl()
+    Figure = figure_class(three_d=True)
     from matplotlib.cm import ScalarMappable
     if ax is None:
         fig = Figure(figsize=(5.5, 5))
@@ -189,7 +180,7 @@ def plot_rose_grid(results, *, names=None, kinds=(2, 4, "difference"), n_theta: 
     >>> len([a for a in fig.axes if a.name == "3d"])
     6
     """
-    Figure = _mpl()
+    Figure = figure_class(three_d=True)
     names, items = _named_results(results, names)
     kinds = list(kinds)
     norms = [None] * len(kinds)
@@ -279,7 +270,7 @@ def plot_rose_2d(normals, *, weights=None, tensors=None, planes=("xy", "xz", "yz
     ['xy', 'xz', 'yz']
     """
     from ..analysis._fabric_tensors import _as_directions, _resolve_weights
-    Figure = _mpl()
+    Figure = figure_class(three_d=True)
     arr = _as_directions(normals)
     w = _resolve_weights(normals, weights, arr.shape[0])
     norm = np.sqrt(np.einsum("ij,ij->i", arr, arr))

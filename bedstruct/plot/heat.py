@@ -6,18 +6,11 @@ import math
 
 import numpy as np
 
+from ._mpl import figure_class
+
 __all__ = ["plot_temperature_map", "plot_temperature_history"]
 
 _KELVIN = 273.15
-
-
-def _mpl():
-    try:
-        import matplotlib  # noqa: F401
-        from matplotlib.figure import Figure
-    except ImportError as exc:  # pragma: no cover - matplotlib is a dependency
-        raise ImportError("plotting needs matplotlib: pip install matplotlib") from exc
-    return Figure
 
 
 def plot_temperature_map(tmap, *, ax=None, haz=None, vmin=None, vmax=None, cmap="inferno",
@@ -58,7 +51,7 @@ def plot_temperature_map(tmap, *, ax=None, haz=None, vmin=None, vmax=None, cmap=
     >>> ax.get_xlabel()
     'x (um)'
     """
-    Figure = _mpl()
+    Figure = figure_class()
     from matplotlib.patches import Ellipse
     created = ax is None
     if created:
@@ -103,7 +96,7 @@ def plot_temperature_history(result, *, ax=None, particles=None, celsius=True, t
     -------
     Axes, or (Figure, Axes) when ``ax`` is None.
     """
-    Figure = _mpl()
+    Figure = figure_class()
     created = ax is None
     if created:
         fig = Figure(figsize=(5, 3.5))

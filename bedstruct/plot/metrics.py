@@ -10,15 +10,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._mpl import figure_class
+
 __all__ = ["plot_german", "plot_psd", "plot_psd_along_bed", "plot_packing_profile",
            "plot_coordination", "plot_height_map", "plot_repose", "plot_repose_series"]
 
 
 def _figure(ax, nrows=1, **kw):
-    try:
-        from matplotlib.figure import Figure
-    except ImportError as exc:  # pragma: no cover
-        raise ImportError("plotting needs matplotlib: pip install matplotlib") from exc
+    Figure = figure_class()
     if ax is not None:
         return None, ax
     fig = Figure(figsize=kw.pop("figsize", (6.0, 4.0 if nrows == 1 else 6.0)), layout="constrained")
