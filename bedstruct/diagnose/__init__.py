@@ -9,7 +9,8 @@ exist, :class:`SurrogateSimulator` (analytic, labelled ``"surrogate"``) stands i
 from __future__ import annotations
 
 from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_model
-from .catalogue import CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness
+from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
+                        kelvin_radius)
 from .config import SimConfig, load_sim_config, make_simulator
 from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose,
                         diagnosis_design, gap_size)
@@ -23,7 +24,8 @@ from .observables import (AngleFit, angle_from_image, angle_from_particles, bed_
                           surface_profile, windowed_mean)
 from .report import diagnosis_report, validation_report
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
-from .validate import GOALS, PRESETS, ValidationResult, twin_design, validate
+from .validate import (ENGINE_PRESETS, GOALS, PRESETS, ValidationResult, engine_twin_design,
+                       twin_design, validate)
 from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table
 
 __all__ = [
@@ -35,6 +37,7 @@ __all__ = [
     "read_image", "bed_height", "packing_fraction_in_region", "roughness", "observe",
     # catalogue and simulators
     "CATALOGUE", "Effect", "catalogue", "effect", "engine_hooks", "halsey_film_thickness",
+    "kelvin_radius",
     "BASE_PARAMETERS", "SurrogateSimulator", "SimConfig", "load_sim_config", "make_simulator",
     # statistics
     "standardised_residuals", "Residuals", "GapGroup", "WhereResult", "where", "where_table",
@@ -42,6 +45,7 @@ __all__ = [
     "nuisance_projector", "ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute",
     # orchestration
     "candidate_design", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement", "Diagnosis",
-    "diagnose", "PRESETS", "GOALS", "ValidationResult", "twin_design", "validate",
+    "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS", "ValidationResult", "twin_design",
+    "engine_twin_design", "validate",
     "diagnosis_report", "validation_report",
 ]

@@ -64,8 +64,10 @@ _CACHE_SCHEMA = 2   # bump when the simulator's observation semantics change
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
 #: the stroke, leaving most frames without a heap whose angle can be measured.
+#: Frame and contact dumps are not written (only the final states the operators read).
 PRESET_OVERRIDES = {"tiny": ("spread.pile_particles=1000", "spread.pile_length=0.9e-3",
-                             "spread.n_frames=16")}
+                             "spread.n_frames=16", "output.frames=false", "output.contacts=false",
+                             "output.compress=false")}
 
 
 def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1.0) -> dict:
@@ -385,7 +387,7 @@ class _Runs:
             bw = c.get("box_width")
             walled = bw is not None and float(bw) < self.owner.wide_box
             res, out = self._repose(c.get("relative_humidity"), walled)
-            fr = _last_frame(read_dump, out / "rep00" / "pile.dump.gz")
+            fr = _last_frame(read_dump, _dump(out / "rep00", "pile"))
             try:
                 val = observe("static_angle", fr)
             except Exception as exc:  # noqa: BLE001 - a pile the camera fit cannot read
@@ -438,14 +440,20 @@ class _Runs:
             return np.array([float(lay.roughness_sa_m)])
         if m.kind == "psd":  # after spreading: the particles on the platform after the layer
             idx = res.layers.index(lay) + 1
-            stage = out / f"layer{idx:02d}"
-            bed = stage / "bed.dump.gz"
-            fr = _last_frame(read_dump, bed if bed.is_file() else stage / "final.dump.gz")
+            fr = _last_frame(read_dump, _dump(out / f"layer{idx:02d}", "bed"))
             x = np.asarray(fr.positions)[:, 0]
             on = (x >= 0.0) & (x <= float(cfg["spread"]["plate_length"]))
             d = 2.0 * np.asarray(fr.radii)[on] / float(cfg["psd"]["scale"])
             return observe("psd", {"diameters": d}, percentiles=m.percentiles)
         raise ConfigError(f"observable {m.name!r}: kind {m.kind!r} not produced by the engine")
+
+
+def _dump(folder: Path, name: str) -> Path:
+    """``folder/name.dump.gz`` or ``folder/name.dump`` (output.compress on or off)."""
+    for ext in (".dump.gz", ".dump"):
+        if (folder / f"{name}{ext}").is_file():
+            return folder / f"{name}{ext}"
+    raise FileNotFoundError(f"engine simulator: no {name}.dump(.gz) in {folder}")
 
 
 def _last_frame(read_dump, path):

@@ -1,0 +1,140 @@
+"""The engine simulator of the diagnosis: cache, scale model, box walls, engine validation."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import bedstruct.diagnose as dg
+from bedstruct.diagnose.catalogue import CAPILLARY_ASPERITY
+from bedstruct.diagnose.measurements import MeasurementSet, measurement_from_dict
+from bedstruct.errors import ConfigError
+from bedstruct.workflows.diagnosis_sim import EngineSimulator, effects_config
+
+
+def _psd_design():
+    m = measurement_from_dict({"name": "psd", "kind": "psd", "percentiles": [10, 50, 90],
+                               "value": [0, 0, 0], "uncertainty": 1e-6,
+                               "conditions": {"stage": "before"}})
+    return MeasurementSet((m,))
+
+
+def test_cache_returns_the_stored_call_and_keys_on_everything_that_matters(tmp_path):
+    # the PSD before spreading needs no workflow run: the cache is exercised in milliseconds
+    cfg = {"preset": "tiny", "cache": str(tmp_path / "cache")}
+    sim = EngineSimulator(_psd_design(), cfg)
+    a = sim({}, {"missing_fines": 0.1}, 3)
+    files = list((tmp_path / "cache").glob("*.json"))
+    assert len(files) == 1 and sim.n_cached == 0
+    again = EngineSimulator(_psd_design(), cfg)          # a new process would see the same
+    b = again({}, {"missing_fines": 0.1}, 3)
+    assert again.n_cached == 1 and np.array_equal(a["psd"], b["psd"])
+    # the stored value is what is returned: tamper with it and the cache answers
+    doc = json.loads(files[0].read_text())
+    (entry,) = doc["observables"].values()
+    entry["value"] = [1.0, 2.0, 3.0]
+    files[0].write_text(json.dumps(doc))
+    assert again({}, {"missing_fines": 0.1}, 3)["psd"].tolist() == [1.0, 2.0, 3.0]
+    k = again.cache_key({}, {"missing_fines": 0.1}, 3)
+    assert k != again.cache_key({}, {"missing_fines": 0.1}, 4)
+    assert k != again.cache_key({}, {"missing_fines": 0.05}, 3)
+    assert k != again.cache_key({"friction": 0.5}, {"missing_fines": 0.1}, 3)
+    assert k != EngineSimulator(_psd_design(), dict(cfg, overrides=["spread.speed=0.2"])) \
+        .cache_key({}, {"missing_fines": 0.1}, 3)
+    # an unreadable entry is ignored (and recomputed), never trusted
+    files[0].write_text("{not json")
+    c = again({}, {"missing_fines": 0.1}, 3)
+    np.testing.assert_array_equal(c["psd"], a["psd"])
+
+
+def test_cached_observables_are_shared_between_designs_with_equal_conditions():
+    sim = EngineSimulator(dg.engine_twin_design(), {"preset": "tiny"})
+    seed = dg.load_measurements(dg.__file__.replace("bedstruct/diagnose/__init__.py",
+                                                    "data/measurements/seed.toml"))
+    spec = {m.name: json.dumps(sim._spec(m), sort_keys=True) for m in sim.design}
+    for m in seed:  # every seed observable maps onto a twin-design entry (same runs)
+        assert json.dumps(sim._spec(m), sort_keys=True) in spec.values(), m.name
+    # the tiny preset has 2 layers: layers 3 and 4 are its layer 2
+    assert json.dumps(sim._spec(seed["bed_height_layer4"]), sort_keys=True) == spec["bed_height_layer2"]
+    # a narrow box has side walls, the seed's 30 mm box is the periodic strip
+    assert sim._spec(sim.design["static_angle_narrow_box"])["walled"] is True
+    assert sim._spec(sim.design["static_angle"])["walled"] is False
+
+
+def test_effect_parameters_are_mapped_to_the_scale_model():
+    tiny = EngineSimulator(_psd_design(), {"preset": "tiny"})
+    seed = EngineSimulator(_psd_design(), {"preset": "seed"})
+    fx = effects_config({"blade_startup": 0.2, "contact_ageing": 1.0, "missing_fines": 0.1,
+                         "capillary_bridges": 0.5})
+    assert seed.scale_effects(fx) == fx          # the seed preset is full scale
+    s = tiny.scale_effects(fx)
+    cfg = tiny.base_cfg
+    stroke_ratio = (cfg["spread"]["plate_length"] / cfg["spread"]["speed"]) / (18.9e-3 / 0.0254)
+    assert s["blade_ramp_time"] == pytest.approx(0.2 * stroke_ratio)
+    assert s["blade_vibration_frequency"] * s["blade_ramp_time"] == pytest.approx(
+        fx["blade_vibration_frequency"] * fx["blade_ramp_time"])
+    assert s["ageing_time_constant"] == pytest.approx(10.0 / 1000)
+    assert s["fines_median_diameter"] / cfg["psd"]["d_min"] == pytest.approx(20e-6 / 28e-6)
+    # capillary bridges at the same Bond number (force / weight) as the seed powder: the
+    # engine's pull-off 2 pi (2 R*) gamma' cos(theta) at the coarse-grained size
+    ps = cfg["psd"]["scale"]
+    d_seed, d_tiny = 52.08e-6, 52.08e-6 * ps
+
+    def bond(p, d):
+        f = 2 * math.pi * (d / 2) * p["capillary_surface_tension"] * math.cos(
+            p["capillary_contact_angle"])
+        return f / (math.pi / 6 * d ** 3 * 8300.0 * 9.81)
+    assert bond(s, d_tiny) == pytest.approx(bond(fx, d_seed))
+    # bridge volume 2 pi R*^2 t scales as a volume
+    v = lambda p, d: 2 * math.pi * (d / 4) ** 2 * p["capillary_film_thickness"]  # noqa: E731
+    assert v(s, d_tiny) == pytest.approx(v(fx, d_seed) * ps ** 3)
+    assert CAPILLARY_ASPERITY["asperity_radius"] < 1e-6
+    with pytest.raises(ConfigError, match="blade_time_scale"):
+        EngineSimulator(_psd_design(), {"preset": "tiny", "blade_time_scale": 0.0})
+
+
+def test_validate_names_its_simulator_and_rejects_unknown_ones():
+    with pytest.raises(ConfigError, match="simulator"):
+        dg.validate("tiny", simulator="lammps")
+    with pytest.raises(ConfigError, match="preset"):
+        dg.validate("mini")                      # an engine-only preset
+    d = dg.engine_twin_design()
+    roles = {m.role for m in d}
+    assert roles == {"calibrate", "validate"}
+    assert d["static_angle_narrow_box"].conditions.get("box_width") == pytest.approx(3e-3)
+
+
+def test_cli_validate_cache_needs_the_engine(capsys):
+    from bedstruct.cli import main
+    rc = main(["diagnose", "validate", "--cache", "/nonexistent"])
+    assert rc != 0
+    assert "--simulator engine" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_wall_friction_shows_in_the_walled_narrow_box_only(tmp_path):
+    """A wall friction excess steepens the pile between side walls, not in the periodic strip."""
+    d = dg.engine_twin_design()
+    design = MeasurementSet((d["static_angle"], d["static_angle_narrow_box"]))
+    sim = EngineSimulator(design, {"preset": "tiny"})
+    base = dict(dg.BASE_PARAMETERS)
+    diffs = []
+    for seed in (0, 1):
+        a = sim(base, {}, seed)
+        b = sim(base, {"wall_friction": 0.4}, seed)
+        diffs.append([b[n][0] - a[n][0] for n in ("static_angle", "static_angle_narrow_box")])
+    periodic, walled = np.mean(diffs, axis=0)
+    assert walled > 2.0 and walled > periodic + 2.0
+
+
+@pytest.mark.slow
+def test_engine_mini_validation(tmp_path):
+    """One effect (wall friction), one null twin, on the DEM engine (minutes)."""
+    r = dg.validate("mini", simulator="engine", engine={"preset": "tiny",
+                                                         "cache": str(tmp_path / "cache")})
+    assert r.simulator == "engine" and len(r.twins) + len(r.settings["failed"]) == 1
+    assert r.null_false_attribution == 0.0 or r.settings["failed"]
+    assert list(tmp_path.joinpath("cache").glob("*.json"))
