@@ -43,10 +43,11 @@ def test_contact_model_mapping():
     assert t.friction[0, 1] == pytest.approx(mu + 0.2) and t.friction[0, 0] == pytest.approx(mu)
     assert m.rolling_model == "epsd" and m.rolling_stiffness_factor == 2.25
     assert m.rolling_friction == pytest.approx(cfg["contact"]["rolling_friction"] + 0.1)
-    assert m.capillary and m.capillary_surface_tension == 0.072
+    cap = effect("capillary_bridges").engine_parameters(0.5)  # asperity-scale bridges
+    assert m.capillary and m.capillary_surface_tension == pytest.approx(
+        cap["capillary_surface_tension"]) and 0 < m.capillary_surface_tension < 0.072
     assert m.capillary_contact_angle == pytest.approx(math.radians(20))
-    from bedstruct.diagnose.catalogue import halsey_film_thickness
-    assert m.capillary_film_thickness == pytest.approx(halsey_film_thickness(0.5))
+    assert m.capillary_film_thickness == pytest.approx(cap["capillary_film_thickness"])
     assert m.contact_ageing and m.ageing_bond_ratio == 1.0 and m.ageing_time_constant == 10.0
     # a polished wall: friction excess below -mu clips at 0
     cfg["effects"]["wall_friction_excess"] = -1.0
