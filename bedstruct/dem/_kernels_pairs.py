@@ -88,9 +88,10 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
                     ft_out[k, 2] = 0.0
             # pass 2: contact forces of the touching pairs
             for q in range(nb):
-                k = tk[q]
-                i = pi[k]
-                j = pj[k]
+                # unsigned indices: no negative-index wraparound in the address arithmetic
+                k = np.uint64(tk[q])
+                i = np.uint32(pi[k])
+                j = np.uint32(pj[k])
                 dx = sep[q, 0]
                 dy = sep[q, 1]
                 dz = sep[q, 2]

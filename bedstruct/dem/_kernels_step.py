@@ -13,7 +13,9 @@ from ._kernels_walls import WALL_MESH, mesh_geometry, wall_geometry
 
 __all__ = ["kick_drift", "finish_step"]
 
-_FM = dict(fastmath=True)
+# fastmath without reassociation or fused multiply-add: finish_step's fused half kick
+# must round exactly as kick_drift's (v + a f twice, with a f rounded, not v + 2 a f)
+_FM = dict(fastmath={"nnan", "ninf", "nsz", "arcp", "afn"})
 
 
 @njit(parallel=True, **_FM)
@@ -42,11 +44,15 @@ def kick_drift(x, v, om, f, tq, inv_m, inv_i, x_ref, dt, bounds, disp_out):
 @njit(parallel=True, **_FM)
 def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gravity, bounds,
                 W, tri, time, wstart, wcand, wslot, whist, wbuf, Y, G, B, MU, MUR, COH, rolling, tdamp, limit,
-                eta_r, dt, store, wfn_out, wdelta_out, wnorm_out, overflow, kr_fac=2.25):
+                eta_r, dt, store, wfn_out, wdelta_out, wnorm_out, overflow, kick_next, x_ref,
+                disp_out, kr_fac=2.25):
     """Reduce per-chunk forces, add gravity and wall forces, second half kick.
 
     Only the walls listed for particle i in ``wcand[wstart[i]:wstart[i+1]]``
     (see :func:`wall_candidates`) are evaluated.
+    With ``kick_next`` the pass goes on with the next step's :func:`kick_drift`
+    (the same arithmetic, one pass over the particles less per step): the
+    caller must then skip that kick_drift call.
     Wall contacts keep their tangential/rolling history in per-particle slots
     ``wslot[i, s]`` (wall index or -1) and ``whist[i, s, 0:6]``. The reaction
     on each wall is summed per chunk into ``wbuf[t, w, 0:6]`` (force, torque
@@ -147,6 +153,7 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
                     wnorm_out[i, slot, 1] = -n2
                     wnorm_out[i, slot, 2] = -n3
         # reduction, gravity and half kick (a simple, vectorisable loop)
+        m2 = 0.0
         for i in range(bounds[t], bounds[t + 1]):
             fx = gravity[0] * mass[i]
             fy = gravity[1] * mass[i]
@@ -181,3 +188,21 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
             om[i, 0] += ab * tx
             om[i, 1] += ab * ty
             om[i, 2] += ab * tz
+            if kick_next:  # next step's half kick and drift, as kick_drift
+                v[i, 0] += a * fx
+                v[i, 1] += a * fy
+                v[i, 2] += a * fz
+                om[i, 0] += ab * tx
+                om[i, 1] += ab * ty
+                om[i, 2] += ab * tz
+                x[i, 0] += dt * v[i, 0]
+                x[i, 1] += dt * v[i, 1]
+                x[i, 2] += dt * v[i, 2]
+                d0 = x[i, 0] - x_ref[i, 0]
+                d1 = x[i, 1] - x_ref[i, 1]
+                d2 = x[i, 2] - x_ref[i, 2]
+                dd = d0 * d0 + d1 * d1 + d2 * d2
+                if dd > m2:
+                    m2 = dd
+        if kick_next:
+            disp_out[t] = m2

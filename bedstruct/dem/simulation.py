@@ -148,6 +148,7 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
         self.dt = None
         self.skin = None
         self._ready = False
+        self._kicked = False  # True between fused steps inside run() only
         self._next_id = 1
         tabs = model.tables()
         self._tabs = tuple(np.ascontiguousarray(a) for a in
@@ -395,14 +396,16 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
                               dt, store, fn_out, ft_out, ext, self.hx if hx is None else hx,
                               self._cap, self._age)
 
-    def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm):
+    def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm,
+                     kick_next=False):
         Y, G, B, MU, MUR, COH = self._tabs
         m = self.model
         K.finish_step(self.x, v, om, f, tq, fbuf, tbuf, self.mass, self.inv_m, self.inv_i,
                       self.rad, self.ptype, self.gravity, self._fbounds, self._W, self._tri,
                       self.time, self._wstart, self._wcand, wslot, whist, self._wbuf, Y, G, B, MU, MUR, COH, m.rolling_code,
                       m.tangential_damping, m.limit_force, float(m.rolling_damping), dt, store,
-                      wfn, wdel, wnrm, self._overflow, float(m.rolling_stiffness_factor))
+                      wfn, wdel, wnrm, self._overflow, kick_next, self.x_ref, self._disp,
+                      float(m.rolling_stiffness_factor))
 
     def _setup(self):
         if self.dt is None:
@@ -415,10 +418,15 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
                           self.wslot, self.whist, False, self._wfn, self._wdel, self._wnrm)
         self._ready = True
 
-    def _one_step(self):
+    def _one_step(self, kick_next: bool = False):
+        """One velocity-Verlet step. With ``kick_next`` the step ends with the next
+        step's half kick and drift already done (fused into the integrator's second
+        pass; the state is then mid-step until the next call, which skips them)."""
         dt = self.dt
-        K.kick_drift(self.x, self.v, self.om, self.f, self.tq, self.inv_m, self.inv_i, self.x_ref,
-                     dt, self._pbounds, self._disp)
+        if not self._kicked:
+            K.kick_drift(self.x, self.v, self.om, self.f, self.tq, self.inv_m, self.inv_i,
+                         self.x_ref, dt, self._pbounds, self._disp)
+        self._kicked = False
         if self._disp.max() > (0.5 * self.skin) ** 2:
             self._rebuild()
         elif self._wall_speed * (self.time + dt - self._wall_list_time) > 0.5 * self.skin:
@@ -432,7 +440,9 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
         if self._programs:
             self._apply_programs(self.time)
         self._finish_pass(dt, self.v, self.om, self.f, self.tq, self._fbuf, self._tbuf,
-                          self.wslot, self.whist, False, self._wfn, self._wdel, self._wnrm)
+                          self.wslot, self.whist, False, self._wfn, self._wdel, self._wnrm,
+                          kick_next)
+        self._kicked = kick_next
 
     def run(self, steps: int | None = None, *, time: float | None = None, progress: bool = False,
             dump_every: int | None = None, run_dir=None, checkpoint_every: int | None = None,
@@ -490,7 +500,14 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
         t0 = _time.perf_counter()
         try:
             for s in range(nsteps):
-                self._one_step()
+                # fuse this step's last pass with the next step's first unless the state
+                # is looked at in between (the last step, callbacks, dumps, checkpoints)
+                nxt = self.step + 1
+                fuse = (s + 1 < nsteps and callback is None
+                        and not (rd is not None and dump_every and nxt % dump_every == 0)
+                        and not (rd is not None and checkpoint_every
+                                 and nxt % checkpoint_every == 0))
+                self._one_step(fuse)
                 psteps += self.n_particles
                 if callback is not None:
                     callback(self)

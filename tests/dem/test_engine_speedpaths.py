@@ -1,0 +1,82 @@
+"""The engine's fast paths give the same numbers as the plain ones (bit for bit)."""
+
+import numpy as np
+
+from bedstruct import Box
+from bedstruct.dem import ContactModel, Material, Plane, Simulation
+from bedstruct.dem import _kernels as K
+
+E, NU, RHO = 1e7, 0.3, 2500.0
+R = 40e-6
+
+
+def _bed(n_threads=2, seed=5):
+    model = ContactModel(Material(E, NU, RHO), restitution=0.3, friction=0.5,
+                         rolling_friction=0.1, rolling_model="epsd2", cohesion=1e4)
+    box = Box([0, 0, 0], [1.2e-3, 1.2e-3, 3e-3], boundary="pp pp ff")
+    sim = Simulation(box, model, walls=[Plane((0, 0, 0), (0, 0, 1))], n_threads=n_threads,
+                     seed=seed)
+    sim.insert_raindrop(120, R, region=((0, 0, 0), (1.2e-3, 1.2e-3, 1.5e-3)), velocity=(0.1, 0, -0.5))
+    return sim
+
+
+def test_fused_steps_equal_plain_steps():
+    # run() fuses each step's last pass with the next step's first pass; a callback
+    # (which must see whole steps) switches that off
+    a = _bed()
+    b = _bed()
+    a.run(600)
+    b.run(600, callback=lambda sim: None)
+    assert a.n_rebuilds > 1
+    for name in ("x", "v", "om", "f", "tq", "ht", "hr"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def _pair_call(sim, pi, pj, psh, ht, hr, bounds, fb, tb, fn, ft):
+    Y, G, B, MU, MUR, COH = sim._tabs
+    m = sim.model
+    K.pair_forces(sim.x, sim.v, sim.om, sim.rad, sim.mass, sim.inv_i, sim.ptype, pi, pj, psh,
+                  sim._L, ht, hr, bounds, fb, tb, Y, G, sim._gn_coef, sim._gt_ratio, MU, MUR, COH,
+                  m.rolling_code, m.limit_force, float(m.rolling_damping), sim.dt, True, fn, ft)
+
+
+def test_pair_kernel_blocks_equal_pair_by_pair():
+    # the kernel works in blocks of 64 pairs split into touching and other pairs;
+    # every pair must get the force it gets alone, and pairs apart lose their history
+    model = ContactModel(Material(E, NU, RHO), restitution=0.3, friction=0.5,
+                         rolling_friction=0.1, rolling_model="epsd2", cohesion=1e4)
+    box = Box([0, 0, 0], [1e-3, 1e-3, 1e-3], boundary="pp pp ff")
+    sim = Simulation(box, model, n_threads=3, gravity=(0, 0, 0))
+    rng = np.random.default_rng(0)
+    g = (np.arange(8) + 0.5) * 2 * R * 0.999
+    pos = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    pos += rng.normal(0, 0.01 * R, pos.shape)  # about half the lattice bonds overlap
+    sim.add_particles(pos, R, velocities=rng.normal(0, 0.01, pos.shape),
+                      omegas=rng.normal(0, 100.0, pos.shape))
+    sim.run(1)
+    m = sim.n_pairs
+    assert m > 3 * 64 + 5  # several blocks per chunk and a partial last block
+    rng = np.random.default_rng(1)
+    ht0 = sim.ht + rng.normal(0, 1e-7, (m, 3))
+    hr0 = sim.hr + rng.normal(0, 1e-12, (m, 3))
+    n = sim.n_particles
+    d = sim.x[sim.pi] - sim.x[sim.pj] - sim.psh * sim._L
+    touch = np.einsum("ij,ij->i", d, d) < (sim.rad[sim.pi] + sim.rad[sim.pj]) ** 2
+    assert 0 < touch.sum() < m
+    ht, hr = ht0.copy(), hr0.copy()
+    fb, tb = np.zeros((3, n, 3)), np.zeros((3, n, 3))
+    fn, ft = np.zeros(m), np.zeros((m, 3))
+    _pair_call(sim, sim.pi, sim.pj, sim.psh, ht, hr, sim._chunks(m), fb, tb, fn, ft)
+    assert np.all(ht[~touch] == 0.0) and np.all(hr[~touch] == 0.0)
+    assert np.all(fn[~touch] == 0.0)
+    one = np.array([0, 1])
+    for k in np.flatnonzero(touch)[:: max(1, touch.sum() // 40)]:
+        h1, r1 = ht0[k:k + 1].copy(), hr0[k:k + 1].copy()
+        f1, t1 = np.zeros((1, n, 3)), np.zeros((1, n, 3))
+        fn1, ft1 = np.zeros(1), np.zeros((1, 3))
+        _pair_call(sim, sim.pi[k:k + 1], sim.pj[k:k + 1], sim.psh[k:k + 1], h1, r1, one, f1, t1,
+                   fn1, ft1)
+        assert fn1[0] == fn[k] and np.array_equal(ft1[0], ft[k])
+        assert np.array_equal(h1[0], ht[k]) and np.array_equal(r1[0], hr[k])
+    # Newton's third law over all chunks
+    np.testing.assert_allclose(fb.sum(axis=(0, 1)), 0.0, atol=1e-12 * np.abs(fb).max())
