@@ -26,6 +26,21 @@ from .._numba import njit, njit_parallel, prange
 __all__ = ["scan_pairs", "compact_pairs", "pair_geometry", "peel_rattlers"]
 
 
+@njit(inline="always")
+def _neighbour_cell(c, n, periodic):
+    """Cell index ``c`` on an axis of ``n`` cells: (wrapped index, image shift, inside).
+
+    Along a periodic axis ``c`` wraps into ``[0, n)`` and the shift counts the
+    box lengths crossed; along a closed axis a cell outside is not inside.
+    """
+    s = 0
+    if periodic:
+        s = c // n
+        c -= s * n
+        return c, s, True
+    return c, s, c >= 0 and c < n
+
+
 @njit_parallel
 def scan_pairs(rows, pos, radii, cell_xyz, cell_start, ncell, periodic, reach, matrix, tol,
                cap, out_j, out_shift, counts):
@@ -52,32 +67,21 @@ def scan_pairs(rows, pos, radii, cell_xyz, cell_start, ncell, periodic, reach, m
         for ox in range(-reach[0], reach[0] + 1):
             if ox < 0:
                 continue
-            cx = cell_xyz[i, 0] + ox
-            sx = 0
-            if periodic[0]:
-                sx = cx // ncell[0]
-                cx -= sx * ncell[0]
-            elif cx >= ncell[0]:
+            cx, sx, inside = _neighbour_cell(cell_xyz[i, 0] + ox, ncell[0], periodic[0])
+            if not inside:
                 continue
             for oy in range(-reach[1], reach[1] + 1):
                 if ox == 0 and oy < 0:
                     continue
-                cy = cell_xyz[i, 1] + oy
-                sy = 0
-                if periodic[1]:
-                    sy = cy // ncell[1]
-                    cy -= sy * ncell[1]
-                elif cy < 0 or cy >= ncell[1]:
+                cy, sy, inside = _neighbour_cell(cell_xyz[i, 1] + oy, ncell[1], periodic[1])
+                if not inside:
                     continue
                 for oz in range(-reach[2], reach[2] + 1):
                     if ox == 0 and oy == 0 and oz < 0:
                         continue
-                    cz = cell_xyz[i, 2] + oz
-                    sz = 0
-                    if periodic[2]:
-                        sz = cz // ncell[2]
-                        cz -= sz * ncell[2]
-                    elif cz < 0 or cz >= ncell[2]:
+                    cz, sz, inside = _neighbour_cell(cell_xyz[i, 2] + oz, ncell[2],
+                                                     periodic[2])
+                    if not inside:
                         continue
                     shx = matrix[0, 0] * sx + matrix[0, 1] * sy + matrix[0, 2] * sz
                     shy = matrix[1, 0] * sx + matrix[1, 1] * sy + matrix[1, 2] * sz

@@ -269,6 +269,18 @@ def grid_volumes(centres, radii, shifts, ex, ey, ez, nodes, weights, out):
                             nodes, weights)
 
 
+@njit(inline="always")
+def _node_index(k, n, periodic):
+    """Node index ``k`` on a lateral axis of ``n`` nodes: (wrapped index, inside).
+
+    Along a periodic axis ``k`` wraps into ``[0, n)``; along a closed axis a
+    node outside is not inside.
+    """
+    if periodic:
+        return k % n, True
+    return k, k >= 0 and k < n
+
+
 @njit
 def cap_height_map(pos, radii, probe, x0, y0, dx, dy, per_x, per_y, ax, ay, az, out):
     """Highest point of every sphere (grown by ``probe``) above each grid node.
@@ -291,17 +303,13 @@ def cap_height_map(pos, radii, probe, x0, y0, dx, dy, per_x, per_y, ax, ay, az, 
         l0 = int(math.ceil((cy - rr - y0) / dy - 0.5))
         l1 = int(math.floor((cy + rr - y0) / dy - 0.5))
         for k in range(k0, k1 + 1):
-            kk = k
-            if per_x:
-                kk = k % nx
-            elif k < 0 or k >= nx:
+            kk, inside = _node_index(k, nx, per_x)
+            if not inside:
                 continue
             ddx = x0 + (k + 0.5) * dx - cx
             for m in range(l0, l1 + 1):
-                mm = m
-                if per_y:
-                    mm = m % ny
-                elif m < 0 or m >= ny:
+                mm, inside = _node_index(m, ny, per_y)
+                if not inside:
                     continue
                 ddy = y0 + (m + 0.5) * dy - cy
                 d2 = ddx * ddx + ddy * ddy
