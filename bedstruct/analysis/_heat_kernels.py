@@ -25,6 +25,27 @@ def chunk_bounds(n, n_chunks):
     return out
 
 
+@njit(inline="always")
+def _a_row(indptr, indices, data, diag, v, i):
+    """Row ``i`` of ``A v`` with ``A = diag(diag) - W`` (``W`` in CSR)."""
+    acc = diag[i] * v[i]
+    for k in range(indptr[i], indptr[i + 1]):
+        acc -= data[k] * v[indices[k]]
+    return acc
+
+
+@njit(inline="always")
+def _sum_and_max(partial, partial_max, nc):
+    """Chunk partials added in order, and the largest chunk maximum."""
+    s = 0.0
+    m = 0.0
+    for c in range(nc):
+        s += partial[c]
+        if partial_max[c] > m:
+            m = partial_max[c]
+    return s, m
+
+
 @njit_parallel
 def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, z, p, q, partial,
               partial_max, out):
@@ -47,10 +68,7 @@ def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, 
         s = 0.0
         m = 0.0
         for i in range(bounds[c], bounds[c + 1]):
-            acc = diag[i] * x[i]
-            for k in range(indptr[i], indptr[i + 1]):
-                acc -= data[k] * x[indices[k]]
-            ri = b[i] - acc
+            ri = b[i] - _a_row(indptr, indices, data, diag, x, i)
             r[i] = ri
             zi = ri / diag[i]
             z[i] = zi
@@ -61,12 +79,7 @@ def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, 
                 m = a
         partial[c] = s
         partial_max[c] = m
-    rz = 0.0
-    zmax = 0.0
-    for c in range(nc):
-        rz += partial[c]
-        if partial_max[c] > zmax:
-            zmax = partial_max[c]
+    rz, zmax = _sum_and_max(partial, partial_max, nc)
     it = 0
     while zmax > tol:
         if it >= maxiter:
@@ -77,9 +90,7 @@ def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, 
         for c in prange(nc):
             s = 0.0
             for i in range(bounds[c], bounds[c + 1]):
-                acc = diag[i] * p[i]
-                for k in range(indptr[i], indptr[i + 1]):
-                    acc -= data[k] * p[indices[k]]
+                acc = _a_row(indptr, indices, data, diag, p, i)
                 q[i] = acc
                 s += p[i] * acc
             partial[c] = s
@@ -104,12 +115,7 @@ def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, 
                     m = a
             partial[c] = s
             partial_max[c] = m
-        rz_new = 0.0
-        zmax = 0.0
-        for c in range(nc):
-            rz_new += partial[c]
-            if partial_max[c] > zmax:
-                zmax = partial_max[c]
+        rz_new, zmax = _sum_and_max(partial, partial_max, nc)
         beta = rz_new / rz
         rz = rz_new
         for c in prange(nc):
