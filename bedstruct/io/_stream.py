@@ -9,12 +9,10 @@ Implementation module of :mod:`bedstruct.io.lammps_dump` (import from there).
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 from ._columns import _POSITION_SETS, _VECTORS, _id_order
-from ._text import RawFrame
+from ._text import RawFrame, general_block, many_slow_rows
 
 __all__: list[str] = []
 
@@ -126,13 +124,10 @@ def _parse_piece(piece: bytes, final: bool, row0: int, n: int, ncols: int, flat,
     if (status == 1).any():
         return -1
     slow = np.flatnonzero(status == 2)
-    if slow.size > max(64, k // 20):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            vals = np.fromstring(bytes(piece[:end]), dtype=np.float64, sep=" ")
-        if vals.size != k * ncols:
+    if many_slow_rows(slow.size, k):
+        vals = general_block(piece[:end], k, ncols)
+        if vals is None:
             return -1
-        vals = vals.reshape(k, ncols)
         for c in range(ncols):
             flat[base[c] + rows * stride[c]] = vals[:, c]
     else:

@@ -16,7 +16,8 @@ import numpy as np
 from ..errors import DumpFormatError
 from ._kernels import parse_rows
 
-__all__ = ["RawFrame", "TruncatedFrame", "parse_text_frame", "parse_block", "line_bounds"]
+__all__ = ["RawFrame", "TruncatedFrame", "parse_text_frame", "parse_block", "line_bounds",
+           "many_slow_rows", "general_block"]
 
 _KNOWN_ITEMS = ("TIMESTEP", "NUMBER OF ATOMS", "NUMBER OF ENTRIES", "BOX BOUNDS", "ATOMS",
                 "ENTRIES", "UNITS", "TIME")
@@ -252,6 +253,23 @@ def line_bounds(buf: bytes, p: int):
     return body, starts, ends, end
 
 
+def many_slow_rows(n_slow: int, n: int) -> bool:
+    """Whether ``n_slow`` of ``n`` rows needing the general parser is enough to
+    parse the whole block with :func:`general_block` rather than row by row."""
+    return n_slow > max(64, n // 20)
+
+
+def general_block(text: bytes, n: int, ncols: int):
+    """The (n, ncols) values of ``text`` by NumPy's general number parser.
+
+    Returns None when the block does not hold exactly ``n * ncols`` numbers.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        flat = np.fromstring(bytes(text), dtype=np.float64, sep=" ")
+    return flat.reshape(n, ncols) if flat.size == n * ncols else None
+
+
 def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line: int,
                 at_eof: bool, file_ends_with_newline: bool = True, parse_values: bool = True,
                 what: str = ""):
@@ -308,12 +326,10 @@ def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line:
             msg = f"wrong number of values on a line: found {k}, expected {ncols} {what}"
         raise cls(msg, path=path, line=data_line + r, text=text)
     slow = np.flatnonzero(status == 2)
-    if slow.size > max(64, n // 20):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            flat = np.fromstring(bytes(buf[p:end]), dtype=np.float64, sep=" ")
-        if flat.size == n * ncols:
-            return flat.reshape(n, ncols), partial_tail, row_text
+    if many_slow_rows(slow.size, n):
+        block = general_block(buf[p:end], n, ncols)
+        if block is not None:
+            return block, partial_tail, row_text
     for r in slow:
         r = int(r)
         text = row_text(r)
