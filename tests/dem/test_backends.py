@@ -440,3 +440,74 @@ def test_cached_bed_returns_existing_file(tmp_path):
     existing = write_sphere_data(tmp_path / "bed10_seed3.data", [[0, 0, 1e-4]] * 1, [5e-5],
                                  box_lo=[-1e-4, -1e-4, 0], box_hi=[1e-4, 1e-4, 1e-3])
     assert cached_bed(10, cache_dir=tmp_path, rng=3) == existing
+
+
+# --------------------------------------------------------------------------- multi-layer decks
+def test_cylinder_triangles_are_inscribed_and_outward():
+    from bedstruct.dem.backends import cylinder_triangles
+    tri = cylinder_triangles((1.0, 2.0), 0.5, 0.0, 3.0, n_segments=48, n_y=3)
+    v = tri.reshape(-1, 3)
+    assert np.allclose(np.hypot(v[:, 0] - 1.0, v[:, 2] - 2.0), 0.5)      # vertices on the circle
+    assert v[:, 1].min() == 0.0 and v[:, 1].max() == 3.0
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    c = tri.mean(axis=1)
+    assert np.all(n[:, 0] * (c[:, 0] - 1.0) + n[:, 2] * (c[:, 2] - 2.0) > 0)
+    # lateral area of the inscribed 48-gon prism: 48 * chord * length
+    chord = 2 * 0.5 * math.sin(math.pi / 48)
+    assert 0.5 * np.linalg.norm(n, axis=1).sum() == pytest.approx(48 * chord * 3.0, rel=1e-12)
+
+
+def test_spread_plan_steps_align_with_frames():
+    from bedstruct.dem.backends import RollerGeometry, SpreadLayersPlan
+    tool = RollerGeometry(x0=6e-4, z_bottom=0.0, radius=5e-4, speed=0.1, omega=-200.0)
+    plan = SpreadLayersPlan(3e-3, 6e-4, (4e-4, 3e-4, 2e-4), tool, ((1, 10), (11, 20), (21, 30)),
+                            (0.0, 2e-3, 3e-3), (1e-3, 2e-3), 1e-6, x_end=3.9e-3, n_frames=5,
+                            settle_time=2e-4, lower_speed=0.05)
+    assert len(plan.layers) == 3
+    for ls in plan.layers:
+        assert ls.spread % plan.every == 0 and ls.end % plan.every == 0
+        assert ls.start < ls.spread < ls.stop < ls.end
+        # the tool covers x0 -> x_end in the spreading steps (to one step)
+        assert (ls.stop - ls.spread) * 1e-6 * 0.1 == pytest.approx(3.3e-3, abs=1e-7)
+    # layer 2 starts after layer 1 ends and the tool returned; lowering takes gap / lower_speed
+    assert plan.layers[1].start > plan.layers[0].end
+    assert plan.layers[1].spread - plan.layers[1].start >= 3e-4 / 0.05 / 1e-6
+    with pytest.raises(ValueError, match="one entry per layer"):
+        SpreadLayersPlan(3e-3, 6e-4, (4e-4,), tool, ((1, 10), (11, 20)), (0.0, 1.0), (0, 1), 1e-6)
+
+
+@both_engines
+def test_roller_spin_drags_a_sphere_on_top(tmp_path, engine):
+    """A sphere resting on top of the roller is dragged along the roller's surface velocity,
+    omega e_y x (R e_z) = omega R e_x: +x for omega > 0, -x for omega < 0 (the embedded
+    engine's convention); without spin it barely moves (the roller translates by 5 um in 2 ms).
+    Friction limits the drag to ~mu g t^2 / 2 ~ 10 um in 2 ms."""
+    from bedstruct.dem.backends import (RollerGeometry, SpreadLayersPlan, read_stl_triangles,
+                                        spread_layers_deck)
+    from bedstruct.io import read_dump
+    R, r, W = 5e-4, 5e-5, 4e-4
+    p = GranularParams(youngs_modulus=1e7, restitution=0.3, friction=0.5, rolling_friction=0.0,
+                       density=8000.0)
+    dt = 2e-7
+    x = {}
+    for omega in (-100.0, 0.0, 100.0):
+        d = tmp_path / f"w{omega:+.0f}"
+        (d / "layer01").mkdir(parents=True)
+        tool = RollerGeometry(x0=1e-3, z_bottom=0.0, radius=R, speed=0.0025, omega=omega)
+        data = write_sphere_data(d / "s.data", [[1e-3, 0.5 * W, 2 * R + r - 2e-7]], [r],
+                                 box_lo=[0.0, 0.0, -1e-3], box_hi=[3e-3, W, 3e-3],
+                                 density=p.density, n_types=2)
+        plan = SpreadLayersPlan(2e-3, W, (2e-4,), tool, ((1, 1),), (0.0,), (2e-3, 2.5e-3), dt,
+                                speed=0.0025, x_end=1e-3 + 5e-6, settle_time=2e-5, n_frames=2)
+        deck = d / "in.deck"
+        deck.write_text(spread_layers_deck(data, p, engine=engine, plan=plan, stl_folder=d,
+                                           contacts=False))
+        run_deck(deck, np=1, cwd=d)
+        if engine == "liggghts":  # the STL roller is the 72-gon of radius R about the axis
+            v = read_stl_triangles(d / "tool.stl").reshape(-1, 3)
+            assert np.allclose(np.hypot(v[:, 0] - 1e-3, v[:, 2] - R), R)
+        traj = read_dump(d / "layer01" / "frames.dump", units="si")
+        x[omega] = float(traj[len(traj) - 1].positions[0, 0]) - 1e-3
+    assert x[100.0] > x[0.0] + 4e-6, x
+    assert x[-100.0] < x[0.0] - 4e-6, x
+    assert abs(x[0.0]) < 6e-6, x

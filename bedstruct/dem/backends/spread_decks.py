@@ -1,0 +1,564 @@
+"""Multi-layer spreading as **one** LIGGGHTS or LAMMPS run: every layer in one deck.
+
+:func:`spread_layers_deck` writes the whole spreading experiment of
+:func:`bedstruct.workflows.run_spread` (all layers, blade/plate or roller)
+as a single deck, so that the contact histories (tangential and rolling
+springs of particle-particle contacts) carry over from one layer to the next
+as they do in the embedded engine; a deck per layer restarted them.
+
+How the deck reproduces the embedded workflow:
+
+* every pile is in the data file from the start; pile 1 lies in front of the
+  tool, piles 2, 3... are *parked* above the working area (not integrated:
+  ``fix nve/sphere`` acts on the group ``active`` only) and are moved into
+  place before their layer by ``displace_atoms``, their bottom
+  ``pile_lift`` above the highest sphere in the pile's footprint (``compute
+  reduce/region`` of ``z + radius``), as the embedded run places them;
+* before layers 2, 3... the platform is lowered by the gap at ``lower_speed``
+  and the bed settles, as in the embedded run;
+* the tool crosses the platform at ``speed`` (LIGGGHTS: ``fix move/mesh
+  linear``; the roller also ``rotate`` about its own axis, the superposed
+  motion carrying the rotation axis along), settles, then returns above the
+  bed (up, back, down at ``return_speed``) for the next layer;
+* LAMMPS: block/cylinder regions moved by step-ramp variables
+  (``wall/gran/region``; the blade is the unbevelled slab, docs/backends.md).
+
+Outputs per layer (folders ``layer01``... must exist): ``frames.dump``
+(and ``contacts.dump``) from the start of the tool motion to the end of the
+layer, every ``every`` steps; from layer 2 on also ``start.dump`` (and
+``start_contacts.dump``), one frame as the layer starts (the bed at rest,
+before the platform moves). Parked spheres appear in them (select by id:
+pile ``k`` has ids ``pile_ids[k][0]..pile_ids[k][1]``). :class:`SpreadLayersPlan`
+gives the step of each event so that frames can be matched to tool positions.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._common import as_granular_params, read_data_header
+from .decks import DUMP_COLUMNS, _path_word, _setup
+from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
+from .liggghts import liggghts_model_commands, liggghts_wall_model
+from .stl import BladeGeometry, write_stl
+
+__all__ = ["RollerGeometry", "cylinder_triangles", "LayerSteps", "SpreadLayersPlan",
+           "spread_layers_deck"]
+
+
+def cylinder_triangles(center_xz, radius: float, y0: float, y1: float, *, n_segments: int = 72,
+                       n_y: int = 1) -> np.ndarray:
+    """Triangles of the lateral surface of a cylinder along y (no end caps), normals outward.
+
+    The polygon is inscribed: the facets lie at most ``radius (1 - cos(pi /
+    n_segments))`` inside the true surface (0.1 % of the radius at 72).
+
+    Parameters
+    ----------
+    center_xz : (2,) array_like of float, length
+        Axis position (x, z).
+    radius : float, length
+    y0, y1 : float, length
+        Extent along the axis.
+    n_segments : int
+        Facets around the circumference.
+    n_y : int
+        Facets along the axis (keeps the elements' aspect ratio moderate).
+
+    Returns
+    -------
+    (2 n_segments n_y, 3, 3) ndarray of float
+
+    Examples
+    --------
+    >>> tri = cylinder_triangles((0.0, 1.0), 0.5, 0.0, 2.0, n_segments=64, n_y=2)
+    >>> tri.shape
+    (256, 3, 3)
+    >>> n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    >>> c = tri.mean(axis=1) - [0.0, 0.0, 1.0]
+    >>> bool(np.all(n[:, 0] * c[:, 0] + n[:, 2] * c[:, 2] > 0))  # every normal points outward
+    True
+    >>> round(float(0.5 * np.linalg.norm(n, axis=1).sum()), 3)  # ~ 2 pi r L = 6.283
+    6.281
+    """
+    if not (radius > 0 and y1 > y0 and n_segments >= 3 and n_y >= 1):
+        raise ValueError("`radius` must be positive, `y1` > `y0`, `n_segments` >= 3, `n_y` >= 1")
+    cx, cz = (float(v) for v in center_xz)
+    th = np.linspace(0.0, 2 * np.pi, int(n_segments) + 1)[:-1]
+    ys = np.linspace(y0, y1, int(n_y) + 1)
+    tris = []
+    for j in range(int(n_y)):
+        for i in range(len(th)):
+            a, b = th[i], th[(i + 1) % len(th)]
+            p = [[cx + radius * math.cos(t), y, cz + radius * math.sin(t)]
+                 for t in (a, b) for y in (ys[j], ys[j + 1])]
+            # p: (a, y0), (a, y1), (b, y0), (b, y1)
+            tris.append([p[0], p[1], p[3]])
+            tris.append([p[0], p[3], p[2]])
+    tri = np.array(tris, dtype=np.float64)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    c = tri.mean(axis=1)
+    out = n[:, 0] * (c[:, 0] - cx) + n[:, 2] * (c[:, 2] - cz)
+    flip = out < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return tri
+
+
+@dataclass(frozen=True)
+class RollerGeometry:
+    """A roller: a cylinder along y translating along +x at ``speed`` and spinning at ``omega``.
+
+    Parameters
+    ----------
+    x0 : float, m
+        x of the axis at t = 0.
+    z_bottom : float, m
+        Height of the lowest point (the axis is at ``z_bottom + radius``).
+    radius : float, m
+    speed : float, m/s
+    omega : float, rad/s
+        Spin about +y (right-hand rule), as :class:`bedstruct.dem.Cylinder`:
+        ``omega = -speed / radius`` moves the bottom of the roller forwards
+        (counter-rotating).
+    n_segments : int
+        Facets around the STL cylinder (LIGGGHTS).
+
+    Examples
+    --------
+    >>> r = RollerGeometry(x0=1e-3, z_bottom=0.0, radius=5e-4, speed=0.1, omega=-200.0)
+    >>> r.center_z, round(r.top * 1e3, 3)
+    (0.0005, 1.0)
+    """
+
+    x0: float
+    z_bottom: float
+    radius: float
+    speed: float
+    omega: float = 0.0
+    n_segments: int = 72
+
+    def __post_init__(self):
+        if not self.radius > 0:
+            raise ValueError(f"`radius` must be positive; got {self.radius}")
+
+    @property
+    def center_z(self) -> float:
+        """z of the axis at t = 0 (m)."""
+        return self.z_bottom + self.radius
+
+    @property
+    def top(self) -> float:
+        """z of the top of the roller (m)."""
+        return self.z_bottom + 2 * self.radius
+
+    def triangles(self, y0: float, y1: float) -> np.ndarray:
+        """STL facets spanning ``[y0, y1]``, elements no longer than ~4x their width."""
+        arc = 2 * math.pi * self.radius / self.n_segments
+        n_y = max(1, int(math.ceil((y1 - y0) / (4 * arc))))
+        return cylinder_triangles((self.x0, self.center_z), self.radius, y0, y1,
+                                  n_segments=self.n_segments, n_y=n_y)
+
+
+@dataclass(frozen=True)
+class LayerSteps:
+    """Global time steps of one layer's events in a :func:`spread_layers_deck` run.
+
+    ``start``: the layer begins (before the platform is lowered); ``spread``:
+    the tool starts moving (first frame); ``stop``: the tool stops; ``end``: the
+    final frame of the layer (after settling).
+    """
+
+    start: int
+    spread: int
+    stop: int
+    end: int
+
+
+@dataclass(frozen=True)
+class SpreadLayersPlan:
+    """Everything :func:`spread_layers_deck` needs besides the data file (SI).
+
+    Parameters
+    ----------
+    plate_length, width : float, m
+        Platform length (x from 0) and y period.
+    gaps : tuple of float, m
+        Layer thicknesses; before layer k the platform sits at ``-sum(gaps[:k+1])``
+        below the tool's lowest point (z = 0).
+    tool : BladeGeometry or RollerGeometry
+        The tool at t = 0, its lowest point at z = 0.
+    pile_ids : tuple of (int, int)
+        Inclusive id range of the pile reinserted before each layer (one per gap).
+    pile_parked_z : tuple of float, m
+        z offset by which each pile was parked in the data file (0 for pile 1,
+        which lies in place); ``displace_atoms`` moves pile k down by this much
+        and up onto whatever lies in its footprint.
+    pile_bottom : float, m
+        Lowest sphere bottom of the pile as written for the first layer
+        relative to its placement base (the pile's own z = 0).
+    footprint : (float, float), m
+        x range where the pile is placed (the highest sphere top there is its base).
+    pile_lift : float, m
+        Gap left between that base and the pile's z = 0.
+    dt : float, s
+    lower_speed, speed, return_speed : float, m/s
+    settle_time : float, s
+        Settling after the pile is placed and after the tool stops.
+    clear : float, m
+        How far the tool rises above the bed to return.
+    x_end : float, m
+        x of the tool's reference point (blade trailing face or roller axis)
+        when it stops.
+    chamber_depth : float, m
+        Front wall at x = L from ``-chamber_depth`` up to 0 (0: none).
+    n_frames : int
+        Frames over the tool's travel.
+    wall_thickness : float, m
+        LAMMPS block regions' thickness.
+    """
+
+    plate_length: float
+    width: float
+    gaps: tuple
+    tool: object
+    pile_ids: tuple
+    pile_parked_z: tuple
+    footprint: tuple
+    dt: float
+    lower_speed: float = 0.05
+    speed: float = 0.1
+    return_speed: float = 0.5
+    settle_time: float = 0.005
+    pile_lift: float = 0.0
+    clear: float = 1e-4
+    x_end: float = 0.0
+    chamber_depth: float = 0.0
+    n_frames: int = 8
+    wall_thickness: float = 1e-4
+    layers: tuple = field(default=(), init=False)
+    every: int = field(default=0, init=False)
+
+    def __post_init__(self):
+        if not (self.dt > 0 and math.isfinite(self.dt)):
+            raise ValueError(f"`dt` must be a positive number of seconds; got {self.dt!r}")
+        n = len(self.gaps)
+        if n < 1 or len(self.pile_ids) != n or len(self.pile_parked_z) != n:
+            raise ValueError("`gaps`, `pile_ids` and `pile_parked_z` need one entry per layer")
+        if not isinstance(self.tool, (BladeGeometry, RollerGeometry)):
+            raise TypeError("`tool` must be a BladeGeometry or RollerGeometry")
+        spread = self._steps((self.x_end - self._tool_x()) / self.speed)
+        every = max(1, int(math.ceil(spread / max(1, int(self.n_frames)))))
+        s = 0
+        layers = []
+        for k in range(n):
+            start = s
+            s += self._lower_steps(k)
+            s += self._steps(self.settle_time)
+            s += (-s) % every                  # the first frame falls on a dump step
+            end = s + spread + self._steps(self.settle_time)
+            end += (-end) % every              # ... and so does the last
+            layers.append(LayerSteps(start, s, s + spread, end))
+            s = end + (self._return_steps() if k + 1 < n else 0)
+        object.__setattr__(self, "layers", tuple(layers))
+        object.__setattr__(self, "every", every)
+
+    def _steps(self, t: float) -> int:
+        return max(1, int(math.ceil(t / self.dt - 1e-9)))
+
+    def _tool_x(self) -> float:
+        return self.tool.x0
+
+    def _lower_steps(self, k: int) -> int:
+        """Lowering (platform, then settling) before layer k (none before layer 1)."""
+        if k == 0:
+            return 0
+        g = float(self.gaps[k])
+        return self._steps(g / self.lower_speed) + self._steps(
+            min(self.settle_time, 2 * g / self.lower_speed))
+
+    def _return_steps(self) -> int:
+        return 2 * self._steps(self.clear / self.return_speed) + self._steps(
+            self.travel / self.return_speed)
+
+    @property
+    def travel(self) -> float:
+        """How far the tool moves in a layer (m): ``speed`` times the spreading steps."""
+        return self.speed * self.dt * self._steps((self.x_end - self._tool_x()) / self.speed)
+
+    @property
+    def total_steps(self) -> int:
+        """Steps of the whole run."""
+        return self.layers[-1].end
+
+
+def _contact_cols(engine: str) -> str:
+    """Local-dump columns: LIGGGHTS ``pos id force contactArea delta`` (14: x1 y1 z1 x2 y2 z2
+    id1 id2 periodic fx fy fz area delta); LAMMPS ``patom1 patom2 dist fx fy fz``."""
+    if engine == "liggghts":
+        return " ".join(f"c_cpl[{i}]" for i in range(1, 15))
+    return "c_cpa[1] c_cpa[2] c_cpf[1] c_cpf[2] c_cpf[3] c_cpf[4]"
+
+
+def _ramp(a: int, b: int) -> str:
+    """Steps elapsed in [a, b] as a LAMMPS/LIGGGHTS expression of ``step``."""
+    return f"((step-{a})*(step>{a})-(step-{b})*(step>{b}))"
+
+
+def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayersPlan,
+                       stl_folder=None, contacts: bool = True, skin: float | None = None,
+                       cohesion_model: str | None = None,
+                       reference_radius: float = REFERENCE_RADIUS,
+                       reference_overlap: float = REFERENCE_OVERLAP) -> str:
+    """The deck of every spreading layer of ``plan`` in one engine run.
+
+    Parameters
+    ----------
+    data_file : str or os.PathLike
+        All spheres (every pile; 2 atom types), y periodic over ``[0, W]``,
+        x and z fixed (spheres pushed over the front wall fall out and are
+        deleted).
+    params : GranularParams, mapping or ContactModel, optional
+    engine : {"liggghts", "lammps"}
+    plan : SpreadLayersPlan
+    stl_folder : path, optional
+        LIGGGHTS: where the platform, front wall and tool STL files are written
+        (required); the deck refers to them by path.
+    contacts : bool
+        Also dump contacts per layer (``layerNN/contacts.dump``).
+    skin : float, m, optional
+        Neighbour skin (default 0.2 x the smallest radius).
+    cohesion_model, reference_radius, reference_overlap
+        LAMMPS only; see :func:`~bedstruct.dem.backends.lammps_granular_coeffs`.
+
+    Returns
+    -------
+    str
+        The deck (run it from the folder that holds ``layer01``...).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> from bedstruct.dem.backends import BladeGeometry, write_sphere_data
+    >>> d = tempfile.mkdtemp()
+    >>> f = write_sphere_data(os.path.join(d, "a.data"), [[1e-3, 2e-4, -1e-4], [1e-3, 2e-4, 3e-3]],
+    ...                       [5e-5, 5e-5], box_lo=[-1e-3, 0, -1e-3], box_hi=[5e-3, 4e-4, 4e-3],
+    ...                       n_types=2)
+    >>> blade = BladeGeometry(x0=0.0, z_bottom=0.0, speed=0.1, height=1e-3)
+    >>> plan = SpreadLayersPlan(3e-3, 4e-4, (2e-4, 2e-4), blade, ((1, 1), (2, 2)), (0.0, 3e-3),
+    ...                         (5e-4, 2e-3), 1e-6, x_end=3.5e-3, n_frames=4)
+    >>> deck = spread_layers_deck(f, engine="liggghts", plan=plan, stl_folder=d)
+    >>> [l for l in deck.splitlines() if l.startswith("displace_atoms")]
+    ['displace_atoms pile02 move 0 0 ${dz02} units box']
+    >>> plan.layers[1].spread % plan.every, plan.total_steps == plan.layers[-1].end
+    (0, True)
+    """
+    if engine not in ("liggghts", "lammps"):
+        raise ValueError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
+    p = as_granular_params(params)
+    head = read_data_header(data_file)
+    if head["atom types"] < 2:
+        raise ValueError("the data file must declare 2 atom types (walls use type 2)")
+    if skin is None:
+        from .decks import data_file_radii
+        r = data_file_radii(data_file)
+        skin = 0.2 * float(r.min()) if r.size else 1e-6
+    pl, tool = plan, plan.tool
+    roller = isinstance(tool, RollerGeometry)
+    L, W = pl.plate_length, pl.width
+    gaps = [float(g) for g in pl.gaps]
+    z_plat0 = -gaps[0]
+    dt = pl.dt
+    lines = [f"# bedstruct deck for {engine}: {len(gaps)} spreading layer(s) in one run "
+             f"({'roller' if roller else 'blade'}); contact histories carry over between layers",
+             *_setup(engine, "f p f", "* 1 1"),
+             f"read_data {_path_word(data_file)}",
+             f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
+    if engine == "liggghts":
+        model, wt = liggghts_model_commands(p, n_types=head["atom types"])
+        if min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
+            lines.append("soft_particles yes")
+        lines += model
+    else:
+        coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
+                                        reference_radius=reference_radius,
+                                        reference_overlap=reference_overlap)
+        lines += ["pair_style granular", f"pair_coeff * * {coeffs}"]
+    lines.append(f"timestep {dt:.10g}")
+    if p.gravity > 0:
+        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+    for k, (a, b) in enumerate(pl.pile_ids):
+        lines.append(f"group pile{k + 1:02d} id {int(a)}:{int(b)}")
+    lines.append("group active id " + f"{int(pl.pile_ids[0][0])}:{int(pl.pile_ids[0][1])}")
+    # ---- walls
+    if engine == "liggghts":
+        if stl_folder is None:
+            raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
+        folder = Path(stl_folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        from .workflow_decks import _rect
+        meshes = {"platform": write_stl(folder / "platform.stl",
+                                        _rect(0.0, L, 0.0, W, z_plat0, z_plat0), name="platform")}
+        if pl.chamber_depth > 0:
+            meshes["front"] = write_stl(folder / "front.stl",
+                                        _rect(L, L, 0.0, W, -pl.chamber_depth, 0.0), name="front")
+        if roller:
+            meshes["tool"] = write_stl(folder / "tool.stl", tool.triangles(0.0, W), name="roller")
+        else:
+            meshes["tool"] = tool.write_stl(folder / "tool.stl", 0.0, W, caps=False)
+        for name, path in meshes.items():
+            lines.append(f"fix {name} all mesh/surface file {_path_word(path)} type {wt} "
+                         "curvature_tolerant yes")
+        wm = liggghts_wall_model(p)
+        lines += [f"fix wmesh all wall/gran {wm} mesh n_meshes {len(meshes)} meshes "
+                  + " ".join(meshes),
+                  f"fix wback all wall/gran {wm} primitive type {wt} xplane 0.0"]
+    else:
+        lines += _lammps_walls(pl, p, cohesion_model=cohesion_model,
+                               reference_radius=reference_radius,
+                               reference_overlap=reference_overlap)
+    x0f, x1f = pl.footprint
+    lines += ["fix integr active nve/sphere",
+              "compute rke all erotate/sphere",
+              "compute prad all property/atom radius",
+              "variable ztop atom z+c_prad",
+              f"region foot block {x0f:.10g} {x1f:.10g} INF INF INF {tool_top(pl):.10g} units box",
+              "compute zfoot all reduce/region foot max v_ztop",
+              "thermo_style custom step atoms ke c_rke c_zfoot",
+              f"thermo {pl.every}",
+              "thermo_modify lost ignore norm no flush yes"]
+    if contacts and engine == "liggghts":  # defined before the first run
+        lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
+    elif contacts:
+        lines += ["compute cpa all property/local patom1 patom2",
+                  "compute cpf all pair/local dist fx fy fz"]
+    every = pl.every
+    for k, ls in enumerate(pl.layers):
+        tag = f"{k + 1:02d}"
+        lines.append(f"# ---- layer {k + 1}")
+        if k > 0:
+            g = gaps[k]
+            n_low = pl._steps(g / pl.lower_speed)
+            # one frame (and its contacts) of the bed as the layer starts: with the contact
+            # histories carried over, its tangential forces are those of the previous layer's end
+            # (a dump writes at the setup of a run only on a multiple of its interval)
+            lines.append(f"dump dst{tag} all custom {ls.start} layer{tag}/start.dump {DUMP_COLUMNS}")
+            if contacts:
+                lines.append(f"dump dsc{tag} all local {ls.start} layer{tag}/start_contacts.dump "
+                             + _contact_cols(engine))
+            lines += ["run 0", f"undump dst{tag}"] + ([f"undump dsc{tag}"] if contacts else [])
+            if engine == "liggghts":
+                vl = g / (n_low * dt)  # exactly the gap in n_low steps
+                lines += [f"fix mvplat all move/mesh mesh platform linear 0 0 {-vl:.10g}",
+                          f"run {n_low}", "unfix mvplat"]
+            else:
+                lines.append(f"run {n_low}")
+            lines.append(f"run {pl._steps(min(pl.settle_time, 2 * g / pl.lower_speed))}")
+            z_plat = -sum(gaps[:k + 1])
+            # the pile's base: the highest sphere top in its footprint, at least the platform
+            lines += ["run 0",
+                      f"variable zb{tag} equal {z_plat:.10g}+(c_zfoot-({z_plat:.10g}))"
+                      f"*(c_zfoot>{z_plat:.10g})",
+                      f"variable dz{tag} equal v_zb{tag}+{pl.pile_lift:.10g}"
+                      f"-({pl.pile_parked_z[k]:.10g})",
+                      f"displace_atoms pile{tag} move 0 0 ${{dz{tag}}} units box",
+                      f"group active id {int(pl.pile_ids[k][0])}:{int(pl.pile_ids[k][1])}"]
+            before = ls.start + n_low + pl._steps(min(pl.settle_time, 2 * g / pl.lower_speed))
+        else:
+            before = ls.start
+        lines.append(f"run {ls.spread - before}")
+        dumps = [f"dump dmp{tag} all custom {every} layer{tag}/frames.dump {DUMP_COLUMNS}"]
+        if contacts:
+            dumps.append(f"dump dloc{tag} all local {every} layer{tag}/contacts.dump "
+                         + _contact_cols(engine))
+        lines += dumps
+        n_spread = ls.stop - ls.spread
+        if engine == "liggghts":
+            lines.append(f"fix mvtool all move/mesh mesh tool linear {pl.speed:.10g} 0 0")
+            if roller and tool.omega != 0:
+                # superposed on the translation: the rotation axis moves with the mesh
+                per = 2 * math.pi / abs(tool.omega)
+                sgn = 1 if tool.omega > 0 else -1
+                lines.append(f"fix rottool all move/mesh mesh tool rotate origin {tool.x0:.10g} "
+                             f"{0.5 * W:.10g} {tool.center_z:.10g} axis 0 {sgn} 0 period {per:.10g}")
+                lines += [f"run {n_spread}", "unfix rottool", "unfix mvtool"]
+            else:
+                lines += [f"run {n_spread}", "unfix mvtool"]
+        else:
+            lines.append(f"run {n_spread}")
+        lines.append(f"run {ls.end - ls.stop}")
+        lines += [f"undump dmp{tag}"] + ([f"undump dloc{tag}"] if contacts else [])
+        if k + 1 < len(pl.layers):
+            n_up = pl._steps(pl.clear / pl.return_speed)
+            n_back = pl._steps(pl.travel / pl.return_speed)
+            if engine == "liggghts":
+                back = pl.travel / (n_back * dt)   # back to the start exactly
+                up = pl.clear / (n_up * dt)
+                lines += [f"fix mvup all move/mesh mesh tool linear 0 0 {up:.10g}",
+                          f"run {n_up}", "unfix mvup",
+                          f"fix mvback all move/mesh mesh tool linear {-back:.10g} 0 0",
+                          f"run {n_back}", "unfix mvback",
+                          f"fix mvdown all move/mesh mesh tool linear 0 0 {-up:.10g}",
+                          f"run {n_up}", "unfix mvdown"]
+            else:
+                lines += [f"run {n_up}", f"run {n_back}", f"run {n_up}"]
+    return "\n".join(lines) + "\n"
+
+
+def tool_top(plan: SpreadLayersPlan) -> float:
+    """Highest point of the tool at rest (m): parked piles must stay above it plus ``clear``."""
+    t = plan.tool
+    return t.top if isinstance(t, RollerGeometry) else t.z_bottom + t.height
+
+
+def _lammps_walls(pl: SpreadLayersPlan, p, *, cohesion_model, reference_radius,
+                  reference_overlap) -> list[str]:
+    """Regions moved by step-ramp variables over the whole run (LAMMPS)."""
+    wc = lammps_granular_coeffs(p, wall=True, cohesion_model=cohesion_model,
+                                reference_radius=reference_radius,
+                                reference_overlap=reference_overlap)
+    gaps = [float(g) for g in pl.gaps]
+    L, W, t, dt = pl.plate_length, pl.width, pl.wall_thickness, pl.dt
+    pz, bx, bz, th = [], [], [], []
+    for k, ls in enumerate(pl.layers):
+        if k > 0:
+            n_low = pl._steps(gaps[k] / pl.lower_speed)
+            pz.append(f"-{gaps[k] / n_low:.12g}*{_ramp(ls.start, ls.start + n_low)}")
+        bx.append(f"{pl.speed * dt:.12g}*{_ramp(ls.spread, ls.stop)}")
+        th.append(f"{_ramp(ls.spread, ls.stop)}")
+        if k + 1 < len(pl.layers):
+            n_up = pl._steps(pl.clear / pl.return_speed)
+            n_back = pl._steps(pl.travel / pl.return_speed)
+            a = ls.end
+            bz.append(f"{pl.clear / n_up:.12g}*{_ramp(a, a + n_up)}")
+            bx.append(f"-{pl.travel / n_back:.12g}*{_ramp(a + n_up, a + n_up + n_back)}")
+            bz.append(f"-{pl.clear / n_up:.12g}*{_ramp(a + n_up + n_back, a + 2 * n_up + n_back)}")
+    z0 = -gaps[0]
+    lines = [f"variable pz equal {'+'.join(pz) or '0'}",
+             f"variable bx equal {'+'.join(bx)}",
+             f"variable bz equal {'+'.join(bz) or '0'}",
+             f"region platform block 0 {L:.10g} INF INF {z0 - t:.10g} {z0:.10g} side out "
+             "move NULL NULL v_pz units box",
+             f"fix wplatform all wall/gran/region granular {wc} region platform",
+             f"fix wback all wall/gran granular {wc} xplane 0.0 NULL"]
+    tool = pl.tool
+    if isinstance(tool, RollerGeometry):
+        rot = ""
+        if tool.omega != 0:
+            lines.append(f"variable th equal {tool.omega * dt:.12g}*({'+'.join(th)})")
+            rot = (f" rotate v_th {tool.x0:.10g} {0.5 * W:.10g} {tool.center_z:.10g} 0 1 0")
+        lines.append(f"region tool cylinder y {tool.x0:.10g} {tool.center_z:.10g} "
+                     f"{tool.radius:.10g} INF INF side out move v_bx NULL v_bz{rot} units box")
+    else:
+        x0, x1 = tool.x0, tool.x0 + tool.thickness
+        lines.append(f"region tool block {x0:.10g} {x1:.10g} INF INF {tool.z_bottom:.10g} "
+                     f"{tool.z_bottom + tool.height:.10g} side out move v_bx NULL v_bz units box")
+    lines.append(f"fix wtool all wall/gran/region granular {wc} region tool")
+    if pl.chamber_depth > 0:
+        lines += [f"region front block {L:.10g} {L + t:.10g} INF INF {-pl.chamber_depth:.10g} 0 "
+                  "side out units box",
+                  f"fix wfront all wall/gran/region granular {wc} region front"]
+    return lines
