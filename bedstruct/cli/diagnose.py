@@ -37,6 +37,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--cache", metavar="DIR",
                         help="engine: folder caching every run (overrides [engine] cache)")
     parser.add_argument("--seed", type=int, default=None, help="override the replicate/twin seed")
+    parser.add_argument("--twin-seed", type=int, default=None,
+                        help="validate: seed of the twins only (a further batch on cached fingerprints)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -69,7 +71,7 @@ def _run_validate(args) -> int:
     elif args.sim or args.cache:
         raise ConfigError("--sim/--cache with validate need --simulator engine")
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
-                      simulator=args.simulator, engine=engine)
+                      simulator=args.simulator, engine=engine, twin_seed=args.twin_seed)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)
@@ -78,7 +80,9 @@ def _run_validate(args) -> int:
         compact = {k: v for k, v in out.items() if k != "twins"}
         print_json(_plain(compact))
     else:
-        print(f"validation ({result.preset}, simulator = {result.simulator}; twins: {len(result.twins)})")
+        failed = result.settings.get("failed") or []
+        print(f"validation ({result.preset}, simulator = {result.simulator}; twins: {len(result.twins)}"
+              + (f", failed: {len(failed)}" if failed else "") + ")")
         for k, g in result.goals.items():
             print(f"  {k:30s} {g['value']:.3f}   goal {g['goal']:8s} {'met' if g['met'] else 'NOT MET'}")
         print(f"  {'null_gap_flagged':30s} {result.null_gap_flagged:.3f}")

@@ -277,7 +277,7 @@ def _intrinsic_sd(fps) -> Observations:
 def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, snr_range: tuple[float, float] = (5.0, 10.0),
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
-             progress: bool = False) -> ValidationResult:
+             twin_seed: int | None = None, progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
     Parameters
@@ -301,6 +301,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         keep every run on disk (reruns and other diagnoses of the same design reuse it).
     refine : int, optional
         Refinement rounds of each diagnosis (default 2 on the surrogate, 0 on the engine).
+    twin_seed : int, optional
+        Seed of the twins only (magnitudes, truth runs, noise; default ``seed``): a
+        further batch of twins on the same (cached) fingerprints.
 
     Returns
     -------
@@ -331,7 +334,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
                                alpha=select_alpha, simulator_name=simulator, progress=progress)
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
-    rng = np.random.default_rng([seed, 2024])
+    tseed = int(seed if twin_seed is None else twin_seed)
+    rng = np.random.default_rng([tseed, 2024])
     plan = []
     for e in effects:
         for _ in range(cfg["per_effect"]):
@@ -378,12 +382,12 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 snr = float(rng.uniform(*snr_range))
                 magnitude = _magnitude_for_snr(fps, name, snr)
                 effects_true = {name: magnitude}
-            twin_seed = int(seed) * 100003 + 5000 + i
+            twin_run_seed = tseed * 100003 + 5000 + i
             truth = {"true_effect": name, "true_magnitude": magnitude,
                      "true_cohesion": base_true["cohesion_energy_density"]}
             try:
-                real = _twin_measurements(measured, sim, base_true, effects_true, twin_seed, folder,
-                                          i, intrinsic)
+                real = _twin_measurements(measured, sim, base_true, effects_true, twin_run_seed,
+                                          folder, i, intrinsic)
                 run_one(i, kind, name, real, truth)
                 if reuse_ooc and kind == "effect":
                     run_one(i, "out_of_catalogue", name, real, truth)
@@ -449,7 +453,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                     "cache": str(sim.cache) if sim.cache else None}),
                 "alpha": alpha,
                 "select_alpha": select_alpha,
-                "gof_alpha": gof_alpha, "seed": seed,
+                "gof_alpha": gof_alpha, "seed": seed, "twin_seed": tseed,
                 "twin_magnitudes": f"gap of U{tuple(snr_range)} sigma on calibration observables "
                                    "after recalibration (capped at the prior top)",
                 "twin_cohesion": "base x (1 + U(-0.02, 0.02))",
