@@ -35,6 +35,15 @@ def _a_row(indptr, indices, data, diag, v, i):
 
 
 @njit(inline="always")
+def _set_residual(i, ri, r, z, diag):
+    """Store residual ``r_i`` and preconditioned ``z_i = r_i / diag_i``; returns ``z_i``."""
+    r[i] = ri
+    zi = ri / diag[i]
+    z[i] = zi
+    return zi
+
+
+@njit(inline="always")
 def _sum_and_max(partial, partial_max, nc):
     """Chunk partials added in order, and the largest chunk maximum."""
     s = 0.0
@@ -69,9 +78,7 @@ def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, 
         m = 0.0
         for i in range(bounds[c], bounds[c + 1]):
             ri = b[i] - _a_row(indptr, indices, data, diag, x, i)
-            r[i] = ri
-            zi = ri / diag[i]
-            z[i] = zi
+            zi = _set_residual(i, ri, r, z, diag)
             p[i] = zi
             s += ri * zi
             a = abs(zi)
@@ -106,9 +113,7 @@ def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, 
             for i in range(bounds[c], bounds[c + 1]):
                 x[i] += alpha * p[i]
                 ri = r[i] - alpha * q[i]
-                r[i] = ri
-                zi = ri / diag[i]
-                z[i] = zi
+                zi = _set_residual(i, ri, r, z, diag)
                 s += ri * zi
                 a = abs(zi)
                 if a > m:
