@@ -37,7 +37,7 @@ from .measurements import MeasurementSet, Observations, load_measurements, measu
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
 
 __all__ = ["PRESETS", "ENGINE_PRESETS", "twin_design", "engine_twin_design", "ValidationResult",
-           "validate", "GOALS"]
+           "validate", "score_twins", "GOALS"]
 
 log = logging.getLogger(__name__)
 
@@ -267,6 +267,71 @@ def _magnitude_for_snr(fps, name: str, snr: float) -> float:
     return 0.5 * (lo + hi)
 
 
+def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
+    """Scores of a list of twin records (as in ``ValidationResult.twins``).
+
+    Also used on a partial run: ``validate(..., records=PATH)`` appends each twin's
+    record to a JSON-lines file as it completes.
+
+    Returns
+    -------
+    dict
+        ``top1_accuracy``, ``null_false_attribution``, ``null_gap_flagged``,
+        ``out_of_catalogue_unexplained``, ``median_gap_shrink`` (and ``_rms``),
+        ``magnitude_coverage``, ``magnitude_median_relative_error``, ``confusion``,
+        ``magnitudes``, ``goals``.
+    """
+    eff_tw = [t for t in twins if t["type"] == "effect"]
+    null_tw = [t for t in twins if t["type"] == "null"]
+    ooc_tw = [t for t in twins if t["type"] == "out_of_catalogue"]
+
+    def frac(items, pred):
+        return float(np.mean([bool(pred(t)) for t in items])) if items else float("nan")
+
+    top1 = frac(eff_tw, lambda t: t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"])
+    null_false = frac(null_tw, lambda t: t["verdict"] == "attributed")
+    null_flag = frac(null_tw, lambda t: t["gap_significant"])
+    ooc = frac(ooc_tw, lambda t: t["verdict"] == "unexplained")
+    shr = [t["shrink"] for t in eff_tw if t["shrink"] == t["shrink"]]
+    shr_rms = [t["shrink_rms"] for t in eff_tw if t["shrink_rms"] == t["shrink_rms"]]
+    med = float(np.median(shr)) if shr else float("nan")
+    med_rms = float(np.median(shr_rms)) if shr_rms else float("nan")
+
+    rows = list(effect_names) + ["null"] + ([f"{e} (removed)" for e in effect_names]
+                                            if removed_rows else [])
+    cols = list(effect_names) + ["none", "unexplained"]
+    mat = np.zeros((len(rows), len(cols)), dtype=int)
+    for t in twins:
+        r = (t["true_effect"] if t["type"] == "effect" else "null" if t["type"] == "null"
+             else f"{t['true_effect']} (removed)")
+        c = t["predicted"].split("+")[0]
+        mat[rows.index(r), cols.index(c)] += 1
+    confusion = {"rows": rows, "columns": cols, "matrix": mat.tolist()}
+
+    mags = []
+    for t in eff_tw:
+        if t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"]:
+            lo, hi = t["interval"]
+            mags.append({"effect": t["true_effect"], "true": t["true_magnitude"],
+                         "fitted": t["fitted_magnitude"], "interval": [lo, hi],
+                         "covered": bool(lo <= t["true_magnitude"] <= hi)})
+    coverage = float(np.mean([m["covered"] for m in mags])) if mags else float("nan")
+    rel = [abs(m["fitted"] - m["true"]) / abs(m["true"]) for m in mags if m["true"]]
+    med_rel = float(np.median(rel)) if rel else float("nan")
+    values = {"top1_accuracy": top1, "null_false_attribution": null_false,
+              "out_of_catalogue_unexplained": ooc, "median_gap_shrink": med}
+    goals = {}
+    for k, (op, target) in GOALS.items():
+        v = values[k]
+        ok = (v >= target) if op == ">=" else (v <= target)
+        goals[k] = {"value": v, "goal": f"{op} {target}", "met": bool(ok) if v == v else False}
+    return {"top1_accuracy": top1, "null_false_attribution": null_false, "null_gap_flagged": null_flag,
+            "out_of_catalogue_unexplained": ooc, "median_gap_shrink": med,
+            "median_gap_shrink_rms": med_rms, "magnitude_coverage": coverage,
+            "magnitude_median_relative_error": med_rel, "confusion": confusion, "magnitudes": mags,
+            "goals": goals}
+
+
 def _intrinsic_sd(fps) -> Observations:
     """Per-observable standard deviation of one simulator run (pooled replicate scatter)."""
     comp = fps.design.component_names()
@@ -277,7 +342,8 @@ def _intrinsic_sd(fps) -> Observations:
 def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, snr_range: tuple[float, float] = (5.0, 10.0),
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
-             twin_seed: int | None = None, progress: bool = False) -> ValidationResult:
+             twin_seed: int | None = None, records=None,
+             progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
     Parameters
@@ -304,6 +370,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     twin_seed : int, optional
         Seed of the twins only (magnitudes, truth runs, noise; default ``seed``): a
         further batch of twins on the same (cached) fingerprints.
+    records : path, optional
+        JSON-lines file to which each twin's record is appended as it completes
+        (score a partial run with :func:`score_twins`).
 
     Returns
     -------
@@ -371,6 +440,12 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                        confidence=top.confidence)
         twins.append(rec)
         log.info("twin %d %s %s -> %s", i, kind, name, rec["predicted"])
+        if records is not None:
+            import json
+
+            from ..report._model import _plain
+            with open(records, "a", encoding="utf-8") as fh:
+                fh.write(json.dumps(_plain(rec)) + "\n")
 
     with tempfile.TemporaryDirectory(prefix="bedstruct-twins-") as tmp:
         folder = Path(tmp)
@@ -398,50 +473,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 log.warning("twin %d (%s %s) failed: %s", i, kind, name, exc)
                 failed.append({"twin": i, "type": kind, **truth, "error": str(exc)[:500]})
 
-    eff_tw = [t for t in twins if t["type"] == "effect"]
-    null_tw = [t for t in twins if t["type"] == "null"]
-    ooc_tw = [t for t in twins if t["type"] == "out_of_catalogue"]
-
-    def frac(items, pred):
-        return float(np.mean([bool(pred(t)) for t in items])) if items else float("nan")
-
-    top1 = frac(eff_tw, lambda t: t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"])
-    null_false = frac(null_tw, lambda t: t["verdict"] == "attributed")
-    null_flag = frac(null_tw, lambda t: t["gap_significant"])
-    ooc = frac(ooc_tw, lambda t: t["verdict"] == "unexplained")
-    shr = [t["shrink"] for t in eff_tw if t["shrink"] == t["shrink"]]
-    shr_rms = [t["shrink_rms"] for t in eff_tw if t["shrink_rms"] == t["shrink_rms"]]
-    med = float(np.median(shr)) if shr else float("nan")
-    med_rms = float(np.median(shr_rms)) if shr_rms else float("nan")
-
-    rows = [e.name for e in effects] + ["null"] + [f"{e.name} (removed)" for e in effects
-                                                   if cfg["out_of_catalogue"] or reuse_ooc]
-    cols = [e.name for e in effects] + ["none", "unexplained"]
-    mat = np.zeros((len(rows), len(cols)), dtype=int)
-    for t in twins:
-        r = (t["true_effect"] if t["type"] == "effect" else "null" if t["type"] == "null"
-             else f"{t['true_effect']} (removed)")
-        c = t["predicted"].split("+")[0]
-        mat[rows.index(r), cols.index(c)] += 1
-    confusion = {"rows": rows, "columns": cols, "matrix": mat.tolist()}
-
-    mags = []
-    for t in eff_tw:
-        if t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"]:
-            lo, hi = t["interval"]
-            mags.append({"effect": t["true_effect"], "true": t["true_magnitude"],
-                         "fitted": t["fitted_magnitude"], "interval": [lo, hi],
-                         "covered": bool(lo <= t["true_magnitude"] <= hi)})
-    coverage = float(np.mean([m["covered"] for m in mags])) if mags else float("nan")
-    rel = [abs(m["fitted"] - m["true"]) / abs(m["true"]) for m in mags if m["true"]]
-    med_rel = float(np.median(rel)) if rel else float("nan")
-    values = {"top1_accuracy": top1, "null_false_attribution": null_false,
-              "out_of_catalogue_unexplained": ooc, "median_gap_shrink": med}
-    goals = {}
-    for k, (op, target) in GOALS.items():
-        v = values[k]
-        ok = (v >= target) if op == ">=" else (v <= target)
-        goals[k] = {"value": v, "goal": f"{op} {target}", "met": bool(ok) if v == v else False}
+    sc = score_twins(twins, [e.name for e in effects],
+                     removed_rows=bool(cfg["out_of_catalogue"] or reuse_ooc))
     settings = {"replicates": cfg["replicates"], "per_effect": cfg["per_effect"], "null": cfg["null"],
                 "out_of_catalogue_per_effect": cfg["out_of_catalogue"] or (
                     "each effect twin, its effect removed" if reuse_ooc else 0),
@@ -461,6 +494,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 "note": ("runs on the analytic surrogate simulator, not the DEM engine"
                          if simulator == "surrogate" else
                          "runs on the embedded DEM engine (scale-model preset)")}
-    return ValidationResult(preset, simulator, top1, null_false, null_flag, ooc, med, med_rms,
-                            coverage, med_rel, confusion, mags, twins, goals,
+    return ValidationResult(preset, simulator, sc["top1_accuracy"], sc["null_false_attribution"],
+                            sc["null_gap_flagged"], sc["out_of_catalogue_unexplained"],
+                            sc["median_gap_shrink"], sc["median_gap_shrink_rms"],
+                            sc["magnitude_coverage"], sc["magnitude_median_relative_error"],
+                            sc["confusion"], sc["magnitudes"], twins, sc["goals"],
                             time.perf_counter() - t0, settings)
