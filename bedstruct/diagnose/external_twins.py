@@ -498,10 +498,30 @@ def liggghts_simulator(design, effect: TwinEffect, *, preset: str = "tiny",
     It is :class:`~bedstruct.workflows.diagnosis_sim.EngineSimulator` (same
     configuration, same observation operators) with ``engine = "liggghts"``, one
     MPI rank and ``external.exe`` set to :func:`write_liggghts_wrapper`'s
-    executable; ``effects`` must be empty (the effect is in the decks).
+    executable; pass ``effects = {}`` when calling it (the effect is in the decks).
+
+    Parameters
+    ----------
+    design : MeasurementSet
+        Observables to produce.
+    effect : TwinEffect
+    preset : str
+        Workflow preset (as the engine simulator's ``[engine] preset``).
+    overrides : sequence of str
+        Workflow ``section.key=value`` overrides (use the engine side's).
+    workdir : path, optional
+        Folder for the wrapper (``bin/``) and the run folders (``runs/``; one
+        temporary folder per call); default a new temporary folder.
+
+    Returns
+    -------
+    EngineSimulator
+        With ``name = "liggghts"``.
     """
+    import tempfile
+
     from ..workflows.diagnosis_sim import EngineSimulator
-    root = Path(workdir) if workdir is not None else Path.cwd() / "liggghts-twin"
+    root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
     exe = write_liggghts_wrapper(root / "bin", effect)
     ov = [*overrides, "engine=liggghts", "external.np=1", f"external.exe={exe}"]
     (root / "runs").mkdir(parents=True, exist_ok=True)
