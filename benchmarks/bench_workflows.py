@@ -71,7 +71,7 @@ def main(argv=None) -> int:
                     t0 = time.perf_counter()
                     run_spread(ecfg, out=f"{tmp}/spread")
                     out[f"{eng}_spread_s"] = round(time.perf_counter() - t0, 2)
-            except ConfigError as exc:   # e.g. the roller on an external engine
+            except ConfigError as exc:   # e.g. an option the engine does not support
                 out[f"{eng}_status"] = f'"{exc}"'.replace(" ", "_")[:60]
     print("RESULT " + " ".join(f"{k}={v}" for k, v in out.items()))
     return 0

@@ -123,7 +123,8 @@ def test_liggghts_keeps_contact_histories_between_layers(tmp_path):
     assert len(common) > 0.5 * len(a) > 100
     ft_end = np.array([a[k][0] for k in common])
     ft_start = np.array([b[k][0] for k in common])
-    # kept: equal to a few percent (the bed rests while the tool returns); restarted: ~0
-    # (measured: median relative change 0.07, median ratio 0.99)
-    assert np.median(np.abs(ft_start - ft_end) / ft_end) < 0.25
-    assert np.median(ft_start / ft_end) > 0.8
+    # kept: the same forces up to the bed's slow relaxation while the tool returns (the
+    # normal forces change as much: 10-90 % of their ratios 0.69-1.49); restarted: ~0.
+    # Measured: median ratio 0.95, median relative change 0.29 (0.99 and 0.07 with 300 spheres)
+    assert 0.7 < np.median(ft_start / ft_end) < 1.3
+    assert np.median(np.abs(ft_start - ft_end) / ft_end) < 0.5

@@ -10,7 +10,8 @@ How the deck reproduces the embedded workflow:
 
 * every pile is in the data file from the start; pile 1 lies in front of the
   tool, piles 2, 3... are *parked* above the working area (not integrated:
-  ``fix nve/sphere`` acts on the group ``active`` only) and are moved into
+  ``fix nve/sphere`` acts on the group ``active`` only; left out of the pair
+  lists by ``neigh_modify exclude group``) and are moved into
   place before their layer by ``displace_atoms``, their bottom
   ``pile_lift`` above the highest sphere in the pile's footprint (``compute
   reduce/region`` of ``z + radius``), as the embedded run places them;
@@ -393,6 +394,12 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     for k, (a, b) in enumerate(pl.pile_ids):
         lines.append(f"group pile{k + 1:02d} id {int(a)}:{int(b)}")
     lines.append("group active id " + f"{int(pl.pile_ids[0][0])}:{int(pl.pile_ids[0][1])}")
+    # parked piles are left out of the pair lists (they would cost as much as the active ones)
+    for k in range(len(gaps) - 1):
+        lines.append(f"group wait{k + 1:02d} id {int(pl.pile_ids[k + 1][0])}:"
+                     f"{int(pl.pile_ids[-1][1])}")
+    if len(gaps) > 1:
+        lines.append("neigh_modify exclude group wait01 all")
     # ---- walls
     if engine == "liggghts":
         if stl_folder is None:
@@ -465,7 +472,10 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                       f"variable dz{tag} equal v_zb{tag}+{pl.pile_lift:.10g}"
                       f"-({pl.pile_parked_z[k]:.10g})",
                       f"displace_atoms pile{tag} move 0 0 ${{dz{tag}}} units box",
-                      f"group active id {int(pl.pile_ids[k][0])}:{int(pl.pile_ids[k][1])}"]
+                      f"group active id {int(pl.pile_ids[k][0])}:{int(pl.pile_ids[k][1])}",
+                      "neigh_modify exclude none"]
+            if k + 1 < len(gaps):
+                lines.append(f"neigh_modify exclude group wait{k + 1:02d} all")
             before = ls.start + n_low + pl._steps(min(pl.settle_time, 2 * g / pl.lower_speed))
         else:
             before = ls.start
