@@ -69,6 +69,29 @@ def embedded_roller(tmp_path_factory):
     return run_spread(_roller_cfg("embedded"), out=tmp_path_factory.mktemp("roller"))
 
 
+def _tangential_lammps(block, n_max):
+    """{(i, j): (|F_t|, |F_n|)} of touching particle pairs (ids <= n_max) from LAMMPS'
+    ``patom1 patom2 dist fx fy fz p1 p2 p3`` (pair granular: normal force, tangential force)."""
+    ids = block[:, 0:2].astype(int)
+    fn = np.linalg.norm(block[:, 3:6], axis=1)
+    ft = np.linalg.norm(block[:, 6:9], axis=1)
+    keep = (ids.max(axis=1) <= n_max) & (fn > 0)
+    return {(int(min(a, b)), int(max(a, b))): (t, m)
+            for (a, b), t, m, k in zip(ids, ft, fn, keep) if k}
+
+
+def _history_kept(out, width, n, tangential):
+    """Tangential forces of the bed at the end of layer 1 and as layer 2 starts."""
+    end = _local_blocks(out / "layer01" / "contacts.dump.gz")
+    start = _local_blocks(out / "layer02" / "start_contacts.dump.gz")
+    a, b = tangential(end[max(end)]), tangential(start[max(start)])
+    common = [k for k in a if k in b and a[k][0] > 0.05 * a[k][1]]
+    assert len(common) > 0.5 * len(a) > 100
+    ft_end = np.array([a[k][0] for k in common])
+    ft_start = np.array([b[k][0] for k in common])
+    return np.median(ft_start / ft_end), np.median(np.abs(ft_start - ft_end) / ft_end)
+
+
 @pytest.mark.parametrize("engine", sorted(ENGINES))
 def test_roller_one_layer(tmp_path, engine, embedded_roller):
     """The counter-rotating roller (surface speed = traverse speed) spreads a bed no thicker
@@ -115,16 +138,22 @@ def test_liggghts_keeps_contact_histories_between_layers(tmp_path):
         assert all(0.4 < f < 0.66 for f in layer.packing_fraction)
     assert res.layers[1].n_bed > res.layers[0].n_bed
     W, n = float(cfg["spread"]["width"]), res.n_pile
-    end = _local_blocks(tmp_path / "layer01" / "contacts.dump.gz")
-    start = _local_blocks(tmp_path / "layer02" / "start_contacts.dump.gz")
-    a = _tangential_liggghts(end[max(end)], W, n)
-    b = _tangential_liggghts(start[max(start)], W, n)
-    common = [k for k in a if k in b and a[k][0] > 0.05 * a[k][1]]
-    assert len(common) > 0.5 * len(a) > 100
-    ft_end = np.array([a[k][0] for k in common])
-    ft_start = np.array([b[k][0] for k in common])
+    ratio, change = _history_kept(tmp_path, W, n, lambda b: _tangential_liggghts(b, W, n))
     # kept: the same forces up to the bed's slow relaxation while the tool returns (the
     # normal forces change as much: 10-90 % of their ratios 0.69-1.49); restarted: ~0.
     # Measured: median ratio 0.95, median relative change 0.29 (0.99 and 0.07 with 300 spheres)
-    assert 0.7 < np.median(ft_start / ft_end) < 1.3
-    assert np.median(np.abs(ft_start - ft_end) / ft_end) < 0.5
+    assert 0.7 < ratio < 1.3
+    assert change < 0.5
+
+
+@pytest.mark.slow
+def test_lammps_keeps_contact_histories_between_layers(tmp_path):
+    """As the LIGGGHTS test, on LAMMPS (pair granular's tangential force, p1-p3)."""
+    _need("lammps")
+    cfg = load_config(preset="tiny", overrides=["contact.cohesion=0.0", "engine=lammps",
+                                                "spread.n_frames=3"])
+    res = run_spread(cfg, out=tmp_path)
+    n = res.n_pile
+    ratio, change = _history_kept(tmp_path, 0.0, n, lambda b: _tangential_lammps(b, n))
+    assert 0.7 < ratio < 1.3
+    assert change < 0.5

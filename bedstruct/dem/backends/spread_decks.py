@@ -298,10 +298,11 @@ class SpreadLayersPlan:
 
 def _contact_cols(engine: str) -> str:
     """Local-dump columns: LIGGGHTS ``pos id force contactArea delta`` (14: x1 y1 z1 x2 y2 z2
-    id1 id2 periodic fx fy fz area delta); LAMMPS ``patom1 patom2 dist fx fy fz``."""
+    id1 id2 periodic fx fy fz area delta); LAMMPS ``patom1 patom2 dist fx fy fz p1 p2 p3``
+    (pair granular: fx fy fz the normal force, p1-p3 the tangential force)."""
     if engine == "liggghts":
         return " ".join(f"c_cpl[{i}]" for i in range(1, 15))
-    return "c_cpa[1] c_cpa[2] c_cpf[1] c_cpf[2] c_cpf[3] c_cpf[4]"
+    return "c_cpa[1] c_cpa[2] " + " ".join(f"c_cpf[{i}]" for i in range(1, 8))
 
 
 def _ramp(a: int, b: int) -> str:
@@ -441,7 +442,7 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
         lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
     elif contacts:
         lines += ["compute cpa all property/local patom1 patom2",
-                  "compute cpf all pair/local dist fx fy fz"]
+                  "compute cpf all pair/local dist fx fy fz p1 p2 p3"]
     every = pl.every
     for k, ls in enumerate(pl.layers):
         tag = f"{k + 1:02d}"
