@@ -77,12 +77,14 @@ def test_toml_round_trip():
 
 
 def test_other_engines_not_yet_supported():
-    # repose and one-layer spreading run on liggghts/lammps (tests/workflows/test_external_engines.py)
+    # repose and spreading run on liggghts/lammps (tests/workflows/test_external_*.py)
     from bedstruct.workflows import run_repose, run_spread
     cfg = load_config(preset="tiny", overrides=['engine="liggghts"', 'external.exe="/nonexistent/x"'])
     with pytest.raises(ConfigError, match="not available"):
         run_repose(cfg)
     with pytest.raises(ConfigError, match="not available"):
         run_spread(cfg)
-    with pytest.raises(ConfigError, match="roller"):
-        run_spread(load_config(preset="tiny", overrides=['engine="lammps"', "spread.tool=roller"]))
+    # the roller runs on the external engines too (tests/workflows/test_external_spread.py)
+    with pytest.raises(ConfigError, match="not available"):
+        run_spread(load_config(preset="tiny", overrides=['engine="lammps"', "spread.tool=roller",
+                                                         'external.exe="/nonexistent/x"']))
