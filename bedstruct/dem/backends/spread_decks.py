@@ -41,11 +41,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import as_granular_params, read_data_header
-from .decks import DUMP_COLUMNS, _path_word, _setup
+from ._common import as_granular_params
+from .decks import DUMP_COLUMNS, _path_word
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
-from .liggghts import liggghts_model_commands, liggghts_wall_model
+from .liggghts import liggghts_wall_model
 from .stl import BladeGeometry, write_stl
+from .workflow_decks import _granular_head, _rect
 
 __all__ = ["RollerGeometry", "cylinder_triangles", "LayerSteps", "SpreadLayersPlan",
            "spread_layers_deck"]
@@ -361,37 +362,18 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     if engine not in ("liggghts", "lammps"):
         raise ValueError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
     p = as_granular_params(params)
-    head = read_data_header(data_file)
-    if head["atom types"] < 2:
-        raise ValueError("the data file must declare 2 atom types (walls use type 2)")
-    if skin is None:
-        from .decks import data_file_radii
-        r = data_file_radii(data_file)
-        skin = 0.2 * float(r.min()) if r.size else 1e-6
     pl, tool = plan, plan.tool
     roller = isinstance(tool, RollerGeometry)
     L, W = pl.plate_length, pl.width
     gaps = [float(g) for g in pl.gaps]
     z_plat0 = -gaps[0]
     dt = pl.dt
-    lines = [f"# bedstruct deck for {engine}: {len(gaps)} spreading layer(s) in one run "
-             f"({'roller' if roller else 'blade'}); contact histories carry over between layers",
-             *_setup(engine, "f p f", "* 1 1"),
-             f"read_data {_path_word(data_file)}",
-             f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
-    if engine == "liggghts":
-        model, wt = liggghts_model_commands(p, n_types=head["atom types"])
-        if min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
-            lines.append("soft_particles yes")
-        lines += model
-    else:
-        coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
-                                        reference_radius=reference_radius,
-                                        reference_overlap=reference_overlap)
-        lines += ["pair_style granular", f"pair_coeff * * {coeffs}"]
-    lines.append(f"timestep {dt:.10g}")
-    if p.gravity > 0:
-        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+    lines, wt = _granular_head(
+        data_file, p, engine=engine, boundary="f p f", dt=dt, skin=skin,
+        title=(f"{len(gaps)} spreading layer(s) in one run ({'roller' if roller else 'blade'}); "
+               "contact histories carry over between layers"),
+        cohesion_model=cohesion_model, reference_radius=reference_radius,
+        reference_overlap=reference_overlap)
     for k, (a, b) in enumerate(pl.pile_ids):
         lines.append(f"group pile{k + 1:02d} id {int(a)}:{int(b)}")
     lines.append("group active id " + f"{int(pl.pile_ids[0][0])}:{int(pl.pile_ids[0][1])}")
@@ -407,7 +389,6 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
         folder = Path(stl_folder)
         folder.mkdir(parents=True, exist_ok=True)
-        from .workflow_decks import _rect
         meshes = {"platform": write_stl(folder / "platform.stl",
                                         _rect(0.0, L, 0.0, W, z_plat0, z_plat0), name="platform")}
         if pl.chamber_depth > 0:

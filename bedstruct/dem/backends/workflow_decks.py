@@ -143,6 +143,40 @@ def _rect(x0, x1, y0, y1, z0, z1):
     return [[a, b, c], [a, c, d]]
 
 
+def _granular_head(data_file, p, *, engine: str, title: str, boundary: str, dt: float,
+                   skin, cohesion_model, reference_radius, reference_overlap):
+    """Deck lines up to gravity (setup, data file, neighbours, contact model, time step)
+    shared by the workflow decks; returns ``(lines, wall_type)`` (LAMMPS: wall type None)."""
+    head = read_data_header(data_file)
+    if head["atom types"] < 2:
+        raise ValueError("the data file must declare 2 atom types (walls use type 2); write it "
+                         "with write_sphere_data(..., n_types=2)")
+    if skin is None:
+        from .decks import data_file_radii
+        r = data_file_radii(data_file)
+        skin = 0.2 * float(r.min()) if r.size else 1e-6
+    lines = [f"# bedstruct deck for {engine}: {title}",
+             *_setup(engine, boundary, "* 1 1"),
+             f"read_data {_path_word(data_file)}",
+             f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
+    wt = None
+    if engine == "liggghts":
+        model, wt = liggghts_model_commands(p, n_types=head["atom types"])
+        if min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
+            # LIGGGHTS refuses E < 5e6 Pa in SI units unless told (softened moduli are deliberate)
+            lines.append("soft_particles yes")
+        lines += model
+    else:
+        coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
+                                        reference_radius=reference_radius,
+                                        reference_overlap=reference_overlap)
+        lines += ["pair_style granular", f"pair_coeff * * {coeffs}"]
+    lines.append(f"timestep {dt:.10g}")
+    if p.gravity > 0:
+        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+    return lines, wt
+
+
 def repose_wall_stls(geometry: ReposeGeometry, folder) -> dict[str, Path]:
     """Write the LIGGGHTS wall meshes of ``geometry`` into ``folder``.
 
@@ -251,33 +285,12 @@ def repose_deck(data_file, params=None, *, engine: str, geometry: ReposeGeometry
     if engine not in ("liggghts", "lammps"):
         raise ValueError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
     p = as_granular_params(params)
-    head = read_data_header(data_file)
-    if head["atom types"] < 2:
-        raise ValueError("the data file must declare 2 atom types (walls use type 2); write it "
-                         "with write_sphere_data(..., n_types=2)")
-    if skin is None:
-        from .decks import data_file_radii
-        r = data_file_radii(data_file)
-        skin = 0.2 * float(r.min()) if r.size else 1e-6
     boundary = "f p f" if geometry.periodic_width else "f f f"
-    lines = [f"# bedstruct deck for {engine}: angle of repose (settle, slide the plate, drain)",
-             *_setup(engine, boundary, "* 1 1"),
-             f"read_data {_path_word(data_file)}",
-             f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
-    if engine == "liggghts":
-        model, wt = liggghts_model_commands(p, n_types=head["atom types"])
-        if min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
-            # LIGGGHTS refuses E < 5e6 Pa in SI units unless told (softened moduli are deliberate)
-            lines.append("soft_particles yes")
-        lines += model
-    else:
-        coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
-                                        reference_radius=reference_radius,
-                                        reference_overlap=reference_overlap)
-        lines += ["pair_style granular", f"pair_coeff * * {coeffs}"]
-    lines.append(f"timestep {schedule.dt:.10g}")
-    if p.gravity > 0:
-        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+    lines, wt = _granular_head(data_file, p, engine=engine, boundary=boundary, dt=schedule.dt,
+                               title="angle of repose (settle, slide the plate, drain)",
+                               skin=skin, cohesion_model=cohesion_model,
+                               reference_radius=reference_radius,
+                               reference_overlap=reference_overlap)
     if engine == "liggghts":
         if stl_folder is None:
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
@@ -405,32 +418,12 @@ def spread_deck(data_file, params=None, *, engine: str, geometry: SpreadGeometry
     if engine not in ("liggghts", "lammps"):
         raise ValueError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
     p = as_granular_params(params)
-    head = read_data_header(data_file)
-    if head["atom types"] < 2:
-        raise ValueError("the data file must declare 2 atom types (walls use type 2)")
-    if skin is None:
-        from .decks import data_file_radii
-        r = data_file_radii(data_file)
-        skin = 0.2 * float(r.min()) if r.size else 1e-6
     g, b = geometry, geometry.blade
     L, W, t = g.plate_length, g.width, g.wall_thickness
-    lines = [f"# bedstruct deck for {engine}: one spreading layer (settle, spread, settle)",
-             *_setup(engine, "f p f", "* 1 1"),
-             f"read_data {_path_word(data_file)}",
-             f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
-    if engine == "liggghts":
-        model, wt = liggghts_model_commands(p, n_types=head["atom types"])
-        if min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
-            lines.append("soft_particles yes")
-        lines += model
-    else:
-        coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
-                                        reference_radius=reference_radius,
-                                        reference_overlap=reference_overlap)
-        lines += ["pair_style granular", f"pair_coeff * * {coeffs}"]
-    lines.append(f"timestep {schedule.dt:.10g}")
-    if p.gravity > 0:
-        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+    lines, wt = _granular_head(data_file, p, engine=engine, boundary="f p f", dt=schedule.dt,
+                               title="one spreading layer (settle, spread, settle)", skin=skin,
+                               cohesion_model=cohesion_model, reference_radius=reference_radius,
+                               reference_overlap=reference_overlap)
     s0 = schedule.settle_steps
     s1 = s0 + schedule.spread_steps
     if engine == "liggghts":
