@@ -47,6 +47,8 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
         tk = np.empty(_BLOCK, dtype=np.int64)
         tn = np.empty(_BLOCK, dtype=np.int64)
         sep = np.empty((_BLOCK, 4))
+        fb = fbuf[t]  # this chunk's force and torque buffers
+        tb = tbuf[t]
         for b0 in range(bounds[t], bounds[t + 1], _BLOCK):
             b1 = min(b0 + _BLOCK, bounds[t + 1])
             # pass 1: separations and the split touching / not touching, without a
@@ -105,8 +107,8 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
                 e2 = dy * rinv
                 e3 = dz * rinv
                 delta = rs - r
-                ti = ptype[i]
-                tj = ptype[j]
+                ti = np.uint32(ptype[i])
+                tj = np.uint32(ptype[j])
                 reff = ri * rj / rs
                 mi = mass[i]
                 mj = mass[j]
@@ -178,18 +180,18 @@ def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bound
                 fx = fn * e1 + f1
                 fy = fn * e2 + f2
                 fz = fn * e3 + f3
-                fbuf[t, i, 0] += fx
-                fbuf[t, i, 1] += fy
-                fbuf[t, i, 2] += fz
-                fbuf[t, j, 0] -= fx
-                fbuf[t, j, 1] -= fy
-                fbuf[t, j, 2] -= fz
-                tbuf[t, i, 0] += ti1
-                tbuf[t, i, 1] += ti2
-                tbuf[t, i, 2] += ti3
-                tbuf[t, j, 0] += tj1
-                tbuf[t, j, 1] += tj2
-                tbuf[t, j, 2] += tj3
+                fb[i, 0] += fx
+                fb[i, 1] += fy
+                fb[i, 2] += fz
+                fb[j, 0] -= fx
+                fb[j, 1] -= fy
+                fb[j, 2] -= fz
+                tb[i, 0] += ti1
+                tb[i, 1] += ti2
+                tb[i, 2] += ti3
+                tb[j, 0] += tj1
+                tb[j, 1] += tj2
+                tb[j, 2] += tj3
                 if store:
                     fn_out[k] = fn
                     ft_out[k, 0] = f1
