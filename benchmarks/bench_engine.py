@@ -11,7 +11,7 @@ as a checkpoint and a LAMMPS data file, then timed:
   and 2 MPI ranks on the same data file and model, when installed (nan
   otherwise).
 
-Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N]``.
+Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N] [--profile]``.
 The last line is ``RESULT bedstruct_steps_per_s=... liggghts_steps_per_s=...
 lammps_steps_per_s=... ratio_1core=... speedup_2threads=... ...`` (particle-steps
 per second; bedstruct_steps_per_s is the 2-thread figure; ratio_1core is
@@ -132,6 +132,38 @@ def time_bedstruct(sim: Simulation, *, steps: int) -> dict:
             "dt": sim.dt, "kinetic_energy": sim.kinetic_energy()}
 
 
+def profile_phases(sim: Simulation, *, steps: int) -> dict:
+    """Milliseconds per step in each pass (unfused steps; uses the engine's private passes).
+
+    ``kick`` half kick + drift, ``lists`` neighbour/wall-list rebuilds, ``pair`` the pair
+    pass, ``finish`` reduction + walls + second half kick.
+    """
+    from bedstruct.dem import _kernels as K
+    ph = dict(kick=0.0, lists=0.0, pair=0.0, finish=0.0)
+    for _ in range(steps):
+        s, dt = sim, sim.dt
+        t0 = time.perf_counter()
+        K.kick_drift(s.x, s.v, s.om, s.f, s.tq, s.inv_m, s.inv_i, s.x_ref, dt, s._pbounds, s._disp)
+        t1 = time.perf_counter()
+        if s._disp.max() > (0.5 * s.skin) ** 2:
+            s._rebuild()
+        elif s._wall_speed * (s.time + dt - s._wall_list_time) > 0.5 * s.skin:
+            s.time += dt
+            s._build_wall_list()
+            s.time -= dt
+        t2 = time.perf_counter()
+        s._pair_pass(dt, s.ht, s.hr, s._fbuf, s._tbuf, False, s._fn_out, s._ft_out)
+        t3 = time.perf_counter()
+        s.step += 1
+        s.time += dt
+        s._finish_pass(dt, s.v, s.om, s.f, s.tq, s._fbuf, s._tbuf, s.wslot, s.whist, False,
+                       s._wfn, s._wdel, s._wnrm)
+        t4 = time.perf_counter()
+        for key, val in zip(ph, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
+            ph[key] += val
+    return {key: val / steps * 1e3 for key, val in ph.items()}
+
+
 def time_external(engine: str, data: Path, *, np_: int, steps: int, dt: float) -> float:
     try:
         from bedstruct.dem.backends import benchmark_external
@@ -150,6 +182,8 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--no-external", action="store_true", help="skip LIGGGHTS/LAMMPS")
     ap.add_argument("--repeat", type=int, default=None, help="best of N interleaved runs (3; 1 quick)")
+    ap.add_argument("--profile", action="store_true",
+                    help="also print ms per step in each engine pass (1 thread, 200 steps)")
     ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
     args = ap.parse_args(argv)
     n = args.particles or (4000 if args.quick else 20000)
@@ -190,6 +224,13 @@ def main(argv=None) -> int:
             print(f"# repeat {rep + 1}: {engine} np={np_}: {val:.4g} particle-steps/s")
             if not math.isnan(val) and not (val <= ext[engine, np_]):
                 ext[engine, np_] = val
+    if args.profile:
+        from bedstruct import _numba
+        _numba.set_num_threads(1)
+        prof = profile_phases(s1, steps=200)
+        print("# bedstruct 1 thread, ms per step by pass: "
+              + " ".join(f"{k}={v:.3f}" for k, v in prof.items())
+              + f" (sum {sum(prof.values()):.3f})")
     for k, v in b1.items():
         print(f"# bedstruct 1 thread (best): {k} = {v:.4g}")
     print(f"# bedstruct 2 threads (best): particle-steps/s = {b2['pss']:.4g}, rebuilds = {b2['rebuilds']}")
