@@ -112,7 +112,8 @@ class Fingerprint:
         Effects whose projected fingerprints are nearly parallel (|cos| > 0.98).
     identify_with : tuple of str
         Non-calibration observables (held-out or candidate) where the effect
-        shows most, by whitened change at ``m2``.
+        shows most, by whitened change at ``m2`` (changes above 2 sigma and above
+        twice their own estimation noise; empty: the catalogue's suggestions apply).
     """
 
     effect: Effect
@@ -421,12 +422,15 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
                 conf.append(raw[j][0].name)
         ident = []
         if noncal.any():
+            # a change of more than 2 sigma that is also beyond twice its own estimation
+            # noise (a noisy fingerprint must not name a measurement by chance)
             w = np.abs(D[1][noncal]) / sigma[noncal]
+            real = np.abs(D[1][noncal]) > 2.0 * SE[1][noncal]
             order = np.argsort(-w)
             seen = []
             for i in order:
                 nm = str(comp_names[noncal][i])
-                if w[i] > 2.0 and nm not in seen:
+                if w[i] > 2.0 and real[i] and nm not in seen:
                     seen.append(nm)
                 if len(seen) == 3:
                     break
