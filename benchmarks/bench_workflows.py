@@ -6,8 +6,18 @@ times the same workflows on LIGGGHTS and LAMMPS when installed (``nan`` otherwis
 through the decks the workflows generate. Run::
 
     python benchmarks/bench_workflows.py [--preset small] [--layers N] [--threads 1]
+    python benchmarks/bench_workflows.py --seed-steps 200     # the seed preset: extrapolate
 
-Ends with ``RESULT preset=... engine=embedded repose_s=... repose_particles=...
+``--seed-steps N`` times N steps (after 20 untimed ones) of the ``seed`` preset's
+repose box as inserted (105,000 spheres) on each engine, one thread / one rank, and
+extrapolates to its whole repose replicate and to one spreading layer of its
+18.9 mm plate (``RESULT preset=seed seed_particles=... dt=... repose_steps=...
+spread_steps_per_layer=... embedded_s_per_step=... embedded_repose_h=...
+embedded_spread_h_per_layer=... liggghts_... lammps_...``). The inserted state is
+loose (few contacts): a lower bound on the cost of a settled bed
+(docs/validation.md, "The seed preset: time per run").
+
+Otherwise ends with ``RESULT preset=... engine=embedded repose_s=... repose_particles=...
 spread_s=... spread_layers=... spread_steps=... spread_final_particles=... liggghts_repose_s=...
 liggghts_spread_s=... lammps_repose_s=... lammps_spread_s=...``.
 Timings include numba compilation on the first call unless the cache is warm;
@@ -27,7 +37,11 @@ def main(argv=None) -> int:
     p.add_argument("--layers", type=int, default=None, help="spread only the first N layers")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--skip-spread", action="store_true")
+    p.add_argument("--seed-steps", type=int, default=0,
+                   help="time N steps of the seed preset's repose box per engine and extrapolate")
     args = p.parse_args(argv)
+    if args.seed_steps > 0:
+        return seed_timing(args.seed_steps)
 
     from bedstruct.errors import ConfigError
     from bedstruct.workflows import load_config, run_repose, run_spread
@@ -73,6 +87,61 @@ def main(argv=None) -> int:
                     out[f"{eng}_spread_s"] = round(time.perf_counter() - t0, 2)
             except ConfigError as exc:   # e.g. an option the engine does not support
                 out[f"{eng}_status"] = f'"{exc}"'.replace(" ", "_")[:60]
+    print("RESULT " + " ".join(f"{k}={v}" for k, v in out.items()))
+    return 0
+
+
+def seed_timing(steps: int) -> int:
+    """Time ``steps`` steps of the seed preset's repose box on each engine; extrapolate."""
+    import re
+    from pathlib import Path
+
+    from bedstruct.core import Box
+    from bedstruct.dem import Plane, Simulation
+    from bedstruct.dem.backends import find_lammps, find_liggghts, run_deck
+    from bedstruct.workflows import load_config
+    from bedstruct.workflows._common import contact_model
+    from bedstruct.workflows.external import repose_inputs, run_repose_external
+
+    cfg = load_config(preset="seed", overrides=["n_threads=1"])
+    inp = repose_inputs(cfg, seed=1)
+    dt = inp["dt"]
+    rc, sc = cfg["repose"], cfg["spread"]
+    n_repose = (rc["fill_time"] + rc["box"][0] / rc["plate_speed"] + rc["drain_time"]) / dt
+    n_layer = ((sc["plate_length"] + sc["stop_margin"]) / sc["speed"]
+               + 2 * sc["settle_time"] + sum(sc["gaps"]) / len(sc["gaps"]) / sc["lower_speed"]) / dt
+    out = {"preset": "seed", "seed_particles": len(inp["radii"]), "dt": f"{dt:.4g}",
+           "repose_steps": int(n_repose), "spread_steps_per_layer": int(n_layer)}
+    per_step = {}
+    box = Box(inp["box_lo"], inp["box_hi"], boundary=("ff", "ff", "ff"))
+    sim = Simulation(box, contact_model(cfg), walls=[Plane((0, 0, 0), (0, 0, 1), name="plate")],
+                     safety=cfg["time"]["safety"], v_max=cfg["time"]["v_max"],
+                     min_radius=float(inp["radii"].min()), n_threads=1, seed=1)
+    sim.add_particles(inp["positions"], inp["radii"])
+    sim.run(steps=20)
+    t0 = time.perf_counter()
+    sim.run(steps=steps)
+    per_step["embedded"] = (time.perf_counter() - t0) / steps
+    found = {"liggghts": find_liggghts(), "lammps": find_lammps()}
+    for eng in ("liggghts", "lammps"):
+        if found[eng] is None:
+            continue
+        over = [f"engine={eng}", "external.write_only=true", "repose.replicates=1"]
+        if eng == "lammps":
+            over.append("external.cohesion_model=none")    # LAMMPS has no SJKR
+        with tempfile.TemporaryDirectory() as tmp:
+            res = run_repose_external(load_config(preset="seed", overrides=over), out=tmp)
+            deck = Path(res.decks[0])
+            text = deck.read_text()
+            first = re.search(r"^run \d+$", text, flags=re.M).start()
+            body = re.sub(r"^dump .*$", "", text[:first], flags=re.M)
+            (deck.parent / "in.time").write_text(body + f"run 20\nrun {steps}\n")
+            log = run_deck(deck.parent / "in.time", np=1, cwd=deck.parent).log
+            per_step[eng] = log.last.loop_time / steps
+    for eng, sps in per_step.items():
+        out[f"{eng}_s_per_step"] = f"{sps:.4g}"
+        out[f"{eng}_repose_h"] = round(sps * n_repose / 3600, 2)
+        out[f"{eng}_spread_h_per_layer"] = round(sps * n_layer / 3600, 2)
     print("RESULT " + " ".join(f"{k}={v}" for k, v in out.items()))
     return 0
 
