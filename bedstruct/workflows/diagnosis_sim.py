@@ -250,6 +250,7 @@ class EngineSimulator:
             spec["walled"] = bool(bw is not None and float(bw) < self.wide_box)
             rh = c.get("relative_humidity")
             spec["relative_humidity"] = None if rh is None else float(rh)
+            spec["operator"] = "workflow-flanks"
         elif m.kind == "psd" and c.get("stage", "before") == "before":
             pass
         else:
@@ -387,15 +388,10 @@ class _Runs:
             bw = c.get("box_width")
             walled = bw is not None and float(bw) < self.owner.wide_box
             res, out = self._repose(c.get("relative_humidity"), walled)
-            fr = _last_frame(read_dump, _dump(out / "rep00", "pile"))
-            try:
-                val = observe("static_angle", fr)
-            except Exception as exc:  # noqa: BLE001 - a pile the camera fit cannot read
-                log.warning("static angle operator failed (%s); using the workflow's flank fit", exc)
-                val = np.array([res.angle_deg])
-            if not np.all(np.isfinite(val)):
-                val = np.array([res.angle_deg])
-            return val
+            # the repose workflow's flank fit (each flank of the pile fitted on its own, then
+            # averaged): the side-view camera operator fits one straight surface and read a
+            # two-flanked tiny pile (~8 diameters high) anywhere from 1.5 to 40 deg
+            return np.array([float(res.angle_deg)])
         if m.kind == "psd" and c.get("stage", "before") == "before":
             from ._common import psd_sampler
             draw = psd_sampler(self.cfg)
