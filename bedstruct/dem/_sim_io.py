@@ -153,7 +153,7 @@ class _StateIO:
                     rng=self.rng.bit_generator.state, config=self.config(),
                     t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz,
                     wall_list_time=self._wall_list_time, wall_speed=self._wall_speed,
-                    wall_programs=self._programs)
+                    wall_programs=self._programs, kicked=bool(getattr(self, "_kicked", False)))
         arrays["meta"] = np.array(json.dumps(meta, default=_json_default))
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
@@ -201,6 +201,7 @@ class _StateIO:
         sim._wall_list_time = meta["wall_list_time"]
         sim._wall_speed = meta["wall_speed"]
         sim._programs = dict(meta.get("wall_programs", {}))
+        sim._kicked = bool(meta.get("kicked", False))  # saved after an interrupted run()
         sim._ready = True
         return sim
 

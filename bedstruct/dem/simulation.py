@@ -522,6 +522,10 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
                     bar.update(s + 1 - bar.n)
         finally:
             _numba.set_num_threads(old_threads)
+            if self._kicked:
+                log.warning("run() interrupted between fused steps: positions and velocities "
+                            "include the next step's half kick and drift; the next run() (or a "
+                            "checkpoint saved now) continues exactly")
             if bar is not None:
                 bar.close()
         wall = _time.perf_counter() - t0
