@@ -174,12 +174,13 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
                 tbuf[b, i, 0] = 0.0
                 tbuf[b, i, 1] = 0.0
                 tbuf[b, i, 2] = 0.0
-            f[i, 0] = fx
-            f[i, 1] = fy
-            f[i, 2] = fz
-            tq[i, 0] = tx
-            tq[i, 1] = ty
-            tq[i, 2] = tz
+            if not kick_next:  # f and tq are read by kick_drift and outputs only
+                f[i, 0] = fx
+                f[i, 1] = fy
+                f[i, 2] = fz
+                tq[i, 0] = tx
+                tq[i, 1] = ty
+                tq[i, 2] = tz
             a = h * inv_m[i]
             ab = h * inv_i[i]
             v[i, 0] += a * fx
