@@ -153,7 +153,8 @@ class _StateIO:
                     rng=self.rng.bit_generator.state, config=self.config(),
                     t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz,
                     wall_list_time=self._wall_list_time, wall_speed=self._wall_speed,
-                    wall_programs=self._programs, kicked=bool(getattr(self, "_kicked", False)))
+                    wall_programs=self._programs, kicked=bool(getattr(self, "_kicked", False)),
+                    pair_bounds=self._qbounds.tolist())
         arrays["meta"] = np.array(json.dumps(meta, default=_json_default))
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
@@ -197,6 +198,8 @@ class _StateIO:
         sim.rng.bit_generator.state = meta["rng"]
         sim._wall_cfg = cfg["walls"]
         sim._alloc_buffers()
+        if len(meta.get("pair_bounds", ())) == sim.n_threads + 1:
+            sim._qbounds = np.array(meta["pair_bounds"], dtype=np.int64)
         sim._balance_finish()
         sim._wall_list_time = meta["wall_list_time"]
         sim._wall_speed = meta["wall_speed"]
