@@ -391,7 +391,16 @@ class _Runs:
             # the repose workflow's flank fit (each flank of the pile fitted on its own, then
             # averaged): the side-view camera operator fits one straight surface and read a
             # two-flanked tiny pile (~8 diameters high) anywhere from 1.5 to 40 deg
-            return np.array([float(res.angle_deg)])
+            val = float(res.angle_deg)
+            if not math.isfinite(val):  # no flank fitted (e.g. a block): the camera operator
+                fr = _last_frame(read_dump, _dump(out / "rep00", "pile"))
+                try:
+                    val = float(observe("static_angle", fr)[0])
+                except Exception as exc:  # noqa: BLE001 - reported below as non-finite
+                    log.warning("static angle: camera operator failed too (%s)", exc)
+                log.warning("static angle %r: no flank fitted; camera operator read %.1f deg",
+                            m.name, val)
+            return np.array([val])
         if m.kind == "psd" and c.get("stage", "before") == "before":
             from ._common import psd_sampler
             draw = psd_sampler(self.cfg)
