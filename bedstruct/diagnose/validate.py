@@ -51,7 +51,7 @@ PRESETS = {
 ENGINE_PRESETS = {
     "mini": dict(per_effect=0, null=1, out_of_catalogue=0, replicates=2, effects=("wall_friction",)),
     "tiny": dict(per_effect=1, null=1, out_of_catalogue=0, replicates=2,
-                 effects=("contact_ageing", "capillary_bridges", "wall_friction", "blade_startup")),
+                 effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup")),
     "small": dict(per_effect=2, null=4, out_of_catalogue=0, replicates=3),
 }
 #: Goals of the issue at the small preset.
