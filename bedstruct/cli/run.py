@@ -18,9 +18,10 @@ Engines: --engine embedded (default), or liggghts / lammps (same particles,
 walls, contact model and time step; --np N MPI ranks, --exe PATH for your
 own binary, --write-only to write the deck and inputs into the run directory
 without running). On liggghts/lammps, repose runs in full and spread runs
-every layer as one engine run each (contact histories restart between
-layers; blade or plate, no roller; --write-only writes layer 1's deck);
-calibrate runs its repose points on the chosen engine.
+all layers in one engine run (later piles wait parked and are moved in
+before their layer, so contact histories carry over; blade, plate or
+roller; --write-only writes that one deck); calibrate runs its repose
+points on the chosen engine.
 
 Examples:
   bedstruct run repose --preset tiny --out runs/repose --json
