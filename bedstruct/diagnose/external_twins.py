@@ -605,6 +605,19 @@ class LiggghtsTwin:
     seconds: float = 0.0
 
 
+def _twin_readings(measured, raw: Mapping[str, np.ndarray], *, rng, scatter=None):
+    """Values and stated uncertainties of a twin from raw observations (n_seeds, n_comp)."""
+    values, stated = {}, {}
+    for m in measured:
+        obs = np.asarray(raw[m.name], float)
+        n = obs.shape[0]
+        readings = obs + m.uncertainty * rng.standard_normal(obs.shape)
+        values[m.name] = readings.mean(axis=0)
+        s = readings.std(axis=0, ddof=1) if n > 1 else float((scatter or {}).get(m.name, 0.0))
+        stated[m.name] = np.sqrt(np.asarray(s) ** 2 / n + m.uncertainty ** 2)
+    return values, stated
+
+
 def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float], out,
                        seeds: Sequence[int] = (1000, 1001, 1002), noise_seed: int = 0,
                        scatter: Mapping[str, float] | None = None, preset: str = "tiny",
@@ -633,6 +646,10 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
     LiggghtsTwin
     """
     from .measurements import MeasurementSet, Observations, write_measurements
+    if not isinstance(effect, TwinEffect):
+        raise TypeError(f"effect: expected a TwinEffect; got {type(effect).__name__}")
+    if len(seeds) < 1:
+        raise ValueError("seeds: need at least one LIGGGHTS seed")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     measured = design.select(("calibrate", "validate"))
@@ -640,16 +657,10 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
     t0 = time.perf_counter()
     runs = [sim(dict(base), {}, int(s)) for s in seeds]
     seconds = time.perf_counter() - t0
-    rng = np.random.default_rng([int(noise_seed), 4242])
+    raw = {m.name: np.array([r[m.name] for r in runs], float) for m in measured}
+    values, stated = _twin_readings(measured, raw, rng=np.random.default_rng([int(noise_seed), 4242]),
+                                    scatter=scatter)
     n = len(seeds)
-    values, stated, raw = {}, {}, {}
-    for m in measured:
-        obs = np.array([r[m.name] for r in runs], float)
-        raw[m.name] = obs
-        readings = obs + m.uncertainty * rng.standard_normal(obs.shape)
-        values[m.name] = readings.mean(axis=0)
-        s = readings.std(axis=0, ddof=1) if n > 1 else float((scatter or {}).get(m.name, 0.0))
-        stated[m.name] = np.sqrt(np.asarray(s) ** 2 / n + m.uncertainty ** 2)
     prov = f"LIGGGHTS 3.8 runs, {n} repetitions, reading noise added"
     twin = measured.with_values(Observations(values, source="liggghts"),
                                 uncertainty=Observations(stated), provenance=prov)

@@ -236,3 +236,24 @@ def test_one_tiny_twin_end_to_end(tmp_path):
     assert kept.startswith(TWIN_MARK) and "coefficientRollingFriction peratomtypepair 2 0.25" in kept
     # bed heights of the tiny preset's layers (450 and 750 um below the tool) are sane
     assert 200e-6 < ms["bed_height_layer1"].values[0] < 600e-6
+
+
+def test_twin_readings_follow_the_replicate_rule():
+    """Mean of the noisy readings; uncertainty sqrt(s^2/n + u^2) (s from the readings), or
+    sqrt(scatter^2 + u^2) with one seed."""
+    from bedstruct.diagnose.external_twins import _twin_readings
+    design = liggghts_twin_design().select(("calibrate", "validate"))
+    m = design["packing_fraction_x1_center"]                 # u = 0.005
+    raw = {k.name: np.full((3, k.n_components), 0.5) for k in design}
+    raw[m.name] = np.array([[0.40], [0.50], [0.60]])
+    vals, unc = _twin_readings(design, raw, rng=np.random.default_rng(1))
+    rng = np.random.default_rng(1)                            # the same draws, in design order
+    for k in design:
+        r = raw[k.name] + k.uncertainty * rng.standard_normal(raw[k.name].shape)
+        np.testing.assert_allclose(vals[k.name], r.mean(axis=0))
+        np.testing.assert_allclose(unc[k.name], np.sqrt(r.var(axis=0, ddof=1) / 3 + k.uncertainty ** 2))
+    assert 0.05 < unc[m.name][0] < 0.07                       # dominated by the 0.1 scatter / sqrt(3)
+    one = {k.name: raw[k.name][:1] for k in design}
+    _, unc1 = _twin_readings(design, one, rng=np.random.default_rng(2), scatter={m.name: 0.012})
+    assert unc1[m.name][0] == pytest.approx(0.013)           # sqrt(0.012^2 + 0.005^2)
+    assert unc1["static_angle"][0] == pytest.approx(1.0)     # no scatter given: reading error only
