@@ -382,20 +382,51 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
 
 
 def frame_metrics(fr, contacts, front: float, *, plate_length: float, z_plat: float, r_max: float):
-    """Dynamic angle of the heap in front of the tool (degrees, NaN when too low) and mean
-    coordination ``2 N_c / N`` of one spreading frame (SI)."""
-    from ..analysis import dynamic_angle_of_repose
+    """Dynamic angle of the heap in front of the tool (degrees, NaN when not measurable) and mean
+    coordination ``2 N_c / N`` of one spreading frame (SI).
+
+    The heap is the powder ahead of the tool's front face on the platform. Its
+    free surface (side silhouette) is fitted from the crest forwards between
+    20 and 80 % of the heap height, measured from the **toe** (the lowest point
+    of the surface ahead of the tool: the bed or bare platform the heap runs
+    onto), as the seed measures the angle the heap makes with the existing bed.
+    NaN when the heap is lower than two median diameters, or when its front
+    flank does not come down to the bed on the platform (the heap has reached
+    the front wall or the end of the platform: no free toe to measure).
+    """
+    return _dynamic_angle(fr, front, plate_length=plate_length, z_plat=z_plat, r_max=r_max), \
+        float(2.0 * contacts.n_contacts / max(fr.n_particles, 1))
+
+
+def _dynamic_angle(fr, front: float, *, plate_length: float, z_plat: float, r_max: float,
+                   fit_range=(0.2, 0.8)) -> float:
+    """Front-flank angle of the heap ahead of ``front`` (see :func:`frame_metrics`); NaN if none."""
+    from ..analysis import dynamic_angle_of_repose, free_surface_profile
+    p = fr.positions
+    sub = fr.select((p[:, 0] < plate_length) & (p[:, 0] > front) & (p[:, 2] > z_plat - r_max))
+    if sub.n_particles == 0:
+        return float("nan")
+    rmed = float(np.median(fr.radii))
+    spacing = 0.5 * rmed
     try:
-        ahead = fr.positions[:, 0] < plate_length
-        sub = fr.select(ahead & (fr.positions[:, 2] > z_plat - r_max))
-        rmed = float(np.median(fr.radii))
+        x, h = free_surface_profile(sub, axis=0, vertical=2, spacing=spacing, statistic="max")
+        ahead = x > front
+        x, h = x[ahead], h[ahead]
+        peak = int(np.nanargmax(h))
+        i_toe = peak + int(np.nanargmin(h[peak:]))   # lowest point ahead of the crest
         r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
-                                    spacing=0.5 * rmed, statistic="max")
-        # a heap lower than two particle diameters has no measurable flank
-        dyn = float(r.angle_deg) if r.top - r.base > 4 * rmed else float("nan")
+                                    bed_level=float(h[i_toe]), spacing=spacing, statistic="max",
+                                    fit_range=fit_range)
     except ValueError:
-        dyn = float("nan")
-    return dyn, float(2.0 * contacts.n_contacts / max(fr.n_particles, 1))
+        return float("nan")
+    # a heap lower than two particle diameters has no measurable flank
+    if not r.top - r.base > 4 * rmed or r.right is None:
+        return float("nan")
+    # the toe must lie on the platform: a heap cut by the front wall (or the platform end)
+    # has no free toe, and the band between its crest and the cut is not its flank
+    if not x[i_toe] < plate_length - 2 * r_max:
+        return float("nan")
+    return float(r.angle_deg)
 
 
 def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, front0: float,
