@@ -390,9 +390,13 @@ def frame_metrics(fr, contacts, front: float, *, plate_length: float, z_plat: fl
     20 and 80 % of the heap height, measured from the **toe** (the lowest point
     of the surface ahead of the tool: the bed or bare platform the heap runs
     onto), as the seed measures the angle the heap makes with the existing bed.
-    NaN when the heap is lower than two median diameters, or when its front
+    NaN when the heap is lower than two median diameters, when its front
     flank does not come down to the bed on the platform (the heap has reached
-    the front wall or the end of the platform: no free toe to measure).
+    the front wall or the end of the platform, or the pile is still the
+    inserted block with a vertical front: no free toe above the bed, which
+    lies below the tool's lowest point z = 0), or when the fitted line
+    descends through less than half of the fitted band (the flat top of a
+    block, not a flank).
     """
     return _dynamic_angle(fr, front, plate_length=plate_length, z_plat=z_plat, r_max=r_max), \
         float(2.0 * contacts.n_contacts / max(fr.n_particles, 1))
@@ -425,6 +429,16 @@ def _dynamic_angle(fr, front: float, *, plate_length: float, z_plat: float, r_ma
     # the toe must lie on the platform: a heap cut by the front wall (or the platform end)
     # has no free toe, and the band between its crest and the cut is not its flank
     if not x[i_toe] < plate_length - 2 * r_max:
+        return float("nan")
+    # ... and at the bed, below the tool's lowest point (z = 0): the profile of a block with a
+    # vertical front ends one radius below its top edge, far above the bed
+    if not h[i_toe] < 0.0:
+        return float("nan")
+    # the fitted line must descend through at least half of the band: a heap not yet formed
+    # (the inserted block, a flat top ending in a cliff) would give the slope of its top
+    fit = r.right
+    drop = abs(fit.slope) * float(fit.x.max() - fit.x.min())
+    if drop < 0.5 * (fit_range[1] - fit_range[0]) * (r.top - r.base):
         return float("nan")
     return float(r.angle_deg)
 

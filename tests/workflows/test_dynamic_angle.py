@@ -91,3 +91,22 @@ def test_low_heap_gives_nan():
     dyn, _ = frame_metrics(flat, find_contacts(flat), BLADE, plate_length=PLATE, z_plat=Z_PLAT,
                            r_max=R)
     assert math.isnan(dyn)
+
+
+def test_inserted_block_with_a_vertical_front_gives_nan():
+    """A cohesive block as inserted (flat top sloping 10 deg, vertical front face on the
+    platform) is not a heap: its silhouette ends one radius below its top edge, far above the
+    bed, and the fitted band would be its top (10 deg)."""
+    xs = np.arange(BLADE + R, BLADE + 2.0e-3, 2 * R)
+    cols = []
+    for x in xs:
+        top = Z_PLAT + HEIGHT - math.tan(math.radians(10.0)) * (x - BLADE)
+        zs = np.arange(Z_PLAT + R, top, 2 * R)
+        cols.append(np.c_[np.full(zs.size, x), np.full(zs.size, 0.3e-3), zs])
+    pos = np.concatenate(cols)
+    fr = Frame(pos, np.full(len(pos), R), box=([0, 0, -1e-3], [12e-3, 0.6e-3, 3e-3]))
+    old = dynamic_angle_of_repose(fr, BLADE, spacing=0.5 * R).angle_deg
+    assert old < 20.0                       # what the previous rule reported
+    dyn, _ = frame_metrics(fr, find_contacts(fr), BLADE, plate_length=PLATE, z_plat=Z_PLAT,
+                           r_max=R)
+    assert math.isnan(dyn)
