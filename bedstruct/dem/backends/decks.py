@@ -61,6 +61,27 @@ def _setup(engine: str, boundary: str, processors: str | None) -> list[str]:
     return lines
 
 
+def _contact_computes(engine: str, *, tangential: bool = False) -> list[str]:
+    """Computes behind a contact ``dump local`` (LIGGGHTS wants them before the first run).
+
+    LIGGGHTS ``pair/gran/local pos id force contactArea delta``; LAMMPS
+    ``property/local patom1 patom2`` + ``pair/local dist fx fy fz`` (with
+    ``tangential`` also ``p1 p2 p3``: pair granular's tangential force)."""
+    if engine == "liggghts":
+        return ["compute cpl all pair/gran/local pos id force contactArea delta"]
+    return ["compute cpa all property/local patom1 patom2",
+            "compute cpf all pair/local dist fx fy fz" + (" p1 p2 p3" if tangential else "")]
+
+
+def _contact_cols(engine: str, *, tangential: bool = False) -> str:
+    """Local-dump columns of :func:`_contact_computes`: LIGGGHTS 14 (x1 y1 z1 x2 y2 z2 id1 id2
+    periodic fx fy fz area delta); LAMMPS ``patom1 patom2 dist fx fy fz`` (pair granular:
+    fx fy fz the normal force) and with ``tangential`` ``p1 p2 p3`` (the tangential force)."""
+    if engine == "liggghts":
+        return " ".join(f"c_cpl[{i}]" for i in range(1, 15))
+    return "c_cpa[1] c_cpa[2] " + " ".join(f"c_cpf[{i}]" for i in range(1, 8 if tangential else 5))
+
+
 def data_file_radii(path) -> np.ndarray:
     """Radii (length) of the ``Atoms`` section of a sphere/granular data file.
 
@@ -237,15 +258,8 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     dumps = []
     if contacts:  # LIGGGHTS wants pair/gran/local defined before the first run
         every = int(contacts_every or dump_every or max(steps, 1))
-        if engine == "liggghts":
-            cols = " ".join(f"c_cpl[{i}]" for i in range(1, 15))
-            lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
-            dumps.append(f"dump dloc all local {every} {contacts} {cols}")
-        else:
-            lines += ["compute cpa all property/local patom1 patom2",
-                      "compute cpf all pair/local dist fx fy fz"]
-            dumps.append(f"dump dloc all local {every} {contacts} c_cpa[1] c_cpa[2] c_cpf[1] "
-                         "c_cpf[2] c_cpf[3] c_cpf[4]")
+        lines += _contact_computes(engine)
+        dumps.append(f"dump dloc all local {every} {contacts} {_contact_cols(engine)}")
     if dump and dump_every:
         dumps.insert(0, f"dump dmp all custom {int(dump_every)} {dump} {DUMP_COLUMNS}")
     if warmup_steps:

@@ -42,11 +42,10 @@ from pathlib import Path
 import numpy as np
 
 from ._common import as_granular_params
-from .decks import DUMP_COLUMNS, _path_word
+from .decks import DUMP_COLUMNS, _contact_cols, _contact_computes
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
-from .liggghts import liggghts_wall_model
 from .stl import BladeGeometry, write_stl
-from .workflow_decks import _granular_head, _rect
+from .workflow_decks import _chamber_meshes, _granular_head, _liggghts_mesh_walls
 
 __all__ = ["RollerGeometry", "cylinder_triangles", "LayerSteps", "SpreadLayersPlan",
            "spread_layers_deck"]
@@ -297,15 +296,6 @@ class SpreadLayersPlan:
         return self.layers[-1].end
 
 
-def _contact_cols(engine: str) -> str:
-    """Local-dump columns: LIGGGHTS ``pos id force contactArea delta`` (14: x1 y1 z1 x2 y2 z2
-    id1 id2 periodic fx fy fz area delta); LAMMPS ``patom1 patom2 dist fx fy fz p1 p2 p3``
-    (pair granular: fx fy fz the normal force, p1-p3 the tangential force)."""
-    if engine == "liggghts":
-        return " ".join(f"c_cpl[{i}]" for i in range(1, 15))
-    return "c_cpa[1] c_cpa[2] " + " ".join(f"c_cpf[{i}]" for i in range(1, 8))
-
-
 def _ramp(a: int, b: int) -> str:
     """Steps elapsed in [a, b] as a LAMMPS/LIGGGHTS expression of ``step``."""
     return f"((step-{a})*(step>{a})-(step-{b})*(step>{b}))"
@@ -387,24 +377,13 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     if engine == "liggghts":
         if stl_folder is None:
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
+        meshes = _chamber_meshes(stl_folder, L, W, z_plat0, pl.chamber_depth)
         folder = Path(stl_folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        meshes = {"platform": write_stl(folder / "platform.stl",
-                                        _rect(0.0, L, 0.0, W, z_plat0, z_plat0), name="platform")}
-        if pl.chamber_depth > 0:
-            meshes["front"] = write_stl(folder / "front.stl",
-                                        _rect(L, L, 0.0, W, -pl.chamber_depth, 0.0), name="front")
         if roller:
             meshes["tool"] = write_stl(folder / "tool.stl", tool.triangles(0.0, W), name="roller")
         else:
             meshes["tool"] = tool.write_stl(folder / "tool.stl", 0.0, W, caps=False)
-        for name, path in meshes.items():
-            lines.append(f"fix {name} all mesh/surface file {_path_word(path)} type {wt} "
-                         "curvature_tolerant yes")
-        wm = liggghts_wall_model(p)
-        lines += [f"fix wmesh all wall/gran {wm} mesh n_meshes {len(meshes)} meshes "
-                  + " ".join(meshes),
-                  f"fix wback all wall/gran {wm} primitive type {wt} xplane 0.0"]
+        lines += _liggghts_mesh_walls(meshes, p, wt, back_plane=True)
     else:
         lines += _lammps_walls(pl, p, cohesion_model=cohesion_model,
                                reference_radius=reference_radius,
@@ -419,11 +398,8 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
               "thermo_style custom step atoms ke c_rke c_zfoot",
               f"thermo {pl.every}",
               "thermo_modify lost ignore norm no flush yes"]
-    if contacts and engine == "liggghts":  # defined before the first run
-        lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
-    elif contacts:
-        lines += ["compute cpa all property/local patom1 patom2",
-                  "compute cpf all pair/local dist fx fy fz p1 p2 p3"]
+    if contacts:  # defined before the first run (LIGGGHTS)
+        lines += _contact_computes(engine, tangential=True)
     every = pl.every
     for k, ls in enumerate(pl.layers):
         tag = f"{k + 1:02d}"
@@ -437,7 +413,7 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
             lines.append(f"dump dst{tag} all custom {ls.start} layer{tag}/start.dump {DUMP_COLUMNS}")
             if contacts:
                 lines.append(f"dump dsc{tag} all local {ls.start} layer{tag}/start_contacts.dump "
-                             + _contact_cols(engine))
+                             + _contact_cols(engine, tangential=True))
             lines += ["run 0", f"undump dst{tag}"] + ([f"undump dsc{tag}"] if contacts else [])
             if engine == "liggghts":
                 vl = g / (n_low * dt)  # exactly the gap in n_low steps
@@ -465,7 +441,7 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
         dumps = [f"dump dmp{tag} all custom {every} layer{tag}/frames.dump {DUMP_COLUMNS}"]
         if contacts:
             dumps.append(f"dump dloc{tag} all local {every} layer{tag}/contacts.dump "
-                         + _contact_cols(engine))
+                         + _contact_cols(engine, tangential=True))
         lines += dumps
         n_spread = ls.stop - ls.spread
         if engine == "liggghts":

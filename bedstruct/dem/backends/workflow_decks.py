@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ._common import as_granular_params, read_data_header
-from .decks import DUMP_COLUMNS, _path_word, _setup
+from .decks import DUMP_COLUMNS, _contact_cols, _contact_computes, _path_word, _setup
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
 from .liggghts import liggghts_model_commands, liggghts_wall_model
 from .stl import BladeGeometry, write_stl
@@ -177,6 +177,50 @@ def _granular_head(data_file, p, *, engine: str, title: str, boundary: str, dt: 
     return lines, wt
 
 
+def _liggghts_mesh_walls(meshes: dict, p, wt: int, *, back_plane: bool = False) -> list[str]:
+    """LIGGGHTS wall commands: one ``fix mesh/surface`` per mesh (name -> STL path), all in one
+    ``fix wall/gran`` (LIGGGHTS allows one mesh wall/gran fix); with ``back_plane`` also the
+    primitive plane ``x = 0``."""
+    wm = liggghts_wall_model(p)
+    lines = [f"fix {name} all mesh/surface file {_path_word(path)} type {wt} curvature_tolerant yes"
+             for name, path in meshes.items()]
+    lines.append(f"fix wmesh all wall/gran {wm} mesh n_meshes {len(meshes)} meshes "
+                 + " ".join(meshes))
+    if back_plane:
+        lines.append(f"fix wback all wall/gran {wm} primitive type {wt} xplane 0.0")
+    return lines
+
+
+def _chamber_meshes(folder, length: float, width: float, z_platform: float,
+                    chamber_depth: float) -> dict[str, Path]:
+    """Spreading platform ``[0, L] x [0, W]`` at ``z_platform`` and, with a chamber, its front
+    wall at ``x = L`` from ``-chamber_depth`` to 0, written as STL files into ``folder``."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    L, W = length, width
+    meshes = {"platform": write_stl(folder / "platform.stl",
+                                    _rect(0.0, L, 0.0, W, z_platform, z_platform), name="platform")}
+    if chamber_depth > 0:
+        meshes["front"] = write_stl(folder / "front.stl",
+                                    _rect(L, L, 0.0, W, -chamber_depth, 0.0), name="front")
+    return meshes
+
+
+def _integrate_and_dump(engine: str, every: int, thermo: int, contacts: bool):
+    """Integrator, thermo and (after the first run) the dumps ``frames.dump`` and
+    ``contacts.dump`` every ``every`` steps; returns ``(lines, dumps)``."""
+    lines = ["fix integr all nve/sphere",
+             "compute rke all erotate/sphere",
+             "thermo_style custom step atoms ke c_rke",
+             f"thermo {thermo}",
+             "thermo_modify lost ignore norm no flush yes"]
+    dumps = [f"dump dmp all custom {every} frames.dump {DUMP_COLUMNS}"]
+    if contacts:
+        lines += _contact_computes(engine)
+        dumps.append(f"dump dloc all local {every} contacts.dump {_contact_cols(engine)}")
+    return lines, dumps
+
+
 def repose_wall_stls(geometry: ReposeGeometry, folder) -> dict[str, Path]:
     """Write the LIGGGHTS wall meshes of ``geometry`` into ``folder``.
 
@@ -294,35 +338,14 @@ def repose_deck(data_file, params=None, *, engine: str, geometry: ReposeGeometry
     if engine == "liggghts":
         if stl_folder is None:
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
-        stls = repose_wall_stls(geometry, stl_folder)
-        wm = liggghts_wall_model(p)
-        for name, path in stls.items():
-            lines.append(f"fix {name} all mesh/surface file {_path_word(path)} type {wt} "
-                         "curvature_tolerant yes")
-        # LIGGGHTS allows one mesh wall/gran fix: all meshes go into it
-        lines.append(f"fix wmesh all wall/gran {wm} mesh n_meshes {len(stls)} meshes "
-                     + " ".join(stls))
+        lines += _liggghts_mesh_walls(repose_wall_stls(geometry, stl_folder), p, wt)
     else:
         lines += _lammps_walls(geometry, p, schedule, cohesion_model=cohesion_model,
                                reference_radius=reference_radius,
                                reference_overlap=reference_overlap)
     every = int(schedule.every)
-    lines += ["fix integr all nve/sphere",
-              "compute rke all erotate/sphere",
-              "thermo_style custom step atoms ke c_rke",
-              f"thermo {int(thermo_every) or every}",
-              "thermo_modify lost ignore norm no flush yes"]
-    dumps = [f"dump dmp all custom {every} frames.dump {DUMP_COLUMNS}"]
-    if contacts:
-        if engine == "liggghts":  # LIGGGHTS wants pair/gran/local defined before the first run
-            lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
-            cols = " ".join(f"c_cpl[{i}]" for i in range(1, 15))
-            dumps.append(f"dump dloc all local {every} contacts.dump {cols}")
-        else:
-            lines += ["compute cpa all property/local patom1 patom2",
-                      "compute cpf all pair/local dist fx fy fz"]
-            dumps.append(f"dump dloc all local {every} contacts.dump c_cpa[1] c_cpa[2] c_cpf[1] "
-                         "c_cpf[2] c_cpf[3] c_cpf[4]")
+    out, dumps = _integrate_and_dump(engine, every, int(thermo_every) or every, contacts)
+    lines += out
     lines.append(f"run {schedule.fill_steps}")
     lines += dumps
     if engine == "liggghts":
@@ -429,21 +452,9 @@ def spread_deck(data_file, params=None, *, engine: str, geometry: SpreadGeometry
     if engine == "liggghts":
         if stl_folder is None:
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
-        folder = Path(stl_folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        meshes = {"platform": write_stl(folder / "platform.stl",
-                                        _rect(0.0, L, 0.0, W, -g.gap, -g.gap), name="platform")}
-        if g.chamber_depth > 0:
-            meshes["front"] = write_stl(folder / "front.stl",
-                                        _rect(L, L, 0.0, W, -g.chamber_depth, 0.0), name="front")
-        meshes["blade"] = b.write_stl(folder / "blade.stl", 0.0, W, caps=False)
-        for name, path in meshes.items():
-            lines.append(f"fix {name} all mesh/surface file {_path_word(path)} type {wt} "
-                         "curvature_tolerant yes")
-        wm = liggghts_wall_model(p)
-        lines += [f"fix wmesh all wall/gran {wm} mesh n_meshes {len(meshes)} meshes "
-                  + " ".join(meshes),
-                  f"fix wback all wall/gran {wm} primitive type {wt} xplane 0.0"]
+        meshes = _chamber_meshes(stl_folder, L, W, -g.gap, g.chamber_depth)
+        meshes["blade"] = b.write_stl(Path(stl_folder) / "blade.stl", 0.0, W, caps=False)
+        lines += _liggghts_mesh_walls(meshes, p, wt, back_plane=True)
     else:
         wc = lammps_granular_coeffs(p, wall=True, cohesion_model=cohesion_model,
                                     reference_radius=reference_radius,
@@ -463,22 +474,8 @@ def spread_deck(data_file, params=None, *, engine: str, geometry: SpreadGeometry
                       "side out units box",
                       f"fix wfront all wall/gran/region granular {wc} region front"]
     every = int(schedule.every)
-    lines += ["fix integr all nve/sphere",
-              "compute rke all erotate/sphere",
-              "thermo_style custom step atoms ke c_rke",
-              f"thermo {every}",
-              "thermo_modify lost ignore norm no flush yes"]
-    dumps = [f"dump dmp all custom {every} frames.dump {DUMP_COLUMNS}"]
-    if contacts:
-        if engine == "liggghts":
-            lines.append("compute cpl all pair/gran/local pos id force contactArea delta")
-            cols = " ".join(f"c_cpl[{i}]" for i in range(1, 15))
-            dumps.append(f"dump dloc all local {every} contacts.dump {cols}")
-        else:
-            lines += ["compute cpa all property/local patom1 patom2",
-                      "compute cpf all pair/local dist fx fy fz"]
-            dumps.append(f"dump dloc all local {every} contacts.dump c_cpa[1] c_cpa[2] c_cpf[1] "
-                         "c_cpf[2] c_cpf[3] c_cpf[4]")
+    out, dumps = _integrate_and_dump(engine, every, every, contacts)
+    lines += out
     lines.append(f"run {schedule.settle_steps}")
     lines += dumps
     if engine == "liggghts":
