@@ -160,6 +160,15 @@ def wall_geometry(W, w, px, py, pz, time):
     return False, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
+@njit(inline="always", **_FM)
+def _edge_dots(px, py, pz, qx, qy, qz, abx, aby, abz, acx, acy, acz):
+    """``(ab . (p - q), ac . (p - q))`` for a vertex q of triangle abc."""
+    rx = px - qx
+    ry = py - qy
+    rz = pz - qz
+    return abx * rx + aby * ry + abz * rz, acx * rx + acy * ry + acz * rz
+
+
 @njit(**_FM)
 def closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5)."""
@@ -169,29 +178,17 @@ def closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     acx = cx - ax
     acy = cy - ay
     acz = cz - az
-    apx = px - ax
-    apy = py - ay
-    apz = pz - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
+    d1, d2 = _edge_dots(px, py, pz, ax, ay, az, abx, aby, abz, acx, acy, acz)
     if d1 <= 0.0 and d2 <= 0.0:
         return ax, ay, az
-    bpx = px - bx
-    bpy = py - by
-    bpz = pz - bz
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
+    d3, d4 = _edge_dots(px, py, pz, bx, by, bz, abx, aby, abz, acx, acy, acz)
     if d3 >= 0.0 and d4 <= d3:
         return bx, by, bz
     vc = d1 * d4 - d3 * d2
     if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
         v = d1 / (d1 - d3)
         return ax + v * abx, ay + v * aby, az + v * abz
-    cpx = px - cx
-    cpy = py - cy
-    cpz = pz - cz
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
+    d5, d6 = _edge_dots(px, py, pz, cx, cy, cz, abx, aby, abz, acx, acy, acz)
     if d6 >= 0.0 and d5 <= d6:
         return cx, cy, cz
     vb = d5 * d2 - d1 * d6
