@@ -292,8 +292,11 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
     null_false = frac(null_tw, lambda t: t["verdict"] == "attributed")
     null_flag = frac(null_tw, lambda t: t["gap_significant"])
     ooc = frac(ooc_tw, lambda t: t["verdict"] == "unexplained")
-    shr = [t["shrink"] for t in eff_tw if t["shrink"] == t["shrink"]]
-    shr_rms = [t["shrink_rms"] for t in eff_tw if t["shrink_rms"] == t["shrink_rms"]]
+    def finite(x):  # NaN is null in records read back from JSON
+        return isinstance(x, (int, float)) and x == x
+
+    shr = [t["shrink"] for t in eff_tw if finite(t["shrink"])]
+    shr_rms = [t["shrink_rms"] for t in eff_tw if finite(t["shrink_rms"])]
     med = float(np.median(shr)) if shr else float("nan")
     med_rms = float(np.median(shr_rms)) if shr_rms else float("nan")
 
