@@ -221,7 +221,11 @@ def test_two_sphere_capillary_force_matches_the_documented_law(tmp_path, theta_d
 @pytest.mark.slow
 def test_one_tiny_twin_end_to_end(tmp_path):
     import bedstruct.diagnose as dg
+    from dataclasses import replace
     design = liggghts_twin_design()
+    # without the layer-2 dynamic angle: with mu_r = 0.25 the tiny pile is often used up
+    # before layer 2 (no heap to fit; docs/diagnose-liggghts.md)
+    design = replace(design, measurements=tuple(m for m in design if m.kind != "dynamic_angle_series"))
     base = {"cohesion_energy_density": 3.6e7, "friction": 0.4, "rolling_friction": 0.05,
             "restitution": 0.1}
     twin = make_liggghts_twin(design, rolling_friction_effect(0.25), base=base, out=tmp_path,
