@@ -590,6 +590,7 @@ class LiggghtsTwin:
     effect : TwinEffect
     base : dict
     seeds : tuple of int
+        The seeds whose runs were used (see ``replace_failed``).
     raw : dict
         Observable name -> (n_seeds, n_components) LIGGGHTS observations (no noise).
     seconds : float
@@ -603,6 +604,25 @@ class LiggghtsTwin:
     seeds: tuple
     raw: dict = field(repr=False)
     seconds: float = 0.0
+
+
+def _run_seeds(sim, base, seeds, *, replace_failed: int = 0):
+    """Observations of every seed; a seed whose run cannot be observed (the engine
+    simulator's ValueError: no heap, no fit) is replaced by ``seed + 7919 k``, k = 1 ..
+    ``replace_failed``. Returns the observations and the seeds actually used."""
+    runs, used = [], []
+    for s in seeds:
+        for k in range(int(replace_failed) + 1):
+            try:
+                runs.append(sim(dict(base), {}, int(s) + 7919 * k))
+                used.append(int(s) + 7919 * k)
+                break
+            except ValueError as exc:
+                if k == int(replace_failed):
+                    raise
+                log.warning("LIGGGHTS twin: seed %d not observable (%s); trying %d", int(s) + 7919 * k,
+                            exc, int(s) + 7919 * (k + 1))
+    return runs, used
 
 
 def _twin_readings(measured, raw: Mapping[str, np.ndarray], *, rng, scatter=None):
@@ -621,7 +641,7 @@ def _twin_readings(measured, raw: Mapping[str, np.ndarray], *, rng, scatter=None
 def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float], out,
                        seeds: Sequence[int] = (1000, 1001, 1002), noise_seed: int = 0,
                        scatter: Mapping[str, float] | None = None, preset: str = "tiny",
-                       overrides: Sequence[str] = ()) -> LiggghtsTwin:
+                       overrides: Sequence[str] = (), replace_failed: int = 0) -> LiggghtsTwin:
     """Run LIGGGHTS with ``effect`` on every seed and write the twin's measurement file.
 
     Each seed is one repetition of the experiment. Each reading is the
@@ -640,6 +660,10 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
         Base parameters of the engine simulator (SI; ``cohesion_energy_density`` ...).
     out : path
         Folder: ``twin.toml``, ``truth.json``, LIGGGHTS runs under ``runs/``.
+    replace_failed : int
+        A repetition whose run cannot be observed (e.g. no heap to fit) is rerun
+        with seed ``s + 7919 k`` up to this many times (a failed experiment is
+        repeated); the seeds used are in ``truth.json``. Default 0: raise.
 
     Returns
     -------
@@ -655,7 +679,7 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
     measured = design.select(("calibrate", "validate"))
     sim = liggghts_simulator(measured, effect, preset=preset, overrides=overrides, workdir=out)
     t0 = time.perf_counter()
-    runs = [sim(dict(base), {}, int(s)) for s in seeds]
+    runs, used = _run_seeds(sim, base, seeds, replace_failed=replace_failed)
     seconds = time.perf_counter() - t0
     raw = {m.name: np.array([r[m.name] for r in runs], float) for m in measured}
     values, stated = _twin_readings(measured, raw, rng=np.random.default_rng([int(noise_seed), 4242]),
@@ -668,11 +692,10 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
                           source="bedstruct.diagnose.external_twins (withheld truth)")
     path = write_measurements(twin, out / "twin.toml")
     truth = {"effect": effect.to_dict(), "label": effect.label, "base": dict(base),
-             "seeds": [int(s) for s in seeds], "noise_seed": int(noise_seed), "preset": preset,
+             "seeds": [int(s) for s in seeds], "seeds_used": used, "noise_seed": int(noise_seed), "preset": preset,
              "overrides": list(overrides), "seconds": seconds,
              "raw": {k: v.tolist() for k, v in raw.items()}}
     truth_path = out / "truth.json"
     truth_path.write_text(json.dumps(truth, indent=1))
     log.info("LIGGGHTS twin %s: %d runs in %.0f s -> %s", effect.label, n, seconds, path)
-    return LiggghtsTwin(path, truth_path, effect, dict(base), tuple(int(s) for s in seeds), raw,
-                        seconds)
+    return LiggghtsTwin(path, truth_path, effect, dict(base), tuple(used), raw, seconds)

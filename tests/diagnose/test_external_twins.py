@@ -261,3 +261,19 @@ def test_twin_readings_follow_the_replicate_rule():
     _, unc1 = _twin_readings(design, one, rng=np.random.default_rng(2), scatter={m.name: 0.012})
     assert unc1[m.name][0] == pytest.approx(0.013)           # sqrt(0.012^2 + 0.005^2)
     assert unc1["static_angle"][0] == pytest.approx(1.0)     # no scatter given: reading error only
+
+
+def test_failed_repetitions_are_replaced_or_raise():
+    from bedstruct.diagnose.external_twins import _run_seeds
+    calls = []
+
+    def sim(base, effects, seed):
+        calls.append(seed)
+        if seed == 1001:
+            raise ValueError("engine simulator: no heap")
+        return {"seed": seed}
+
+    runs, used = _run_seeds(sim, {}, (1000, 1001, 1002), replace_failed=1)
+    assert used == [1000, 1001 + 7919, 1002] and [r["seed"] for r in runs] == used
+    with pytest.raises(ValueError, match="no heap"):
+        _run_seeds(sim, {}, (1001,))
