@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from .._numba import njit, prange
 from ._kernels_contact import wall_contact
-from ._kernels_walls import WALL_MESH, mesh_geometry, wall_geometry
+from ._kernels_walls import any_wall_geometry
 
 __all__ = ["kick_drift", "finish_step"]
 
@@ -80,12 +80,8 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
             ri = rad[i]
             for cw in range(wstart[i], wstart[i + 1]):
                 w = wcand[cw]
-                if int(W[w, 0]) == WALL_MESH:
-                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(
-                        W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
-                else:
-                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = wall_geometry(
-                        W, w, x[i, 0], x[i, 1], x[i, 2], time)
+                hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = any_wall_geometry(
+                    W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
                 slot = -1
                 for s in range(ns):
                     if wslot[i, s] == w:

@@ -12,7 +12,8 @@ import math
 
 from .._numba import njit, prange
 
-__all__ = ["wall_geometry", "closest_on_triangle", "mesh_geometry", "wall_candidates",
+__all__ = ["wall_geometry", "closest_on_triangle", "mesh_geometry", "any_wall_geometry",
+           "wall_candidates",
            "WALL_PLANE", "WALL_RECT", "WALL_PRISM", "WALL_CYLINDER", "WALL_MESH", "WALL_NCOL"]
 
 WALL_PLANE = 0
@@ -238,6 +239,18 @@ def mesh_geometry(W, w, tri, px, py, pz, time):
     return True, d, gx / d, gy / d, gz / d, W[w, 10], W[w, 11], W[w, 12], 0.0, 0.0, 0.0
 
 
+@njit(inline="always", **_FM)
+def any_wall_geometry(W, w, tri, px, py, pz, time):
+    """:func:`mesh_geometry` for a mesh wall, :func:`wall_geometry` for the others."""
+    # unpacked in each branch (one merge of scalars, as the callers had it written out:
+    # the same machine code as returning either call's tuple would not be)
+    if int(W[w, 0]) == WALL_MESH:
+        hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(W, w, tri, px, py, pz, time)
+    else:
+        hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = wall_geometry(W, w, px, py, pz, time)
+    return hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3
+
+
 @njit(parallel=True, **_FM)
 def wall_candidates(x, rad, W, tri, time, skin, bounds, near, wslot, whist):
     """Particle-wall candidates: ``near[i, w]`` is True when wall w is closer than ``r + skin``.
@@ -252,12 +265,8 @@ def wall_candidates(x, rad, W, tri, time, skin, bounds, near, wslot, whist):
     for t in prange(nt):
         for i in range(bounds[t], bounds[t + 1]):
             for w in range(nw):
-                if int(W[w, 0]) == WALL_MESH:
-                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = mesh_geometry(
-                        W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
-                else:
-                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = wall_geometry(
-                        W, w, x[i, 0], x[i, 1], x[i, 2], time)
+                hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = any_wall_geometry(
+                    W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
                 ok = hit and dist < rad[i] + skin and dist > -rad[i] - skin
                 near[i, w] = ok
                 if not ok:
