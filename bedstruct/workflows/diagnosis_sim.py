@@ -60,12 +60,16 @@ _STROKE_SEED = 18.9e-3 / _SPEED_X1   # s, the seed's x1 stroke over its 18.9 mm 
 _ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_time_scale",
                 "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
                 "seed", "workdir", "cache"}
-_CACHE_SCHEMA = 2   # bump when the simulator's observation semantics change
+_CACHE_SCHEMA = 3   # bump when the simulator's observation semantics change
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
-#: the stroke, leaving most frames without a heap whose angle can be measured.
+#: the stroke, leaving most frames without a heap whose angle can be measured; and the
+#: dynamic angle is read only from heaps with a free toe on the platform (not pushed
+#: against the chamber's front wall), which the tiny preset's 2 mm platform never has
+#: at 0.2 m/s and above (4 mm: x1 only), so the platform is 6 mm long.
 #: Frame and contact dumps are not written (only the final states the operators read).
 PRESET_OVERRIDES = {"tiny": ("spread.pile_particles=1000", "spread.pile_length=0.9e-3",
+                             "spread.plate_length=6e-3",
                              "spread.n_frames=16", "output.frames=false", "output.contacts=false",
                              "output.compress=false")}
 
@@ -423,8 +427,10 @@ class _Runs:
             if not ok.any():
                 raise ValueError(f"engine simulator: observable {m.name!r}: no frame of layer "
                                  f"{lay.index} at speed {cfg['spread']['speed']:.3g} m/s has a heap "
-                                 "of two diameters or more in front of the tool (no dynamic angle); "
-                                 "a larger pile (spread.pile_particles) or an earlier layer is needed")
+                                 "of two diameters or more with a free toe on the platform in front of "
+                                 "the tool (no dynamic angle); a larger pile "
+                                 "(spread.pile_particles), a longer platform (spread.plate_length) "
+                                 "or an earlier layer is needed")
             t_ok, a_ok = times[ok], ang[ok]
             vals = []
             for w in np.asarray(m.windows, float).reshape(-1, 2):
