@@ -24,12 +24,18 @@ def test_bad_override_names_the_key(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("engine", ["liggghts", "lammps"])
-def test_external_engines_not_yet_supported(tmp_path, capsys, engine):
-    # repose and one-layer blade spreading run on the external engines
-    # (tests/workflows/test_external_engines.py); the roller does not
+def test_external_roller_deck_is_written(tmp_path, capsys, engine):
+    # --write-only needs no engine installed: one deck for all layers, with a spinning roller
     assert main(["run", "spread", "--preset", "tiny", "--engine", engine, "--set", "spread.tool=roller",
-                 "--out", str(tmp_path)]) == 1
-    assert "roller" in capsys.readouterr().err
+                 "--write-only", "--out", str(tmp_path)]) == 0
+    assert "deck written" in capsys.readouterr().out
+    deck = (tmp_path / "in.spread").read_text()
+    assert "rotate" in deck
+    if engine == "liggghts":
+        assert (tmp_path / "tool.stl").exists()
+        assert "move/mesh" in deck
+    else:
+        assert "cylinder" in deck
 
 
 def test_repose_json(tmp_path, capsys):
