@@ -11,7 +11,8 @@ as a checkpoint and a LAMMPS data file, then timed:
   and 2 MPI ranks on the same data file and model, when installed (nan
   otherwise).
 
-Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N] [--profile]``.
+Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N] [--profile]
+[--threading-layer omp|tbb|workqueue|default]``.
 The last line is ``RESULT bedstruct_steps_per_s=... liggghts_steps_per_s=...
 lammps_steps_per_s=... ratio_1core=... speedup_2threads=... ...`` (particle-steps
 per second; bedstruct_steps_per_s is the 2-thread figure; ratio_1core is
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import tempfile
 import time
@@ -185,7 +187,18 @@ def main(argv=None) -> int:
     ap.add_argument("--profile", action="store_true",
                     help="also print ms per step in each engine pass (1 thread, 200 steps)")
     ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
+    ap.add_argument("--threading-layer", default="omp", choices=["omp", "tbb", "workqueue", "default"],
+                    help="numba threading layer, preferred if available (default omp: its worker "
+                         "threads spin between the engine's short parallel passes, ~1.8x on 2 idle "
+                         "cores against ~1.5x for tbb; on cores shared with other jobs use tbb, see "
+                         "docs/performance.md); 'default' keeps numba's own choice "
+                         "(NUMBA_THREADING_LAYER or tbb > omp > workqueue)")
     args = ap.parse_args(argv)
+    if args.threading_layer != "default" and "NUMBA_THREADING_LAYER" not in os.environ:
+        import numba
+        # read when the first parallel kernel runs, which is after this point
+        numba.config.THREADING_LAYER_PRIORITY = [args.threading_layer] + [
+            name for name in ("tbb", "omp", "workqueue") if name != args.threading_layer]
     n = args.particles or (4000 if args.quick else 20000)
     steps = args.steps or (300 if args.quick else 1000)
     warmup = 100
@@ -242,8 +255,16 @@ def main(argv=None) -> int:
           f"lammps_2rank_steps_per_s={ext['lammps', 2]:.4g} n_particles={b1['n']} steps={steps} "
           f"rebuilds={b1['rebuilds']} bytes_per_particle={b1['bytes_per_particle']:.0f} "
           f"bytes_per_contact={b1['bytes_per_contact']:.0f} bytes_per_pair={b1['bytes_per_pair']:.0f} "
-          f"bytes_per_particle_2threads={b2['bytes_per_particle']:.0f}")
+          f"bytes_per_particle_2threads={b2['bytes_per_particle']:.0f} threading_layer={_layer_used()}")
     return 0
+
+
+def _layer_used() -> str:
+    import numba
+    try:
+        return str(numba.threading_layer())
+    except ValueError:  # no parallel kernel has run
+        return "none"
 
 
 if __name__ == "__main__":
