@@ -314,7 +314,17 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
 
     models = tuple(sorted(allm, key=lambda m: m.bic))
     gof_ok = (not math.isnan(current.p_fit)) and current.p_fit >= gof_alpha
-    if chosen and gof_ok:
+    # an effect whose fingerprint is within its own estimation noise can absorb any gap of
+    # similar shape (e.g. the numerics of another code): naming it would be confidently wrong
+    weak = [e for e in chosen if not fps[e].identifiable]
+    if chosen and gof_ok and weak:
+        verdict = "unexplained"
+        sel = ()
+        reason = (f"best candidate {current.label} fits (chi2 {current.chi2:.1f} on {current.dof} "
+                  f"dof) but {', '.join(weak)} is not identifiable with these observables (its "
+                  "fingerprint is within its own noise), so the gap is not attributed to it; "
+                  "see the measurements that would identify it")
+    elif chosen and gof_ok:
         verdict = "attributed"
         sel = tuple(sorted((estimate(e, current) for e in chosen), key=lambda x: -x.delta_chi2))
         reason = (f"{current.label} lowers chi2 from {null.chi2:.1f} to {current.chi2:.1f} "

@@ -167,3 +167,20 @@ def test_interval_coverage_is_near_nominal():
     chis = [fit_model(truth + rng.standard_normal(N), fps, ("C",)).chi2 for _ in range(200)]
     dof = int(fps.rows_calibrate.sum()) - 2
     assert np.mean(chis) == pytest.approx(dof, rel=0.15)
+
+
+def test_a_fitting_but_non_identifiable_effect_is_not_named():
+    # the same gap as the attribution test above, but B's fingerprint is marked as within its
+    # own estimation noise: a fit through it must not become a confident attribution
+    import dataclasses
+    design, sim, fps = _setup()
+    y = _real(sim, design, effects={"B": 0.6}, base=1.3)
+    resid = y - fps.base_samples.mean(axis=0)
+    weak = dataclasses.replace(fps, fingerprints=tuple(
+        dataclasses.replace(f, identifiable=False) if f.name == "B" else f
+        for f in fps.fingerprints))
+    att = attribute(resid, weak)
+    assert att.verdict == "unexplained" and att.which() == "unexplained"
+    assert "B" in att.reason and "not identifiable" in att.reason
+    assert att.ranking[0].effect == "B" and not att.ranking[0].identifiable
+    assert attribute(resid, fps).verdict == "attributed"      # identifiable: named
