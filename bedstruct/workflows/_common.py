@@ -24,12 +24,12 @@ CONTACT_KEYWORDS = ("pos", "id", "force", "force_normal", "force_tangential", "c
 
 
 def check_engine(cfg: dict) -> None:
-    """Raise ConfigError for engines the workflows cannot drive yet."""
+    """Raise ConfigError when an embedded-engine step is handed another engine's config."""
     eng = cfg.get("engine", "embedded")
     if eng != "embedded":
-        raise ConfigError(f"engine {eng!r} is not yet supported by the workflows (only the embedded "
-                          "engine runs repose/spread/calibrate; see bedstruct.dem.backends for "
-                          "LIGGGHTS/LAMMPS decks)")
+        raise ConfigError(f"engine {eng!r}: this step runs the embedded engine only; run "
+                          "LIGGGHTS/LAMMPS through run_repose, run_spread or calibrate_cohesion "
+                          "(bedstruct.workflows), which hand the config to bedstruct.workflows.external")
 
 
 def contact_model(cfg: dict, *, cohesion: float | None = None):

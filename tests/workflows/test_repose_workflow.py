@@ -77,3 +77,11 @@ def test_angle_rises_with_cohesion():
         cfg = load_config(preset="tiny", overrides=[f"contact.cohesion={k}", "repose.replicates=3"])
         angles.append(run_repose(cfg).angle_deg)
     assert angles[1] > angles[0]
+
+
+def test_embedded_step_refuses_an_external_config_and_says_where_to_go():
+    from bedstruct.errors import ConfigError
+    from bedstruct.workflows.repose import repose_replicate
+    cfg = load_config(preset="tiny", overrides=["engine=liggghts"])
+    with pytest.raises(ConfigError, match="run_repose"):
+        repose_replicate(cfg, seed=1)
