@@ -32,6 +32,7 @@ Examples:
 from __future__ import annotations
 
 import json
+import math
 import sys
 
 NAME = "run"
@@ -121,10 +122,14 @@ def run(args) -> int:
             print(f"  k = {p.cohesion:.4g} J/m^3: {p.angle_deg:.2f} +- {p.angle_std_deg:.2f} deg")
     else:
         for layer in res.layers:
+            angle = layer.mean_dynamic_angle_deg
+            angle_txt = (f"{angle:.1f} deg" if math.isfinite(angle) else
+                         "not measurable (no heap with a free toe on the platform; a longer "
+                         "spread.plate_length helps, see docs/workflows.md)")
             print(f"layer {layer.index}: bed {layer.bed_height_m * 1e6:.0f} um (nominal "
                   f"{layer.nominal_height * 1e6:.0f} um), packing "
                   f"{', '.join(f'{v:.3f}' for v in layer.packing_fraction)}, dynamic angle "
-                  f"{layer.mean_dynamic_angle_deg:.1f} deg")
+                  f"{angle_txt}")
     print(f"results: {args.out}/results.json", file=sys.stderr)
     if args.json:
         print_json(summary)
