@@ -20,7 +20,7 @@ from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
 from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
-from .where import WhereResult, standardised_residuals, where
+from .where import WhereResult, _nan_mean, standardised_residuals, where
 
 __all__ = ["candidate_design", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement",
            "Diagnosis", "diagnose"]
@@ -79,6 +79,7 @@ def gap_size(z) -> tuple[float, float]:
     (1.7320508075688772, 1.4142135623730951)
     """
     z = np.asarray(z, dtype=float)
+    z = z[np.isfinite(z)]  # a component no rerun could observe carries no evidence
     if z.size == 0:
         return float("nan"), float("nan")
     ms = float(np.mean(z * z))
@@ -187,20 +188,35 @@ class Diagnosis:
 
 
 def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):
-    rows = ~fps.rows_candidate
-    names = [n for n in fps.names if fps.design[n].role != "candidate"]
-    for n in names:
-        if n not in measurements:
-            raise ConfigError(f"measurements: observable {n!r} of the fingerprint design is missing")
-        if measurements[n].role != fps.design[n].role:
+    """Align the measurements with the fingerprint rows.
+
+    Returns the fingerprint set restricted to what both have (an observable of the
+    design that the measurement file lacks is left out; one the simulator could not
+    observe, listed in ``fps.meta["unobservable"]``, is skipped with a note), the
+    measured-row mask, the measured names, values, uncertainties and the notes.
+    """
+    notes = []
+    unobservable = dict(fps.meta.get("unobservable", {}))
+    design_meas = [n for n in fps.names if fps.design[n].role != "candidate"]
+    absent = [n for n in design_meas if n not in measurements]
+    for n in design_meas:
+        if n in measurements and measurements[n].role != fps.design[n].role:
             raise ConfigError(f"observable {n!r}: role {measurements[n].role!r} differs from the "
                               f"fingerprint design ({fps.design[n].role!r})")
-    extra = set(measurements.select(("calibrate", "validate")).names) - set(names)
-    if extra:
-        raise ConfigError(f"measurements: observable {sorted(extra)[0]!r} is not in the fingerprint design")
+    extra = set(measurements.select(("calibrate", "validate")).names) - set(fps.names)
+    unknown = sorted(extra - set(unobservable))
+    if unknown:
+        raise ConfigError(f"measurements: observable {unknown[0]!r} is not in the fingerprint design")
+    for n in sorted(extra):
+        notes.append(f"{n}: measured but not used: {unobservable[n]}")
+    if absent:
+        fps = fps.restrict([n for n in fps.names if n not in set(absent)])
+        notes.append(f"not measured, left out of the fingerprints: {', '.join(absent)}")
+    names = [n for n in fps.names if fps.design[n].role != "candidate"]
+    rows = ~fps.rows_candidate
     y = np.concatenate([measurements[n].values for n in names])
     sm = np.concatenate([measurements[n].uncertainty for n in names])
-    return rows, names, y, sm
+    return fps, rows, names, y, sm, tuple(notes)
 
 
 def _params_after(base, nuisance_names, shifts):
@@ -271,7 +287,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
             raise ConfigError(f"fingerprints: no fingerprint for effect {missing[0]!r}")
         fps = fingerprints.subset([e.name for e in effects])
         fps = replace(fps, alpha=select_alpha)
-    rows_meas, names, y, sm = _measured_vectors(measurements, fps)
+    fps, rows_meas, names, y, sm, data_notes = _measured_vectors(measurements, fps)
     sigma_meas = fps.sigma_meas.copy()
     sigma_meas[rows_meas] = sm
     fps = replace(fps, sigma_meas=sigma_meas)
@@ -282,7 +298,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     wh = where(measured, base_meas,
                sim_var=fps.sim_var[rows_meas], alpha=alpha)
     residual = np.full(len(fps.sigma), np.nan)
-    residual[rows_meas] = y - base_meas.mean(axis=0)
+    residual[rows_meas] = y - fps.base_mean[rows_meas]
     att = attribute(residual, fps, alpha=select_alpha, gof_alpha=gof_alpha, max_effects=max_effects)
     # Refinement (Gauss-Newton with the simulator in the loop): simulate the leading
     # effects at their fitted magnitudes, add those responses as fingerprint nodes, refit.
@@ -303,7 +319,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 continue
             s_e = simulate_replicates(simulator, fps.base, {e: a}, fps.seeds, fps.names)
             n_refine_runs += len(fps.seeds)
-            new[e] = fp.with_node(a, (s_e - fps.base_samples).mean(axis=0))
+            resp = _nan_mean(s_e - fps.base_samples)
+            gap = ~np.isfinite(resp)  # not observed at this magnitude: keep the interpolation
+            resp[gap] = fp.predict(a)[gap]
+            new[e] = fp.with_node(a, resp)
         if not new:
             break
         fps = replace(fps, fingerprints=tuple(new.get(f.name, f) for f in fps.fingerprints))
@@ -378,7 +397,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "select_alpha": select_alpha, "gof_alpha": gof_alpha,
                 "max_effects": max_effects, "nuisance": list(fps.nuisance),
                 "base": dict(fps.base), "effects": [e.name for e in effects],
-                "refine": refine,
+                "refine": refine, "data_notes": list(data_notes),
+                "missing_runs": dict(fps.meta.get("missing_runs", {})),
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
                 + 2 * len(rerun_seeds)}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)

@@ -15,7 +15,7 @@ projecting those directions out.
 
 from __future__ import annotations
 
-import math
+import logging
 from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
 
@@ -25,9 +25,12 @@ from scipy import stats
 from ..errors import ConfigError
 from .catalogue import Effect
 from .measurements import MeasurementSet, Observations
+from .where import _nan_mean, _nan_var
 
 __all__ = ["Simulator", "simulate_replicates", "Fingerprint", "FingerprintSet",
-           "compute_fingerprints", "nuisance_projector"]
+           "compute_fingerprints", "assess_fingerprints", "nuisance_projector"]
+
+log = logging.getLogger(__name__)
 
 #: The simulator interface: ``simulator(base, effects, seed) -> Observations``.
 Simulator = Callable[[Mapping[str, float], Mapping[str, float], int], Observations]
@@ -243,8 +246,64 @@ class FingerprintSet:
 
     @property
     def sigma(self) -> np.ndarray:
-        """Combined noise of ``real - mean(base runs)`` per component."""
-        return np.sqrt(self.sigma_meas ** 2 + self.sim_var / self.n_replicates)
+        """Combined noise of ``real - mean(base runs)`` per component.
+
+        The mean is over the base replicates that observed the component.
+        """
+        n = np.maximum(np.sum(np.isfinite(self.base_samples), axis=0), 1)
+        return np.sqrt(self.sigma_meas ** 2 + self.sim_var / n)
+
+    @property
+    def base_mean(self) -> np.ndarray:
+        """Mean of the base replicates per component (over those that observed it)."""
+        return _nan_mean(self.base_samples)
+
+    def restrict(self, names: Sequence[str]) -> "FingerprintSet":
+        """The same set on the observables ``names`` only (row order kept).
+
+        Identifiability is re-assessed on the remaining calibration observables.
+
+        Examples
+        --------
+        A linear toy simulator: two calibration observables and a held-out one.
+
+        >>> from bedstruct.diagnose import Effect, measurement_from_dict
+        >>> design = MeasurementSet(tuple(measurement_from_dict(dict(
+        ...     name=n, kind="static_angle", value=0.0, uncertainty=1.0, role=r))
+        ...     for n, r in [("a", "calibrate"), ("b", "calibrate"), ("c", "validate")]))
+        >>> effect = Effect(name="e", title="e", magnitude="m", unit="1", prior=(0.0, 1.0),
+        ...                 physics="", signature="", sources=(), engine_map=())
+        >>> def simulator(base, effects, seed):
+        ...     m, noise = effects.get("e", 0.0), 0.1 * np.random.default_rng(seed).standard_normal(3)
+        ...     return Observations({"a": base["k"] + 30 * m + noise[0],
+        ...                          "b": -base["k"] + 40 * m + noise[1], "c": m + noise[2]})
+        >>> fps = compute_fingerprints(simulator, design, {"k": 1.0}, [effect], nuisance=("k",),
+        ...                            replicates=2)
+        >>> fps.restrict(["b", "c"]).names
+        ('b', 'c')
+        >>> fps["e"].identifiable, fps.restrict(["b", "c"])["e"].identifiable
+        (True, False)
+        """
+        from dataclasses import replace
+        wanted = set(names)
+        unknown = wanted - set(self.names)
+        if unknown:
+            raise KeyError(f"observable {sorted(unknown)[0]!r} is not in the fingerprint set")
+        keep_names = [n for n in self.names if n in wanted]
+        keep = np.isin(self.design.component_names(), keep_names)
+        design = self.design.__class__(tuple(self.design[n] for n in keep_names), self.design.title,
+                                       self.design.source, self.design.path, self.design.notes)
+        if not (design.roles() == "calibrate").any():
+            raise ConfigError("no calibration observable left in the fingerprint set")
+        fps = tuple(replace(f, delta=f.delta[:, keep], delta_se=f.delta_se[:, keep],
+                            responses=f.responses[:, keep]) for f in self.fingerprints)
+        roles = design.roles()
+        out = replace(self, design=design, names=tuple(keep_names),
+                      rows_calibrate=roles == "calibrate", rows_validate=roles == "validate",
+                      rows_candidate=roles == "candidate", base_samples=self.base_samples[:, keep],
+                      sim_var=self.sim_var[keep], sigma_meas=self.sigma_meas[keep],
+                      sensitivities=self.sensitivities[keep], fingerprints=fps)
+        return assess_fingerprints(out)
 
     def __getitem__(self, name: str) -> Fingerprint:
         for f in self.fingerprints:
@@ -330,12 +389,9 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
                               f"(it produces {sorted(probe.names)})")
     design = design.__class__(tuple(design[n] for n in names), design.title, design.source,
                               design.path, design.notes)
-    roles = design.roles()
-    rows_cal, rows_val, rows_cand = roles == "calibrate", roles == "validate", roles == "candidate"
-    if not rows_cal.any():
+    if not (design.roles() == "calibrate").any():
         raise ConfigError("measurements: no observable has role 'calibrate'; the attribution is "
                           "fitted on calibration observables only")
-    sigma_meas = _design_sigma(design, names)
 
     def run(params, eff):
         return simulate_replicates(simulator, params, eff, seeds, names)
@@ -344,39 +400,77 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     if progress:
         from tqdm import tqdm
         progress_bar = tqdm(total=1 + len(nuisance) + 2 * len(effects), desc="fingerprints")
-    n_runs = 0
+    groups = []   # replicate samples of every parameter point (pooled run-to-run scatter)
     base_s = run(base, {})
-    n_runs += replicates
-    resid_sq = [base_s - base_s.mean(axis=0)]
+    groups.append(base_s)
     if progress_bar:
         progress_bar.update()
-
     sens = np.zeros((base_s.shape[1], len(nuisance)))
     for j, p in enumerate(nuisance):
         h = rel_step * abs(base[p]) if base[p] != 0 else rel_step
         plus = dict(base)
         plus[p] = base[p] + h
         sp = run(plus, {})
-        n_runs += replicates
-        resid_sq.append(sp - sp.mean(axis=0))
-        sens[:, j] = (sp - base_s).mean(axis=0) / h
+        groups.append(sp)
+        sens[:, j] = _nan_mean(sp - base_s) / h
         if progress_bar:
             progress_bar.update()
-
-    raw = []
+    paired = []
     for e in effects:
-        m1, m2 = e.reference_magnitudes
-        deltas, ses = [], []
-        for m in (m1, m2):
+        for m in e.reference_magnitudes:
             se = run(base, {e.name: m})
-            n_runs += replicates
-            resid_sq.append(se - se.mean(axis=0))
-            d = se - base_s
-            deltas.append(d.mean(axis=0))
-            ses.append(d.std(axis=0, ddof=1) / math.sqrt(replicates))
+            groups.append(se)
+            paired.append(se - base_s)
             if progress_bar:
                 progress_bar.update()
-        D, SE = np.asarray(deltas), np.asarray(ses)
+    if progress_bar:
+        progress_bar.close()
+    n_runs = replicates * len(groups)
+    sim_var = _pooled_variance(groups)
+
+    # Missing data: a run that could not observe a component (e.g. no heap to fit) gives
+    # NaN there. Means and paired differences use the finite replicates; an observable
+    # that some parameter point never observed has no fingerprint and is dropped.
+    D_all = np.array([_nan_mean(d) for d in paired]).reshape(len(paired), -1)
+    n_pairs = np.array([np.isfinite(d).sum(axis=0) for d in paired]).reshape(len(paired), -1)
+    sd_pairs = np.array([np.sqrt(_nan_var(d)) for d in paired]).reshape(len(paired), -1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # one finite pair: its scatter from the pooled run variance (two runs differ)
+        SE_all = np.where(n_pairs >= 2, sd_pairs / np.sqrt(np.maximum(n_pairs, 1)),
+                          np.sqrt(2.0 * sim_var / np.maximum(n_pairs, 1)))
+    usable = np.isfinite(sim_var) & (np.isfinite(base_s).sum(axis=0) > 0) \
+        & np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(D_all), axis=0) \
+        & np.all(np.isfinite(SE_all), axis=0)
+    comp = design.component_names()
+    stacked = np.concatenate(groups, axis=0)
+    missing, unobservable = {}, {}
+    for n in names:
+        i = comp == n
+        k = int(np.sum(~np.all(np.isfinite(stacked[:, i]), axis=1)))
+        if k:
+            missing[n] = k
+        if not usable[i].all():
+            unobservable[n] = (f"not observed in {k} of {n_runs} fingerprint runs (too few to "
+                               f"estimate its response to every parameter)")
+    if unobservable:
+        log.warning("fingerprints: observable(s) %s dropped: the simulator could not observe "
+                    "them often enough", sorted(unobservable))
+    keep_names = [n for n in names if n not in unobservable]
+    keep = np.isin(comp, keep_names)
+    design = design.__class__(tuple(design[n] for n in keep_names), design.title, design.source,
+                              design.path, design.notes)
+    roles = design.roles()
+    rows_cal, rows_val, rows_cand = roles == "calibrate", roles == "validate", roles == "candidate"
+    if not rows_cal.any():
+        raise ConfigError(f"the simulator could not observe any calibration observable often "
+                          f"enough to fingerprint it ({unobservable})")
+    base_s, sim_var, sens = base_s[:, keep], sim_var[keep], sens[keep]
+    D_all, SE_all = D_all[:, keep], SE_all[:, keep]
+
+    fps = []
+    for k, e in enumerate(effects):
+        m1, m2 = e.reference_magnitudes
+        D, SE = D_all[2 * k:2 * k + 2], SE_all[2 * k:2 * k + 2]
         # Keep the quadratic term only where the two magnitudes disagree with a linear
         # response beyond the fingerprints' own estimation noise (else it fits noise).
         dev = D[1] / m2 - D[0] / m1
@@ -387,58 +481,70 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
             curved = curv_chi2 > stats.chi2.isf(0.01, int(ok.sum())) or (~ok & (dev != 0)).any()
         else:
             curved = bool(np.any(dev != 0))
-        raw.append((e, np.array([m1, m2]), D, SE, bool(curved)))
-    if progress_bar:
-        progress_bar.close()
-
-    pooled = np.concatenate(resid_sq, axis=0)
-    dof = sum(r.shape[0] - 1 for r in resid_sq)
-    sim_var = np.sum(pooled ** 2, axis=0) / dof
-
-    sigma = np.sqrt(sigma_meas ** 2 + sim_var / replicates)
-    cal = rows_cal
-    Sw = sens[cal] / sigma[cal, None]
-    P = nuisance_projector(Sw)
+        nodes = np.array([0.0, m1, m2])
+        resp = np.vstack([np.zeros(D.shape[1]), D])
+        fps.append(Fingerprint(e, np.array([m1, m2]), D, SE, nodes, resp, not curved))
     n_eff = max(len(effects), 1)
     threshold = float(stats.chi2.isf(alpha / n_eff, 1))
-    projected = []
-    for e, mags, D, SE, curved in raw:
-        projected.append(P @ (D[1][cal] / sigma[cal]))
+    out = FingerprintSet(design, tuple(keep_names), rows_cal, rows_val, rows_cand, base, seeds,
+                         base_s, sim_var, _design_sigma(design, keep_names), tuple(nuisance), sens,
+                         tuple(fps), threshold, alpha, simulator_name, n_runs,
+                         {"missing_runs": missing, "unobservable": unobservable})
+    return assess_fingerprints(out)
 
-    fps = []
+
+def _pooled_variance(groups) -> np.ndarray:
+    """Run-to-run variance pooled over parameter points (finite replicates of each)."""
+    ss, dof = 0.0, 0
+    for g in groups:
+        g = np.asarray(g, float)
+        d = g - _nan_mean(g)
+        ss = ss + np.where(np.isfinite(d), d * d, 0.0).sum(axis=0)
+        dof = dof + np.maximum(np.isfinite(g).sum(axis=0) - 1, 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(dof > 0, ss / np.maximum(dof, 1), np.nan)
+
+
+def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
+    """Identifiability, confounding and identifying measurements of every fingerprint.
+
+    Judged on the calibration components of ``fps``, whitened by its combined noise,
+    after projecting out the nuisance sensitivities; recomputed whenever the rows of
+    the set change (:meth:`FingerprintSet.restrict`).
+    """
+    from dataclasses import replace
+    cal = fps.rows_calibrate
+    sigma = fps.sigma
+    P = nuisance_projector(fps.sensitivities[cal] / sigma[cal, None])
+    projected = [P @ (f.delta[1][cal] / sigma[cal]) for f in fps.fingerprints]
     noncal = ~cal
-    comp_names = design.component_names()
-    for k, (e, mags, D, SE, curved) in enumerate(raw):
+    comp_names = fps.design.component_names()
+    out = []
+    for k, fp in enumerate(fps.fingerprints):
+        D, SE = fp.delta, fp.delta_se
         f = projected[k]
         signal = float(np.linalg.norm(f))
         noise = float(np.sqrt(np.sum((SE[1][cal] / sigma[cal]) ** 2)))
-        identifiable = signal ** 2 > threshold + noise ** 2
+        identifiable = signal ** 2 > fps.threshold + noise ** 2
         conf = []
         for j, other in enumerate(projected):
             if j == k:
                 continue
             den = np.linalg.norm(f) * np.linalg.norm(other)
             if den > 0 and abs(f @ other) / den > 0.98:
-                conf.append(raw[j][0].name)
+                conf.append(fps.fingerprints[j].name)
         ident = []
         if noncal.any():
             # a change of more than 2 sigma that is also beyond twice its own estimation
             # noise (a noisy fingerprint must not name a measurement by chance)
             w = np.abs(D[1][noncal]) / sigma[noncal]
             real = np.abs(D[1][noncal]) > 2.0 * SE[1][noncal]
-            order = np.argsort(-w)
-            seen = []
-            for i in order:
+            for i in np.argsort(-w):
                 nm = str(comp_names[noncal][i])
-                if w[i] > 2.0 and real[i] and nm not in seen:
-                    seen.append(nm)
-                if len(seen) == 3:
+                if w[i] > 2.0 and real[i] and nm not in ident:
+                    ident.append(nm)
+                if len(ident) == 3:
                     break
-            ident = seen
-        nodes = np.array([0.0, mags[0], mags[1]])
-        resp = np.vstack([np.zeros(D.shape[1]), D])
-        fps.append(Fingerprint(e, mags, D, SE, nodes, resp, not curved, signal, noise,
-                               bool(identifiable), tuple(conf), tuple(ident)))
-    return FingerprintSet(design, tuple(names), rows_cal, rows_val, rows_cand, base, seeds, base_s,
-                          sim_var, sigma_meas, tuple(nuisance), sens, tuple(fps), threshold, alpha,
-                          simulator_name, n_runs)
+        out.append(replace(fp, signal=signal, noise=noise, identifiable=bool(identifiable),
+                           confounded_with=tuple(conf), identify_with=tuple(ident)))
+    return replace(fps, fingerprints=tuple(out))

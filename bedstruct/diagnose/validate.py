@@ -238,7 +238,13 @@ def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx:
     stated = {m.name: np.sqrt(m.uncertainty ** 2 + intrinsic[m.name] ** 2) for m in design}
     twin = design.with_values(Observations(noisy, source="twin"),
                               uncertainty=Observations(stated), provenance="synthetic twin")
-    twin = MeasurementSet(twin.measurements, title=f"twin {idx}", source="synthetic twin (withheld truth)")
+    # what the 'experiment' could not observe (e.g. no heap to fit) is not in its file
+    seen = tuple(m for m in twin.measurements if np.all(np.isfinite(m.values)))
+    lost = [m.name for m in twin.measurements if not np.all(np.isfinite(m.values))]
+    if lost:
+        log.info("twin %d: not observable in its run, left out of its file: %s", idx, lost)
+    twin = MeasurementSet(seen, title=f"twin {idx}", source="synthetic twin (withheld truth)",
+                          notes=(f"not observable in the twin's run: {', '.join(lost)}" if lost else ""))
     path = write_measurements(twin, folder / f"twin_{idx:03d}.toml")
     return load_measurements(path)
 
@@ -406,6 +412,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
                                alpha=select_alpha, simulator_name=simulator, progress=progress)
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
+    if fps.meta.get("unobservable"):  # the simulator cannot give them: no twin measures them
+        measured = MeasurementSet(tuple(m for m in measured if m.name in fps.names),
+                                  measured.title, measured.source, measured.path, measured.notes)
     tseed = int(seed if twin_seed is None else twin_seed)
     rng = np.random.default_rng([tseed, 2024])
     plan = []
@@ -482,7 +491,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 "out_of_catalogue_per_effect": cfg["out_of_catalogue"] or (
                     "each effect twin, its effect removed" if reuse_ooc else 0),
                 "effects": [e.name for e in effects], "refine": refine,
-                "failed": failed, "simulator_runs": getattr(sim, "n_runs", None),
+                "failed": failed, "unobservable": dict(fps.meta.get("unobservable", {})),
+                "missing_runs": dict(fps.meta.get("missing_runs", {})),
+                "simulator_runs": getattr(sim, "n_runs", None),
                 "cached_calls": getattr(sim, "n_cached", None),
                 "engine": dict(getattr(sim, "base_cfg", {}) and {
                     "preset": sim.preset, "overrides": sim.overrides,

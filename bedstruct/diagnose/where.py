@@ -55,19 +55,42 @@ def standardised_residuals(real, sigma_meas, sim_samples, *, sim_var=None):
     if s.shape[1] != y.size or sm.shape != y.shape:
         raise ValueError(f"`real` ({y.size}), `sigma_meas` ({sm.size}) and `sim_samples` columns "
                          f"({s.shape[1]}) must have the same length")
-    R = s.shape[0]
+    # a replicate that could not observe a component (NaN) is missing data: each component
+    # is averaged over its own finite replicates; with none, its z is NaN
+    R = np.sum(np.isfinite(s), axis=0)
     if sim_var is None:
-        if R < 2:
+        if s.shape[0] < 2:
             raise ValueError("need >= 2 replicate simulations to estimate the simulation noise "
                              "(or pass `sim_var`)")
-        sim_var = s.var(axis=0, ddof=1)
+        sim_var = _nan_var(s)
     sim_var = np.asarray(sim_var, dtype=float).ravel()
-    mu = s.mean(axis=0)
-    sigma = np.sqrt(sm ** 2 + sim_var / R)
-    if np.any(~(sigma > 0)):
+    mu = _nan_mean(s)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sigma = np.where(R > 0, np.sqrt(sm ** 2 + sim_var / np.maximum(R, 1)), np.nan)
+    seen = R > 0
+    if np.any(~(sigma[seen] > 0)):
         raise ValueError("combined noise is zero or invalid for some components; state measurement "
                          "uncertainties > 0")
     return (y - mu) / sigma, sigma, mu
+
+
+def _nan_mean(samples) -> np.ndarray:
+    """Column means over finite entries (NaN where a column has none), without warnings."""
+    s = np.asarray(samples, dtype=float)
+    ok = np.isfinite(s)
+    n = ok.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, np.where(ok, s, 0.0).sum(axis=0) / n, np.nan)
+
+
+def _nan_var(samples) -> np.ndarray:
+    """Column variances (ddof 1) over finite entries (NaN with fewer than two)."""
+    s = np.asarray(samples, dtype=float)
+    ok = np.isfinite(s)
+    n = ok.sum(axis=0)
+    d = np.where(ok, s - _nan_mean(s), 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 1, (d * d).sum(axis=0) / (n - 1), np.nan)
 
 
 @dataclass(frozen=True)
@@ -186,7 +209,7 @@ def where(measurements: MeasurementSet, sim_samples, *, sim_var=None, alpha: flo
     s = np.atleast_2d(np.asarray(sim_samples, dtype=float))
     y, sm = ms.values(), ms.uncertainty()
     z, sigma, mu = standardised_residuals(y, sm, s, sim_var=sim_var)
-    var1 = np.asarray(sim_var, float) if sim_var is not None else s.var(axis=0, ddof=1)
+    var1 = np.asarray(sim_var, float) if sim_var is not None else _nan_var(s)
     cond, units = _component_meta(ms)
     res = Residuals(ms.component_names(), ms.component_labels(), ms.kinds(), ms.roles(), cond, units,
                     y, mu, sm, np.sqrt(var1), sigma, z)

@@ -318,9 +318,8 @@ class EngineSimulator:
                     values[m.name] = runs.observe(m)
             if key:
                 entries = dict(cached)
-                for m in todo:
-                    if np.all(np.isfinite(values[m.name])):
-                        entries[specs[m.name]] = {"value": values[m.name].tolist(), "name": m.name}
+                for m in todo:  # NaN (unobservable in this run) is a result too
+                    entries[specs[m.name]] = {"value": values[m.name].tolist(), "name": m.name}
                 self._cache_write(key, entries, {"base": dict(base), "effects": dict(effects),
                                                  "seed": int(seed), "preset": self.preset,
                                                  "overrides": self.overrides})
@@ -328,11 +327,11 @@ class EngineSimulator:
             self.n_cached += 1
         values = {m.name: values[m.name] for m in self.design}
         bad = [k for k, v in values.items() if not np.all(np.isfinite(v))]
-        if bad:  # the diagnosis' linear algebra cannot use them: say which and where
-            raise ValueError(f"engine simulator: observable(s) {bad} not finite (no fit: e.g. a "
-                             f"pile without flanks or a heap below two diameters) for "
-                             f"base={dict(base)}, effects={dict(effects)}, seed={seed}; values "
-                             f"{ {k: values[k].tolist() for k in bad} }")
+        if bad:  # missing data for the diagnosis (fingerprints and twins handle NaN)
+            log.warning("engine simulator: observable(s) %s not observable in this run (no fit: "
+                        "e.g. a pile without flanks or no heap two diameters high with a free "
+                        "toe) for base=%s, effects=%s, seed=%d: NaN", bad, dict(base),
+                        dict(effects), seed)
         return Observations(values, source="engine")
 
 
@@ -424,13 +423,11 @@ class _Runs:
             p0 = float(pos.min()) if pos.size else 0.0
             times = (pos - p0) / max(plate - p0, 1e-12)
             ok = np.isfinite(ang)
-            if not ok.any():
-                raise ValueError(f"engine simulator: observable {m.name!r}: no frame of layer "
-                                 f"{lay.index} at speed {cfg['spread']['speed']:.3g} m/s has a heap "
-                                 "of two diameters or more with a free toe on the platform in front of "
-                                 "the tool (no dynamic angle); a larger pile "
-                                 "(spread.pile_particles), a longer platform (spread.plate_length) "
-                                 "or an earlier layer is needed")
+            if not ok.any():  # no heap two diameters high with a free toe in any frame
+                log.info("observable %r: no dynamic angle in layer %d at %.3g m/s (a larger "
+                         "pile or a longer platform would give one)", m.name, lay.index,
+                         float(cfg["spread"]["speed"]))
+                return np.full(len(np.asarray(m.windows, float).reshape(-1, 2)), np.nan)
             t_ok, a_ok = times[ok], ang[ok]
             vals = []
             for w in np.asarray(m.windows, float).reshape(-1, 2):

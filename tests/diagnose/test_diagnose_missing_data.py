@@ -1,0 +1,121 @@
+"""Missing data: a simulator run or an 'experiment' that cannot observe an observable.
+
+A small DEM scale model sometimes leaves no heap to fit (NaN dynamic angle). The
+diagnosis treats such a value as missing: means and paired differences use the
+replicates that observed it, an observable some parameter point never observed is
+dropped (and said so), and a measurement file without an observable is diagnosed on
+the rest.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bedstruct.diagnose import (MeasurementSet, Observations, compute_fingerprints, diagnose,
+                                standardised_residuals)
+from bedstruct.diagnose.diagnosis import gap_size
+from bedstruct.diagnose.validate import _twin_measurements
+from diagnose_helpers import ToySimulator, toy_design, toy_effect
+
+N = 10
+SENS = {"k": np.linspace(1.0, 2.0, N)}
+RESP = {"A": np.r_[3, -3, 3, -3, 3, -3, 0, 3, -3, 0] * 1.0,
+        "B": np.r_[0, 0, 4, 4, 4, -4, -4, 0, 4, -4] * 1.0}
+EFFECTS = [toy_effect("A"), toy_effect("B")]
+
+
+class Holes:
+    """Wrap a simulator: NaN for ``name`` where ``lost(base, effects, seed)`` is true."""
+
+    def __init__(self, sim, name, lost):
+        self.sim, self.name, self.lost = sim, name, lost
+
+    def __call__(self, base, effects, seed):
+        obs = self.sim(base, effects, seed)
+        vals = dict(obs.values)
+        if self.lost(base, effects, seed):
+            vals[self.name] = np.full_like(vals[self.name], np.nan)
+        return Observations(vals, source=obs.source)
+
+
+def _toy(noise_sd=0.3):
+    design = toy_design(N, n_validate=3)
+    return design, ToySimulator(design, sens=SENS, effects=RESP, noise_sd=noise_sd)
+
+
+def test_standardised_residuals_average_each_component_over_its_finite_replicates():
+    sims = np.array([[1.0, 2.0], [3.0, np.nan], [5.0, 4.0]])
+    z, sigma, mu = standardised_residuals([3.0, 3.0], [1.0, 1.0], sims, sim_var=[4.0, 4.0])
+    np.testing.assert_allclose(mu, [3.0, 3.0])
+    np.testing.assert_allclose(sigma, [np.sqrt(1 + 4 / 3), np.sqrt(1 + 4 / 2)])
+    z, sigma, mu = standardised_residuals([3.0, 3.0], [1.0, 1.0], [[1.0, np.nan], [2.0, np.nan]])
+    assert np.isfinite(z[0]) and np.isnan(z[1])
+    assert gap_size([3.0, np.nan, 1.0, 1.0, 1.0]) == gap_size([3.0, 1.0, 1.0, 1.0])
+
+
+def test_one_lost_replicate_leaves_the_fingerprint_of_the_others():
+    design, sim = _toy()
+    # o4 lost in replicate seed 1 of the base and of the A runs (a run without a heap)
+    holes = Holes(sim, "o4", lambda b, e, s: s == 1 and b["k"] == 1.0 and "B" not in e)
+    full = compute_fingerprints(sim, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
+    part = compute_fingerprints(holes, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
+    assert "o4" in part.names and part.meta["missing_runs"] == {"o4": 3}
+    assert not part.meta["unobservable"]
+    i = list(part.names).index("o4")
+    keep = [0, 2]  # the seeds that observed o4 in both runs of each pair
+    base = np.stack([sim({"k": 1.0}, {}, s).vector(design.names) for s in (0, 1, 2)])
+    plus_a = np.stack([sim({"k": 1.0}, {"A": 1.0}, s).vector(design.names) for s in (0, 1, 2)])
+    np.testing.assert_allclose(part["A"].delta[1][i], (plus_a - base)[keep, i].mean())
+    np.testing.assert_allclose(part.base_mean[i], base[keep, i].mean())
+    # the other components are untouched, and the pooled scatter stays close
+    other = np.arange(N) != i
+    np.testing.assert_allclose(part["A"].delta[:, other], full["A"].delta[:, other])
+    np.testing.assert_allclose(part.sigma[other], full.sigma[other])
+    assert part.sigma[i] > full.sigma[i] * 0.5 and np.isfinite(part.sim_var[i])
+
+
+def test_an_observable_never_seen_at_one_parameter_point_is_dropped_and_said_so():
+    design, sim = _toy()
+    holes = Holes(sim, "o8", lambda b, e, s: e.get("B", 0.0) == 1.0)   # o8 validate row
+    fps = compute_fingerprints(holes, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=2)
+    assert "o8" not in fps.names and "o8" in fps.meta["unobservable"]
+    assert "2 of 12" in fps.meta["unobservable"]["o8"]
+    assert all(np.all(np.isfinite(f.delta)) for f in fps.fingerprints)
+    # a measurement file that has o8 is diagnosed on the rest, with a note
+    real = design.with_values(sim({"k": 1.05}, {"A": 0.7}, 999))
+    d = diagnose(real, holes, base={"k": 1.0}, effects=EFFECTS, fingerprints=fps, refine=1)
+    assert d.attribution.selected[0].effect == "A"
+    assert any("o8" in n and "not used" in n for n in d.settings["data_notes"])
+
+
+def test_precomputed_fingerprints_restricted_to_a_file_without_an_observable():
+    design, sim = _toy()
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
+    smaller = MeasurementSet(tuple(m for m in design if m.name != "o1"), title="without o1")
+    fresh = compute_fingerprints(sim, smaller, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
+    restricted = fps.restrict(smaller.names)
+    assert restricted.names == fresh.names
+    for a, b in zip(restricted.fingerprints, fresh.fingerprints):
+        np.testing.assert_allclose(a.delta, b.delta)
+        assert a.signal == pytest.approx(b.signal) and a.identifiable == b.identifiable
+    np.testing.assert_allclose(restricted.sigma, fresh.sigma)
+    np.testing.assert_allclose(restricted.sensitivities, fresh.sensitivities)
+    # the diagnosis of the smaller file with the big set equals the one with its own set
+    truth = sim({"k": 1.1}, {"B": 0.6}, 999)
+    real = smaller.with_values(Observations({n: truth[n] for n in smaller.names}))
+    d_big = diagnose(real, sim, base={"k": 1.0}, effects=EFFECTS, fingerprints=fps, refine=0)
+    d_own = diagnose(real, sim, base={"k": 1.0}, effects=EFFECTS, fingerprints=fresh, refine=0)
+    assert d_big.attribution.selected[0].effect == "B" == d_own.attribution.selected[0].effect
+    assert d_big.attribution.selected[0].magnitude == pytest.approx(
+        d_own.attribution.selected[0].magnitude)
+    assert any("o1" in n for n in d_big.settings["data_notes"])
+
+
+def test_a_twin_leaves_out_what_its_run_could_not_observe(tmp_path):
+    design, sim = _toy()
+    holes = Holes(sim, "o3", lambda b, e, s: True)
+    intrinsic = Observations({m.name: [0.3] for m in design})
+    twin = _twin_measurements(design, holes, {"k": 1.0}, {}, 5, tmp_path, 0, intrinsic)
+    assert "o3" not in twin.names and len(twin.names) == N - 1
+    assert "o3" in twin.notes
