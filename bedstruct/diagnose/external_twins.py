@@ -241,33 +241,44 @@ class LiggghtsTwin:
 
 
 def _run_seeds(sim, base, seeds, *, replace_failed: int = 0):
-    """Observations of every seed; a seed whose run cannot be observed (the engine
-    simulator's ValueError: no heap, no fit) is replaced by ``seed + 7919 k``, k = 1 ..
-    ``replace_failed``. Returns the observations and the seeds actually used."""
+    """Observations of every seed and the seeds used.
+
+    A seed whose run leaves an observable unobserved (NaN: no heap, no fit) is
+    repeated with ``seed + 7919 k``, k = 1 .. ``replace_failed`` (a failed
+    experiment is repeated); after that its NaN stays, as missing data.
+    """
     runs, used = [], []
     for s in seeds:
         for k in range(int(replace_failed) + 1):
-            try:
-                runs.append(sim(dict(base), {}, int(s) + 7919 * k))
-                used.append(int(s) + 7919 * k)
+            sd = int(s) + 7919 * k
+            obs = sim(dict(base), {}, sd)
+            lost = [n for n in obs.names if not np.all(np.isfinite(obs[n]))]
+            if not lost or k == int(replace_failed):
+                runs.append(obs)
+                used.append(sd)
                 break
-            except ValueError as exc:
-                if k == int(replace_failed):
-                    raise
-                log.warning("LIGGGHTS twin: seed %d not observable (%s); trying %d", int(s) + 7919 * k,
-                            exc, int(s) + 7919 * (k + 1))
+            log.warning("LIGGGHTS twin: seed %d could not observe %s; trying %d", sd, lost,
+                        int(s) + 7919 * (k + 1))
     return runs, used
 
 
 def _twin_readings(measured, raw: Mapping[str, np.ndarray], *, rng, scatter=None):
-    """Values and stated uncertainties of a twin from raw observations (n_seeds, n_comp)."""
+    """Values and stated uncertainties of a twin from raw observations (n_seeds, n_comp).
+
+    Repetitions that could not observe an observable (NaN) are left out of its mean;
+    an observable no repetition observed is left out of the result.
+    """
     values, stated = {}, {}
     for m in measured:
         obs = np.asarray(raw[m.name], float)
-        n = obs.shape[0]
         readings = obs + m.uncertainty * rng.standard_normal(obs.shape)
+        ok = np.all(np.isfinite(readings), axis=1)
+        n = int(ok.sum())
+        if n == 0:
+            continue
+        readings = readings[ok]
         values[m.name] = readings.mean(axis=0)
-        s = readings.std(axis=0, ddof=1) if n > 1 else float((scatter or {}).get(m.name, 0.0))
+        s = readings.std(axis=0, ddof=1) if n > 1 else np.asarray((scatter or {}).get(m.name, 0.0), float)
         stated[m.name] = np.sqrt(np.asarray(s) ** 2 / n + m.uncertainty ** 2)
     return values, stated
 
@@ -320,10 +331,16 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
                                     scatter=scatter)
     n = len(seeds)
     prov = f"LIGGGHTS 3.8 runs, {n} repetitions, reading noise added"
-    twin = measured.with_values(Observations(values, source="liggghts"),
-                                uncertainty=Observations(stated), provenance=prov)
+    lost = [m.name for m in measured if m.name not in values]
+    if lost:
+        log.warning("LIGGGHTS twin %s: no repetition observed %s; left out of the file",
+                    effect.label, lost)
+    seen = MeasurementSet(tuple(m for m in measured if m.name in values), measured.title)
+    twin = seen.with_values(Observations(values, source="liggghts"),
+                            uncertainty=Observations(stated), provenance=prov)
     twin = MeasurementSet(twin.measurements, title="LIGGGHTS twin",
-                          source="bedstruct.diagnose.external_twins (withheld truth)")
+                          source="bedstruct.diagnose.external_twins (withheld truth)",
+                          notes=(f"not observed in any repetition: {', '.join(lost)}" if lost else ""))
     path = write_measurements(twin, out / "twin.toml")
     truth = {"effect": effect.to_dict(), "label": effect.label, "base": dict(base),
              "seeds": [int(s) for s in seeds], "seeds_used": used, "noise_seed": int(noise_seed), "preset": preset,

@@ -263,17 +263,26 @@ def test_twin_readings_follow_the_replicate_rule():
     assert unc1["static_angle"][0] == pytest.approx(1.0)     # no scatter given: reading error only
 
 
-def test_failed_repetitions_are_replaced_or_raise():
-    from bedstruct.diagnose.external_twins import _run_seeds
+def test_unobservable_repetitions_are_repeated_then_kept_as_missing():
+    from bedstruct.diagnose import Observations
+    from bedstruct.diagnose.external_twins import _run_seeds, _twin_readings
     calls = []
 
     def sim(base, effects, seed):
         calls.append(seed)
-        if seed == 1001:
-            raise ValueError("engine simulator: no heap")
-        return {"seed": seed}
+        lost = seed in (1001, 1002, 1002 + 7919)          # no heap to fit in these runs
+        return Observations({"dyn": [np.nan if lost else float(seed)], "bh": [1.0]})
 
     runs, used = _run_seeds(sim, {}, (1000, 1001, 1002), replace_failed=1)
-    assert used == [1000, 1001 + 7919, 1002] and [r["seed"] for r in runs] == used
-    with pytest.raises(ValueError, match="no heap"):
-        _run_seeds(sim, {}, (1001,))
+    assert used == [1000, 1001 + 7919, 1002 + 7919]
+    assert [float(r["dyn"][0]) for r in runs[:2]] == [1000.0, 1001.0 + 7919]
+    assert np.isnan(runs[2]["dyn"][0])                     # still lost after the repeat: missing
+    design = liggghts_twin_design().select(("calibrate", "validate"))
+    m, other = design["dynamic_angle_x1"], design["bed_height_layer1"]
+    raw = {k.name: np.full((3, k.n_components), 0.5) for k in design}
+    raw[m.name] = np.array([[20.0, 30.0], [np.nan, np.nan], [24.0, 34.0]])
+    vals, unc = _twin_readings(design, raw, rng=np.random.default_rng(3))
+    assert np.all(np.isfinite(vals[m.name])) and abs(vals[m.name][0] - 22.0) < 4.0
+    raw[m.name][:] = np.nan
+    vals, _ = _twin_readings(design, raw, rng=np.random.default_rng(3))
+    assert m.name not in vals and other.name in vals
