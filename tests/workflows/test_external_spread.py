@@ -183,3 +183,26 @@ def test_lammps_keeps_contact_histories_between_layers(tmp_path):
     ratio, change = _history_kept(tmp_path, 0.0, n, lambda b: _tangential_lammps(b, n))
     assert 0.7 < ratio < 1.3      # measured 0.96 (change 0.30)
     assert change < 0.6
+
+
+def test_platform_mesh_is_square_strips_covering_the_platform(tmp_path):
+    from bedstruct.dem.backends.stl import read_stl_triangles
+    from bedstruct.dem.backends.workflow_decks import _chamber_meshes
+    L, W, z = 6.0e-3, 0.6e-3, -4.5e-4
+    tri = read_stl_triangles(_chamber_meshes(tmp_path, L, W, z, 1e-3)["platform"])
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(L * W, rel=1e-9) and np.allclose(tri[..., 2], z)
+    extent = tri[..., 0].max(axis=1) - tri[..., 0].min(axis=1)
+    assert extent.max() <= W * (1 + 1e-9) and tri[..., 0].min() == 0.0
+    assert tri[..., 0].max() == pytest.approx(L)
+
+
+def test_liggghts_runs_a_long_platform(tmp_path):
+    """LIGGGHTS 3.8 stopped ('assertion failed', region_neighbor_list_I.h) on a 6 mm platform
+    written as two long triangles; the strips run."""
+    _need("liggghts")
+    cfg = load_config(preset="tiny", overrides=[
+        "engine=liggghts", "spread.gaps=[4.5e-4]", "spread.n_frames=2", "spread.pile_particles=300",
+        "spread.pile_length=0.5e-3", "spread.plate_length=6e-3", "output.contacts=false"])
+    res = run_spread(cfg, out=tmp_path)
+    assert len(res.layers) == 1 and res.layers[0].n_bed > 0

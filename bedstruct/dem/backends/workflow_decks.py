@@ -32,6 +32,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ._common import as_granular_params, read_data_header
 from .decks import DUMP_COLUMNS, _contact_cols, _contact_computes, _path_word, _setup
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
@@ -198,8 +200,12 @@ def _chamber_meshes(folder, length: float, width: float, z_platform: float,
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     L, W = length, width
-    meshes = {"platform": write_stl(folder / "platform.stl",
-                                    _rect(0.0, L, 0.0, W, z_platform, z_platform), name="platform")}
+    # square-ish strips: LIGGGHTS 3.8 stops with "assertion failed (region_neighbor_list_I.h)"
+    # on a platform of two long triangles (here from a 6 mm x 0.6 mm platform on)
+    n = max(1, int(math.ceil(L / W - 1e-9)))
+    xs = np.linspace(0.0, L, n + 1)
+    strips = [t for a, b in zip(xs[:-1], xs[1:]) for t in _rect(a, b, 0.0, W, z_platform, z_platform)]
+    meshes = {"platform": write_stl(folder / "platform.stl", strips, name="platform")}
     if chamber_depth > 0:
         meshes["front"] = write_stl(folder / "front.stl",
                                     _rect(L, L, 0.0, W, -chamber_depth, 0.0), name="front")
