@@ -438,10 +438,23 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         # one finite pair: its scatter from the pooled run variance (two runs differ)
         SE_all = np.where(n_pairs >= 2, sd_pairs / np.sqrt(np.maximum(n_pairs, 1)),
                           np.sqrt(2.0 * sim_var / np.maximum(n_pairs, 1)))
+    # an effect strong enough to remove what is observed (e.g. no heap left at the prior
+    # top) leaves one magnitude unobserved: its response is the other's, scaled linearly
+    comp = design.component_names()
+    extrapolated = {}
+    for k, e in enumerate(effects):
+        mags = np.asarray(e.reference_magnitudes, float)
+        for a, b in ((0, 1), (1, 0)):
+            lost = ~np.isfinite(D_all[2 * k + a]) & np.isfinite(D_all[2 * k + b])
+            if lost.any():
+                r = mags[a] / mags[b]
+                D_all[2 * k + a, lost] = D_all[2 * k + b, lost] * r
+                SE_all[2 * k + a, lost] = SE_all[2 * k + b, lost] * abs(r)
+                extrapolated.setdefault(e.name, []).extend(
+                    f"{comp[i]} at {mags[a]:g} (from {mags[b]:g})" for i in np.flatnonzero(lost))
     usable = np.isfinite(sim_var) & (np.isfinite(base_s).sum(axis=0) > 0) \
         & np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(D_all), axis=0) \
         & np.all(np.isfinite(SE_all), axis=0)
-    comp = design.component_names()
     stacked = np.concatenate(groups, axis=0)
     missing, unobservable = {}, {}
     for n in names:
@@ -489,7 +502,8 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     out = FingerprintSet(design, tuple(keep_names), rows_cal, rows_val, rows_cand, base, seeds,
                          base_s, sim_var, _design_sigma(design, keep_names), tuple(nuisance), sens,
                          tuple(fps), threshold, alpha, simulator_name, n_runs,
-                         {"missing_runs": missing, "unobservable": unobservable})
+                         {"missing_runs": missing, "unobservable": unobservable,
+                          "extrapolated": extrapolated})
     return assess_fingerprints(out)
 
 

@@ -77,10 +77,10 @@ def test_one_lost_replicate_leaves_the_fingerprint_of_the_others():
 
 def test_an_observable_never_seen_at_one_parameter_point_is_dropped_and_said_so():
     design, sim = _toy()
-    holes = Holes(sim, "o8", lambda b, e, s: e.get("B", 0.0) == 1.0)   # o8 validate row
+    holes = Holes(sim, "o8", lambda b, e, s: e.get("B", 0.0) > 0.0)   # o8: a validate row
     fps = compute_fingerprints(holes, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=2)
     assert "o8" not in fps.names and "o8" in fps.meta["unobservable"]
-    assert "2 of 12" in fps.meta["unobservable"]["o8"]
+    assert "4 of 12" in fps.meta["unobservable"]["o8"]
     assert all(np.all(np.isfinite(f.delta)) for f in fps.fingerprints)
     # a measurement file that has o8 is diagnosed on the rest, with a note
     real = design.with_values(sim({"k": 1.05}, {"A": 0.7}, 999))
@@ -119,3 +119,13 @@ def test_a_twin_leaves_out_what_its_run_could_not_observe(tmp_path):
     twin = _twin_measurements(design, holes, {"k": 1.0}, {}, 5, tmp_path, 0, intrinsic)
     assert "o3" not in twin.names and len(twin.names) == N - 1
     assert "o3" in twin.notes
+
+
+def test_an_effect_that_removes_an_observable_at_its_prior_top_is_scaled_from_half_top():
+    design, sim = _toy(noise_sd=0.0)
+    holes = Holes(sim, "o2", lambda b, e, s: e.get("A", 0.0) == 1.0)   # no heap at the top
+    fps = compute_fingerprints(holes, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=2)
+    assert "o2" in fps.names and not fps.meta["unobservable"]
+    assert fps.meta["extrapolated"] == {"A": ["o2 at 1 (from 0.5)"]}
+    np.testing.assert_allclose(fps["A"].delta[1], RESP["A"], atol=1e-12)   # linear toy: exact
+    assert fps["A"].linear
