@@ -168,6 +168,14 @@ def validation_report(result):
                      "fraction of correct attributions whose 95 % CI holds the true magnitude")
         s.add_number("magnitude_median_relative_error", result.magnitude_median_relative_error, "1",
                      "median |fitted - true| / true")
+        missing = result.settings.get("missing_runs") or {}
+        dropped = result.settings.get("unobservable") or {}
+        failed = result.settings.get("failed") or []
+        if missing or dropped or failed:
+            s.text += (" Missing data: " + "; ".join(
+                [f"{n} not observed in {k} fingerprint run(s)" for n, k in missing.items()]
+                + [f"{n} dropped ({why})" for n, why in dropped.items()]
+                + [f"twin {f['twin']} ({f['type']}) failed: {f['error'][:120]}" for f in failed]) + ".")
 
     def confusion(s):
         c = result.confusion
