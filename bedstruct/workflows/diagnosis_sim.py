@@ -254,7 +254,7 @@ class EngineSimulator:
             spec["walled"] = bool(bw is not None and float(bw) < self.wide_box)
             rh = c.get("relative_humidity")
             spec["relative_humidity"] = None if rh is None else float(rh)
-            spec["operator"] = "workflow-flanks"
+            spec["operator"] = "workflow-flanks/nan"   # no flank: NaN (was a camera fit)
         elif m.kind == "psd" and c.get("stage", "before") == "before":
             pass
         else:
@@ -395,14 +395,11 @@ class _Runs:
             # averaged): the side-view camera operator fits one straight surface and read a
             # two-flanked tiny pile (~8 diameters high) anywhere from 1.5 to 40 deg
             val = float(res.angle_deg)
-            if not math.isfinite(val):  # no flank fitted (e.g. a block): the camera operator
-                fr = _last_frame(read_dump, _dump(out / "rep00", "pile"))
-                try:
-                    val = float(observe("static_angle", fr)[0])
-                except Exception as exc:  # noqa: BLE001 - reported below as non-finite
-                    log.warning("static angle: camera operator failed too (%s)", exc)
-                log.warning("static angle %r: no flank fitted; camera operator read %.1f deg",
-                            m.name, val)
+            if not math.isfinite(val):
+                # no flank to fit (e.g. a cohesive block standing on the plate): missing data.
+                # A straight-line fit over the whole profile would read the flat top as ~0 deg,
+                # the opposite of what such a pile is.
+                log.info("static angle %r: no flank fitted (NaN)", m.name)
             return np.array([val])
         if m.kind == "psd" and c.get("stage", "before") == "before":
             from ._common import psd_sampler

@@ -132,6 +132,27 @@ def test_narrow_box_is_run_with_side_walls_and_the_wide_box_periodic(monkeypatch
     assert obs["static_angle"][0] == 31.0 and obs["static_angle_narrow_box"][0] == 32.0
 
 
+def test_a_pile_without_flanks_is_missing_data_and_cached_as_such(monkeypatch, tmp_path):
+    """No flank to fit (a cohesive block): NaN, never a straight-line reading of its flat top;
+    the NaN is cached like any result, so the run is not repeated."""
+    import types
+
+    import bedstruct.workflows.repose as repose
+    calls = []
+
+    def fake_run_repose(cfg, *, out, replicates):
+        calls.append(1)
+        return types.SimpleNamespace(angle_deg=float("nan"))
+    monkeypatch.setattr(repose, "run_repose", fake_run_repose)
+    design = MeasurementSet((dg.engine_twin_design()["static_angle"],))
+    cfg = {"preset": "tiny", "cache": str(tmp_path)}
+    obs = EngineSimulator(design, cfg)({}, {"capillary_bridges": 0.8}, 0)
+    assert np.isnan(obs["static_angle"][0])
+    again = EngineSimulator(design, cfg)
+    assert np.isnan(again({}, {"capillary_bridges": 0.8}, 0)["static_angle"][0])
+    assert len(calls) == 1 and again.n_cached == 1
+
+
 @pytest.mark.slow
 def test_engine_mini_validation(tmp_path):
     """One effect (wall friction), one null twin, on the DEM engine (minutes)."""
