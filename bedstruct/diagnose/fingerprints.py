@@ -28,7 +28,8 @@ from .measurements import MeasurementSet, Observations
 from .where import _nan_mean, _nan_var
 
 __all__ = ["Simulator", "simulate_replicates", "Fingerprint", "FingerprintSet",
-           "compute_fingerprints", "assess_fingerprints", "nuisance_projector"]
+           "compute_fingerprints", "assess_fingerprints", "nuisance_projector",
+           "variance_upper_bound"]
 
 log = logging.getLogger(__name__)
 
@@ -209,7 +210,10 @@ class FingerprintSet:
     base_samples : (R, n) ndarray
         Replicates at the base parameters.
     sim_var : (n,) ndarray
-        Pooled replicate variance of one run (over all parameter points).
+        Replicate variance of one run, pooled over all parameter points, at its one-sided
+        84 % upper confidence bound (:func:`variance_upper_bound`): with two or three seeds
+        per point the pooled estimate rests on few degrees of freedom, and an
+        underestimated scatter would turn noise into a gap.
     sigma_meas : (n,) ndarray
         Measurement (or stated candidate) standard deviations.
     nuisance : tuple of str
@@ -239,6 +243,7 @@ class FingerprintSet:
     simulator_name: str = ""
     n_runs: int = 0
     meta: dict = field(default_factory=dict)
+    sim_dof: np.ndarray | None = None
 
     @property
     def n_replicates(self) -> int:
@@ -302,6 +307,7 @@ class FingerprintSet:
                       rows_calibrate=roles == "calibrate", rows_validate=roles == "validate",
                       rows_candidate=roles == "candidate", base_samples=self.base_samples[:, keep],
                       sim_var=self.sim_var[keep], sigma_meas=self.sigma_meas[keep],
+                      sim_dof=None if self.sim_dof is None else self.sim_dof[keep],
                       sensitivities=self.sensitivities[keep], fingerprints=fps)
         return assess_fingerprints(out)
 
@@ -426,7 +432,8 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     if progress_bar:
         progress_bar.close()
     n_runs = replicates * len(groups)
-    sim_var = _pooled_variance(groups)
+    sim_var_estimate, sim_dof = _pooled_variance(groups)
+    sim_var = sim_var_estimate * variance_upper_bound(sim_dof)
 
     # Missing data: a run that could not observe a component (e.g. no heap to fit) gives
     # NaN there. Means and paired differences use the finite replicates; an observable
@@ -477,7 +484,7 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     if not rows_cal.any():
         raise ConfigError(f"the simulator could not observe any calibration observable often "
                           f"enough to fingerprint it ({unobservable})")
-    base_s, sim_var, sens = base_s[:, keep], sim_var[keep], sens[keep]
+    base_s, sim_var, sens, sim_dof = base_s[:, keep], sim_var[keep], sens[keep], sim_dof[keep]
     D_all, SE_all = D_all[:, keep], SE_all[:, keep]
 
     fps = []
@@ -503,12 +510,34 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
                          base_s, sim_var, _design_sigma(design, keep_names), tuple(nuisance), sens,
                          tuple(fps), threshold, alpha, simulator_name, n_runs,
                          {"missing_runs": missing, "unobservable": unobservable,
-                          "extrapolated": extrapolated})
+                          "extrapolated": extrapolated}, sim_dof)
     return assess_fingerprints(out)
 
 
-def _pooled_variance(groups) -> np.ndarray:
-    """Run-to-run variance pooled over parameter points (finite replicates of each)."""
+#: One-sided confidence level of the run-to-run variance used by the diagnosis.
+VARIANCE_BOUND_LEVEL = 0.84
+
+
+def variance_upper_bound(dof) -> np.ndarray:
+    """Factor from a pooled variance estimate to its one-sided upper confidence bound.
+
+    ``dof / chi2.ppf(1 - VARIANCE_BOUND_LEVEL, dof)``: 2.2 at 6 degrees of freedom,
+    1.34 at 30, tending to 1; NaN without a degree of freedom.
+
+    Examples
+    --------
+    >>> np.round(variance_upper_bound([6, 30, 1000]), 2)
+    array([2.19, 1.34, 1.05])
+    """
+    nu = np.asarray(dof, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(nu > 0, nu / stats.chi2.ppf(1.0 - VARIANCE_BOUND_LEVEL, np.maximum(nu, 1)),
+                        np.nan)
+
+
+def _pooled_variance(groups):
+    """Run-to-run variance pooled over parameter points (finite replicates of each) and its
+    degrees of freedom per component."""
     ss, dof = 0.0, 0
     for g in groups:
         g = np.asarray(g, float)
@@ -516,7 +545,7 @@ def _pooled_variance(groups) -> np.ndarray:
         ss = ss + np.where(np.isfinite(d), d * d, 0.0).sum(axis=0)
         dof = dof + np.maximum(np.isfinite(g).sum(axis=0) - 1, 0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(dof > 0, ss / np.maximum(dof, 1), np.nan)
+        return np.where(dof > 0, ss / np.maximum(dof, 1), np.nan), np.asarray(dof)
 
 
 def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
