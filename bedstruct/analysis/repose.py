@@ -125,6 +125,10 @@ def _fit_flank(x, h, peak, step, q, lo, hi, min_points):
     if len(idx) < min_points:
         return None
     idx = np.sort(np.asarray(idx))
+    # a flank descends through the band; points that stay at one level are a flat top (a
+    # cohesive block whose crest is one bump higher), whose fit would read ~0 deg
+    if np.ptp(q[idx]) < 0.5 * (hi - lo):
+        return None
     xs, hs = x[idx], h[idx]
     slope, icpt, s_lo, s_hi = stats.theilslopes(hs, xs, alpha=0.95)
     std = (s_hi - s_lo) / (2 * 1.959964)
@@ -194,7 +198,9 @@ def angle_of_repose(frame, *, axis: int = 0, vertical: int = 2, spacing: float |
     Notes
     -----
     From the crest each flank is followed outwards until the profile drops
-    below the lower fraction; the points inside the band are fitted by the
+    below the lower fraction; a flank whose points do not descend through at
+    least half of the band is not fitted (a flat-topped block has no angle of
+    repose: NaN, not ~0 deg); the points inside the band are fitted by the
     Theil-Sen estimator [1]_ (median of pairwise slopes), insensitive to the
     single-particle bumps of the surface. The angle is
     :math:`\\theta = \\arctan|s|`.

@@ -254,7 +254,7 @@ class EngineSimulator:
             spec["walled"] = bool(bw is not None and float(bw) < self.wide_box)
             rh = c.get("relative_humidity")
             spec["relative_humidity"] = None if rh is None else float(rh)
-            spec["operator"] = "workflow-flanks/nan"   # no flank: NaN (was a camera fit)
+            spec["operator"] = "workflow-flanks/descending"   # no flank (a block): NaN
         elif m.kind == "psd" and c.get("stage", "before") == "before":
             pass
         else:
