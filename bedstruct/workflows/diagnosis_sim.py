@@ -327,8 +327,8 @@ class EngineSimulator:
             self.n_cached += 1
         values = {m.name: values[m.name] for m in self.design}
         bad = [k for k, v in values.items() if not np.all(np.isfinite(v))]
-        if bad:  # missing data for the diagnosis (fingerprints and twins handle NaN)
-            log.warning("engine simulator: observable(s) %s not observable in this run (no fit: "
+        if bad:  # missing data, reported by the diagnosis (fingerprints and twins handle NaN)
+            log.info("engine simulator: observable(s) %s not observable in this run (no fit: "
                         "e.g. a pile without flanks or no heap two diameters high with a free "
                         "toe) for base=%s, effects=%s, seed=%d: NaN", bad, dict(base),
                         dict(effects), seed)
