@@ -88,6 +88,8 @@ def _run_validate(args) -> int:
         print(f"  {'null_gap_flagged':30s} {result.null_gap_flagged:.3f}")
         print(f"  {'median_gap_shrink_rms':30s} {result.median_gap_shrink_rms:.3f}")
         print(f"  {'magnitude_coverage':30s} {result.magnitude_coverage:.3f}")
+        for name, why in (result.settings.get("unobservable") or {}).items():
+            print(f"  missing data: {name} dropped ({why})")
     return 0
 
 
@@ -131,5 +133,7 @@ def run(args) -> int:
                       f"[{e.interval[0]:.4g}, {e.interval[1]:.4g}] (confidence {e.confidence:.2f})")
         if diag.next:
             print(f"  next: {diag.next[0].observable} ({diag.next[0].conditions})")
+        for note in diag.data_notes():
+            print(f"  missing data: {note}")
         print(f"  report: {html}")
     return 0

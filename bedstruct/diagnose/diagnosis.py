@@ -181,6 +181,16 @@ class Diagnosis:
             "settings": self.settings,
         }
 
+    def data_notes(self) -> list[str]:
+        """What the simulations or the file could not observe, one sentence each.
+
+        Empty when every run observed every measured observable.
+        """
+        missing = self.settings.get("missing_runs") or {}
+        out = [f"{n}: not observed in {k} fingerprint run(s); averaged over the runs that did"
+               for n, k in missing.items()]
+        return out + list(self.settings.get("data_notes") or [])
+
     def report(self, *, title: str | None = None):
         """The diagnosis as a :class:`bedstruct.report._model.Report` (HTML/JSON via write_report)."""
         from .report import diagnosis_report

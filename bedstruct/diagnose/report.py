@@ -76,13 +76,11 @@ def diagnosis_report(diag, *, title: str | None = None):
                               [[r["effect"], _fmt(r["signal_sigma"]), _fmt(r["noise_sigma"]),
                                 r["identifiable"], ", ".join(r["confounded_with"]),
                                 ", ".join(r["identify_with"])] for r in fps.table()]))
-        missing = diag.settings.get("missing_runs") or {}
-        notes = diag.settings.get("data_notes") or []
-        if missing or notes:
+        notes = diag.data_notes()
+        if notes:
             s.text += (" Runs that could not observe an observable (NaN) count as missing data: "
-                       "means and differences use the replicates that did. " + " ".join(
-                           f"{n}: missing in {k} fingerprint run(s)." for n, k in missing.items())
-                       + (" " + " ".join(notes) if notes else ""))
+                       "means and differences use the replicates that did. "
+                       + " ".join(n + "." for n in notes))
         fig, _ = pdg.plot_fingerprints(fps)
         s.add_figure(fig, "fingerprints")
 

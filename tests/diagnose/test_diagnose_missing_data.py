@@ -61,6 +61,10 @@ def test_one_lost_replicate_leaves_the_fingerprint_of_the_others():
     full = compute_fingerprints(sim, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
     part = compute_fingerprints(holes, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
     assert "o4" in part.names and part.meta["missing_runs"] == {"o4": 3}
+    real = design.with_values(sim({"k": 1.0}, {}, 999))
+    d = diagnose(real, holes, base={"k": 1.0}, effects=EFFECTS, fingerprints=part, refine=0)
+    assert d.data_notes() == ["o4: not observed in 3 fingerprint run(s); averaged over the runs "
+                              "that did"]
     assert not part.meta["unobservable"]
     i = list(part.names).index("o4")
     keep = [0, 2]  # the seeds that observed o4 in both runs of each pair
@@ -87,6 +91,9 @@ def test_an_observable_never_seen_at_one_parameter_point_is_dropped_and_said_so(
     d = diagnose(real, holes, base={"k": 1.0}, effects=EFFECTS, fingerprints=fps, refine=1)
     assert d.attribution.selected[0].effect == "A"
     assert any("o8" in n and "not used" in n for n in d.settings["data_notes"])
+    assert any("o8" in n and "not used" in n for n in d.data_notes())
+    fp_text = [s for s in d.report().sections if s.key == "fingerprints"][0].text
+    assert "o8: measured but not used" in fp_text
 
 
 def test_precomputed_fingerprints_restricted_to_a_file_without_an_observable():
