@@ -52,7 +52,9 @@ ENGINE_PRESETS = {
     "mini": dict(per_effect=0, null=1, out_of_catalogue=0, replicates=2, effects=("wall_friction",)),
     "tiny": dict(per_effect=1, null=1, out_of_catalogue=0, replicates=2,
                  effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup")),
-    "small": dict(per_effect=2, null=4, out_of_catalogue=0, replicates=3),
+    "small": dict(per_effect=2, null=4, out_of_catalogue=0, replicates=3,
+                  effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup",
+                           "non_sphericity")),
 }
 #: Goals of the issue at the small preset.
 GOALS = {"top1_accuracy": (">=", 0.90), "null_false_attribution": ("<=", 0.05),
@@ -372,7 +374,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         second time with its effect removed from the catalogue (the
         out-of-catalogue twin), which reuses its runs.
     engine : dict, optional
-        The ``[engine]`` table (default ``{"preset": "tiny"}``); give ``cache`` to
+        The ``[engine]`` table (default: the scale model of the same name,
+        ``{"preset": "small"}`` for ``small``, else ``{"preset": "tiny"}``); give ``cache`` to
         keep every run on disk (reruns and other diagnoses of the same design reuse it).
     refine : int, optional
         Refinement rounds of each diagnosis (default 2 on the surrogate, 0 on the engine).
@@ -408,7 +411,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         # with the whole catalogue's candidate measurements (one humid repose more per call),
         # so that a diagnosis of any measurement file of this design finds every run cached
         design = diagnosis_design(measured, _catalogue())
-        sim = diagnosis_simulator(design, dict(engine or {"preset": "tiny"}))
+        sim = diagnosis_simulator(design, dict(engine or {"preset": "small" if preset == "small"
+                                                          else "tiny"}))
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
                                alpha=select_alpha, simulator_name=simulator, progress=progress)
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)

@@ -114,6 +114,26 @@ def test_cli_validate_cache_needs_the_engine(capsys):
     assert "--simulator engine" in capsys.readouterr().err
 
 
+def test_scale_models_read_every_layer_the_design_needs_and_validate_picks_its_own():
+    """The diagnosis' scale models: a 6 mm platform (a free toe ahead of x1/x2 heaps), no
+    dumps, and (small) three layers: layer 3 is the dynamic angle's, nothing reads a fourth."""
+    from bedstruct.cli.diagnose import _engine_preset
+    from bedstruct.workflows.diagnosis_sim import PRESET_OVERRIDES
+    d = dg.engine_twin_design()
+    needed = max(int(m.conditions.get("layer", 1)) for m in d)
+    for preset in ("tiny", "small"):
+        sim = EngineSimulator(_psd_design(), {"preset": preset})
+        sc = sim.base_cfg["spread"]
+        assert sc["plate_length"] == pytest.approx(6e-3)
+        assert sim.base_cfg["output"]["frames"] is False
+        assert sim.overrides[:len(PRESET_OVERRIDES[preset])] == list(PRESET_OVERRIDES[preset])
+    small = EngineSimulator(_psd_design(), {"preset": "small"}).base_cfg["spread"]
+    assert len(small["gaps"]) == needed == 3
+    assert small["pile_particles"] == 2600
+    assert [_engine_preset(p) for p in ("mini", "tiny", "small")] == ["tiny", "tiny", "small"]
+    assert dg.ENGINE_PRESETS["small"]["replicates"] >= 3
+
+
 def test_narrow_box_is_run_with_side_walls_and_the_wide_box_periodic(monkeypatch):
     """The repose configuration each static angle is simulated with (runs replaced by a stub)."""
     import types
