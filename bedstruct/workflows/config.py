@@ -66,6 +66,8 @@ DEFAULTS: dict = {
         "plate_speed": 0.05,            # m/s, plate slides towards -x
         "fill_time": 0.02,              # s, settling after insertion
         "drain_time": 0.05,             # s, after the plate has moved
+        "rest_time": 0.0,               # s, rest before the plate moves (contacts age, with
+                                        #    effects.contact_ageing; a static pile is otherwise unchanged)
         "reservoir_depth": 10e-3,       # m below the plate; particles leaving it are removed
         "replicates": 3,
         "n_frames": 5,                  # frames written per replicate
@@ -359,6 +361,9 @@ def _validate(cfg: dict) -> None:
                           f"increase; got {p['d_min']}, {p['d10']}, {p['d50']}, {p['d90']}, {p['d_max']}")
     if len(cfg["repose"]["box"]) != 3:
         raise ConfigError(f"config key `repose.box` must be [L, W, H]; got {cfg['repose']['box']!r}")
+    rest = cfg["repose"]["rest_time"]
+    if not (math.isfinite(rest) and rest >= 0):
+        raise ConfigError(f"config key `repose.rest_time` must be >= 0 s; got {rest!r}")
     if not 0 < cfg["repose"]["fill_fraction"] <= 1:
         raise ConfigError("config key `repose.fill_fraction` must lie in (0, 1]")
     if cfg["spread"]["tool"] not in ("blade", "rake", "plate", "roller"):

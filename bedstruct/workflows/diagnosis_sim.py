@@ -61,6 +61,9 @@ _ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_
                 "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
                 "seed", "workdir", "cache"}
 _CACHE_SCHEMA = 3   # bump when the simulator's observation semantics change
+#: Workflow options added after the cache schema: at their neutral value they change no run
+#: and are left out of the cache key, so that entries written before them stay valid.
+_NEUTRAL_OPTIONS = {("repose", "rest_time"): 0.0}
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
 #: the stroke, leaving most frames without a heap whose angle can be measured; and the
@@ -262,6 +265,9 @@ class EngineSimulator:
             rh = c.get("relative_humidity")
             spec["relative_humidity"] = None if rh is None else float(rh)
             spec["operator"] = "workflow-flanks/descending"   # no flank (a block): NaN
+            rest = c.get("rest_time")
+            if rest is not None and float(rest) > 0:  # (absent for an angle without rest)
+                spec["rest_time"] = float(rest)
         elif m.kind == "psd" and c.get("stage", "before") == "before":
             pass
         else:
@@ -280,7 +286,11 @@ class EngineSimulator:
 
     def cache_key(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int) -> str:
         """Hash of one call (the fully resolved workflow configuration and the scale model)."""
-        doc = {"schema": _CACHE_SCHEMA, "config": self.run_config(base, effects, seed),
+        cfg = self.run_config(base, effects, seed)
+        for (sec, key), neutral in _NEUTRAL_OPTIONS.items():
+            if cfg.get(sec, {}).get(key, neutral) == neutral:
+                cfg[sec].pop(key, None)
+        doc = {"schema": _CACHE_SCHEMA, "config": cfg,
                "wide_box": self.wide_box, "speed_scale": self.speed_scale}
         text = json.dumps(doc, sort_keys=True, default=float)
         return hashlib.sha256(text.encode()).hexdigest()[:32]
@@ -352,8 +362,13 @@ class _Runs:
         self.tmp = tmp
         self.cache: dict = {}
 
-    def _repose(self, rh, walled=False):
-        key = ("repose", rh, walled)
+    def _repose(self, rh, walled=False, rest=0.0):
+        # a rest changes nothing without contact ageing (the settled pile is at rest): the
+        # run without it is the same run
+        ageing = bool(self.cfg["effects"]["contact_ageing"]) and \
+            float(self.cfg["effects"]["ageing_bond_ratio"]) > 0.0
+        rest = float(rest or 0.0) if ageing else 0.0
+        key = ("repose", rh, walled, rest)
         if key not in self.cache:
             from .repose import run_repose
             cfg = copy.deepcopy(self.cfg)
@@ -364,6 +379,8 @@ class _Runs:
                 cfg["effects"] = fx
             if walled:  # a narrow box: side walls at the preset's box width
                 cfg["repose"]["periodic_width"] = False
+            # the rest before the plate moves, on the scale model's ageing clock
+            cfg["repose"]["rest_time"] = rest / self.owner.ageing_time_scale
             out = self.tmp / f"repose{len(self.cache)}"
             res = run_repose(cfg, out=out, replicates=1)
             self.owner.n_runs += 1
@@ -397,7 +414,7 @@ class _Runs:
         if m.kind == "static_angle":
             bw = c.get("box_width")
             walled = bw is not None and float(bw) < self.owner.wide_box
-            res, out = self._repose(c.get("relative_humidity"), walled)
+            res, out = self._repose(c.get("relative_humidity"), walled, c.get("rest_time"))
             # the repose workflow's flank fit (each flank of the pile fitted on its own, then
             # averaged): the side-view camera operator fits one straight surface and read a
             # two-flanked tiny pile (~8 diameters high) anywhere from 1.5 to 40 deg

@@ -91,9 +91,31 @@ def engine_for(cfg: dict, *, required: bool = True):
     return info
 
 
-def _granular_params(cfg: dict, cohesion: float):
+def _check_effects(cfg: dict, *, spreading: bool = False) -> None:
+    """Raise ConfigError for a diagnosis extension (``effects``) the decks do not write.
+
+    Wall friction, missing fines and EPSD2 rolling friction are ordinary deck
+    parameters; capillary bridges, contact ageing and the blade's start-up ramp
+    and vibration exist in the embedded engine only, and a deck without them
+    would be the base model under the extension's name.
+    """
+    fx = cfg.get("effects") or {}
+    name = cfg.get("engine", "external")
+    found = [k for k in ("capillary", "contact_ageing") if fx.get(k)]
+    if spreading:
+        found += [k for k in ("blade_ramp_time", "blade_vibration_amplitude")
+                  if float(fx.get(k, 0.0)) > 0.0]
+    if found:
+        raise ConfigError(f"engine {name!r}: config key(s) {', '.join('effects.' + k for k in found)} "
+                          "are extensions of the embedded engine, not written to the "
+                          f"{name} decks; run them with --engine embedded (for LIGGGHTS-made "
+                          "twins with liquid bridges see bedstruct.diagnose.external_twins)")
+
+
+def _granular_params(cfg: dict, cohesion: float, *, spreading: bool = False):
     """GranularParams of ``cfg`` and the LAMMPS cohesion model (or None)."""
     from ..dem.backends import as_granular_params
+    _check_effects(cfg, spreading=spreading)
     model = contact_model(cfg, cohesion=cohesion)
     p = as_granular_params(model)
     cm = cfg["external"]["cohesion_model"]
@@ -271,6 +293,7 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
     if n < 1:
         raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
     write_only = bool(cfg["external"]["write_only"])
+    _check_effects(cfg, spreading=False)
     info = engine_for(cfg, required=not write_only)
     k = float(cfg["contact"]["cohesion"] if cohesion is None else cohesion)
     tmp = None
@@ -346,6 +369,7 @@ def run_spread_external(cfg: dict, *, out=None):
         raise ConfigError(f"spread.tool must be blade, rake, plate or roller; got {tool_name!r}")
     gaps = [float(g) for g in sc["gaps"]]
     write_only = bool(cfg["external"]["write_only"])
+    _check_effects(cfg, spreading=True)  # before any run (the pile is generated first)
     info = engine_for(cfg, required=not write_only)
     tmp = None
     if out is None:
@@ -358,7 +382,7 @@ def run_spread_external(cfg: dict, *, out=None):
         seed = int(cfg["seed"])
         draw = psd_sampler(cfg)
         rmax = draw.r_max
-        p, cm, model = _granular_params(cfg, None)
+        p, cm, model = _granular_params(cfg, None, spreading=True)
         pile, _ = generate_pile(cfg, seed=seed, draw=draw)
         st = root / "pile"
         st.mkdir(parents=True, exist_ok=True)

@@ -156,6 +156,8 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     if n_inserted < n_want:
         log.warning("repose: inserted %d of %d particles (box full)", n_inserted, n_want)
     sim.run(time=0.5 * rc["fill_time"])
+    if float(rc["rest_time"]) > 0.0:  # the settled pile rests: its contacts age (no steps)
+        sim.age_contacts(float(rc["rest_time"]))
     if writer is not None:
         writer.record(sim)
     slide = L if ped > 0 else float(rc["slide_fraction"]) * L

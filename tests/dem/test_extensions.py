@@ -232,3 +232,49 @@ def test_wall_program_ramp_and_vibration_time_law():
     assert sim.wall_states()[1].origin[0] == pytest.approx(x0 + v * (sim.time - t0), rel=1e-12)
     with pytest.raises(ConfigError):
         sim.set_wall_program("blade", velocity=(v, 0, 0), ramp_time=-1.0)
+
+
+def test_age_contacts_is_a_rest_of_that_length_for_a_packing_at_rest():
+    """A resting pair aged by t_w holds the bond of the logarithmic law at t_w (against the
+    same formula as above); broken bonds, open pairs and models without ageing are untouched;
+    and fast-forwarding equals simulating the rest of a settled pair."""
+    model = _ageing_model()
+    d = -2e-7
+    r = 2 * R + d
+    area = math.pi * lens_area_radius2(r, R, R)
+    f0 = _attraction(_pair(ContactModel(Material(E, NU, RHO), restitution=0.5, friction=0.5,
+                                        cohesion=1e5), R, R, d))
+    sim = _pair(model, R, R, d)
+    assert sim.age_contacts(5e-3) == 1
+    bond = 1.5 * 1e5 * area * math.log1p(5e-3 / 1e-4) / math.log1p(1e-3 / 1e-4)
+    assert _attraction(sim) - f0 == pytest.approx(bond, rel=1e-9)
+    # a broken bond stays broken and does not age
+    sim.hx[:, 2] = 1.0
+    before = sim.hx.copy()
+    assert sim.age_contacts(1.0) == 0 and np.array_equal(sim.hx, before)
+    # an open pair (within the skin, not touching) does not age
+    apart = _pair(model, R, R, 1e-7, skin=1e-5)
+    assert apart.age_contacts(1.0) == 0 and apart.n_pairs == 1
+    # no ageing: nothing to do
+    dry = _pair(ContactModel(Material(E, NU, RHO), restitution=0.5, friction=0.5), R, R, d)
+    assert dry.age_contacts(1.0) == 0
+    with pytest.raises(ConfigError, match="rest time"):
+        sim.age_contacts(-1.0)
+    # simulated rest of a settled pair == the same rest fast-forwarded
+    a = _pair(_ageing_model(restitution=0.1), R, R, -4e-7)
+    a.run(steps=2000)
+    b = _pair(_ageing_model(restitution=0.1), R, R, -4e-7)
+    b.run(steps=2000)
+    a.run(steps=3000)
+    b.age_contacts(3000 * b.dt)
+    assert b.hx[0, 0] == pytest.approx(a.hx[0, 0], rel=1e-9)
+    # the stronger bond pulls the pair into a slightly larger overlap: after relaxing,
+    # both sit at the same equilibrium
+    a.run(steps=4000)
+    b.run(steps=4000)
+    overlap_a = 2 * R - (a.x[1, 0] - a.x[0, 0])
+    overlap_b = 2 * R - (b.x[1, 0] - b.x[0, 0])
+    assert b.hx[0, 2] == 0.0 and overlap_b == pytest.approx(overlap_a, rel=1e-3)
+    young = _pair(_ageing_model(restitution=0.1), R, R, -4e-7)
+    young.run(steps=6000)
+    assert overlap_b > (2 * R - (young.x[1, 0] - young.x[0, 0])) * (1 + 1e-3)

@@ -152,6 +152,42 @@ def test_narrow_box_is_run_with_side_walls_and_the_wide_box_periodic(monkeypatch
     assert obs["static_angle"][0] == 31.0 and obs["static_angle_narrow_box"][0] == 32.0
 
 
+def test_an_angle_after_rest_rests_the_pile_on_the_ageing_clock(monkeypatch, tmp_path):
+    """``rest_time`` of a static angle reaches the repose run (scaled like the ageing law's
+    times) when contacts age; without ageing the rested pile is the unrested one (one run).
+    The cache keeps the two apart, and the keys of calls without a rest are those written
+    before the option existed."""
+    import types
+
+    import bedstruct.workflows.repose as repose
+    seen = []
+
+    def fake_run_repose(cfg, *, out, replicates):
+        seen.append(cfg["repose"]["rest_time"])
+        return types.SimpleNamespace(angle_deg=30.0 + 5.0 * cfg["repose"]["rest_time"])
+    monkeypatch.setattr(repose, "run_repose", fake_run_repose)
+    rested = measurement_from_dict({"name": "after_rest", "kind": "static_angle", "value": 0.0,
+                                    "uncertainty": 1.0,
+                                    "conditions": {"rest_time": 600.0, "box_width": 0.03}})
+    design = MeasurementSet((dg.engine_twin_design()["static_angle"], rested))
+    sim = EngineSimulator(design, {"preset": "tiny", "cache": str(tmp_path)})
+    obs = sim({}, {"contact_ageing": 1.0}, 0)
+    assert seen == [0.0, pytest.approx(600.0 / sim.ageing_time_scale)]
+    assert obs["after_rest"][0] == pytest.approx(30.0 + 5.0 * 600.0 / sim.ageing_time_scale)
+    seen.clear()
+    obs = sim({}, {}, 0)                      # no ageing: the same run serves both
+    assert seen == [0.0] and obs["after_rest"][0] == obs["static_angle"][0] == 30.0
+    import hashlib
+
+    from bedstruct.workflows.diagnosis_sim import _CACHE_SCHEMA
+    cfg = sim.run_config({}, {}, 0)
+    assert cfg["repose"].pop("rest_time") == 0.0
+    old_doc = {"schema": _CACHE_SCHEMA, "config": cfg, "wide_box": sim.wide_box,
+               "speed_scale": sim.speed_scale}
+    old_key = hashlib.sha256(json.dumps(old_doc, sort_keys=True, default=float).encode()).hexdigest()[:32]
+    assert sim.cache_key({}, {}, 0) == old_key
+
+
 def test_a_pile_without_flanks_is_missing_data_and_cached_as_such(monkeypatch, tmp_path):
     """No flank to fit (a cohesive block): NaN, never a straight-line reading of its flat top;
     the NaN is cached like any result, so the run is not repeated."""

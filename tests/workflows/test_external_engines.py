@@ -96,6 +96,24 @@ def test_missing_engine_is_a_clear_error(tmp_path):
         run_repose(cfg, out=tmp_path)
 
 
+@pytest.mark.parametrize("effect", ["effects.contact_ageing=true", "effects.capillary=true"])
+def test_embedded_only_extensions_are_refused_not_dropped(tmp_path, effect):
+    """The decks have no liquid bridges or ageing bonds: a run would be the base model under
+    the effect's name. Refused before anything runs (no engine needed: write-only)."""
+    cfg = _cfg("liggghts", "external.write_only=true", effect,
+               "effects.capillary_film_thickness=1e-9", "effects.ageing_bond_ratio=1.0")
+    with pytest.raises(ConfigError, match=effect.split("=")[0].replace(".", r"\.")):
+        run_repose(cfg, out=tmp_path)
+
+
+def test_blade_start_up_is_refused_for_external_spreading(tmp_path):
+    from bedstruct.workflows import run_spread
+    cfg = load_config(preset="tiny", overrides=["engine=lammps", "external.write_only=true",
+                                                "effects.blade_ramp_time=0.01"])
+    with pytest.raises(ConfigError, match="blade_ramp_time"):
+        run_spread(cfg, out=tmp_path)
+
+
 @pytest.mark.parametrize("engine", sorted(ENGINES))
 def test_cli_write_only_json(tmp_path, capsys, engine):
     rc = main(["run", "repose", "--preset", "tiny", "--engine", engine, "--np", "2",
