@@ -2,7 +2,8 @@
 
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--json]
   bedstruct diagnose validate --preset tiny|small [--simulator surrogate|engine]
-                             [--sim CONFIG] [--cache DIR] [--out DIR] [--json]
+                             [--campaign seed|full] [--sim CONFIG] [--cache DIR]
+                             [--out DIR] [--json]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -13,7 +14,9 @@ diagnosis at least ``where``, ``which`` and ``shrink``; for validation at least
 ``top1_accuracy``, ``null_false_attribution``, ``out_of_catalogue_unexplained``
 and ``median_gap_shrink``. ``validate`` runs its twins on the analytic surrogate
 by default (seconds); ``--simulator engine`` runs them on the embedded DEM engine
-(the ``[engine]`` table of ``--sim CONFIG``, default the tiny preset; ``--cache DIR``
+(the ``[engine]`` table of ``--sim CONFIG``, default the scale model named by
+``--preset``; ``--campaign full`` adds the catalogue's candidate measurements to the
+twins' files; ``--cache DIR``
 keeps every engine run on disk for reruns; ``--preset mini`` is a one-effect smoke
 run). Every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
 """
@@ -39,6 +42,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=None, help="override the replicate/twin seed")
     parser.add_argument("--twin-seed", type=int, default=None,
                         help="validate: seed of the twins only (a further batch on cached fingerprints)")
+    parser.add_argument("--campaign", choices=["seed", "full"], default="seed",
+                        help="validate --simulator engine: twins measure the seed's design, or "
+                             "the full campaign with the catalogue's candidate measurements")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -76,7 +82,8 @@ def _run_validate(args) -> int:
     elif args.sim or args.cache:
         raise ConfigError("--sim/--cache with validate need --simulator engine")
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
-                      simulator=args.simulator, engine=engine, twin_seed=args.twin_seed)
+                      simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
+                      campaign=args.campaign)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)

@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -106,8 +106,14 @@ def twin_design() -> MeasurementSet:
                           source="bedstruct.diagnose.validate.twin_design")
 
 
-def engine_twin_design() -> MeasurementSet:
+def engine_twin_design(campaign: str = "seed") -> MeasurementSet:
     """The observables of an engine validation twin (``validate(simulator="engine")``).
+
+    With ``campaign="full"`` the twins also measure every candidate measurement of
+    the catalogue (the avalanche angle after rest, the dry-powder static angle, the
+    packing at the start of an x5 stroke, ...; role ``calibrate``): the campaign the
+    diagnosis' "what to measure next" asks for. Every engine call simulates them
+    anyway, so the full campaign costs no extra runs.
 
     The seed's measurement design (``data/measurements/seed.toml``: static angle in the
     30 mm box, dynamic angle at x1 (first 10 % and rest of the stroke), x2 (held
@@ -145,12 +151,22 @@ def engine_twin_design() -> MeasurementSet:
     specs.append(dict(name="psd_after_x1", kind="psd", percentiles=[10, 50, 90], unit="m",
                       uncertainty=[0.6e-6, 1.0e-6, 1.7e-6], role="validate",
                       conditions=dict(stage="after", speed=x1, layer=1, region="start")))
+    if campaign not in ("seed", "full"):
+        raise ConfigError(f"campaign: expected 'seed' or 'full'; got {campaign!r}")
     ms = []
     for s in specs:
         d = dict(s)
         d["value"] = [0.0] * (3 if s["kind"] == "psd" else 1)
         ms.append(measurement_from_dict(d))
-    return MeasurementSet(tuple(ms), title="engine validation twin design",
+    seed_design = MeasurementSet(tuple(ms), title="engine validation twin design",
+                                 source="bedstruct.diagnose.validate.engine_twin_design")
+    if campaign == "seed":
+        return seed_design
+    from .diagnosis import candidate_design
+    extra = tuple(replace(m, role="calibrate")
+                  for m in candidate_design(_catalogue(), seed_design))
+    return MeasurementSet(seed_design.measurements + extra,
+                          title="engine validation twin design (full campaign)",
                           source="bedstruct.diagnose.validate.engine_twin_design")
 
 
@@ -353,7 +369,7 @@ def _intrinsic_sd(fps) -> Observations:
 def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, snr_range: tuple[float, float] = (5.0, 10.0),
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
-             twin_seed: int | None = None, records=None,
+             twin_seed: int | None = None, records=None, campaign: str = "seed",
              progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
@@ -385,6 +401,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     records : path, optional
         JSON-lines file to which each twin's record is appended as it completes
         (score a partial run with :func:`score_twins`).
+    campaign : {"seed", "full"}
+        Engine twins: the seed's measurement design (default) or the full campaign
+        that adds the catalogue's candidate measurements (:func:`engine_twin_design`).
+        The surrogate's :func:`twin_design` is a full campaign already.
 
     Returns
     -------
@@ -396,6 +416,11 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     if preset not in table:
         raise ConfigError(f"preset: expected one of {sorted(table)} for the {simulator}; got {preset!r}")
     cfg = table[preset]
+    if campaign not in ("seed", "full"):
+        raise ConfigError(f"campaign: expected 'seed' or 'full'; got {campaign!r}")
+    if simulator == "surrogate" and campaign != "seed":
+        raise ConfigError("campaign: the surrogate's twin design is a full campaign already; "
+                          "campaign='full' is for simulator='engine'")
     if refine is None:
         refine = 2 if simulator == "surrogate" else 0
     t0 = time.perf_counter()
@@ -407,7 +432,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         sim = SurrogateSimulator(design)
     else:
         from ..workflows.diagnosis_sim import diagnosis_simulator
-        measured = engine_twin_design()
+        measured = engine_twin_design(campaign)
         # with the whole catalogue's candidate measurements (one humid repose more per call),
         # so that a diagnosis of any measurement file of this design finds every run cached
         design = diagnosis_design(measured, _catalogue())
@@ -508,7 +533,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 "twin_magnitudes": f"gap of U{tuple(snr_range)} sigma on calibration observables "
                                    "after recalibration (capped at the prior top)",
                 "twin_cohesion": "base x (1 + U(-0.02, 0.02))",
-                "design": "twin_design()" if simulator == "surrogate" else "engine_twin_design()",
+                "design": "twin_design()" if simulator == "surrogate" else
+                          f"engine_twin_design({campaign!r})",
                 "note": ("runs on the analytic surrogate simulator, not the DEM engine"
                          if simulator == "surrogate" else
                          "runs on the embedded DEM engine (scale-model preset)")}

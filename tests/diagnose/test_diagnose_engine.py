@@ -105,6 +105,17 @@ def test_validate_names_its_simulator_and_rejects_unknown_ones():
     roles = {m.role for m in d}
     assert roles == {"calibrate", "validate"}
     assert d["static_angle_narrow_box"].conditions.get("box_width") == pytest.approx(3e-3)
+    # the full campaign measures what the diagnosis would ask for next: every candidate
+    full = dg.engine_twin_design("full")
+    from bedstruct.diagnose.diagnosis import candidate_design
+    assert not candidate_design(dg.catalogue(), full).names
+    assert set(d.names) < set(full.names)
+    assert {full[n].role for n in set(full.names) - set(d.names)} == {"calibrate"}
+    assert full["avalanche_angle_rest600"].conditions.get("rest_time") == 600.0
+    with pytest.raises(ConfigError, match="campaign"):
+        dg.engine_twin_design("everything")
+    with pytest.raises(ConfigError, match="full campaign already"):
+        dg.validate("tiny", campaign="full")     # the surrogate's design is one
 
 
 def test_cli_validate_cache_needs_the_engine(capsys):
