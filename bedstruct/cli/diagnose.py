@@ -45,6 +45,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--campaign", choices=["seed", "full"], default="seed",
                         help="validate --simulator engine: twins measure the seed's design, or "
                              "the full campaign with the catalogue's candidate measurements")
+    parser.add_argument("--jobs", type=int, default=None, metavar="N",
+                        help="engine: run batches of engine calls in N processes "
+                             "(overrides [engine] jobs; one single-threaded run per core)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -79,8 +82,10 @@ def _run_validate(args) -> int:
             engine = dict(load_sim_config(args.sim).engine) or engine
         if args.cache:
             engine["cache"] = args.cache
-    elif args.sim or args.cache:
-        raise ConfigError("--sim/--cache with validate need --simulator engine")
+        if args.jobs is not None:
+            engine["jobs"] = args.jobs
+    elif args.sim or args.cache or args.jobs is not None:
+        raise ConfigError("--sim/--cache/--jobs with validate need --simulator engine")
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
                       campaign=args.campaign)
@@ -108,6 +113,8 @@ def _run_validate(args) -> int:
 def run(args) -> int:
     if args.action == "validate":
         return _run_validate(args)
+    import dataclasses
+
     from ..errors import ConfigError
 
     missing = [f"--{k}" for k in ("sim", "real", "out") if not getattr(args, k)]
@@ -121,6 +128,10 @@ def run(args) -> int:
     from . import print_json
 
     cfg = load_sim_config(args.sim)
+    if args.jobs is not None:
+        if cfg.kind != "engine":
+            raise ConfigError("--jobs needs a simulation config with kind = \"engine\"")
+        cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, jobs=args.jobs))
     ms = load_measurements(args.real)
     design = diagnosis_design(ms, cfg.effects)
     sim = make_simulator(cfg, design)

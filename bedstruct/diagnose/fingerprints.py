@@ -44,6 +44,9 @@ def simulate_replicates(simulator: Simulator, base, effects, seeds, names) -> np
     -------
     (R, n) ndarray
     """
+    prefetch = getattr(simulator, "prefetch", None)
+    if prefetch is not None:  # a simulator that can run a batch in parallel
+        prefetch([(dict(base), dict(effects), int(sd)) for sd in seeds])
     rows = []
     for sd in seeds:
         obs = simulator(dict(base), dict(effects), int(sd))
@@ -402,6 +405,15 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     def run(params, eff):
         return simulate_replicates(simulator, params, eff, seeds, names)
 
+    def step(p):  # the nuisance parameter's finite-difference point and step
+        h = rel_step * abs(base[p]) if base[p] != 0 else rel_step
+        return dict(base, **{p: base[p] + h}), h
+
+    if hasattr(simulator, "prefetch"):  # every point's replicates at once (parallel simulators)
+        points = [(dict(base), {})] + [(step(p)[0], {}) for p in nuisance]
+        points += [(dict(base), {e.name: m}) for e in effects for m in e.reference_magnitudes]
+        simulator.prefetch([(b, e, s) for b, e in points for s in seeds])
+
     progress_bar = None
     if progress:
         from tqdm import tqdm
@@ -413,9 +425,7 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         progress_bar.update()
     sens = np.zeros((base_s.shape[1], len(nuisance)))
     for j, p in enumerate(nuisance):
-        h = rel_step * abs(base[p]) if base[p] != 0 else rel_step
-        plus = dict(base)
-        plus[p] = base[p] + h
+        plus, h = step(p)
         sp = run(plus, {})
         groups.append(sp)
         sens[:, j] = _nan_mean(sp - base_s) / h

@@ -59,7 +59,7 @@ _REGIONS = {"start": 0, "center": 1, "centre": 1, "middle": 1, "end": 2}
 _STROKE_SEED = 18.9e-3 / _SPEED_X1   # s, the seed's x1 stroke over its 18.9 mm platform
 _ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_time_scale",
                 "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
-                "seed", "workdir", "cache"}
+                "seed", "workdir", "cache", "jobs"}
 _CACHE_SCHEMA = 3   # bump when the simulator's observation semantics change
 #: Workflow options added after the cache schema: at their neutral value they change no run
 #: and are left out of the cache key, so that entries written before them stay valid.
@@ -148,6 +148,7 @@ class EngineSimulator:
         ``box_width`` below it is simulated with side walls, default 0.01),
         ``n_threads``, ``seed`` (offset added to the replicate seed),
         ``workdir`` (folder for run directories; default a temporary one),
+        ``jobs`` (worker processes for batches of calls, :meth:`prefetch`; default 1),
         ``cache`` (folder of the observation cache; default none).
 
     Notes
@@ -194,6 +195,11 @@ class EngineSimulator:
             v = getattr(self, key)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(f"[engine]: key {key!r} must be positive and finite; got {v!r}")
+        self.jobs = int(cfg.get("jobs", 1))
+        if self.jobs < 1:
+            raise ConfigError(f"[engine]: key 'jobs' must be >= 1; got {self.jobs}")
+        self._config = cfg
+        self._memo: dict[str, dict] = {}   # prefetched calls' observations
         self.seed_offset = int(cfg.get("seed", 0))
         self.workdir = cfg.get("workdir")
         self.cache = Path(cfg["cache"]).expanduser() if cfg.get("cache") else None
@@ -318,8 +324,48 @@ class EngineSimulator:
         os.replace(tmp, f)
 
     # ------------------------------------------------------------------- runs
+    def _memo_key(self, base, effects, seed) -> str:
+        return json.dumps([dict(base), dict(effects), int(seed)], sort_keys=True, default=float)
+
+    def prefetch(self, calls) -> int:
+        """Run a batch of calls ``(base, effects, seed)`` ahead, ``jobs`` at a time.
+
+        With ``jobs`` > 1 the calls that are neither cached nor already fetched run in
+        worker processes (:func:`bedstruct.workflows.diagnosis_pool.run_calls`); the
+        later ``sim(base, effects, seed)`` calls return their observations. With
+        ``jobs = 1`` nothing is done (the calls run when asked for). Returns the number
+        of calls run.
+        """
+        if self.jobs <= 1:
+            return 0
+        todo, seen = [], set()
+        for b, e, s in calls:
+            k = self._memo_key(b, e, s)
+            if k in seen or k in self._memo or self._fully_cached(b, e, s):
+                continue
+            seen.add(k)
+            todo.append((dict(b), dict(e), int(s)))
+        if len(todo) < 2:
+            return 0
+        from .diagnosis_pool import run_calls
+        for (b, e, s), (values, n_runs) in zip(todo, run_calls(self.design, self._config, todo,
+                                                               self.jobs)):
+            self._memo[self._memo_key(b, e, s)] = values
+            self.n_runs += n_runs
+        return len(todo)
+
+    def _fully_cached(self, base, effects, seed) -> bool:
+        if self.cache is None:
+            return False
+        cached = self._cache_read(self.cache_key(base, effects, seed))
+        return all(json.dumps(self._spec(m), sort_keys=True) in cached for m in self.design)
+
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int):
         from ..diagnose.measurements import Observations
+        fetched = self._memo.get(self._memo_key(base, effects, seed)) if self._memo else None
+        if fetched is not None:
+            return Observations({m.name: np.asarray(fetched[m.name], float) for m in self.design},
+                                source="engine")
         cfg = self.run_config(base, effects, seed)
         key = self.cache_key(base, effects, seed) if self.cache is not None else ""
         cached = self._cache_read(key) if key else {}

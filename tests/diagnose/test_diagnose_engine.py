@@ -50,6 +50,53 @@ def test_cache_returns_the_stored_call_and_keys_on_everything_that_matters(tmp_p
     np.testing.assert_array_equal(c["psd"], a["psd"])
 
 
+def test_prefetch_runs_a_batch_in_worker_processes_with_the_same_results(tmp_path):
+    """``jobs = 2``: a batch of calls runs in two spawned processes; each call's observations
+    equal the serial simulator's, later calls take them without running again, and the
+    workers fill the cache. ``jobs = 1`` runs nothing ahead."""
+    calls = [({}, {"missing_fines": 0.1}, s) for s in (3, 4, 5)] + [({}, {}, 3)]
+    serial = EngineSimulator(_psd_design(), {"preset": "tiny"})
+    expected = [serial(*c)["psd"] for c in calls]
+    assert EngineSimulator(_psd_design(), {"preset": "tiny"}).prefetch(calls) == 0
+    par = EngineSimulator(_psd_design(), {"preset": "tiny", "jobs": 2, "cache": str(tmp_path)})
+    assert par.prefetch(calls + calls[:1]) == 4          # duplicates run once
+    assert len(list(tmp_path.glob("*.json"))) == 4
+    assert par.prefetch(calls) == 0                       # all fetched (and cached)
+    got = [par(*c)["psd"] for c in calls]
+    for g, e in zip(got, expected):
+        np.testing.assert_array_equal(g, e)
+    assert par.n_cached == 0                              # served from the fetched batch
+    with pytest.raises(ConfigError, match="jobs"):
+        EngineSimulator(_psd_design(), {"preset": "tiny", "jobs": 0})
+
+
+def test_fingerprints_hand_the_whole_batch_to_a_parallel_simulator():
+    """compute_fingerprints asks for every point x seed at once (one batch), before it
+    reads them one by one."""
+    from bedstruct.diagnose import SurrogateSimulator, catalogue, compute_fingerprints, \
+        diagnosis_design, twin_design
+    from bedstruct.diagnose.surrogate import BASE_PARAMETERS
+    design = diagnosis_design(twin_design(), catalogue())
+    inner = SurrogateSimulator(design)
+    batches, calls = [], []
+
+    class Recording:
+        name = "surrogate"
+
+        def prefetch(self, batch):
+            batches.append(list(batch))
+            return 0
+
+        def __call__(self, base, effects, seed):
+            calls.append((dict(base), dict(effects), seed))
+            return inner(base, effects, seed)
+    effects = catalogue()[:2]
+    compute_fingerprints(Recording(), design, dict(BASE_PARAMETERS), effects, replicates=2)
+    first = batches[0]
+    assert len(first) == (1 + 1 + 2 * len(effects)) * 2
+    assert all(c in first for c in calls)
+
+
 def test_cached_observables_are_shared_between_designs_with_equal_conditions():
     sim = EngineSimulator(dg.engine_twin_design(), {"preset": "tiny"})
     seed = dg.load_measurements(dg.__file__.replace("bedstruct/diagnose/__init__.py",

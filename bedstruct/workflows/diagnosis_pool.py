@@ -1,0 +1,58 @@
+"""Engine-simulator calls in worker processes (``[engine] jobs = N``).
+
+A diagnosis or its validation asks for many independent engine calls at once: every
+parameter point times every replicate seed of the fingerprints, the replicate reruns
+of "how far". :meth:`EngineSimulator.prefetch <bedstruct.workflows.EngineSimulator.prefetch>`
+hands the calls it has not got to :func:`run_calls`, which runs them ``jobs`` at a time,
+one engine call per process (each single-threaded engine run then has a core to itself),
+and returns their observations; with a cache each worker also stores its call there, so
+an interrupted batch keeps every finished call.
+
+Workers are started with ``spawn`` (a forked copy of a process whose numba threading
+layer is running may deadlock); they load the compiled kernels from numba's cache.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any, Mapping, Sequence
+
+__all__ = ["run_calls"]
+
+
+def _one_call(design, config: Mapping[str, Any], base, effects, seed):
+    from .diagnosis_sim import EngineSimulator
+    sim = EngineSimulator(design, dict(config, jobs=1))
+    obs = sim(base, effects, seed)
+    return {k: v.tolist() for k, v in obs.values.items()}, sim.n_runs
+
+
+def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: int):
+    """Run engine calls ``(base, effects, seed)`` in ``jobs`` worker processes.
+
+    Parameters
+    ----------
+    design : MeasurementSet
+        The simulator's design.
+    config : mapping
+        The ``[engine]`` table (``jobs`` is ignored inside the workers).
+    calls : sequence of (dict, dict, int)
+        Base parameters, effects and seed of each call.
+    jobs : int
+        Number of worker processes (at most one per call).
+
+    Returns
+    -------
+    list of (dict of str to list of float, int)
+        Observations and the number of workflow runs of each call, in order.
+    """
+    if not calls:
+        return []
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=max(1, min(int(jobs), len(calls))), mp_context=ctx) as pool:
+        futures = [pool.submit(_one_call, design, dict(config), dict(b), dict(e), int(s))
+                   for b, e, s in calls]
+        return [f.result() for f in futures]
