@@ -412,7 +412,7 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     if hasattr(simulator, "prefetch"):  # every point's replicates at once (parallel simulators)
         points = [(dict(base), {})] + [(step(p)[0], {}) for p in nuisance]
         points += [(dict(base), {e.name: m}) for e in effects for m in e.reference_magnitudes]
-        simulator.prefetch([(b, e, s) for b, e in points for s in seeds])
+        simulator.prefetch([(b, e, s) for b, e in points for s in seeds], progress=progress)
 
     progress_bar = None
     if progress:

@@ -17,7 +17,7 @@ layer is running may deadlock); they load the compiled kernels from numba's cach
 from __future__ import annotations
 
 import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any, Mapping, Sequence
 
 __all__ = ["run_calls"]
@@ -30,7 +30,8 @@ def _one_call(design, config: Mapping[str, Any], base, effects, seed):
     return {k: v.tolist() for k, v in obs.values.items()}, sim.n_runs
 
 
-def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: int):
+def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: int, *,
+              progress: bool = False):
     """Run engine calls ``(base, effects, seed)`` in ``jobs`` worker processes.
 
     Parameters
@@ -43,6 +44,8 @@ def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: i
         Base parameters, effects and seed of each call.
     jobs : int
         Number of worker processes (at most one per call).
+    progress : bool
+        Show a progress bar over the finished calls (stderr).
 
     Returns
     -------
@@ -55,4 +58,9 @@ def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: i
     with ProcessPoolExecutor(max_workers=max(1, min(int(jobs), len(calls))), mp_context=ctx) as pool:
         futures = [pool.submit(_one_call, design, dict(config), dict(b), dict(e), int(s))
                    for b, e, s in calls]
+        if progress:
+            from tqdm import tqdm
+            for f in tqdm(as_completed(futures), total=len(futures),
+                          desc=f"engine calls ({min(int(jobs), len(calls))} processes)"):
+                f.result()  # a failed call stops the batch here, with its error
         return [f.result() for f in futures]

@@ -327,14 +327,14 @@ class EngineSimulator:
     def _memo_key(self, base, effects, seed) -> str:
         return json.dumps([dict(base), dict(effects), int(seed)], sort_keys=True, default=float)
 
-    def prefetch(self, calls) -> int:
+    def prefetch(self, calls, *, progress: bool = False) -> int:
         """Run a batch of calls ``(base, effects, seed)`` ahead, ``jobs`` at a time.
 
         With ``jobs`` > 1 the calls that are neither cached nor already fetched run in
         worker processes (:func:`bedstruct.workflows.diagnosis_pool.run_calls`); the
         later ``sim(base, effects, seed)`` calls return their observations. With
-        ``jobs = 1`` nothing is done (the calls run when asked for). Returns the number
-        of calls run.
+        ``jobs = 1`` nothing is done (the calls run when asked for). ``progress``
+        shows a bar over the batch. Returns the number of calls run.
         """
         if self.jobs <= 1:
             return 0
@@ -348,8 +348,8 @@ class EngineSimulator:
         if len(todo) < 2:
             return 0
         from .diagnosis_pool import run_calls
-        for (b, e, s), (values, n_runs) in zip(todo, run_calls(self.design, self._config, todo,
-                                                               self.jobs)):
+        done = run_calls(self.design, self._config, todo, self.jobs, progress=progress)
+        for (b, e, s), (values, n_runs) in zip(todo, done):
             self._memo[self._memo_key(b, e, s)] = values
             self.n_runs += n_runs
         return len(todo)

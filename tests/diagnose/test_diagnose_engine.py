@@ -59,7 +59,7 @@ def test_prefetch_runs_a_batch_in_worker_processes_with_the_same_results(tmp_pat
     expected = [serial(*c)["psd"] for c in calls]
     assert EngineSimulator(_psd_design(), {"preset": "tiny"}).prefetch(calls) == 0
     par = EngineSimulator(_psd_design(), {"preset": "tiny", "jobs": 2, "cache": str(tmp_path)})
-    assert par.prefetch(calls + calls[:1]) == 4          # duplicates run once
+    assert par.prefetch(calls + calls[:1], progress=True) == 4   # duplicates run once
     assert len(list(tmp_path.glob("*.json"))) == 4
     assert par.prefetch(calls) == 0                       # all fetched (and cached)
     got = [par(*c)["psd"] for c in calls]
@@ -83,7 +83,7 @@ def test_fingerprints_hand_the_whole_batch_to_a_parallel_simulator():
     class Recording:
         name = "surrogate"
 
-        def prefetch(self, batch):
+        def prefetch(self, batch, progress=False):
             batches.append(list(batch))
             return 0
 
