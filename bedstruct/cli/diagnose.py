@@ -62,11 +62,6 @@ def _write_json(path, obj) -> None:
     path.write_text(json.dumps(_plain(obj), indent=1, allow_nan=False), encoding="utf-8")
 
 
-def _engine_preset(preset: str) -> str:
-    """The engine's scale model for a validation preset (``mini`` runs the tiny one)."""
-    return "small" if preset == "small" else "tiny"
-
-
 def _run_validate(args) -> int:
     from ..diagnose import validate
     from ..report._model import _plain
@@ -76,7 +71,8 @@ def _run_validate(args) -> int:
     from ..errors import ConfigError
     engine = None
     if args.simulator == "engine":
-        engine = {"preset": _engine_preset(args.preset)}
+        from ..diagnose.validate import engine_scale_model
+        engine = {"preset": engine_scale_model(args.preset)}
         if args.sim:
             from ..diagnose import load_sim_config
             engine = dict(load_sim_config(args.sim).engine) or engine

@@ -36,7 +36,8 @@ from .measurements import MeasurementSet, Observations, load_measurements, measu
     write_measurements
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
 
-__all__ = ["PRESETS", "ENGINE_PRESETS", "twin_design", "engine_twin_design", "ValidationResult",
+__all__ = ["PRESETS", "ENGINE_PRESETS", "twin_design", "engine_twin_design", "engine_scale_model",
+           "ValidationResult",
            "validate", "score_twins", "GOALS"]
 
 log = logging.getLogger(__name__)
@@ -56,6 +57,17 @@ ENGINE_PRESETS = {
                   effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup",
                            "non_sphericity")),
 }
+def engine_scale_model(preset: str) -> str:
+    """The engine preset (scale model) a validation preset runs on by default.
+
+    Examples
+    --------
+    >>> [engine_scale_model(p) for p in ("mini", "tiny", "small")]
+    ['tiny', 'tiny', 'small']
+    """
+    return "small" if preset == "small" else "tiny"
+
+
 #: Goals of the issue at the small preset.
 GOALS = {"top1_accuracy": (">=", 0.90), "null_false_attribution": ("<=", 0.05),
          "out_of_catalogue_unexplained": (">=", 0.80), "median_gap_shrink": (">=", 0.70)}
@@ -436,8 +448,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         # with the whole catalogue's candidate measurements (one humid repose more per call),
         # so that a diagnosis of any measurement file of this design finds every run cached
         design = diagnosis_design(measured, _catalogue())
-        sim = diagnosis_simulator(design, dict(engine or {"preset": "small" if preset == "small"
-                                                          else "tiny"}))
+        sim = diagnosis_simulator(design, dict(engine or {"preset": engine_scale_model(preset)}))
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
                                alpha=select_alpha, simulator_name=simulator, progress=progress)
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)

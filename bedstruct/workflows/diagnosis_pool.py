@@ -55,12 +55,22 @@ def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: i
     if not calls:
         return []
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=max(1, min(int(jobs), len(calls))), mp_context=ctx) as pool:
+    workers = max(1, min(int(jobs), len(calls)))
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+    try:
         futures = [pool.submit(_one_call, design, dict(config), dict(b), dict(e), int(s))
                    for b, e, s in calls]
+        done = as_completed(futures)
         if progress:
             from tqdm import tqdm
-            for f in tqdm(as_completed(futures), total=len(futures),
-                          desc=f"engine calls ({min(int(jobs), len(calls))} processes)"):
-                f.result()  # a failed call stops the batch here, with its error
-        return [f.result() for f in futures]
+            done = tqdm(done, total=len(futures), desc=f"engine calls ({workers} processes)")
+        for f in done:
+            f.result()  # the first failed call stops the batch, with its error
+        results = [f.result() for f in futures]
+    except BaseException:
+        # a failure or Ctrl-C: the queued calls are dropped instead of run to the end (hours);
+        # the calls already running finish and, with a cache, are kept
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+    return results

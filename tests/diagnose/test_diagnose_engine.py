@@ -68,6 +68,10 @@ def test_prefetch_runs_a_batch_in_worker_processes_with_the_same_results(tmp_pat
     assert par.n_cached == 0                              # served from the fetched batch
     with pytest.raises(ConfigError, match="jobs"):
         EngineSimulator(_psd_design(), {"preset": "tiny", "jobs": 0})
+    # a call that fails in its worker stops the batch with that call's own error
+    bad = EngineSimulator(_psd_design(), {"preset": "tiny", "jobs": 2})
+    with pytest.raises(ConfigError, match="not known to the engine"):
+        bad.prefetch([({"viscosity": 1.0}, {}, 0)] + calls)
 
 
 def test_fingerprints_hand_the_whole_batch_to_a_parallel_simulator():
@@ -175,7 +179,7 @@ def test_cli_validate_cache_needs_the_engine(capsys):
 def test_scale_models_read_every_layer_the_design_needs_and_validate_picks_its_own():
     """The diagnosis' scale models: a 6 mm platform (a free toe ahead of x1/x2 heaps), no
     dumps, and (small) three layers: layer 3 is the dynamic angle's, nothing reads a fourth."""
-    from bedstruct.cli.diagnose import _engine_preset
+    from bedstruct.diagnose.validate import engine_scale_model
     from bedstruct.workflows.diagnosis_sim import PRESET_OVERRIDES
     d = dg.engine_twin_design()
     needed = max(int(m.conditions.get("layer", 1)) for m in d)
@@ -188,7 +192,7 @@ def test_scale_models_read_every_layer_the_design_needs_and_validate_picks_its_o
     small = EngineSimulator(_psd_design(), {"preset": "small"}).base_cfg["spread"]
     assert len(small["gaps"]) == needed == 3
     assert small["pile_particles"] == 2600
-    assert [_engine_preset(p) for p in ("mini", "tiny", "small")] == ["tiny", "tiny", "small"]
+    assert [engine_scale_model(p) for p in ("mini", "tiny", "small")] == ["tiny", "tiny", "small"]
     assert dg.ENGINE_PRESETS["small"]["replicates"] >= 3
 
 
