@@ -3,7 +3,7 @@
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--json]
   bedstruct diagnose validate --preset tiny|small [--simulator surrogate|engine]
                              [--campaign seed|full] [--sim CONFIG] [--cache DIR]
-                             [--out DIR] [--json]
+                             [--records FILE] [--shard K/N] [--out DIR] [--json]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -18,7 +18,9 @@ by default (seconds); ``--simulator engine`` runs them on the embedded DEM engin
 ``--preset``; ``--campaign full`` adds the catalogue's candidate measurements to the
 twins' files; ``--cache DIR``
 keeps every engine run on disk for reruns; ``--preset mini`` is a one-effect smoke
-run). Every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
+run; ``--records FILE`` appends each twin's record as it completes and resumes
+from the records already there; ``--shard K/N`` runs every N-th twin from the K-th,
+to split one validation over processes or machines). Every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
 """
 
 from __future__ import annotations
@@ -48,8 +50,24 @@ def add_arguments(parser) -> None:
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
                         help="engine: run batches of engine calls in N processes "
                              "(overrides [engine] jobs; one single-threaded run per core)")
+    parser.add_argument("--records", metavar="FILE",
+                        help="validate: append each twin's record to this JSON-lines file as it "
+                             "completes; twins already recorded there are not rerun")
+    parser.add_argument("--shard", metavar="K/N", type=_shard,
+                        help="validate: run only twins i with i %% N == K (0 <= K < N)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
+
+
+def _shard(text: str) -> tuple[int, int]:
+    import argparse
+    try:
+        k, n = (int(x) for x in text.split("/"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected K/N with integers, e.g. 0/2; got {text!r}") from None
+    if not (n >= 1 and 0 <= k < n):
+        raise argparse.ArgumentTypeError(f"expected 0 <= K < N; got {text!r}")
+    return k, n
 
 
 def _write_json(path, obj) -> None:
@@ -84,7 +102,7 @@ def _run_validate(args) -> int:
         raise ConfigError("--sim/--cache/--jobs with validate need --simulator engine")
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
-                      campaign=args.campaign)
+                      campaign=args.campaign, records=args.records, shard=args.shard)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)

@@ -279,6 +279,30 @@ def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx:
     return load_measurements(path)
 
 
+def _records_done(records, signature: dict) -> dict:
+    """Twin records of the same validation already in ``records``, by (twin, type)."""
+    import json
+    if records is None or not Path(records).exists():
+        return {}
+    done, other = {}, 0
+    for n, line in enumerate(Path(records).read_text(encoding="utf-8").splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise ConfigError(f"{records}, line {n}: not a JSON twin record ({exc.msg})") from None
+        if all(rec.get(k) == v for k, v in signature.items()):
+            done[(int(rec["twin"]), rec["type"])] = rec
+        else:
+            other += 1
+    if other:
+        log.info("%s: %d record(s) of another validation ignored", records, other)
+    if done:
+        log.info("%s: %d twin record(s) of this validation taken as done", records, len(done))
+    return done
+
+
 def _magnitude_for_snr(fps, name: str, snr: float) -> float:
     """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
 
@@ -382,7 +406,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
              gof_alpha: float = 0.01, snr_range: tuple[float, float] = (5.0, 10.0),
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
              twin_seed: int | None = None, records=None, campaign: str = "seed",
-             progress: bool = False) -> ValidationResult:
+             shard: tuple[int, int] | None = None, progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
     Parameters
@@ -412,7 +436,14 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         further batch of twins on the same (cached) fingerprints.
     records : path, optional
         JSON-lines file to which each twin's record is appended as it completes
-        (score a partial run with :func:`score_twins`).
+        (score a partial run with :func:`score_twins`). Records already in the file
+        from a run of the same validation (preset, simulator, campaign, seeds) are
+        taken as done, not rerun: an interrupted validation resumes, and shards
+        merged into one file (``cat``) are scored by running once more on it.
+    shard : (int, int), optional
+        ``(k, n)``: run only the twins whose index ``i`` has ``i % n == k`` (magnitudes
+        and truth runs stay those of the whole plan), to split one validation over
+        ``n`` processes or machines that share the engine cache.
     campaign : {"seed", "full"}
         Engine twins: the seed's measurement design (default) or the full campaign
         that adds the catalogue's candidate measurements (:func:`engine_twin_design`).
@@ -433,6 +464,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     if simulator == "surrogate" and campaign != "seed":
         raise ConfigError("campaign: the surrogate's twin design is a full campaign already; "
                           "campaign='full' is for simulator='engine'")
+    if shard is not None:
+        k_shard, n_shard = (int(x) for x in shard)
+        if not (n_shard >= 1 and 0 <= k_shard < n_shard):
+            raise ConfigError(f"shard: expected (k, n) with 0 <= k < n; got {tuple(shard)!r}")
     if refine is None:
         refine = 2 if simulator == "surrogate" else 0
     t0 = time.perf_counter()
@@ -468,6 +503,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     if reuse_ooc:  # engine twins are few and slow: the null twins first
         plan.sort(key=lambda k: k[0] != "null")
 
+    signature = {"preset": preset, "simulator": simulator, "campaign": campaign, "seed": int(seed),
+                 "twin_seed": tseed}
+    done = _records_done(records, signature)
     twins, failed = [], []
     iterator = enumerate(plan)
     if progress:
@@ -480,7 +518,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                         alpha=alpha, select_alpha=select_alpha, gof_alpha=gof_alpha,
                         fingerprints=fps, refine=refine, simulator_name=simulator)
         att = diag.attribution
-        rec = {"twin": i, "type": kind, **truth, "predicted": _label(diag),
+        rec = {"twin": i, "type": kind, **signature, **truth, "predicted": _label(diag),
                "verdict": att.verdict, "gap_significant": diag.where.significant,
                "shrink": diag.shrink.fraction, "shrink_rms": diag.shrink.fraction_rms,
                "gap_before": diag.shrink.before_excess, "gap_after": diag.shrink.after_excess,
@@ -512,12 +550,18 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             twin_run_seed = tseed * 100003 + 5000 + i
             truth = {"true_effect": name, "true_magnitude": magnitude,
                      "true_cohesion": base_true["cohesion_energy_density"]}
+            if shard is not None and i % n_shard != k_shard:
+                continue  # another shard's twin (its draws above keep the plan's)
+            kinds = [kind] + (["out_of_catalogue"] if reuse_ooc and kind == "effect" else [])
+            todo = [k for k in kinds if (i, k) not in done]
+            twins.extend(done[(i, k)] for k in kinds if (i, k) in done)
+            if not todo:
+                continue
             try:
                 real = _twin_measurements(measured, sim, base_true, effects_true, twin_run_seed,
                                           folder, i, intrinsic)
-                run_one(i, kind, name, real, truth)
-                if reuse_ooc and kind == "effect":
-                    run_one(i, "out_of_catalogue", name, real, truth)
+                for k in todo:
+                    run_one(i, k, name, real, truth)
             except (ValueError, np.linalg.LinAlgError) as exc:
                 if simulator == "surrogate":
                     raise
@@ -539,6 +583,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                     "preset": sim.preset, "overrides": sim.overrides,
                     "cache": str(sim.cache) if sim.cache else None}),
                 "alpha": alpha,
+                "shard": list(shard) if shard is not None else None,
+                "resumed_twins": len(done),
                 "select_alpha": select_alpha,
                 "gof_alpha": gof_alpha, "seed": seed, "twin_seed": tseed,
                 "twin_magnitudes": f"gap of U{tuple(snr_range)} sigma on calibration observables "

@@ -166,3 +166,38 @@ def test_observable_order_in_the_file_does_not_matter(twin_setup, tmp_path):
     assert d1.where.chi2 == pytest.approx(d2.where.chi2)
     assert d1.where.ranked(1) == d2.where.ranked(1)
     assert d2.attribution.selected[0].effect == "non_sphericity"
+
+
+def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, capsys):
+    """Shards run disjoint twins of one plan; their merged records score as the whole run."""
+    from bedstruct.diagnose import PRESETS
+    import importlib
+
+    from bedstruct.errors import ConfigError
+    vmod = importlib.import_module("bedstruct.diagnose.validate")
+    monkeypatch.setitem(PRESETS, "tiny", dict(per_effect=1, null=2, out_of_catalogue=0, replicates=2))
+    whole = validate("tiny", refine=0)
+    recs = tmp_path / "twins.jsonl"
+    parts = [validate("tiny", refine=0, shard=(k, 2), records=recs) for k in (0, 1)]
+    assert sorted(t["twin"] for p in parts for t in p.twins) == sorted(t["twin"] for t in whole.twins)
+    assert not {t["twin"] for t in parts[0].twins} & {t["twin"] for t in parts[1].twins}
+    calls = []
+    real_diagnose = vmod.diagnose
+    monkeypatch.setattr(vmod, "diagnose", lambda *a, **k: calls.append(1) or real_diagnose(*a, **k))
+    merged = validate("tiny", refine=0, records=recs)
+    assert calls == [] and merged.settings["resumed_twins"] == len(whole.twins)
+    key = lambda t: t["twin"]  # noqa: E731
+    for a, b in zip(sorted(merged.twins, key=key), sorted(whole.twins, key=key)):
+        assert (a["predicted"], a["true_effect"]) == (b["predicted"], b["true_effect"])
+    assert merged.top1_accuracy == whole.top1_accuracy
+    # another validation's records are not taken as done
+    other = validate("tiny", refine=0, records=recs, twin_seed=7)
+    assert other.settings["resumed_twins"] == 0 and len(calls) == len(whole.twins)
+    recs.write_text("{not json\n")
+    with pytest.raises(ConfigError, match="line 1"):
+        validate("tiny", refine=0, records=recs)
+    with pytest.raises(ConfigError, match="shard"):
+        validate("tiny", shard=(2, 2))
+    with pytest.raises(SystemExit):
+        main(["diagnose", "validate", "--shard", "3"])
+    assert "K/N" in capsys.readouterr().err
