@@ -279,6 +279,25 @@ def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx:
     return load_measurements(path)
 
 
+def _twin_plan(effect_names, cfg: dict, *, in_turn: bool) -> list[tuple[str, str | None]]:
+    """The twins to run, as ``(kind, effect)``.
+
+    ``in_turn`` (engine twins, few and slow): the null twins first, then the effects in
+    turn, so that a partial run, or any shard of it, covers every effect.
+    """
+    plan = [("effect", e) for e in effect_names for _ in range(cfg["per_effect"])]
+    plan += [("null", None)] * cfg["null"]
+    plan += [("out_of_catalogue", e) for e in effect_names for _ in range(cfg["out_of_catalogue"])]
+    if in_turn:
+        rank = {e: j for j, e in enumerate(effect_names)}
+        turn, keyed = {}, []
+        for k in plan:
+            keyed.append(((k[0] != "null", turn.get(k, 0), rank.get(k[1], -1)), k))
+            turn[k] = turn.get(k, 0) + 1
+        plan = [k for _, k in sorted(keyed, key=lambda t: t[0])]
+    return plan
+
+
 def _records_done(records, signature: dict) -> dict:
     """Twin records of the same validation already in ``records``, by (twin, type)."""
     import json
@@ -492,16 +511,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                                   measured.title, measured.source, measured.path, measured.notes)
     tseed = int(seed if twin_seed is None else twin_seed)
     rng = np.random.default_rng([tseed, 2024])
-    plan = []
-    for e in effects:
-        for _ in range(cfg["per_effect"]):
-            plan.append(("effect", e.name))
-    plan += [("null", None)] * cfg["null"]
-    for e in effects:
-        plan += [("out_of_catalogue", e.name)] * cfg["out_of_catalogue"]
     reuse_ooc = simulator == "engine"
-    if reuse_ooc:  # engine twins are few and slow: the null twins first
-        plan.sort(key=lambda k: k[0] != "null")
+    plan = _twin_plan([e.name for e in effects], cfg, in_turn=reuse_ooc)
 
     signature = {"preset": preset, "simulator": simulator, "campaign": campaign, "seed": int(seed),
                  "twin_seed": tseed}

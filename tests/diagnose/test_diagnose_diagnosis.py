@@ -201,3 +201,13 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     with pytest.raises(SystemExit):
         main(["diagnose", "validate", "--shard", "3"])
     assert "K/N" in capsys.readouterr().err
+
+
+def test_engine_twin_plan_takes_the_effects_in_turn():
+    from bedstruct.diagnose.validate import _twin_plan
+    cfg = dict(per_effect=2, null=2, out_of_catalogue=0)
+    plan = _twin_plan(["a", "b", "c"], cfg, in_turn=True)
+    assert plan == [("null", None)] * 2 + [("effect", e) for e in "abcabc"]
+    # any half of it (a shard) still covers every effect
+    assert {e for _, e in plan[2::2]} == {e for _, e in plan[3::2]} == set("abc")
+    assert _twin_plan(["a", "b"], cfg, in_turn=False)[:4] == [("effect", "a")] * 2 + [("effect", "b")] * 2
