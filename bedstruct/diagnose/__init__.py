@@ -12,7 +12,7 @@ from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_m
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
                         kelvin_radius)
 from .config import SimConfig, load_sim_config, make_simulator
-from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose,
+from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose, identification,
                         diagnosis_design, gap_size)
 from .fingerprints import (Fingerprint, FingerprintSet, Simulator, compute_fingerprints,
                            nuisance_projector, simulate_replicates)
@@ -44,7 +44,7 @@ __all__ = [
     "Simulator", "simulate_replicates", "Fingerprint", "FingerprintSet", "compute_fingerprints",
     "nuisance_projector", "ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute",
     # orchestration
-    "candidate_design", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement", "Diagnosis",
+    "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement", "Diagnosis",
     "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS", "ValidationResult", "twin_design",
     "engine_twin_design", "validate",
     "diagnosis_report", "validation_report",

@@ -22,10 +22,49 @@ from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simul
 from .measurements import MeasurementSet, measurement_from_dict
 from .where import WhereResult, _nan_mean, standardised_residuals, where
 
-__all__ = ["candidate_design", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement",
+__all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement",
            "Diagnosis", "diagnose"]
 
 SCHEMA = "bedstruct.diagnose/1"
+
+
+def identification(fps, name: str) -> dict:
+    """Which measurements would identify effect ``name``, and on what evidence.
+
+    ``identify_with`` lists the observables its simulated fingerprint moves beyond 2 sigma
+    outside the calibration set (:func:`~bedstruct.diagnose.fingerprints.assess_fingerprints`).
+    When there are none, the catalogue's own suggestions are split into those the
+    fingerprint runs did measure (``checked``: they do not identify it in these
+    simulations, so they are not suggested) and those it could not (``unchecked``: not in
+    the design, or not observable; suggested, unverified).
+
+    Returns
+    -------
+    dict
+        ``effect``, ``identify_with``, ``evidence`` (``"simulated"``, ``"catalogue"`` or
+        ``"none"``), ``checked``, ``unchecked`` and a one-sentence ``note``.
+    """
+    f = fps[name]
+    if f.identify_with:
+        return {"effect": name, "identify_with": list(f.identify_with), "evidence": "simulated",
+                "checked": [], "unchecked": [],
+                "note": "moves these observables beyond 2 sigma in the fingerprint runs"}
+    suggested = [d["name"] for d in f.effect.identify_with]
+    checked = [n for n in suggested if n in set(fps.names)]
+    unchecked = [n for n in suggested if n not in set(fps.names)]
+    if unchecked:
+        note = ("the catalogue suggests " + ", ".join(unchecked) + " (not verified: the fingerprint "
+                "runs did not measure or could not observe it)")
+        if checked:
+            note += "; " + ", ".join(checked) + " did not move beyond 2 sigma in the runs"
+        return {"effect": name, "identify_with": unchecked, "evidence": "catalogue",
+                "checked": checked, "unchecked": unchecked, "note": note}
+    return {"effect": name, "identify_with": [], "evidence": "none", "checked": checked,
+            "unchecked": [],
+            "note": ("no measurement in the design identifies it: "
+                     + (", ".join(checked) + ", suggested by the catalogue, did not move beyond "
+                        "2 sigma in the fingerprint runs either" if checked else
+                        "the catalogue suggests none") + "; a new kind of measurement is needed")}
 
 
 def candidate_design(effects: Sequence[Effect], existing: MeasurementSet | None = None) -> MeasurementSet:
@@ -175,8 +214,7 @@ class Diagnosis:
             "shrink": self.shrink.as_dict(),
             "next": [n.as_dict() for n in self.next],
             "identifiability": self.fingerprints.table(),
-            "not_identifiable": [{"effect": f.name, "identify_with":
-                                  list(f.identify_with) or [d["name"] for d in f.effect.identify_with]}
+            "not_identifiable": [identification(self.fingerprints, f.name)
                                  for f in self.fingerprints.fingerprints if not f.identifiable],
             "settings": self.settings,
         }

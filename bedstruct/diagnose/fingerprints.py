@@ -588,10 +588,14 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
                 conf.append(fps.fingerprints[j].name)
         ident = []
         if noncal.any():
-            # a change of more than 2 sigma that is also beyond twice its own estimation
-            # noise (a noisy fingerprint must not name a measurement by chance)
-            w = np.abs(D[1][noncal]) / sigma[noncal]
-            real = np.abs(D[1][noncal]) > 2.0 * SE[1][noncal]
+            # what is left on the other rows once the base parameters are recalibrated on the
+            # calibration rows, beyond 2 sigma and twice its own estimation noise (a noisy
+            # fingerprint must not name a measurement by chance)
+            J = fps.sensitivities
+            beta = np.linalg.lstsq(J[cal] / sigma[cal, None], D[1][cal] / sigma[cal], rcond=None)[0]
+            left = np.abs(D[1][noncal] - J[noncal] @ beta)
+            w = left / sigma[noncal]
+            real = left > 2.0 * SE[1][noncal]
             for i in np.argsort(-w):
                 nm = str(comp_names[noncal][i])
                 if w[i] > 2.0 and real[i] and nm not in ident:

@@ -16,6 +16,13 @@ def _fmt(v, nd=3):
     return v
 
 
+def _identified_by(fps, row) -> str:
+    if row["identifiable"] or row["identify_with"]:
+        return ", ".join(row["identify_with"])
+    from .diagnosis import identification
+    return identification(fps, row["effect"])["note"]
+
+
 def diagnosis_report(diag, *, title: str | None = None):
     """A :class:`bedstruct.report._model.Report` of a :class:`Diagnosis`."""
     from ..report._model import Report, Table, run_section, skip
@@ -75,7 +82,7 @@ def diagnosis_report(diag, *, title: str | None = None):
                                "confounded with", "would be identified by"],
                               [[r["effect"], _fmt(r["signal_sigma"]), _fmt(r["noise_sigma"]),
                                 r["identifiable"], ", ".join(r["confounded_with"]),
-                                ", ".join(r["identify_with"])] for r in fps.table()]))
+                                _identified_by(fps, r)] for r in fps.table()]))
         notes = diag.data_notes()
         if notes:
             s.text += (" Runs that could not observe an observable (NaN) count as missing data: "

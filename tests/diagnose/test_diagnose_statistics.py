@@ -184,3 +184,28 @@ def test_a_fitting_but_non_identifiable_effect_is_not_named():
     assert "B" in att.reason and "not identifiable" in att.reason
     assert att.ranking[0].effect == "B" and not att.ranking[0].identifiable
     assert attribute(resid, fps).verdict == "attributed"      # identifiable: named
+
+
+def test_identification_suggests_only_what_the_runs_do_not_contradict():
+    from dataclasses import replace
+
+    from bedstruct.diagnose import identification
+    from bedstruct.diagnose.catalogue import _m
+    design = toy_design(N, n_validate=3, n_candidate=1)
+    # D: absorbed by recalibration, and the candidate o12 does not move either
+    sim = ToySimulator(design, sens={"k": np.r_[J["k"], 0.0]},
+                       effects={"D": np.r_[2.0 * J["k"], 0.0], "A": np.r_[F["A"], 0.0]})
+    d_eff = replace(toy_effect("D"), identify_with=(_m("o12", "static_angle", 1.0, "deg"),
+                                                   _m("o99", "static_angle", 1.0, "deg")))
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [d_eff, toy_effect("A")],
+                               nuisance=("k",), replicates=2, alpha=0.01)
+    assert not fps["D"].identifiable and fps["D"].identify_with == ()
+    got = identification(fps, "D")
+    # o12 was simulated and did not move: not suggested; o99 was never simulated: suggested, unverified
+    assert got["evidence"] == "catalogue" and got["identify_with"] == ["o99"]
+    assert got["checked"] == ["o12"] and "not verified" in got["note"]
+    only_checked = replace(fps, fingerprints=tuple(
+        replace(f, effect=replace(d_eff, identify_with=d_eff.identify_with[:1])) if f.name == "D" else f
+        for f in fps.fingerprints))
+    got = identification(only_checked, "D")
+    assert got["evidence"] == "none" and got["identify_with"] == [] and "o12" in got["note"]
