@@ -53,7 +53,7 @@ def pair_forces_ext(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, b
     and ``gamma_t = GTR gamma_n`` equal :func:`hertz_coefficients`.
 
     ``ext`` flags the diagnosis extensions (1 capillary bridges, 2 contact
-    ageing); ``hx[k] = (contact age, accumulated slip, broken)`` is the ageing
+    ageing); ``hx[k] = (contact age, accumulated sliding, broken)`` is the ageing
     history, ``CAP = (gamma cos theta, theta, film thickness, fixed volume or
     -1)`` and ``AGE = (bond ratio, tau, 1/ln(1 + t_ref/tau), break slip,
     epsd rolling stiffness factor)``. With ``ext = 0`` the arithmetic is the
@@ -154,6 +154,14 @@ def pair_forces_ext(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, b
             vt1 = vr1 - vn * e1 - (w2 * e3 - w3 * e2)
             vt2 = vr2 - vn * e2 - (w3 * e1 - w1 * e3)
             vt3 = vr3 - vn * e3 - (w1 * e2 - w2 * e1)
+            trial = 0.0
+            if age_on:
+                # the spring the step would reach without the Coulomb cap (as tangential_history)
+                u1 = ht[k, 0] + vt1 * dt
+                u2 = ht[k, 1] + vt2 * dt
+                u3 = ht[k, 2] + vt3 * dt
+                un = u1 * e1 + u2 * e2 + u3 * e3
+                trial = math.sqrt((u1 - un * e1) ** 2 + (u2 - un * e2) ** 2 + (u3 - un * e3) ** 2)
             s1, s2, s3, f1, f2, f3 = tangential_history(ht[k, 0], ht[k, 1], ht[k, 2], vt1, vt2, vt3,
                                                         e1, e2, e3, kt, gt, MU[ti, tj], fn_cap, dt)
             ht[k, 0] = s1
@@ -161,7 +169,9 @@ def pair_forces_ext(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, b
             ht[k, 2] = s3
             if age_on and hx[k, 2] == 0.0:
                 hx[k, 0] += dt
-                hx[k, 1] += math.sqrt(vt1 * vt1 + vt2 * vt2 + vt3 * vt3) * dt
+                # sliding, not elastic shear: what the Coulomb cap cut off the spring (an elastic
+                # tangential displacement is recovered; only sliding breaks the aged bond)
+                hx[k, 1] += max(trial - math.sqrt(s1 * s1 + s2 * s2 + s3 * s3), 0.0)
                 if hx[k, 1] > AGE[3]:
                     hx[k, 2] = 1.0
             # torque of Ft about each centre: -cr (en x Ft)

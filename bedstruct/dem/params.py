@@ -226,8 +226,9 @@ class ContactModel:
     ageing_time_constant, ageing_reference_rest_time : float, s
         tau and t_ref of the logarithmic ageing law.
     ageing_break_slip : float, m
-        Accumulated tangential slip beyond which the bond breaks for good (until
-        the contact opens).
+        Accumulated sliding beyond which the bond breaks for good (until the
+        contact opens): the tangential displacement the Coulomb limit cuts off
+        the Mindlin spring, not its elastic (recoverable) shear.
     rolling_stiffness_factor : float, dimensionless
         Prefactor of the ``"epsd"`` rolling stiffness ``k_r = f k_n mu_r^2 R*^2``
         (Ai et al. 2011 use 2.25).

@@ -64,6 +64,11 @@ _CACHE_SCHEMA = 3   # bump when the simulator's observation semantics change
 #: Workflow options added after the cache schema: at their neutral value they change no run
 #: and are left out of the cache key, so that entries written before them stay valid.
 _NEUTRAL_OPTIONS = {("repose", "rest_time"): 0.0}
+#: Contact-model revisions after the cache schema: a call with the model switched on carries
+#: its revision in the key (its older entries are stale), the other calls' keys are unchanged.
+#: contact_ageing 2: the bond breaks by sliding (the Coulomb cut of the spring), not by any
+#: tangential motion.
+_MODEL_REVISIONS = {"contact_ageing": 2}
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
 #: the stroke, leaving most frames without a heap whose angle can be measured; and the
@@ -235,8 +240,9 @@ class EngineSimulator:
 
         Ageing times are divided by ``ageing_time_scale``; the blade ramp time is
         multiplied and the vibration frequency divided by ``blade_time_scale`` (the
-        same fraction of the stroke); the vibration amplitude is multiplied by
-        ``psd.scale``; fines diameters by ``fines_scale`` (the same ratio to the
+        same fraction of the stroke); the vibration amplitude and the ageing
+        bond's break slip are multiplied by ``psd.scale`` (the same fraction of a
+        particle); fines diameters by ``fines_scale`` (the same ratio to the
         preset's cut-off ``psd.d_min``); the capillary surface tension by
         ``capillary_scale`` and the film thickness by ``psd.scale`` (the bridge
         force per particle weight and the bridge volume per particle volume of
@@ -249,6 +255,7 @@ class EngineSimulator:
                  "blade_ramp_time": self.blade_time_scale,
                  "blade_vibration_frequency": 1.0 / self.blade_time_scale,
                  "blade_vibration_amplitude": ps,
+                 "ageing_break_slip": ps,
                  "fines_median_diameter": self.fines_scale,
                  "fines_min_diameter": self.fines_scale,
                  "capillary_surface_tension": self.capillary_scale,
@@ -298,6 +305,9 @@ class EngineSimulator:
                 cfg[sec].pop(key, None)
         doc = {"schema": _CACHE_SCHEMA, "config": cfg,
                "wide_box": self.wide_box, "speed_scale": self.speed_scale}
+        revised = {m: r for m, r in _MODEL_REVISIONS.items() if cfg["effects"].get(m)}
+        if revised:
+            doc["revisions"] = revised
         text = json.dumps(doc, sort_keys=True, default=float)
         return hashlib.sha256(text.encode()).hexdigest()[:32]
 

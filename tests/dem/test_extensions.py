@@ -137,6 +137,14 @@ def lens_area_radius2(r, ri, rj):
     return -((r - ri - rj) * (r + ri - rj) * (r - ri + rj) * (r + ri + rj)) / (4 * r * r)
 
 
+def _drive(sim, speed, steps):
+    """Move sphere 0 past sphere 1 along y at ``speed``, rotations held at zero (no rolling)."""
+    for _ in range(steps):
+        sim.v[0, 1], sim.v[1, 1] = speed, 0.0
+        sim.om[:] = 0.0
+        sim.run(steps=1)
+
+
 def test_ageing_rest_time_slip_break_and_reform():
     model = _ageing_model(restitution=0.1)
     sim = _pair(model, R, R, -4e-7)  # near the SJKR equilibrium overlap, settles
@@ -147,9 +155,8 @@ def test_ageing_rest_time_slip_break_and_reform():
     # rebuilds and checkpoints carry the ageing history
     sim._rebuild()
     assert sim.hx[0, 0] == pytest.approx(age)
-    # slide: a tangential velocity breaks the bond ...
-    sim.v[0, 1] = 0.05
-    sim.run(steps=50)
+    # slide: a driven tangential velocity (no rolling) breaks the bond ...
+    _drive(sim, 0.2, 50)
     assert sim.hx[0, 2] == 1.0
     age_broken = sim.hx[0, 0]
     # ... for good while the contact lasts: the age no longer grows, no bond force
@@ -163,6 +170,26 @@ def test_ageing_rest_time_slip_break_and_reform():
     sim.run(steps=200)
     assert sim.x[1, 0] - sim.x[0, 0] > 2 * R
     assert np.all(sim.hx == 0.0)
+
+
+def test_ageing_bond_breaks_by_sliding_not_by_elastic_shear():
+    """Elastic tangential shear is recovered: only what the Coulomb limit cuts off counts."""
+    def shear(friction, steps):
+        model = ContactModel(Material(E, NU, RHO), restitution=0.1, friction=friction, cohesion=1e5,
+                             contact_ageing=True, ageing_bond_ratio=1.5, ageing_time_constant=1e-4,
+                             ageing_reference_rest_time=1e-3, ageing_break_slip=1e-7)
+        sim = _pair(model, R, R, -4e-7)
+        sim.run(steps=2000)
+        path = 0.0
+        for sign in (1, -1) * 10:  # shake tangentially: 20 strokes of the same length
+            _drive(sim, sign * 1e-2, steps)
+            path += 1e-2 * steps * sim.dt
+        return sim, path
+    stiff, path = shear(1e3, 5)      # far below the Coulomb limit: elastic shear only
+    assert path > 10 * 1e-7          # the contact moved 10x the break slip back and forth ...
+    assert stiff.hx[0, 2] == 0.0 and stiff.hx[0, 1] == 0.0   # ... without sliding: bond intact
+    slid, _ = shear(0.05, 50)        # beyond it: the contact slides and the bond breaks
+    assert slid.hx[0, 2] == 1.0
 
 
 def test_ageing_history_survives_checkpoint(tmp_path):

@@ -128,6 +128,8 @@ def test_effect_parameters_are_mapped_to_the_scale_model():
     assert s["blade_vibration_frequency"] * s["blade_ramp_time"] == pytest.approx(
         fx["blade_vibration_frequency"] * fx["blade_ramp_time"])
     assert s["ageing_time_constant"] == pytest.approx(10.0 / 1000)
+    # the bond's break slip is the same fraction of a (coarse-grained) particle
+    assert s["ageing_break_slip"] == pytest.approx(fx["ageing_break_slip"] * cfg["psd"]["scale"])
     assert s["fines_median_diameter"] / cfg["psd"]["d_min"] == pytest.approx(20e-6 / 28e-6)
     # capillary bridges at the same Bond number (force / weight) as the seed powder: the
     # engine's pull-off 2 pi (2 R*) gamma' cos(theta) at the coarse-grained size
@@ -248,6 +250,13 @@ def test_an_angle_after_rest_rests_the_pile_on_the_ageing_clock(monkeypatch, tmp
                "speed_scale": sim.speed_scale}
     old_key = hashlib.sha256(json.dumps(old_doc, sort_keys=True, default=float).encode()).hexdigest()[:32]
     assert sim.cache_key({}, {}, 0) == old_key
+    # a call with contact ageing on carries the ageing model's revision (older entries stale)
+    aged = sim.run_config({}, {"contact_ageing": 1.0}, 0)
+    aged["repose"].pop("rest_time")
+    stale = {"schema": _CACHE_SCHEMA, "config": aged, "wide_box": sim.wide_box,
+             "speed_scale": sim.speed_scale}
+    stale_key = hashlib.sha256(json.dumps(stale, sort_keys=True, default=float).encode()).hexdigest()[:32]
+    assert sim.cache_key({}, {"contact_ageing": 1.0}, 0) != stale_key
 
 
 def test_a_pile_without_flanks_is_missing_data_and_cached_as_such(monkeypatch, tmp_path):
