@@ -260,6 +260,10 @@ class EngineSimulator:
                  "fines_min_diameter": self.fines_scale,
                  "capillary_surface_tension": self.capillary_scale,
                  "capillary_film_thickness": ps}
+        if not out.get("contact_ageing"):
+            # inert without ageing: left as given, so that the calls without ageing keep the
+            # cache keys they had before the break slip was scaled
+            rules.pop("ageing_break_slip")
         for key, f in rules.items():
             if key in out and not isinstance(out[key], (bool, str)):
                 out[key] = float(out[key]) * f

@@ -250,6 +250,14 @@ def test_an_angle_after_rest_rests_the_pile_on_the_ageing_clock(monkeypatch, tmp
                "speed_scale": sim.speed_scale}
     old_key = hashlib.sha256(json.dumps(old_doc, sort_keys=True, default=float).encode()).hexdigest()[:32]
     assert sim.cache_key({}, {}, 0) == old_key
+    # ... also with another effect on (its inert ageing parameters are not rescaled)
+    cap = sim.run_config({}, {"capillary_bridges": 0.3}, 0)
+    cap["repose"].pop("rest_time")
+    cap["effects"]["ageing_break_slip"] = 1e-6
+    cap_doc = {"schema": _CACHE_SCHEMA, "config": cap, "wide_box": sim.wide_box,
+               "speed_scale": sim.speed_scale}
+    assert sim.cache_key({}, {"capillary_bridges": 0.3}, 0) == hashlib.sha256(
+        json.dumps(cap_doc, sort_keys=True, default=float).encode()).hexdigest()[:32]
     # a call with contact ageing on carries the ageing model's revision (older entries stale)
     aged = sim.run_config({}, {"contact_ageing": 1.0}, 0)
     aged["repose"].pop("rest_time")
