@@ -9,7 +9,9 @@ and returns their observations; with a cache each worker also stores its call th
 an interrupted batch keeps every finished call.
 
 Workers are started with ``spawn`` (a forked copy of a process whose numba threading
-layer is running may deadlock); they load the compiled kernels from numba's cache.
+layer is running may deadlock); they load the compiled kernels from numba's cache. A
+worker whose parent is gone (killed, not interrupted) stops within seconds instead of
+finishing an engine run nobody will read.
 
 .. versionadded:: 0.1
 """
@@ -21,6 +23,20 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any, Mapping, Sequence
 
 __all__ = ["run_calls"]
+
+
+def _exit_with_parent(parent: int, interval: float = 2.0) -> None:
+    """Worker initializer: exit when the parent process ``parent`` is gone."""
+    import os
+    import threading
+    import time
+
+    def watch():
+        while True:
+            time.sleep(interval)
+            if os.getppid() != parent:
+                os._exit(1)
+    threading.Thread(target=watch, name="bedstruct-parent-watch", daemon=True).start()
 
 
 def _one_call(design, config: Mapping[str, Any], base, effects, seed):
@@ -56,7 +72,9 @@ def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: i
         return []
     ctx = multiprocessing.get_context("spawn")
     workers = max(1, min(int(jobs), len(calls)))
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+    import os
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                               initializer=_exit_with_parent, initargs=(os.getpid(),))
     try:
         futures = [pool.submit(_one_call, design, dict(config), dict(b), dict(e), int(s))
                    for b, e, s in calls]

@@ -296,3 +296,35 @@ def test_engine_mini_validation(tmp_path):
     assert r.simulator == "engine" and len(r.twins) + len(r.settings["failed"]) == 1
     assert r.null_false_attribution == 0.0 or r.settings["failed"]
     assert list(tmp_path.joinpath("cache").glob("*.json"))
+
+
+def test_a_worker_whose_parent_was_killed_stops(tmp_path):
+    """Engine-call workers do not outlive a killed parent (they would run on for minutes)."""
+    import os
+    import subprocess
+    import sys
+    import time
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import multiprocessing, os, sys, time\n"
+        "from bedstruct.workflows.diagnosis_pool import _exit_with_parent\n"
+        "def child():\n"
+        "    _exit_with_parent(os.getppid(), interval=0.1)\n"
+        "    time.sleep(60)\n"
+        "if __name__ == '__main__':\n"
+        "    p = multiprocessing.get_context('spawn').Process(target=child)\n"
+        "    p.start()\n"
+        "    print(p.pid, flush=True)\n"
+        "    time.sleep(1.0)\n"
+        "    os._exit(0)  # dies without shutting its child down, as a killed parent would\n")
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=60)
+    pid = int(out.stdout.split()[0])
+    deadline = time.time() + 10
+    alive = True
+    while time.time() < deadline and alive:
+        try:
+            os.kill(pid, 0)
+            time.sleep(0.1)
+        except ProcessLookupError:
+            alive = False
+    assert not alive
