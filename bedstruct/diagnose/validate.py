@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import tempfile
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,7 @@ from .fingerprints import compute_fingerprints
 from .measurements import MeasurementSet, Observations, load_measurements, measurement_from_dict, \
     write_measurements
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
+from .validation_scores import GOALS, ValidationResult, _records_done, score_twins
 
 __all__ = ["PRESETS", "ENGINE_PRESETS", "twin_design", "engine_twin_design", "engine_scale_model",
            "ValidationResult",
@@ -66,11 +67,6 @@ def engine_scale_model(preset: str) -> str:
     ['tiny', 'tiny', 'small']
     """
     return "small" if preset == "small" else "tiny"
-
-
-#: Goals of the issue at the small preset.
-GOALS = {"top1_accuracy": (">=", 0.90), "null_false_attribution": ("<=", 0.05),
-         "out_of_catalogue_unexplained": (">=", 0.80), "median_gap_shrink": (">=", 0.70)}
 
 
 def twin_design() -> MeasurementSet:
@@ -182,74 +178,6 @@ def engine_twin_design(campaign: str = "seed") -> MeasurementSet:
                           source="bedstruct.diagnose.validate.engine_twin_design")
 
 
-@dataclass(frozen=True)
-class ValidationResult:
-    """Scores of the diagnosis on synthetic twins.
-
-    Attributes
-    ----------
-    preset, simulator : str
-    top1_accuracy : float
-        Fraction of in-catalogue twins whose true effect is attributed first.
-    null_false_attribution : float
-        Fraction of null twins where any effect was attributed.
-    null_gap_flagged : float
-        Fraction of null twins where the "where" test flagged a significant gap.
-    out_of_catalogue_unexplained : float
-        Fraction of out-of-catalogue twins answered "unexplained".
-    median_gap_shrink : float
-        Median over in-catalogue twins of the held-out excess-gap shrink.
-    median_gap_shrink_rms : float
-        The same with the RMS gap (noise floor included; stricter).
-    confusion : dict
-        ``{"labels": [...], "rows": [...], "matrix": [[...]]}``: true label by row,
-        predicted top label by column (``none``, ``unexplained`` included).
-    magnitudes : list of dict
-        Per correctly attributed twin: true and fitted magnitude, interval, covered.
-    twins : list of dict
-        One record per twin.
-    goals : dict
-        Each goal with its value and whether it is met.
-    """
-
-    preset: str
-    simulator: str
-    top1_accuracy: float
-    null_false_attribution: float
-    null_gap_flagged: float
-    out_of_catalogue_unexplained: float
-    median_gap_shrink: float
-    median_gap_shrink_rms: float
-    magnitude_coverage: float
-    magnitude_median_relative_error: float
-    confusion: dict
-    magnitudes: list
-    twins: list
-    goals: dict
-    seconds: float
-    settings: dict = field(default_factory=dict)
-
-    def report(self):
-        """The validation as a :class:`bedstruct.report._model.Report`."""
-        from .report import validation_report
-        return validation_report(self)
-
-    def to_json(self) -> dict:
-        return {"schema": "bedstruct.diagnose.validate/1", "preset": self.preset,
-                "simulator": self.simulator,
-                "top1_accuracy": self.top1_accuracy,
-                "null_false_attribution": self.null_false_attribution,
-                "null_gap_flagged": self.null_gap_flagged,
-                "out_of_catalogue_unexplained": self.out_of_catalogue_unexplained,
-                "median_gap_shrink": self.median_gap_shrink,
-                "median_gap_shrink_rms": self.median_gap_shrink_rms,
-                "magnitude_coverage": self.magnitude_coverage,
-                "magnitude_median_relative_error": self.magnitude_median_relative_error,
-                "confusion": self.confusion, "magnitudes": self.magnitudes, "goals": self.goals,
-                "n_twins": len(self.twins), "twins": self.twins, "seconds": self.seconds,
-                "settings": self.settings}
-
-
 def _label(diag) -> str:
     att = diag.attribution
     if att.verdict == "attributed":
@@ -298,30 +226,6 @@ def _twin_plan(effect_names, cfg: dict, *, in_turn: bool) -> list[tuple[str, str
     return plan
 
 
-def _records_done(records, signature: dict) -> dict:
-    """Twin records of the same validation already in ``records``, by (twin, type)."""
-    import json
-    if records is None or not Path(records).exists():
-        return {}
-    done, other = {}, 0
-    for n, line in enumerate(Path(records).read_text(encoding="utf-8").splitlines(), 1):
-        if not line.strip():
-            continue
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError as exc:
-            raise ConfigError(f"{records}, line {n}: not a JSON twin record ({exc.msg})") from None
-        if all(rec.get(k) == v for k, v in signature.items()):
-            done[(int(rec["twin"]), rec["type"])] = rec
-        else:
-            other += 1
-    if other:
-        log.info("%s: %d record(s) of another validation ignored", records, other)
-    if done:
-        log.info("%s: %d twin record(s) of this validation taken as done", records, len(done))
-    return done
-
-
 def _magnitude_for_snr(fps, name: str, snr: float) -> float:
     """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
 
@@ -344,74 +248,6 @@ def _magnitude_for_snr(fps, name: str, snr: float) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if norm(mid) < snr else (lo, mid)
     return 0.5 * (lo + hi)
-
-
-def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
-    """Scores of a list of twin records (as in ``ValidationResult.twins``).
-
-    Also used on a partial run: ``validate(..., records=PATH)`` appends each twin's
-    record to a JSON-lines file as it completes.
-
-    Returns
-    -------
-    dict
-        ``top1_accuracy``, ``null_false_attribution``, ``null_gap_flagged``,
-        ``out_of_catalogue_unexplained``, ``median_gap_shrink`` (and ``_rms``),
-        ``magnitude_coverage``, ``magnitude_median_relative_error``, ``confusion``,
-        ``magnitudes``, ``goals``.
-    """
-    eff_tw = [t for t in twins if t["type"] == "effect"]
-    null_tw = [t for t in twins if t["type"] == "null"]
-    ooc_tw = [t for t in twins if t["type"] == "out_of_catalogue"]
-
-    def frac(items, pred):
-        return float(np.mean([bool(pred(t)) for t in items])) if items else float("nan")
-
-    top1 = frac(eff_tw, lambda t: t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"])
-    null_false = frac(null_tw, lambda t: t["verdict"] == "attributed")
-    null_flag = frac(null_tw, lambda t: t["gap_significant"])
-    ooc = frac(ooc_tw, lambda t: t["verdict"] == "unexplained")
-    def finite(x):  # NaN is null in records read back from JSON
-        return isinstance(x, (int, float)) and x == x
-
-    shr = [t["shrink"] for t in eff_tw if finite(t["shrink"])]
-    shr_rms = [t["shrink_rms"] for t in eff_tw if finite(t["shrink_rms"])]
-    med = float(np.median(shr)) if shr else float("nan")
-    med_rms = float(np.median(shr_rms)) if shr_rms else float("nan")
-
-    rows = list(effect_names) + ["null"] + ([f"{e} (removed)" for e in effect_names]
-                                            if removed_rows else [])
-    cols = list(effect_names) + ["none", "unexplained"]
-    mat = np.zeros((len(rows), len(cols)), dtype=int)
-    for t in twins:
-        r = (t["true_effect"] if t["type"] == "effect" else "null" if t["type"] == "null"
-             else f"{t['true_effect']} (removed)")
-        c = t["predicted"].split("+")[0]
-        mat[rows.index(r), cols.index(c)] += 1
-    confusion = {"rows": rows, "columns": cols, "matrix": mat.tolist()}
-
-    mags = []
-    for t in eff_tw:
-        if t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"]:
-            lo, hi = t["interval"]
-            mags.append({"effect": t["true_effect"], "true": t["true_magnitude"],
-                         "fitted": t["fitted_magnitude"], "interval": [lo, hi],
-                         "covered": bool(lo <= t["true_magnitude"] <= hi)})
-    coverage = float(np.mean([m["covered"] for m in mags])) if mags else float("nan")
-    rel = [abs(m["fitted"] - m["true"]) / abs(m["true"]) for m in mags if m["true"]]
-    med_rel = float(np.median(rel)) if rel else float("nan")
-    values = {"top1_accuracy": top1, "null_false_attribution": null_false,
-              "out_of_catalogue_unexplained": ooc, "median_gap_shrink": med}
-    goals = {}
-    for k, (op, target) in GOALS.items():
-        v = values[k]
-        ok = (v >= target) if op == ">=" else (v <= target)
-        goals[k] = {"value": v, "goal": f"{op} {target}", "met": bool(ok) if v == v else False}
-    return {"top1_accuracy": top1, "null_false_attribution": null_false, "null_gap_flagged": null_flag,
-            "out_of_catalogue_unexplained": ooc, "median_gap_shrink": med,
-            "median_gap_shrink_rms": med_rms, "magnitude_coverage": coverage,
-            "magnitude_median_relative_error": med_rel, "confusion": confusion, "magnitudes": mags,
-            "goals": goals}
 
 
 def _intrinsic_sd(fps) -> Observations:
