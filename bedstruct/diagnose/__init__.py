@@ -12,8 +12,8 @@ from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_m
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
                         kelvin_radius)
 from .config import SimConfig, load_sim_config, make_simulator
-from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose, identification,
-                        diagnosis_design, gap_size)
+from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose,
+                        diagnosis_design, gap_size, identification)
 from .fingerprints import (Fingerprint, FingerprintSet, Simulator, compute_fingerprints,
                            nuisance_projector, simulate_replicates)
 from .measurements import (KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations,
@@ -24,8 +24,8 @@ from .observables import (AngleFit, angle_from_image, angle_from_particles, bed_
                           surface_profile, windowed_mean)
 from .report import diagnosis_report, validation_report
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
-from .validate import (ENGINE_PRESETS, GOALS, PRESETS, ValidationResult, engine_twin_design,
-                       twin_design, validate)
+from .validate import ENGINE_PRESETS, PRESETS, engine_twin_design, twin_design, validate
+from .validation_scores import GOALS, ValidationResult, score_twins
 from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table
 
 __all__ = [
@@ -44,8 +44,8 @@ __all__ = [
     "Simulator", "simulate_replicates", "Fingerprint", "FingerprintSet", "compute_fingerprints",
     "nuisance_projector", "ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute",
     # orchestration
-    "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement", "Diagnosis",
-    "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS", "ValidationResult", "twin_design",
-    "engine_twin_design", "validate",
+    "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
+    "NextMeasurement", "Diagnosis", "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS",
+    "ValidationResult", "score_twins", "twin_design", "engine_twin_design", "validate",
     "diagnosis_report", "validation_report",
 ]

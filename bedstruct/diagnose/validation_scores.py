@@ -131,6 +131,20 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
         ``out_of_catalogue_unexplained``, ``median_gap_shrink`` (and ``_rms``),
         ``magnitude_coverage``, ``magnitude_median_relative_error``, ``confusion``,
         ``magnitudes``, ``goals``.
+
+    Examples
+    --------
+    >>> twins = [
+    ...     {"type": "effect", "true_effect": "a", "true_magnitude": 0.5, "predicted": "a",
+    ...      "verdict": "attributed", "gap_significant": True, "shrink": 0.9, "shrink_rms": 0.8,
+    ...      "fitted_magnitude": 0.45, "interval": [0.3, 0.6]},
+    ...     {"type": "null", "true_effect": None, "true_magnitude": None, "predicted": "none",
+    ...      "verdict": "none", "gap_significant": False, "shrink": None, "shrink_rms": None}]
+    >>> s = score_twins(twins, ["a"], removed_rows=False)
+    >>> s["top1_accuracy"], s["null_false_attribution"], s["magnitude_coverage"]
+    (1.0, 0.0, 1.0)
+    >>> s["confusion"]["matrix"]
+    [[1, 0, 0], [0, 1, 0]]
     """
     eff_tw = [t for t in twins if t["type"] == "effect"]
     null_tw = [t for t in twins if t["type"] == "null"]
