@@ -187,7 +187,7 @@ def test_ageing_bond_breaks_by_sliding_not_by_elastic_shear():
         return sim, path
     stiff, path = shear(1e3, 5)      # far below the Coulomb limit: elastic shear only
     assert path > 10 * 1e-7          # the contact moved 10x the break slip back and forth ...
-    assert stiff.hx[0, 2] == 0.0 and stiff.hx[0, 1] == 0.0   # ... without sliding: bond intact
+    assert stiff.hx[0, 2] == 0.0 and stiff.hx[0, 1] < 1e-12   # ... without sliding (roundoff only)
     slid, _ = shear(0.05, 50)        # beyond it: the contact slides and the bond breaks
     assert slid.hx[0, 2] == 1.0
 
