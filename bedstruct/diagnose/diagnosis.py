@@ -22,7 +22,8 @@ from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simul
 from .measurements import MeasurementSet, measurement_from_dict
 from .where import WhereResult, _nan_mean, standardised_residuals, where
 
-__all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink", "NextMeasurement",
+__all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
+           "NextMeasurement",
            "Diagnosis", "diagnose"]
 
 SCHEMA = "bedstruct.diagnose/1"
@@ -50,8 +51,9 @@ def identification(fps, name: str) -> dict:
                 "checked": [], "unchecked": [],
                 "note": "moves these observables beyond 2 sigma in the fingerprint runs"}
     suggested = [d["name"] for d in f.effect.identify_with]
-    checked = [n for n in suggested if n in set(fps.names)]
-    unchecked = [n for n in suggested if n not in set(fps.names)]
+    simulated = set(fps.names)
+    checked = [n for n in suggested if n in simulated]
+    unchecked = [n for n in suggested if n not in simulated]
     if unchecked:
         note = ("the catalogue suggests " + ", ".join(unchecked) + " (not verified: the fingerprint "
                 "runs did not measure or could not observe it)")

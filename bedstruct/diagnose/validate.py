@@ -350,8 +350,11 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     reuse_ooc = simulator == "engine"
     plan = _twin_plan([e.name for e in effects], cfg, in_turn=reuse_ooc)
 
+    # everything that changes a twin's record: records of another validation are not reused
     signature = {"preset": preset, "simulator": simulator, "campaign": campaign, "seed": int(seed),
-                 "twin_seed": tseed}
+                 "twin_seed": tseed, "alpha": alpha, "select_alpha": select_alpha,
+                 "gof_alpha": gof_alpha, "refine": int(refine),
+                 "snr_range": [float(x) for x in snr_range]}
     done = _records_done(records, signature)
     twins, failed = [], []
     iterator = enumerate(plan)

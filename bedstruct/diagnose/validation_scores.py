@@ -107,6 +107,10 @@ def _records_done(records, signature: dict) -> dict:
             rec = json.loads(line)
         except json.JSONDecodeError as exc:
             raise ConfigError(f"{records}, line {n}: not a JSON twin record ({exc.msg})") from None
+        if not (isinstance(rec, dict) and isinstance(rec.get("twin"), int)
+                and rec.get("type") in ("effect", "null", "out_of_catalogue")):
+            raise ConfigError(f"{records}, line {n}: not a twin record (expected an object with an "
+                              "integer 'twin' and a 'type' of effect, null or out_of_catalogue)")
         if all(rec.get(k) == v for k, v in signature.items()):
             done[(int(rec["twin"]), rec["type"])] = rec
         else:

@@ -193,8 +193,13 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     # another validation's records are not taken as done
     other = validate("tiny", refine=0, records=recs, twin_seed=7)
     assert other.settings["resumed_twins"] == 0 and len(calls) == len(whole.twins)
+    # ... nor those of other statistics settings
+    assert validate("tiny", refine=0, records=recs, alpha=0.01).settings["resumed_twins"] == 0
     recs.write_text("{not json\n")
     with pytest.raises(ConfigError, match="line 1"):
+        validate("tiny", refine=0, records=recs)
+    recs.write_text('{"twin": 0, "type": "nul"}\n')
+    with pytest.raises(ConfigError, match="line 1: not a twin record"):
         validate("tiny", refine=0, records=recs)
     with pytest.raises(ConfigError, match="shard"):
         validate("tiny", shard=(2, 2))
