@@ -292,7 +292,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     records : path, optional
         JSON-lines file to which each twin's record is appended as it completes
         (score a partial run with :func:`score_twins`). Records already in the file
-        from a run of the same validation (preset, simulator, campaign, seeds) are
+        from a run of the same validation (preset, simulator, campaign, seeds, statistics
+        settings) are
         taken as done, not rerun: an interrupted validation resumes, and shards
         merged into one file (``cat``) are scored by running once more on it.
     shard : (int, int), optional
