@@ -119,6 +119,11 @@ def _run_validate(args) -> int:
         print(f"  {'null_gap_flagged':30s} {result.null_gap_flagged:.3f}")
         print(f"  {'median_gap_shrink_rms':30s} {result.median_gap_shrink_rms:.3f}")
         print(f"  {'magnitude_coverage':30s} {result.magnitude_coverage:.3f}")
+        ident = result.identifiable
+        if ident.get("not_identifiable"):
+            print(f"  identifiable effects only (not: {', '.join(ident['not_identifiable'])}): "
+                  f"top1 {ident['top1_accuracy']:.3f}, "
+                  f"out-of-catalogue unexplained {ident['out_of_catalogue_unexplained']:.3f}")
         for name, why in (result.settings.get("unobservable") or {}).items():
             print(f"  missing data: {name} dropped ({why})")
     return 0

@@ -173,6 +173,15 @@ def validation_report(result):
                      "fraction of correct attributions whose 95 % CI holds the true magnitude")
         s.add_number("magnitude_median_relative_error", result.magnitude_median_relative_error, "1",
                      "median |fitted - true| / true")
+        ident = result.identifiable
+        if ident.get("not_identifiable"):
+            why = (f"over the twins of identifiable effects only (not identifiable with these "
+                   f"observables: {', '.join(ident['not_identifiable'])})")
+            s.add_number("top1_accuracy_identifiable", ident["top1_accuracy"], "1",
+                         f"{why}; {ident['n_effect_twins']} twin(s)")
+            s.add_number("out_of_catalogue_unexplained_identifiable",
+                         ident["out_of_catalogue_unexplained"], "1",
+                         f"{why}; {ident['n_out_of_catalogue_twins']} twin(s)")
         missing = result.settings.get("missing_runs") or {}
         dropped = result.settings.get("unobservable") or {}
         failed = result.settings.get("failed") or []

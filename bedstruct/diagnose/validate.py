@@ -421,7 +421,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 failed.append({"twin": i, "type": kind, **truth, "error": str(exc)[:500]})
 
     sc = score_twins(twins, [e.name for e in effects],
-                     removed_rows=bool(cfg["out_of_catalogue"] or reuse_ooc))
+                     removed_rows=bool(cfg["out_of_catalogue"] or reuse_ooc),
+                     identifiable={f.name: bool(f.identifiable) for f in fps.fingerprints})
     settings = {"replicates": cfg["replicates"], "per_effect": cfg["per_effect"], "null": cfg["null"],
                 "out_of_catalogue_per_effect": cfg["out_of_catalogue"] or (
                     "each effect twin, its effect removed" if reuse_ooc else 0),
@@ -451,4 +452,4 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                             sc["median_gap_shrink"], sc["median_gap_shrink_rms"],
                             sc["magnitude_coverage"], sc["magnitude_median_relative_error"],
                             sc["confusion"], sc["magnitudes"], twins, sc["goals"],
-                            time.perf_counter() - t0, settings)
+                            time.perf_counter() - t0, settings, sc["identifiable"])

@@ -54,6 +54,12 @@ class ValidationResult:
         One record per twin.
     goals : dict
         Each goal with its value and whether it is met.
+    identifiable : dict
+        Scores over the twins whose true effect the fingerprints found identifiable
+        (``effects``, ``top1_accuracy``, ``out_of_catalogue_unexplained`` and the twin
+        counts); empty when identifiability was not given. A twin of an effect that these
+        observables cannot see at any magnitude of its prior tests the identifiability
+        report, not the attribution.
     """
 
     preset: str
@@ -72,6 +78,7 @@ class ValidationResult:
     goals: dict
     seconds: float
     settings: dict = field(default_factory=dict)
+    identifiable: dict = field(default_factory=dict)
 
     def report(self):
         """The validation as a :class:`bedstruct.report._model.Report`."""
@@ -90,6 +97,7 @@ class ValidationResult:
                 "magnitude_coverage": self.magnitude_coverage,
                 "magnitude_median_relative_error": self.magnitude_median_relative_error,
                 "confusion": self.confusion, "magnitudes": self.magnitudes, "goals": self.goals,
+                "identifiable": self.identifiable,
                 "n_twins": len(self.twins), "twins": self.twins, "seconds": self.seconds,
                 "settings": self.settings}
 
@@ -122,11 +130,25 @@ def _records_done(records, signature: dict) -> dict:
     return done
 
 
-def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
+def score_twins(twins, effect_names, *, removed_rows: bool = True,
+                identifiable=None) -> dict:
     """Scores of a list of twin records (as in ``ValidationResult.twins``).
 
     Also used on a partial run: ``validate(..., records=PATH)`` appends each twin's
     record to a JSON-lines file as it completes.
+
+    Parameters
+    ----------
+    twins : list of dict
+        Twin records.
+    effect_names : sequence of str
+        The catalogue, in the confusion matrix's order.
+    removed_rows : bool
+        Add the "(removed)" rows of out-of-catalogue twins to the confusion matrix.
+    identifiable : mapping of str to bool, optional
+        Per effect, whether the fingerprints found it identifiable
+        (:attr:`Fingerprint.identifiable`); adds the ``identifiable`` scores, over the
+        twins of identifiable effects only.
 
     Returns
     -------
@@ -134,7 +156,7 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
         ``top1_accuracy``, ``null_false_attribution``, ``null_gap_flagged``,
         ``out_of_catalogue_unexplained``, ``median_gap_shrink`` (and ``_rms``),
         ``magnitude_coverage``, ``magnitude_median_relative_error``, ``confusion``,
-        ``magnitudes``, ``goals``.
+        ``magnitudes``, ``goals``, ``identifiable`` (``{}`` without `identifiable`).
 
     Examples
     --------
@@ -149,6 +171,16 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
     (1.0, 0.0, 1.0)
     >>> s["confusion"]["matrix"]
     [[1, 0, 0], [0, 1, 0]]
+
+    An effect the observables cannot see is scored apart:
+
+    >>> twins.append({"type": "effect", "true_effect": "b", "true_magnitude": 0.4,
+    ...               "predicted": "none", "verdict": "none", "gap_significant": False,
+    ...               "shrink": None, "shrink_rms": None})
+    >>> s = score_twins(twins, ["a", "b"], removed_rows=False,
+    ...                 identifiable={"a": True, "b": False})
+    >>> s["top1_accuracy"], s["identifiable"]["top1_accuracy"], s["identifiable"]["not_identifiable"]
+    (0.5, 1.0, ['b'])
     """
     eff_tw = [t for t in twins if t["type"] == "effect"]
     null_tw = [t for t in twins if t["type"] == "null"]
@@ -157,10 +189,16 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
     def frac(items, pred):
         return float(np.mean([bool(pred(t)) for t in items])) if items else float("nan")
 
-    top1 = frac(eff_tw, lambda t: t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"])
+    def top1_hit(t):
+        return t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"]
+
+    def ooc_hit(t):
+        return t["verdict"] == "unexplained"
+
+    top1 = frac(eff_tw, top1_hit)
     null_false = frac(null_tw, lambda t: t["verdict"] == "attributed")
     null_flag = frac(null_tw, lambda t: t["gap_significant"])
-    ooc = frac(ooc_tw, lambda t: t["verdict"] == "unexplained")
+    ooc = frac(ooc_tw, ooc_hit)
     def finite(x):  # NaN is null in records read back from JSON
         return isinstance(x, (int, float)) and x == x
 
@@ -197,8 +235,16 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True) -> dict:
         v = values[k]
         ok = (v >= target) if op == ">=" else (v <= target)
         goals[k] = {"value": v, "goal": f"{op} {target}", "met": bool(ok) if v == v else False}
+    ident = {}
+    if identifiable is not None:
+        seen = [e for e in effect_names if identifiable.get(e, False)]
+        eff_i = [t for t in eff_tw if t["true_effect"] in seen]
+        ooc_i = [t for t in ooc_tw if t["true_effect"] in seen]
+        ident = {"effects": seen, "not_identifiable": [e for e in effect_names if e not in seen],
+                 "top1_accuracy": frac(eff_i, top1_hit), "n_effect_twins": len(eff_i),
+                 "out_of_catalogue_unexplained": frac(ooc_i, ooc_hit), "n_out_of_catalogue_twins": len(ooc_i)}
     return {"top1_accuracy": top1, "null_false_attribution": null_false, "null_gap_flagged": null_flag,
             "out_of_catalogue_unexplained": ooc, "median_gap_shrink": med,
             "median_gap_shrink_rms": med_rms, "magnitude_coverage": coverage,
             "magnitude_median_relative_error": med_rel, "confusion": confusion, "magnitudes": mags,
-            "goals": goals}
+            "goals": goals, "identifiable": ident}

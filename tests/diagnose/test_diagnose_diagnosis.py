@@ -96,12 +96,20 @@ def test_tiny_validation_meets_the_goals():
     m = np.asarray(r.confusion["matrix"])
     assert m.sum() == len(r.twins) == 28
     assert r.report().failed == []
+    # scores over identifiable effects: every surrogate effect is identifiable on this design
+    ident = j["identifiable"]
+    assert ident["effects"] == r.settings["effects"] and ident["not_identifiable"] == []
+    assert ident["top1_accuracy"] == r.top1_accuracy and ident["n_effect_twins"] == 12
     # an engine validation's missing data are stated in the report
     from dataclasses import replace
     holes = replace(r, settings=dict(r.settings, missing_runs={"dynamic_angle_x5_early": 3},
                                      unobservable={"psd_after_x1": "not observed in 4 of 20 runs"}))
     goals = [s for s in holes.report().sections if s.key == "goals"][0]
     assert "dynamic_angle_x5_early not observed in 3" in goals.text and "psd_after_x1 dropped" in goals.text
+    assert "top1_accuracy_identifiable" not in goals.numbers
+    blind = replace(r, identifiable=dict(ident, not_identifiable=["wall_friction"]))
+    goals = [s for s in blind.report().sections if s.key == "goals"][0]
+    assert "wall_friction" in goals.numbers["top1_accuracy_identifiable"].definition
 
 
 def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
