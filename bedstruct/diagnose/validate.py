@@ -58,6 +58,13 @@ ENGINE_PRESETS = {
                   effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup",
                            "non_sphericity")),
 }
+#: Revision of how twins are made, in every twin record: records of another revision are not
+#: resumed. 2: a twin's magnitude is sized in its own noise (its file states one run's
+#: scatter, the pooled estimate, on top of the reading noise); 1 sized it in the design's
+#: reading noise and stated the scatter at its upper bound, so its gap was smaller than stated.
+_TWIN_RULE = 2
+
+
 def engine_scale_model(preset: str) -> str:
     """The engine preset (scale model) a validation preset runs on by default.
 
@@ -226,15 +233,31 @@ def _twin_plan(effect_names, cfg: dict, *, in_turn: bool) -> list[tuple[str, str
     return plan
 
 
-def _magnitude_for_snr(fps, name: str, snr: float) -> float:
+def _twin_sigma(fps, intrinsic) -> np.ndarray:
+    """Per component, the noise of ``twin - mean(base runs)`` as the twin's diagnosis sees it.
+
+    The twin's stated uncertainty (reading noise and one run's scatter) combined with the
+    base runs' mean, i.e. :attr:`FingerprintSet.sigma` with the twin's file in place of the
+    design's uncertainties.
+    """
+    comp = fps.design.component_names()
+    sd = np.zeros(len(comp))
+    for name in fps.names:
+        sd[comp == name] = np.asarray(intrinsic[name], dtype=float)
+    n = np.maximum(np.sum(np.isfinite(fps.base_samples), axis=0), 1)
+    return np.sqrt(fps.sigma_meas ** 2 + sd ** 2 + fps.sim_var / n)
+
+
+def _magnitude_for_snr(fps, name: str, snr: float, sigma=None) -> float:
     """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
 
-    Solved by bisection on the quadratic fingerprint within the prior range (the prior top
-    when even that is weaker).
+    ``sigma`` (per component, default :attr:`FingerprintSet.sigma`) is the noise the gap is
+    measured in; a twin's is :func:`_twin_sigma`. Solved by bisection on the quadratic
+    fingerprint within the prior range (the prior top when even that is weaker).
     """
     from .fingerprints import nuisance_projector
     cal = fps.rows_calibrate
-    sig = fps.sigma[cal]
+    sig = (fps.sigma if sigma is None else np.asarray(sigma, dtype=float))[cal]
     P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
     fp = fps[name]
 
@@ -251,9 +274,16 @@ def _magnitude_for_snr(fps, name: str, snr: float) -> float:
 
 
 def _intrinsic_sd(fps) -> Observations:
-    """Per-observable standard deviation of one simulator run (pooled replicate scatter)."""
+    """Per-observable standard deviation of one simulator run.
+
+    The pooled replicate scatter itself, not the upper confidence bound the diagnosis puts
+    on it (:attr:`FingerprintSet.sim_var`): a twin's one run scatters like any run, and its
+    file states that scatter as the standard deviation of repeated experiments would.
+    """
+    from .fingerprints import variance_upper_bound
     comp = fps.design.component_names()
-    sd = np.sqrt(fps.sim_var)
+    var = fps.sim_var if fps.sim_dof is None else fps.sim_var / variance_upper_bound(fps.sim_dof)
+    sd = np.sqrt(var)
     return Observations({n: sd[comp == n] for n in fps.names})
 
 
@@ -343,6 +373,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
                                alpha=select_alpha, simulator_name=simulator, progress=progress)
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
+    # twins are sized in the noise their own diagnosis sees (their files state one run's
+    # scatter on top of the reading noise), not in the design's reading noise alone
+    twin_sigma = _twin_sigma(fps, intrinsic)
     if fps.meta.get("unobservable"):  # the simulator cannot give them: no twin measures them
         measured = MeasurementSet(tuple(m for m in measured if m.name in fps.names),
                                   measured.title, measured.source, measured.path, measured.notes)
@@ -355,7 +388,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     signature = {"preset": preset, "simulator": simulator, "campaign": campaign, "seed": int(seed),
                  "twin_seed": tseed, "alpha": alpha, "select_alpha": select_alpha,
                  "gof_alpha": gof_alpha, "refine": int(refine),
-                 "snr_range": [float(x) for x in snr_range]}
+                 "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE}
     done = _records_done(records, signature)
     twins, failed = [], []
     iterator = enumerate(plan)
@@ -396,7 +429,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             effects_true, magnitude = {}, None
             if name is not None:
                 snr = float(rng.uniform(*snr_range))
-                magnitude = _magnitude_for_snr(fps, name, snr)
+                magnitude = _magnitude_for_snr(fps, name, snr, twin_sigma)
                 effects_true = {name: magnitude}
             twin_run_seed = tseed * 100003 + 5000 + i
             truth = {"true_effect": name, "true_magnitude": magnitude,
@@ -440,7 +473,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 "select_alpha": select_alpha,
                 "gof_alpha": gof_alpha, "seed": seed, "twin_seed": tseed,
                 "twin_magnitudes": f"gap of U{tuple(snr_range)} sigma on calibration observables "
-                                   "after recalibration (capped at the prior top)",
+                                   "after recalibration, in the twin's own noise (reading noise, "
+                                   "one run's scatter, the base runs' mean); capped at the prior top",
                 "twin_cohesion": "base x (1 + U(-0.02, 0.02))",
                 "design": "twin_design()" if simulator == "surrogate" else
                           f"engine_twin_design({campaign!r})",
