@@ -11,7 +11,7 @@ import pytest
 from bedstruct.cli import main
 from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, compute_fingerprints,
                                 diagnose, diagnosis_design, load_measurements, validate)
-from bedstruct.diagnose.validate import _magnitude_for_snr, _twin_measurements, twin_design
+from bedstruct.diagnose.validate import _magnitude_for_snr, _twin_measurements, _twin_sigma, twin_design
 
 SEED = pathlib.Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
 
@@ -28,6 +28,26 @@ def twin_setup():
 def _twin(sim, fps, tmp_path, effects, seed):
     return _twin_measurements(twin_design(), sim, dict(BASE_PARAMETERS), effects, seed, tmp_path, seed,
                               sim.noise_sd())
+
+
+def test_twins_are_sized_in_the_noise_their_diagnosis_sees(twin_setup, tmp_path):
+    from bedstruct.diagnose.fingerprints import nuisance_projector
+    eff, sim, fps = twin_setup
+    sig = _twin_sigma(fps, sim.noise_sd())
+    real = _twin(sim, fps, tmp_path, {}, 3)
+    comp = fps.design.component_names()
+    n = np.maximum(np.isfinite(fps.base_samples).sum(axis=0), 1)
+    # the twin's file states the noise that its diagnosis combines with the base runs' mean
+    for m in real:
+        i = comp == m.name
+        assert np.allclose(np.sqrt(np.asarray(m.uncertainty) ** 2 + fps.sim_var[i] / n[i]), sig[i])
+    assert np.all(sig >= fps.sigma) and np.any(sig > 1.2 * fps.sigma)
+    # a twin asked for 8 sigma has a projected gap of 8 sigma in that noise
+    a = _magnitude_for_snr(fps, "blade_startup", 8.0, sig)
+    cal = fps.rows_calibrate
+    P = nuisance_projector(fps.sensitivities[cal] / sig[cal, None])
+    assert np.linalg.norm(P @ (fps["blade_startup"].predict(a)[cal] / sig[cal])) == pytest.approx(8.0, rel=1e-6)
+    assert a > _magnitude_for_snr(fps, "blade_startup", 8.0)  # in the design's noise: weaker
 
 
 def test_withheld_effect_is_found_with_magnitude(twin_setup, tmp_path):
@@ -201,8 +221,11 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     # another validation's records are not taken as done
     other = validate("tiny", refine=0, records=recs, twin_seed=7)
     assert other.settings["resumed_twins"] == 0 and len(calls) == len(whole.twins)
-    # ... nor those of other statistics settings
+    # ... nor those of other statistics settings, nor twins made by an earlier rule
     assert validate("tiny", refine=0, records=recs, alpha=0.01).settings["resumed_twins"] == 0
+    lines = recs.read_text().splitlines()
+    recs.write_text("".join(json.dumps(dict(json.loads(x), twin_rule=1)) + "\n" for x in lines))
+    assert validate("tiny", refine=0, records=recs).settings["resumed_twins"] == 0
     recs.write_text("{not json\n")
     with pytest.raises(ConfigError, match="line 1"):
         validate("tiny", refine=0, records=recs)
