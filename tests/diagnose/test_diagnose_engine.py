@@ -308,18 +308,20 @@ def test_a_worker_whose_parent_was_killed_stops(tmp_path):
     script.write_text(
         "import multiprocessing, os, sys, time\n"
         "from bedstruct.workflows.diagnosis_pool import _exit_with_parent\n"
-        "def child():\n"
-        "    _exit_with_parent(os.getppid(), interval=0.1)\n"
+        "def child(parent):\n"
+        "    _exit_with_parent(parent, interval=0.1)\n"
         "    time.sleep(60)\n"
         "if __name__ == '__main__':\n"
-        "    p = multiprocessing.get_context('spawn').Process(target=child)\n"
+        "    # the parent's pid is passed, as the pool's initializer does: a child that starts\n"
+        "    # after its parent died must exit too\n"
+        "    p = multiprocessing.get_context('spawn').Process(target=child, args=(os.getpid(),))\n"
         "    p.start()\n"
         "    print(p.pid, flush=True)\n"
         "    time.sleep(1.0)\n"
         "    os._exit(0)  # dies without shutting its child down, as a killed parent would\n")
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=60)
     pid = int(out.stdout.split()[0])
-    deadline = time.time() + 10
+    deadline = time.time() + 30  # a loaded machine may take seconds to start the child
     alive = True
     while time.time() < deadline and alive:
         try:
