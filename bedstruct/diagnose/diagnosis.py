@@ -20,6 +20,7 @@ from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
 from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
+from .separation import nearest_imitations
 from .where import WhereResult, _nan_mean, standardised_residuals, where
 
 __all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
@@ -216,6 +217,7 @@ class Diagnosis:
             "shrink": self.shrink.as_dict(),
             "next": [n.as_dict() for n in self.next],
             "identifiability": self.fingerprints.table(),
+            "separation": nearest_imitations(self.fingerprints),
             "not_identifiable": [identification(self.fingerprints, f.name)
                                  for f in self.fingerprints.fingerprints if not f.identifiable],
             "settings": self.settings,

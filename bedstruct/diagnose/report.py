@@ -83,6 +83,15 @@ def diagnosis_report(diag, *, title: str | None = None):
                               [[r["effect"], _fmt(r["signal_sigma"]), _fmt(r["noise_sigma"]),
                                 r["identifiable"], ", ".join(r["confounded_with"]),
                                 _identified_by(fps, r)] for r in fps.table()]))
+        from .separation import nearest_imitations
+        s.tables.append(Table(["effect", "closest imitation by", "unique part", "told apart from a gap of (sigma)",
+                               "signal at prior top (sigma)"],
+                              [[r["effect"], r["other"], _fmt(r["unique_fraction"]),
+                                _fmt(r["gap_to_separate_sigma"]), _fmt(r["signal_sigma"])]
+                               for r in nearest_imitations(fps)],
+                              caption="which effects the calibration observables tell apart: the part of each "
+                                      "effect's fingerprint (at its prior top) that the closest other effect "
+                                      "cannot imitate, and the gap from which on the two are told apart"))
         notes = diag.data_notes()
         if notes:
             s.text += (" Runs that could not observe an observable (NaN) count as missing data: "

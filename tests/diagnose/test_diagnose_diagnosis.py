@@ -63,6 +63,11 @@ def test_withheld_effect_is_found_with_magnitude(twin_setup, tmp_path):
     j = d.to_json()
     assert j["simulator"] == "surrogate" and j["which"][0]["effect"] == "blade_startup"
     assert {"where", "which", "shrink", "next", "confidence"} <= set(j)
+    # which effects the design tells apart: each effect's closest imitation by another
+    assert [r["effect"] for r in j["separation"]] == [e.name for e in eff]
+    assert all(r["other"] != r["effect"] and 0 <= r["unique_fraction"] <= 1 for r in j["separation"])
+    fp_section = [s for s in d.report().sections if s.key == "fingerprints"][0]
+    assert any("closest imitation by" in t.columns for t in fp_section.tables)
     json.dumps(j, allow_nan=True)
 
 

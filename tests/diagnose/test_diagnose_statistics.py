@@ -209,3 +209,27 @@ def test_identification_suggests_only_what_the_runs_do_not_contradict():
         for f in fps.fingerprints))
     got = identification(only_checked, "D")
     assert got["evidence"] == "none" and got["identify_with"] == [] and "o12" in got["note"]
+
+
+# ------------------------------------------------------------------- separation
+def test_separation_is_the_sine_of_the_angle_between_projected_fingerprints():
+    from bedstruct.diagnose import separation
+    eff = {"A": F["A"], "B": F["B"] + 0.5 * F["A"], "C": -F["A"]}
+    design, sim, fps = _setup(effects=eff)
+    rows = {(r["effect"], r["other"]): r for r in separation(fps)}
+    cal = fps.rows_calibrate
+    P = nuisance_projector(fps.sensitivities[cal] / fps.sigma[cal, None])
+    v = {k: P @ (fps[k].predict(1.0)[cal] / fps.sigma[cal]) for k in eff}
+    cos = v["A"] @ v["B"] / np.linalg.norm(v["A"]) / np.linalg.norm(v["B"])
+    r = rows["A", "B"]
+    assert 0 < cos < 1 and r["unique_fraction"] == pytest.approx(np.sqrt(1 - cos ** 2), rel=1e-3)
+    assert r["signal_sigma"] == pytest.approx(fps["A"].signal)
+    assert r["gap_to_separate_sigma"] == pytest.approx(np.sqrt(fps.threshold) / r["unique_fraction"])
+    # C = -A: within its prior (magnitudes >= 0) C cannot imitate A at all
+    assert rows["A", "C"]["unique_fraction"] == pytest.approx(1.0)
+    # a fingerprint that is a multiple of another within its prior imitates it perfectly
+    design, sim, fps = _setup(effects={"A": F["A"], "B": 2.0 * F["A"]})
+    rows = {(r["effect"], r["other"]): r for r in separation(fps)}
+    assert rows["A", "B"]["unique_fraction"] < 1e-3 and not rows["A", "B"]["separable"]
+    # B at its prior top is twice A's top: A imitates only half of it
+    assert rows["B", "A"]["unique_fraction"] == pytest.approx(0.5, rel=1e-3)
