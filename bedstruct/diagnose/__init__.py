@@ -23,7 +23,7 @@ from .observables import (AngleFit, angle_from_image, angle_from_particles, bed_
                           psd_percentiles_from_cumulative, read_image, render_side_view, roughness,
                           surface_profile, windowed_mean)
 from .report import diagnosis_report, validation_report
-from .separation import nearest_imitations, separation
+from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 from .validate import ENGINE_PRESETS, PRESETS, engine_twin_design, twin_design, validate
 from .validation_scores import GOALS, ValidationResult, score_twins
@@ -47,6 +47,6 @@ __all__ = [
     # orchestration
     "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
     "NextMeasurement", "Diagnosis", "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS",
-    "ValidationResult", "score_twins", "separation", "nearest_imitations", "twin_design", "engine_twin_design", "validate",
+    "ValidationResult", "score_twins", "separation", "nearest_imitations", "not_told_apart", "twin_design", "engine_twin_design", "validate",
     "diagnosis_report", "validation_report",
 ]

@@ -20,7 +20,7 @@ from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
 from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
-from .separation import nearest_imitations
+from .separation import nearest_imitations, not_told_apart
 from .where import WhereResult, _nan_mean, standardised_residuals, where
 
 __all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
@@ -218,6 +218,7 @@ class Diagnosis:
             "next": [n.as_dict() for n in self.next],
             "identifiability": self.fingerprints.table(),
             "separation": nearest_imitations(self.fingerprints),
+            "not_told_apart_from": not_told_apart(att, self.fingerprints),
             "not_identifiable": [identification(self.fingerprints, f.name)
                                  for f in self.fingerprints.fingerprints if not f.identifiable],
             "settings": self.settings,
@@ -458,6 +459,13 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                             f"not confirmed")
     if verdict_note:
         att = replace(att, verdict="unexplained", selected=(), reason=verdict_note)
+    close = not_told_apart(att, fps)
+    if close:
+        att = replace(att, reason=att.reason + "; not told apart from " + ", ".join(
+            f"{c['effect']} (which lowers chi2 by only {c['preference']:.1f} less; these "
+            f"observables tell the two apart from a gap of {c['gap_to_separate_sigma']:.1f} "
+            f"sigma, this one is {c['gap_sigma']:.1f})" for c in close)
+            + ": see what to measure next")
 
     nxt = _next_measurements(att, fps)
     settings = {"replicates": fps.n_replicates, "seed": seed, "alpha": alpha,

@@ -20,7 +20,7 @@ import numpy as np
 
 from .fingerprints import FingerprintSet, nuisance_projector
 
-__all__ = ["nearest_imitations", "separation"]
+__all__ = ["nearest_imitations", "not_told_apart", "separation"]
 
 _GRID = 81  # magnitudes along the imitating effect's prior
 
@@ -114,3 +114,45 @@ def nearest_imitations(fps: FingerprintSet) -> list[dict]:
         if row["effect"] not in best or row["unique_fraction"] < best[row["effect"]]["unique_fraction"]:
             best[row["effect"]] = row
     return list(best.values())
+
+
+def not_told_apart(attribution, fps: FingerprintSet) -> list[dict]:
+    """Other effects that the first attributed effect is not told apart from by the data.
+
+    An effect B counts when it alone would also be selected (its chi-square decrease
+    passes the selection threshold) and the attributed effect A lowers the chi-square by
+    less than that threshold more than B does: the data favour A over B by less than the
+    selection asks of any effect over the null, so the answer could as well be B.
+
+    Parameters
+    ----------
+    attribution : Attribution
+    fps : FingerprintSet
+        The fingerprints the attribution used.
+
+    Returns
+    -------
+    list of dict
+        ``effect`` (B), ``delta_chi2`` (B's), ``preference`` (A's chi-square decrease
+        minus B's), ``unique_fraction`` and ``gap_to_separate_sigma`` (of A against B, from
+        :func:`separation`: the gap from which on this design tells the two apart) and
+        ``gap_sigma`` (A's, ``sqrt`` of its chi-square decrease); empty without an
+        attribution.
+    """
+    if attribution.verdict != "attributed" or not attribution.selected:
+        return []
+    top = attribution.selected[0]
+    level = float(attribution.threshold)
+    rows = {(r["effect"], r["other"]): r for r in separation(fps)}
+    out = []
+    for other in attribution.ranking:
+        r = rows.get((top.effect, other.effect))
+        if r is None or other.delta_chi2 <= level:
+            continue
+        preference = float(top.delta_chi2 - other.delta_chi2)
+        if preference < level:
+            out.append({"effect": other.effect, "delta_chi2": float(other.delta_chi2),
+                        "preference": preference, "unique_fraction": r["unique_fraction"],
+                        "gap_sigma": math.sqrt(max(float(top.delta_chi2), 0.0)),
+                        "gap_to_separate_sigma": r["gap_to_separate_sigma"]})
+    return out

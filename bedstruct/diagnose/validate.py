@@ -34,6 +34,7 @@ from .diagnosis import diagnose, diagnosis_design
 from .fingerprints import compute_fingerprints
 from .measurements import MeasurementSet, Observations, load_measurements, measurement_from_dict, \
     write_measurements
+from .separation import not_told_apart
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
 from .validation_scores import GOALS, ValidationResult, _records_done, score_twins
 
@@ -411,7 +412,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         if att.selected:
             top = att.selected[0]
             rec.update(fitted_magnitude=top.magnitude, interval=list(top.interval),
-                       confidence=top.confidence)
+                       confidence=top.confidence,
+                       not_told_apart=[c["effect"] for c in not_told_apart(att, diag.fingerprints)])
         twins.append(rec)
         log.info("twin %d %s %s -> %s", i, kind, name, rec["predicted"])
         if records is not None:

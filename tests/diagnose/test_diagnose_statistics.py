@@ -233,3 +233,26 @@ def test_separation_is_the_sine_of_the_angle_between_projected_fingerprints():
     assert rows["A", "B"]["unique_fraction"] < 1e-3 and not rows["A", "B"]["separable"]
     # B at its prior top is twice A's top: A imitates only half of it
     assert rows["B", "A"]["unique_fraction"] == pytest.approx(0.5, rel=1e-3)
+
+
+def test_an_effect_close_to_another_is_reported_not_told_apart_at_a_small_gap():
+    from bedstruct.diagnose import not_told_apart
+    eff = {"A": F["A"], "B": F["A"] + 0.35 * F["B"], "C": F["C"]}
+    design, sim, fps = _setup(effects=eff)
+    seen = {}
+    for a in (0.5, 1.0):
+        y = _real(sim, design, effects={"A": a}, noise=1.0, seed=7)
+        att = attribute(y - fps.base_samples.mean(axis=0), fps)
+        assert att.verdict == "attributed" and att.selected[0].effect == "A"
+        close = not_told_apart(att, fps)
+        seen[a] = [c["effect"] for c in close]
+        dchi2 = {e.effect: e.delta_chi2 for e in att.ranking}
+        for c in close:
+            assert c["preference"] == pytest.approx(dchi2["A"] - dchi2[c["effect"]])
+            assert c["preference"] < att.threshold < dchi2[c["effect"]]
+    # a small gap of A: B fits nearly as well; a large one: the data tell them apart
+    assert seen[0.5] == ["B"] and seen[1.0] == []
+    # C is orthogonal to both: never named
+    y = _real(sim, design, effects={"C": 1.0}, seed=7)
+    att = attribute(y - fps.base_samples.mean(axis=0), fps)
+    assert att.selected[0].effect == "C" and not_told_apart(att, fps) == []
