@@ -1,0 +1,48 @@
+"""bedstruct's numba kernels avoid the TBB threading layer (a process could hang at exit)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+SCRIPT = """
+import threading
+import numpy as np
+import numba
+from bedstruct._numba import njit_parallel, prange
+
+@njit_parallel(cache=False)
+def total(a):
+    s = 0.0
+    for i in prange(a.size):
+        s += a[i]
+    return s
+
+def worker():
+    assert total(np.ones(100_000)) == 100_000.0
+
+# a parallel kernel run from a thread other than the main one: with the TBB layer the
+# process could hang at exit (numba issue 10556)
+t = threading.Thread(target=worker)
+t.start()
+t.join()
+print(numba.threading_layer())
+"""
+
+
+def _run(env_extra):
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_THREADING_LAYER")}
+    env.update(env_extra, NUMBA_NUM_THREADS="2")
+    out = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True,
+                         timeout=300, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout.split()[-1]
+
+
+def test_parallel_kernels_do_not_use_tbb_and_the_process_exits():
+    assert _run({}) in ("omp", "workqueue")
+
+
+def test_a_users_threading_layer_choice_is_kept():
+    assert _run({"NUMBA_THREADING_LAYER_PRIORITY": "workqueue omp tbb"}) == "workqueue"
