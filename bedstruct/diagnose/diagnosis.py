@@ -20,7 +20,7 @@ from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
 from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
-from .separation import nearest_imitations, not_told_apart
+from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult, _nan_mean, standardised_residuals, where
 
 __all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
@@ -202,6 +202,7 @@ class Diagnosis:
         att = self.attribution
         confidence = (att.selected[0].confidence if att.selected else
                       (att.null.weight if att.verdict == "none" else None))
+        pairs = separation(self.fingerprints)
         return {
             "schema": SCHEMA, "simulator": self.simulator,
             "measurements": self.measurements.path or self.measurements.title,
@@ -217,8 +218,8 @@ class Diagnosis:
             "shrink": self.shrink.as_dict(),
             "next": [n.as_dict() for n in self.next],
             "identifiability": self.fingerprints.table(),
-            "separation": nearest_imitations(self.fingerprints),
-            "not_told_apart_from": not_told_apart(att, self.fingerprints),
+            "separation": nearest_imitations(pairs),
+            "not_told_apart_from": not_told_apart(att, self.fingerprints, rows=pairs),
             "not_identifiable": [identification(self.fingerprints, f.name)
                                  for f in self.fingerprints.fingerprints if not f.identifiable],
             "settings": self.settings,

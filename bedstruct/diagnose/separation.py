@@ -95,28 +95,36 @@ def separation(fps: FingerprintSet) -> list[dict]:
     return rows
 
 
-def nearest_imitations(fps: FingerprintSet) -> list[dict]:
+def nearest_imitations(fps_or_rows) -> list[dict]:
     """Per effect, the row of :func:`separation` for the other effect that imitates it best.
+
+    Parameters
+    ----------
+    fps_or_rows : FingerprintSet or list of dict
+        Fingerprints, or the rows :func:`separation` already gave for them.
+
+    Returns
+    -------
+    list of dict
+        One row of :func:`separation` per effect, in the rows' order of effects.
 
     Examples
     --------
-    >>> from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue,
-    ...                                 compute_fingerprints, diagnosis_design, twin_design)
-    >>> effects = catalogue()
-    >>> design = diagnosis_design(twin_design(), effects)
-    >>> fps = compute_fingerprints(SurrogateSimulator(design), design, BASE_PARAMETERS, effects,
-    ...                            replicates=2)
-    >>> [(r["effect"], r["other"]) for r in nearest_imitations(fps)][:2]
-    [('contact_ageing', 'non_sphericity'), ('capillary_bridges', 'non_sphericity')]
+    >>> rows = [{"effect": "a", "other": "b", "unique_fraction": 0.55},
+    ...         {"effect": "a", "other": "c", "unique_fraction": 0.97},
+    ...         {"effect": "b", "other": "a", "unique_fraction": 0.58}]
+    >>> [(r["effect"], r["other"]) for r in nearest_imitations(rows)]
+    [('a', 'b'), ('b', 'a')]
     """
+    rows = separation(fps_or_rows) if isinstance(fps_or_rows, FingerprintSet) else fps_or_rows
     best: dict[str, dict] = {}
-    for row in separation(fps):
+    for row in rows:
         if row["effect"] not in best or row["unique_fraction"] < best[row["effect"]]["unique_fraction"]:
             best[row["effect"]] = row
     return list(best.values())
 
 
-def not_told_apart(attribution, fps: FingerprintSet) -> list[dict]:
+def not_told_apart(attribution, fps: FingerprintSet, *, rows=None) -> list[dict]:
     """Other effects that the first attributed effect is not told apart from by the data.
 
     An effect B counts when it alone would also be selected (its chi-square decrease
@@ -129,6 +137,8 @@ def not_told_apart(attribution, fps: FingerprintSet) -> list[dict]:
     attribution : Attribution
     fps : FingerprintSet
         The fingerprints the attribution used.
+    rows : list of dict, optional
+        :func:`separation` of ``fps``, when already computed.
 
     Returns
     -------
@@ -143,10 +153,10 @@ def not_told_apart(attribution, fps: FingerprintSet) -> list[dict]:
         return []
     top = attribution.selected[0]
     level = float(attribution.threshold)
-    rows = {(r["effect"], r["other"]): r for r in separation(fps)}
+    by_pair = {(r["effect"], r["other"]): r for r in (separation(fps) if rows is None else rows)}
     out = []
     for other in attribution.ranking:
-        r = rows.get((top.effect, other.effect))
+        r = by_pair.get((top.effect, other.effect))
         if r is None or other.delta_chi2 <= level:
             continue
         preference = float(top.delta_chi2 - other.delta_chi2)

@@ -227,6 +227,10 @@ def test_separation_is_the_sine_of_the_angle_between_projected_fingerprints():
     assert r["gap_to_separate_sigma"] == pytest.approx(np.sqrt(fps.threshold) / r["unique_fraction"])
     # C = -A: within its prior (magnitudes >= 0) C cannot imitate A at all
     assert rows["A", "C"]["unique_fraction"] == pytest.approx(1.0)
+    # the closest imitation of A is B (C cannot imitate it), from fingerprints or from rows
+    from bedstruct.diagnose import nearest_imitations
+    near = {r["effect"]: r["other"] for r in nearest_imitations(fps)}
+    assert near["A"] == "B" and nearest_imitations(fps) == nearest_imitations(separation(fps))
     # a fingerprint that is a multiple of another within its prior imitates it perfectly
     design, sim, fps = _setup(effects={"A": F["A"], "B": 2.0 * F["A"]})
     rows = {(r["effect"], r["other"]): r for r in separation(fps)}
