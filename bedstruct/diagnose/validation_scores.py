@@ -107,7 +107,7 @@ def _records_done(records, signature: dict) -> dict:
     import json
     if records is None or not Path(records).exists():
         return {}
-    done, other = {}, 0
+    done, other, why = {}, 0, ""
     for n, line in enumerate(Path(records).read_text(encoding="utf-8").splitlines(), 1):
         if not line.strip():
             continue
@@ -119,12 +119,15 @@ def _records_done(records, signature: dict) -> dict:
                 and rec.get("type") in ("effect", "null", "out_of_catalogue")):
             raise ConfigError(f"{records}, line {n}: not a twin record (expected an object with an "
                               "integer 'twin' and a 'type' of effect, null or out_of_catalogue)")
-        if all(rec.get(k) == v for k, v in signature.items()):
+        differ = [k for k, v in signature.items() if rec.get(k) != v]
+        if not differ:
             done[(int(rec["twin"]), rec["type"])] = rec
         else:
             other += 1
+            why = why or ", ".join(f"{k} {rec.get(k)!r} (this run: {signature[k]!r})" for k in differ[:3])
     if other:
-        log.info("%s: %d record(s) of another validation ignored", records, other)
+        # a resumed long validation that silently reran everything would cost hours: say so
+        log.warning("%s: %d record(s) of another validation ignored, e.g. %s", records, other, why)
     if done:
         log.info("%s: %d twin record(s) of this validation taken as done", records, len(done))
     return done

@@ -201,7 +201,7 @@ def test_observable_order_in_the_file_does_not_matter(twin_setup, tmp_path):
     assert d2.attribution.selected[0].effect == "non_sphericity"
 
 
-def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, capsys):
+def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, capsys, caplog):
     """Shards run disjoint twins of one plan; their merged records score as the whole run."""
     from bedstruct.diagnose import PRESETS
     import importlib
@@ -230,7 +230,10 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     assert validate("tiny", refine=0, records=recs, alpha=0.01).settings["resumed_twins"] == 0
     lines = recs.read_text().splitlines()
     recs.write_text("".join(json.dumps(dict(json.loads(x), twin_rule=1)) + "\n" for x in lines))
-    assert validate("tiny", refine=0, records=recs).settings["resumed_twins"] == 0
+    with caplog.at_level("WARNING", logger="bedstruct.diagnose.validate"):
+        assert validate("tiny", refine=0, records=recs).settings["resumed_twins"] == 0
+    # the user is told why nothing was resumed
+    assert "twin_rule 1 (this run: 2)" in caplog.text
     recs.write_text("{not json\n")
     with pytest.raises(ConfigError, match="line 1"):
         validate("tiny", refine=0, records=recs)
