@@ -47,6 +47,8 @@ class ModelFit:
     chi2 : float
         Whitened residual sum of squares on the fitted rows.
     dof : int
+        Fitted rows less free parameters; a magnitude held at a bound of its prior is
+        fixed there and counts neither here nor in the leverage of ``max_resid``.
     p_value : float
         Goodness of fit, ``P(chi2_dof > chi2)``.
     aic, bic : float
@@ -193,6 +195,7 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
               if k else np.zeros((n, 0)))
         return np.hstack([Ja, -S])
 
+    active = np.zeros(k, bool)
     if k == 0:
         x = np.linalg.lstsq(S, r, rcond=None)[0] if p else np.zeros(0)
     else:
@@ -208,6 +211,7 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
             if best is None or sol.cost < best.cost:
                 best = sol
         x = best.x
+        active = best.active_mask[:k] != 0
     res = fun(x)
     chi2 = float(res @ res)
     J = jac(x)
@@ -219,11 +223,16 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     a, b = x[:k], x[k:]
     sea = se[:k]
     intervals = np.column_stack([a - _Z95 * sea, a + _Z95 * sea]) if k else np.zeros((0, 2))
-    dof = n - k - p
+    # A magnitude held at its prior bound is fixed there, not fitted: it neither uses a
+    # degree of freedom nor lends leverage (the slope of a response at its last node can be
+    # steep, and counting it would inflate the studentised residuals of the rows it drives).
+    free = np.concatenate([~active, np.ones(p, bool)])
+    dof = n - int(free.sum())
     pval = float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan")
     # Concentrated misfit: largest studentised residual (leverage-corrected), Sidak over rows.
     if dof > 0:
-        H = J @ np.linalg.pinv(J.T @ J) @ J.T if J.shape[1] else np.zeros((n, n))
+        Jf = J[:, free]
+        H = Jf @ np.linalg.pinv(Jf.T @ Jf) @ Jf.T if Jf.shape[1] else np.zeros((n, n))
         lev = np.clip(1.0 - np.diag(H), 1e-12, None)
         tmax = float(np.max(np.abs(res) / np.sqrt(lev)))
         p1 = min(2.0 * stats.norm.sf(tmax), 1.0 - 1e-16)

@@ -169,6 +169,31 @@ def test_interval_coverage_is_near_nominal():
     assert np.mean(chis) == pytest.approx(dof, rel=0.15)
 
 
+def test_a_magnitude_held_at_its_prior_bound_keeps_the_fit_test_at_its_level():
+    # truth at the top of the prior, with a response that bends hard between the last two
+    # nodes: about half the draws pin the magnitude at the bound. Counted as a free
+    # parameter there, its steep end slope inflated the studentised residuals and the
+    # true model was called a misfit at 1.7 times the nominal rate.
+    F_c = {"C": F["C"]}
+    Q_c = {"C": np.r_[0, 10, 0, 0, 0, -10, 0, 0, 0, 0, 0, 0] * 1.0}
+    design, sim, fps = _setup(effects=F_c, curvature=Q_c)
+    assert not fps["C"].linear
+    truth = sim({"k": 1.0}, {"C": 1.0}, 0).vector(fps.names) - fps.base_samples.mean(axis=0)
+    rng = np.random.default_rng(3)
+    n_rows = int(fps.rows_calibrate.sum())
+    p_fit, pinned = [], 0
+    for _ in range(800):
+        fit = fit_model(truth + rng.standard_normal(N), fps, ("C",))
+        p_fit.append(fit.p_fit)
+        if fit.magnitudes[0] >= 1.0 - 1e-6:
+            pinned += 1
+            assert fit.dof == n_rows - 1                      # only the recalibration is free
+        else:
+            assert fit.dof == n_rows - 2
+    assert 250 < pinned < 550
+    assert np.mean(np.array(p_fit) < 0.05) <= 0.05
+
+
 def test_a_fitting_but_non_identifiable_effect_is_not_named():
     # the same gap as the attribution test above, but B's fingerprint is marked as within its
     # own estimation noise: a fit through it must not become a confident attribution
