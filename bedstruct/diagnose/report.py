@@ -164,6 +164,7 @@ def validation_report(result):
     """A report of a :class:`ValidationResult` (goals, confusion matrix, magnitude recovery)."""
     from ..report._model import Report, Table, run_section
     from ..plot import diagnose as pdg
+    from .validation_scores import capped_twins
 
     rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
                  inputs={"simulator": result.simulator, "preset": result.preset},
@@ -191,6 +192,12 @@ def validation_report(result):
             s.add_number("out_of_catalogue_unexplained_identifiable",
                          ident["out_of_catalogue_unexplained"], "1",
                          f"{why}; {ident['n_out_of_catalogue_twins']} twin(s)")
+        capped = capped_twins(result.twins)
+        if capped:
+            s.text += (f" {len(capped)} effect twin(s) held at the top of the prior below the "
+                       "drawn gap (" + ", ".join(f"{t['true_effect']} {t['twin_gap_sigma']:.1f}σ"
+                                                  for t in capped)
+                       + "): the prior range caps how strong a twin of that effect can be.")
         missing = result.settings.get("missing_runs") or {}
         dropped = result.settings.get("unobservable") or {}
         failed = result.settings.get("failed") or []
@@ -213,7 +220,20 @@ def validation_report(result):
                                 f"[{m['interval'][0]:.3g}, {m['interval'][1]:.3g}]", m["covered"]]
                                for m in result.magnitudes]))
 
+    def twins(s):
+        drawn = next((tuple(t["snr_range"]) for t in result.twins if t.get("snr_range")), None)
+        s.text = ("One row per diagnosis. Twin gap: the effect's gap on the calibration "
+                  "observables after recalibration, in the twin's own noise (drawn "
+                  + (f"from U{drawn}σ, " if drawn else "") + "capped at the prior top).")
+        s.tables.append(Table(
+            ["twin", "type", "true effect", "true magnitude", "twin gap (σ)", "verdict",
+             "diagnosis", "fitted", "held-out gap shrink", "not told apart from"],
+            [[t["twin"], t["type"], t.get("true_effect") or "", _fmt(t.get("true_magnitude")),
+              _fmt(t.get("twin_gap_sigma"), 2), t["verdict"], t["predicted"],
+              _fmt(t.get("fitted_magnitude")), _fmt(t.get("shrink"), 2),
+              ", ".join(t.get("not_told_apart") or [])] for t in result.twins]))
+
     for key, t, fn in (("goals", "Goals", goals), ("confusion", "Confusion matrix", confusion),
-                       ("magnitudes", "Magnitude recovery", magnitudes)):
+                       ("magnitudes", "Magnitude recovery", magnitudes), ("twins", "Twins", twins)):
         rep.sections.append(run_section(key, t, fn))
     return rep

@@ -249,12 +249,12 @@ def _twin_sigma(fps, intrinsic) -> np.ndarray:
     return np.sqrt(fps.sigma_meas ** 2 + sd ** 2 + fps.sim_var / n)
 
 
-def _magnitude_for_snr(fps, name: str, snr: float, sigma=None) -> float:
-    """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
+def _projected_gap(fps, name: str, sigma=None):
+    """``gap(a)``: the recalibration-projected gap of effect ``name`` at magnitude ``a``, in sigma.
 
-    ``sigma`` (per component, default :attr:`FingerprintSet.sigma`) is the noise the gap is
-    measured in; a twin's is :func:`_twin_sigma`. Solved by bisection on the quadratic
-    fingerprint within the prior range (the prior top when even that is weaker).
+    The norm, on the calibration observables, of the fingerprint's predicted change with the
+    part recalibration absorbs projected out, in the noise ``sigma`` (per component, default
+    :attr:`FingerprintSet.sigma`; a twin's is :func:`_twin_sigma`).
     """
     from .fingerprints import nuisance_projector
     cal = fps.rows_calibrate
@@ -262,10 +262,19 @@ def _magnitude_for_snr(fps, name: str, snr: float, sigma=None) -> float:
     P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
     fp = fps[name]
 
-    def norm(a):
+    def gap(a):
         return float(np.linalg.norm(P @ (fp.predict(a)[cal] / sig)))
+    return gap
 
-    lo, hi = 0.0, fp.effect.prior[1]
+
+def _magnitude_for_snr(fps, name: str, snr: float, sigma=None) -> float:
+    """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
+
+    ``sigma`` as in :func:`_projected_gap`. Solved by bisection on the fingerprint within the
+    prior range (the prior top when even that is weaker).
+    """
+    norm = _projected_gap(fps, name, sigma)
+    lo, hi = 0.0, fps[name].effect.prior[1]
     if norm(hi) <= snr:
         return hi
     for _ in range(60):
@@ -428,14 +437,18 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         for i, (kind, name) in iterator:
             base_true = dict(base)
             base_true["cohesion_energy_density"] *= 1.0 + rng.uniform(-0.02, 0.02)
-            effects_true, magnitude = {}, None
+            effects_true, magnitude, gaps = {}, None, {}
             if name is not None:
                 snr = float(rng.uniform(*snr_range))
                 magnitude = _magnitude_for_snr(fps, name, snr, twin_sigma)
                 effects_true = {name: magnitude}
+                # below the draw when the prior top is weaker: such a twin is scored as
+                # drawn, and its record says how strong it could be
+                gaps = {"requested_gap_sigma": snr,
+                        "twin_gap_sigma": _projected_gap(fps, name, twin_sigma)(magnitude)}
             twin_run_seed = tseed * 100003 + 5000 + i
             truth = {"true_effect": name, "true_magnitude": magnitude,
-                     "true_cohesion": base_true["cohesion_energy_density"]}
+                     "true_cohesion": base_true["cohesion_energy_density"], **gaps}
             if shard is not None and i % n_shard != k_shard:
                 continue  # another shard's twin (its draws above keep the plan's)
             kinds = [kind] + (["out_of_catalogue"] if reuse_ooc and kind == "effect" else [])

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["GOALS", "ValidationResult", "score_twins"]
+__all__ = ["GOALS", "ValidationResult", "capped_twins", "score_twins"]
 
 log = logging.getLogger("bedstruct.diagnose.validate")
 
@@ -131,6 +131,21 @@ def _records_done(records, signature: dict) -> dict:
     if done:
         log.info("%s: %d twin record(s) of this validation taken as done", records, len(done))
     return done
+
+
+def capped_twins(twins) -> list[dict]:
+    """Effect twins whose magnitude the prior top held below the gap drawn for them.
+
+    Examples
+    --------
+    >>> capped_twins([{"type": "effect", "true_effect": "a", "requested_gap_sigma": 7.0,
+    ...                "twin_gap_sigma": 4.4},
+    ...               {"type": "effect", "true_effect": "b", "requested_gap_sigma": 6.0,
+    ...                "twin_gap_sigma": 6.0}, {"type": "null", "true_effect": None}])
+    [{'type': 'effect', 'true_effect': 'a', 'requested_gap_sigma': 7.0, 'twin_gap_sigma': 4.4}]
+    """
+    return [t for t in twins if t["type"] == "effect" and t.get("twin_gap_sigma") is not None
+            and t["twin_gap_sigma"] < (1 - 1e-6) * t["requested_gap_sigma"]]
 
 
 def score_twins(twins, effect_names, *, removed_rows: bool = True,

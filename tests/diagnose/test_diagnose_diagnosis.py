@@ -11,6 +11,7 @@ import pytest
 from bedstruct.cli import main
 from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, compute_fingerprints,
                                 diagnose, diagnosis_design, load_measurements, validate)
+from bedstruct.diagnose.validation_scores import capped_twins
 from bedstruct.diagnose.validate import _magnitude_for_snr, _twin_measurements, _twin_sigma, twin_design
 
 SEED = pathlib.Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
@@ -135,6 +136,19 @@ def test_tiny_validation_meets_the_goals():
     blind = replace(r, identifiable=dict(ident, not_identifiable=["wall_friction"]))
     goals = [s for s in blind.report().sections if s.key == "goals"][0]
     assert "wall_friction" in goals.numbers["top1_accuracy_identifiable"].definition
+    # every effect twin records the gap drawn for it and the gap it has (the drawn one unless
+    # the prior top caps it); the report lists every twin
+    eff = [t for t in r.twins if t["type"] == "effect"]
+    assert all(5.0 <= t["requested_gap_sigma"] <= 10.0 for t in eff)
+    assert all(t["twin_gap_sigma"] <= t["requested_gap_sigma"] * (1 + 1e-6) for t in eff)
+    uncapped = [t for t in eff if t not in capped_twins(r.twins)]
+    assert uncapped and all(t["twin_gap_sigma"] == pytest.approx(t["requested_gap_sigma"], rel=1e-6)
+                            for t in uncapped)
+    table = [s for s in r.report().sections if s.key == "twins"][0].tables[0]
+    assert len(table.rows) == len(r.twins) and "twin gap (σ)" in table.columns
+    weak = replace(r, twins=[dict(eff[0], twin_gap_sigma=2.5)] + r.twins[1:])
+    goals = [s for s in weak.report().sections if s.key == "goals"][0]
+    assert f"{eff[0]['true_effect']} 2.5σ" in goals.text
 
 
 def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
