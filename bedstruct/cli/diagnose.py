@@ -3,7 +3,8 @@
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--json]
   bedstruct diagnose validate --preset tiny|small [--simulator surrogate|engine]
                              [--campaign seed|full] [--sim CONFIG] [--cache DIR]
-                             [--records FILE] [--shard K/N] [--out DIR] [--json]
+                             [--records FILE] [--shard K/N] [--twin-repeats R]
+                             [--out DIR] [--json]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -20,7 +21,8 @@ twins' files; ``--cache DIR``
 keeps every engine run on disk for reruns; ``--preset mini`` is a one-effect smoke
 run; ``--records FILE`` appends each twin's record as it completes and resumes
 from the records already there; ``--shard K/N`` runs every N-th twin from the K-th,
-to split one validation over processes or machines). Every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
+to split one validation over processes or machines; ``--twin-repeats R`` makes each
+twin's file the mean of R repeated experiments). Every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
 """
 
 from __future__ import annotations
@@ -55,6 +57,9 @@ def add_arguments(parser) -> None:
                              "completes; twins already recorded there are not rerun")
     parser.add_argument("--shard", metavar="K/N", type=_shard,
                         help="validate: run only twins i with i %% N == K (0 <= K < N)")
+    parser.add_argument("--twin-repeats", type=int, default=1, metavar="R",
+                        help="validate: repeated experiments per twin, its file states their mean "
+                             "and standard error (default 1; R simulator calls per twin)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -102,7 +107,8 @@ def _run_validate(args) -> int:
         raise ConfigError("--sim/--cache/--jobs with validate need --simulator engine")
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
-                      campaign=args.campaign, records=args.records, shard=args.shard)
+                      campaign=args.campaign, records=args.records, shard=args.shard,
+                      twin_repeats=args.twin_repeats)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)

@@ -193,15 +193,27 @@ def _label(diag) -> str:
     return att.verdict
 
 
+def _repeat_seed(seed: int, k: int) -> int:
+    """Seed of the ``k``-th repeated experiment of a twin (the first is the twin's own)."""
+    return int(seed) + 7919 * int(k)
+
+
 def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx: int,
-                       intrinsic) -> MeasurementSet:
-    # The 'real' run carries the run-to-run scatter of the process (the simulator's replicate
-    # noise) plus reading noise; the stated uncertainty covers both, as the standard deviation
-    # of repeated experiments would.
-    obs = sim(base_true, effects, seed)
+                       intrinsic, repeats: int = 1) -> MeasurementSet:
+    # Each 'real' experiment carries the run-to-run scatter of the process (the simulator's
+    # replicate noise) plus reading noise; the file states the mean of the repeated
+    # experiments with its standard error (both noises over the number of repeats that
+    # observed it), as a lab that repeats a test reports it.
+    runs = [sim(base_true, effects, _repeat_seed(seed, k)) for k in range(repeats)]
     rng = np.random.default_rng([seed, 99])
-    noisy = {m.name: obs[m.name] + m.uncertainty * rng.standard_normal(m.n_components) for m in design}
-    stated = {m.name: np.sqrt(m.uncertainty ** 2 + intrinsic[m.name] ** 2) for m in design}
+    noisy, stated = {}, {}
+    for m in design:
+        vals = np.array([r[m.name] + m.uncertainty * rng.standard_normal(m.n_components)
+                         for r in runs])
+        seen = np.isfinite(vals).sum(axis=0)
+        with np.errstate(invalid="ignore"):
+            noisy[m.name] = np.where(seen > 0, np.nansum(vals, axis=0) / np.maximum(seen, 1), np.nan)
+        stated[m.name] = np.sqrt((m.uncertainty ** 2 + intrinsic[m.name] ** 2) / np.maximum(seen, 1))
     twin = design.with_values(Observations(noisy, source="twin"),
                               uncertainty=Observations(stated), provenance="synthetic twin")
     # what the 'experiment' could not observe (e.g. no heap to fit) is not in its file
@@ -234,19 +246,19 @@ def _twin_plan(effect_names, cfg: dict, *, in_turn: bool) -> list[tuple[str, str
     return plan
 
 
-def _twin_sigma(fps, intrinsic) -> np.ndarray:
+def _twin_sigma(fps, intrinsic, repeats: int = 1) -> np.ndarray:
     """Per component, the noise of ``twin - mean(base runs)`` as the twin's diagnosis sees it.
 
-    The twin's stated uncertainty (reading noise and one run's scatter) combined with the
-    base runs' mean, i.e. :attr:`FingerprintSet.sigma` with the twin's file in place of the
-    design's uncertainties.
+    The twin's stated uncertainty (reading noise and one run's scatter, over the number of
+    repeated experiments) combined with the base runs' mean, i.e.
+    :attr:`FingerprintSet.sigma` with the twin's file in place of the design's uncertainties.
     """
     comp = fps.design.component_names()
     sd = np.zeros(len(comp))
     for name in fps.names:
         sd[comp == name] = np.asarray(intrinsic[name], dtype=float)
     n = np.maximum(np.sum(np.isfinite(fps.base_samples), axis=0), 1)
-    return np.sqrt(fps.sigma_meas ** 2 + sd ** 2 + fps.sim_var / n)
+    return np.sqrt((fps.sigma_meas ** 2 + sd ** 2) / repeats + fps.sim_var / n)
 
 
 def _projected_gap(fps, name: str, sigma=None):
@@ -301,7 +313,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
              gof_alpha: float = 0.01, snr_range: tuple[float, float] = (5.0, 10.0),
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
              twin_seed: int | None = None, records=None, campaign: str = "seed",
-             shard: tuple[int, int] | None = None, progress: bool = False) -> ValidationResult:
+             shard: tuple[int, int] | None = None, twin_repeats: int = 1,
+             progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
     Parameters
@@ -344,6 +357,11 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         Engine twins: the seed's measurement design (default) or the full campaign
         that adds the catalogue's candidate measurements (:func:`engine_twin_design`).
         The surrogate's :func:`twin_design` is a full campaign already.
+    twin_repeats : int
+        Repeated experiments per twin (default 1): its file states their mean and standard
+        error, as a lab that repeats each test reports it. Twins are sized in that noise,
+        so an effect that its prior caps below the drawn gap in one experiment can reach
+        it in several; each repeat is one more simulator call per twin.
 
     Returns
     -------
@@ -364,6 +382,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         k_shard, n_shard = (int(x) for x in shard)
         if not (n_shard >= 1 and 0 <= k_shard < n_shard):
             raise ConfigError(f"shard: expected (k, n) with 0 <= k < n; got {tuple(shard)!r}")
+    if int(twin_repeats) != twin_repeats or twin_repeats < 1:
+        raise ConfigError(f"twin_repeats: expected a whole number >= 1; got {twin_repeats!r}")
+    twin_repeats = int(twin_repeats)
     if refine is None:
         refine = 2 if simulator == "surrogate" else 0
     t0 = time.perf_counter()
@@ -385,7 +406,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
     # twins are sized in the noise their own diagnosis sees (their files state one run's
     # scatter on top of the reading noise), not in the design's reading noise alone
-    twin_sigma = _twin_sigma(fps, intrinsic)
+    twin_sigma = _twin_sigma(fps, intrinsic, twin_repeats)
     if fps.meta.get("unobservable"):  # the simulator cannot give them: no twin measures them
         measured = MeasurementSet(tuple(m for m in measured if m.name in fps.names),
                                   measured.title, measured.source, measured.path, measured.notes)
@@ -398,7 +419,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     signature = {"preset": preset, "simulator": simulator, "campaign": campaign, "seed": int(seed),
                  "twin_seed": tseed, "alpha": alpha, "select_alpha": select_alpha,
                  "gof_alpha": gof_alpha, "refine": int(refine),
-                 "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE}
+                 "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
+                 "twin_repeats": twin_repeats}
     done = _records_done(records, signature)
     twins, failed = [], []
     iterator = enumerate(plan)
@@ -458,7 +480,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 continue
             try:
                 real = _twin_measurements(measured, sim, base_true, effects_true, twin_run_seed,
-                                          folder, i, intrinsic)
+                                          folder, i, intrinsic, twin_repeats)
                 for k in todo:
                     run_one(i, k, name, real, truth)
             except (ValueError, np.linalg.LinAlgError) as exc:
@@ -491,6 +513,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                                    "after recalibration, in the twin's own noise (reading noise, "
                                    "one run's scatter, the base runs' mean); capped at the prior top",
                 "twin_cohesion": "base x (1 + U(-0.02, 0.02))",
+                "twin_repeats": twin_repeats,
                 "design": "twin_design()" if simulator == "surrogate" else
                           f"engine_twin_design({campaign!r})",
                 "note": ("runs on the analytic surrogate simulator, not the DEM engine"

@@ -102,6 +102,10 @@ class ValidationResult:
                 "settings": self.settings}
 
 
+#: Signature keys added after records were first written, with the value older records had.
+_SIGNATURE_DEFAULTS = {"twin_repeats": 1}
+
+
 def _records_done(records, signature: dict) -> dict:
     """Twin records of the same validation already in ``records``, by (twin, type)."""
     import json
@@ -119,7 +123,7 @@ def _records_done(records, signature: dict) -> dict:
                 and rec.get("type") in ("effect", "null", "out_of_catalogue")):
             raise ConfigError(f"{records}, line {n}: not a twin record (expected an object with an "
                               "integer 'twin' and a 'type' of effect, null or out_of_catalogue)")
-        differ = [k for k, v in signature.items() if rec.get(k) != v]
+        differ = [k for k, v in signature.items() if rec.get(k, _SIGNATURE_DEFAULTS.get(k)) != v]
         if not differ:
             done[(int(rec["twin"]), rec["type"])] = rec
         else:

@@ -51,6 +51,46 @@ def test_twins_are_sized_in_the_noise_their_diagnosis_sees(twin_setup, tmp_path)
     assert a > _magnitude_for_snr(fps, "blade_startup", 8.0)  # in the design's noise: weaker
 
 
+def test_repeated_experiments_state_the_standard_error_of_their_mean(twin_setup, tmp_path):
+    eff, sim, fps = twin_setup
+    design = twin_design()
+    noise = sim.noise_sd()
+
+    def files(repeats, n=40):
+        return [_twin_measurements(design, sim, dict(BASE_PARAMETERS), {}, s, tmp_path, s, noise,
+                                   repeats) for s in range(100, 100 + n)]
+
+    for repeats in (1, 4):
+        twins = files(repeats)
+        one = files(1, 1)[0]
+        for m in design:
+            stated = np.array([t[m.name].uncertainty for t in twins])
+            assert np.allclose(stated, one[m.name].uncertainty / np.sqrt(repeats))
+        # the values scatter as stated: pooled over components, variance ratio near 1
+        ratios = []
+        for m in design:
+            v = np.array([t[m.name].values for t in twins])
+            ratios.extend(v.var(axis=0, ddof=1) / twins[0][m.name].uncertainty ** 2)
+        assert np.mean(ratios) == pytest.approx(1.0, abs=0.2)
+    # sized in that noise, a twin of repeated experiments needs a smaller magnitude
+    four = _twin_sigma(fps, noise, 4)
+    assert np.all(four < _twin_sigma(fps, noise))
+    assert _magnitude_for_snr(fps, "blade_startup", 8.0, four) < \
+        _magnitude_for_snr(fps, "blade_startup", 8.0, _twin_sigma(fps, noise))
+
+
+def test_records_without_twin_repeats_are_those_of_one_experiment(tmp_path):
+    from bedstruct.diagnose.validation_scores import _records_done
+    sig = {"preset": "tiny", "twin_rule": 2}
+    rec = tmp_path / "r.jsonl"
+    rec.write_text(json.dumps({"twin": 0, "type": "null", **sig}) + "\n")
+    assert _records_done(rec, dict(sig, twin_repeats=1))
+    assert not _records_done(rec, dict(sig, twin_repeats=3))
+    from bedstruct.errors import ConfigError
+    with pytest.raises(ConfigError, match="twin_repeats"):
+        validate("tiny", twin_repeats=0)
+
+
 def test_withheld_effect_is_found_with_magnitude(twin_setup, tmp_path):
     eff, sim, fps = twin_setup
     a = _magnitude_for_snr(fps, "blade_startup", 8.0)
