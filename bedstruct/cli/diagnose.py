@@ -130,11 +130,10 @@ def _run_validate(args) -> int:
             print(f"  identifiable effects only (not: {', '.join(ident['not_identifiable'])}): "
                   f"top1 {ident['top1_accuracy']:.3f}, "
                   f"out-of-catalogue unexplained {ident['out_of_catalogue_unexplained']:.3f}")
-        from ..diagnose.validation_scores import capped_twins
-        capped = capped_twins(result.twins)
+        from ..diagnose.validation_scores import capped_summary
+        capped = capped_summary(result.twins, sigma=" sigma")
         if capped:
-            print(f"  {len(capped)} effect twin(s) held at the prior top below the drawn gap: "
-                  + ", ".join(f"{t['true_effect']} {t['twin_gap_sigma']:.1f} sigma" for t in capped))
+            print(f"  effect twins held at the prior top below the drawn gap: {capped}")
         for name, why in (result.settings.get("unobservable") or {}).items():
             print(f"  missing data: {name} dropped ({why})")
     return 0

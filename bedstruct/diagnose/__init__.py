@@ -26,7 +26,7 @@ from .report import diagnosis_report, validation_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 from .validate import ENGINE_PRESETS, PRESETS, engine_twin_design, twin_design, validate
-from .validation_scores import GOALS, ValidationResult, capped_twins, score_twins
+from .validation_scores import GOALS, ValidationResult, capped_summary, capped_twins, score_twins
 from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table
 
 __all__ = [
@@ -47,6 +47,6 @@ __all__ = [
     # orchestration
     "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
     "NextMeasurement", "Diagnosis", "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS",
-    "ValidationResult", "score_twins", "capped_twins", "separation", "nearest_imitations", "not_told_apart", "twin_design", "engine_twin_design", "validate",
+    "ValidationResult", "score_twins", "capped_twins", "capped_summary", "separation", "nearest_imitations", "not_told_apart", "twin_design", "engine_twin_design", "validate",
     "diagnosis_report", "validation_report",
 ]

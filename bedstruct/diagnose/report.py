@@ -164,7 +164,7 @@ def validation_report(result):
     """A report of a :class:`ValidationResult` (goals, confusion matrix, magnitude recovery)."""
     from ..report._model import Report, Table, run_section
     from ..plot import diagnose as pdg
-    from .validation_scores import capped_twins
+    from .validation_scores import capped_summary
 
     rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
                  inputs={"simulator": result.simulator, "preset": result.preset},
@@ -192,12 +192,10 @@ def validation_report(result):
             s.add_number("out_of_catalogue_unexplained_identifiable",
                          ident["out_of_catalogue_unexplained"], "1",
                          f"{why}; {ident['n_out_of_catalogue_twins']} twin(s)")
-        capped = capped_twins(result.twins)
+        capped = capped_summary(result.twins)
         if capped:
-            s.text += (f" {len(capped)} effect twin(s) held at the top of the prior below the "
-                       "drawn gap (" + ", ".join(f"{t['true_effect']} {t['twin_gap_sigma']:.1f}σ"
-                                                  for t in capped)
-                       + "): the prior range caps how strong a twin of that effect can be.")
+            s.text += (f" Effect twins held at the top of the prior below the drawn gap: {capped}; "
+                       "the prior range caps how strong a twin of that effect can be.")
         missing = result.settings.get("missing_runs") or {}
         dropped = result.settings.get("unobservable") or {}
         failed = result.settings.get("failed") or []

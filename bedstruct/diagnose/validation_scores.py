@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["GOALS", "ValidationResult", "capped_twins", "score_twins"]
+__all__ = ["GOALS", "ValidationResult", "capped_summary", "capped_twins", "score_twins"]
 
 log = logging.getLogger("bedstruct.diagnose.validate")
 
@@ -150,6 +150,27 @@ def capped_twins(twins) -> list[dict]:
     """
     return [t for t in twins if t["type"] == "effect" and t.get("twin_gap_sigma") is not None
             and t["twin_gap_sigma"] < (1 - 1e-6) * t["requested_gap_sigma"]]
+
+
+def capped_summary(twins, sigma: str = "σ") -> str:
+    """:func:`capped_twins` per effect, in words ("" if none).
+
+    Examples
+    --------
+    >>> capped_summary([{"type": "effect", "true_effect": "a", "requested_gap_sigma": 7.0,
+    ...                  "twin_gap_sigma": 4.4}] * 2 + [{"type": "effect", "true_effect": "b",
+    ...                  "requested_gap_sigma": 9.0, "twin_gap_sigma": 1.61}], sigma=" sigma")
+    'a (2 twins, 4.4 sigma), b (1 twin, 1.6 sigma)'
+    """
+    by = {}
+    for t in capped_twins(twins):
+        by.setdefault(t["true_effect"], []).append(t["twin_gap_sigma"])
+    parts = []
+    for e, g in by.items():
+        lo, hi = f"{min(g):.1f}", f"{max(g):.1f}"
+        parts.append(f"{e} ({len(g)} twin{'s' if len(g) > 1 else ''}, "
+                     f"{lo if lo == hi else lo + '–' + hi}{sigma})")
+    return ", ".join(parts)
 
 
 def score_twins(twins, effect_names, *, removed_rows: bool = True,

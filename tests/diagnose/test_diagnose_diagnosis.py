@@ -188,7 +188,7 @@ def test_tiny_validation_meets_the_goals():
     assert len(table.rows) == len(r.twins) and "twin gap (σ)" in table.columns
     weak = replace(r, twins=[dict(eff[0], twin_gap_sigma=2.5)] + r.twins[1:])
     goals = [s for s in weak.report().sections if s.key == "goals"][0]
-    assert f"{eff[0]['true_effect']} 2.5σ" in goals.text
+    assert f"{eff[0]['true_effect']} (1 twin, 2.5σ)" in goals.text
 
 
 def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
