@@ -65,6 +65,11 @@ ENGINE_PRESETS = {
 #: reading noise and stated the scatter at its upper bound, so its gap was smaller than stated.
 _TWIN_RULE = 2
 
+#: Revision of the attribution's fit test, in every twin record (older records lack it and
+#: count as 1). 2: a magnitude held at a bound of its prior is fixed there, taking no degree
+#: of freedom and no leverage (:func:`~bedstruct.diagnose.fit_model`).
+_FIT_RULE = 2
+
 
 def engine_scale_model(preset: str) -> str:
     """The engine preset (scale model) a validation preset runs on by default.
@@ -420,7 +425,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "twin_seed": tseed, "alpha": alpha, "select_alpha": select_alpha,
                  "gof_alpha": gof_alpha, "refine": int(refine),
                  "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
-                 "twin_repeats": twin_repeats}
+                 "fit_rule": _FIT_RULE, "twin_repeats": twin_repeats}
     done = _records_done(records, signature)
     twins, failed = [], []
     iterator = enumerate(plan)

@@ -79,13 +79,16 @@ def test_repeated_experiments_state_the_standard_error_of_their_mean(twin_setup,
         _magnitude_for_snr(fps, "blade_startup", 8.0, _twin_sigma(fps, noise))
 
 
-def test_records_without_twin_repeats_are_those_of_one_experiment(tmp_path):
+def test_records_without_a_newer_key_take_its_old_value(tmp_path):
     from bedstruct.diagnose.validation_scores import _records_done
     sig = {"preset": "tiny", "twin_rule": 2}
     rec = tmp_path / "r.jsonl"
     rec.write_text(json.dumps({"twin": 0, "type": "null", **sig}) + "\n")
     assert _records_done(rec, dict(sig, twin_repeats=1))
     assert not _records_done(rec, dict(sig, twin_repeats=3))
+    # made before the fit test fixed magnitudes at a bound: not this code's answers
+    assert _records_done(rec, dict(sig, fit_rule=1))
+    assert not _records_done(rec, dict(sig, fit_rule=2))
     from bedstruct.errors import ConfigError
     with pytest.raises(ConfigError, match="twin_repeats"):
         validate("tiny", twin_repeats=0)
