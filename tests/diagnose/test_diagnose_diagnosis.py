@@ -79,6 +79,28 @@ def test_repeated_experiments_state_the_standard_error_of_their_mean(twin_setup,
         _magnitude_for_snr(fps, "blade_startup", 8.0, _twin_sigma(fps, noise))
 
 
+def test_a_repeat_that_could_not_observe_leaves_the_mean_of_the_others(twin_setup, tmp_path):
+    from bedstruct.diagnose import Observations
+    from bedstruct.diagnose.validate import _repeat_seed
+    eff, sim, fps = twin_setup
+    design = twin_design()
+    name = design.measurements[0].name
+
+    def blind_once(base, effects, seed):           # the second experiment sees no heap
+        obs = sim(base, effects, seed)
+        if seed == _repeat_seed(7, 1):
+            obs = Observations(dict(obs.values, **{name: np.full_like(obs[name], np.nan)}))
+        return obs
+
+    one = _twin_measurements(design, sim, dict(BASE_PARAMETERS), {}, 7, tmp_path, 7, sim.noise_sd())
+    three = _twin_measurements(design, blind_once, dict(BASE_PARAMETERS), {}, 7, tmp_path, 7,
+                               sim.noise_sd(), 3)
+    assert np.all(np.isfinite(three[name].values))
+    assert np.allclose(three[name].uncertainty, one[name].uncertainty / np.sqrt(2))   # two seen
+    other = design.measurements[1].name
+    assert np.allclose(three[other].uncertainty, one[other].uncertainty / np.sqrt(3))
+
+
 def test_records_without_a_newer_key_take_its_old_value(tmp_path):
     from bedstruct.diagnose.validation_scores import _records_done
     sig = {"preset": "tiny", "twin_rule": 2}
