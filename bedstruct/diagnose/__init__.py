@@ -14,14 +14,14 @@ from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, hals
 from .config import SimConfig, load_sim_config, make_simulator
 from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose,
                         diagnosis_design, gap_size, identification)
-from .fingerprints import (Fingerprint, FingerprintSet, Simulator, compute_fingerprints,
-                           nuisance_projector, simulate_replicates)
+from .fingerprints import Fingerprint, FingerprintSet, compute_fingerprints, nuisance_projector
 from .measurements import (KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations,
                            load_measurements, measurement_from_dict, write_measurements)
 from .observables import (AngleFit, angle_from_image, angle_from_particles, bed_height,
                           fit_surface_angle, observe, packing_fraction_in_region, psd_percentiles,
                           psd_percentiles_from_cumulative, read_image, render_side_view, roughness,
                           surface_profile, windowed_mean)
+from .replicates import Simulator, simulate_replicates
 from .report import diagnosis_report, validation_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator

@@ -18,7 +18,8 @@ import numpy as np
 from ..errors import ConfigError
 from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
-from .fingerprints import FingerprintSet, Simulator, compute_fingerprints, simulate_replicates
+from .fingerprints import FingerprintSet, compute_fingerprints
+from .replicates import Simulator, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
 from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult, _nan_mean, standardised_residuals, where

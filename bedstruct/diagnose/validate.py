@@ -307,7 +307,7 @@ def _intrinsic_sd(fps) -> Observations:
     on it (:attr:`FingerprintSet.sim_var`): a twin's one run scatters like any run, and its
     file states that scatter as the standard deviation of repeated experiments would.
     """
-    from .fingerprints import variance_upper_bound
+    from .replicates import variance_upper_bound
     comp = fps.design.component_names()
     var = fps.sim_var if fps.sim_dof is None else fps.sim_var / variance_upper_bound(fps.sim_dof)
     sd = np.sqrt(var)
