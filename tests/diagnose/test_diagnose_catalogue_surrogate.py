@@ -159,3 +159,16 @@ def test_capillary_asperity_force_is_a_few_particle_weights_and_grows_with_humid
     assert 1500 < full < 2500
     # Kelvin radius: gamma V_m / (R T ln(1/RH)); at RH = 1/e it is 0.53 nm
     assert kelvin_radius(math.exp(-1.0)) == pytest.approx(0.072 * 1.8e-5 / (8.314462618 * 293.15))
+
+
+@pytest.mark.parametrize("name", ["seed-engine-tiny", "seed-engine-small", "engine-twins-tiny"])
+def test_shipped_simulation_configurations_load_and_build(name):
+    # the example configurations in data/measurements are documented commands: each must
+    # load, name real catalogue effects and build its engine simulator (nothing is run)
+    from pathlib import Path
+    from bedstruct.diagnose import load_measurements
+    root = Path(__file__).resolve().parents[2] / "data" / "measurements"
+    cfg = load_sim_config(root / f"{name}.sim.toml")
+    assert cfg.kind == "engine" and cfg.replicates >= 2 and cfg.effects
+    sim = make_simulator(cfg, load_measurements(root / "seed-angles.toml"))
+    assert sim.name == "engine"
