@@ -14,10 +14,41 @@ import numpy as np
 
 from .._numba import njit, prange
 
-__all__ = ["cell_indices", "counting_sort", "HALF_STENCIL", "pair_build", "pair_keys",
+__all__ = ["wrap_and_flag", "cell_indices", "counting_sort", "HALF_STENCIL", "pair_build", "pair_keys",
            "remap_history", "active_history", "raindrop_accept"]
 
 _FM = dict(fastmath=True)
+
+
+@njit  # no fastmath: the finiteness test must stay
+def wrap_and_flag(x, images, lo, hi, L, periodic, out):
+    """Wrap positions into the box along periodic axes (``images`` counts the wraps) and flag
+    in ``out`` the particles outside a fixed face or with a non-finite position.
+
+    Returns ``(n_out, n_nonfinite)``; a flagged particle's row is left as it was.
+    """
+    n = x.shape[0]
+    n_out = 0
+    n_bad = 0
+    for i in range(n):
+        if not (math.isfinite(x[i, 0]) and math.isfinite(x[i, 1]) and math.isfinite(x[i, 2])):
+            out[i] = True
+            n_out += 1
+            n_bad += 1
+            continue
+        gone = False
+        for a in range(3):
+            if periodic[a]:
+                k = math.floor((x[i, a] - lo[a]) / L[a])
+                if k != 0.0:
+                    x[i, a] -= k * L[a]
+                    images[i, a] += np.int64(k)
+            elif x[i, a] < lo[a] or x[i, a] >= hi[a]:
+                gone = True
+        out[i] = gone
+        if gone:
+            n_out += 1
+    return n_out, n_bad
 
 
 @njit(**_FM)

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .._numba import njit, prange
 
 __all__ = ["wall_geometry", "closest_on_triangle", "mesh_geometry", "any_wall_geometry",
-           "wall_candidates",
+           "wall_candidates", "candidate_lists",
            "WALL_PLANE", "WALL_RECT", "WALL_PRISM", "WALL_CYLINDER", "WALL_MESH", "WALL_NCOL"]
 
 WALL_PLANE = 0
@@ -275,3 +277,25 @@ def wall_candidates(x, rad, W, tri, time, skin, bounds, near, wslot, whist):
                             wslot[i, sl] = -1
                             for c in range(6):
                                 whist[i, sl, c] = 0.0
+
+
+@njit
+def candidate_lists(near):
+    """CSR form of ``near``: ``start`` (n + 1) and the candidate walls of particle i in
+    ``cand[start[i]:start[i + 1]]``, in increasing order."""
+    n, nw = near.shape
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        c = 0
+        for w in range(nw):
+            if near[i, w]:
+                c += 1
+        start[i + 1] = start[i] + c
+    cand = np.empty(start[n], dtype=np.int64)
+    k = 0
+    for i in range(n):
+        for w in range(nw):
+            if near[i, w]:
+                cand[k] = w
+                k += 1
+    return start, cand

@@ -50,42 +50,42 @@ class _NeighbourList:
         return float(self.model.rupture_distance(0.5 * float(self.rad.max())))
 
     def _chunks(self, n):
-        return np.linspace(0, n, self.n_threads + 1).astype(np.int64)
+        # bounds of T equal chunks of n items; called several times per rebuild, so memoised
+        # (a copy: callers rebalance theirs in place)
+        memo = self.__dict__.setdefault("_chunk_memo", {})
+        key = (int(n), self.n_threads)
+        bounds = memo.get(key)
+        if bounds is None:
+            if len(memo) > 256:
+                memo.clear()
+            bounds = memo[key] = np.linspace(0, n, self.n_threads + 1).astype(np.int64)
+        return bounds.copy()
 
     def _rebuild(self):
         self.n_rebuilds += 1
-        # 1. wrap periodic axes, remove particles outside fixed faces
-        for a in range(3):
-            if self._periodic[a]:
-                k = np.floor((self.x[:, a] - self._lo[a]) / self._L[a]).astype(np.int64)
-                if np.any(k):
-                    self.x[:, a] -= k * self._L[a]
-                    self.images[:, a] += k
+        # 1. wrap periodic axes, remove particles outside fixed faces or not finite
         out = np.zeros(self.n_particles, dtype=bool)
-        for a in range(3):
-            if not self._periodic[a]:
-                out |= (self.x[:, a] < self._lo[a]) | (self.x[:, a] >= self._hi[a])
-        if not np.all(np.isfinite(self.x)):
-            bad = ~np.all(np.isfinite(self.x), axis=1)
-            log.warning("%d particles with non-finite positions removed", int(bad.sum()))
-            out |= bad
+        n_out, n_bad = K.wrap_and_flag(self.x, self.images, self._lo, self._hi, self._L,
+                                       self._periodic, out)
+        if n_bad:
+            log.warning("%d particles with non-finite positions removed", int(n_bad))
         # keep old list (for history) keyed by ids before permuting
         act = K.active_history(self.ht, self.hr)
         ext = self.model.extension_code
         if ext & 2:
             act = np.union1d(act, np.flatnonzero(np.any(self.hx != 0.0, axis=1)))
-        old_keys = np.zeros(act.size, dtype=np.int64)
-        old_sign = np.zeros(act.size)
+        # the old history arrays are replaced, not overwritten, by the new list below
+        old_ht, old_hr, old_hx = self.ht, self.hr, self.hx
+        src = act  # active old pairs, sorted by key for the remap's binary search
+        old_keys = np.zeros(0, dtype=np.int64)
+        old_sign = np.zeros(0)
         if act.size:
             kk = np.zeros(self.n_pairs, dtype=np.int64)
             ss = np.zeros(self.n_pairs)
             K.pair_keys(self.ids, self.pi, self.pj, self._chunks(self.n_pairs), kk, ss)
-            old_keys = kk[act]
-            old_sign = ss[act]
-        old_ht = self.ht[act]
-        old_hr = self.hr[act]
-        old_hx = self.hx[act] if ext & 2 else self.hx
-        n_out = int(out.sum())
+            src = act[np.argsort(kk[act], kind="stable")]
+            old_keys = kk[src]
+            old_sign = ss[src]
         if n_out:
             self.n_removed += n_out
             log.info("removed %d particles that left the domain (total %d)", n_out, self.n_removed)
@@ -93,7 +93,7 @@ class _NeighbourList:
         # 2. sort by cell
         nc, cell_len = self._cell_grid()
         cells = np.zeros(keep.size, dtype=np.int64)
-        xk = np.ascontiguousarray(self.x[keep])
+        xk = np.ascontiguousarray(self.x[keep]) if n_out else self.x
         K.cell_indices(xk, self._lo, cell_len, nc, cells)
         perm, start = K.counting_sort(cells, int(np.prod(nc)))
         order = keep[perm]
@@ -151,19 +151,16 @@ class _NeighbourList:
         self._m_hint = m
         # 4. history remap by sorted key
         if old_keys.size and m:
-            o = np.argsort(old_keys, kind="stable")
             keys = np.zeros(m, dtype=np.int64)
             sign = np.zeros(m)
             qb = self._chunks(m)
             K.pair_keys(self.ids, self.pi, self.pj, qb, keys, sign)
-            K.remap_history(keys, sign, np.ascontiguousarray(old_keys[o]),
-                            np.ascontiguousarray(old_sign[o]), np.ascontiguousarray(old_ht[o]),
-                            np.ascontiguousarray(old_hr[o]), qb, self.ht, self.hr)
+            K.remap_history(keys, sign, old_keys, old_sign, old_ht[src], old_hr[src], qb,
+                            self.ht, self.hr)
             if ext & 2:
-                ks = old_keys[o]
-                idx = np.minimum(np.searchsorted(ks, keys), ks.size - 1)
-                hit = ks[idx] == keys
-                self.hx[hit] = old_hx[o][idx[hit]]
+                idx = np.minimum(np.searchsorted(old_keys, keys), old_keys.size - 1)
+                hit = old_keys[idx] == keys
+                self.hx[hit] = old_hx[src[idx[hit]]]
         self._alloc_buffers()
         self._balance_pairs()
         self._build_wall_list()
@@ -175,9 +172,7 @@ class _NeighbourList:
         near = np.zeros((n, self._W.shape[0]), dtype=np.bool_)
         K.wall_candidates(self.x, self.rad, self._W, self._tri, self.time, self.skin,
                           self._chunks(n), near, self.wslot, self.whist)
-        self._wstart = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(near.sum(axis=1), out=self._wstart[1:])
-        self._wcand = np.nonzero(near)[1].astype(np.int64)
+        self._wstart, self._wcand = K.candidate_lists(near)
         self._balance_finish()
         self._wall_list_time = self.time
         # fastest wall surface speed (translation plus roller rim speed), m/s

@@ -107,3 +107,36 @@ def test_run_interrupted_between_fused_steps_resumes_exactly(tmp_path):
     c.run(150)
     np.testing.assert_array_equal(c.x, a.x)
     np.testing.assert_array_equal(c.v, a.v)
+
+
+def test_rebuild_kernels_equal_their_numpy_forms():
+    # wrap_and_flag replaced a numpy wrap, removal mask and finiteness check; candidate_lists
+    # replaced a cumsum/nonzero compaction: both must give the same arrays
+    rng = np.random.default_rng(3)
+    lo, hi = np.array([0.0, -1.0, 0.0]), np.array([2.0, 1.0, 1.0])
+    L = hi - lo
+    periodic = np.array([True, True, False])
+    x = rng.uniform(-3.0, 4.0, (400, 3))
+    x[7, 1] = np.nan
+    x[11, 2] = np.inf
+    images = rng.integers(-2, 3, (400, 3))
+    xw, iw, out = x.copy(), images.copy(), np.zeros(400, dtype=bool)
+    n_out, n_bad = K.wrap_and_flag(xw, iw, lo, hi, L, periodic, out)
+
+    finite = np.all(np.isfinite(x), axis=1)
+    xr, ir = x.copy(), images.copy()
+    for a in (0, 1):
+        k = np.floor((xr[finite, a] - lo[a]) / L[a]).astype(np.int64)
+        xr[finite, a] -= k * L[a]
+        ir[finite, a] += k
+    gone = ~finite | (x[:, 2] < lo[2]) | (x[:, 2] >= hi[2])
+    np.testing.assert_array_equal(out, gone)
+    assert (n_out, n_bad) == (int(gone.sum()), 2)
+    np.testing.assert_array_equal(xw[finite], xr[finite])   # bit for bit
+    np.testing.assert_array_equal(iw[finite], ir[finite])
+    assert np.all((xw[finite, :2] >= lo[:2]) & (xw[finite, :2] < hi[:2]))
+
+    near = rng.random((50, 6)) < 0.3
+    start, cand = K.candidate_lists(near)
+    np.testing.assert_array_equal(start, np.concatenate([[0], np.cumsum(near.sum(axis=1))]))
+    np.testing.assert_array_equal(cand, np.nonzero(near)[1])
