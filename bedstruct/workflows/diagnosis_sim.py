@@ -457,9 +457,20 @@ class _Runs:
             cfg["spread"]["speed"] = v
             cfg["time"]["v_max"] = max(float(cfg["time"]["v_max"]), 1.5 * v)
             out = self.tmp / f"spread{len(self.cache)}"
-            res = run_spread(cfg, out=out)
+            res = run_spread(cfg, out=out, pile=self._pile(cfg))
             self.owner.n_runs += 1
             self.cache[key] = (res, out, cfg)
+        return self.cache[key]
+
+    def _pile(self, cfg):
+        # the spreading runs of one call differ in speed, which the pile does not depend on:
+        # one pile per configuration without the speed (a raised v_max gives its own)
+        from .spread import generate_pile
+        rest = copy.deepcopy(cfg)
+        del rest["spread"]["speed"]
+        key = ("pile", json.dumps(rest, sort_keys=True, default=str))
+        if key not in self.cache:
+            self.cache[key] = generate_pile(cfg, seed=int(cfg["seed"]))[0]
         return self.cache[key]
 
     def _layer(self, res, layer):

@@ -218,7 +218,7 @@ def _move(sim, name, velocity, distance, speed):
     sim.set_wall_motion(name, velocity=(0.0, 0.0, 0.0))
 
 
-def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
+def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> SpreadResult:
     """Spread ``len(spread.gaps)`` layers with the configured tool and measure each.
 
     Parameters
@@ -232,6 +232,10 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
         ``bed_contacts.dump.gz`` after the layer.
     progress : bool, optional
         Show a progress bar over the layers (stderr; embedded engine).
+    pile : Frame, optional
+        The settled pile, as ``generate_pile(cfg, seed=cfg["seed"])[0]`` returns it
+        (default: generated here). Runs that differ only in ``spread.speed``, which the
+        pile does not depend on, can share one.
 
     Returns
     -------
@@ -248,6 +252,9 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     from ..dem import Plane, Rectangle, Simulation
 
     if cfg.get("engine", "embedded") != "embedded":  # one layer on LIGGGHTS/LAMMPS
+        if pile is not None:
+            raise ConfigError("run_spread: a given pile is for the embedded engine; LIGGGHTS and "
+                              "LAMMPS decks generate their own")
         from .external import run_spread_external
         return run_spread_external(cfg, out=out)
     check_engine(cfg)
@@ -263,7 +270,10 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False) -> SpreadResult:
     names = _REGION_NAMES.get(n_reg, tuple(f"region{i}" for i in range(n_reg)))
     t_start = _time.perf_counter()
 
-    pile, _ = generate_pile(cfg, seed=seed, draw=draw)
+    if pile is None:
+        pile, _ = generate_pile(cfg, seed=seed, draw=draw)
+    elif pile.n_particles == 0:
+        raise ConfigError("run_spread: the given pile has no particles")
     if layout is not None:
         from ..io import write_dump
         st = layout.stage("pile")
@@ -538,5 +548,3 @@ def _windows(lo, hi, n):
     upper[:, 0] = e[1:]
     return lower, upper
 
-
-_ = ConfigError

@@ -90,3 +90,27 @@ def test_roller_spreads_one_layer(tmp_path):
     walls = [json.loads(s) for s in (tmp_path / "layer01" / "walls.jsonl").read_text().splitlines()]
     x = [w["origin"][0] for w in walls if w["name"] == "tool"]
     assert x[-1] - x[0] > 1e-3
+
+
+def test_a_given_pile_spreads_as_the_generated_one(tmp_path):
+    # the diagnosis simulator shares one pile between runs at different speeds: passing the
+    # pile must change nothing, bit for bit
+    from bedstruct.errors import ConfigError
+    from bedstruct.workflows import load_config, run_spread
+    from bedstruct.workflows.spread import generate_pile
+    cfg = load_config(preset="tiny", overrides=[
+        "spread.gaps=[4.5e-4]", "spread.n_frames=2", "spread.pile_particles=300",
+        "spread.pile_time=0.004", "spread.plate_length=1.2e-3", "spread.pile_length=0.6e-3"])
+    pile = generate_pile(cfg, seed=int(cfg["seed"]))[0]
+    own = run_spread(cfg)
+    given = run_spread(cfg, pile=pile)
+    assert given.n_pile == own.n_pile == 300
+    np.testing.assert_array_equal(given.bed_height_m, own.bed_height_m)
+    np.testing.assert_array_equal(given.layers[0].packing_fraction, own.layers[0].packing_fraction)
+    other = run_spread(cfg, pile=generate_pile(cfg, seed=int(cfg["seed"]) + 1)[0])  # it is used
+    assert not np.array_equal(other.layers[0].packing_fraction, own.layers[0].packing_fraction)
+    with pytest.raises(ConfigError, match="no particles"):
+        run_spread(cfg, pile=pile.select(np.zeros(pile.n_particles, dtype=bool)))
+    ext = load_config(preset="tiny", overrides=['engine="liggghts"'])
+    with pytest.raises(ConfigError, match="embedded engine"):
+        run_spread(ext, pile=pile)
