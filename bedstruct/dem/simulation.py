@@ -345,12 +345,31 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
             raise ConfigError("no particles: give `min_radius` or add particles before running")
         return float(self.rad.min())
 
+    @staticmethod
+    def default_time_step(model: ContactModel, min_radius: float, v_max: float,
+                          safety: float = 0.15) -> float:
+        """The time step a simulation chooses without ``dt``: ``min(safety t_R, t_H / 10)``.
+
+        ``t_R`` is the Rayleigh time of a sphere of ``min_radius`` and ``t_H`` the
+        Hertz impact time of two such spheres at ``v_max`` (s).
+
+        Examples
+        --------
+        >>> from bedstruct.dem import ContactModel, Material, Simulation
+        >>> model = ContactModel(Material(1e7, 0.3, 2500.0))
+        >>> dt = Simulation.default_time_step(model, 1e-4, 1.0)
+        >>> dt == min(0.15 * model.rayleigh_time(1e-4), 0.1 * model.hertz_time(1e-4, 1.0))
+        True
+        """
+        return min(float(safety) * model.rayleigh_time(min_radius),
+                   0.1 * model.hertz_time(min_radius, v_max))
+
     def _choose_dt(self):
         rmin = self._rmin()
         t_r = self.model.rayleigh_time(rmin)
         t_h = self.model.hertz_time(rmin, self.v_max)
         if self._dt_user is None:
-            dt = min(self.safety * t_r, 0.1 * t_h)
+            dt = self.default_time_step(self.model, rmin, self.v_max, self.safety)
         else:
             dt = float(self._dt_user)
             if not dt > 0:

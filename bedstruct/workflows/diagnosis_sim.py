@@ -463,12 +463,9 @@ class _Runs:
         return self.cache[key]
 
     def _pile(self, cfg):
-        # the spreading runs of one call differ in speed, which the pile does not depend on:
-        # one pile per configuration without the speed (a raised v_max gives its own)
-        from .spread import generate_pile
-        rest = copy.deepcopy(cfg)
-        del rest["spread"]["speed"]
-        key = ("pile", json.dumps(rest, sort_keys=True, default=str))
+        # the spreading runs of one call differ in speed, which the pile does not depend on
+        from .spread import generate_pile, pile_key
+        key = ("pile", pile_key(cfg))
         if key not in self.cache:
             self.cache[key] = generate_pile(cfg, seed=int(cfg["seed"]))[0]
         return self.cache[key]

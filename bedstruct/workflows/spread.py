@@ -21,6 +21,7 @@ coordination, fabric; the tool returns above the bed for the next layer.
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time as _time
@@ -32,7 +33,7 @@ from ..errors import ConfigError
 from ._common import (RunLayout, check_engine, contact_model, german_fit_values, psd_sampler,
                       run_in_frames, to_jsonable, tool_motion)
 
-__all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile"]
+__all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key"]
 
 log = logging.getLogger(__name__)
 
@@ -193,6 +194,33 @@ def generate_pile(cfg: dict, *, seed: int, draw=None):
     return sim.frame(), sim.step
 
 
+def pile_key(cfg: dict) -> str:
+    """What :func:`generate_pile` depends on, as a string: runs with equal keys (and seeds)
+    can share one pile.
+
+    The configuration without ``spread.speed``, which the pile does not use, and with
+    ``time.v_max`` replaced by the time step it gives (its only use in the pile).
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config
+    >>> slow = load_config(preset="tiny", overrides=["spread.speed=0.1"])
+    >>> fast = load_config(preset="tiny", overrides=["spread.speed=0.5", "time.v_max=0.75"])
+    >>> pile_key(slow) == pile_key(fast)   # the Rayleigh time sets the step at both
+    True
+    >>> pile_key(slow) == pile_key(load_config(preset="tiny", overrides=["contact.friction=0.6"]))
+    False
+    """
+    import json
+    from ..dem import Simulation
+    rest = copy.deepcopy(cfg)
+    del rest["spread"]["speed"]
+    v_max = rest["time"].pop("v_max")
+    rest["time"]["pile_dt"] = Simulation.default_time_step(
+        contact_model(cfg), psd_sampler(cfg).r_min, float(v_max), float(cfg["time"]["safety"]))
+    return json.dumps(rest, sort_keys=True, default=str)
+
+
 def _tool_walls(cfg, x0, draw):
     from ..dem import Blade, Cylinder
     sc = cfg["spread"]
@@ -234,8 +262,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
         Show a progress bar over the layers (stderr; embedded engine).
     pile : Frame, optional
         The settled pile, as ``generate_pile(cfg, seed=cfg["seed"])[0]`` returns it
-        (default: generated here). Runs that differ only in ``spread.speed``, which the
-        pile does not depend on, can share one.
+        (default: generated here). Runs with the same :func:`pile_key` and seed (for
+        example at different speeds) can share one.
 
     Returns
     -------

@@ -330,3 +330,22 @@ def test_a_worker_whose_parent_was_killed_stops(tmp_path):
         except ProcessLookupError:
             alive = False
     assert not alive
+
+
+def test_one_pile_per_call_for_the_spreading_runs_at_different_speeds(monkeypatch):
+    # x1 and x5 spread the same settled pile: it is generated once (x5's raised v_max leaves
+    # the time step, which the Rayleigh time sets, and so the pile unchanged)
+    import bedstruct.workflows.spread as spread
+    design = MeasurementSet(tuple(measurement_from_dict(
+        {"name": f"roughness_x{f}", "kind": "roughness", "value": [0.0], "uncertainty": 1e-6,
+         "unit": "m", "conditions": {"speed": f * 0.0254, "layer": 1}}) for f in (1, 5)))
+    sim = EngineSimulator(design, {"preset": "tiny", "overrides": [
+        "spread.gaps=[4.5e-4]", "spread.n_frames=2", "spread.pile_particles=300",
+        "spread.pile_time=0.004", "spread.plate_length=1.2e-3", "spread.pile_length=0.6e-3"]})
+    piles = []
+    real = spread.generate_pile
+    monkeypatch.setattr(spread, "generate_pile",
+                        lambda cfg, **kw: piles.append(cfg["spread"]["speed"]) or real(cfg, **kw))
+    obs = sim({}, {}, 1)
+    assert len(piles) == 1 and sim.n_runs == 2
+    assert np.isfinite(obs["roughness_x1"]).all() and np.isfinite(obs["roughness_x5"]).all()
