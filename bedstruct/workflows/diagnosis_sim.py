@@ -457,7 +457,9 @@ class _Runs:
             cfg["spread"]["speed"] = v
             cfg["time"]["v_max"] = max(float(cfg["time"]["v_max"]), 1.5 * v)
             out = self.tmp / f"spread{len(self.cache)}"
-            res = run_spread(cfg, out=out, pile=self._pile(cfg))
+            # LIGGGHTS and LAMMPS decks make their own pile
+            embedded = cfg.get("engine", "embedded") == "embedded"
+            res = run_spread(cfg, out=out, pile=self._pile(cfg) if embedded else None)
             self.owner.n_runs += 1
             self.cache[key] = (res, out, cfg)
         return self.cache[key]

@@ -349,3 +349,27 @@ def test_one_pile_per_call_for_the_spreading_runs_at_different_speeds(monkeypatc
     obs = sim({}, {}, 1)
     assert len(piles) == 1 and sim.n_runs == 2
     assert np.isfinite(obs["roughness_x1"]).all() and np.isfinite(obs["roughness_x5"]).all()
+
+
+@pytest.mark.parametrize("engine", ["embedded", "liggghts"])
+def test_a_shared_pile_only_for_the_embedded_engine(monkeypatch, engine):
+    # the LIGGGHTS/LAMMPS decks make their own pile (run_spread refuses a given one there)
+    import bedstruct.workflows.spread as spread
+    design = MeasurementSet((measurement_from_dict(
+        {"name": "roughness_x1", "kind": "roughness", "value": [0.0], "uncertainty": 1e-6,
+         "unit": "m", "conditions": {"speed": 0.0254, "layer": 1}}),))
+    sim = EngineSimulator(design, {"preset": "tiny", "overrides": [f"engine={engine}"]})
+    given = []
+
+    class Stop(Exception):
+        pass
+
+    def fake_run_spread(cfg, *, out=None, pile=None, progress=False):
+        given.append(pile)
+        raise Stop
+
+    monkeypatch.setattr(spread, "run_spread", fake_run_spread)
+    monkeypatch.setattr(spread, "generate_pile", lambda cfg, **kw: ("the pile", 0))
+    with pytest.raises(Stop):
+        sim({}, {}, 1)
+    assert given == (["the pile"] if engine == "embedded" else [None])
