@@ -14,8 +14,8 @@ import numpy as np
 
 from .._numba import njit, prange
 
-__all__ = ["wrap_and_flag", "cell_indices", "counting_sort", "HALF_STENCIL", "pair_build", "pair_keys",
-           "remap_history", "active_history", "raindrop_accept"]
+__all__ = ["wrap_and_flag", "cell_indices", "counting_sort", "HALF_STENCIL", "pair_build",
+           "pair_keys", "remap_history", "active_history", "raindrop_accept"]
 
 _FM = dict(fastmath=True)
 
