@@ -17,6 +17,12 @@ embedded_spread_h_per_layer=... liggghts_... lammps_...``). The inserted state i
 loose (few contacts): a lower bound on the cost of a settled bed
 (docs/validation.md, "The seed preset: time per run").
 
+``--diagnosis-call`` times one engine call of the diagnosis (``bedstruct diagnose
+validate --simulator engine``): the validation twin design on the preset's scale model,
+its reposes and three spreading runs sharing one pile, embedded engine only (the
+diagnosis's extensions have no deck). Ends with ``RESULT preset=... diagnosis_call_s=...
+workflow_runs=... rebuilds=... steps=...``.
+
 Otherwise ends with ``RESULT preset=... engine=embedded repose_s=... repose_particles=...
 spread_s=... spread_layers=... spread_steps=... spread_final_particles=... liggghts_repose_s=...
 liggghts_spread_s=... lammps_repose_s=... lammps_spread_s=...``.
@@ -39,9 +45,13 @@ def main(argv=None) -> int:
     p.add_argument("--skip-spread", action="store_true")
     p.add_argument("--seed-steps", type=int, default=0,
                    help="time N steps of the seed preset's repose box per engine and extrapolate")
+    p.add_argument("--diagnosis-call", action="store_true",
+                   help="time one engine call of the diagnosis at the preset's scale model")
     args = p.parse_args(argv)
     if args.seed_steps > 0:
         return seed_timing(args.seed_steps)
+    if args.diagnosis_call:
+        return diagnosis_call_timing(args.preset, args.threads)
 
     from bedstruct.errors import ConfigError
     from bedstruct.workflows import load_config, run_repose, run_spread
@@ -88,6 +98,36 @@ def main(argv=None) -> int:
             except ConfigError as exc:   # e.g. an option the engine does not support
                 out[f"{eng}_status"] = f'"{exc}"'.replace(" ", "_")[:60]
     print("RESULT " + " ".join(f"{k}={v}" for k, v in out.items()))
+    return 0
+
+
+def diagnosis_call_timing(preset: str, threads: int) -> int:
+    """Time one uncached engine call of the diagnosis (base parameters, seed 1)."""
+    from bedstruct.dem import Simulation
+    from bedstruct.diagnose.validate import engine_scale_model, engine_twin_design
+    from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
+
+    sim = diagnosis_simulator(engine_twin_design(),
+                              {"preset": engine_scale_model(preset), "n_threads": threads})
+    counts = {"rebuilds": 0, "steps": 0}
+    run = Simulation.run
+
+    def counted(self, *a, **k):   # count the engine's steps and rebuilds of every run
+        stats = run(self, *a, **k)
+        counts["rebuilds"] += stats.n_rebuilds
+        counts["steps"] += stats.n_steps
+        return stats
+
+    Simulation.run = counted
+    try:
+        t0 = time.perf_counter()
+        sim({"cohesion_energy_density": 3.6e7}, {}, 1)
+        wall = time.perf_counter() - t0
+    finally:
+        Simulation.run = run
+    print(f"RESULT preset={preset} engine=embedded threads={threads} "
+          f"diagnosis_call_s={wall:.1f} workflow_runs={sim.n_runs} "
+          f"rebuilds={counts['rebuilds']} steps={counts['steps']}")
     return 0
 
 
