@@ -276,7 +276,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
     >>> [round(h * 1e6) for h in res.bed_height_m]      # doctest: +SKIP
     [...]
     """
-    from ..core import Box
+    from ..core import Box, Frame
     from ..dem import Plane, Rectangle, Simulation
 
     if cfg.get("engine", "embedded") != "embedded":  # one layer on LIGGGHTS/LAMMPS
@@ -300,6 +300,9 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
 
     if pile is None:
         pile, _ = generate_pile(cfg, seed=seed, draw=draw)
+    elif not isinstance(pile, Frame):
+        raise TypeError(f"run_spread: `pile` must be a Frame (from generate_pile); got "
+                        f"{type(pile).__name__}")
     elif pile.n_particles == 0:
         raise ConfigError("run_spread: the given pile has no particles")
     if layout is not None:

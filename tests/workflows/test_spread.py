@@ -109,6 +109,8 @@ def test_a_given_pile_spreads_as_the_generated_one(tmp_path):
     np.testing.assert_array_equal(given.layers[0].packing_fraction, own.layers[0].packing_fraction)
     other = run_spread(cfg, pile=generate_pile(cfg, seed=int(cfg["seed"]) + 1)[0])  # it is used
     assert not np.array_equal(other.layers[0].packing_fraction, own.layers[0].packing_fraction)
+    with pytest.raises(TypeError, match="must be a Frame"):
+        run_spread(cfg, pile=pile.positions)
     with pytest.raises(ConfigError, match="no particles"):
         run_spread(cfg, pile=pile.select(np.zeros(pile.n_particles, dtype=bool)))
     ext = load_config(preset="tiny", overrides=['engine="liggghts"'])
