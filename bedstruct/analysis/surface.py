@@ -14,7 +14,7 @@ from ..core.frame import _as_frame
 from . import _packing_kernels as _k
 
 __all__ = ["SurfaceResult", "Roughness", "surface_roughness", "surface_height_map",
-           "height_profile", "bed_height", "layer_heights"]
+           "height_profile", "bed_height", "layer_heights", "grounded_particles"]
 
 
 @dataclass(frozen=True)
@@ -297,3 +297,59 @@ def layer_heights(frames, base: float, **kwargs) -> np.ndarray:
     [0.65, 1.44]
     """
     return np.array([bed_height(f, base, **kwargs) for f in frames], dtype=np.float64)
+
+
+def grounded_particles(frame, base: float, *, vertical: int = 2, tolerance: float | None = None
+                       ) -> np.ndarray:
+    """Particles that rest on the base through a chain of touching particles.
+
+    A particle is grounded when it touches the plane ``z = base`` (its lowest
+    point at most ``tolerance`` above it) or touches a grounded particle
+    (centre distance at most ``r_i + r_j + tolerance``). Particles thrown up
+    by a fast blade, or falling, are not: a side-view silhouette or a height
+    map of the bed should leave them out, since a camera reading the surface
+    of a heap sees them against the background, not as part of the heap.
+
+    Parameters
+    ----------
+    frame : Frame
+    base : float, length
+        Height of the plate (along ``vertical``) the powder rests on.
+    vertical : int, optional
+        Vertical axis (default z).
+    tolerance : float, length, optional
+        Gap still counted as touching (default 5 % of the median diameter,
+        so that particles written with rounding or just separating still
+        count).
+
+    Returns
+    -------
+    (N,) ndarray of bool
+
+    Examples
+    --------
+    >>> from bedstruct import Frame
+    >>> f = Frame([[0.5, 0.5, 0.5], [0.5, 0.5, 1.5], [0.5, 0.5, 4.0]], [0.5, 0.5, 0.5],
+    ...           box=([0, 0, 0], [1, 1, 6]))
+    >>> grounded_particles(f, 0.0).tolist()   # a column of two, one particle in flight
+    [True, True, False]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from .contacts import find_contacts
+    frame = _as_frame(frame)
+    n = frame.n_particles
+    if vertical not in (0, 1, 2):
+        raise ValueError(f"`vertical` must be 0, 1 or 2; got {vertical!r}")
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    r = frame.radii
+    tol = 0.1 * float(np.median(r)) if tolerance is None else float(tolerance)
+    if not (math.isfinite(tol) and tol >= 0):
+        raise ValueError(f"`tolerance` must be finite and >= 0; got {tolerance!r}")
+    c = find_contacts(frame, tolerance=tol, parallel=False)
+    graph = coo_matrix((np.ones(len(c.i)), (c.i, c.j)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    on_base = frame.positions[:, vertical] - r <= float(base) + tol
+    return np.isin(label, np.unique(label[on_base]))

@@ -11,7 +11,8 @@ tool's lowest point stays at z = 0. Before layer k the platform is lowered
 by ``gaps[k]`` at ``lower_speed`` (the bed follows under gravity), so the
 tool skims ``H_k = gaps[0] + ... + gaps[k]`` above the platform. The pile is
 generated once (raindrop insertion into a box, settled) and reinserted in
-front of the tool before every layer. The tool then crosses the platform at
+front of the tool before every layer, on what lies there once powder thrown
+up by the previous stroke has landed (:func:`particles_in_flight`). The tool then crosses the platform at
 ``speed``; ``n_frames`` frames are recorded (atoms, contacts, wall states),
 the dynamic angle of the heap and the mean coordination are measured on
 each. After the tool has passed the end, the bed is measured per region
@@ -350,9 +351,13 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
         _move(sim, "platform", (0.0, 0.0, -float(sc["lower_speed"])), gap, float(sc["lower_speed"]))
         z_plat -= gap
         sim.run(time=min(float(sc["settle_time"]), 2 * gap / float(sc["lower_speed"])))
-        # 2. reinsert the pile in front of the tool, above whatever is there
+        # 2. reinsert the pile in front of the tool, above whatever is there once powder
+        #    thrown up by the stroke has landed (a pile inserted above particles in flight
+        #    would fall from their height onto the bed)
         x_off = front0 + 0.5 * rmax
-        foot = (sim.x[:, 0] > x_off - 2 * rmax) & (sim.x[:, 0] < x_off + float(sc["pile_length"]) + 2 * rmax)
+        foot_x = (x_off - 2 * rmax, x_off + float(sc["pile_length"]) + 2 * rmax)
+        _land_flyers(sim, z_plat, foot_x, float(sc["settle_time"]), layer=k + 1)
+        foot = (sim.x[:, 0] > foot_x[0]) & (sim.x[:, 0] < foot_x[1])
         z_base = max(z_plat, float(np.max(sim.x[foot, 2] + sim.rad[foot])) if foot.any() else z_plat)
         n_before = sim.n_particles
         sim.insert_frame(pile, offset=(x_off, 0.0, z_base + 0.25 * rmax))
@@ -420,6 +425,72 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
             writer.final(sim, "final")
         layout.write_results({"workflow": "spread", **res.to_dict()})
     return res
+
+
+#: Settling intervals waited at most for powder in flight to land before a pile is reinserted.
+_MAX_LANDING_WAIT = 20
+
+
+def particles_in_flight(fr, z_plat: float, x_range, *, gravity=(0.0, 0.0, -9.81)) -> np.ndarray:
+    """Particles in free flight over ``x_range = (xa, xb)`` above the platform ``z_plat``.
+
+    In flight: no contact force acts (the total force, gravity included, is within half
+    the weight of ``m g``) and the particle does not rest on the platform through
+    touching particles (:func:`bedstruct.analysis.grounded_particles`). Particles held
+    by the tool (cohesion carries their weight) and grains on the bed are not.
+
+    Parameters
+    ----------
+    fr : Frame
+        SI frame with ``forces`` (total, gravity included) and a ``mass`` column, as
+        :meth:`bedstruct.dem.Simulation.frame` gives.
+    z_plat : float, m
+    x_range : (float, float), m
+    gravity : (3,) array_like, m/s^2
+    """
+    from ..analysis import grounded_particles
+    if fr.n_particles == 0:
+        return np.zeros(0, dtype=bool)
+    if fr.forces is None or "mass" not in fr.columns:
+        raise ValueError("particles_in_flight: the frame needs forces and a 'mass' column "
+                         "(a Simulation.frame())")
+    p = fr.positions
+    over = (p[:, 0] >= float(x_range[0])) & (p[:, 0] <= float(x_range[1])) & (p[:, 2] > z_plat)
+    mg = np.asarray(fr.columns["mass"], float)[:, None] * np.asarray(gravity, float)[None, :]
+    free = over & (np.linalg.norm(np.asarray(fr.forces, float) - mg, axis=1)
+                   < 0.5 * np.linalg.norm(mg, axis=1))
+    if not free.any():   # the usual case: no contact search needed
+        return free
+    return free & ~grounded_particles(fr, z_plat)
+
+
+def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) -> float:
+    """Settle in intervals of ``settle_time`` while particles in flight over the pile's foot
+    ``(xa, xb)`` (:func:`particles_in_flight`) would lift the pile by more than the largest
+    radius above what rests there; returns the time waited (0: the state is untouched)."""
+    waited = 0.0
+    for attempt in range(_MAX_LANDING_WAIT + 1):
+        fr = sim.frame()
+        flying = particles_in_flight(fr, z_plat, foot, gravity=sim.gravity)
+        if flying.any():
+            p, r = fr.positions, fr.radii
+            top = p[:, 2] + r
+            foot_mask = (p[:, 0] >= foot[0]) & (p[:, 0] <= foot[1]) & ~flying
+            rest_top = max(z_plat, float(top[foot_mask].max()) if foot_mask.any() else z_plat)
+            flying &= top > rest_top + float(r.max())
+        if not flying.any():
+            if waited:
+                log.info("layer %d: waited %.3g s for powder thrown up by the stroke to land "
+                         "before reinserting the pile", layer, waited)
+            return waited
+        if attempt == _MAX_LANDING_WAIT:
+            log.warning("layer %d: %d particle(s) still in flight over the pile's foot after "
+                        "%.3g s; the pile is reinserted above them", layer, int(flying.sum()),
+                        waited)
+            return waited
+        sim.run(time=settle_time)
+        waited += settle_time
+    return waited
 
 
 def frame_metrics(fr, contacts, front: float, *, plate_length: float, z_plat: float, r_max: float):

@@ -100,3 +100,54 @@ def test_errors():
         surface_height_map(f, probe_radius=-1.0)
     with pytest.raises(ValueError, match="no particles"):
         surface_height_map(Frame(np.zeros((0, 3)), np.zeros(0), box=[1, 1, 1]))
+
+
+# --------------------------------------------------------------- grounded_particles
+
+def _bed_with_flyers(seed=0):
+    """A cubic lattice bed on z = 0, two particles in flight above it (one alone, one a touching
+    pair) and one resting on the bed but written past the periodic x face."""
+    bed = cubic_lattice((6, 4, 3), 1.0)                   # spheres of radius 0.5 on z = 0
+    extra = np.array([[2.5, 1.5, 6.0],                    # alone, 3 diameters above the bed
+                      [4.0, 2.5, 7.0], [4.98, 2.5, 7.0],  # a touching pair in flight
+                      [6.49, 0.5, 3.45]])                 # on (0.5, 0.5, 2.5) through x = 6 = 0
+    pos = np.concatenate([bed.positions, extra])
+    return Frame(pos, np.full(len(pos), 0.5), box=Box([0, 0, -1], [6, 4, 10],
+                                                      boundary=("pp", "pp", "ff")))
+
+
+def test_grounded_particles_leaves_out_particles_in_flight():
+    from bedstruct.analysis import grounded_particles
+    fr = _bed_with_flyers()
+    g = grounded_particles(fr, 0.0)
+    n_bed = 6 * 4 * 3
+    assert g[:n_bed].all()
+    assert not g[n_bed:n_bed + 3].any()          # the lone flyer and the flying pair
+    assert g[n_bed + 3]                           # rests on the bed across the periodic face
+    # a flyer that lands (touches the top layer) joins the bed
+    pos = fr.positions.copy()
+    pos[n_bed, 2] = 3.0
+    assert grounded_particles(Frame(pos, fr.radii, box=fr.box), 0.0)[n_bed]
+
+
+def test_grounded_particles_is_invariant_under_periodic_shift_and_order():
+    from bedstruct.analysis import grounded_particles
+    fr = _bed_with_flyers()
+    g = grounded_particles(fr, 0.0)
+    shifted = fr.positions + [2.3, -1.7, 0.0]    # along the periodic axes only
+    assert np.array_equal(grounded_particles(Frame(shifted, fr.radii, box=fr.box), 0.0), g)
+    perm = np.random.default_rng(0).permutation(fr.n_particles)
+    gp = grounded_particles(Frame(fr.positions[perm], fr.radii[perm], box=fr.box), 0.0)
+    assert np.array_equal(gp, g[perm])
+
+
+def test_grounded_particles_base_and_errors():
+    from bedstruct.analysis import grounded_particles
+    fr = _bed_with_flyers()
+    # a base below the bed's lowest point by more than the tolerance grounds nothing
+    assert not grounded_particles(fr, -1.0).any()
+    assert grounded_particles(fr.select(np.zeros(fr.n_particles, bool)), 0.0).shape == (0,)
+    with pytest.raises(ValueError, match="tolerance"):
+        grounded_particles(fr, 0.0, tolerance=-1.0)
+    with pytest.raises(ValueError, match="vertical"):
+        grounded_particles(fr, 0.0, vertical=3)
