@@ -363,6 +363,18 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
             raise ConfigError(f"recalibrate: parameter {p!r} is not among the base parameters "
                               f"{sorted(base)}")
     seeds = tuple(int(seed) + i for i in range(replicates))
+
+    def step(p):  # the nuisance parameter's finite-difference point and step
+        h = rel_step * abs(base[p]) if base[p] != 0 else rel_step
+        return dict(base, **{p: base[p] + h}), h
+
+    if hasattr(simulator, "prefetch"):
+        # every point's replicates at once (parallel simulators), the probe below among them:
+        # run on its own first, it would keep all but one process waiting (the engine checks
+        # its design's kinds when it is made)
+        points = [(dict(base), {})] + [(step(p)[0], {}) for p in nuisance]
+        points += [(dict(base), {e.name: m}) for e in effects for m in e.reference_magnitudes]
+        simulator.prefetch([(b, e, s) for b, e in points for s in seeds], progress=progress)
     probe = simulator(dict(base), {}, seeds[0])
     names = []
     for m in design:
@@ -382,15 +394,6 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
 
     def run(params, eff):
         return simulate_replicates(simulator, params, eff, seeds, names)
-
-    def step(p):  # the nuisance parameter's finite-difference point and step
-        h = rel_step * abs(base[p]) if base[p] != 0 else rel_step
-        return dict(base, **{p: base[p] + h}), h
-
-    if hasattr(simulator, "prefetch"):  # every point's replicates at once (parallel simulators)
-        points = [(dict(base), {})] + [(step(p)[0], {}) for p in nuisance]
-        points += [(dict(base), {e.name: m}) for e in effects for m in e.reference_magnitudes]
-        simulator.prefetch([(b, e, s) for b, e in points for s in seeds], progress=progress)
 
     progress_bar = None
     if progress:

@@ -82,13 +82,14 @@ def test_fingerprints_hand_the_whole_batch_to_a_parallel_simulator():
     from bedstruct.diagnose.surrogate import BASE_PARAMETERS
     design = diagnosis_design(twin_design(), catalogue())
     inner = SurrogateSimulator(design)
-    batches, calls = [], []
+    batches, calls, calls_before = [], [], []
 
     class Recording:
         name = "surrogate"
 
         def prefetch(self, batch, progress=False):
             batches.append(list(batch))
+            calls_before.append(len(calls))
             return 0
 
         def __call__(self, base, effects, seed):
@@ -99,6 +100,7 @@ def test_fingerprints_hand_the_whole_batch_to_a_parallel_simulator():
     first = batches[0]
     assert len(first) == (1 + 1 + 2 * len(effects)) * 2
     assert all(c in first for c in calls)
+    assert calls_before[0] == 0   # the probe call is in the batch, not run on its own first
 
 
 def test_cached_observables_are_shared_between_designs_with_equal_conditions():
