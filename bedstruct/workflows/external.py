@@ -361,7 +361,8 @@ def run_spread_external(cfg: dict, *, out=None):
     from ..dem.backends import (BladeGeometry, RollerGeometry, SpreadLayersPlan, run_deck,
                                 spread_layers_deck, write_sphere_data)
     from ..io import read_dump, write_dump
-    from .spread import SpreadResult, _REGION_NAMES, frame_metrics, generate_pile, measure_layer
+    from .spread import SpreadResult, generate_pile
+    from .spread_measure import _REGION_NAMES, frame_metrics, measure_layer
 
     sc = cfg["spread"]
     tool_name = sc["tool"]

@@ -26,90 +26,19 @@ import copy
 import logging
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..errors import ConfigError
 from ._common import (RunLayout, check_engine, contact_model, german_fit_values, psd_sampler,
                       run_in_frames, to_jsonable, tool_motion)
+from .spread_measure import (_REGION_NAMES, LayerResult, _subset_contacts, frame_metrics,
+                             measure_layer, particles_in_flight)
 
 __all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key"]
 
 log = logging.getLogger(__name__)
-
-_REGION_NAMES = {3: ("start", "centre", "end")}
-
-
-@dataclass(frozen=True)
-class LayerResult:
-    """Measurements of one spread layer (lengths in m, angles in degrees).
-
-    Attributes
-    ----------
-    index : int
-        1-based layer number.
-    gap : float, m
-        Platform lowering before this layer.
-    nominal_height : float, m
-        Cumulative gap: the tool height above the platform.
-    bed_height_m : float, m
-        Mean top-surface height of the bed above the platform (over the
-        platform, away from its ends; :func:`bedstruct.analysis.bed_height`).
-    bed_top_m : float, m
-        95th percentile of the top-surface height (the "top" of the bed).
-    bed_height_regions_m : (R,) tuple of float, m
-        Mean top-surface height in each region (start, centre, end).
-    roughness_sa_m : float, m
-        Arithmetic mean deviation Sa of the top surface (ISO 25178).
-    packing_fraction : (R,) tuple of float
-        Solid fraction of each region (start, centre, end) between the
-        platform and the tool height.
-    coordination : (R,) tuple of float
-        Mean coordination number per region (particle-particle contacts).
-    fabric_anisotropy : (R,) tuple of float
-        Deviatoric anisotropy of the second-order fabric tensor per region.
-    dynamic_angle_deg : tuple of float
-        Dynamic angle of the heap in each recorded frame (NaN when it could
-        not be fitted or the heap is less than two diameters high).
-    mean_dynamic_angle_deg, dynamic_angle_std_deg : float
-        Mean and standard deviation over the frames where it was fitted.
-    mean_cn_series : tuple of float
-        Mean coordination of all particles in each recorded frame.
-    blade_positions : tuple of float, m
-        Front of the tool in each recorded frame.
-    heap_d50_shift : float, m
-        Volume D50 of the heap minus that of the deposited bed at mid-layer
-        (> 0: coarse particles enriched in the heap).
-    segregation_index : float
-    n_inserted, n_bed, n_heap, n_removed : int
-        Particles inserted this layer; in the bed (on the platform), still in
-        the domain beyond it, and removed so far (cumulative).
-    wall_time : float, s
-    """
-
-    index: int
-    gap: float
-    nominal_height: float
-    bed_height_m: float
-    bed_top_m: float
-    bed_height_regions_m: tuple
-    roughness_sa_m: float
-    packing_fraction: tuple
-    coordination: tuple
-    fabric_anisotropy: tuple
-    dynamic_angle_deg: tuple
-    mean_dynamic_angle_deg: float
-    dynamic_angle_std_deg: float
-    mean_cn_series: tuple
-    blade_positions: tuple
-    heap_d50_shift: float
-    segregation_index: float
-    n_inserted: int
-    n_bed: int
-    n_heap: int
-    n_removed: int
-    wall_time: float
 
 
 @dataclass(frozen=True)
@@ -356,7 +285,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
         #    would fall from their height onto the bed)
         x_off = front0 + 0.5 * rmax
         foot_x = (x_off - 2 * rmax, x_off + float(sc["pile_length"]) + 2 * rmax)
-        _land_flyers(sim, z_plat, foot_x, float(sc["settle_time"]), layer=k + 1)
+        waited = _land_flyers(sim, z_plat, foot_x, float(sc["settle_time"]), layer=k + 1)
         foot = (sim.x[:, 0] > foot_x[0]) & (sim.x[:, 0] < foot_x[1])
         z_base = max(z_plat, float(np.max(sim.x[foot, 2] + sim.rad[foot])) if foot.any() else z_plat)
         n_before = sim.n_particles
@@ -402,7 +331,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
             fr, contacts_all, cfg, index=k + 1, z_plat=z_plat, front0=front0, r_max=rmax,
             pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid, n_inserted=n_ins,
             n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer)
-        layers.append(layer)
+        layers.append(replace(layer, landing_wait=waited))
         f_all.extend(np.asarray(pack, float).tolist())
         cn_all.extend(np.asarray(cnw, float).tolist())
         h, H_k, n_bed = layer.bed_height_m, layer.nominal_height, layer.n_bed
@@ -429,39 +358,6 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
 
 #: Settling intervals waited at most for powder in flight to land before a pile is reinserted.
 _MAX_LANDING_WAIT = 20
-
-
-def particles_in_flight(fr, z_plat: float, x_range, *, gravity=(0.0, 0.0, -9.81)) -> np.ndarray:
-    """Particles in free flight over ``x_range = (xa, xb)`` above the platform ``z_plat``.
-
-    In flight: no contact force acts (the total force, gravity included, is within half
-    the weight of ``m g``) and the particle does not rest on the platform through
-    touching particles (:func:`bedstruct.analysis.grounded_particles`). Particles held
-    by the tool (cohesion carries their weight) and grains on the bed are not.
-
-    Parameters
-    ----------
-    fr : Frame
-        SI frame with ``forces`` (total, gravity included) and a ``mass`` column, as
-        :meth:`bedstruct.dem.Simulation.frame` gives.
-    z_plat : float, m
-    x_range : (float, float), m
-    gravity : (3,) array_like, m/s^2
-    """
-    from ..analysis import grounded_particles
-    if fr.n_particles == 0:
-        return np.zeros(0, dtype=bool)
-    if fr.forces is None or "mass" not in fr.columns:
-        raise ValueError("particles_in_flight: the frame needs forces and a 'mass' column "
-                         "(a Simulation.frame())")
-    p = fr.positions
-    over = (p[:, 0] >= float(x_range[0])) & (p[:, 0] <= float(x_range[1])) & (p[:, 2] > z_plat)
-    mg = np.asarray(fr.columns["mass"], float)[:, None] * np.asarray(gravity, float)[None, :]
-    free = over & (np.linalg.norm(np.asarray(fr.forces, float) - mg, axis=1)
-                   < 0.5 * np.linalg.norm(mg, axis=1))
-    if not free.any():   # the usual case: no contact search needed
-        return free
-    return free & ~grounded_particles(fr, z_plat)
 
 
 def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) -> float:
@@ -491,162 +387,3 @@ def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) ->
         sim.run(time=settle_time)
         waited += settle_time
     return waited
-
-
-def frame_metrics(fr, contacts, front: float, *, plate_length: float, z_plat: float, r_max: float):
-    """Dynamic angle of the heap in front of the tool (degrees, NaN when not measurable) and mean
-    coordination ``2 N_c / N`` of one spreading frame (SI).
-
-    The heap is the powder ahead of the tool's front face on the platform. Its
-    free surface (side silhouette) is fitted from the crest forwards between
-    20 and 80 % of the heap height, measured from the **toe** (the lowest point
-    of the surface ahead of the tool: the bed or bare platform the heap runs
-    onto), as the seed measures the angle the heap makes with the existing bed.
-    NaN when the heap is lower than two median diameters, when its front
-    flank does not come down to the bed on the platform (the heap has reached
-    the front wall or the end of the platform, or the pile is still the
-    inserted block with a vertical front: no free toe above the bed, which
-    lies below the tool's lowest point z = 0), or when the fitted line
-    descends through less than half of the fitted band (the flat top of a
-    block, not a flank).
-    """
-    return _dynamic_angle(fr, front, plate_length=plate_length, z_plat=z_plat, r_max=r_max), \
-        float(2.0 * contacts.n_contacts / max(fr.n_particles, 1))
-
-
-def _dynamic_angle(fr, front: float, *, plate_length: float, z_plat: float, r_max: float,
-                   fit_range=(0.2, 0.8)) -> float:
-    """Front-flank angle of the heap ahead of ``front`` (see :func:`frame_metrics`); NaN if none."""
-    from ..analysis import dynamic_angle_of_repose, free_surface_profile
-    p = fr.positions
-    sub = fr.select((p[:, 0] < plate_length) & (p[:, 0] > front) & (p[:, 2] > z_plat - r_max))
-    if sub.n_particles == 0:
-        return float("nan")
-    rmed = float(np.median(fr.radii))
-    spacing = 0.5 * rmed
-    try:
-        x, h = free_surface_profile(sub, axis=0, vertical=2, spacing=spacing, statistic="max")
-        ahead = x > front
-        x, h = x[ahead], h[ahead]
-        peak = int(np.nanargmax(h))
-        i_toe = peak + int(np.nanargmin(h[peak:]))   # lowest point ahead of the crest
-        r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
-                                    bed_level=float(h[i_toe]), spacing=spacing, statistic="max",
-                                    fit_range=fit_range)
-    except ValueError:
-        return float("nan")
-    # a heap lower than two particle diameters has no measurable flank
-    if not r.top - r.base > 4 * rmed or r.right is None:
-        return float("nan")
-    # the toe must lie on the platform: a heap cut by the front wall (or the platform end)
-    # has no free toe, and the band between its crest and the cut is not its flank
-    if not x[i_toe] < plate_length - 2 * r_max:
-        return float("nan")
-    # ... and at the bed, below the tool's lowest point (z = 0): the profile of a block with a
-    # vertical front ends one radius below its top edge, far above the bed
-    if not h[i_toe] < 0.0:
-        return float("nan")
-    # the fitted line must descend through at least half of the band: a heap not yet formed
-    # (the inserted block, a flat top ending in a cliff) would give the slope of its top
-    fit = r.right
-    drop = abs(fit.slope) * float(fit.x.max() - fit.x.min())
-    if drop < 0.5 * (fit_range[1] - fit_range[0]) * (r.top - r.base):
-        return float("nan")
-    return float(r.angle_deg)
-
-
-def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, front0: float,
-                  r_max: float, pile, dyn, cn_series, blade_pos, mid, n_inserted: int,
-                  n_removed: int, wall_time: float):
-    """Measure the bed of spread layer ``index`` in frame ``fr`` (SI) with its contacts.
-
-    The same measurement for every engine (see :func:`run_spread`). Returns
-    ``(LayerResult, packing_per_region, coordination_per_region)``.
-    """
-    from ..analysis import (coordination, coordination_by_window, packing_along, region_fabric,
-                            segregation, surface_height_map)
-    sc = cfg["spread"]
-    rmax = r_max
-    Lplat, W = float(sc["plate_length"]), float(sc["width"])
-    gaps = [float(g) for g in sc["gaps"]]
-    n_reg = int(sc["regions"])
-    k = index - 1
-    gap = gaps[k]
-    n_ins = n_inserted
-    on_plat = fr.positions[:, 0] < Lplat
-    bed = fr.select(on_plat & (fr.positions[:, 2] > z_plat - rmax))
-    n_bed = bed.n_particles
-    n_heap = fr.n_particles - n_bed
-    H_k = sum(gaps[:k + 1])
-    xa, xb = front0 + 2 * rmax, Lplat - 2 * rmax
-    try:
-        surf = surface_height_map(bed, base=z_plat, bounds=((xa, xb), (0.0, W)),
-                                  spacing=0.5 * float(np.median(bed.radii)))
-        hmap = np.asarray(surf.heights) - z_plat
-        h = float(np.mean(hmap))
-        h_top = float(np.percentile(hmap, 95))
-        sa = float(surf.sa)
-        xs = np.asarray(surf.x)
-        e = np.linspace(xa, xb, n_reg + 1)
-        h_reg = tuple(float(np.mean(hmap[(xs >= e[i]) & (xs <= e[i + 1])]))
-                      for i in range(n_reg))
-    except ValueError:
-        h = h_top = sa = float("nan")
-        h_reg = (float("nan"),) * n_reg
-    lo = np.array([xa, 0.0, z_plat])
-    hi = np.array([xb, W, z_plat + H_k])
-    pack = packing_along(bed, n_reg, axis=0, bounds=(lo, hi)).fractions
-    coord = coordination(fr, contacts_all)
-    wlo, whi = _windows(lo, hi, n_reg)
-    cnw = coordination_by_window(fr, wlo, whi, contacts=contacts_all, result=coord).mean
-    try:
-        rf = region_fabric(contacts_all, fr, axis=0, n_regions=n_reg, bounds=(xa, xb))
-        aniso = tuple(float(rf[nm].anisotropy) if rf[nm] is not None else float("nan")
-                      for nm in rf.names)
-    except (ValueError, KeyError) as exc:
-        log.warning("spread: fabric failed: %s", exc)
-        aniso = (float("nan"),) * n_reg
-    d50s = seg_i = float("nan")
-    if mid:
-        mfr, mfront = mid[0]
-        try:
-            sg = segregation(mfr.select(mfr.positions[:, 0] < Lplat), mfront, direction=1, axis=0,
-                             initial=pile)
-            d50s = float(sg.heap_vs_bed.d50_shift)
-            seg_i = float(sg.index)
-        except (ValueError, AttributeError) as exc:
-            log.warning("spread: segregation failed: %s", exc)
-    dyn_a = np.array(dyn, dtype=float)
-    ok = np.isfinite(dyn_a)
-    layer = (LayerResult(
-        index=k + 1, gap=gap, nominal_height=H_k, bed_height_m=float(h), bed_top_m=h_top,
-        roughness_sa_m=sa,
-        bed_height_regions_m=h_reg,
-        packing_fraction=tuple(float(v) for v in pack),
-        coordination=tuple(float(v) for v in cnw), fabric_anisotropy=aniso,
-        dynamic_angle_deg=tuple(dyn),
-        mean_dynamic_angle_deg=float(dyn_a[ok].mean()) if ok.any() else float("nan"),
-        dynamic_angle_std_deg=float(dyn_a[ok].std()) if ok.sum() > 1 else float("nan"),
-        mean_cn_series=tuple(cn_series), blade_positions=tuple(blade_pos), heap_d50_shift=d50s,
-        segregation_index=seg_i, n_inserted=n_ins, n_bed=n_bed, n_heap=n_heap,
-        n_removed=int(n_removed), wall_time=float(wall_time)))
-    return layer, pack, cnw
-
-
-def _subset_contacts(contacts, mask):
-    """Contacts between particles of ``mask`` only, re-indexed to ``frame.select(mask)``."""
-    from dataclasses import replace
-    keep = mask[contacts.i] & mask[contacts.j]
-    c = contacts.select(keep)
-    new = np.cumsum(mask) - 1
-    return replace(c, i=new[c.i], j=new[c.j], n_particles=int(mask.sum()), walls=None)
-
-
-def _windows(lo, hi, n):
-    e = np.linspace(lo[0], hi[0], n + 1)
-    lower = np.tile(lo, (n, 1))
-    upper = np.tile(hi, (n, 1))
-    lower[:, 0] = e[:-1]
-    upper[:, 0] = e[1:]
-    return lower, upper
-

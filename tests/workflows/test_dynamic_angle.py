@@ -14,7 +14,7 @@ import pytest
 
 from bedstruct import Frame
 from bedstruct.analysis import dynamic_angle_of_repose, find_contacts
-from bedstruct.workflows.spread import frame_metrics
+from bedstruct.workflows.spread_measure import frame_metrics
 
 R = 25e-6              # sphere radius (m)
 Z_PLAT = -400e-6       # platform level (the tool's lowest point is z = 0)

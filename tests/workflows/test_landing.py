@@ -13,7 +13,8 @@ import pytest
 
 from bedstruct import Box, Frame
 from bedstruct.dem import ContactModel, Material, Plane, Simulation
-from bedstruct.workflows.spread import _land_flyers, particles_in_flight
+from bedstruct.workflows.spread import _land_flyers
+from bedstruct.workflows.spread_measure import particles_in_flight
 
 R = 5e-5
 PLATE = 2e-3

@@ -35,7 +35,7 @@ def test_bed_height_follows_the_gaps(tiny_spread):
 
 
 def test_bed_metrics_are_physical(tiny_spread):
-    _, res, _ = tiny_spread
+    cfg, res, _ = tiny_spread
     assert res.regions == ("start", "centre", "end")
     for layer in res.layers:
         assert len(layer.packing_fraction) == 3
@@ -50,6 +50,11 @@ def test_bed_metrics_are_physical(tiny_spread):
         # the blade moves forwards between frames
         assert np.all(np.diff(layer.blade_positions) > 0)
     assert len(res.layers[0].mean_cn_series) == len(res.layers[0].blade_positions)
+    # the settling added while thrown-up powder landed: whole settling intervals, recorded
+    settle = cfg["spread"]["settle_time"]
+    for layer in res.layers:
+        assert layer.landing_wait >= 0
+        assert layer.landing_wait / settle == pytest.approx(round(layer.landing_wait / settle))
 
 
 def test_run_directory_and_dumps(tiny_spread):
