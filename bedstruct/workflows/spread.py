@@ -386,4 +386,4 @@ def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) ->
             return waited
         sim.run(time=settle_time)
         waited += settle_time
-    return waited
+    raise AssertionError("unreachable")  # the last attempt returns
