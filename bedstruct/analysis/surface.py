@@ -306,9 +306,10 @@ def grounded_particles(frame, base: float, *, vertical: int = 2, tolerance: floa
     A particle is grounded when it touches the plane ``z = base`` (its lowest
     point at most ``tolerance`` above it) or touches a grounded particle
     (centre distance at most ``r_i + r_j + tolerance``). Particles thrown up
-    by a fast blade, or falling, are not: a side-view silhouette or a height
-    map of the bed should leave them out, since a camera reading the surface
-    of a heap sees them against the background, not as part of the heap.
+    by a fast blade, or falling, are not; the spreading workflow waits for
+    them to land before it reinserts its pile. In a heap sheared fast enough
+    to dilate, neighbours can lie further apart than the tolerance, so parts
+    of a flowing heap may count as not grounded: a static test.
 
     Parameters
     ----------
