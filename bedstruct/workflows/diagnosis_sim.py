@@ -61,8 +61,9 @@ _ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_
                 "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
                 "seed", "workdir", "cache", "jobs"}
 #: Bump when the simulator's observation semantics change. 4: before reinserting the pile
-#: the spreading workflow waits for powder thrown up by the previous stroke to land (at the
-#: scale models' x5 speed the pile of layers 2 and 3 used to be dropped from 1-5 mm).
+#: the spreading workflow waits for powder in flight to land (at the scale models' x5 speed
+#: the piles of layers 2 and 3 used to be dropped from 1-5 mm, at x1 from ~0.1 mm onto a bed
+#: still coming down after the platform was lowered).
 _CACHE_SCHEMA = 4
 #: Workflow options added after the cache schema: at their neutral value they change no run
 #: and are left out of the cache key, so that entries written before them stay valid.
