@@ -73,6 +73,10 @@ _NEUTRAL_OPTIONS = {("repose", "rest_time"): 0.0}
 #: contact_ageing 2: the bond breaks by sliding (the Coulomb cut of the spring), not by any
 #: tangential motion.
 _MODEL_REVISIONS = {"contact_ageing": 2}
+#: LIGGGHTS/LAMMPS deck revisions after the cache schema (in the keys of external-engine calls
+#: only). 2: the spreading deck waits for powder in flight to land before placing a pile, as
+#: the embedded workflow does since schema 4.
+_DECK_REVISION = 2
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
 #: the stroke, leaving most frames without a heap whose angle can be measured; and the
@@ -316,6 +320,8 @@ class EngineSimulator:
         revised = {m: r for m, r in _MODEL_REVISIONS.items() if cfg["effects"].get(m)}
         if revised:
             doc["revisions"] = revised
+        if cfg.get("engine", "embedded") != "embedded":
+            doc["deck_revision"] = _DECK_REVISION
         text = json.dumps(doc, sort_keys=True, default=float)
         return hashlib.sha256(text.encode()).hexdigest()[:32]
 

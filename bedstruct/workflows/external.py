@@ -32,7 +32,7 @@ import gzip
 import logging
 import shutil
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -358,10 +358,10 @@ def run_spread_external(cfg: dict, *, out=None):
     import warnings
 
     from ..analysis import find_contacts
-    from ..dem.backends import (BladeGeometry, RollerGeometry, SpreadLayersPlan, run_deck,
-                                spread_layers_deck, write_sphere_data)
+    from ..dem.backends import (BladeGeometry, RollerGeometry, SpreadLayersPlan, landing_offsets,
+                                run_deck, spread_layers_deck, write_sphere_data)
     from ..io import read_dump, write_dump
-    from .spread import SpreadResult, generate_pile
+    from .spread import _MAX_LANDING_WAIT, SpreadResult, generate_pile
     from .spread_measure import _REGION_NAMES, frame_metrics, measure_layer
 
     sc = cfg["spread"]
@@ -439,7 +439,8 @@ def run_spread_external(cfg: dict, *, out=None):
             return_speed=float(sc["return_speed"]), settle_time=float(sc["settle_time"]),
             pile_lift=lift, clear=clear, x_end=x_stop,
             chamber_depth=(depth - 2 * rmax) if sc["chamber"] else 0.0,
-            n_frames=max(1, int(sc["n_frames"])), wall_thickness=4 * rmax)
+            n_frames=max(1, int(sc["n_frames"])), wall_thickness=4 * rmax,
+            landing_intervals=_MAX_LANDING_WAIT, landing_margin=rmax)
         data = write_sphere_data(root / "initial.data", X, R_, box_lo=lo, box_hi=hi,
                                  density=p.density, n_types=2, velocities=np.tile(pv, (K, 1)),
                                  omegas=np.tile(po, (K, 1)),
@@ -465,11 +466,15 @@ def run_spread_external(cfg: dict, *, out=None):
         timeout = float(cfg["external"]["timeout"]) or None
         run_deck(deck_path, engine=info, np=np_, cwd=root, log_path="in.log", timeout=timeout)
         wall_run = _time.perf_counter() - t_start
+        # the landing waits shift every later event off the planned steps
+        offsets = landing_offsets(root / "in.log", K)
+        steps = plan.shifted(offsets)
+        total_steps = plan.total_steps + offsets[-1]
         n_reg = int(sc["regions"])
         names = _REGION_NAMES.get(n_reg, tuple(f"region{i}" for i in range(n_reg)))
         layers, f_all, cn_all = [], [], []
         final = None
-        for k, ls in enumerate(plan.layers):
+        for k, ls in enumerate(steps):
             t_layer = _time.perf_counter()
             stage = root / f"layer{k + 1:02d}"
             z_plat = -sum(gaps[:k + 1])
@@ -505,9 +510,10 @@ def run_spread_external(cfg: dict, *, out=None):
                 final, find_contacts(final), cfg, index=k + 1, z_plat=z_plat, front0=front0,
                 r_max=rmax, pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid,
                 n_inserted=n, n_removed=n_active - final.n_particles,
-                wall_time=(wall_run * (ls.end - ls.start) / plan.total_steps
+                wall_time=(wall_run * (ls.end - ls.start) / total_steps
                            + _time.perf_counter() - t_layer))
-            layers.append(layer)
+            wait = offsets[k] - (offsets[k - 1] if k else 0)
+            layers.append(replace(layer, landing_wait=wait * dt))
             f_all.extend(np.asarray(pack, float).tolist())
             cn_all.extend(np.asarray(cnw, float).tolist())
             log.info("layer %d on %s: bed height %.4g m (nominal %.4g)", k + 1, cfg["engine"],
@@ -518,7 +524,7 @@ def run_spread_external(cfg: dict, *, out=None):
                            german_a=ga, german_b=gb, german_r_squared=gr,
                            extra={"wall_time": _time.perf_counter() - t_start,
                                   "engine_wall_time": wall_run, "dt": dt,
-                                  "steps": plan.total_steps, "engine": cfg["engine"],
+                                  "steps": total_steps, "engine": cfg["engine"],
                                   "n_particles_final": int(final.n_particles)})
         layout.write_results({"workflow": "spread", "engine": cfg["engine"], "np": np_,
                               **res.to_dict()})

@@ -65,7 +65,8 @@ class LayerResult:
     landing_wait : float, s
         Settling added before the pile was reinserted, while powder thrown up
         by the previous stroke landed (see :func:`particles_in_flight`; 0 when
-        nothing was in flight, and for LIGGGHTS/LAMMPS, whose decks do not wait).
+        nothing was in flight). LIGGGHTS/LAMMPS decks wait by the same rule
+        without its contact test (:func:`bedstruct.dem.backends.spread_layers_deck`).
     """
 
     index: int

@@ -511,3 +511,101 @@ def test_roller_spin_drags_a_sphere_on_top(tmp_path, engine):
     assert x[100.0] > x[0.0] + 4e-6, x
     assert x[-100.0] < x[0.0] - 4e-6, x
     assert abs(x[0.0]) < 6e-6, x
+
+
+def _landing_plan(intervals, dt=1e-6):
+    from bedstruct.dem.backends import SpreadLayersPlan
+    blade = BladeGeometry(x0=0.0, z_bottom=0.0, speed=0.1, height=1e-3)
+    return SpreadLayersPlan(3e-3, 2e-3, (2e-4, 2e-4), blade, ((1, 1), (2, 2)), (0.0, 5e-3),
+                            (5e-4, 1.5e-3), dt, x_end=3.5e-3, n_frames=4, settle_time=5e-3,
+                            landing_intervals=intervals, landing_margin=5e-5)
+
+
+def test_spread_deck_waits_for_flying_powder_only_when_asked(tmp_path):
+    """The landing loop is written before layer 2 only, and only with ``landing_intervals``;
+    LAMMPS' walls move on the planned step (the run's step less the steps waited)."""
+    from bedstruct.dem.backends import spread_layers_deck
+    data = write_sphere_data(tmp_path / "a.data", [[1e-3, 2e-4, -1.5e-4], [1e-3, 2e-4, 5e-3]],
+                             [5e-5, 5e-5], box_lo=[-1e-3, 0, -1e-3], box_hi=[5e-3, 4e-4, 1e-2],
+                             n_types=2)
+    for engine in ("liggghts", "lammps"):
+        deck = spread_layers_deck(data, engine=engine, plan=_landing_plan(20), stl_folder=tmp_path)
+        assert deck.count("label landing") == 1 and "label landing02" in deck
+        assert 'if "${fly02} > 0" then "run 5000"' in deck
+        assert deck.count("BEDSTRUCT_OFFSET layer=") == 2
+        quiet = spread_layers_deck(data, engine=engine, plan=_landing_plan(0), stl_folder=tmp_path)
+        assert "label landing" not in quiet and "inflight" not in quiet
+    ramps = [ln for ln in deck.splitlines() if ln.startswith(("variable bx", "variable bz",
+                                                               "variable pz"))]
+    assert len(ramps) == 3 and all("(step-v_off)" in ln for ln in ramps)
+    assert not any("step" in ln.replace("(step-v_off)", "") for ln in ramps)
+    with pytest.raises(ValueError, match="must not be negative"):
+        _landing_plan(-1)
+
+
+def test_landing_offsets_shift_the_plan(tmp_path):
+    from bedstruct.dem.backends import landing_offsets
+    plan = _landing_plan(20)
+    log = tmp_path / "log"
+    log.write_text("Step Atoms\nBEDSTRUCT_OFFSET layer=1 steps=0\n"
+                   'print "BEDSTRUCT_OFFSET layer=2 steps=${off}"\n'
+                   "BEDSTRUCT_OFFSET layer=2 steps=15000\n")
+    off = landing_offsets(log, 2)
+    assert off == (0, 15000)
+    a, b = plan.shifted(off)
+    assert a == plan.layers[0]
+    assert b.start == plan.layers[1].start                       # the wait comes after it
+    assert (b.spread, b.stop, b.end) == tuple(getattr(plan.layers[1], f) + 15000
+                                              for f in ("spread", "stop", "end"))
+    with pytest.raises(ValueError, match=r"log: .*layer\(s\) \[3\]"):
+        landing_offsets(log, 3)
+    with pytest.raises(ValueError, match="non-decreasing"):
+        plan.shifted((15000, 0))
+
+
+@both_engines
+def test_spread_deck_waits_for_a_thrown_sphere_to_land(tmp_path, engine):
+    """A sphere thrown up at 0.4 m/s in layer 1 is still in the air when layer 2 begins
+    (its flight takes 2 v / g = 82 ms); the deck waits in 5 ms intervals until it has landed
+    before the next pile (one large sphere) is placed. The tool of layer 2 starts after the
+    wait: the large sphere lies ahead of the blade's front face at every frame, by the
+    schedule shifted by the logged offset, and the blade pushes it (LAMMPS moves its walls
+    by the planned step, so this fails if the offset were ignored there)."""
+    from bedstruct.dem.backends import landing_offsets, spread_layers_deck
+    from bedstruct.io import read_dump
+    p = GranularParams(youngs_modulus=1e7, restitution=0.3, friction=0.5, rolling_friction=0.0,
+                       density=8000.0)
+    for k in (1, 2):
+        (tmp_path / f"layer{k:02d}").mkdir()
+    r_big = 4.5e-4   # on the platform its centre is above the blade's lowest point
+    # the pile of layer 2 is written relative to its base, parked 5 mm up
+    data = write_sphere_data(tmp_path / "a.data", [[1e-3, 1e-3, -1.5e-4],
+                                                   [1.1e-3, 1e-3, 5e-3 + r_big]],
+                             [5e-5, r_big], box_lo=[-1e-3, 0, -1e-3], box_hi=[6e-3, 2e-3, 1.5e-2],
+                             density=p.density, velocities=[[0, 0, 0.4], [0, 0, 0]], n_types=2)
+    plan = _landing_plan(20)
+    deck = tmp_path / "in.deck"
+    deck.write_text(spread_layers_deck(data, p, engine=engine, plan=plan, stl_folder=tmp_path,
+                                       contacts=False))
+    run_deck(deck, np=1, cwd=tmp_path, log_path="in.log")
+    off = landing_offsets(tmp_path / "in.log", 2)
+    n = plan._steps(plan.settle_time)
+    assert off[0] == 0 and off[1] % n == 0
+    # checked at about 57 ms (layer 1, lowering and settling), landed at about 82 ms
+    assert 3 * n <= off[1] <= 20 * n, off
+    ls = plan.shifted(off)[1]
+    traj = read_dump(tmp_path / "layer02" / "frames.dump", units="si")
+    steps = [int(traj[i].timestep) for i in range(len(traj))]
+    assert steps[0] == ls.spread and ls.end in steps
+    front0 = plan.tool.x0 + plan.tool.thickness
+    pushed = False
+    for i, step in enumerate(steps):
+        fr = traj[i]
+        big = fr.positions[np.asarray(fr.ids) == 2]
+        if len(big) == 0:    # pushed over the platform's end and out of the box
+            continue
+        big = big[0]
+        front = front0 + plan.speed * plan.dt * min(max(step - ls.spread, 0), ls.stop - ls.spread)
+        assert big[0] - r_big > front - 5e-6, (step, big[0] - r_big, front)
+        pushed |= big[0] - r_big < front + 2e-5 and step > ls.spread
+    assert pushed

@@ -44,6 +44,19 @@ def test_cache_returns_the_stored_call_and_keys_on_everything_that_matters(tmp_p
     assert k != again.cache_key({"friction": 0.5}, {"missing_fines": 0.1}, 3)
     assert k != EngineSimulator(_psd_design(), dict(cfg, overrides=["spread.speed=0.2"])) \
         .cache_key({}, {"missing_fines": 0.1}, 3)
+    # LIGGGHTS/LAMMPS calls carry the deck revision (entries of older decks are stale); the
+    # embedded calls' keys do not depend on it
+    import bedstruct.workflows.diagnosis_sim as dsim
+    ext = EngineSimulator(_psd_design(), dict(cfg, overrides=["engine=liggghts"]))
+    ek = ext.cache_key({}, {"missing_fines": 0.1}, 3)
+    assert ek != k
+    rev = dsim._DECK_REVISION
+    try:
+        dsim._DECK_REVISION = rev + 1
+        assert ext.cache_key({}, {"missing_fines": 0.1}, 3) != ek
+        assert again.cache_key({}, {"missing_fines": 0.1}, 3) == k
+    finally:
+        dsim._DECK_REVISION = rev
     # an unreadable entry is ignored (and recomputed), never trusted
     files[0].write_text("{not json")
     c = again({}, {"missing_fines": 0.1}, 3)

@@ -185,6 +185,31 @@ def test_lammps_keeps_contact_histories_between_layers(tmp_path):
     assert change < 0.6
 
 
+def test_liggghts_fast_stroke_waits_for_thrown_powder_to_land(tmp_path):
+    """At the scale models' x5 speed (0.5 m/s) the stroke of layer 1 throws powder up; the
+    LIGGGHTS deck waits, as the embedded run does (both 12 ms with these 400-sphere piles,
+    three intervals), before placing the pile of layer 2. The frames of layer 2 are matched
+    to the tool by the schedule shifted by the logged wait: the tool positions are those
+    of a stroke starting at the front of the platform, as in layer 1."""
+    _need("liggghts")
+    cfg = load_config(preset="tiny", overrides=[
+        "spread.speed=0.5", "time.v_max=0.75", "engine=liggghts", "spread.pile_particles=400",
+        "spread.pile_time=0.005", "spread.plate_length=1.6e-3", "spread.pile_length=1.0e-3",
+        "spread.n_frames=4"])
+    res = run_spread(cfg, out=tmp_path)
+    settle = float(cfg["spread"]["settle_time"])
+    first, second = res.layers
+    assert first.landing_wait == 0.0
+    assert settle * 0.99 <= second.landing_wait <= 20 * settle * 1.01
+    assert second.blade_positions == pytest.approx(first.blade_positions, rel=1e-9)
+    inserted = 0
+    for layer in res.layers:
+        inserted += layer.n_inserted
+        assert layer.n_bed + layer.n_heap + layer.n_removed == inserted
+    log = (tmp_path / "in.log").read_text()
+    assert "BEDSTRUCT_OFFSET layer=2 steps=0" not in log
+
+
 def test_platform_mesh_is_square_strips_covering_the_platform(tmp_path):
     from bedstruct.dem.backends.stl import read_stl_triangles
     from bedstruct.dem.backends.workflow_decks import _chamber_meshes

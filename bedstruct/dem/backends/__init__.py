@@ -24,7 +24,7 @@ from .decks import (DUMP_COLUMNS, ImpactResult, bed_deck, data_file_radii, hertz
 from .lammps import find_lammps, lammps_granular_coeffs
 from .liggghts import find_liggghts, liggghts_model_commands
 from .spread_decks import (LayerSteps, RollerGeometry, SpreadLayersPlan, cylinder_triangles,
-                           spread_layers_deck)
+                           landing_offsets, spread_layers_deck)
 from .stl import BladeGeometry, box_triangles, read_stl_triangles, stl_text, write_stl
 from .workflow_decks import (ReposeGeometry, ReposeSchedule, SpreadGeometry, SpreadSchedule,
                              repose_deck, repose_wall_stls, spread_deck)
@@ -39,5 +39,6 @@ __all__ = [
     "BladeGeometry", "box_triangles", "read_stl_triangles", "stl_text", "write_stl",
     "ReposeGeometry", "ReposeSchedule", "repose_deck", "repose_wall_stls", "SpreadGeometry",
     "SpreadSchedule", "spread_deck",
-    "LayerSteps", "RollerGeometry", "SpreadLayersPlan", "cylinder_triangles", "spread_layers_deck",
+    "LayerSteps", "RollerGeometry", "SpreadLayersPlan", "cylinder_triangles", "landing_offsets",
+    "spread_layers_deck",
 ]

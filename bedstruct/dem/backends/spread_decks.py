@@ -16,13 +16,27 @@ How the deck reproduces the embedded workflow:
   ``pile_lift`` above the highest sphere in the pile's footprint (``compute
   reduce/region`` of ``z + radius``), as the embedded run places them;
 * before layers 2, 3... the platform is lowered by the gap at ``lower_speed``
-  and the bed settles, as in the embedded run;
+  and the bed settles, as in the embedded run; then, as the embedded run does,
+  the deck settles in intervals of ``settle_time`` (at most
+  ``landing_intervals``) while spheres in free flight over the pile's footprint
+  (the total force on them is their weight within half of it) reach more than
+  ``landing_margin`` above the highest sphere resting there, so that the pile
+  is not placed on powder the stroke threw up (a loop of ``if``/``jump``);
 * the tool crosses the platform at ``speed`` (LIGGGHTS: ``fix move/mesh
   linear``; the roller also ``rotate`` about its own axis, the superposed
   motion carrying the rotation axis along), settles, then returns above the
   bed (up, back, down at ``return_speed``) for the next layer;
 * LAMMPS: block/cylinder regions moved by step-ramp variables
   (``wall/gran/region``; the blade is the unbevelled slab, docs/backends.md).
+
+The waits make the step of every later event depend on the run. The deck keeps
+the plan's steps as *planned* steps: the equal-style variable ``off`` holds the
+steps waited so far, LAMMPS' wall motions are functions of ``step - v_off``, the
+frames are written every ``every`` steps from the layer's actual start of the
+tool motion (``dump_modify every v_...``), and before each layer's tool motion
+the deck prints ``BEDSTRUCT_OFFSET layer=K steps=N`` (the log's record of the
+offset; :func:`landing_offsets` reads it back): an event of layer K happens at
+its planned step plus N.
 
 Outputs per layer (folders ``layer01``... must exist): ``frames.dump``
 (and ``contacts.dump``) from the start of the tool motion to the end of the
@@ -48,7 +62,7 @@ from .stl import BladeGeometry, write_stl
 from .workflow_decks import _chamber_meshes, _granular_head, _liggghts_mesh_walls
 
 __all__ = ["RollerGeometry", "cylinder_triangles", "LayerSteps", "SpreadLayersPlan",
-           "spread_layers_deck"]
+           "landing_offsets", "spread_layers_deck"]
 
 
 def cylinder_triangles(center_xz, radius: float, y0: float, y1: float, *, n_segments: int = 72,
@@ -220,6 +234,13 @@ class SpreadLayersPlan:
         Frames over the tool's travel.
     wall_thickness : float, m
         LAMMPS block regions' thickness.
+    landing_intervals : int
+        Before layers 2, 3...: at most this many intervals of ``settle_time`` are
+        waited for spheres in flight over the footprint to land (0: never wait).
+    landing_margin : float, m
+        Spheres in flight count only when their top is more than this above the
+        highest top of what rests in the footprint (the embedded run uses the
+        largest radius).
     """
 
     plate_length: float
@@ -240,6 +261,8 @@ class SpreadLayersPlan:
     chamber_depth: float = 0.0
     n_frames: int = 8
     wall_thickness: float = 1e-4
+    landing_intervals: int = 0
+    landing_margin: float = 0.0
     layers: tuple = field(default=(), init=False)
     every: int = field(default=0, init=False)
 
@@ -251,6 +274,8 @@ class SpreadLayersPlan:
             raise ValueError("`gaps`, `pile_ids` and `pile_parked_z` need one entry per layer")
         if not isinstance(self.tool, (BladeGeometry, RollerGeometry)):
             raise TypeError("`tool` must be a BladeGeometry or RollerGeometry")
+        if int(self.landing_intervals) < 0 or not self.landing_margin >= 0:
+            raise ValueError("`landing_intervals` and `landing_margin` must not be negative")
         spread = self._steps((self.x_end - self._tool_x()) / self.speed)
         every = max(1, int(math.ceil(spread / max(1, int(self.n_frames)))))
         s = 0
@@ -295,10 +320,68 @@ class SpreadLayersPlan:
         """Steps of the whole run."""
         return self.layers[-1].end
 
+    def shifted(self, offsets) -> tuple:
+        """The layers' :class:`LayerSteps` of a run whose landing waits took ``offsets``.
+
+        ``offsets[k]`` is the number of steps waited before layer ``k + 1``'s tool
+        motion, in all (:func:`landing_offsets`); the layer's start shifts by the
+        previous layer's offset.
+        """
+        off = [int(o) for o in offsets]
+        if len(off) != len(self.layers) or any(b < a for a, b in zip(off, off[1:])) or (
+                off and off[0] < 0):
+            raise ValueError(f"need {len(self.layers)} non-decreasing offsets; got {offsets!r}")
+        prev = [0] + off[:-1]
+        return tuple(LayerSteps(ls.start + p, ls.spread + o, ls.stop + o, ls.end + o)
+                     for ls, p, o in zip(self.layers, prev, off))
+
+
+_OFFSET_LINE = "BEDSTRUCT_OFFSET"
+
+
+def landing_offsets(log_path, n_layers: int) -> tuple:
+    """Steps waited for flying powder to land before each layer's tool motion, in all.
+
+    Reads the ``BEDSTRUCT_OFFSET layer=K steps=N`` lines that
+    :func:`spread_layers_deck` prints into the engine's log.
+
+    Parameters
+    ----------
+    log_path : str or os.PathLike
+    n_layers : int
+
+    Returns
+    -------
+    tuple of int
+        One cumulative offset per layer (add it to the layer's planned steps).
+
+    Raises
+    ------
+    ValueError
+        When a layer's line is missing (the run stopped early, or the deck was
+        not written by :func:`spread_layers_deck`).
+    """
+    import re
+    found = {}
+    pat = re.compile(rf"^{_OFFSET_LINE} layer=(\d+) steps=([-+0-9.eE]+)\s*$")
+    with open(log_path, errors="replace") as fh:
+        for line in fh:
+            m = pat.match(line.strip())
+            if m:
+                found[int(m.group(1))] = int(round(float(m.group(2))))
+    missing = [k + 1 for k in range(n_layers) if k + 1 not in found]
+    if missing:
+        raise ValueError(f"{log_path}: no '{_OFFSET_LINE} layer=K steps=N' line for layer(s) "
+                         f"{missing}; the run did not reach their tool motion")
+    return tuple(found[k + 1] for k in range(n_layers))
+
+
+_STEP = "(step-v_off)"   # the planned step: the run's step less the steps waited so far
+
 
 def _ramp(a: int, b: int) -> str:
-    """Steps elapsed in [a, b] as a LAMMPS/LIGGGHTS expression of ``step``."""
-    return f"((step-{a})*(step>{a})-(step-{b})*(step>{b}))"
+    """Planned steps elapsed in [a, b] as a LAMMPS/LIGGGHTS expression."""
+    return f"(({_STEP}-{a})*({_STEP}>{a})-({_STEP}-{b})*({_STEP}>{b}))"
 
 
 def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayersPlan,
@@ -373,6 +456,7 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                      f"{int(pl.pile_ids[-1][1])}")
     if len(gaps) > 1:
         lines.append("neigh_modify exclude group wait01 all")
+    lines.append("variable off equal 0")   # steps waited for flying powder so far
     # ---- walls
     if engine == "liggghts":
         if stl_folder is None:
@@ -389,13 +473,17 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                                reference_radius=reference_radius,
                                reference_overlap=reference_overlap)
     x0f, x1f = pl.footprint
+    flight = _flight_computes(pl, p.gravity)
     lines += ["fix integr active nve/sphere",
               "compute rke all erotate/sphere",
               "compute prad all property/atom radius",
               "variable ztop atom z+c_prad",
               f"region foot block {x0f:.10g} {x1f:.10g} INF INF INF {tool_top(pl):.10g} units box",
               "compute zfoot all reduce/region foot max v_ztop",
-              "thermo_style custom step atoms ke c_rke c_zfoot",
+              *flight,
+              # thermo invokes the reductions, so they are current for variables between runs
+              "thermo_style custom step atoms ke c_rke c_zfoot"
+              + (" c_zland[1] c_zland[2]" if flight else ""),
               f"thermo {pl.every}",
               "thermo_modify lost ignore norm no flush yes"]
     if contacts:  # defined before the first run (LIGGGHTS)
@@ -409,10 +497,13 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
             n_low = pl._steps(g / pl.lower_speed)
             # one frame (and its contacts) of the bed as the layer starts: with the contact
             # histories carried over, its tangential forces are those of the previous layer's end
-            # (a dump writes at the setup of a run only on a multiple of its interval)
-            lines.append(f"dump dst{tag} all custom {ls.start} layer{tag}/start.dump {DUMP_COLUMNS}")
+            # (a dump writes at the setup of a run only on a multiple of its interval, so the
+            # interval is the layer's actual start step)
+            lines.append(f"variable st{tag} equal {ls.start}+v_off")
+            lines.append(f"dump dst{tag} all custom ${{st{tag}}} layer{tag}/start.dump "
+                         f"{DUMP_COLUMNS}")
             if contacts:
-                lines.append(f"dump dsc{tag} all local {ls.start} layer{tag}/start_contacts.dump "
+                lines.append(f"dump dsc{tag} all local ${{st{tag}}} layer{tag}/start_contacts.dump "
                              + _contact_cols(engine, tangential=True))
             lines += ["run 0", f"undump dst{tag}"] + ([f"undump dsc{tag}"] if contacts else [])
             if engine == "liggghts":
@@ -423,9 +514,10 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                 lines.append(f"run {n_low}")
             lines.append(f"run {pl._steps(min(pl.settle_time, 2 * g / pl.lower_speed))}")
             z_plat = -sum(gaps[:k + 1])
+            lines.append("run 0")
+            lines += _landing_wait(pl, k, z_plat, gravity=p.gravity)
             # the pile's base: the highest sphere top in its footprint, at least the platform
-            lines += ["run 0",
-                      f"variable zb{tag} equal {z_plat:.10g}+(c_zfoot-({z_plat:.10g}))"
+            lines += [f"variable zb{tag} equal {z_plat:.10g}+(c_zfoot-({z_plat:.10g}))"
                       f"*(c_zfoot>{z_plat:.10g})",
                       f"variable dz{tag} equal v_zb{tag}+{pl.pile_lift:.10g}"
                       f"-({pl.pile_parked_z[k]:.10g})",
@@ -438,10 +530,18 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
         else:
             before = ls.start
         lines.append(f"run {ls.spread - before}")
-        dumps = [f"dump dmp{tag} all custom {every} layer{tag}/frames.dump {DUMP_COLUMNS}"]
+        lines.append(f'print "{_OFFSET_LINE} layer={k + 1} steps=${{off}}"')
+        # every `every` steps from the actual start of the tool motion (which the waits shift
+        # off the multiples of `every`), that start included
+        s0 = f"({ls.spread}+v_off)"
+        lines.append(f"variable fnext{tag} equal {s0}+{every}*(floor((step-{s0})/{every})+1)"
+                     f"*(step>={s0})")
+        dumps = [f"dump dmp{tag} all custom {every} layer{tag}/frames.dump {DUMP_COLUMNS}",
+                 f"dump_modify dmp{tag} every v_fnext{tag} first yes"]
         if contacts:
-            dumps.append(f"dump dloc{tag} all local {every} layer{tag}/contacts.dump "
-                         + _contact_cols(engine, tangential=True))
+            dumps += [f"dump dloc{tag} all local {every} layer{tag}/contacts.dump "
+                      + _contact_cols(engine, tangential=True),
+                      f"dump_modify dloc{tag} every v_fnext{tag} first yes"]
         lines += dumps
         n_spread = ls.stop - ls.spread
         if engine == "liggghts":
@@ -474,6 +574,48 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
             else:
                 lines += [f"run {n_up}", f"run {n_back}", f"run {n_up}"]
     return "\n".join(lines) + "\n"
+
+
+def _flight_computes(pl: SpreadLayersPlan, gravity: float) -> list[str]:
+    """Per-atom flags and the reduction that :func:`_landing_wait` tests (none if no wait).
+
+    In free flight: the total force is the weight ``m g`` within half its size (no
+    contact acts). ``c_zland[1]``: highest top of active spheres in flight over the
+    footprint, above the platform (any height: the stroke throws powder far above the
+    tool); ``c_zland[2]``: highest top of the others there (-1 m when none).
+    """
+    if pl.landing_intervals <= 0 or len(pl.gaps) < 2 or not gravity > 0:
+        return []
+    x0f, x1f = pl.footprint
+    g = float(gravity)
+    return [f"variable inflight atom sqrt(fx*fx+fy*fy+(fz+mass*{g:.10g})^2)<0.5*mass*{g:.10g}",
+            "variable ztopfly atom v_inflight*v_ztop-(1-v_inflight)",
+            "variable ztoprest atom (1-v_inflight)*v_ztop-v_inflight",
+            f"region flight block {x0f:.10g} {x1f:.10g} INF INF INF INF units box",
+            "compute zland active reduce/region flight max v_ztopfly v_ztoprest"]
+
+
+def _landing_wait(pl: SpreadLayersPlan, k: int, z_plat: float, *, gravity: float) -> list[str]:
+    """Settle in intervals of ``settle_time`` while powder in flight over the footprint would
+    lift the pile of layer ``k + 1`` (the embedded run's rule); each interval adds to ``off``.
+
+    Needs a ``run 0`` just before (computes are current only after a run). The planned step
+    ``step - v_off`` stays within the still phase before the pile's placement: an interval is
+    no longer than the settling that follows the placement.
+    """
+    if pl.landing_intervals <= 0 or not gravity > 0:
+        return []
+    tag = f"{k + 1:02d}"
+    n = pl._steps(pl.settle_time)
+    zp = f"{z_plat:.10g}"
+    # rest: the highest top of what rests there, at least the platform
+    rest = f"({zp}+(c_zland[2]-({zp}))*(c_zland[2]>{zp}))"
+    return [f"variable land{tag} loop {int(pl.landing_intervals)}",
+            f"label landing{tag}",
+            f"variable fly{tag} equal (c_zland[1]>{zp})*(c_zland[1]>{rest}+"
+            f"{pl.landing_margin:.10g})",
+            f'if "${{fly{tag}}} > 0" then "run {n}" "variable off equal ${{off}}+{n}" '
+            f'"run 0" "next land{tag}" "jump SELF landing{tag}"']
 
 
 def tool_top(plan: SpreadLayersPlan) -> float:
