@@ -1,4 +1,4 @@
-"""ASCII STL generators for walls: a box and the recoater blade.
+"""ASCII STL generators for walls: a box, the recoater blade and the roller.
 
 Coordinates are in the deck's length unit (SI metres for bedstruct's decks).
 Triangles are wound so that normals point out of the solid (or into the box
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["stl_text", "write_stl", "box_triangles", "BladeGeometry",
-           "read_stl_triangles"]
+__all__ = ["stl_text", "write_stl", "box_triangles", "BladeGeometry", "cylinder_triangles",
+           "RollerGeometry", "read_stl_triangles"]
 
 
 def stl_text(triangles, *, name: str = "bedstruct") -> str:
@@ -205,3 +205,116 @@ class BladeGeometry:
     def write_stl(self, path, y0: float, y1: float, *, caps: bool = True) -> Path:
         """Write the blade as an ASCII STL file (for LIGGGHTS ``fix mesh/surface``)."""
         return write_stl(path, self.triangles(y0, y1, caps=caps), name="blade")
+
+
+def cylinder_triangles(center_xz, radius: float, y0: float, y1: float, *, n_segments: int = 72,
+                       n_y: int = 1) -> np.ndarray:
+    """Triangles of the lateral surface of a cylinder along y (no end caps), normals outward.
+
+    The polygon is inscribed: the facets lie at most ``radius (1 - cos(pi /
+    n_segments))`` inside the true surface (0.1 % of the radius at 72).
+
+    Parameters
+    ----------
+    center_xz : (2,) array_like of float, length
+        Axis position (x, z).
+    radius : float, length
+    y0, y1 : float, length
+        Extent along the axis.
+    n_segments : int
+        Facets around the circumference.
+    n_y : int
+        Facets along the axis (keeps the elements' aspect ratio moderate).
+
+    Returns
+    -------
+    (2 n_segments n_y, 3, 3) ndarray of float
+
+    Examples
+    --------
+    >>> tri = cylinder_triangles((0.0, 1.0), 0.5, 0.0, 2.0, n_segments=64, n_y=2)
+    >>> tri.shape
+    (256, 3, 3)
+    >>> n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    >>> c = tri.mean(axis=1) - [0.0, 0.0, 1.0]
+    >>> bool(np.all(n[:, 0] * c[:, 0] + n[:, 2] * c[:, 2] > 0))  # every normal points outward
+    True
+    >>> round(float(0.5 * np.linalg.norm(n, axis=1).sum()), 3)  # ~ 2 pi r L = 6.283
+    6.281
+    """
+    if not (radius > 0 and y1 > y0 and n_segments >= 3 and n_y >= 1):
+        raise ValueError("`radius` must be positive, `y1` > `y0`, `n_segments` >= 3, `n_y` >= 1")
+    cx, cz = (float(v) for v in center_xz)
+    th = np.linspace(0.0, 2 * np.pi, int(n_segments) + 1)[:-1]
+    ys = np.linspace(y0, y1, int(n_y) + 1)
+    tris = []
+    for j in range(int(n_y)):
+        for i in range(len(th)):
+            a, b = th[i], th[(i + 1) % len(th)]
+            p = [[cx + radius * math.cos(t), y, cz + radius * math.sin(t)]
+                 for t in (a, b) for y in (ys[j], ys[j + 1])]
+            # p: (a, y0), (a, y1), (b, y0), (b, y1)
+            tris.append([p[0], p[1], p[3]])
+            tris.append([p[0], p[3], p[2]])
+    tri = np.array(tris, dtype=np.float64)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    c = tri.mean(axis=1)
+    out = n[:, 0] * (c[:, 0] - cx) + n[:, 2] * (c[:, 2] - cz)
+    flip = out < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return tri
+
+
+@dataclass(frozen=True)
+class RollerGeometry:
+    """A roller: a cylinder along y translating along +x at ``speed`` and spinning at ``omega``.
+
+    Parameters
+    ----------
+    x0 : float, m
+        x of the axis at t = 0.
+    z_bottom : float, m
+        Height of the lowest point (the axis is at ``z_bottom + radius``).
+    radius : float, m
+    speed : float, m/s
+    omega : float, rad/s
+        Spin about +y (right-hand rule), as :class:`bedstruct.dem.Cylinder`:
+        ``omega = -speed / radius`` moves the bottom of the roller forwards
+        (counter-rotating).
+    n_segments : int
+        Facets around the STL cylinder (LIGGGHTS).
+
+    Examples
+    --------
+    >>> r = RollerGeometry(x0=1e-3, z_bottom=0.0, radius=5e-4, speed=0.1, omega=-200.0)
+    >>> r.center_z, round(r.top * 1e3, 3)
+    (0.0005, 1.0)
+    """
+
+    x0: float
+    z_bottom: float
+    radius: float
+    speed: float
+    omega: float = 0.0
+    n_segments: int = 72
+
+    def __post_init__(self):
+        if not self.radius > 0:
+            raise ValueError(f"`radius` must be positive; got {self.radius}")
+
+    @property
+    def center_z(self) -> float:
+        """z of the axis at t = 0 (m)."""
+        return self.z_bottom + self.radius
+
+    @property
+    def top(self) -> float:
+        """z of the top of the roller (m)."""
+        return self.z_bottom + 2 * self.radius
+
+    def triangles(self, y0: float, y1: float) -> np.ndarray:
+        """STL facets spanning ``[y0, y1]``, elements no longer than ~4x their width."""
+        arc = 2 * math.pi * self.radius / self.n_segments
+        n_y = max(1, int(math.ceil((y1 - y0) / (4 * arc))))
+        return cylinder_triangles((self.x0, self.center_z), self.radius, y0, y1,
+                                  n_segments=self.n_segments, n_y=n_y)
