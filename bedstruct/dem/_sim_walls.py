@@ -153,6 +153,58 @@ class _WallControl:
             row[10:13] = u
             row[13] = time
 
+    def start_wall_load_average(self) -> None:
+        """Average the particles' load on every wall over the steps that follow.
+
+        A single frame's wall force is one instant of a fluctuating granular load
+        (contacts open and close every few steps); a recoater's load cell reports
+        its time average. :meth:`wall_load_average` gives the mean over every step
+        run since this call.
+        """
+        self._wload = np.zeros((len(self.wall_names), 3))
+        self._wload_steps = 0
+
+    def _accumulate_wall_loads(self) -> None:
+        wb = getattr(self, "_wbuf", None)
+        if wb is not None and wb.shape[1] == len(self.wall_names):
+            self._wload += wb[:, :, :3].sum(axis=0)
+        self._wload_steps += 1
+
+    def wall_load_average(self, *, stop: bool = True) -> dict[str, np.ndarray]:
+        """Mean force (N) the particles exerted on each wall per step since
+        :meth:`start_wall_load_average`, by wall name; ``stop`` ends the averaging.
+
+        Raises
+        ------
+        RuntimeError
+            When no averaging was started, or no step has run since.
+
+        Examples
+        --------
+        >>> from bedstruct import Box
+        >>> from bedstruct.dem import ContactModel, Material, Plane, Simulation
+        >>> sim = Simulation(Box([0, 0, 0], [1e-3, 1e-3, 1e-3], boundary="pp pp ff"),
+        ...                  ContactModel(Material(1e7, 0.3, 2500.0), restitution=0.5),
+        ...                  walls=[Plane((0, 0, 0), (0, 0, 1), name="floor")], n_threads=1)
+        >>> sim.add_particles([[5e-4, 5e-4, 1e-4]], [1e-4])
+        >>> sim.run(time=0.02)  # doctest: +ELLIPSIS
+        RunStats(...)
+        >>> sim.start_wall_load_average()
+        >>> _ = sim.run(time=0.01)
+        >>> weight = 2500.0 * 4 / 3 * np.pi * 1e-4 ** 3 * 9.81
+        >>> round(float(sim.wall_load_average()["floor"][2] / -weight), 3)  # it rests on the floor
+        1.0
+        """
+        if self._wload is None:
+            raise RuntimeError("wall_load_average: call start_wall_load_average() first")
+        if self._wload_steps == 0:
+            raise RuntimeError("wall_load_average: no step has run since "
+                               "start_wall_load_average()")
+        mean = self._wload / self._wload_steps
+        if stop:
+            self._wload = None
+        return {name: mean[w].copy() for w, name in enumerate(self.wall_names)}
+
     def wall_states(self) -> list[WallState]:
         """Position, velocity and particle load of every wall now."""
         out = []

@@ -157,6 +157,8 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
         Y, G, B = self._tabs[:3]
         self._cap, self._age = model.extension_arrays()
         self._programs = {}
+        self._wload = None    # (n_walls, 3) running sum of wall loads, or None (not averaging)
+        self._wload_steps = 0
         self._gn_coef = np.ascontiguousarray(-2.0 * math.sqrt(5.0 / 6.0) * B * np.sqrt(2.0 * Y))
         self._gt_ratio = np.ascontiguousarray(np.sqrt(4.0 * G / Y) if model.tangential_damping
                                               else np.zeros_like(Y))
@@ -575,6 +577,8 @@ class Simulation(_WallControl, _NeighbourList, _StateIO):
                                  and nxt % checkpoint_every == 0))
                 self._one_step(fuse)
                 psteps += self.n_particles
+                if self._wload is not None:
+                    self._accumulate_wall_loads()
                 if callback is not None:
                     callback(self)
                 if rd is not None and dump_every and self.step % dump_every == 0:

@@ -205,7 +205,8 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     elif src == "csv":
         path = base_dir / str(d["csv"])
         names, data = _read_csv(path, where)
-        cols = d.get("columns", names[:2])
+        cols = d.get("columns", ["force_x", "force_z"] if kind == "tool_force_ratio"
+                      else names[:2])
         for c in cols:
             if c not in names:
                 raise _err(where, f"key 'columns': column {c!r} not in {path.name} header {names}")
@@ -223,6 +224,14 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             if note:
                 conversions.append(note)
             values = psd_percentiles_from_cumulative(x_conv, y, percentiles)
+        elif kind == "tool_force_ratio":   # columns: horizontal, vertical load over the stroke
+            from .observables import tool_force_ratio
+            try:
+                ratio, se = tool_force_ratio(x, y)
+            except ValueError as exc:
+                raise _err(where, f"key 'csv': {path.name}: {exc}") from None
+            values = np.array([ratio])
+            sem = np.array([se]) if math.isfinite(se) else None
         else:
             values = y
     elif src in ("image", "images"):

@@ -30,6 +30,7 @@ __all__ = ["KINDS", "ROLES", "Conditions", "Measurement", "MeasurementSet", "Obs
 KINDS: dict[str, str] = {
     "static_angle": "deg", "dynamic_angle_series": "deg", "bed_height": "m",
     "packing_fraction": "1", "psd": "m", "roughness": "m", "coordination": "1",
+    "tool_force_ratio": "1",
 }
 #: Roles of an observable; ``candidate`` marks a design-only (not yet measured) one.
 ROLES = ("calibrate", "validate", "candidate")

@@ -26,7 +26,7 @@ import numpy as np
 __all__ = ["windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative",
            "render_side_view", "surface_profile", "AngleFit", "fit_surface_angle",
            "angle_from_image", "angle_from_particles", "read_image", "bed_height",
-           "packing_fraction_in_region", "roughness", "observe"]
+           "packing_fraction_in_region", "roughness", "tool_force_ratio", "observe"]
 
 
 def windowed_mean(times, values, windows) -> tuple[np.ndarray, np.ndarray]:
@@ -433,6 +433,55 @@ def packing_fraction_in_region(positions, radii, lo, hi) -> float:
     return float((4.0 / 3.0) * np.pi * np.sum(r[inside] ** 3) / np.prod(hi - lo))
 
 
+def tool_force_ratio(force_x, force_z, *, n_blocks: int = 10) -> tuple[float, float]:
+    """Vertical over horizontal load on the recoater over a stroke, and its standard error.
+
+    The ratio of the time means ``mean(F_z) / mean(F_x)`` of a load-cell record
+    sampled at a uniform rate over the stroke (force of the powder on the tool, x
+    along the stroke: the push gives ``F_x < 0``, powder dragged down the tool's
+    face ``F_z < 0``; any force unit). The engine's time-averaged tool load
+    (:attr:`bedstruct.workflows.spread_measure.LayerResult.tool_force`) is the
+    same ratio of means. The load is autocorrelated, so the standard error comes
+    from ``n_blocks`` consecutive blocks (batch means): the scatter of the
+    blocks' ratios over ``sqrt(n_blocks)``.
+
+    Parameters
+    ----------
+    force_x, force_z : (n,) array_like of float
+    n_blocks : int
+
+    Returns
+    -------
+    ratio, standard_error : float
+        NaN standard error with fewer than ``2 n_blocks`` samples.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 400)
+    >>> fx = -1.0 - 0.1 * np.sin(40 * t)
+    >>> fz = 0.2 * fx
+    >>> ratio, se = tool_force_ratio(fx, fz)
+    >>> round(ratio, 6), se < 1e-9
+    (0.2, True)
+    """
+    fx = np.asarray(force_x, float).reshape(-1)
+    fz = np.asarray(force_z, float).reshape(-1)
+    if fx.shape != fz.shape or fx.size == 0:
+        raise ValueError("tool_force_ratio: `force_x` and `force_z` need the same, non-zero "
+                         f"length; got {fx.size} and {fz.size}")
+    if not (np.all(np.isfinite(fx)) and np.all(np.isfinite(fz))):
+        raise ValueError("tool_force_ratio: forces must be finite")
+    mx = float(fx.mean())
+    if mx == 0.0:
+        raise ValueError("tool_force_ratio: the mean horizontal load is zero (no push recorded)")
+    ratio = float(fz.mean()) / mx
+    if fx.size < 2 * int(n_blocks):
+        return ratio, float("nan")
+    blocks = np.array_split(np.arange(fx.size), int(n_blocks))
+    r = np.array([fz[b].mean() / fx[b].mean() for b in blocks])
+    return ratio, float(r.std(ddof=1) / np.sqrt(len(r)))
+
+
 def observe(kind: str, data: Mapping[str, Any], *, windows=None, percentiles=None) -> np.ndarray:
     """Apply the observation operator of ``kind`` to a dict of arrays.
 
@@ -454,6 +503,9 @@ def observe(kind: str, data: Mapping[str, Any], *, windows=None, percentiles=Non
         ``surface_heights``.
     ``coordination``
         ``coordination`` (per-particle contact counts).
+    ``tool_force_ratio``
+        ``force_x`` + ``force_z`` (a load-cell record over the stroke; see
+        :func:`tool_force_ratio`).
 
     A :class:`bedstruct.Frame` (or any object with ``positions`` and ``radii``)
     may be passed instead of a dict for the particle-based kinds.
@@ -502,4 +554,6 @@ def observe(kind: str, data: Mapping[str, Any], *, windows=None, percentiles=Non
         return np.array([roughness(data["surface_heights"])])
     if kind == "coordination":
         return np.array([float(np.mean(data["coordination"]))])
+    if kind == "tool_force_ratio":
+        return np.array([tool_force_ratio(data["force_x"], data["force_z"])[0]])
     raise ValueError(f"unknown observable kind {kind!r}")

@@ -191,6 +191,8 @@ class SurrogateSimulator:
             return 0.03 * np.abs(mean)
         if k == "coordination":
             return np.full(len(mean), 0.05)
+        if k == "tool_force_ratio":
+            return np.full(len(mean), 0.035 if m.conditions.layer == 1 else 0.006)
         raise ValueError(k)  # pragma: no cover
 
     def _mean(self, m, p, e) -> np.ndarray:
@@ -258,4 +260,14 @@ class SurrogateSimulator:
             phi = (0.55 - 0.0125 * (s - 1) - 0.035 * xr - 0.03 * rel_k - 0.08 * cap - 0.06 * R + 0.25 * F)
             return np.array([2 * 1.925 + 11 * 0.04545 * phi ** 2 + 0.5 * rel_k + 0.4 * cap
                              - 1.0 * R + 1.5 * F])
+        if k == "tool_force_ratio":
+            # vertical / horizontal load on the blade, schematic (no seed anchor): powder
+            # dragged down its face by the wall friction, as on the tiny scale model (0.17 on a
+            # powder bed, +0.03 at d_mu = +0.4, -0.05 at -0.2; about 0 over the bare platform
+            # of layer 1; the small scale model's bevel reverses the sign)
+            first = c.layer == 1
+            ratio = ((0.005 if first else 0.17) + (0.4 if first else 0.1) * W
+                     + 0.05 * lmu + 0.02 * lmur + 0.02 * rel_k + 0.02 * cap + 0.03 * R
+                     - 0.002 * (s - 1))
+            return np.array([ratio])
         raise ValueError(k)  # pragma: no cover

@@ -219,7 +219,8 @@ class EngineSimulator:
         self.n_cached = 0
         for m in design:
             if m.kind not in ("static_angle", "dynamic_angle_series", "bed_height",
-                              "packing_fraction", "psd", "roughness", "coordination"):
+                              "packing_fraction", "psd", "roughness", "coordination",
+                              "tool_force_ratio"):
                 raise ConfigError(f"observable {m.name!r}: kind {m.kind!r} not produced by the engine")
         self.n_runs = 0
 
@@ -547,6 +548,10 @@ class _Runs:
             return np.array([float(arr[min(r, len(arr) - 1)])])
         if m.kind == "roughness":
             return np.array([float(lay.roughness_sa_m)])
+        if m.kind == "tool_force_ratio":
+            # the time-averaged load of the stroke (NaN from LIGGGHTS/LAMMPS, which do not
+            # record it); a ratio, the same on the scale model as at the seed's scale
+            return np.array([float(lay.tool_force_ratio)])
         if m.kind == "psd":  # after spreading: the particles on the platform after the layer
             idx = res.layers.index(lay) + 1
             fr = _last_frame(read_dump, _dump(out / f"layer{idx:02d}", "bed"))

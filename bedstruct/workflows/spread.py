@@ -313,7 +313,9 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
                 writer.record(sim, frame=fr)
             if len(blade_pos) == max(1, int(sc["n_frames"]) // 2):
                 mid.append((fr, front))
+        sim.start_wall_load_average()
         run_in_frames(sim, (x_end - x0) / speed, int(sc["n_frames"]), on_frame)
+        tool_force = sim.wall_load_average()["tool"]
         stop = {"omega": 0.0} if sc["tool"] == "roller" else {}
         sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **stop)
         sim.run(time=float(sc["settle_time"]))
@@ -331,7 +333,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
             fr, contacts_all, cfg, index=k + 1, z_plat=z_plat, front0=front0, r_max=rmax,
             pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid, n_inserted=n_ins,
             n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer)
-        layers.append(replace(layer, landing_wait=waited))
+        layers.append(replace(layer, landing_wait=waited,
+                              tool_force=tuple(float(v) for v in tool_force)))
         f_all.extend(np.asarray(pack, float).tolist())
         cn_all.extend(np.asarray(cnw, float).tolist())
         h, H_k, n_bed = layer.bed_height_m, layer.nominal_height, layer.n_bed

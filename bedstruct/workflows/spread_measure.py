@@ -67,6 +67,12 @@ class LayerResult:
         by the previous stroke landed (see :func:`particles_in_flight`; 0 when
         nothing was in flight). LIGGGHTS/LAMMPS decks wait by the same rule
         without its contact test (:func:`bedstruct.dem.backends.spread_layers_deck`).
+    tool_force : (3,) tuple of float, N
+        Force of the powder on the tool averaged over every step of the stroke
+        (:meth:`bedstruct.dem.Simulation.wall_load_average`; what a load cell on
+        the recoater mount reports). ``-tool_force[0]`` is the drag, ``-tool_force[2]``
+        the downward pull (negative: a push up); their ratio is :attr:`tool_force_ratio`. NaN for
+        LIGGGHTS/LAMMPS runs, whose decks do not record it.
     """
 
     index: int
@@ -92,6 +98,15 @@ class LayerResult:
     n_removed: int
     wall_time: float
     landing_wait: float = 0.0
+    tool_force: tuple = (float("nan"),) * 3
+
+    @property
+    def tool_force_ratio(self) -> float:
+        """Vertical over horizontal load on the tool over the stroke, ``F_z / F_x`` (NaN
+        without a load): positive when the powder drags the tool down its face, negative
+        when powder wedged under a bevel pushes it up."""
+        fx, fz = float(self.tool_force[0]), float(self.tool_force[2])
+        return fz / fx if fx != 0.0 else float("nan")
 
 
 def particles_in_flight(fr, z_plat: float, x_range, *, gravity=(0.0, 0.0, -9.81)) -> np.ndarray:

@@ -288,6 +288,34 @@ def test_roller_drags_particle_at_surface_speed():
     assert st.n_contacts == 1 and st.force[2] < 0  # the sphere presses down on the roller
 
 
+def test_wall_load_average_conserves_momentum():
+    """A sphere dropped onto a floor: the floor's load averaged over every step equals the
+    weight less the sphere's momentum change per time (impulse balance, to the trapezoid
+    rule's end terms), whether it bounces or rests; no averaging started -> an error."""
+    model = ContactModel(Material(E, NU, RHO), restitution=0.5, friction=0.5)
+    sim = Simulation(Box([0, 0, 0], [1e-3, 1e-3, 2e-3], boundary="pp pp ff"), model,
+                     walls=[Plane((0, 0, 0), (0, 0, 1), name="floor")], gravity=(0, 0, -9.81),
+                     n_threads=1)
+    sim.add_particles([[5e-4, 5e-4, 3 * R]], [R])
+    with pytest.raises(RuntimeError, match="start_wall_load_average"):
+        sim.wall_load_average()
+    mass = RHO * 4.0 / 3.0 * math.pi * R ** 3
+    for duration in (4e-3, 2e-2):           # bouncing at the end, then at rest
+        v0 = sim.v[0].copy()
+        sim.start_wall_load_average()
+        with pytest.raises(RuntimeError, match="no step"):
+            sim.wall_load_average(stop=False)
+        t0 = sim.time
+        sim.run(time=duration)
+        T = sim.time - t0
+        load = sim.wall_load_average()["floor"]
+        expected_z = -mass * 9.81 - mass * (sim.v[0, 2] - v0[2]) / T
+        assert load[2] == pytest.approx(expected_z, rel=2e-3)
+        assert abs(load[0]) < 1e-3 * mass * 9.81
+    with pytest.raises(RuntimeError, match="start_wall_load_average"):
+        sim.wall_load_average()   # the last call stopped the averaging
+
+
 def test_read_stl_ascii_and_binary(tmp_path):
     from bedstruct.dem import read_stl
     tri = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 0, 1], [0, 1, 1]]], float)

@@ -83,7 +83,9 @@ def test_surrogate_effect_signatures():
                                              unit="um", conditions=dict(stage="before")),
                 dict(name="aor", kind="static_angle", conditions=dict(box_width=3e-3)),
                 dict(name="aor_wide", kind="static_angle", conditions=dict(box_width=3e-2)),
-                dict(name="aor_rest", kind="static_angle", conditions=dict(rest_time=600.0)))
+                dict(name="aor_rest", kind="static_angle", conditions=dict(rest_time=600.0)),
+                dict(name="blade", kind="tool_force_ratio", unit="1",
+                     conditions=dict(speed=0.0254, layer=2)))
     sim = SurrogateSimulator(d, noise=0)
     b = sim({}, {}, 0)
 
@@ -99,6 +101,8 @@ def test_surrogate_effect_signatures():
     assert fines["psd"][0] < -3e-6 and abs(fines["psd"][2]) < abs(fines["psd"][0])
     wall = diff(wall_friction=0.3)
     assert wall["aor"][0] > 5 * wall["aor_wide"][0] > 0            # a narrow-box effect
+    # the blade's vertical / horizontal load: 0.17 on a powder bed, up with wall friction
+    assert b["blade"][0] == pytest.approx(0.17) and wall["blade"][0] == pytest.approx(0.03)
     rough = diff(non_sphericity=0.2)
     assert rough["dyn5"][2] > rough["dyn1"][2] > 0                 # grows with speed
     cap = diff(capillary_bridges=0.6)

@@ -388,3 +388,31 @@ def test_a_shared_pile_only_for_the_embedded_engine(monkeypatch, engine):
     with pytest.raises(Stop):
         sim({}, {}, 1)
     assert given == (["the pile"] if engine == "embedded" else [None])
+
+
+@pytest.mark.parametrize("force, expected", [((-2e-6, 0.0, -4e-7), 0.2),
+                                             ((float("nan"),) * 3, float("nan"))])
+def test_tool_force_ratio_is_the_layers_stroke_averaged_load(monkeypatch, force, expected):
+    """The recoater load observable reads the layer's stroke-averaged tool load (F_z / F_x);
+    a run that does not record it (LIGGGHTS/LAMMPS) gives missing data, not a number."""
+    import types
+
+    import bedstruct.workflows.spread as spread
+    design = MeasurementSet((measurement_from_dict(
+        {"name": "blade_load", "kind": "tool_force_ratio", "value": [0.17], "uncertainty": 0.005,
+         "unit": "1", "conditions": {"speed": 0.0254, "layer": 2}}),))
+    sim = EngineSimulator(design, {"preset": "tiny"})
+    layers = [types.SimpleNamespace(index=k, tool_force_ratio=(
+        spread.LayerResult.tool_force_ratio.fget(types.SimpleNamespace(tool_force=force))
+        if k == 2 else 99.0)) for k in (1, 2)]
+
+    def fake_run_spread(cfg, *, out=None, pile=None, progress=False):
+        return types.SimpleNamespace(layers=layers)
+
+    monkeypatch.setattr(spread, "run_spread", fake_run_spread)
+    monkeypatch.setattr(spread, "generate_pile", lambda cfg, **kw: ("the pile", 0))
+    value = sim({}, {}, 0)["blade_load"][0]
+    if np.isnan(expected):
+        assert np.isnan(value)
+    else:
+        assert value == pytest.approx(expected)

@@ -116,6 +116,34 @@ def test_csv_cumulative_psd(tmp_path):
     np.testing.assert_allclose(m.uncertainty, [0.5e-6, 1e-6, 2e-6])
 
 
+def test_csv_load_cell_record_gives_the_tool_force_ratio(tmp_path):
+    """A two-axis load-cell record of one stroke (force of the powder on the recoater): the
+    ratio of the time means, its standard error from batch means added to the stated one."""
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 0.74, 500)
+    fx = -2.0e-3 * (1 + 0.3 * rng.standard_normal(t.size))
+    fz = 0.17 * fx + 1e-4 * rng.standard_normal(t.size)
+    np.savetxt(tmp_path / "load.csv", np.column_stack([t, fx, fz]), delimiter=",",
+               header="time,force_x,force_z", comments="")
+    p = _write(tmp_path, '[[observable]]\nname = "blade"\nkind = "tool_force_ratio"\n'
+                         'csv = "load.csv"\nuncertainty = 0.005\n'
+                         'conditions = {speed = 0.0254, layer = 2}\n')
+    m = load_measurements(p)["blade"]
+    assert m.values[0] == pytest.approx(fz.mean() / fx.mean())
+    assert m.values[0] == pytest.approx(0.17, abs=0.01)
+    assert 0.005 < m.uncertainty[0] < 0.02
+    assert m.conditions.layer == 2
+    # no push recorded: a clear error naming the file
+    np.savetxt(tmp_path / "load.csv", np.column_stack([t, 0 * fx, fz]), delimiter=",",
+               header="time,force_x,force_z", comments="")
+    with pytest.raises(ConfigError, match="load.csv.*horizontal load is zero"):
+        load_measurements(p)
+    np.savetxt(tmp_path / "load.csv", np.column_stack([t, fx]), delimiter=",",
+               header="time,force_x", comments="")
+    with pytest.raises(ConfigError, match="force_z"):
+        load_measurements(p)
+
+
 def test_image_observable_uses_the_image_operator(tmp_path):
     from skimage import io
     from bedstruct.diagnose import render_side_view

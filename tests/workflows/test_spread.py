@@ -50,6 +50,13 @@ def test_bed_metrics_are_physical(tiny_spread):
         # the blade moves forwards between frames
         assert np.all(np.diff(layer.blade_positions) > 0)
     assert len(res.layers[0].mean_cn_series) == len(res.layers[0].blade_positions)
+    # the stroke-averaged load on the blade: the powder resists the push (F_x < 0) and the
+    # periodic width carries no mean sideways load (F_z may point either way: friction down
+    # the face, or powder wedged under the bevel pushing up)
+    for layer in res.layers:
+        fx, fy, fz = layer.tool_force
+        assert fx < 0 and abs(fy) < 0.1 * abs(fx)
+        assert layer.tool_force_ratio == pytest.approx(fz / fx)
     # the settling added while thrown-up powder landed: whole settling intervals, recorded
     settle = cfg["spread"]["settle_time"]
     for layer in res.layers:
