@@ -359,7 +359,7 @@ def run_spread_external(cfg: dict, *, out=None):
 
     from ..analysis import find_contacts
     from ..dem.backends import (BladeGeometry, RollerGeometry, SpreadLayersPlan, landing_offsets,
-                                run_deck, spread_layers_deck, write_sphere_data)
+                                run_deck, spread_layers_deck, tool_loads, write_sphere_data)
     from ..io import read_dump, write_dump
     from .spread import _MAX_LANDING_WAIT, SpreadResult, generate_pile
     from .spread_measure import _REGION_NAMES, frame_metrics, measure_layer
@@ -468,6 +468,7 @@ def run_spread_external(cfg: dict, *, out=None):
         wall_run = _time.perf_counter() - t_start
         # the landing waits shift every later event off the planned steps
         offsets = landing_offsets(root / "in.log", K)
+        loads = tool_loads(root / "in.log", K)      # NaN on LAMMPS
         steps = plan.shifted(offsets)
         total_steps = plan.total_steps + offsets[-1]
         n_reg = int(sc["regions"])
@@ -513,7 +514,7 @@ def run_spread_external(cfg: dict, *, out=None):
                 wall_time=(wall_run * (ls.end - ls.start) / total_steps
                            + _time.perf_counter() - t_layer))
             wait = offsets[k] - (offsets[k - 1] if k else 0)
-            layers.append(replace(layer, landing_wait=wait * dt))
+            layers.append(replace(layer, landing_wait=wait * dt, tool_force=loads[k]))
             f_all.extend(np.asarray(pack, float).tolist())
             cn_all.extend(np.asarray(cnw, float).tolist())
             log.info("layer %d on %s: bed height %.4g m (nominal %.4g)", k + 1, cfg["engine"],

@@ -71,8 +71,9 @@ class LayerResult:
         Force of the powder on the tool averaged over every step of the stroke
         (:meth:`bedstruct.dem.Simulation.wall_load_average`; what a load cell on
         the recoater mount reports). ``-tool_force[0]`` is the drag, ``-tool_force[2]``
-        the downward pull (negative: a push up); their ratio is :attr:`tool_force_ratio`. NaN for
-        LIGGGHTS/LAMMPS runs, whose decks do not record it.
+        the downward pull (negative: a push up); their ratio is :attr:`tool_force_ratio`.
+        LIGGGHTS runs record it too (the tool as ``fix mesh/surface/stress``, averaged by
+        ``fix ave/time``); LAMMPS runs do not (NaN).
     """
 
     index: int

@@ -59,7 +59,8 @@ from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
 from .stl import BladeGeometry, RollerGeometry, write_stl
 from .workflow_decks import _chamber_meshes, _granular_head, _liggghts_mesh_walls
 
-__all__ = ["LayerSteps", "SpreadLayersPlan", "landing_offsets", "spread_layers_deck"]
+__all__ = ["LayerSteps", "SpreadLayersPlan", "landing_offsets", "spread_layers_deck",
+           "tool_loads"]
 
 
 @dataclass(frozen=True)
@@ -221,6 +222,7 @@ class SpreadLayersPlan:
 
 
 _OFFSET_LINE = "BEDSTRUCT_OFFSET"
+_LOAD_LINE = "BEDSTRUCT_TOOL_FORCE"
 
 
 def landing_offsets(log_path, n_layers: int) -> tuple:
@@ -258,6 +260,31 @@ def landing_offsets(log_path, n_layers: int) -> tuple:
         raise ValueError(f"{log_path}: no '{_OFFSET_LINE} layer=K steps=N' line for layer(s) "
                          f"{missing}; the run did not reach their tool motion")
     return tuple(found[k + 1] for k in range(n_layers))
+
+
+def tool_loads(log_path, n_layers: int) -> tuple:
+    """Load of the powder on the tool averaged over each layer's stroke (N), from the log.
+
+    LIGGGHTS decks of :func:`spread_layers_deck` print ``BEDSTRUCT_TOOL_FORCE layer=K
+    fx=.. fy=.. fz=..`` after each stroke (the tool is a ``mesh/surface/stress``, its
+    force averaged by ``fix ave/time ... ave running``); LAMMPS decks do not.
+
+    Returns
+    -------
+    tuple of (3,) tuple of float
+        One per layer; NaN where the log has no line for it.
+    """
+    import re
+    num = r"([-+0-9.eEnaNinf]+)"
+    pat = re.compile(rf"^{_LOAD_LINE} layer=(\d+) fx={num} fy={num} fz={num}\s*$")
+    found = {}
+    with open(log_path, errors="replace") as fh:
+        for line in fh:
+            m = pat.match(line.strip())
+            if m:
+                found[int(m.group(1))] = tuple(float(m.group(i)) for i in (2, 3, 4))
+    nan = (float("nan"),) * 3
+    return tuple(found.get(k + 1, nan) for k in range(n_layers))
 
 
 _STEP = "(step-v_off)"   # the planned step: the run's step less the steps waited so far
@@ -351,7 +378,7 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
             meshes["tool"] = write_stl(folder / "tool.stl", tool.triangles(0.0, W), name="roller")
         else:
             meshes["tool"] = tool.write_stl(folder / "tool.stl", 0.0, W, caps=False)
-        lines += _liggghts_mesh_walls(meshes, p, wt, back_plane=True)
+        lines += _liggghts_mesh_walls(meshes, p, wt, back_plane=True, loaded=("tool",))
     else:
         lines += _lammps_walls(pl, p, cohesion_model=cohesion_model,
                                reference_radius=reference_radius,
@@ -429,6 +456,9 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
         lines += dumps
         n_spread = ls.stop - ls.spread
         if engine == "liggghts":
+            # the load on the tool averaged over every step of the stroke (a load cell)
+            lines.append(f"fix tload{tag} all ave/time 1 1 1 f_tool[1] f_tool[2] f_tool[3] "
+                         "ave running")
             lines.append(f"fix mvtool all move/mesh mesh tool linear {pl.speed:.10g} 0 0")
             if roller and tool.omega != 0:
                 # superposed on the translation: the rotation axis moves with the mesh
@@ -439,6 +469,11 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                 lines += [f"run {n_spread}", "unfix rottool", "unfix mvtool"]
             else:
                 lines += [f"run {n_spread}", "unfix mvtool"]
+            lines += [f"variable tfx{tag} equal f_tload{tag}[1]",
+                      f"variable tfy{tag} equal f_tload{tag}[2]",
+                      f"variable tfz{tag} equal f_tload{tag}[3]",
+                      f'print "{_LOAD_LINE} layer={k + 1} fx=${{tfx{tag}}} fy=${{tfy{tag}}} '
+                      f'fz=${{tfz{tag}}}"', f"unfix tload{tag}"]
         else:
             lines.append(f"run {n_spread}")
         lines.append(f"run {ls.end - ls.stop}")

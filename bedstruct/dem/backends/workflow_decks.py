@@ -179,12 +179,15 @@ def _granular_head(data_file, p, *, engine: str, title: str, boundary: str, dt: 
     return lines, wt
 
 
-def _liggghts_mesh_walls(meshes: dict, p, wt: int, *, back_plane: bool = False) -> list[str]:
+def _liggghts_mesh_walls(meshes: dict, p, wt: int, *, back_plane: bool = False,
+                         loaded=()) -> list[str]:
     """LIGGGHTS wall commands: one ``fix mesh/surface`` per mesh (name -> STL path), all in one
     ``fix wall/gran`` (LIGGGHTS allows one mesh wall/gran fix); with ``back_plane`` also the
-    primitive plane ``x = 0``."""
+    primitive plane ``x = 0``. Meshes named in ``loaded`` are ``mesh/surface/stress``: their
+    fix's global vector holds the total force (and torque) of the particles on them."""
     wm = liggghts_wall_model(p)
-    lines = [f"fix {name} all mesh/surface file {_path_word(path)} type {wt} curvature_tolerant yes"
+    lines = [f"fix {name} all mesh/surface{'/stress' if name in loaded else ''} file "
+             f"{_path_word(path)} type {wt} curvature_tolerant yes"
              for name, path in meshes.items()]
     lines.append(f"fix wmesh all wall/gran {wm} mesh n_meshes {len(meshes)} meshes "
                  + " ".join(meshes))
