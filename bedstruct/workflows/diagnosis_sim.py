@@ -549,8 +549,8 @@ class _Runs:
         if m.kind == "roughness":
             return np.array([float(lay.roughness_sa_m)])
         if m.kind == "tool_force_ratio":
-            # the time-averaged load of the stroke (NaN from LAMMPS, which does not record
-            # it); a ratio, the same on the scale model as at the seed's scale
+            # the time-averaged load of the stroke; a ratio, the same on the scale model as
+            # at the seed's scale
             return np.array([float(lay.tool_force_ratio)])
         if m.kind == "psd":  # after spreading: the particles on the platform after the layer
             idx = res.layers.index(lay) + 1

@@ -72,8 +72,8 @@ class LayerResult:
         (:meth:`bedstruct.dem.Simulation.wall_load_average`; what a load cell on
         the recoater mount reports). ``-tool_force[0]`` is the drag, ``-tool_force[2]``
         the downward pull (negative: a push up); their ratio is :attr:`tool_force_ratio`.
-        LIGGGHTS runs record it too (the tool as ``fix mesh/surface/stress``, averaged by
-        ``fix ave/time``); LAMMPS runs do not (NaN).
+        LIGGGHTS and LAMMPS runs record it too
+        (:func:`bedstruct.dem.backends.tool_loads`).
     """
 
     index: int

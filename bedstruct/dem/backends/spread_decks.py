@@ -265,9 +265,11 @@ def landing_offsets(log_path, n_layers: int) -> tuple:
 def tool_loads(log_path, n_layers: int) -> tuple:
     """Load of the powder on the tool averaged over each layer's stroke (N), from the log.
 
-    LIGGGHTS decks of :func:`spread_layers_deck` print ``BEDSTRUCT_TOOL_FORCE layer=K
-    fx=.. fy=.. fz=..`` after each stroke (the tool is a ``mesh/surface/stress``, its
-    force averaged by ``fix ave/time ... ave running``); LAMMPS decks do not.
+    The decks of :func:`spread_layers_deck` print ``BEDSTRUCT_TOOL_FORCE layer=K
+    fx=.. fy=.. fz=..`` after each stroke: the force of the particles on the tool
+    averaged over the stroke's steps by ``fix ave/time ... ave running`` (LIGGGHTS: the
+    tool is a ``mesh/surface/stress``; LAMMPS: the per-atom forces of the tool's
+    ``wall/gran/region ... contacts``, summed and negated).
 
     Returns
     -------
@@ -455,10 +457,11 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                       f"dump_modify dloc{tag} every v_fnext{tag} first yes"]
         lines += dumps
         n_spread = ls.stop - ls.spread
+        # the load on the tool averaged over every step of the stroke (a load cell): LIGGGHTS'
+        # mesh/surface/stress force on the tool, LAMMPS' summed wall forces on the particles
+        src, sign = ("f_tool", "") if engine == "liggghts" else ("c_toolsum", "-")
+        lines.append(f"fix tload{tag} all ave/time 1 1 1 {src}[1] {src}[2] {src}[3] ave running")
         if engine == "liggghts":
-            # the load on the tool averaged over every step of the stroke (a load cell)
-            lines.append(f"fix tload{tag} all ave/time 1 1 1 f_tool[1] f_tool[2] f_tool[3] "
-                         "ave running")
             lines.append(f"fix mvtool all move/mesh mesh tool linear {pl.speed:.10g} 0 0")
             if roller and tool.omega != 0:
                 # superposed on the translation: the rotation axis moves with the mesh
@@ -469,13 +472,12 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                 lines += [f"run {n_spread}", "unfix rottool", "unfix mvtool"]
             else:
                 lines += [f"run {n_spread}", "unfix mvtool"]
-            lines += [f"variable tfx{tag} equal f_tload{tag}[1]",
-                      f"variable tfy{tag} equal f_tload{tag}[2]",
-                      f"variable tfz{tag} equal f_tload{tag}[3]",
-                      f'print "{_LOAD_LINE} layer={k + 1} fx=${{tfx{tag}}} fy=${{tfy{tag}}} '
-                      f'fz=${{tfz{tag}}}"', f"unfix tload{tag}"]
         else:
             lines.append(f"run {n_spread}")
+        lines += [f"variable tf{c}{tag} equal {sign}f_tload{tag}[{i}]"
+                  for i, c in ((1, "x"), (2, "y"), (3, "z"))]
+        lines += [f'print "{_LOAD_LINE} layer={k + 1} fx=${{tfx{tag}}} fy=${{tfy{tag}}} '
+                  f'fz=${{tfz{tag}}}"', f"unfix tload{tag}"]
         lines.append(f"run {ls.end - ls.stop}")
         lines += [f"undump dmp{tag}"] + ([f"undump dloc{tag}"] if contacts else [])
         if k + 1 < len(pl.layers):
@@ -585,7 +587,9 @@ def _lammps_walls(pl: SpreadLayersPlan, p, *, cohesion_model, reference_radius,
         x0, x1 = tool.x0, tool.x0 + tool.thickness
         lines.append(f"region tool block {x0:.10g} {x1:.10g} INF INF {tool.z_bottom:.10g} "
                      f"{tool.z_bottom + tool.height:.10g} side out move v_bx NULL v_bz units box")
-    lines.append(f"fix wtool all wall/gran/region granular {wc} region tool")
+    # `contacts`: the per-atom wall forces, summed into the load on the tool (c_toolsum)
+    lines += [f"fix wtool all wall/gran/region granular {wc} region tool contacts",
+              "compute toolsum all reduce sum f_wtool[2] f_wtool[3] f_wtool[4]"]
     if pl.chamber_depth > 0:
         lines += [f"region front block {L:.10g} {L + t:.10g} INF INF {-pl.chamber_depth:.10g} 0 "
                   "side out units box",
