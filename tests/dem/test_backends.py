@@ -561,6 +561,13 @@ def test_landing_offsets_shift_the_plan(tmp_path):
         landing_offsets(log, 3)
     with pytest.raises(ValueError, match="non-decreasing"):
         plan.shifted((15000, 0))
+    # the stroke-averaged tool loads of the same log: NaN where a layer printed none
+    from bedstruct.dem.backends import tool_loads
+    with open(log, "a") as fh:
+        fh.write('print "BEDSTRUCT_TOOL_FORCE layer=1 fx=${tfx01} fy=${tfy01} fz=${tfz01}"\n'
+                 "BEDSTRUCT_TOOL_FORCE layer=1 fx=-1.5e-05 fy=2e-08 fz=3.25e-06\n")
+    (a1, b1) = tool_loads(log, 2)
+    assert a1 == (-1.5e-05, 2e-08, 3.25e-06) and all(np.isnan(b1))
 
 
 @both_engines

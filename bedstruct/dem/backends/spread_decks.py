@@ -225,6 +225,21 @@ _OFFSET_LINE = "BEDSTRUCT_OFFSET"
 _LOAD_LINE = "BEDSTRUCT_TOOL_FORCE"
 
 
+def _log_records(log_path, marker: str, keys) -> dict:
+    """``{layer: {key: value}}`` of the ``MARKER layer=K key=value ...`` lines a deck printed
+    (the last line of a layer wins; a line with another set of keys is not one of them)."""
+    import re
+    num = r"([-+0-9.eEnaNinf]+)"
+    pat = re.compile(rf"^{marker} layer=(\d+)" + "".join(f" {k}={num}" for k in keys) + r"\s*$")
+    found = {}
+    with open(log_path, errors="replace") as fh:
+        for line in fh:
+            m = pat.match(line.strip())
+            if m:
+                found[int(m.group(1))] = {k: float(m.group(i + 2)) for i, k in enumerate(keys)}
+    return found
+
+
 def landing_offsets(log_path, n_layers: int) -> tuple:
     """Steps waited for flying powder to land before each layer's tool motion, in all.
 
@@ -247,14 +262,8 @@ def landing_offsets(log_path, n_layers: int) -> tuple:
         When a layer's line is missing (the run stopped early, or the deck was
         not written by :func:`spread_layers_deck`).
     """
-    import re
-    found = {}
-    pat = re.compile(rf"^{_OFFSET_LINE} layer=(\d+) steps=([-+0-9.eE]+)\s*$")
-    with open(log_path, errors="replace") as fh:
-        for line in fh:
-            m = pat.match(line.strip())
-            if m:
-                found[int(m.group(1))] = int(round(float(m.group(2))))
+    found = {k: int(round(v["steps"])) for k, v in _log_records(log_path, _OFFSET_LINE,
+                                                                ("steps",)).items()}
     missing = [k + 1 for k in range(n_layers) if k + 1 not in found]
     if missing:
         raise ValueError(f"{log_path}: no '{_OFFSET_LINE} layer=K steps=N' line for layer(s) "
@@ -276,15 +285,8 @@ def tool_loads(log_path, n_layers: int) -> tuple:
     tuple of (3,) tuple of float
         One per layer; NaN where the log has no line for it.
     """
-    import re
-    num = r"([-+0-9.eEnaNinf]+)"
-    pat = re.compile(rf"^{_LOAD_LINE} layer=(\d+) fx={num} fy={num} fz={num}\s*$")
-    found = {}
-    with open(log_path, errors="replace") as fh:
-        for line in fh:
-            m = pat.match(line.strip())
-            if m:
-                found[int(m.group(1))] = tuple(float(m.group(i)) for i in (2, 3, 4))
+    found = {k: (v["fx"], v["fy"], v["fz"])
+             for k, v in _log_records(log_path, _LOAD_LINE, ("fx", "fy", "fz")).items()}
     nan = (float("nan"),) * 3
     return tuple(found.get(k + 1, nan) for k in range(n_layers))
 
@@ -497,6 +499,11 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     return "\n".join(lines) + "\n"
 
 
+def _waits_for_landing(pl: SpreadLayersPlan, gravity: float) -> bool:
+    """A later layer, a wait allowed, and gravity to fall by (free flight is weight only)."""
+    return pl.landing_intervals > 0 and len(pl.gaps) > 1 and gravity > 0
+
+
 def _flight_computes(pl: SpreadLayersPlan, gravity: float) -> list[str]:
     """Per-atom flags and the reduction that :func:`_landing_wait` tests (none if no wait).
 
@@ -505,7 +512,7 @@ def _flight_computes(pl: SpreadLayersPlan, gravity: float) -> list[str]:
     footprint, above the platform (any height: the stroke throws powder far above the
     tool); ``c_zland[2]``: highest top of the others there (-1 m when none).
     """
-    if pl.landing_intervals <= 0 or len(pl.gaps) < 2 or not gravity > 0:
+    if not _waits_for_landing(pl, gravity):
         return []
     x0f, x1f = pl.footprint
     g = float(gravity)
@@ -524,7 +531,7 @@ def _landing_wait(pl: SpreadLayersPlan, k: int, z_plat: float, *, gravity: float
     ``step - v_off`` stays within the still phase before the pile's placement: an interval is
     no longer than the settling that follows the placement.
     """
-    if pl.landing_intervals <= 0 or not gravity > 0:
+    if not _waits_for_landing(pl, gravity):
         return []
     tag = f"{k + 1:02d}"
     n = pl._steps(pl.settle_time)
