@@ -234,12 +234,22 @@ class Diagnosis:
         missing = self.settings.get("missing_runs") or {}
         out = [f"{n}: not observed in {k} fingerprint run(s); averaged over the runs that did"
                for n, k in missing.items()]
+        out += [uneven_scatter_note(n, u) for n, u in (self.settings.get("uneven_scatter") or {}).items()]
         return out + list(self.settings.get("data_notes") or [])
 
     def report(self, *, title: str | None = None):
         """The diagnosis as a :class:`bedstruct.report._model.Report` (HTML/JSON via write_report)."""
         from .report import diagnosis_report
         return diagnosis_report(self, title=title)
+
+
+def uneven_scatter_note(component: str, u: dict) -> str:
+    """One sentence on a component whose run-to-run scatter differs between parameter points."""
+    return (f"{component}: the run-to-run scatter differs between parameter points (Bartlett "
+            f"p = {u['p_value']:.2g}; standard deviation {u['sd_min']:.3g} at {u['smallest_at']} "
+            f"to {u['sd_max']:.3g} at {u['largest_at']}, {u['sd_base']:.3g} at the base); one "
+            f"scatter pooled over the points overstates the noise near the quiet points and "
+            f"understates it near the noisy ones")
 
 
 def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):
@@ -476,6 +486,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "base": dict(fps.base), "effects": [e.name for e in effects],
                 "refine": refine, "data_notes": list(data_notes),
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
+                "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
                 + 2 * len(rerun_seeds)}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)

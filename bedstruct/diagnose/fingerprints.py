@@ -25,8 +25,8 @@ from scipy import stats
 from ..errors import ConfigError
 from .catalogue import Effect
 from .measurements import MeasurementSet
-from .replicates import (Simulator, _pooled_variance, simulate_replicates,
-                         variance_upper_bound)
+from .replicates import (Simulator, _pooled_variance, scatter_homogeneity,
+                         simulate_replicates, variance_upper_bound)
 from .where import _nan_mean, _nan_var
 
 __all__ = ["Fingerprint", "FingerprintSet", "compute_fingerprints", "assess_fingerprints",
@@ -400,8 +400,10 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         from tqdm import tqdm
         progress_bar = tqdm(total=1 + len(nuisance) + 2 * len(effects), desc="fingerprints")
     groups = []   # replicate samples of every parameter point (pooled run-to-run scatter)
+    point_names = []   # what each group is, for the notes
     base_s = run(base, {})
     groups.append(base_s)
+    point_names.append("base")
     if progress_bar:
         progress_bar.update()
     sens = np.zeros((base_s.shape[1], len(nuisance)))
@@ -409,6 +411,7 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         plus, h = step(p)
         sp = run(plus, {})
         groups.append(sp)
+        point_names.append(f"{p} {plus[p]:.4g}")
         sens[:, j] = _nan_mean(sp - base_s) / h
         if progress_bar:
             progress_bar.update()
@@ -417,6 +420,7 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         for m in e.reference_magnitudes:
             se = run(base, {e.name: m})
             groups.append(se)
+            point_names.append(f"{e.name} {m:g}")
             paired.append(se - base_s)
             if progress_bar:
                 progress_bar.update()
@@ -476,6 +480,10 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         raise ConfigError(f"the simulator could not observe any calibration observable often "
                           f"enough to fingerprint it ({unobservable})")
     base_s, sim_var, sens, sim_dof = base_s[:, keep], sim_var[keep], sens[keep], sim_dof[keep]
+    uneven = _uneven_scatter([g[:, keep] for g in groups], point_names, design, alpha=0.01)
+    if uneven:
+        log.warning("fingerprints: the run-to-run scatter differs between parameter points "
+                    "for %s; the diagnosis pools it", sorted(uneven))
     D_all, SE_all = D_all[:, keep], SE_all[:, keep]
 
     fps = []
@@ -501,8 +509,29 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
                          base_s, sim_var, _design_sigma(design, keep_names), tuple(nuisance), sens,
                          tuple(fps), threshold, alpha, simulator_name, n_runs,
                          {"missing_runs": missing, "unobservable": unobservable,
-                          "extrapolated": extrapolated}, sim_dof)
+                          "extrapolated": extrapolated, "uneven_scatter": uneven}, sim_dof)
     return assess_fingerprints(out)
+
+
+def _uneven_scatter(groups, points, design: MeasurementSet, *, alpha: float) -> dict:
+    """Components whose replicates contradict one pooled scatter (Bartlett, Bonferroni at
+    ``alpha`` over the components tested), with the per-point standard deviations."""
+    p, sd = scatter_homogeneity(groups)
+    tested = np.isfinite(p)
+    if not tested.any():
+        return {}
+    names, labels = design.component_names(), design.component_labels()
+    single = {m.name: m.n_components == 1 for m in design}
+    out = {}
+    for i in np.flatnonzero(tested & (p < alpha / tested.sum())):
+        key = str(names[i]) if single[str(names[i])] else f"{names[i]} {labels[i]}"
+        col = sd[:, i]
+        ok = np.isfinite(col)
+        lo, hi = int(np.argmin(np.where(ok, col, np.inf))), int(np.argmax(np.where(ok, col, -np.inf)))
+        out[key] = {"p_value": float(p[i]), "sd_base": float(col[0]),
+                    "sd_min": float(col[lo]), "smallest_at": points[lo],
+                    "sd_max": float(col[hi]), "largest_at": points[hi]}
+    return out
 
 
 def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:

@@ -17,9 +17,10 @@ import numpy as np
 from scipy import stats
 
 from .measurements import Observations
-from .where import _nan_mean
+from .where import _nan_mean, _nan_var
 
-__all__ = ["Simulator", "simulate_replicates", "variance_upper_bound", "VARIANCE_BOUND_LEVEL"]
+__all__ = ["Simulator", "simulate_replicates", "variance_upper_bound", "VARIANCE_BOUND_LEVEL",
+           "scatter_homogeneity"]
 
 #: The simulator interface: ``simulator(base, effects, seed) -> Observations``.
 Simulator = Callable[[Mapping[str, float], Mapping[str, float], int], Observations]
@@ -76,3 +77,55 @@ def _pooled_variance(groups):
         dof = dof + np.maximum(np.isfinite(g).sum(axis=0) - 1, 0)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(dof > 0, ss / np.maximum(dof, 1), np.nan), np.asarray(dof)
+
+
+def scatter_homogeneity(groups) -> tuple[np.ndarray, np.ndarray]:
+    """Bartlett's test that every parameter point scatters alike, per component.
+
+    The diagnosis pools one run-to-run variance over its parameter points; this says
+    where the replicates contradict that.
+
+    Parameters
+    ----------
+    groups : sequence of (R_k, n) array_like
+        Replicates of each parameter point; NaN where a run did not observe a component.
+
+    Returns
+    -------
+    p_value : (n,) ndarray
+        Bartlett p-value over the points with at least two finite replicates; NaN where
+        fewer than two points can be compared or a point shows no scatter at all
+        (identical replicates: nothing to weigh).
+    sd : (k, n) ndarray
+        Replicate standard deviation of each point (NaN with fewer than two replicates).
+
+    Notes
+    -----
+    With two or three seeds per point a variance has one or two degrees of freedom, and
+    the test needs a large spread of the standard deviations to reject: at two seeds,
+    per-point standard deviations of 0.004 and 0.07 are still consistent with one scatter.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> same = [rng.normal(0.0, 1.0, (4, 1)) for _ in range(6)]
+    >>> grows = [rng.normal(0.0, 10.0 ** k, (4, 1)) for k in range(-2, 4)]
+    >>> bool(scatter_homogeneity(same)[0][0] > 0.01), bool(scatter_homogeneity(grows)[0][0] < 1e-6)
+    (True, True)
+    """
+    groups = [np.atleast_2d(np.asarray(g, dtype=float)) for g in groups]
+    n = groups[0].shape[1] if groups else 0
+    sd = np.full((len(groups), n), np.nan)
+    p = np.full(n, np.nan)
+    if not groups:
+        return p, sd
+    for k, g in enumerate(groups):
+        sd[k] = np.sqrt(_nan_var(g))
+    for i in range(n):
+        cols = [g[:, i][np.isfinite(g[:, i])] for g in groups]
+        cols = [c for c in cols if c.size >= 2]
+        if len(cols) < 2 or any(np.ptp(c) == 0.0 for c in cols):
+            continue
+        p[i] = stats.bartlett(*cols).pvalue
+    return p, sd
+

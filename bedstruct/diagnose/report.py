@@ -165,6 +165,7 @@ def validation_report(result):
     from ..report._model import Report, Table, run_section
     from ..plot import diagnose as pdg
     from .validation_scores import capped_summary
+    from .diagnosis import uneven_scatter_note
 
     rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
                  inputs={"simulator": result.simulator, "preset": result.preset},
@@ -204,6 +205,9 @@ def validation_report(result):
                 [f"{n} not observed in {k} fingerprint run(s)" for n, k in missing.items()]
                 + [f"{n} dropped ({why})" for n, why in dropped.items()]
                 + [f"twin {f['twin']} ({f['type']}) failed: {f['error'][:120]}" for f in failed]) + ".")
+        uneven = result.settings.get("uneven_scatter") or {}
+        if uneven:
+            s.text += " Scatter: " + "; ".join(uneven_scatter_note(n, u) for n, u in uneven.items()) + "."
 
     def confusion(s):
         c = result.confusion

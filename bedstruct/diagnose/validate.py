@@ -504,6 +504,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 "effects": [e.name for e in effects], "refine": refine,
                 "failed": failed, "unobservable": dict(fps.meta.get("unobservable", {})),
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
+                "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
                 "simulator_runs": getattr(sim, "n_runs", None),
                 "cached_calls": getattr(sim, "n_cached", None),
                 "engine": dict(getattr(sim, "base_cfg", {}) and {

@@ -81,6 +81,36 @@ def test_fingerprints_recover_exact_responses_and_projection():
     assert all(f.identifiable for f in fps.fingerprints)
 
 
+class _NoisyUnderA:
+    """The toy, with component ``o2``'s run scatter 50x larger whenever effect A is on."""
+
+    def __init__(self, sim):
+        self.sim = sim
+
+    def __call__(self, base, effects, seed):
+        obs = self.sim(base, effects, seed)
+        vals = dict(obs.values)
+        if effects.get("A"):
+            vals["o2"] = vals["o2"] + 25.0 * np.random.default_rng([seed, 5]).standard_normal(1)
+        return Observations(vals, source=obs.source)
+
+
+def test_scatter_that_differs_between_parameter_points_is_reported():
+    design, sim, fps = _setup(noise_sd=0.5)
+    assert fps.meta["uneven_scatter"] == {}
+    noisy = compute_fingerprints(_NoisyUnderA(sim), design, {"k": 1.0}, EFFECTS, nuisance=("k",),
+                                 replicates=4, alpha=0.01)
+    uneven = noisy.meta["uneven_scatter"]
+    assert list(uneven) == ["o2"]
+    assert uneven["o2"]["p_value"] < 1e-4 and uneven["o2"]["largest_at"].startswith("A ")
+    assert uneven["o2"]["sd_max"] > 10 * uneven["o2"]["sd_base"]
+    real = design.with_values(sim({"k": 1.0}, {}, 999))
+    from bedstruct.diagnose import diagnose
+    d = diagnose(real, _NoisyUnderA(sim), base={"k": 1.0}, effects=EFFECTS, fingerprints=noisy,
+                 refine=0)
+    assert any(n.startswith("o2: the run-to-run scatter differs") for n in d.data_notes())
+
+
 def test_effect_absorbed_by_recalibration_is_not_identifiable_and_names_a_measurement():
     # D looks exactly like a cohesion change on the calibration rows, differs on a candidate row
     design = toy_design(N, n_validate=3, n_candidate=1)
