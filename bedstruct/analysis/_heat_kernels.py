@@ -70,7 +70,6 @@ def pcg_solve(indptr, indices, data, diag, wrow, b, x, tol, maxiter, bounds, r, 
     another product. Returns the number of iterations (``maxiter + 1`` if
     not converged).
     """
-    n = b.shape[0]
     nc = bounds.shape[0] - 1
     # r = b - A x ; z = r / d ; p = z ; rz = r.z
     for c in prange(nc):

@@ -7,9 +7,7 @@ reason) and the rest of the report still renders.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -245,7 +243,7 @@ def _coordination(ctx: _Context, s: Section) -> None:
 
 
 def _psd(ctx: _Context, s: Section) -> None:
-    from ..analysis import bed_windows, particle_size_distribution, psd_by_region, segregation_index
+    from ..analysis import particle_size_distribution, psd_by_region, segregation_index
     f, opt = ctx.frame, ctx.options
     whole = particle_size_distribution(f, weighting="volume")
     for q in ("d10", "d50", "d90"):

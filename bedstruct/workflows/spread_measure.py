@@ -8,11 +8,15 @@ spreading runs (:mod:`bedstruct.workflows.external`), which read the same frames
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = ["LayerResult", "frame_metrics", "measure_layer", "particles_in_flight"]
+
+# the spreading workflow's logger: these messages belong to its run
+log = logging.getLogger("bedstruct.workflows.spread")
 
 _REGION_NAMES = {3: ("start", "centre", "end")}
 

@@ -12,7 +12,7 @@ import bedstruct
 from bedstruct import Box, Contacts, Frame
 from bedstruct.analysis import _fabric_kernels as K
 from bedstruct.analysis.fabric import (
-    FabricTensors, contact_regions, deviatoric_rank4, fabric_density, fabric_table, fabric_tensors,
+    contact_regions, deviatoric_rank4, fabric_density, fabric_table, fabric_tensors,
     isotropic_rank4, lammps_fabric, lammps_voigt, projected_density, region_fabric,
     sample_directions, sym_delta_tensor,
 )

@@ -11,7 +11,7 @@ from scipy import integrate
 import bedstruct
 from bedstruct import Box, Frame
 from bedstruct.analysis import (bed_bounds, bed_windows, layer_packing, packing_along,
-                                packing_fraction, packing_fractions, packing_grid,
+                                packing_fraction, packing_grid,
                                 packing_sliding, packing_table, sphere_box_volume)
 from bedstruct.analysis._packing_kernels import _disc_rect
 from lattices import cubic_lattice, fcc_lattice

@@ -1,8 +1,6 @@
-import numpy as np
 import pytest
 
-from bedstruct import Box
-from bedstruct.dem import ContactModel, Material
+from bedstruct.dem import Material
 from dem_helpers import closed_box, two_sphere_sim  # noqa: F401
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bedstruct import Box, UnsafeTimestepError
-from bedstruct.dem import (Blade, ContactModel, Cylinder, Material, Plane, RunDirectory, Simulation,
+from bedstruct.dem import (Blade, ContactModel, Cylinder, Material, Plane, Simulation,
                            TriangleMesh, box_walls, repose_box)
 from bedstruct.dem import _kernels as K
 

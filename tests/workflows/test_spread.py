@@ -128,3 +128,28 @@ def test_a_given_pile_spreads_as_the_generated_one(tmp_path):
     ext = load_config(preset="tiny", overrides=['engine="liggghts"'])
     with pytest.raises(ConfigError, match="embedded engine"):
         run_spread(ext, pile=pile)
+
+
+def test_a_failed_fabric_leaves_a_warning_and_nan_anisotropy(tiny_spread, monkeypatch, caplog):
+    import bedstruct.analysis as analysis
+    from bedstruct.workflows.spread_measure import measure_layer
+    cfg, res, out = tiny_spread
+    layer = out / "layer01"
+    frames = read_dump(layer / "frames.dump.gz")
+    cts = read_dump_local(layer / "contacts.dump.gz", keywords=CONTACT_KEYWORDS, frames=list(frames))
+    last = frames[-1]
+    z_plat = -cfg["spread"]["gaps"][0]
+    kw = dict(index=1, z_plat=z_plat, front0=0.0, r_max=float(np.max(last.radii)), pile=None,
+              dyn=[], cn_series=[], blade_pos=[], mid=[], n_inserted=res.n_pile, n_removed=0,
+              wall_time=0.0)
+    measured, _, _ = measure_layer(last, cts[last.timestep], cfg, **kw)
+    assert np.all(np.isfinite(measured.fabric_anisotropy))
+
+    def refuse(*args, **kwargs):
+        raise ValueError("no contacts in a region")
+    monkeypatch.setattr(analysis, "region_fabric", refuse)
+    with caplog.at_level("WARNING", logger="bedstruct.workflows.spread"):
+        failed, _, _ = measure_layer(last, cts[last.timestep], cfg, **kw)
+    assert np.all(np.isnan(failed.fabric_anisotropy))
+    assert "fabric failed: no contacts in a region" in caplog.text
+    assert failed.packing_fraction == measured.packing_fraction
