@@ -227,14 +227,17 @@ class Diagnosis:
         }
 
     def data_notes(self) -> list[str]:
-        """What the simulations or the file could not observe, one sentence each.
+        """Notes on the data, one sentence each.
 
-        Empty when every run observed every measured observable.
+        What the simulations or the file could not observe, scatter that differs between
+        parameter points, and what was done to the file's numbers when it was read (unit
+        conversions, uncertainties from replicates). Empty when there is nothing to say.
         """
         missing = self.settings.get("missing_runs") or {}
         out = [f"{n}: not observed in {k} fingerprint run(s); averaged over the runs that did"
                for n, k in missing.items()]
         out += [uneven_scatter_note(n, u) for n, u in (self.settings.get("uneven_scatter") or {}).items()]
+        out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])
 
     def report(self, *, title: str | None = None):

@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import ConfigError
 from .measurements import (_DIM, _KNOWN_CONDITIONS, _UNIT, KINDS, ROLES, Conditions, Measurement,
                            MeasurementSet)
+from .replicates import variance_upper_bound
 
 __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
 
@@ -201,7 +202,12 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             raise _err(where, "key 'replicates': expected at least 2 replicate readings")
         replicates = rep
         values = rep.mean(axis=0)
-        sem = rep.std(axis=0, ddof=1) / math.sqrt(rep.shape[0])
+        # a standard error from a few readings is itself uncertain: taken at the same upper
+        # confidence bound as the simulation's run scatter (an understated one makes a gap)
+        bound = float(np.sqrt(variance_upper_bound(rep.shape[0] - 1)))
+        sem = rep.std(axis=0, ddof=1) / math.sqrt(rep.shape[0]) * bound
+        conversions.append(f"uncertainty: the standard error of {rep.shape[0]} replicates at its "
+                           f"one-sided 84 % upper confidence bound (x{bound:.2f})")
     elif src == "csv":
         path = base_dir / str(d["csv"])
         names, data = _read_csv(path, where)

@@ -140,7 +140,8 @@ class Measurement:
         Free text; ``provenance`` says how the value was obtained
         (``"measured"``, ``"read from a qualitative statement"`` ...).
     conversions : tuple of str
-        Unit conversions applied at load time.
+        What was done to the file's numbers at load time: unit conversions, and an
+        uncertainty taken from replicates at its upper confidence bound.
     """
 
     name: str

@@ -94,9 +94,10 @@ def diagnosis_report(diag, *, title: str | None = None):
                                       "cannot imitate, and the gap from which on the two are told apart"))
         notes = diag.data_notes()
         if notes:
-            s.text += (" Runs that could not observe an observable (NaN) count as missing data: "
-                       "means and differences use the replicates that did. "
-                       + " ".join(n + "." for n in notes))
+            if diag.settings.get("missing_runs"):
+                s.text += (" Runs that could not observe an observable (NaN) count as missing "
+                           "data: means and differences use the replicates that did.")
+            s.text += " Data notes: " + " ".join(n + "." for n in notes)
         fig, _ = pdg.plot_fingerprints(fps)
         s.add_figure(fig, "fingerprints")
 

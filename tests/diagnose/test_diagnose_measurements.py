@@ -6,6 +6,7 @@ import pathlib
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from bedstruct.diagnose import (Conditions, MeasurementSet, Observations, load_measurements,
                                 measurement_from_dict, write_measurements)
@@ -79,7 +80,12 @@ def test_replicates_give_mean_and_standard_error(tmp_path):
                          'replicates = [32.0, 33.0, 34.0, 33.0]\n')
     m = load_measurements(p)["a"]
     assert m.values[0] == 33.0
-    assert m.uncertainty[0] == pytest.approx(np.std([32, 33, 34, 33], ddof=1) / 2)
+    # four readings: the standard error at its 84 % upper bound, 3 / chi2.ppf(0.16, 3)
+    bound = np.sqrt(3 / stats.chi2.ppf(0.16, 3))
+    assert 1.85 < bound < 1.95
+    assert m.uncertainty[0] == pytest.approx(np.std([32, 33, 34, 33], ddof=1) / 2 * bound)
+    assert m.conversions == ("uncertainty: the standard error of 4 replicates at its one-sided "
+                             f"84 % upper confidence bound (x{bound:.2f})",)
     # a stated (systematic) uncertainty adds in quadrature
     p = _write(tmp_path, '[[observable]]\nname = "a"\nkind = "static_angle"\n'
                          'replicates = [32.0, 33.0, 34.0, 33.0]\nuncertainty = 1.0\n')
