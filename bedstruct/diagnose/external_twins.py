@@ -12,7 +12,9 @@ twin is made like this:
 2. The withheld effect is added by a documented transformation of each deck
    (:func:`apply_effect`): a larger EPSD2 rolling friction coefficient
    (:func:`with_rolling_friction`), LIGGGHTS' ``cohesion easo/capillary/viscous``
-   liquid bridges (:func:`with_capillary_bridges`), or nothing (a null twin).
+   liquid bridges (:func:`with_capillary_bridges`), a particle-wall sliding friction
+   other than the particle-particle one (:func:`with_wall_friction`), or nothing (a
+   null twin).
    The workflow is pointed (``external.exe``) at a small wrapper executable
    (:func:`write_liggghts_wrapper`) that rewrites the deck it is asked to run,
    keeps the original as ``<deck>.base`` and then runs the real LIGGGHTS.
@@ -61,11 +63,12 @@ import numpy as np
 from .liggghts_effects import (TWIN_MARK, TwinEffect, apply_effect, capillary_effect,  # noqa: F401
                                easo_bridge_volume, easo_capillary_force,
                                easo_effective_contact_angle, null_effect, rolling_friction_effect,
-                               willett_capillary_force, with_capillary_bridges,
-                               with_rolling_friction)
+                               wall_friction_effect, willett_capillary_force,
+                               with_capillary_bridges, with_rolling_friction, with_wall_friction)
 
 __all__ = ["TwinEffect", "null_effect", "rolling_friction_effect", "capillary_effect",
-           "with_rolling_friction", "with_capillary_bridges", "apply_effect",
+           "wall_friction_effect", "with_rolling_friction", "with_capillary_bridges",
+           "with_wall_friction", "apply_effect",
            "easo_effective_contact_angle", "easo_bridge_volume", "easo_capillary_force",
            "willett_capillary_force", "write_liggghts_wrapper", "liggghts_simulator",
            "liggghts_twin_design", "LiggghtsTwin", "make_liggghts_twin"]

@@ -19,7 +19,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 __all__ = ["TwinEffect", "null_effect", "rolling_friction_effect", "capillary_effect",
-           "with_rolling_friction", "with_capillary_bridges", "apply_effect",
+           "wall_friction_effect", "with_rolling_friction", "with_capillary_bridges",
+           "with_wall_friction", "apply_effect",
            "easo_effective_contact_angle", "easo_bridge_volume", "easo_capillary_force",
            "willett_capillary_force", "TWIN_MARK"]
 
@@ -37,10 +38,13 @@ class TwinEffect:
 
     Attributes
     ----------
-    kind : {"none", "rolling_friction", "capillary"}
+    kind : {"none", "rolling_friction", "capillary", "wall_friction"}
     rolling_friction : float
         ``rolling_friction``: the EPSD2 coefficient of particle contacts
         (replaces the base value).
+    wall_friction : float
+        ``wall_friction``: the sliding friction coefficient of particle-wall contacts
+        (replaces the base value, the particle-particle one).
     rolling_walls : bool
         Whether particle-wall contacts get it too (the particles' shape rolls on
         walls as well; default True).
@@ -60,6 +64,7 @@ class TwinEffect:
 
     kind: str = "none"
     rolling_friction: float = 0.0
+    wall_friction: float = 0.0
     rolling_walls: bool = True
     surface_tension: float = 0.0
     liquid_volume_fraction: float = 0.0
@@ -69,9 +74,11 @@ class TwinEffect:
     max_separation_ratio: float = 1.1
 
     def __post_init__(self):
-        if self.kind not in ("none", "rolling_friction", "capillary"):
-            raise ValueError(f"TwinEffect.kind: expected 'none', 'rolling_friction' or "
-                             f"'capillary'; got {self.kind!r}")
+        if self.kind not in ("none", "rolling_friction", "capillary", "wall_friction"):
+            raise ValueError(f"TwinEffect.kind: expected 'none', 'rolling_friction', "
+                             f"'capillary' or 'wall_friction'; got {self.kind!r}")
+        if self.kind == "wall_friction" and not self.wall_friction >= 0:
+            raise ValueError(f"wall_friction must be >= 0; got {self.wall_friction!r}")
         if self.kind == "rolling_friction" and not self.rolling_friction > 0:
             raise ValueError(f"rolling_friction must be > 0; got {self.rolling_friction!r}")
         if self.kind == "capillary":
@@ -87,6 +94,8 @@ class TwinEffect:
         """Short description (``none``, ``rolling_friction 0.25``, ``capillary 0.072 N/m ...``)."""
         if self.kind == "rolling_friction":
             return f"rolling_friction {self.rolling_friction:g}"
+        if self.kind == "wall_friction":
+            return f"wall_friction {self.wall_friction:g}"
         if self.kind == "capillary":
             return (f"capillary {self.surface_tension:g} N/m, liquid {self.liquid_volume_fraction:g}"
                     f", theta {math.degrees(self.contact_angle):.0f} deg")
@@ -111,6 +120,17 @@ def rolling_friction_effect(mu_r: float, *, walls: bool = True) -> TwinEffect:
     'rolling_friction 0.25'
     """
     return TwinEffect("rolling_friction", rolling_friction=float(mu_r), rolling_walls=bool(walls))
+
+
+def wall_friction_effect(mu_w: float) -> TwinEffect:
+    """Particle-wall sliding friction ``mu_w`` (blade, platform and box walls).
+
+    Examples
+    --------
+    >>> wall_friction_effect(0.8).label
+    'wall_friction 0.8'
+    """
+    return TwinEffect("wall_friction", wall_friction=float(mu_w))
 
 
 def capillary_effect(surface_tension: float = 0.072, liquid_volume_fraction: float = 1e-3, *,
@@ -178,6 +198,28 @@ def _n_types(lines: list[str]) -> int:
     raise ValueError("deck has no 'property/global ... peratomtypepair' line (number of atom types)")
 
 
+def _set_pair_entries(lines: list[str], prop: str, value: float, touched) -> bool:
+    """Set the entries ``(i, j)`` with ``touched(i, j)`` of every ``property/global prop
+    peratomtypepair`` line to ``value`` (in place); False when the deck has no such line."""
+    n = _n_types(lines)
+    pat = re.compile(r"(fix\s+\S+\s+\S+\s+property/global\s+" + re.escape(prop)
+                     + r"\s+peratomtypepair\s+)(\d+)\s+(.*)$")
+    found = False
+    for k, ln in enumerate(lines):
+        m = pat.match(ln)
+        if m:
+            found = True
+            vals = m.group(3).split()
+            if int(m.group(2)) != n or len(vals) != n * n:
+                raise ValueError(f"{prop} line has {len(vals)} values for {m.group(2)} types: {ln!r}")
+            for i in range(n):
+                for j in range(n):
+                    if touched(i, j):
+                        vals[i * n + j] = _fmt(value)
+            lines[k] = f"{m.group(1)}{n} " + " ".join(vals)
+    return found
+
+
 def _insert_after_properties(lines: list[str], new: list[str]) -> list[str]:
     last = max(i for i, ln in enumerate(lines) if "property/global" in ln)
     return lines[:last + 1] + new + lines[last + 1:]
@@ -210,23 +252,7 @@ def with_rolling_friction(deck: str, mu_r: float, *, walls: bool = True) -> str:
     def touched(i, j):
         return (i == p and j == p) or (walls and (i == p) != (j == p))
 
-    pat = re.compile(r"(fix\s+\S+\s+\S+\s+property/global\s+coefficientRollingFriction\s+"
-                     r"peratomtypepair\s+)(\d+)\s+(.*)$")
-    found = False
-    for k, ln in enumerate(lines):
-        m = pat.match(ln)
-        if m:
-            found = True
-            vals = m.group(3).split()
-            if int(m.group(2)) != n or len(vals) != n * n:
-                raise ValueError(f"coefficientRollingFriction line has {len(vals)} values for "
-                                 f"{m.group(2)} types: {ln!r}")
-            for i in range(n):
-                for j in range(n):
-                    if touched(i, j):
-                        vals[i * n + j] = _fmt(mu_r)
-            lines[k] = f"{m.group(1)}{n} " + " ".join(vals)
-    if not found:
+    if not _set_pair_entries(lines, "coefficientRollingFriction", mu_r, touched):
         vals = [_fmt(mu_r) if touched(i, j) else "0" for i in range(n) for j in range(n)]
         lines = _insert_after_properties(lines, [
             "fix twr all property/global coefficientRollingFriction peratomtypepair "
@@ -235,6 +261,31 @@ def with_rolling_friction(deck: str, mu_r: float, *, walls: bool = True) -> str:
             if ln.startswith("pair_style gran ") or (walls and " wall/gran " in f" {ln} "
                                                      and " model " in ln):
                 lines[k] = _set_model_word(ln, "rolling_friction", "epsd2")
+    return "\n".join(lines) + "\n"
+
+
+def with_wall_friction(deck: str, mu_w: float) -> str:
+    """A LIGGGHTS deck whose particle-wall sliding friction is ``mu_w``.
+
+    The ``coefficientFriction`` entries of particle-wall pairs (type 1 with any other
+    type: blade, platform and box walls) are replaced; particle-particle and wall-wall
+    entries are kept. Rolling friction is unchanged, as in the catalogue's wall-friction
+    effect (``mu_w = mu + d_mu``).
+
+    Examples
+    --------
+    >>> deck = "\\n".join(["# bedstruct deck for liggghts: test",
+    ...     "fix m4 all property/global coefficientFriction peratomtypepair 2 0.4 0.4 0.4 0.4",
+    ...     "pair_style gran model hertz tangential history"])
+    >>> with_wall_friction(deck, 0.8).splitlines()[1].split()[-4:]
+    ['0.4', '0.8', '0.8', '0.4']
+    """
+    if not mu_w >= 0:
+        raise ValueError(f"mu_w must be >= 0; got {mu_w!r}")
+    lines = _deck_lines(deck)
+    p = _PARTICLE_TYPE - 1
+    if not _set_pair_entries(lines, "coefficientFriction", mu_w, lambda i, j: (i == p) != (j == p)):
+        raise ValueError("deck has no 'property/global coefficientFriction peratomtypepair' line")
     return "\n".join(lines) + "\n"
 
 
@@ -295,6 +346,8 @@ def apply_effect(deck: str, effect: TwinEffect) -> str:
     """
     if effect.kind == "rolling_friction":
         out = with_rolling_friction(deck, effect.rolling_friction, walls=effect.rolling_walls)
+    elif effect.kind == "wall_friction":
+        out = with_wall_friction(deck, effect.wall_friction)
     elif effect.kind == "capillary":
         out = with_capillary_bridges(
             deck, surface_tension=effect.surface_tension,

@@ -15,8 +15,9 @@ from bedstruct.diagnose.external_twins import (TWIN_MARK, apply_effect, capillar
                                                easo_bridge_volume, easo_capillary_force,
                                                liggghts_twin_design, make_liggghts_twin,
                                                null_effect, rolling_friction_effect,
-                                               willett_capillary_force, with_capillary_bridges,
-                                               with_rolling_friction, write_liggghts_wrapper)
+                                               wall_friction_effect, willett_capillary_force,
+                                               with_capillary_bridges, with_rolling_friction,
+                                               with_wall_friction, write_liggghts_wrapper)
 
 needs_liggghts = pytest.mark.skipif(find_liggghts() is None,
                                     reason="liggghts is not installed (.ci/install-engines.sh)")
@@ -79,6 +80,21 @@ def test_capillary_replaces_pair_cohesion_and_adds_properties():
     assert "cohesionEnergyDensity" in props                          # still needed by the walls
 
 
+def test_wall_friction_replaces_the_particle_wall_entries_only():
+    out = with_wall_friction(BASE, 0.75)
+    (prop,) = [ln for ln in out.splitlines() if "coefficientFriction " in ln]
+    assert prop.split()[-5:] == ["2", "0.4", "0.75", "0.75", "0.4"]
+    changed = [a for a, b in zip(BASE.splitlines(), out.splitlines()) if a != b]
+    assert len(changed) == 1 and "coefficientFriction " in changed[0]
+    assert apply_effect(BASE, wall_friction_effect(0.75)).splitlines()[0] == \
+        f"{TWIN_MARK} wall_friction 0.75"
+    with pytest.raises(ValueError, match="no 'property/global coefficientFriction"):
+        with_wall_friction("\n".join(ln for ln in BASE.splitlines()
+                                     if "coefficientFriction " not in ln), 0.75)
+    with pytest.raises(ValueError, match="wall_friction must be >= 0"):
+        wall_friction_effect(-0.1)
+
+
 def test_apply_effect_marks_and_null_changes_nothing():
     out = apply_effect(BASE, null_effect())
     assert out.splitlines()[0] == f"{TWIN_MARK} none"
@@ -115,7 +131,8 @@ def test_workflow_decks_transform(tmp_path):
     cfg = load_config(preset="tiny", overrides=["engine=liggghts", "external.write_only=true"])
     res = run_repose_external(cfg, out=tmp_path)
     deck = open(res.decks[0]).read()
-    for eff in (null_effect(), rolling_friction_effect(0.2), capillary_effect()):
+    for eff in (null_effect(), rolling_friction_effect(0.2), capillary_effect(),
+                wall_friction_effect(0.8)):
         out = apply_effect(deck, eff)
         assert out.splitlines()[1:] != deck.splitlines() or eff.kind == "none"
         assert out.count("pair_style gran") == 1
