@@ -289,7 +289,10 @@ class FingerprintSet:
                       rows_candidate=roles == "candidate", base_samples=self.base_samples[:, keep],
                       sim_var=self.sim_var[keep], sigma_meas=self.sigma_meas[keep],
                       sim_dof=None if self.sim_dof is None else self.sim_dof[keep],
-                      sensitivities=self.sensitivities[keep], fingerprints=fps)
+                      sensitivities=self.sensitivities[keep], fingerprints=fps,
+                      meta=dict(self.meta, uneven_scatter={
+                          k: v for k, v in self.meta.get("uneven_scatter", {}).items()
+                          if k.split(" ")[0] in wanted}))
         return assess_fingerprints(out)
 
     def __getitem__(self, name: str) -> Fingerprint:

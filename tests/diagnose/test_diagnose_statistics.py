@@ -104,6 +104,8 @@ def test_scatter_that_differs_between_parameter_points_is_reported():
     assert list(uneven) == ["o2"]
     assert uneven["o2"]["p_value"] < 1e-4 and uneven["o2"]["largest_at"].startswith("A ")
     assert uneven["o2"]["sd_max"] > 10 * uneven["o2"]["sd_base"]
+    assert noisy.restrict(["o0", "o1"]).meta["uneven_scatter"] == {}
+    assert list(noisy.restrict(["o0", "o2"]).meta["uneven_scatter"]) == ["o2"]
     real = design.with_values(sim({"k": 1.0}, {}, 999))
     from bedstruct.diagnose import diagnose
     d = diagnose(real, _NoisyUnderA(sim), base={"k": 1.0}, effects=EFFECTS, fingerprints=noisy,
