@@ -250,9 +250,8 @@ def uneven_scatter_note(component: str, u: dict) -> str:
     """One sentence on a component whose run-to-run scatter differs between parameter points."""
     return (f"{component}: the run-to-run scatter differs between parameter points (Bartlett "
             f"p = {u['p_value']:.2g}; standard deviation {u['sd_min']:.3g} at {u['smallest_at']} "
-            f"to {u['sd_max']:.3g} at {u['largest_at']}, {u['sd_base']:.3g} at the base); one "
-            f"scatter pooled over the points overstates the noise near the quiet points and "
-            f"understates it near the noisy ones")
+            f"to {u['sd_max']:.3g} at {u['largest_at']}, {u['sd_base']:.3g} at the base); "
+            f"pooled without {', '.join(u.get('set_aside', []))}, which keep their own")
 
 
 def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):

@@ -25,8 +25,8 @@ from scipy import stats
 from ..errors import ConfigError
 from .catalogue import Effect
 from .measurements import MeasurementSet
-from .replicates import (Simulator, _pooled_variance, scatter_homogeneity,
-                         simulate_replicates, variance_upper_bound)
+from .replicates import (Simulator, homogeneous_variance, simulate_replicates,
+                         variance_upper_bound)
 from .where import _nan_mean, _nan_var
 
 __all__ = ["Fingerprint", "FingerprintSet", "compute_fingerprints", "assess_fingerprints",
@@ -99,6 +99,11 @@ class Fingerprint:
         Non-calibration observables (held-out or candidate) where the effect
         shows most, by whitened change at ``m2`` (changes above 2 sigma and above
         twice their own estimation noise; empty: the catalogue's suggestions apply).
+    run_var : (2, n) ndarray or None
+        Variance of one run at ``m1`` and ``m2``: the point's own replicate variance
+        where its scatter was set aside from the pooled one
+        (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`), else the pooled
+        estimate.
     """
 
     effect: Effect
@@ -113,6 +118,7 @@ class Fingerprint:
     identifiable: bool = True
     confounded_with: tuple[str, ...] = ()
     identify_with: tuple[str, ...] = ()
+    run_var: np.ndarray | None = None
 
     def __post_init__(self):
         order = np.argsort(self.nodes)
@@ -191,7 +197,9 @@ class FingerprintSet:
     base_samples : (R, n) ndarray
         Replicates at the base parameters.
     sim_var : (n,) ndarray
-        Replicate variance of one run, pooled over all parameter points, at its one-sided
+        Replicate variance of one run, pooled over the parameter points that scatter like
+        the base point (all of them unless Bartlett's test sets one aside,
+        :func:`~bedstruct.diagnose.replicates.homogeneous_variance`), at its one-sided
         84 % upper confidence bound (:func:`variance_upper_bound`): with two or three seeds
         per point the pooled estimate rests on few degrees of freedom, and an
         underestimated scatter would turn noise into a gap.
@@ -239,6 +247,28 @@ class FingerprintSet:
         n = np.maximum(np.sum(np.isfinite(self.base_samples), axis=0), 1)
         return np.sqrt(self.sigma_meas ** 2 + self.sim_var / n)
 
+    def run_sd(self, effect: str | None = None, magnitude: float = 0.0) -> np.ndarray:
+        """Standard deviation of one run, per component, at the base or with ``effect`` at
+        ``magnitude``.
+
+        The pooled estimate (not its upper bound) at the base; with an effect whose
+        fingerprint points scattered differently (:attr:`Fingerprint.run_var`), the
+        variance interpolated linearly in the magnitude between the base and those
+        points (held beyond them).
+        """
+        from .replicates import variance_upper_bound as bound
+        var = self.sim_var if self.sim_dof is None else self.sim_var / bound(self.sim_dof)
+        if effect is None or not magnitude:
+            return np.sqrt(var)
+        fp = self[effect]
+        if fp.run_var is None:
+            return np.sqrt(var)
+        nodes = np.r_[0.0, fp.magnitudes]
+        order = np.argsort(nodes)
+        table = np.vstack([var, fp.run_var])[order]
+        return np.sqrt(np.array([np.interp(float(magnitude), nodes[order], table[:, i])
+                                 for i in range(table.shape[1])]))
+
     @property
     def base_mean(self) -> np.ndarray:
         """Mean of the base replicates per component (over those that observed it)."""
@@ -282,7 +312,9 @@ class FingerprintSet:
         if not (design.roles() == "calibrate").any():
             raise ConfigError("no calibration observable left in the fingerprint set")
         fps = tuple(replace(f, delta=f.delta[:, keep], delta_se=f.delta_se[:, keep],
-                            responses=f.responses[:, keep]) for f in self.fingerprints)
+                            responses=f.responses[:, keep],
+                            run_var=None if f.run_var is None else f.run_var[:, keep])
+                    for f in self.fingerprints)
         roles = design.roles()
         out = replace(self, design=design, names=tuple(keep_names),
                       rows_calibrate=roles == "calibrate", rows_validate=roles == "validate",
@@ -430,8 +462,14 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     if progress_bar:
         progress_bar.close()
     n_runs = replicates * len(groups)
-    sim_var_estimate, sim_dof = _pooled_variance(groups)
+    # one scatter pooled over the points that scatter like the base: a point far from it
+    # (e.g. a cohesive block that stands or falls) keeps its own
+    sim_var_estimate, sim_dof, aside, p_scatter = homogeneous_variance(groups, alpha=0.01)
     sim_var = sim_var_estimate * variance_upper_bound(sim_dof)
+    first_effect = 1 + len(nuisance)
+    own = [np.where(aside[g], _nan_var(groups[g]), sim_var_estimate) for g in range(len(groups))]
+    run_var_all = [np.vstack(own[first_effect + 2 * k:first_effect + 2 * k + 2])
+                   for k in range(len(effects))]
 
     # Missing data: a run that could not observe a component (e.g. no heap to fit) gives
     # NaN there. Means and paired differences use the finite replicates; an observable
@@ -483,10 +521,12 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         raise ConfigError(f"the simulator could not observe any calibration observable often "
                           f"enough to fingerprint it ({unobservable})")
     base_s, sim_var, sens, sim_dof = base_s[:, keep], sim_var[keep], sens[keep], sim_dof[keep]
-    uneven = _uneven_scatter([g[:, keep] for g in groups], point_names, design, alpha=0.01)
+    uneven = _uneven_scatter([g[:, keep] for g in groups], point_names, design,
+                             p_scatter[keep], aside[:, keep])
     if uneven:
         log.warning("fingerprints: the run-to-run scatter differs between parameter points "
-                    "for %s; the diagnosis pools it", sorted(uneven))
+                    "for %s; points that scatter unlike the base keep their own",
+                    sorted(uneven))
     D_all, SE_all = D_all[:, keep], SE_all[:, keep]
 
     fps = []
@@ -505,7 +545,8 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
             curved = bool(np.any(dev != 0))
         nodes = np.array([0.0, m1, m2])
         resp = np.vstack([np.zeros(D.shape[1]), D])
-        fps.append(Fingerprint(e, np.array([m1, m2]), D, SE, nodes, resp, not curved))
+        fps.append(Fingerprint(e, np.array([m1, m2]), D, SE, nodes, resp, not curved,
+                               run_var=run_var_all[k][:, keep]))
     n_eff = max(len(effects), 1)
     threshold = float(stats.chi2.isf(alpha / n_eff, 1))
     out = FingerprintSet(design, tuple(keep_names), rows_cal, rows_val, rows_cand, base, seeds,
@@ -516,24 +557,22 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     return assess_fingerprints(out)
 
 
-def _uneven_scatter(groups, points, design: MeasurementSet, *, alpha: float) -> dict:
-    """Components whose replicates contradict one pooled scatter (Bartlett, Bonferroni at
-    ``alpha`` over the components tested), with the per-point standard deviations."""
-    p, sd = scatter_homogeneity(groups)
-    tested = np.isfinite(p)
-    if not tested.any():
-        return {}
+def _uneven_scatter(groups, points, design: MeasurementSet, p, aside) -> dict:
+    """Components with points set aside from the pooled scatter, with the Bartlett p-value
+    over all points, the per-point standard deviations and the points set aside."""
+    sd = np.sqrt(np.array([_nan_var(g) for g in groups]))
     names, labels = design.component_names(), design.component_labels()
     single = {m.name: m.n_components == 1 for m in design}
     out = {}
-    for i in np.flatnonzero(tested & (p < alpha / tested.sum())):
+    for i in np.flatnonzero(aside.any(axis=0)):
         key = str(names[i]) if single[str(names[i])] else f"{names[i]} {labels[i]}"
         col = sd[:, i]
         ok = np.isfinite(col)
         lo, hi = int(np.argmin(np.where(ok, col, np.inf))), int(np.argmax(np.where(ok, col, -np.inf)))
         out[key] = {"p_value": float(p[i]), "sd_base": float(col[0]),
                     "sd_min": float(col[lo]), "smallest_at": points[lo],
-                    "sd_max": float(col[hi]), "largest_at": points[hi]}
+                    "sd_max": float(col[hi]), "largest_at": points[hi],
+                    "set_aside": [points[k] for k in np.flatnonzero(aside[:, i])]}
     return out
 
 
@@ -555,8 +594,13 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
     for k, fp in enumerate(fps.fingerprints):
         D, SE = fp.delta, fp.delta_se
         f = projected[k]
-        signal = float(np.linalg.norm(f))
-        noise = float(np.sqrt(np.sum((SE[1][cal] / sigma[cal]) ** 2)))
+        # signal and its estimation noise in the noise of a comparison with the fingerprint:
+        # the experiment's and the fingerprint's own (a component whose response at the prior
+        # top is known to no better than its scatter there carries no more than that)
+        sig_c = np.sqrt(sigma[cal] ** 2 + SE[1][cal] ** 2)
+        P_c = nuisance_projector(fps.sensitivities[cal] / sig_c[:, None])
+        signal = float(np.linalg.norm(P_c @ (D[1][cal] / sig_c)))
+        noise = float(np.sqrt(np.sum((SE[1][cal] / sig_c) ** 2)))
         identifiable = signal ** 2 > fps.threshold + noise ** 2
         conf = []
         for j, other in enumerate(projected):

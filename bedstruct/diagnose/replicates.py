@@ -2,9 +2,9 @@
 
 A simulator is any callable ``simulator(base, effects, seed) -> Observations``. The
 diagnosis runs it at a few replicate seeds per parameter point; the scatter of those
-replicates, pooled over the points, is the simulation noise every later step weighs
-residuals by, taken at a one-sided upper confidence bound because two to four seeds
-per point leave it poorly determined.
+replicates, pooled over the points that scatter like the base point, is the simulation
+noise every later step weighs residuals by, taken at a one-sided upper confidence bound
+because two to four seeds per point leave it poorly determined.
 
 .. versionadded:: 0.1
 """
@@ -20,7 +20,7 @@ from .measurements import Observations
 from .where import _nan_mean, _nan_var
 
 __all__ = ["Simulator", "simulate_replicates", "variance_upper_bound", "VARIANCE_BOUND_LEVEL",
-           "scatter_homogeneity"]
+           "scatter_homogeneity", "homogeneous_variance"]
 
 #: The simulator interface: ``simulator(base, effects, seed) -> Observations``.
 Simulator = Callable[[Mapping[str, float], Mapping[str, float], int], Observations]
@@ -129,3 +129,60 @@ def scatter_homogeneity(groups) -> tuple[np.ndarray, np.ndarray]:
         p[i] = stats.bartlett(*cols).pvalue
     return p, sd
 
+
+
+def homogeneous_variance(groups, *, alpha: float = 0.01):
+    """Run-to-run variance pooled over the parameter points that scatter like the first one.
+
+    Per component, Bartlett's test (:func:`scatter_homogeneity`) is applied to the points;
+    while it rejects at ``alpha`` over the number of components tested (Bonferroni), the
+    point with the largest scatter is set aside (never the first, the base point) and the
+    test repeated on the rest. The variance pooled over the points kept is the scatter of
+    the base point's neighbourhood; a point set aside keeps its own.
+
+    Parameters
+    ----------
+    groups : sequence of (R_k, n) array_like
+        Replicates of each parameter point, the base point first; NaN where a run did not
+        observe a component.
+    alpha : float
+        Family-wise level of the tests.
+
+    Returns
+    -------
+    variance, dof : (n,) ndarray
+        Pooled variance of one run over the points kept, and its degrees of freedom.
+    set_aside : (k, n) ndarray of bool
+        The points set aside per component.
+    p_value : (n,) ndarray
+        Bartlett p-value over all points (NaN where untestable).
+
+    Examples
+    --------
+    Six points scatter alike; a seventh, one hundred times as much:
+
+    >>> rng = np.random.default_rng(3)
+    >>> groups = [rng.normal(0.0, 1.0, (3, 1)) for _ in range(6)] + [rng.normal(0.0, 100.0, (3, 1))]
+    >>> var, dof, aside, p = homogeneous_variance(groups)
+    >>> aside[:, 0].tolist(), int(dof[0]), bool(var[0] < 5.0)
+    ([False, False, False, False, False, False, True], 12, True)
+    """
+    groups = [np.atleast_2d(np.asarray(g, dtype=float)) for g in groups]
+    p_all, sd = scatter_homogeneity(groups)
+    n = p_all.size
+    aside = np.zeros((len(groups), n), dtype=bool)
+    level = alpha / max(int(np.isfinite(p_all).sum()), 1)
+    for i in np.flatnonzero(np.isfinite(p_all) & (p_all < level)):
+        while True:
+            kept = [k for k in range(len(groups)) if not aside[k, i]]
+            p, _ = scatter_homogeneity([groups[k][:, i:i + 1] for k in kept])
+            if not (np.isfinite(p[0]) and p[0] < level):
+                break
+            noisiest = max((k for k in kept[1:] if np.isfinite(sd[k, i])), key=lambda k: sd[k, i],
+                           default=None)
+            if noisiest is None:
+                break
+            aside[noisiest, i] = True
+    masked = [np.where(aside[k][None, :], np.nan, g) for k, g in enumerate(groups)]
+    var, dof = _pooled_variance(masked)
+    return var, dof, aside, p_all

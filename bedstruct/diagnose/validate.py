@@ -60,10 +60,18 @@ ENGINE_PRESETS = {
                            "non_sphericity")),
 }
 #: Revision of how twins are made, in every twin record: records of another revision are not
-#: resumed. 2: a twin's magnitude is sized in its own noise (its file states one run's
-#: scatter, the pooled estimate, on top of the reading noise); 1 sized it in the design's
-#: reading noise and stated the scatter at its upper bound, so its gap was smaller than stated.
-_TWIN_RULE = 2
+#: resumed. 3: a twin's file states one run's scatter at its own parameter point
+#: (:meth:`FingerprintSet.run_sd`: the pooled estimate, or where a fingerprint point
+#: scattered unlike the base, interpolated towards that point's own), on top of the reading
+#: noise, and its magnitude is sized in that noise; 2 stated the pooled scatter at every
+#: point. 1 sized it in the design's reading noise and stated the scatter at its upper
+#: bound, so its gap was smaller than stated.
+_TWIN_RULE = 3
+
+#: Revision of the simulation scatter, in every twin record. 2: pooled over the points that
+#: scatter like the base (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`);
+#: 1 (older records, which lack it) pooled over all points.
+_SCATTER_RULE = 2
 
 #: Revision of the attribution's fit test, in every twin record (older records lack it and
 #: count as 1). 2: a magnitude held at a bound of its prior is fixed there, taking no degree
@@ -271,15 +279,17 @@ def _projected_gap(fps, name: str, sigma=None):
 
     The norm, on the calibration observables, of the fingerprint's predicted change with the
     part recalibration absorbs projected out, in the noise ``sigma`` (per component, default
-    :attr:`FingerprintSet.sigma`; a twin's is :func:`_twin_sigma`).
+    :attr:`FingerprintSet.sigma`; a twin's is :func:`_twin_sigma`; a callable ``sigma(a)``
+    gives the noise at each magnitude, as for a twin whose scatter depends on it).
     """
     from .fingerprints import nuisance_projector
     cal = fps.rows_calibrate
-    sig = (fps.sigma if sigma is None else np.asarray(sigma, dtype=float))[cal]
-    P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
     fp = fps[name]
 
     def gap(a):
+        s = sigma(a) if callable(sigma) else (fps.sigma if sigma is None else sigma)
+        sig = np.asarray(s, dtype=float)[cal]
+        P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
         return float(np.linalg.norm(P @ (fp.predict(a)[cal] / sig)))
     return gap
 
@@ -300,17 +310,16 @@ def _magnitude_for_snr(fps, name: str, snr: float, sigma=None) -> float:
     return 0.5 * (lo + hi)
 
 
-def _intrinsic_sd(fps) -> Observations:
-    """Per-observable standard deviation of one simulator run.
+def _intrinsic_sd(fps, effect: str | None = None, magnitude: float | None = None) -> Observations:
+    """Per-observable standard deviation of one simulator run at a twin's parameter point.
 
-    The pooled replicate scatter itself, not the upper confidence bound the diagnosis puts
-    on it (:attr:`FingerprintSet.sim_var`): a twin's one run scatters like any run, and its
-    file states that scatter as the standard deviation of repeated experiments would.
+    The replicate scatter itself, not the upper confidence bound the diagnosis puts on it
+    (:attr:`FingerprintSet.sim_var`): a twin's run scatters like any run at its point, and
+    its file states that scatter as the standard deviation of repeated experiments would
+    (:meth:`FingerprintSet.run_sd`; the base point's without an effect).
     """
-    from .replicates import variance_upper_bound
     comp = fps.design.component_names()
-    var = fps.sim_var if fps.sim_dof is None else fps.sim_var / variance_upper_bound(fps.sim_dof)
-    sd = np.sqrt(var)
+    sd = fps.run_sd(effect, float(magnitude or 0.0))
     return Observations({n: sd[comp == n] for n in fps.names})
 
 
@@ -425,7 +434,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "twin_seed": tseed, "alpha": alpha, "select_alpha": select_alpha,
                  "gof_alpha": gof_alpha, "refine": int(refine),
                  "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
-                 "fit_rule": _FIT_RULE, "twin_repeats": twin_repeats}
+                 "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
+                 "twin_repeats": twin_repeats}
     done = _records_done(records, signature)
     twins, failed = [], []
     iterator = enumerate(plan)
@@ -467,12 +477,15 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             effects_true, magnitude, gaps = {}, None, {}
             if name is not None:
                 snr = float(rng.uniform(*snr_range))
-                magnitude = _magnitude_for_snr(fps, name, snr, twin_sigma)
+                # in the noise the twin's file will state, at the twin's own magnitude
+                own_sigma = twin_sigma if simulator == "surrogate" else (
+                    lambda a, e=name: _twin_sigma(fps, _intrinsic_sd(fps, e, a), twin_repeats))
+                magnitude = _magnitude_for_snr(fps, name, snr, own_sigma)
                 effects_true = {name: magnitude}
                 # below the draw when the prior top is weaker: such a twin is scored as
                 # drawn, and its record says how strong it could be
                 gaps = {"requested_gap_sigma": snr,
-                        "twin_gap_sigma": _projected_gap(fps, name, twin_sigma)(magnitude)}
+                        "twin_gap_sigma": _projected_gap(fps, name, own_sigma)(magnitude)}
             twin_run_seed = tseed * 100003 + 5000 + i
             truth = {"true_effect": name, "true_magnitude": magnitude,
                      "true_cohesion": base_true["cohesion_energy_density"], **gaps}
@@ -484,8 +497,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             if not todo:
                 continue
             try:
+                own = intrinsic if simulator == "surrogate" else _intrinsic_sd(fps, name, magnitude)
                 real = _twin_measurements(measured, sim, base_true, effects_true, twin_run_seed,
-                                          folder, i, intrinsic, twin_repeats)
+                                          folder, i, own, twin_repeats)
                 for k in todo:
                     run_one(i, k, name, real, truth)
             except (ValueError, np.linalg.LinAlgError) as exc:

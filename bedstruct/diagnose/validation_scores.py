@@ -103,7 +103,7 @@ class ValidationResult:
 
 
 #: Signature keys added after records were first written, with the value older records had.
-_SIGNATURE_DEFAULTS = {"twin_repeats": 1, "fit_rule": 1}
+_SIGNATURE_DEFAULTS = {"twin_repeats": 1, "fit_rule": 1, "scatter_rule": 1}
 
 
 def _records_done(records, signature: dict) -> dict:

@@ -110,6 +110,9 @@ def test_records_without_a_newer_key_take_its_old_value(tmp_path):
     assert not _records_done(rec, dict(sig, twin_repeats=3))
     # made before the fit test fixed magnitudes at a bound: not this code's answers
     assert _records_done(rec, dict(sig, fit_rule=1))
+    # ... or before the scatter was pooled over the points that scatter like the base
+    assert _records_done(rec, dict(sig, scatter_rule=1))
+    assert not _records_done(rec, dict(sig, scatter_rule=2))
     assert not _records_done(rec, dict(sig, fit_rule=2))
     from bedstruct.errors import ConfigError
     with pytest.raises(ConfigError, match="twin_repeats"):
@@ -312,7 +315,7 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     with caplog.at_level("WARNING", logger="bedstruct.diagnose.validate"):
         assert validate("tiny", refine=0, records=recs).settings["resumed_twins"] == 0
     # the user is told why nothing was resumed
-    assert "twin_rule 1 (this run: 2)" in caplog.text
+    assert "twin_rule 1 (this run: 3)" in caplog.text
     recs.write_text("{not json\n")
     with pytest.raises(ConfigError, match="line 1"):
         validate("tiny", refine=0, records=recs)

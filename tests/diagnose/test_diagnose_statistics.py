@@ -104,6 +104,24 @@ def test_scatter_that_differs_between_parameter_points_is_reported():
     assert list(uneven) == ["o2"]
     assert uneven["o2"]["p_value"] < 1e-4 and uneven["o2"]["largest_at"].startswith("A ")
     assert uneven["o2"]["sd_max"] > 10 * uneven["o2"]["sd_base"]
+    assert sorted(uneven["o2"]["set_aside"]) == ["A 0.5", "A 1"]
+    # the pool keeps the points that scatter like the base: o2's scatter is the others' (one
+    # run: 0.5 * sqrt(2)), and only the effect A's points keep their own (about 25)
+    i = list(noisy.names).index("o2")
+    np.testing.assert_allclose(noisy.sim_var[i], fps.sim_var[i], rtol=0.5)
+    assert 0.4 < noisy.run_sd()[i] < 1.1
+    assert 12.0 < noisy.run_sd("A", 1.0)[i] < 50.0 and noisy.run_sd("B", 1.0)[i] < 1.1
+    assert noisy.run_sd("A", 0.25)[i] < noisy.run_sd("A", 0.5)[i]
+    # a validation twin at A's point states that scatter in its file, one at the base not
+    from bedstruct.diagnose.validate import _intrinsic_sd
+    assert _intrinsic_sd(noisy, "A", 1.0)["o2"][0] > 12.0 > 1.1 > _intrinsic_sd(noisy)["o2"][0]
+    # ... and is sized in it: A's gap in the noise at its own magnitude is the smaller one
+    from bedstruct.diagnose.validate import _projected_gap, _twin_sigma
+    at_base = _twin_sigma(noisy, _intrinsic_sd(noisy))
+    own = lambda a: _twin_sigma(noisy, _intrinsic_sd(noisy, "A", a))  # noqa: E731
+    assert _projected_gap(noisy, "A", own)(0.0) == _projected_gap(noisy, "A", at_base)(0.0) == 0.0
+    assert noisy.rows_calibrate[i]
+    assert _projected_gap(noisy, "A", own)(1.0) < _projected_gap(noisy, "A", at_base)(1.0)
     assert noisy.restrict(["o0", "o1"]).meta["uneven_scatter"] == {}
     assert list(noisy.restrict(["o0", "o2"]).meta["uneven_scatter"]) == ["o2"]
     real = design.with_values(sim({"k": 1.0}, {}, 999))
