@@ -35,7 +35,7 @@ def identification(fps, name: str) -> dict:
     """Which measurements would identify effect ``name``, and on what evidence.
 
     ``identify_with`` lists the observables its simulated fingerprint moves beyond 2 sigma
-    outside the calibration set (:func:`~bedstruct.diagnose.fingerprints.assess_fingerprints`).
+    outside the calibration set (:func:`~bedstruct.diagnose.identifiability.assess_fingerprints`).
     When there are none, the catalogue's own suggestions are split into those the
     fingerprint runs did measure (``checked``: they do not identify it in these
     simulations, so they are not suggested) and those it could not (``unchecked``: not in

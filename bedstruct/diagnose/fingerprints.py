@@ -24,6 +24,8 @@ from scipy import stats
 
 from ..errors import ConfigError
 from .catalogue import Effect
+# identifiability's two public functions live there and are re-exported here
+from .identifiability import _uneven_scatter, assess_fingerprints, nuisance_projector  # noqa: F401
 from .measurements import MeasurementSet
 from .replicates import (Simulator, homogeneous_variance, simulate_replicates,
                          variance_upper_bound)
@@ -33,35 +35,6 @@ __all__ = ["Fingerprint", "FingerprintSet", "compute_fingerprints", "assess_fing
            "nuisance_projector"]
 
 log = logging.getLogger(__name__)
-
-def nuisance_projector(sensitivities_w) -> np.ndarray:
-    """Orthogonal projector removing the span of whitened nuisance sensitivities.
-
-    Parameters
-    ----------
-    sensitivities_w : (n, p) array_like
-        Whitened sensitivities (columns); p may be 0.
-
-    Returns
-    -------
-    (n, n) ndarray
-        ``I - S (S^T S)^+ S^T``.
-
-    Examples
-    --------
-    >>> P = nuisance_projector([[1.0], [0.0]])
-    >>> P @ np.array([3.0, 4.0])
-    array([0., 4.])
-    """
-    S = np.asarray(sensitivities_w, dtype=float)
-    n = S.shape[0]
-    if S.ndim != 2 or S.shape[1] == 0:
-        return np.eye(n)
-    Q, r, _ = np.linalg.svd(S, full_matrices=False)
-    keep = r > 1e-12 * max(r.max(), 1e-300)
-    Q = Q[:, keep]
-    return np.eye(n) - Q @ Q.T
-
 
 @dataclass(frozen=True)
 class Fingerprint:
@@ -555,76 +528,3 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
                          {"missing_runs": missing, "unobservable": unobservable,
                           "extrapolated": extrapolated, "uneven_scatter": uneven}, sim_dof)
     return assess_fingerprints(out)
-
-
-def _uneven_scatter(groups, points, design: MeasurementSet, p, aside) -> dict:
-    """Components with points set aside from the pooled scatter, with the Bartlett p-value
-    over all points, the per-point standard deviations and the points set aside."""
-    sd = np.sqrt(np.array([_nan_var(g) for g in groups]))
-    names, labels = design.component_names(), design.component_labels()
-    single = {m.name: m.n_components == 1 for m in design}
-    out = {}
-    for i in np.flatnonzero(aside.any(axis=0)):
-        key = str(names[i]) if single[str(names[i])] else f"{names[i]} {labels[i]}"
-        col = sd[:, i]
-        ok = np.isfinite(col)
-        lo, hi = int(np.argmin(np.where(ok, col, np.inf))), int(np.argmax(np.where(ok, col, -np.inf)))
-        out[key] = {"p_value": float(p[i]), "sd_base": float(col[0]),
-                    "sd_min": float(col[lo]), "smallest_at": points[lo],
-                    "sd_max": float(col[hi]), "largest_at": points[hi],
-                    "set_aside": [points[k] for k in np.flatnonzero(aside[:, i])]}
-    return out
-
-
-def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
-    """Identifiability, confounding and identifying measurements of every fingerprint.
-
-    Judged on the calibration components of ``fps``, whitened by its combined noise,
-    after projecting out the nuisance sensitivities; recomputed whenever the rows of
-    the set change (:meth:`FingerprintSet.restrict`).
-    """
-    from dataclasses import replace
-    cal = fps.rows_calibrate
-    sigma = fps.sigma
-    P = nuisance_projector(fps.sensitivities[cal] / sigma[cal, None])
-    projected = [P @ (f.delta[1][cal] / sigma[cal]) for f in fps.fingerprints]
-    noncal = ~cal
-    comp_names = fps.design.component_names()
-    out = []
-    for k, fp in enumerate(fps.fingerprints):
-        D, SE = fp.delta, fp.delta_se
-        f = projected[k]
-        # signal and its estimation noise in the noise of a comparison with the fingerprint:
-        # the experiment's and the fingerprint's own (a component whose response at the prior
-        # top is known to no better than its scatter there carries no more than that)
-        sig_c = np.sqrt(sigma[cal] ** 2 + SE[1][cal] ** 2)
-        P_c = nuisance_projector(fps.sensitivities[cal] / sig_c[:, None])
-        signal = float(np.linalg.norm(P_c @ (D[1][cal] / sig_c)))
-        noise = float(np.sqrt(np.sum((SE[1][cal] / sig_c) ** 2)))
-        identifiable = signal ** 2 > fps.threshold + noise ** 2
-        conf = []
-        for j, other in enumerate(projected):
-            if j == k:
-                continue
-            den = np.linalg.norm(f) * np.linalg.norm(other)
-            if den > 0 and abs(f @ other) / den > 0.98:
-                conf.append(fps.fingerprints[j].name)
-        ident = []
-        if noncal.any():
-            # what is left on the other rows once the base parameters are recalibrated on the
-            # calibration rows, beyond 2 sigma and twice its own estimation noise (a noisy
-            # fingerprint must not name a measurement by chance)
-            J = fps.sensitivities
-            beta = np.linalg.lstsq(J[cal] / sigma[cal, None], D[1][cal] / sigma[cal], rcond=None)[0]
-            left = np.abs(D[1][noncal] - J[noncal] @ beta)
-            w = left / sigma[noncal]
-            real = left > 2.0 * SE[1][noncal]
-            for i in np.argsort(-w):
-                nm = str(comp_names[noncal][i])
-                if w[i] > 2.0 and real[i] and nm not in ident:
-                    ident.append(nm)
-                if len(ident) == 3:
-                    break
-        out.append(replace(fp, signal=signal, noise=noise, identifiable=bool(identifiable),
-                           confounded_with=tuple(conf), identify_with=tuple(ident)))
-    return replace(fps, fingerprints=tuple(out))

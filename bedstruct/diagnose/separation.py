@@ -1,6 +1,6 @@
 """Which catalogue effects a measurement design tells apart.
 
-Identifiability (:func:`bedstruct.diagnose.fingerprints.assess_fingerprints`) asks whether
+Identifiability (:func:`bedstruct.diagnose.identifiability.assess_fingerprints`) asks whether
 an effect's gap stands out of the noise; attribution also needs it to stand out of the
 *other* effects' fingerprints. Two effects whose fingerprints point in similar directions
 (for example contact ageing and non-sphericity, which both steepen a static angle) are told
