@@ -130,7 +130,6 @@ def scatter_homogeneity(groups) -> tuple[np.ndarray, np.ndarray]:
     return p, sd
 
 
-
 def homogeneous_variance(groups, *, alpha: float = 0.01):
     """Run-to-run variance pooled over the parameter points that scatter like the first one.
 
