@@ -138,6 +138,9 @@ class Shrink:
     plus the attributed effect(s) at their fitted magnitudes (calibration-only fit).
     Gaps are RMS standardised residuals; ``*_excess`` is the part beyond noise.
     ``fraction`` = 1 - after_excess / before_excess (NaN without a gap).
+    ``p_rerun_calibration`` / ``p_rerun_heldout``: goodness of fit (chi-square and
+    largest-|z|, Bonferroni) of the rerun of the attributed model to the calibration and
+    to the held-out observables (NaN without an attribution): the checks that confirm it.
     """
 
     model: str
@@ -153,6 +156,8 @@ class Shrink:
     fraction_rms: float
     per_observable: tuple[dict, ...]
     n_heldout: int
+    p_rerun_calibration: float = float("nan")
+    p_rerun_heldout: float = float("nan")
 
     def as_dict(self) -> dict:
         return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
@@ -160,6 +165,8 @@ class Shrink:
                 "before_excess": self.before_excess, "recalibrated_excess": self.recalibrated_excess,
                 "after_excess": self.after_excess, "fraction": self.fraction,
                 "fraction_rms": self.fraction_rms, "n_heldout": self.n_heldout,
+                "p_rerun_calibration": self.p_rerun_calibration,
+                "p_rerun_heldout": self.p_rerun_heldout,
                 "per_observable": list(self.per_observable)}
 
 
@@ -440,12 +447,22 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     b, r_, a = gap_size(z_before[held_meas]), gap_size(z_recal[held_meas]), gap_size(z_after[held_meas])
     frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")
     frac_rms = 1.0 - a[0] / b[0] if b[0] > 0 else float("nan")
+    p_cal = p_held = float("nan")
+    if att.verdict == "attributed":
+        # The fit predicts the attributed model by interpolating its fingerprint between
+        # the simulated magnitudes; the rerun simulates it. On the calibration observables
+        # the rerun must agree with the data as the fit said it would (no prediction variance:
+        # the fitted values were chosen on these data), on the held-out ones within the fit's
+        # own uncertainty.
+        cal_meas = fps.rows_calibrate[rows_meas]
+        p_cal = _p_fit_z(z_after[cal_meas]) if cal_meas.any() else float("nan")
+        p_held = _p_fit_z(z_check[held_meas]) if held_meas.any() else float("nan")
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
-                    tuple(per_obs), int(held_meas.sum()))
+                    tuple(per_obs), int(held_meas.sum()), p_cal, p_held)
 
-    # Verdict checks that use the held-out observables (they never enter a fit):
-    # a significant gap that the calibration observables cannot attribute, or an
-    # attribution that the held-out observables contradict, is 'unexplained'.
+    # Verdict checks on the reruns (the held-out observables never enter a fit): a
+    # significant gap that the calibration observables cannot attribute, or an attribution
+    # whose rerun the calibration or the held-out observables contradict, is 'unexplained'.
     verdict_note = ""
     if att.verdict == "none" and wh.significant:
         # Recalibration alone may close a significant gap (e.g. a cohesion calibrated
@@ -465,12 +482,17 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                             + (f", and the rerun at the recalibrated base leaves the measured "
                                f"observables inconsistent (p = {min(p_recal, p_recal_held):.2g})"
                                if held_meas.any() else "") + "; " + att.reason)
-    elif att.verdict == "attributed" and held_meas.any():
-        p_held = _p_fit_z(z_check[held_meas])
+    elif att.verdict == "attributed":
+        failed = []
+        if p_cal < gof_alpha:
+            failed.append(f"the calibration observables (p = {p_cal:.2g}; the fit interpolated "
+                          f"between simulated magnitudes said p = {att.best.p_fit:.2g})")
         if p_held < gof_alpha:
-            verdict_note = (f"{att.best.label} fits the calibration observables but the rerun leaves "
-                            f"the held-out observables inconsistent (p = {p_held:.2g} < {gof_alpha}): "
-                            f"not confirmed")
+            failed.append(f"the held-out observables (p = {p_held:.2g})")
+        if failed:
+            verdict_note = (f"{att.best.label} fits the calibration observables but the rerun at its "
+                            f"fitted magnitude leaves {' and '.join(failed)} inconsistent "
+                            f"(< {gof_alpha}): not confirmed")
     if verdict_note:
         att = replace(att, verdict="unexplained", selected=(), reason=verdict_note)
     close = not_told_apart(att, fps)

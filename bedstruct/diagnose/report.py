@@ -5,6 +5,8 @@
 
 from __future__ import annotations
 
+import math
+
 from .._version import __version__
 
 __all__ = ["diagnosis_report", "validation_report"]
@@ -129,6 +131,12 @@ def diagnosis_report(diag, *, title: str | None = None):
         s.add_number("excess_after", sh.after_excess, "1", "same, after")
         s.add_number("shrink", sh.fraction, "1", "1 - excess after / excess before")
         s.add_number("shrink_rms", sh.fraction_rms, "1", "1 - RMS after / RMS before")
+        if math.isfinite(sh.p_rerun_calibration):
+            s.add_number("p_rerun_calibration", sh.p_rerun_calibration, "1",
+                         "fit of the rerun to the calibration observables (confirms the attribution)")
+        if math.isfinite(sh.p_rerun_heldout):
+            s.add_number("p_rerun_heldout", sh.p_rerun_heldout, "1",
+                         "fit of the rerun to the held-out observables, within the fit's uncertainty")
         s.tables.append(Table(["observable", "before", "recalibrated", "after"],
                               [[r["observable"], _fmt(r["before"]), _fmt(r["recalibrated"]),
                                 _fmt(r["after"])] for r in sh.per_observable]))

@@ -75,8 +75,10 @@ _SCATTER_RULE = 2
 
 #: Revision of the attribution's fit test, in every twin record (older records lack it and
 #: count as 1). 2: a magnitude held at a bound of its prior is fixed there, taking no degree
-#: of freedom and no leverage (:func:`~bedstruct.diagnose.fit_model`).
-_FIT_RULE = 2
+#: of freedom and no leverage (:func:`~bedstruct.diagnose.fit_model`). 3: an attribution is
+#: confirmed only when its rerun fits the calibration observables too, not only the fit that
+#: interpolates its fingerprint (:attr:`Shrink.p_rerun_calibration`).
+_FIT_RULE = 3
 
 
 def engine_scale_model(preset: str) -> str:

@@ -53,3 +53,48 @@ def test_a_gap_left_on_the_held_out_observables_stays_unexplained():
     assert d.where.significant
     assert d.verdict == "unexplained"
     assert "inconsistent" in d.attribution.reason
+
+
+class _BumpSimulator(ToySimulator):
+    """Effect A's response is F * (m + c sin(2 pi m)): exactly linear at the fingerprint's
+    magnitudes (0.5 and 1 of its prior), twice the linear value at a = 0.25."""
+
+    def __call__(self, base, effects, seed):
+        a = effects.get("A", 0.0)
+        bent = {"A": a + 0.25 * np.sin(2.0 * np.pi * a)} if effects else {}
+        return super().__call__(base, bent, seed)
+
+
+def _bump_setup():
+    design = toy_design(N, n_validate=3)
+    sim = _BumpSimulator(design, sens=SENS, effects={"A": 8.0 * RESP["A"] / 3.0}, noise_sd=0.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01)
+    return design, sim, fps
+
+
+def test_an_attribution_its_rerun_contradicts_on_the_calibration_observables_is_not_confirmed():
+    design, sim, fps = _bump_setup()
+    # the interpolation between the simulated magnitudes cannot see the bump
+    np.testing.assert_allclose(fps["A"].predict(0.25), 0.25 * 8.0 * RESP["A"] / 3.0, atol=0.1)
+    rng = np.random.default_rng(6)
+    # a gap shaped like A's linear interpolation at 0.25, which A itself cannot make there
+    y = 0.25 * 8.0 * RESP["A"] / 3.0 + rng.normal(0.0, 1.0, N)
+    d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    assert d.attribution.best.effects == ("A",) and d.attribution.best.p_fit > 0.05
+    assert d.shrink.p_rerun_calibration < 0.01
+    assert d.verdict == "unexplained"
+    assert "calibration observables (p =" in d.attribution.reason
+    assert "not confirmed" in d.attribution.reason
+
+
+def test_an_attribution_its_rerun_reproduces_stays_attributed():
+    design, sim, fps = _bump_setup()
+    rng = np.random.default_rng(6)
+    y = 0.5 * 8.0 * RESP["A"] / 3.0 + rng.normal(0.0, 1.0, N)   # A at a simulated magnitude
+    d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    assert d.verdict == "attributed"
+    assert d.shrink.p_rerun_calibration > 0.01 and d.shrink.p_rerun_heldout > 0.01
+    assert "p_rerun_calibration" in d.to_json()["shrink"]
