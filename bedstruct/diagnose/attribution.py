@@ -37,14 +37,13 @@ class ModelFit:
     ----------
     effects : tuple of str
     magnitudes, stderr : (k,) ndarray
-        Fitted magnitudes (effect units) and their standard errors (the data's noise and
-        the fingerprints' own estimation noise, :meth:`Fingerprint.predict_se`).
+        Fitted magnitudes (effect units) and their standard errors.
     intervals : (k, 2) ndarray
         95 % confidence intervals (normal approximation at the optimum).
     nuisance : (p,) ndarray
         Recalibration shifts of the nuisance parameters (their units).
     nuisance_stderr : (p,) ndarray
-        Their standard errors (same two sources).
+        Their standard errors.
     chi2 : float
         Whitened residual sum of squares on the fitted rows.
     dof : int
@@ -216,20 +215,12 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     res = fun(x)
     chi2 = float(res @ res)
     J = jac(x)
-    a, b = x[:k], x[k:]
     try:
         cov = np.linalg.pinv(J.T @ J)
-        var = np.clip(np.diag(cov), 0, None)
-        # The fingerprints are estimated from a few replicate runs: their own error moves
-        # the fitted values as the data's does (first order, dx = (J'J)^+ J' eps/sigma for a
-        # prediction error eps), so the intervals carry both.
-        if k:
-            gain2 = (cov @ J.T) ** 2
-            for f, ai in zip(fs, a):
-                var = var + gain2 @ (f.predict_se(ai)[rows] / sig) ** 2
-        se = np.sqrt(var)
+        se = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:  # pragma: no cover
         se = np.full(len(x), np.inf)
+    a, b = x[:k], x[k:]
     sea = se[:k]
     intervals = np.column_stack([a - _Z95 * sea, a + _Z95 * sea]) if k else np.zeros((0, 2))
     # A magnitude held at its prior bound is fixed there, not fitted: it neither uses a

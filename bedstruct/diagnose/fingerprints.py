@@ -129,38 +129,6 @@ class Fingerprint:
             return self._f(hi) + self._df(hi) * (a - hi)
         return self._f(a)
 
-    def predict_se(self, a: float) -> np.ndarray:
-        """Standard error of :meth:`predict` at ``a`` from the replicate scatter at the two
-        simulated magnitudes (0 at ``a = 0``, where the prediction is exact).
-
-        Linear fingerprints: the error of the least-squares slope, times ``|a|``; otherwise
-        interpolated linearly between ``(0, 0)``, ``(m1, se1)`` and ``(m2, se2)`` and
-        scaled in proportion beyond ``m2``.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from bedstruct.diagnose.catalogue import catalogue
-        >>> e = catalogue(["wall_friction"])[0]
-        >>> m1, m2 = e.reference_magnitudes
-        >>> fp = Fingerprint(e, np.array([m1, m2]), np.array([[1.0], [2.0]]),
-        ...                  np.array([[0.2], [0.4]]), np.array([0.0, m1, m2]),
-        ...                  np.array([[0.0], [1.0], [2.0]]), False)
-        >>> [round(float(fp.predict_se(a)[0]), 3) for a in (0.0, 0.5 * m1, 0.5 * (m1 + m2), 2 * m2)]
-        [0.0, 0.1, 0.3, 0.8]
-        """
-        a = float(a)
-        m1, m2 = (float(m) for m in self.magnitudes)
-        se1, se2 = (np.nan_to_num(np.asarray(s, float)) for s in self.delta_se)
-        if self.linear:
-            return abs(a) * np.sqrt((m1 * se1) ** 2 + (m2 * se2) ** 2) / (m1 * m1 + m2 * m2)
-        if abs(a) <= abs(m1):
-            return abs(a / m1) * se1
-        if abs(a) <= abs(m2):
-            w = (a - m1) / (m2 - m1)
-            return (1.0 - w) * se1 + w * se2
-        return abs(a / m2) * se2
-
     def derivative(self, a: float) -> np.ndarray:
         """d(prediction)/d(magnitude) at ``a``."""
         a = float(a)

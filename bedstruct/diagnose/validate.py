@@ -77,8 +77,7 @@ _SCATTER_RULE = 2
 #: count as 1). 2: a magnitude held at a bound of its prior is fixed there, taking no degree
 #: of freedom and no leverage (:func:`~bedstruct.diagnose.fit_model`). 3: an attribution is
 #: confirmed only when its rerun fits the calibration observables too, not only the fit that
-#: interpolates its fingerprint (:attr:`Shrink.p_rerun_calibration`), and magnitude intervals
-#: carry the fingerprints' own estimation noise (:meth:`Fingerprint.predict_se`).
+#: interpolates its fingerprint (:attr:`Shrink.p_rerun_calibration`).
 _FIT_RULE = 3
 
 
