@@ -98,3 +98,27 @@ def test_an_attribution_its_rerun_reproduces_stays_attributed():
     assert d.verdict == "attributed"
     assert d.shrink.p_rerun_calibration > 0.01 and d.shrink.p_rerun_heldout > 0.01
     assert "p_rerun_calibration" in d.to_json()["shrink"]
+
+
+def test_the_rerun_check_rejects_a_true_model_at_about_its_level():
+    # runs scatter (common seeds within a point, as on the engine); the data state that
+    # scatter on top of their reading noise, so the true model should fail ~gof_alpha
+    noise = 1.0
+    design = toy_design(N, n_validate=3, sigma=float(np.sqrt(1.0 + 2.0 * noise ** 2)))
+    sim = ToySimulator(design, sens=SENS, effects={"A": 3.0 * RESP["A"]}, noise_sd=noise)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01)
+    rng = np.random.default_rng(9)
+    p_cal, n = [], 150
+    for i in range(n):
+        y = sim({"k": 1.0}, {"A": 0.7}, 50_000 + i).vector(fps.names) + rng.standard_normal(N)
+        d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")],
+                     fingerprints=fps, refine=0, seed=100 + i)
+        if d.attribution.best.effects == ("A",):
+            p_cal.append(d.shrink.p_rerun_calibration)
+    p_cal = np.asarray(p_cal)
+    assert len(p_cal) > 0.8 * n and np.all(np.isfinite(p_cal))
+    assert np.mean(p_cal < 0.01) <= 0.04                 # its level, with room for 150 draws
+    # conservative (the stated noise holds one run's scatter at its upper bound, and the
+    # rerun's mean adds its own), but its p-values are not stuck at 1
+    assert np.mean(p_cal < 0.5) > 0.1
