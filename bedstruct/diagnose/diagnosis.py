@@ -9,7 +9,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from typing import Mapping, Sequence
 
@@ -23,6 +22,8 @@ from .replicates import Simulator, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
 from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult, _nan_mean, standardised_residuals, where
+from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
+                      p_fit_z as _p_fit_z, params_after as _params_after)
 
 __all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
            "NextMeasurement",
@@ -105,69 +106,6 @@ def diagnosis_design(measurements: MeasurementSet, effects: Sequence[Effect]) ->
     """Measured observables (calibrate, validate) followed by candidate measurements."""
     measured = measurements.select(("calibrate", "validate"))
     return measured.merged(candidate_design(effects, measured))
-
-
-def gap_size(z) -> tuple[float, float]:
-    """RMS of standardised residuals and the *excess* gap beyond noise.
-
-    Returns
-    -------
-    rms, excess : float
-        ``sqrt(mean z^2)`` and ``sqrt(max(mean z^2 - 1, 0))``; the excess is 0
-        when the residuals are as large as the noise explains.
-
-    Examples
-    --------
-    >>> gap_size([3.0, 1.0, 1.0, 1.0])
-    (1.7320508075688772, 1.4142135623730951)
-    """
-    z = np.asarray(z, dtype=float)
-    z = z[np.isfinite(z)]  # a component no rerun could observe carries no evidence
-    if z.size == 0:
-        return float("nan"), float("nan")
-    ms = float(np.mean(z * z))
-    return math.sqrt(ms), math.sqrt(max(ms - 1.0, 0.0))
-
-
-@dataclass(frozen=True)
-class Shrink:
-    """Gap on the held-out observables before and after adding the attributed effect.
-
-    ``before``: the base model; ``recalibrated``: the base with the nuisance
-    parameters refitted on calibration observables only; ``after``: recalibrated
-    plus the attributed effect(s) at their fitted magnitudes (calibration-only fit).
-    Gaps are RMS standardised residuals; ``*_excess`` is the part beyond noise.
-    ``fraction`` = 1 - after_excess / before_excess (NaN without a gap).
-    ``p_rerun_calibration`` / ``p_rerun_heldout``: goodness of fit (chi-square and
-    largest-|z|, Bonferroni) of the rerun of the attributed model to the calibration and
-    to the held-out observables (NaN without an attribution): the checks that confirm it.
-    """
-
-    model: str
-    magnitudes: dict
-    nuisance: dict
-    before: float
-    recalibrated: float
-    after: float
-    before_excess: float
-    recalibrated_excess: float
-    after_excess: float
-    fraction: float
-    fraction_rms: float
-    per_observable: tuple[dict, ...]
-    n_heldout: int
-    p_rerun_calibration: float = float("nan")
-    p_rerun_heldout: float = float("nan")
-
-    def as_dict(self) -> dict:
-        return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
-                "before": self.before, "recalibrated": self.recalibrated, "after": self.after,
-                "before_excess": self.before_excess, "recalibrated_excess": self.recalibrated_excess,
-                "after_excess": self.after_excess, "fraction": self.fraction,
-                "fraction_rms": self.fraction_rms, "n_heldout": self.n_heldout,
-                "p_rerun_calibration": self.p_rerun_calibration,
-                "p_rerun_heldout": self.p_rerun_heldout,
-                "per_observable": list(self.per_observable)}
 
 
 @dataclass(frozen=True)
@@ -293,20 +231,13 @@ def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):
     return fps, rows, names, y, sm, tuple(notes)
 
 
-def _params_after(base, nuisance_names, shifts):
-    p = dict(base)
-    for name, b in zip(nuisance_names, shifts):
-        p[name] = p[name] + float(b)
-    return p
-
-
 def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mapping[str, float],
              effects: Sequence[Effect] | None = None,
              nuisance: Sequence[str] = ("cohesion_energy_density",), replicates: int = 4,
              seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, max_effects: int = 2,
              fingerprints: FingerprintSet | None = None, simulator_name: str | None = None,
-             refine: int = 2, progress: bool = False) -> Diagnosis:
+             refine: int = 2, confirm_rounds: int = 2, progress: bool = False) -> Diagnosis:
     """Diagnose the gap between a simulator and a measurement set.
 
     Parameters
@@ -343,6 +274,11 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     refine : int
         Refinement rounds: the leading effects are simulated at their fitted
         magnitudes and the fingerprints re-interpolated through those runs.
+    confirm_rounds : int
+        Largest number of refits through the rerun that checks an attribution: when the
+        rerun of a single effect at its fitted magnitude contradicts the interpolated
+        fingerprint on the calibration observables, it becomes a node, the model is
+        refitted and rerun (see :func:`~bedstruct.diagnose.confirm.confirm_attribution`).
 
     Returns
     -------
@@ -403,39 +339,24 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         att = attribute(residual, fps, alpha=select_alpha, gof_alpha=gof_alpha, max_effects=max_effects)
 
     # ---- how far: rerun at recalibrated base (+ effects), compare held-out gaps
-    rerun_seeds = [int(seed) + 1000 + i for i in range(fps.n_replicates)]
-    held = fps.rows_validate
-    held_meas = held[rows_meas]
-    var_meas = fps.sim_var[rows_meas]
-
-    def z_of(samples, extra_var=None):
-        sm_eff = sm if extra_var is None else np.sqrt(sm ** 2 + extra_var)
-        z, _, _ = standardised_residuals(y, sm_eff, samples, sim_var=var_meas)
-        return z
-
+    rerun_seeds = [int(seed) + RERUN_SEED_STRIDE + i for i in range(fps.n_replicates)]
+    held_meas = fps.rows_validate[rows_meas]
     z_before = wh.residuals.z
     p_recal = _params_after(fps.base, fps.nuisance, att.null.nuisance)
     s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds, names)
-    z_recal = z_of(s_recal)
-    if att.verdict == "attributed":
+    z_recal, _, _ = standardised_residuals(y, sm, s_recal, sim_var=fps.sim_var[rows_meas])
+    conf = confirm_attribution(att, fps, residual, simulator, y=y, sigma_meas=sm, names=names,
+                               seed=seed, rounds=confirm_rounds, alpha=select_alpha,
+                               max_effects=max_effects)
+    att, fps = conf.attribution, conf.fingerprints
+    if conf.samples is not None:
         model = att.best
-        p_after = _params_after(fps.base, fps.nuisance, model.nuisance)
+        z_after = conf.z_after
         mags = {e: float(a) for e, a in zip(model.effects, model.magnitudes)}
-        s_after = simulate_replicates(simulator, p_after, mags, rerun_seeds, names)
-        z_after = z_of(s_after)
-        # for the held-out consistency check, add the variance that the calibration-fit
-        # uncertainty of the magnitudes and recalibration shifts puts on the prediction
-        pred_var = np.zeros(len(fps.sigma))
-        for e, a_e, se_e in zip(model.effects, model.magnitudes, model.stderr):
-            pred_var += (fps[e].derivative(float(a_e)) * se_e) ** 2
-        for j, se_b in enumerate(model.nuisance_stderr):
-            pred_var += (fps.sensitivities[:, j] * se_b) ** 2
-        z_check = z_of(s_after, pred_var[rows_meas])
         label = model.label
         nuis = {k: float(v) for k, v in zip(fps.nuisance, model.nuisance)}
     else:
         mags, z_after, label = {}, z_recal, att.null.label
-        z_check = z_after
         nuis = {k: float(v) for k, v in zip(fps.nuisance, att.null.nuisance)}
     per_obs = []
     comp_names = np.asarray([n for n in names for _ in range(measurements[n].n_components)])
@@ -447,22 +368,22 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     b, r_, a = gap_size(z_before[held_meas]), gap_size(z_recal[held_meas]), gap_size(z_after[held_meas])
     frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")
     frac_rms = 1.0 - a[0] / b[0] if b[0] > 0 else float("nan")
-    p_cal = p_held = float("nan")
-    if att.verdict == "attributed":
-        # The fit predicts the attributed model by interpolating its fingerprint between
-        # the simulated magnitudes; the rerun simulates it. On the calibration observables
-        # the rerun must agree with the data as the fit said it would (no prediction variance:
-        # the fitted values were chosen on these data), on the held-out ones within the fit's
-        # own uncertainty.
-        cal_meas = fps.rows_calibrate[rows_meas]
-        p_cal = _p_fit_z(z_after[cal_meas]) if cal_meas.any() else float("nan")
-        p_held = _p_fit_z(z_check[held_meas]) if held_meas.any() else float("nan")
+    p_cal, p_held = conf.p_calibration, conf.p_heldout
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
-                    tuple(per_obs), int(held_meas.sum()), p_cal, p_held)
+                    tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits)
+    refit_note = ""
+    if conf.refits:
+        first = conf.refits[0]
+        refit_note = (f"the rerun of {first['model']} at "
+                      f"{_magnitudes_text(first['magnitudes'])} contradicted the fingerprint "
+                      f"interpolated between simulated magnitudes on the calibration observables "
+                      f"(p = {first['p_rerun_calibration']:.2g}; the fit had said "
+                      f"p = {first['p_fit']:.2g}), so it became a fingerprint node and the model was "
+                      f"refitted through {'it' if len(conf.refits) == 1 else f'{len(conf.refits)} such reruns'}")
+        if att.verdict == "attributed":
+            refit_note += f" and rerun at {_magnitudes_text(mags)}"
+        att = replace(att, reason=refit_note + "; " + att.reason)
 
-    # Verdict checks on the reruns (the held-out observables never enter a fit): a
-    # significant gap that the calibration observables cannot attribute, or an attribution
-    # whose rerun the calibration or the held-out observables contradict, is 'unexplained'.
     verdict_note = ""
     if att.verdict == "none" and wh.significant:
         # Recalibration alone may close a significant gap (e.g. a cohesion calibrated
@@ -490,8 +411,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         if p_held < gof_alpha:
             failed.append(f"the held-out observables (p = {p_held:.2g})")
         if failed:
-            verdict_note = (f"{att.best.label} fits the calibration observables but the rerun at its "
-                            f"fitted magnitude leaves {' and '.join(failed)} inconsistent "
+            verdict_note = ((refit_note + "; " if refit_note else "")
+                            + f"{att.best.label} fits the calibration observables but the rerun at "
+                            f"its fitted magnitude leaves {' and '.join(failed)} inconsistent "
                             f"(< {gof_alpha}): not confirmed")
     if verdict_note:
         att = replace(att, verdict="unexplained", selected=(), reason=verdict_note)
@@ -508,26 +430,17 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "select_alpha": select_alpha, "gof_alpha": gof_alpha,
                 "max_effects": max_effects, "nuisance": list(fps.nuisance),
                 "base": dict(fps.base), "effects": [e.name for e in effects],
-                "refine": refine, "data_notes": list(data_notes),
+                "refine": refine, "confirm_rounds": confirm_rounds,
+                "data_notes": list(data_notes),
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
                 "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
-                + 2 * len(rerun_seeds)}
+                + len(rerun_seeds) + conf.n_runs}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)
 
 
-def _p_fit_z(z) -> float:
-    """Combined (chi-square and largest-|z|, Bonferroni) p-value of standardised residuals."""
-    from scipy import stats
-    z = np.asarray(z, dtype=float)
-    z = z[np.isfinite(z)]  # components no rerun observed
-    n = z.size
-    if n == 0:
-        return 1.0
-    p_chi = float(stats.chi2.sf(float(z @ z), n))
-    p1 = min(2.0 * stats.norm.sf(float(np.max(np.abs(z)))), 1.0 - 1e-16)
-    p_max = float(-np.expm1(n * np.log1p(-p1)))
-    return min(1.0, 2.0 * min(p_chi, p_max))
+def _magnitudes_text(mags: Mapping[str, float]) -> str:
+    return ", ".join(f"{e} = {a:.3g}" for e, a in mags.items())
 
 
 def _predict(model, fps: FingerprintSet) -> np.ndarray:

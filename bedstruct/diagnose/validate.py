@@ -77,8 +77,10 @@ _SCATTER_RULE = 2
 #: count as 1). 2: a magnitude held at a bound of its prior is fixed there, taking no degree
 #: of freedom and no leverage (:func:`~bedstruct.diagnose.fit_model`). 3: an attribution is
 #: confirmed only when its rerun fits the calibration observables too, not only the fit that
-#: interpolates its fingerprint (:attr:`Shrink.p_rerun_calibration`).
-_FIT_RULE = 3
+#: interpolates its fingerprint (:attr:`Shrink.p_rerun_calibration`). 4: a single effect's
+#: rerun that fails that check becomes a fingerprint node, and the model is refitted and rerun
+#: (:func:`~bedstruct.diagnose.confirm.confirm_attribution`).
+_FIT_RULE = 4
 
 
 def engine_scale_model(preset: str) -> str:

@@ -81,12 +81,65 @@ def test_an_attribution_its_rerun_contradicts_on_the_calibration_observables_is_
     # a gap shaped like A's linear interpolation at 0.25, which A itself cannot make there
     y = 0.25 * 8.0 * RESP["A"] / 3.0 + rng.normal(0.0, 1.0, N)
     d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
-                 refine=0)
+                 refine=0, confirm_rounds=0)
     assert d.attribution.best.effects == ("A",) and d.attribution.best.p_fit > 0.05
-    assert d.shrink.p_rerun_calibration < 0.01
+    assert d.shrink.p_rerun_calibration < 0.01 and d.shrink.refits == ()
     assert d.verdict == "unexplained"
     assert "calibration observables (p =" in d.attribution.reason
     assert "not confirmed" in d.attribution.reason
+
+
+def test_a_rerun_that_contradicts_the_interpolation_becomes_a_node_and_the_refit_is_confirmed():
+    design, sim, fps = _bump_setup()
+    rng = np.random.default_rng(6)
+    y = 0.25 * 8.0 * RESP["A"] / 3.0 + rng.normal(0.0, 1.0, N)
+    d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    # A makes this gap where a + 0.25 sin(2 pi a) = 0.25 (a = 0.10): the first rerun, at the
+    # interpolation's magnitude, says the bump is there; refitted through it, A lands below
+    (first,) = d.shrink.refits
+    assert first["p_rerun_calibration"] < 0.01 and first["seeds"] == [1000, 1001, 1002]
+    assert d.verdict == "attributed" and d.attribution.best.effects == ("A",)
+    a_fit = d.attribution.best.magnitudes[0]
+    assert a_fit < 0.75 * first["magnitudes"]["A"]
+    assert abs(a_fit + 0.25 * np.sin(2 * np.pi * a_fit) - 0.25) < 0.1   # A at a_fit makes the gap
+    assert d.shrink.p_rerun_calibration > 0.01 and d.shrink.magnitudes["A"] == a_fit
+    assert "became a fingerprint node" in d.attribution.reason
+    assert np.isclose(d.fingerprints["A"].nodes, first["magnitudes"]["A"]).sum() == 1
+    assert d.settings["simulator_runs"] == 9         # recalibrated rerun, two reruns of A
+    assert d.to_json()["shrink"]["refits"][0]["model"] == "A"
+    rep = d.report()
+    assert rep.failed == []
+    (how_far,) = [s for s in rep.sections if s.key == "shrink"]
+    assert any("refitted" in (t.caption or "") for t in how_far.tables)
+
+
+class _TwistSimulator(ToySimulator):
+    """Effect A adds, between its fingerprint magnitudes, a pattern it has nowhere else."""
+
+    twist = np.r_[0, 0, 0, 0, 0, 0, 1, -1, 1, 0, 0, 0] * 6.0
+
+    def __call__(self, base, effects, seed):
+        from bedstruct.diagnose import Observations
+        out = super().__call__(base, effects, seed)
+        a = effects.get("A", 0.0)
+        v = out.vector([m.name for m in self.design]) + np.sin(2.0 * np.pi * a) * self.twist
+        return Observations({m.name: [v[i]] for i, m in enumerate(self.design)}, source="toy")
+
+
+def test_a_model_its_rerun_contradicts_in_shape_is_refitted_and_left_unexplained():
+    design = toy_design(N, n_validate=3)
+    sim = _TwistSimulator(design, sens=SENS, effects={"A": 8.0 * RESP["A"] / 3.0}, noise_sd=0.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01)
+    y = 0.25 * 8.0 * RESP["A"] / 3.0 + np.random.default_rng(6).normal(0.0, 1.0, N)
+    d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    # no magnitude of A makes this gap: through the rerun's node, A no longer fits at all
+    assert len(d.shrink.refits) == 1 and d.verdict == "unexplained"
+    assert "refitted through it" in d.attribution.reason
+    assert not d.attribution.selected and np.isnan(d.shrink.p_rerun_calibration)
+    assert d.settings["simulator_runs"] == 6         # nothing rerun after the refit failed
 
 
 def test_an_attribution_its_rerun_reproduces_stays_attributed():
@@ -113,7 +166,7 @@ def test_the_rerun_check_rejects_a_true_model_at_about_its_level():
     for i in range(n):
         y = sim({"k": 1.0}, {"A": 0.7}, 50_000 + i).vector(fps.names) + rng.standard_normal(N)
         d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")],
-                     fingerprints=fps, refine=0, seed=100 + i)
+                     fingerprints=fps, refine=0, confirm_rounds=0, seed=100 + i)
         if d.attribution.best.effects == ("A",):
             p_cal.append(d.shrink.p_rerun_calibration)
     p_cal = np.asarray(p_cal)
