@@ -60,8 +60,9 @@ class _BumpSimulator(ToySimulator):
     magnitudes (0.5 and 1 of its prior), twice the linear value at a = 0.25."""
 
     def __call__(self, base, effects, seed):
-        a = effects.get("A", 0.0)
-        bent = {"A": a + 0.25 * np.sin(2.0 * np.pi * a)} if effects else {}
+        bent = dict(effects)
+        if "A" in bent:
+            bent["A"] = bent["A"] + 0.25 * np.sin(2.0 * np.pi * bent["A"])
         return super().__call__(base, bent, seed)
 
 
@@ -175,3 +176,21 @@ def test_the_rerun_check_rejects_a_true_model_at_about_its_level():
     # conservative (the stated noise holds one run's scatter at its upper bound, and the
     # rerun's mean adds its own), but its p-values are not stuck at 1
     assert np.mean(p_cal < 0.5) > 0.1
+
+
+def test_a_pair_whose_rerun_contradicts_it_is_not_refitted():
+    # a pair's rerun cannot be split between its two effects: it stays "not confirmed"
+    resp_b = np.r_[0, 0, 0, 3, 3, -3, 3, -3, 3, 0, 3, 3] * 1.0
+    design = toy_design(N, n_validate=3)
+    sim = _BumpSimulator(design, sens=SENS, effects={"A": 8.0 * RESP["A"] / 3.0,
+                                                     "B": 8.0 * resp_b / 3.0}, noise_sd=0.0)
+    effects = [toy_effect("A"), toy_effect("B")]
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, effects, nuisance=("k",), replicates=3,
+                               alpha=0.01)
+    y = (0.25 * 8.0 * RESP["A"] / 3.0 + 0.5 * 8.0 * resp_b / 3.0
+         + np.random.default_rng(0).normal(0.0, 1.0, N))
+    d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=effects, fingerprints=fps, refine=0)
+    assert d.attribution.best.effects == ("A", "B")
+    assert d.shrink.p_rerun_calibration < 0.01 and d.shrink.refits == ()
+    assert d.verdict == "unexplained" and "not confirmed" in d.attribution.reason
+    assert d.settings["simulator_runs"] == 6
