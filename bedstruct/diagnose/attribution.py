@@ -156,6 +156,28 @@ class Attribution:
         return [e.as_dict() for e in self.selected]
 
 
+def _gram_pinv(J) -> np.ndarray:
+    """``(J^T J)^+`` computed on unit-norm columns.
+
+    The columns are on different scales (a magnitude of order 0.1 against a cohesion in
+    J/m^3: 1e8 apart), and a pseudo-inverse of the raw Gram matrix cuts the small singular
+    values relative to the largest, silently dropping the recalibration direction: its
+    standard error came out ~1e-11 J/m^3 and the magnitudes' ignored their correlation with
+    it. Scaling the columns first keeps what is determined and drops only true degeneracy.
+
+    Examples
+    --------
+    >>> J = np.column_stack([[50.0, -20.0, 10.0], [1e-6, 2e-6, -1e-6]])
+    >>> np.allclose(_gram_pinv(J), np.linalg.inv(J.T @ J))
+    True
+    """
+    J = np.asarray(J, dtype=float)
+    norm = np.linalg.norm(J, axis=0)
+    d = np.where(norm > 0, 1.0 / np.where(norm > 0, norm, 1.0), 0.0)
+    Js = J * d
+    return d[:, None] * np.linalg.pinv(Js.T @ Js) * d[None, :]
+
+
 def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     """Fit ``residual`` on the given effects plus recalibration (bounded least squares).
 
@@ -216,7 +238,7 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     chi2 = float(res @ res)
     J = jac(x)
     try:
-        cov = np.linalg.pinv(J.T @ J)
+        cov = _gram_pinv(J)
         se = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:  # pragma: no cover
         se = np.full(len(x), np.inf)
@@ -232,7 +254,7 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     # Concentrated misfit: largest studentised residual (leverage-corrected), Sidak over rows.
     if dof > 0:
         Jf = J[:, free]
-        H = Jf @ np.linalg.pinv(Jf.T @ Jf) @ Jf.T if Jf.shape[1] else np.zeros((n, n))
+        H = Jf @ _gram_pinv(Jf) @ Jf.T if Jf.shape[1] else np.zeros((n, n))
         lev = np.clip(1.0 - np.diag(H), 1e-12, None)
         tmax = float(np.max(np.abs(res) / np.sqrt(lev)))
         p1 = min(2.0 * stats.norm.sf(tmax), 1.0 - 1e-16)

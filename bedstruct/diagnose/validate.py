@@ -79,8 +79,10 @@ _SCATTER_RULE = 2
 #: confirmed only when its rerun fits the calibration observables too, not only the fit that
 #: interpolates its fingerprint (:attr:`Shrink.p_rerun_calibration`). 4: a single effect's
 #: rerun that fails that check becomes a fingerprint node, and the model is refitted and rerun
-#: (:func:`~bedstruct.diagnose.confirm.confirm_attribution`).
-_FIT_RULE = 4
+#: (:func:`~bedstruct.diagnose.confirm.confirm_attribution`). 5: the fit's covariance and
+#: leverage are computed on unit-norm columns; before, the recalibration direction (J/m^3,
+#: 1e8 below the magnitudes) was cut as singular, so the intervals ignored it.
+_FIT_RULE = 5
 
 
 def engine_scale_model(preset: str) -> str:
@@ -457,6 +459,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                "verdict": att.verdict, "gap_significant": diag.where.significant,
                "shrink": diag.shrink.fraction, "shrink_rms": diag.shrink.fraction_rms,
                "gap_before": diag.shrink.before_excess, "gap_after": diag.shrink.after_excess,
+               "p_rerun_calibration": diag.shrink.p_rerun_calibration,
+               "p_rerun_heldout": diag.shrink.p_rerun_heldout,
+               "refits": len(diag.shrink.refits), "reason": att.reason,
                "where_top": [(w["observable"], w["component"], round(w["z"], 2))
                              for w in diag.where.ranked(3)]}
         if att.selected:

@@ -219,6 +219,35 @@ def test_interval_coverage_is_near_nominal():
     assert np.mean(chis) == pytest.approx(dof, rel=0.15)
 
 
+def test_uncertainties_do_not_depend_on_the_nuisance_parameters_unit():
+    # a cohesion in J/m^3 (3.6e7) against magnitudes of order 1: the fit's covariance must
+    # not drop the recalibration direction because its column is 1e8 times smaller
+    K0 = 3.6e7
+    design = toy_design(N, n_validate=3)
+    unit = ToySimulator(design, sens=J, effects=F, noise_sd=0.0)
+    si = ToySimulator(design, sens={"k": J["k"] / K0}, effects=F, noise_sd=0.0, base0={"k": K0})
+    fits = []
+    for sim, k0 in ((unit, 1.0), (si, K0)):
+        fps = compute_fingerprints(sim, design, {"k": k0}, EFFECTS, nuisance=("k",), replicates=3,
+                                   alpha=0.01)
+        y = sim({"k": k0 * 1.01}, {"C": 0.5}, 999).vector(fps.names) - fps.base_mean
+        y = y + np.random.default_rng(3).standard_normal(N)
+        fits.append(fit_model(y, fps, ("C",)))
+    a, b = fits
+    assert b.magnitudes[0] == pytest.approx(a.magnitudes[0], rel=1e-6)
+    assert b.stderr[0] == pytest.approx(a.stderr[0], rel=1e-6)
+    assert b.nuisance_stderr[0] == pytest.approx(K0 * a.nuisance_stderr[0], rel=1e-6)
+    assert b.max_resid == pytest.approx(a.max_resid, rel=1e-6)
+    # and the unit toy's standard errors are the analytic (J^T J)^-1 of the whitened fit
+    fps = compute_fingerprints(unit, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3,
+                               alpha=0.01)
+    rows = fps.rows_calibrate
+    Jw = np.column_stack([fps["C"].derivative(a.magnitudes[0])[rows], fps.sensitivities[rows, 0]])
+    Jw = Jw / fps.sigma[rows, None]
+    se = np.sqrt(np.diag(np.linalg.inv(Jw.T @ Jw)))
+    np.testing.assert_allclose([a.stderr[0], a.nuisance_stderr[0]], se, rtol=1e-6)
+
+
 def test_a_magnitude_held_at_its_prior_bound_keeps_the_fit_test_at_its_level():
     # truth at the top of the prior, with a response that bends hard between the last two
     # nodes: about half the draws pin the magnitude at the bound. Counted as a free
