@@ -143,6 +143,16 @@ class Diagnosis:
     def verdict(self) -> str:
         return self.attribution.verdict
 
+    @property
+    def residual(self) -> np.ndarray:
+        """Measured minus base-mean on every fingerprint row (NaN on candidate rows)."""
+        fps = self.fingerprints
+        names = [n for n in fps.names if fps.design[n].role != "candidate"]
+        out = np.full(len(fps.sigma), np.nan)
+        rows = ~fps.rows_candidate
+        out[rows] = np.concatenate([self.measurements[n].values for n in names]) - fps.base_mean[rows]
+        return out
+
     def to_json(self) -> dict:
         """The compact JSON answer: where, which, how much, confidence, what next."""
         att = self.attribution

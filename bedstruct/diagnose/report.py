@@ -118,6 +118,10 @@ def diagnosis_report(diag, *, title: str | None = None):
                               caption="model comparison (calibration observables only)"))
         fig, _ = pdg.plot_attribution(att)
         s.add_figure(fig, "fitted scale factors")
+        if att.selected or att.ranking:
+            fig, _ = pdg.plot_effect_response(diag)
+            s.add_figure(fig, "the leading effect's interpolated response against its magnitude, "
+                              "through its simulated nodes, and what the data ask of it (dotted)")
 
     def shrink_(s):
         sh = diag.shrink

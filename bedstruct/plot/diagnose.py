@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_where", "plot_fingerprints", "plot_attribution", "plot_shrink", "plot_confusion"]
+__all__ = ["plot_where", "plot_fingerprints", "plot_attribution", "plot_effect_response",
+           "plot_shrink", "plot_confusion"]
 
 
 def _axes(ax, size=(6.4, 4.0)):
@@ -96,6 +97,91 @@ def plot_attribution(attribution, *, ax=None):
     ax.axvline(0, color="k", lw=0.8)
     ax.set_xlabel("fitted magnitude / prior top (95 % CI), each effect alone")
     ax.set_title(f"which: {attribution.verdict}", fontsize=9)
+    return _ret(fig, ax)
+
+
+def plot_effect_response(diagnosis, effect=None, *, ax=None, n=4):
+    """An effect's interpolated response against its magnitude, and the data it was fitted to.
+
+    For the ``n`` calibration components the effect moves most (at its prior top), the
+    whitened response (change / sigma) is drawn along the prior range through its simulated
+    nodes: circles at the fingerprint's magnitudes, diamonds at magnitudes simulated later
+    (refinement, or a rerun that contradicted the interpolation). Dotted lines in the same
+    colours are what the effect has to supply there: the measured residual less the
+    recalibration and any other effect of the fitted model. The vertical line and band are
+    the fitted magnitude and its 95 % interval. A fit between nodes leans on the
+    interpolation; where a dotted line crosses its curve far from any node, so does the
+    magnitude.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+    effect : str, optional
+        Default: the attributed effect, else the best candidate fitted alone.
+    n : int
+        Components drawn.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> import bedstruct.diagnose as dg
+    >>> from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnose,
+    ...                                 diagnosis_design, load_measurements)
+    >>> ms = load_measurements(pathlib.Path(dg.__file__).parents[2] / "data/measurements/seed.toml")
+    >>> sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
+    >>> d = diagnose(ms, sim, base=BASE_PARAMETERS, replicates=2, refine=0)
+    >>> fig, ax = plot_effect_response(d)
+    >>> ax.get_xlabel()
+    'missing_fines magnitude (1)'
+    """
+    att, fps = diagnosis.attribution, diagnosis.fingerprints
+    if effect is None:
+        if att.selected:
+            effect = att.selected[0].effect
+        elif att.ranking:
+            effect = att.ranking[0].effect
+        else:
+            raise ValueError("plot_effect_response: the diagnosis has no effect to show")
+    fp = fps[effect]
+    model = next(m for m in (att.best, *att.models) if effect in m.effects) \
+        if any(effect in m.effects for m in (att.best, *att.models)) else None
+    fig, ax = _axes(ax)
+    sig = fps.sigma
+    rows = np.flatnonzero(fps.rows_calibrate)
+    lo, top = fp.effect.prior
+    strength = np.abs(fp.predict(top)[rows]) / sig[rows]
+    pick = rows[np.argsort(-strength)[:max(int(n), 1)]]
+    grid = np.linspace(min(lo, 0.0), top, 121)
+    curve = np.array([fp.predict(a) for a in grid])
+    target = diagnosis.residual.copy()
+    if model is not None:
+        if len(model.nuisance):
+            target = target - fps.sensitivities @ np.asarray(model.nuisance, float)
+        for e, a in zip(model.effects, model.magnitudes):
+            if e != effect:
+                target = target - fps[e].predict(float(a))
+    names, labels = fps.design.component_names(), fps.design.component_labels()
+    first = np.isin(fp.nodes, np.r_[0.0, fp.magnitudes])
+    colors = [f"C{k}" for k in range(len(pick))]
+    for i, c in zip(pick, colors):
+        ax.plot(grid, curve[:, i] / sig[i], color=c, lw=1.2, label=f"{names[i]} [{labels[i]}]")
+        ax.plot(fp.nodes[first], fp.responses[first, i] / sig[i], "o", color=c, ms=4)
+        if (~first).any():
+            ax.plot(fp.nodes[~first], fp.responses[~first, i] / sig[i], "D", color=c, ms=5,
+                    mfc="white")
+        if np.isfinite(target[i]):
+            ax.axhline(target[i] / sig[i], color=c, ls=":", lw=1.0)
+    if model is not None:
+        k = list(model.effects).index(effect)
+        a, (a_lo, a_hi) = float(model.magnitudes[k]), model.intervals[k]
+        ax.axvspan(a_lo, a_hi, color="0.85", zorder=0)
+        ax.axvline(a, color="k", lw=0.8)
+    ax.axhline(0.0, color="0.5", lw=0.6)
+    ax.set_xlabel(f"{effect} magnitude ({fp.effect.unit})")
+    ax.set_ylabel("change / sigma (calibration components)")
+    ax.legend(fontsize=6)
+    ax.set_title(f"{effect}: circles simulated, diamonds simulated at fitted magnitudes; "
+                 "dotted: data", fontsize=8)
     return _ret(fig, ax)
 
 

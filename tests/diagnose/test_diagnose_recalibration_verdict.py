@@ -113,6 +113,14 @@ def test_a_rerun_that_contradicts_the_interpolation_becomes_a_node_and_the_refit
     assert rep.failed == []
     (how_far,) = [s for s in rep.sections if s.key == "shrink"]
     assert any("refitted" in (t.caption or "") for t in how_far.tables)
+    # the response figure marks the rerun's node apart from the fingerprint's magnitudes
+    import matplotlib
+    matplotlib.use("Agg")
+    from bedstruct.plot.diagnose import plot_effect_response
+    fig, ax = plot_effect_response(d)
+    diamonds = [ln for ln in ax.get_lines() if ln.get_marker() == "D"]
+    assert diamonds and np.isclose(diamonds[0].get_xdata(), first["magnitudes"]["A"]).all()
+    assert ax.patches or any(isinstance(c, matplotlib.patches.Polygon) for c in ax.get_children())
 
 
 class _TwistSimulator(ToySimulator):
