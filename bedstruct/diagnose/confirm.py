@@ -136,6 +136,14 @@ def p_fit_z(z) -> float:
 
 
 
+def _fd_step(fps: FingerprintSet, name: str) -> float:
+    """The finite-difference step of a nuisance sensitivity (5 % of the base by default)."""
+    steps = fps.meta.get("sensitivity_steps") or {}
+    if name in steps:
+        return float(steps[name])
+    return 0.05 * abs(fps.base[name]) if fps.base[name] != 0 else 0.05
+
+
 @dataclass(frozen=True)
 class Confirmation:
     """What :func:`confirm_attribution` found.
@@ -213,13 +221,18 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
 
     Notes
     -----
-    A refit happens only when the rerun of a *single* effect fails the calibration
-    check: the interpolated fingerprint was then wrong at the fitted magnitude, and the
-    rerun, corrected to the base nuisance with the linear sensitivities the fit uses,
-    is the effect's response there. A pair's rerun cannot be split between its two
-    effects, and a rerun that fails only on the held-out observables says nothing the
-    calibration fit could use; both end the loop. So does a fitted magnitude within
-    5 % of the top simulated magnitude from an existing node: the rerun there was the check.
+    A refit happens only when the rerun fails the calibration check. Two predictions of
+    the fit may have been wrong. When the fitted recalibration shift of a nuisance
+    parameter exceeds its finite-difference step, its linear sensitivities were
+    extrapolated: the base is simulated at that shift on the base runs' seeds and each
+    sensitivity becomes the least-squares line through the origin and both paired points
+    (this round's refit). Otherwise, for a *single* effect, the interpolated fingerprint
+    was wrong at the fitted magnitude, and the rerun, corrected to the base nuisance with
+    the linear sensitivities the fit uses, is the effect's response there: it becomes a
+    node. A pair's rerun cannot be split between its two effects, and a rerun that fails
+    only on the held-out observables says nothing the calibration fit could use; both end
+    the loop. So does a fitted magnitude within 5 % of the top simulated magnitude from an
+    existing node: the rerun there was the check.
     """
     rows_meas = ~fps.rows_candidate
     y = np.asarray(y, float)
@@ -232,7 +245,7 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         s = sigma_meas if extra_var is None else np.sqrt(sigma_meas ** 2 + extra_var)
         return standardised_residuals(y, s, samples, sim_var=var_meas)[0]
 
-    refits, n_runs = [], 0
+    refits, n_runs, secants = [], 0, {}
     samples = z_after = z_check = None
     p_cal = p_held = float("nan")
     for k in range(max(int(rounds), 0) + 1):
@@ -259,7 +272,40 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         # chosen on these data, so the rerun must agree with them as the fit said it would
         p_cal = p_fit_z(z_after[cal]) if cal.any() else float("nan")
         p_held = p_fit_z(z_check[held]) if held.any() else float("nan")
-        if not p_cal < att.gof_alpha or k == rounds or len(model.effects) != 1:
+        if not p_cal < att.gof_alpha or k == rounds:
+            break
+        record = {"model": model.label, "magnitudes": mags, "p_fit": float(model.p_fit),
+                  "p_rerun_calibration": p_cal, "p_rerun_heldout": p_held, "seeds": list(seeds)}
+        # The recalibration first: a shift beyond the finite-difference step extrapolates the
+        # linear sensitivities, and their error would otherwise pass into an effect's node.
+        far = [j for j, name in enumerate(fps.nuisance)
+               if name not in secants and abs(model.nuisance[j]) > _fd_step(fps, name)]
+        if far:
+            sens = fps.sensitivities.copy()
+            for j in far:
+                name, shift = fps.nuisance[j], float(model.nuisance[j])
+                h = _fd_step(fps, name)
+                point = dict(fps.base, **{name: fps.base[name] + shift})
+                # on the base runs' seeds, paired like the finite difference itself
+                s_b = simulate_replicates(simulator, point, {}, fps.seeds, fps.names)
+                n_runs += len(fps.seeds)
+                d_shift = _nan_mean(s_b - fps.base_samples)
+                d_step = sens[:, j] * h
+                ok = np.isfinite(d_shift)
+                # least-squares line through the origin and both paired points
+                sens[ok, j] = (h * d_step[ok] + shift * d_shift[ok]) / (h * h + shift * shift)
+                secants[name] = shift
+            moved = (sens - fps.sensitivities) @ np.asarray(model.nuisance, float)
+            fps = replace(fps, sensitivities=sens)
+            # Only an error the noise could not hide explains the failed rerun; a linear
+            # response re-simulated is the same, and the effect's node is tried next.
+            if np.nanmax(np.abs(moved[fps.rows_calibrate]) / fps.sigma[fps.rows_calibrate]) > 0.5:
+                record["recalibration"] = {fps.nuisance[j]: float(model.nuisance[j]) for j in far}
+                refits.append(record)
+                att = attribute(residual, fps, alpha=alpha, gof_alpha=att.gof_alpha,
+                                max_effects=max_effects)
+                continue
+        if len(model.effects) != 1:
             break
         effect, a = model.effects[0], float(model.magnitudes[0])
         fp = fps[effect]
@@ -273,9 +319,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         seen = np.isfinite(observed)  # a component no rerun observed keeps the interpolation
         part[seen] = observed[seen]
         response[rows_meas] = part
-        refits.append({"model": model.label, "magnitudes": mags, "p_fit": float(model.p_fit),
-                       "p_rerun_calibration": p_cal, "p_rerun_heldout": p_held,
-                       "seeds": list(seeds)})
+        record["node"] = {effect: a}
+        refits.append(record)
         fps = replace(fps, fingerprints=tuple(f.with_node(a, response) if f.name == effect else f
                                               for f in fps.fingerprints))
         att = attribute(residual, fps, alpha=alpha, gof_alpha=att.gof_alpha, max_effects=max_effects)

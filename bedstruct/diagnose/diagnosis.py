@@ -381,17 +381,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     p_cal, p_held = conf.p_calibration, conf.p_heldout
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
                     tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits)
-    refit_note = ""
-    if conf.refits:
-        first = conf.refits[0]
-        refit_note = (f"the rerun of {first['model']} at "
-                      f"{_magnitudes_text(first['magnitudes'])} contradicted the fingerprint "
-                      f"interpolated between simulated magnitudes on the calibration observables "
-                      f"(p = {first['p_rerun_calibration']:.2g}; the fit had said "
-                      f"p = {first['p_fit']:.2g}), so it became a fingerprint node and the model was "
-                      f"refitted through {'it' if len(conf.refits) == 1 else f'{len(conf.refits)} such reruns'}")
-        if att.verdict == "attributed":
-            refit_note += f" and rerun at {_magnitudes_text(mags)}"
+    refit_note = "; ".join(_refit_text(r) for r in conf.refits)
+    if refit_note:
+        refit_note += ("; refitted" + (f" and rerun at {_magnitudes_text(mags)}"
+                                       if att.verdict == "attributed" else ""))
         att = replace(att, reason=refit_note + "; " + att.reason)
 
     verdict_note = ""
@@ -447,6 +440,18 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
                 + len(rerun_seeds) + conf.n_runs}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)
+
+
+def _refit_text(refit: dict) -> str:
+    """One clause on a rerun that contradicted the fit, and what was re-simulated."""
+    head = (f"the rerun of {refit['model']} at {_magnitudes_text(refit['magnitudes'])} contradicted "
+            f"the fit on the calibration observables (p = {refit['p_rerun_calibration']:.2g}; "
+            f"the fit had said p = {refit['p_fit']:.2g})")
+    if "recalibration" in refit:
+        shifts = ", ".join(f"{k} {v:+.3g}" for k, v in refit["recalibration"].items())
+        return (f"{head}: its recalibration ({shifts}) extrapolated the finite-difference "
+                f"sensitivities, so the base was simulated at that shift")
+    return f"{head}, so the rerun became a fingerprint node"
 
 
 def _magnitudes_text(mags: Mapping[str, float]) -> str:

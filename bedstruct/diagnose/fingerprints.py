@@ -415,12 +415,14 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
     if progress_bar:
         progress_bar.update()
     sens = np.zeros((base_s.shape[1], len(nuisance)))
+    steps = {}
     for j, p in enumerate(nuisance):
         plus, h = step(p)
         sp = run(plus, {})
         groups.append(sp)
         point_names.append(f"{p} {plus[p]:.4g}")
         sens[:, j] = _nan_mean(sp - base_s) / h
+        steps[p] = float(h)
         if progress_bar:
             progress_bar.update()
     paired = []
@@ -526,5 +528,6 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
                          base_s, sim_var, _design_sigma(design, keep_names), tuple(nuisance), sens,
                          tuple(fps), threshold, alpha, simulator_name, n_runs,
                          {"missing_runs": missing, "unobservable": unobservable,
-                          "extrapolated": extrapolated, "uneven_scatter": uneven}, sim_dof)
+                          "extrapolated": extrapolated, "uneven_scatter": uneven,
+                          "sensitivity_steps": steps}, sim_dof)
     return assess_fingerprints(out)

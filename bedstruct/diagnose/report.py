@@ -143,13 +143,16 @@ def diagnosis_report(diag, *, title: str | None = None):
                          "fit of the rerun to the held-out observables, within the fit's uncertainty")
         if sh.refits:
             s.tables.append(Table(
-                ["rerun model", "magnitudes", "p (fit, interpolated)", "p (rerun, calibration)",
-                 "p (rerun, held-out)", "seeds"],
+                ["rerun model", "magnitudes", "p (fit)", "p (rerun, calibration)",
+                 "p (rerun, held-out)", "seeds", "re-simulated"],
                 [[r["model"], ", ".join(f"{e} = {a:.3g}" for e, a in r["magnitudes"].items()),
                   _fmt(r["p_fit"]), _fmt(r["p_rerun_calibration"]), _fmt(r["p_rerun_heldout"]),
-                  ", ".join(map(str, r["seeds"]))] for r in sh.refits],
-                caption="reruns that contradicted the interpolated fingerprint on the calibration "
-                        "observables; each became a fingerprint node and the model was refitted"))
+                  ", ".join(map(str, r["seeds"])),
+                  ("base at " + ", ".join(f"{k} {v:+.3g}" for k, v in r["recalibration"].items())
+                   if "recalibration" in r else "the rerun as a fingerprint node")]
+                 for r in sh.refits],
+                caption="reruns that contradicted the fit on the calibration observables; what "
+                        "was re-simulated before the model was refitted"))
         s.tables.append(Table(["observable", "before", "recalibrated", "after"],
                               [[r["observable"], _fmt(r["before"]), _fmt(r["recalibrated"]),
                                 _fmt(r["after"])] for r in sh.per_observable]))

@@ -81,8 +81,10 @@ _SCATTER_RULE = 2
 #: rerun that fails that check becomes a fingerprint node, and the model is refitted and rerun
 #: (:func:`~bedstruct.diagnose.confirm.confirm_attribution`). 5: the fit's covariance and
 #: leverage are computed on unit-norm columns; before, the recalibration direction (J/m^3,
-#: 1e8 below the magnitudes) was cut as singular, so the intervals ignored it.
-_FIT_RULE = 5
+#: 1e8 below the magnitudes) was cut as singular, so the intervals ignored it. 6: a rerun
+#: that fails while a recalibration shift exceeds its finite-difference step re-simulates the
+#: base at that shift (paired seeds) and refits with the secant sensitivities.
+_FIT_RULE = 6
 
 
 def engine_scale_model(preset: str) -> str:

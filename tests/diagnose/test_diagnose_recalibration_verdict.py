@@ -9,6 +9,7 @@ observables still show stays ``unexplained``.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bedstruct.diagnose import compute_fingerprints, diagnose
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
@@ -107,7 +108,9 @@ def test_a_rerun_that_contradicts_the_interpolation_becomes_a_node_and_the_refit
     assert d.shrink.p_rerun_calibration > 0.01 and d.shrink.magnitudes["A"] == a_fit
     assert "became a fingerprint node" in d.attribution.reason
     assert np.isclose(d.fingerprints["A"].nodes, first["magnitudes"]["A"]).sum() == 1
-    assert d.settings["simulator_runs"] == 9         # recalibrated rerun, two reruns of A
+    # recalibrated rerun, two reruns of A, and the base at the fitted shift of k (beyond the
+    # finite-difference step; linear here, so it changed nothing and A's node was refitted)
+    assert d.settings["simulator_runs"] == 12 and "recalibration" not in first
     assert d.to_json()["shrink"]["refits"][0]["model"] == "A"
     rep = d.report()
     assert rep.failed == []
@@ -146,9 +149,9 @@ def test_a_model_its_rerun_contradicts_in_shape_is_refitted_and_left_unexplained
                  refine=0)
     # no magnitude of A makes this gap: through the rerun's node, A no longer fits at all
     assert len(d.shrink.refits) == 1 and d.verdict == "unexplained"
-    assert "refitted through it" in d.attribution.reason
+    assert "became a fingerprint node" in d.attribution.reason
     assert not d.attribution.selected and np.isnan(d.shrink.p_rerun_calibration)
-    assert d.settings["simulator_runs"] == 6         # nothing rerun after the refit failed
+    assert d.settings["simulator_runs"] == 9         # no rerun after the refit failed
 
 
 def test_an_attribution_its_rerun_reproduces_stays_attributed():
@@ -201,4 +204,34 @@ def test_a_pair_whose_rerun_contradicts_it_is_not_refitted():
     assert d.attribution.best.effects == ("A", "B")
     assert d.shrink.p_rerun_calibration < 0.01 and d.shrink.refits == ()
     assert d.verdict == "unexplained" and "not confirmed" in d.attribution.reason
-    assert d.settings["simulator_runs"] == 6
+    assert d.settings["simulator_runs"] == 9         # with the base at the fitted shift of k
+
+
+class _CurvedNuisanceSimulator(ToySimulator):
+    """The observables bend with k: a 5 % finite difference underestimates a 20 % shift."""
+
+    def __call__(self, base, effects, seed):
+        dk = base["k"] - 1.0
+        return super().__call__({"k": 1.0 + dk * (1.0 + 2.5 * dk)}, effects, seed)
+
+
+def test_a_recalibration_beyond_the_finite_difference_step_is_resimulated():
+    design = toy_design(N, n_validate=3)
+    sim = _CurvedNuisanceSimulator(design, sens={"k": np.linspace(10.0, 20.0, N)},
+                                   effects={"A": 8.0 * RESP["A"] / 3.0}, noise_sd=0.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01)
+    assert fps.meta["sensitivity_steps"] == {"k": pytest.approx(0.05)}
+    y = sim({"k": 1.2}, {"A": 0.5}, 0).vector(fps.names) + np.random.default_rng(0).normal(0, 1, N)
+    d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    (first,) = d.shrink.refits
+    # the linear fit through the 5 % step overshot the shift (0.28 for 0.2): its rerun failed
+    assert first["recalibration"]["k"] > 0.25 and first["p_rerun_calibration"] < 1e-4
+    assert "node" not in first
+    assert d.verdict == "attributed" and d.attribution.best.effects == ("A",)
+    assert abs(d.shrink.nuisance["k"] - 0.2) < 0.03 and abs(d.shrink.magnitudes["A"] - 0.5) < 0.05
+    assert d.shrink.p_rerun_calibration > 0.01
+    assert "extrapolated the finite-difference sensitivities" in d.attribution.reason
+    # recalibrated rerun, first rerun, the base at the fitted shift (base seeds), second rerun
+    assert d.settings["simulator_runs"] == 12
