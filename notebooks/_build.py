@@ -106,6 +106,24 @@ DIAGNOSE = [
              "len(measurements.measurements)"),
     ("md", "The catalogue of effects the diagnosis can attribute a gap to:"),
     ("code", "for effect in diagnose.catalogue():\n    print(f'{effect.name:20s} {effect.unit:10s} prior {effect.prior}')"),
+    ("md", "## Where, which, how far\n\nThe diagnosis of the seed's measurements against the "
+           "surrogate: the ranked residuals say *where* the gap is, the attribution *which* "
+           "effect explains it (with a magnitude and its interval), and the rerun at that "
+           "magnitude *how far* it closes the gap on held-out observables, and whether it "
+           "confirms the attribution."),
+    ("code", "sim = diagnose.SurrogateSimulator(diagnose.diagnosis_design(measurements, diagnose.catalogue()))\n"
+             "result = diagnose.diagnose(measurements, sim, base=diagnose.BASE_PARAMETERS, replicates=3)\n"
+             "print(result.verdict, '-', result.attribution.reason)\n"
+             "for effect in result.attribution.which():\n"
+             "    print(effect['effect'], f\"{effect['magnitude']:.3g}\", effect['interval'], effect['unit'])\n"
+             "print('rerun fits the calibration observables: p =', round(result.shrink.p_rerun_calibration, 3))"),
+    ("code", "from bedstruct.plot import diagnose as plot_diagnose\n"
+             "fig, _ = plot_diagnose.plot_where(result.where)\nfig"),
+    ("md", "The attributed effect's response against its magnitude, interpolated through the "
+           "magnitudes it was simulated at (circles; diamonds are magnitudes simulated during "
+           "the fit), with what the data ask of it (dotted). The fitted magnitude and its "
+           "interval are the vertical line and band."),
+    ("code", "fig, _ = plot_diagnose.plot_effect_response(result)\nfig"),
     ("md", "Validation on synthetic twins whose effect is withheld (tiny preset, surrogate simulator):"),
     ("code", "result = diagnose.validate(preset='tiny', seed=0)\n"
              "print({k: getattr(result, k) for k in ('top1_accuracy', 'null_false_attribution', "
