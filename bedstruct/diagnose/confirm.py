@@ -66,8 +66,9 @@ class Shrink:
     ``p_rerun_calibration`` / ``p_rerun_heldout``: goodness of fit (chi-square and
     largest-|z|, Bonferroni) of the rerun of the attributed model to the calibration and
     to the held-out observables (NaN without an attribution): the checks that confirm it.
-    ``refits``: earlier reruns whose calibration check failed and through which the model
-    was refitted (model, magnitudes, their p-values, seeds), oldest first.
+    ``refits``: earlier reruns whose calibration check failed and after which the model was
+    refitted (model, magnitudes, their p-values, seeds, and what was re-simulated:
+    ``recalibration`` or ``node``), oldest first.
     """
 
     model: str
@@ -165,7 +166,9 @@ class Confirmation:
         Goodness of fit of that rerun to the calibration and the held-out observables
         (NaN without an attribution or without such observables).
     refits : tuple of dict
-        Reruns that failed the calibration check and became nodes, oldest first.
+        Reruns that failed the calibration check, oldest first, each with what was then
+        re-simulated: ``"recalibration"`` (the base at the fitted shifts) or ``"node"``
+        (the rerun itself, as the effect's fingerprint node).
     n_runs : int
         Simulator runs made.
     """
@@ -190,7 +193,8 @@ class Confirmation:
 
 def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulator: Simulator, *,
                         y, sigma_meas, names, seed: int = 0, rounds: int = 2,
-                        alpha: float = 0.01, max_effects: int = 2) -> Confirmation:
+                        alpha: float = 0.01, max_effects: int = 2,
+                        progress=None) -> Confirmation:
     """Rerun the attributed model at its fitted magnitudes and check it against the data.
 
     Parameters
@@ -214,6 +218,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         Largest number of refits through a rerun (0: rerun once and report).
     alpha, max_effects : float, int
         Selection level and largest combination, as for :func:`attribute`.
+    progress : tqdm-like, optional
+        Its ``update(n)`` is called after every ``n`` simulator runs.
 
     Returns
     -------
@@ -259,6 +265,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         params = params_after(fps.base, fps.nuisance, model.nuisance)
         samples = simulate_replicates(simulator, params, mags, seeds, names)
         n_runs += len(seeds)
+        if progress is not None:
+            progress.update(len(seeds))
         z_after = z_of(samples)
         # the held-out check adds the variance that the calibration-fit uncertainty of the
         # magnitudes and recalibration shifts puts on the prediction
@@ -289,6 +297,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
                 # on the base runs' seeds, paired like the finite difference itself
                 s_b = simulate_replicates(simulator, point, {}, fps.seeds, fps.names)
                 n_runs += len(fps.seeds)
+                if progress is not None:
+                    progress.update(len(fps.seeds))
                 d_shift = _nan_mean(s_b - fps.base_samples)
                 d_step = sens[:, j] * h
                 ok = np.isfinite(d_shift)

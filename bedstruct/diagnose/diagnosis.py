@@ -320,6 +320,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     residual = np.full(len(fps.sigma), np.nan)
     residual[rows_meas] = y - fps.base_mean[rows_meas]
     att = attribute(residual, fps, alpha=select_alpha, gof_alpha=gof_alpha, max_effects=max_effects)
+    bar = None  # the runs after the fingerprints: their number depends on what the fits find
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(desc="reruns", unit="run")
     # Refinement (Gauss-Newton with the simulator in the loop): simulate the leading
     # effects at their fitted magnitudes, add those responses as fingerprint nodes, refit.
     n_refine_runs = 0
@@ -339,6 +343,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 continue
             s_e = simulate_replicates(simulator, fps.base, {e: a}, fps.seeds, fps.names)
             n_refine_runs += len(fps.seeds)
+            if bar is not None:
+                bar.update(len(fps.seeds))
             resp = _nan_mean(s_e - fps.base_samples)
             gap = ~np.isfinite(resp)  # not observed at this magnitude: keep the interpolation
             resp[gap] = fp.predict(a)[gap]
@@ -354,10 +360,14 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     z_before = wh.residuals.z
     p_recal = _params_after(fps.base, fps.nuisance, att.null.nuisance)
     s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds, names)
+    if bar is not None:
+        bar.update(len(rerun_seeds))
     z_recal, _, _ = standardised_residuals(y, sm, s_recal, sim_var=fps.sim_var[rows_meas])
     conf = confirm_attribution(att, fps, residual, simulator, y=y, sigma_meas=sm, names=names,
                                seed=seed, rounds=confirm_rounds, alpha=select_alpha,
-                               max_effects=max_effects)
+                               max_effects=max_effects, progress=bar)
+    if bar is not None:
+        bar.close()
     att, fps = conf.attribution, conf.fingerprints
     if conf.samples is not None:
         model = att.best

@@ -235,3 +235,12 @@ def test_a_recalibration_beyond_the_finite_difference_step_is_resimulated():
     assert "extrapolated the finite-difference sensitivities" in d.attribution.reason
     # recalibrated rerun, first rerun, the base at the fitted shift (base seeds), second rerun
     assert d.settings["simulator_runs"] == 12
+
+
+def test_the_reruns_show_progress(capsys):
+    design, sim, fps = _bump_setup()
+    y = 0.25 * 8.0 * RESP["A"] / 3.0 + np.random.default_rng(6).normal(0.0, 1.0, N)
+    d = diagnose(_real(design, y), sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0, progress=True)
+    err = capsys.readouterr().err
+    assert "reruns" in err and f"{d.settings['simulator_runs']}run" in err.replace(" ", "")
