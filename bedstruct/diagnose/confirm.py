@@ -323,12 +323,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
             break
         shift = fps.sensitivities[rows_meas] @ np.asarray(model.nuisance, float) \
             if len(model.nuisance) else 0.0
-        observed = _nan_mean(samples) - fps.base_mean[rows_meas] - shift
-        response = fp.predict(a).copy()
-        part = response[rows_meas]
-        seen = np.isfinite(observed)  # a component no rerun observed keeps the interpolation
-        part[seen] = observed[seen]
-        response[rows_meas] = part
+        response = np.full(len(fps.sigma), np.nan)  # unmeasured: the interpolation stays
+        response[rows_meas] = _nan_mean(samples) - fps.base_mean[rows_meas] - shift
         record["node"] = {effect: a}
         refits.append(record)
         fps = replace(fps, fingerprints=tuple(f.with_node(a, response) if f.name == effect else f

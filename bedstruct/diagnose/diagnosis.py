@@ -345,10 +345,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
             n_refine_runs += len(fps.seeds)
             if bar is not None:
                 bar.update(len(fps.seeds))
-            resp = _nan_mean(s_e - fps.base_samples)
-            gap = ~np.isfinite(resp)  # not observed at this magnitude: keep the interpolation
-            resp[gap] = fp.predict(a)[gap]
-            new[e] = fp.with_node(a, resp)
+            new[e] = fp.with_node(a, _nan_mean(s_e - fps.base_samples))
         if not new:
             break
         fps = replace(fps, fingerprints=tuple(new.get(f.name, f) for f in fps.fingerprints))

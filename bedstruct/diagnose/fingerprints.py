@@ -137,10 +137,16 @@ class Fingerprint:
         return self._df(min(max(a, self.nodes[0]), self.nodes[-1]))
 
     def with_node(self, a: float, response) -> "Fingerprint":
-        """A copy with a simulated response at magnitude ``a`` added (non-linear interpolation)."""
+        """A copy with a simulated response at magnitude ``a`` added (non-linear interpolation).
+
+        Components not observed at ``a`` (NaN) keep the current interpolation there.
+        """
         from dataclasses import replace
+        response = np.array(response, dtype=float)
+        gap = ~np.isfinite(response)
+        response[gap] = self.predict(a)[gap]
         nodes = np.append(self.nodes, float(a))
-        resp = np.vstack([self.responses, np.asarray(response, float)[None]])
+        resp = np.vstack([self.responses, response[None]])
         return replace(self, nodes=nodes, responses=resp, linear=False)
 
     def nonlinearity(self) -> float:
