@@ -167,7 +167,8 @@ def run(args) -> int:
     diag = diagnose(ms, sim, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
                     replicates=cfg.replicates, seed=cfg.seed if args.seed is None else args.seed,
                     alpha=cfg.alpha, select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
-                    max_effects=cfg.max_effects, progress=args.progress)
+                    max_effects=cfg.max_effects, refine=cfg.refine,
+                    confirm_rounds=cfg.confirm_rounds, progress=args.progress)
     out = diag.to_json()
     out["sim_config"] = cfg.as_dict()
     html, js = write_report(diag.report(), args.out)

@@ -25,6 +25,8 @@ parameters recalibration may change, the catalogue and the statistical levels::
     select_alpha = 0.01       # family-wise level of the effect selection
     gof_alpha = 0.01          # goodness of fit below which the answer is 'unexplained'
     max_effects = 2
+    refine = 2                # Gauss-Newton rounds simulating the leading effects at their fits
+    confirm_rounds = 2        # refits after a rerun that contradicts the fit
 
 ``kind = "engine"`` calls the hook
 ``bedstruct.workflows.diagnosis_simulator(design, config) -> simulator``
@@ -65,6 +67,8 @@ class SimConfig:
     select_alpha: float = 0.01
     gof_alpha: float = 0.01
     max_effects: int = 2
+    refine: int = 2
+    confirm_rounds: int = 2
     noise: float = 1.0
     engine: dict = field(default_factory=dict)
     path: str | None = None
@@ -74,7 +78,8 @@ class SimConfig:
                 "effects": [e.name for e in self.effects], "replicates": self.replicates,
                 "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
                 "gof_alpha": self.gof_alpha,
-                "max_effects": self.max_effects, "path": self.path}
+                "max_effects": self.max_effects, "refine": self.refine,
+                "confirm_rounds": self.confirm_rounds, "path": self.path}
 
 
 def _get(table, key, typ, where, default):
@@ -148,13 +153,20 @@ def load_sim_config(path) -> SimConfig:
                     select_alpha=_get(dg, "select_alpha", float, f"{p} [diagnosis]", 0.01),
                     gof_alpha=_get(dg, "gof_alpha", float, f"{p} [diagnosis]", 0.01),
                     max_effects=_get(dg, "max_effects", int, f"{p} [diagnosis]", 2),
+                    refine=_get(dg, "refine", int, f"{p} [diagnosis]", 2),
+                    confirm_rounds=_get(dg, "confirm_rounds", int, f"{p} [diagnosis]", 2),
                     engine=dict(doc.get("engine", {})), path=str(p))
     if cfg.replicates < 2:
         raise ConfigError(f"{p} [simulator]: key 'replicates': need >= 2; got {cfg.replicates}")
     for key in ("alpha", "select_alpha", "gof_alpha"):
         if not 0 < getattr(cfg, key) < 1:
             raise ConfigError(f"{p} [diagnosis]: key {key!r} must lie in (0, 1); got {getattr(cfg, key)}")
-    unknown = set(dg) - {"alpha", "select_alpha", "gof_alpha", "max_effects"}
+    for key in ("refine", "confirm_rounds"):
+        if getattr(cfg, key) < 0:
+            raise ConfigError(f"{p} [diagnosis]: key {key!r}: expected an integer >= 0; "
+                              f"got {getattr(cfg, key)}")
+    unknown = set(dg) - {"alpha", "select_alpha", "gof_alpha", "max_effects", "refine",
+                         "confirm_rounds"}
     if unknown:
         raise ConfigError(f"{p} [diagnosis]: key {sorted(unknown)[0]!r}: unknown")
     unknown = set(sim) - {"kind", "replicates", "seed", "noise"}
