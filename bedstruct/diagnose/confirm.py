@@ -3,12 +3,14 @@
 The attribution predicts an extended model by interpolating each effect's fingerprint
 between the magnitudes it was simulated at. :func:`confirm_attribution` simulates the
 chosen model at its fitted magnitudes (fresh seeds) and asks the calibration and the
-held-out observables whether that simulation agrees with the data. Where the rerun of a
-single effect contradicts the interpolation on the calibration observables, the rerun is
-itself a simulation at that magnitude: it becomes a fingerprint node, the model is
-refitted through it and simulated again (a Gauss-Newton step with the simulator in the
-loop, paid for only when the interpolation was wrong). :class:`Shrink` holds the gap on
-the held-out observables before and after.
+held-out observables whether that simulation agrees with the data. Where the rerun
+contradicts the fit on the calibration observables, one of the fit's two predictions was
+wrong, and the one that can be re-simulated is: a recalibration shift beyond its
+finite-difference step (the base is simulated at that shift, on the base runs' seeds), or,
+for a single effect, the interpolation between the fingerprint's magnitudes (the rerun is
+itself a simulation at the fitted magnitude and becomes a node). The model is refitted and
+simulated again: a Gauss-Newton step with the simulator in the loop, paid for only when the
+fit was wrong. :class:`Shrink` holds the gap on the held-out observables before and after.
 
 .. versionadded:: 0.1
 """

@@ -146,12 +146,7 @@ class Diagnosis:
     @property
     def residual(self) -> np.ndarray:
         """Measured minus base-mean on every fingerprint row (NaN on candidate rows)."""
-        fps = self.fingerprints
-        names = [n for n in fps.names if fps.design[n].role != "candidate"]
-        out = np.full(len(fps.sigma), np.nan)
-        rows = ~fps.rows_candidate
-        out[rows] = np.concatenate([self.measurements[n].values for n in names]) - fps.base_mean[rows]
-        return out
+        return _residual(self.measurements, self.fingerprints)
 
     def to_json(self) -> dict:
         """The compact JSON answer: where, which, how much, confidence, what next."""
@@ -285,10 +280,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         Refinement rounds: the leading effects are simulated at their fitted
         magnitudes and the fingerprints re-interpolated through those runs.
     confirm_rounds : int
-        Largest number of refits through the rerun that checks an attribution: when the
-        rerun of a single effect at its fitted magnitude contradicts the interpolated
-        fingerprint on the calibration observables, it becomes a node, the model is
-        refitted and rerun (see :func:`~bedstruct.diagnose.confirm.confirm_attribution`).
+        Largest number of refits after the rerun that checks an attribution contradicts the
+        fit on the calibration observables: the recalibration beyond its finite-difference
+        step is re-simulated, or a single effect's rerun becomes a fingerprint node; the
+        model is refitted and rerun (see :func:`~bedstruct.diagnose.confirm.confirm_attribution`).
 
     Returns
     -------
@@ -317,8 +312,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     measured = replace(measurements, measurements=tuple(measurements[n] for n in names))
     wh = where(measured, base_meas,
                sim_var=fps.sim_var[rows_meas], alpha=alpha)
-    residual = np.full(len(fps.sigma), np.nan)
-    residual[rows_meas] = y - fps.base_mean[rows_meas]
+    residual = _residual(measurements, fps)
     att = attribute(residual, fps, alpha=select_alpha, gof_alpha=gof_alpha, max_effects=max_effects)
     bar = None  # the runs after the fingerprints: their number depends on what the fits find
     if progress:
@@ -355,7 +349,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     rerun_seeds = [int(seed) + RERUN_SEED_STRIDE + i for i in range(fps.n_replicates)]
     held_meas = fps.rows_validate[rows_meas]
     z_before = wh.residuals.z
-    p_recal = _params_after(fps.base, fps.nuisance, att.null.nuisance)
+    recal_shift = att.null.nuisance   # what the recalibrated rerun simulates
+    p_recal = _params_after(fps.base, fps.nuisance, recal_shift)
     s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds, names)
     if bar is not None:
         bar.update(len(rerun_seeds))
@@ -373,8 +368,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         label = model.label
         nuis = {k: float(v) for k, v in zip(fps.nuisance, model.nuisance)}
     else:
+        # a refit with re-simulated sensitivities may move the null's shift; report the
+        # one whose rerun the gaps come from
         mags, z_after, label = {}, z_recal, att.null.label
-        nuis = {k: float(v) for k, v in zip(fps.nuisance, att.null.nuisance)}
+        nuis = {k: float(v) for k, v in zip(fps.nuisance, recal_shift)}
     per_obs = []
     comp_names = np.asarray([n for n in names for _ in range(measurements[n].n_components)])
     for n in dict.fromkeys(comp_names[held_meas]):
@@ -394,6 +391,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                                        if att.verdict == "attributed" else ""))
         att = replace(att, reason=refit_note + "; " + att.reason)
 
+    # Verdict checks on the reruns (the held-out observables never enter a fit): a
+    # significant gap that the calibration observables cannot attribute, or an attribution
+    # whose rerun the calibration or the held-out observables contradict, is 'unexplained'.
     verdict_note = ""
     if att.verdict == "none" and wh.significant:
         # Recalibration alone may close a significant gap (e.g. a cohesion calibrated
@@ -459,6 +459,15 @@ def _refit_text(refit: dict) -> str:
         return (f"{head}: its recalibration ({shifts}) extrapolated the finite-difference "
                 f"sensitivities, so the base was simulated at that shift")
     return f"{head}, so the rerun became a fingerprint node"
+
+
+def _residual(measurements: MeasurementSet, fps: FingerprintSet) -> np.ndarray:
+    """Measured minus base mean on the fingerprint rows (NaN on candidate rows)."""
+    names = [n for n in fps.names if fps.design[n].role != "candidate"]
+    out = np.full(len(fps.sigma), np.nan)
+    rows = ~fps.rows_candidate
+    out[rows] = np.concatenate([measurements[n].values for n in names]) - fps.base_mean[rows]
+    return out
 
 
 def _magnitudes_text(mags: Mapping[str, float]) -> str:

@@ -143,8 +143,7 @@ def plot_effect_response(diagnosis, effect=None, *, ax=None, n=4):
         else:
             raise ValueError("plot_effect_response: the diagnosis has no effect to show")
     fp = fps[effect]
-    model = next(m for m in (att.best, *att.models) if effect in m.effects) \
-        if any(effect in m.effects for m in (att.best, *att.models)) else None
+    model = next((m for m in (att.best, *att.models) if effect in m.effects), None)
     fig, ax = _axes(ax)
     sig = fps.sigma
     rows = np.flatnonzero(fps.rows_calibrate)
