@@ -23,8 +23,8 @@ from .decks import (DUMP_COLUMNS, ImpactResult, bed_deck, data_file_radii, hertz
                     impact_deck, impact_result, moving_wall_deck)
 from .lammps import find_lammps, lammps_granular_coeffs
 from .liggghts import find_liggghts, liggghts_model_commands
-from .spread_decks import (LayerSteps, SpreadLayersPlan, landing_offsets, spread_layers_deck,
-                           tool_loads)
+from .spread_decks import LayerSteps, SpreadLayersPlan, spread_layers_deck
+from .spread_logs import landing_offsets, tool_loads
 from .stl import (BladeGeometry, RollerGeometry, box_triangles, cylinder_triangles,
                   read_stl_triangles, stl_text, write_stl)
 from .workflow_decks import (ReposeGeometry, ReposeSchedule, SpreadGeometry, SpreadSchedule,

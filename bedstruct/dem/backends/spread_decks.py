@@ -35,8 +35,8 @@ steps waited so far, LAMMPS' wall motions are functions of ``step - v_off``, the
 frames are written every ``every`` steps from the layer's actual start of the
 tool motion (``dump_modify every v_...``), and before each layer's tool motion
 the deck prints ``BEDSTRUCT_OFFSET layer=K steps=N`` (the log's record of the
-offset; :func:`landing_offsets` reads it back): an event of layer K happens at
-its planned step plus N.
+offset; :func:`~bedstruct.dem.backends.landing_offsets` reads it back): an event
+of layer K happens at its planned step plus N.
 
 Outputs per layer (folders ``layer01``... must exist): ``frames.dump``
 (and ``contacts.dump``) from the start of the tool motion to the end of the
@@ -56,11 +56,11 @@ from pathlib import Path
 from ._common import as_granular_params
 from .decks import DUMP_COLUMNS, _contact_cols, _contact_computes
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
+from .spread_logs import _LOAD_LINE, _OFFSET_LINE
 from .stl import BladeGeometry, RollerGeometry, write_stl
 from .workflow_decks import _chamber_meshes, _granular_head, _liggghts_mesh_walls
 
-__all__ = ["LayerSteps", "SpreadLayersPlan", "landing_offsets", "spread_layers_deck",
-           "tool_loads"]
+__all__ = ["LayerSteps", "SpreadLayersPlan", "spread_layers_deck"]
 
 
 @dataclass(frozen=True)
@@ -209,8 +209,8 @@ class SpreadLayersPlan:
         """The layers' :class:`LayerSteps` of a run whose landing waits took ``offsets``.
 
         ``offsets[k]`` is the number of steps waited before layer ``k + 1``'s tool
-        motion, in all (:func:`landing_offsets`); the layer's start shifts by the
-        previous layer's offset.
+        motion, in all (:func:`~bedstruct.dem.backends.landing_offsets`); the layer's
+        start shifts by the previous layer's offset.
         """
         off = [int(o) for o in offsets]
         if len(off) != len(self.layers) or any(b < a for a, b in zip(off, off[1:])) or (
@@ -219,76 +219,6 @@ class SpreadLayersPlan:
         prev = [0] + off[:-1]
         return tuple(LayerSteps(ls.start + p, ls.spread + o, ls.stop + o, ls.end + o)
                      for ls, p, o in zip(self.layers, prev, off))
-
-
-_OFFSET_LINE = "BEDSTRUCT_OFFSET"
-_LOAD_LINE = "BEDSTRUCT_TOOL_FORCE"
-
-
-def _log_records(log_path, marker: str, keys) -> dict:
-    """``{layer: {key: value}}`` of the ``MARKER layer=K key=value ...`` lines a deck printed
-    (the last line of a layer wins; a line with another set of keys is not one of them)."""
-    import re
-    num = r"([-+0-9.eEnaNinf]+)"
-    pat = re.compile(rf"^{marker} layer=(\d+)" + "".join(f" {k}={num}" for k in keys) + r"\s*$")
-    found = {}
-    with open(log_path, errors="replace") as fh:
-        for line in fh:
-            m = pat.match(line.strip())
-            if m:
-                found[int(m.group(1))] = {k: float(m.group(i + 2)) for i, k in enumerate(keys)}
-    return found
-
-
-def landing_offsets(log_path, n_layers: int) -> tuple:
-    """Steps waited for flying powder to land before each layer's tool motion, in all.
-
-    Reads the ``BEDSTRUCT_OFFSET layer=K steps=N`` lines that
-    :func:`spread_layers_deck` prints into the engine's log.
-
-    Parameters
-    ----------
-    log_path : str or os.PathLike
-    n_layers : int
-
-    Returns
-    -------
-    tuple of int
-        One cumulative offset per layer (add it to the layer's planned steps).
-
-    Raises
-    ------
-    ValueError
-        When a layer's line is missing (the run stopped early, or the deck was
-        not written by :func:`spread_layers_deck`).
-    """
-    found = {k: int(round(v["steps"])) for k, v in _log_records(log_path, _OFFSET_LINE,
-                                                                ("steps",)).items()}
-    missing = [k + 1 for k in range(n_layers) if k + 1 not in found]
-    if missing:
-        raise ValueError(f"{log_path}: no '{_OFFSET_LINE} layer=K steps=N' line for layer(s) "
-                         f"{missing}; the run did not reach their tool motion")
-    return tuple(found[k + 1] for k in range(n_layers))
-
-
-def tool_loads(log_path, n_layers: int) -> tuple:
-    """Load of the powder on the tool averaged over each layer's stroke (N), from the log.
-
-    The decks of :func:`spread_layers_deck` print ``BEDSTRUCT_TOOL_FORCE layer=K
-    fx=.. fy=.. fz=..`` after each stroke: the force of the particles on the tool
-    averaged over the stroke's steps by ``fix ave/time ... ave running`` (LIGGGHTS: the
-    tool is a ``mesh/surface/stress``; LAMMPS: the per-atom forces of the tool's
-    ``wall/gran/region ... contacts``, summed and negated).
-
-    Returns
-    -------
-    tuple of (3,) tuple of float
-        One per layer; NaN where the log has no line for it.
-    """
-    found = {k: (v["fx"], v["fy"], v["fz"])
-             for k, v in _log_records(log_path, _LOAD_LINE, ("fx", "fy", "fz")).items()}
-    nan = (float("nan"),) * 3
-    return tuple(found.get(k + 1, nan) for k in range(n_layers))
 
 
 _STEP = "(step-v_off)"   # the planned step: the run's step less the steps waited so far
