@@ -39,10 +39,14 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", metavar="DIR", help="output folder (HTML + JSON)")
     parser.add_argument("--preset", choices=["mini", "tiny", "small"], default="tiny",
                         help="validation size (default tiny; mini: engine only)")
-    parser.add_argument("--simulator", choices=["surrogate", "engine"], default="surrogate",
-                        help="validate: simulator of the twins (default surrogate; engine = DEM, slow)")
+    parser.add_argument("--simulator", choices=["surrogate", "engine", "liggghts"],
+                        default="surrogate",
+                        help="validate: simulator of the twins (default surrogate; engine = DEM, "
+                             "slow; liggghts = twins made with LIGGGHTS, diagnosed on the DEM "
+                             "engine, tiny only)")
     parser.add_argument("--cache", metavar="DIR",
-                        help="engine: folder caching every run (overrides [engine] cache)")
+                        help="engine: folder caching every run (overrides [engine] cache); "
+                             "validate --simulator liggghts keeps its twins in DIR/liggghts-twins")
     parser.add_argument("--seed", type=int, default=None, help="override the replicate/twin seed")
     parser.add_argument("--twin-seed", type=int, default=None,
                         help="validate: seed of the twins only (a further batch on cached fingerprints)")
@@ -93,7 +97,7 @@ def _run_validate(args) -> int:
 
     from ..errors import ConfigError
     engine = None
-    if args.simulator == "engine":
+    if args.simulator in ("engine", "liggghts"):
         from ..diagnose.validate import engine_scale_model
         engine = {"preset": engine_scale_model(args.preset)}
         if args.sim:
@@ -104,7 +108,7 @@ def _run_validate(args) -> int:
         if args.jobs is not None:
             engine["jobs"] = args.jobs
     elif args.sim or args.cache or args.jobs is not None:
-        raise ConfigError("--sim/--cache/--jobs with validate need --simulator engine")
+        raise ConfigError("--sim/--cache/--jobs with validate need --simulator engine or liggghts")
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
                       campaign=args.campaign, records=args.records, shard=args.shard,
@@ -157,10 +161,12 @@ def run(args) -> int:
     from . import print_json
 
     cfg = load_sim_config(args.sim)
+    if (args.jobs is not None or args.cache) and cfg.kind != "engine":
+        raise ConfigError("--jobs/--cache need a simulation config with kind = \"engine\"")
     if args.jobs is not None:
-        if cfg.kind != "engine":
-            raise ConfigError("--jobs needs a simulation config with kind = \"engine\"")
         cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, jobs=args.jobs))
+    if args.cache:
+        cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, cache=args.cache))
     ms = load_measurements(args.real)
     design = diagnosis_design(ms, cfg.effects)
     sim = make_simulator(cfg, design)

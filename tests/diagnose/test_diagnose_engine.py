@@ -416,3 +416,28 @@ def test_tool_force_ratio_is_the_layers_stroke_averaged_load(monkeypatch, force,
         assert np.isnan(value)
     else:
         assert value == pytest.approx(expected)
+
+
+def test_cli_diagnose_cache_option_replaces_the_configs_cache(tmp_path, capsys):
+    """``--cache`` was read by ``validate`` only: a diagnosis wrote its runs to the config's
+    folder and started from scratch. PSD-only files need no workflow run (milliseconds)."""
+    from bedstruct.cli import main
+    (tmp_path / "sim.toml").write_text(
+        '[simulator]\nkind = "engine"\nreplicates = 2\n[catalogue]\neffects = ["missing_fines"]\n'
+        f'[engine]\npreset = "tiny"\ncache = "{tmp_path / "config-cache"}"\n')
+    (tmp_path / "real.toml").write_text(
+        '[[observable]]\nname = "psd_before"\nkind = "psd"\npercentiles = [10, 50, 90]\n'
+        'value = [48.0, 55.0, 64.0]\nuncertainty = [0.6, 1.0, 1.7]\nunit = "um"\n'
+        'role = "calibrate"\n[observable.conditions]\nstage = "before"\n'
+        '[[observable]]\nname = "psd_quartiles"\nkind = "psd"\npercentiles = [25, 75]\n'
+        'value = [51.0, 60.0]\nuncertainty = [0.8, 1.2]\nunit = "um"\n'
+        'role = "validate"\n[observable.conditions]\nstage = "before"\n')
+    args = ["diagnose", "--sim", str(tmp_path / "sim.toml"), "--real", str(tmp_path / "real.toml"),
+            "--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cli-cache")]
+    assert main(args) == 0
+    assert list((tmp_path / "cli-cache").glob("*.json"))
+    assert not (tmp_path / "config-cache").exists()
+    capsys.readouterr()
+    rc = main(["diagnose", "--sim", "surrogate", "--real", str(tmp_path / "real.toml"),
+               "--out", str(tmp_path / "o2"), "--cache", str(tmp_path / "c2")])
+    assert rc != 0 and "--cache need a simulation config" in capsys.readouterr().err
