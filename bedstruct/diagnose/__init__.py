@@ -26,6 +26,7 @@ from .report import diagnosis_report, validation_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 from .validate import ENGINE_PRESETS, PRESETS, engine_twin_design, twin_design, validate
+from .validate_liggghts import LIGGGHTS_PRESETS, validate_liggghts
 from .validation_scores import GOALS, ValidationResult, capped_summary, capped_twins, score_twins
 from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table
 
@@ -48,5 +49,6 @@ __all__ = [
     "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
     "NextMeasurement", "Diagnosis", "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS",
     "ValidationResult", "score_twins", "capped_twins", "capped_summary", "separation", "nearest_imitations", "not_told_apart", "twin_design", "engine_twin_design", "validate",
+    "LIGGGHTS_PRESETS", "validate_liggghts",
     "diagnosis_report", "validation_report",
 ]

@@ -214,6 +214,37 @@ def _label(diag) -> str:
     return att.verdict
 
 
+def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, records=None) -> dict:
+    """One twin's record (scores, verdict, rerun checks), appended to ``records`` if given.
+
+    ``signature`` holds the settings that make two validations the same (records of
+    another are not resumed); ``truth`` the withheld effect and magnitude.
+    """
+    att = diag.attribution
+    rec = {"twin": i, "type": kind, **signature, **truth, "predicted": _label(diag),
+           "verdict": att.verdict, "gap_significant": diag.where.significant,
+           "shrink": diag.shrink.fraction, "shrink_rms": diag.shrink.fraction_rms,
+           "gap_before": diag.shrink.before_excess, "gap_after": diag.shrink.after_excess,
+           "p_rerun_calibration": diag.shrink.p_rerun_calibration,
+           "p_rerun_heldout": diag.shrink.p_rerun_heldout,
+           "refits": len(diag.shrink.refits), "reason": att.reason,
+           "where_top": [(w["observable"], w["component"], round(w["z"], 2))
+                         for w in diag.where.ranked(3)]}
+    if att.selected:
+        top = att.selected[0]
+        rec.update(fitted_magnitude=top.magnitude, interval=list(top.interval),
+                   confidence=top.confidence,
+                   not_told_apart=[c["effect"] for c in not_told_apart(att, diag.fingerprints)])
+    log.info("twin %d %s %s -> %s", i, kind, truth.get("true_effect"), rec["predicted"])
+    if records is not None:
+        import json
+
+        from ..report._model import _plain
+        with open(records, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps(_plain(rec)) + "\n")
+    return rec
+
+
 def _repeat_seed(seed: int, k: int) -> int:
     """Seed of the ``k``-th repeated experiment of a twin (the first is the twin's own)."""
     return int(seed) + 7919 * int(k)
@@ -350,11 +381,14 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         observables, after recalibration, is ``U(*snr_range)`` sigma: twins test
         discrimination at a stated detectability, not the arbitrary width of a
         prior range. Weaker gaps are the identifiability report's business.
-    simulator : {"surrogate", "engine"}
+    simulator : {"surrogate", "engine", "liggghts"}
         ``"engine"`` runs :func:`bedstruct.workflows.diagnosis_simulator` on
         :func:`engine_twin_design`. Each in-catalogue engine twin is diagnosed a
         second time with its effect removed from the catalogue (the
-        out-of-catalogue twin), which reuses its runs.
+        out-of-catalogue twin), which reuses its runs. ``"liggghts"`` makes the twins
+        with LIGGGHTS and diagnoses them on the engine
+        (:func:`~bedstruct.diagnose.validate_liggghts.validate_liggghts`; preset
+        ``tiny``; with ``engine["cache"]`` the twins are kept in its ``liggghts-twins/``).
     engine : dict, optional
         The ``[engine]`` table (default: the scale model of the same name,
         ``{"preset": "small"}`` for ``small``, else ``{"preset": "tiny"}``); give ``cache`` to
@@ -389,8 +423,18 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     -------
     ValidationResult
     """
+    if simulator == "liggghts":
+        # twins from another code: their own plan and preset table, same records and scores
+        from .validate_liggghts import validate_liggghts
+        if campaign != "seed" or shard is not None or twin_repeats != 1 or twin_seed is not None:
+            raise ConfigError("simulator='liggghts': campaign, shard, twin_repeats and twin_seed "
+                              "are for the engine's twins; LIGGGHTS twins follow liggghts_twin_plan")
+        workdir = Path(engine["cache"]) / "liggghts-twins" if engine and engine.get("cache") else None
+        return validate_liggghts(preset, seed=seed, engine=engine, workdir=workdir, records=records,
+                                 alpha=alpha, select_alpha=select_alpha, gof_alpha=gof_alpha,
+                                 refine=1 if refine is None else refine, progress=progress)
     if simulator not in ("surrogate", "engine"):
-        raise ConfigError(f"simulator: expected 'surrogate' or 'engine'; got {simulator!r}")
+        raise ConfigError(f"simulator: expected 'surrogate', 'engine' or 'liggghts'; got {simulator!r}")
     table = PRESETS if simulator == "surrogate" else ENGINE_PRESETS
     if preset not in table:
         raise ConfigError(f"preset: expected one of {sorted(table)} for the {simulator}; got {preset!r}")
@@ -456,29 +500,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         diag = diagnose(real, sim, base=base, effects=cat, replicates=cfg["replicates"], seed=seed,
                         alpha=alpha, select_alpha=select_alpha, gof_alpha=gof_alpha,
                         fingerprints=fps, refine=refine, simulator_name=simulator)
-        att = diag.attribution
-        rec = {"twin": i, "type": kind, **signature, **truth, "predicted": _label(diag),
-               "verdict": att.verdict, "gap_significant": diag.where.significant,
-               "shrink": diag.shrink.fraction, "shrink_rms": diag.shrink.fraction_rms,
-               "gap_before": diag.shrink.before_excess, "gap_after": diag.shrink.after_excess,
-               "p_rerun_calibration": diag.shrink.p_rerun_calibration,
-               "p_rerun_heldout": diag.shrink.p_rerun_heldout,
-               "refits": len(diag.shrink.refits), "reason": att.reason,
-               "where_top": [(w["observable"], w["component"], round(w["z"], 2))
-                             for w in diag.where.ranked(3)]}
-        if att.selected:
-            top = att.selected[0]
-            rec.update(fitted_magnitude=top.magnitude, interval=list(top.interval),
-                       confidence=top.confidence,
-                       not_told_apart=[c["effect"] for c in not_told_apart(att, diag.fingerprints)])
-        twins.append(rec)
-        log.info("twin %d %s %s -> %s", i, kind, name, rec["predicted"])
-        if records is not None:
-            import json
-
-            from ..report._model import _plain
-            with open(records, "a", encoding="utf-8") as fh:
-                fh.write(json.dumps(_plain(rec)) + "\n")
+        twins.append(twin_record(diag, i, kind, signature, truth, records=records))
 
     with tempfile.TemporaryDirectory(prefix="bedstruct-twins-") as tmp:
         folder = Path(tmp)

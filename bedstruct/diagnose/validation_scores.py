@@ -263,7 +263,10 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True,
 
     mags = []
     for t in eff_tw:
-        if t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"]:
+        # a twin made by another code's model of the effect (a LIGGGHTS capillary twin) may
+        # have no true magnitude in the catalogue's terms: its attribution counts, not its size
+        if (t["verdict"] == "attributed" and t["predicted"].split("+")[0] == t["true_effect"]
+                and t.get("true_magnitude") is not None):
             lo, hi = t["interval"]
             mags.append({"effect": t["true_effect"], "true": t["true_magnitude"],
                          "fitted": t["fitted_magnitude"], "interval": [lo, hi],

@@ -1,0 +1,278 @@
+"""Validation on twins made with LIGGGHTS: another code's numerics are part of the gap.
+
+:func:`validate_liggghts` is :func:`bedstruct.diagnose.validate` with the "real" data
+made by LIGGGHTS 3.8 (:func:`~bedstruct.diagnose.external_twins.make_liggghts_twin`)
+and the diagnosis run on the embedded engine's fingerprints. The twins are LIGGGHTS'
+own models of the withheld effects, not the catalogue's:
+
+=================  ===========================================  =================================
+twin               LIGGGHTS deck change                          true catalogue effect (magnitude)
+=================  ===========================================  =================================
+null               none                                          none
+rolling friction   EPSD2 ``coefficientRollingFriction`` =        ``non_sphericity`` (0.20)
+                   base + 0.20 (particles and walls)
+liquid bridges     ``cohesion easo/capillary/viscous`` in        ``capillary_bridges`` (no
+                   place of SJKR (gamma 1e-3 N/m, liquid 5e-4)   relative humidity in that model)
+wall friction      particle-wall ``coefficientFriction`` =       ``wall_friction`` (0.30)
+                   base + 0.30
+=================  ===========================================  =================================
+
+Each effect twin is diagnosed twice, with its effect in the catalogue and removed
+(the out-of-catalogue twin), on the same file; the scores are those of
+:func:`~bedstruct.diagnose.score_twins`. A LIGGGHTS twin costs one LIGGGHTS run per
+repetition (about a minute each at ``tiny`` on one core); the fingerprints cost the
+engine calls of :func:`~bedstruct.diagnose.compute_fingerprints`.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from .catalogue import catalogue as _catalogue
+from .diagnosis import diagnose, diagnosis_design
+from .external_twins import (TwinEffect, capillary_effect, liggghts_twin_design,
+                             make_liggghts_twin, null_effect, rolling_friction_effect,
+                             wall_friction_effect)
+from .fingerprints import compute_fingerprints
+from .measurements import load_measurements
+from .surrogate import BASE_PARAMETERS
+from .validate import _FIT_RULE, _SCATTER_RULE, twin_record
+from .validation_scores import ValidationResult, _records_done, score_twins
+
+__all__ = ["LIGGGHTS_PRESETS", "LiggghtsTwinSpec", "liggghts_twin_plan", "validate_liggghts"]
+
+log = logging.getLogger(__name__)
+
+#: Per preset: replicate seeds of the engine's fingerprints, repetitions of each LIGGGHTS
+#: experiment, and the catalogue (the effects LIGGGHTS twins are made of; the others would
+#: only be out-of-catalogue candidates).
+LIGGGHTS_PRESETS = {
+    "tiny": dict(replicates=3, repetitions=3,
+                 effects=("capillary_bridges", "non_sphericity", "wall_friction")),
+}
+
+#: Revision of the LIGGGHTS twins, in every record and ``truth.json``: twins or records
+#: of another revision are remade. 1: the plan of :func:`liggghts_twin_plan`.
+_LIGGGHTS_TWIN_RULE = 1
+
+
+@dataclass(frozen=True)
+class LiggghtsTwinSpec:
+    """One LIGGGHTS twin of the plan: the deck change and the truth it stands for.
+
+    Attributes
+    ----------
+    kind : {"null", "effect"}
+    effect : TwinEffect
+        What is changed in the LIGGGHTS decks.
+    true_effect : str or None
+        The catalogue effect the change is (``None`` for the null twin).
+    true_magnitude : float or None
+        Its magnitude in the catalogue's terms, where the LIGGGHTS model has one.
+    """
+
+    kind: str
+    effect: TwinEffect
+    true_effect: str | None = None
+    true_magnitude: float | None = None
+
+
+def liggghts_twin_plan(base) -> list[LiggghtsTwinSpec]:
+    """The LIGGGHTS twins of a validation (see the module docstring).
+
+    Parameters
+    ----------
+    base : mapping
+        Base parameters (``friction``, ``rolling_friction``): the effects are set
+        relative to them, as the catalogue's magnitudes are.
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import BASE_PARAMETERS
+    >>> [(t.kind, t.true_effect, t.true_magnitude) for t in liggghts_twin_plan(BASE_PARAMETERS)]
+    ... # doctest: +NORMALIZE_WHITESPACE
+    [('null', None, None), ('effect', 'non_sphericity', 0.2),
+     ('effect', 'capillary_bridges', None), ('effect', 'wall_friction', 0.3)]
+    """
+    mu, mu_r = float(base["friction"]), float(base["rolling_friction"])
+    return [LiggghtsTwinSpec("null", null_effect()),
+            LiggghtsTwinSpec("effect", rolling_friction_effect(round(mu_r + 0.20, 12)),
+                             "non_sphericity", 0.20),
+            LiggghtsTwinSpec("effect", capillary_effect(1e-3, 5e-4), "capillary_bridges", None),
+            LiggghtsTwinSpec("effect", wall_friction_effect(round(mu + 0.30, 12)),
+                             "wall_friction", 0.30)]
+
+
+def _twin_folder_matches(folder: Path, want: dict) -> bool:
+    """Whether ``folder`` holds a finished twin made with the settings ``want``."""
+    truth, toml = folder / "truth.json", folder / "twin.toml"
+    if not (truth.is_file() and toml.is_file()):
+        return False
+    try:
+        have = json.loads(truth.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return False
+    return all(have.get(k) == v for k, v in want.items())
+
+
+def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | None = None,
+                      workdir=None, records=None, alpha: float = 0.05,
+                      select_alpha: float = 0.01, gof_alpha: float = 0.01, refine: int = 1,
+                      progress: bool = False) -> ValidationResult:
+    """Validate the diagnosis on twins whose "real" data come from LIGGGHTS.
+
+    Parameters
+    ----------
+    preset : {"tiny"}
+        Scale model of both engines and the sizes of :data:`LIGGGHTS_PRESETS`.
+    seed : int
+        Seed of the fingerprints' replicate runs; the LIGGGHTS repetitions run on seeds
+        ``1000 + 10 seed + k`` and each twin's reading noise on ``10 + 100 seed + i``.
+    engine : dict, optional
+        The embedded engine's ``[engine]`` table (default ``{"preset": preset}``); its
+        ``overrides`` are applied to the LIGGGHTS runs too, and ``cache`` keeps its runs.
+    workdir : path, optional
+        Folder of the twins (``twin<i>/`` with ``twin.toml``, ``truth.json`` and the
+        LIGGGHTS runs). A twin already there, made with the same settings, is reused,
+        so an interrupted validation resumes. Default: a temporary folder, removed
+        afterwards.
+    records : path, optional
+        JSON-lines file of twin records, as in :func:`~bedstruct.diagnose.validate`.
+    alpha, select_alpha, gof_alpha, refine
+        As in :func:`~bedstruct.diagnose.diagnose`.
+    progress : bool
+        Progress bars.
+
+    Returns
+    -------
+    ValidationResult
+        With ``simulator = "liggghts"``; ``settings["twins_made"]`` lists each twin's
+        folder, seeds used and LIGGGHTS wall time.
+
+    Raises
+    ------
+    ConfigError
+        Unknown preset, or no ``liggghts`` executable on the PATH.
+    """
+    if preset not in LIGGGHTS_PRESETS:
+        raise ConfigError(f"preset: expected one of {sorted(LIGGGHTS_PRESETS)} for LIGGGHTS twins "
+                          f"(a LIGGGHTS twin at 'small' is hours per repetition); got {preset!r}")
+    if shutil.which("liggghts") is None:
+        raise ConfigError("LIGGGHTS twins need the liggghts executable on the PATH "
+                          "(Debian/Ubuntu: apt-get install liggghts)")
+    from ..workflows.diagnosis_sim import diagnosis_simulator
+    cfg = LIGGGHTS_PRESETS[preset]
+    t0 = time.perf_counter()
+    effects = _catalogue(cfg["effects"])
+    base = dict(BASE_PARAMETERS)
+    measured = liggghts_twin_design()
+    design = diagnosis_design(measured, effects)
+    engine = dict(engine or {"preset": preset})
+    engine.setdefault("preset", preset)
+    sim = diagnosis_simulator(design, engine)
+    overrides = [str(s) for s in engine.get("overrides", [])]
+    fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
+                               alpha=select_alpha, simulator_name="engine", progress=progress)
+    signature = {"preset": preset, "simulator": "liggghts", "seed": int(seed), "alpha": alpha,
+                 "select_alpha": select_alpha, "gof_alpha": gof_alpha, "refine": int(refine),
+                 "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
+                 "liggghts_twin_rule": _LIGGGHTS_TWIN_RULE}
+    done = _records_done(records, signature)
+    plan = liggghts_twin_plan(base)
+    seeds = tuple(1000 + 10 * int(seed) + k for k in range(cfg["repetitions"]))
+    twins, failed, made = [], [], []
+    tmp = None
+    if workdir is None:
+        tmp = tempfile.TemporaryDirectory(prefix="bedstruct-liggghts-twins-")
+        root = Path(tmp.name)
+    else:
+        root = Path(workdir)
+    steps = list(enumerate(plan))
+    if progress:
+        from tqdm import tqdm
+        steps = tqdm(steps, desc="LIGGGHTS twins")
+    from ..workflows.diagnosis_sim import _DECK_REVISION
+    try:
+        for i, spec in steps:
+            truth = {"true_effect": spec.true_effect, "true_magnitude": spec.true_magnitude,
+                     "true_cohesion": base["cohesion_energy_density"],
+                     "liggghts_effect": spec.effect.label}
+            kinds = [spec.kind] + (["out_of_catalogue"] if spec.kind == "effect" else [])
+            twins.extend(done[(i, k)] for k in kinds if (i, k) in done)
+            todo = [k for k in kinds if (i, k) not in done]
+            if not todo:
+                continue
+            folder = root / f"twin{i}"
+            noise_seed = 10 + 100 * int(seed) + i
+            want = {"effect": spec.effect.to_dict(), "base": base, "seeds": list(seeds),
+                    "noise_seed": noise_seed, "preset": preset, "overrides": overrides,
+                    "deck_revision": _DECK_REVISION, "liggghts_twin_rule": _LIGGGHTS_TWIN_RULE}
+            try:
+                if not _twin_folder_matches(folder, want):
+                    made_twin = make_liggghts_twin(measured, spec.effect, base=base, out=folder,
+                                                   seeds=seeds, noise_seed=noise_seed,
+                                                   preset=preset, overrides=overrides,
+                                                   replace_failed=2)
+                    # the settings a later run checks before reusing this twin
+                    doc = json.loads(made_twin.truth_path.read_text(encoding="utf-8"))
+                    doc.update(deck_revision=_DECK_REVISION, liggghts_twin_rule=_LIGGGHTS_TWIN_RULE)
+                    made_twin.truth_path.write_text(json.dumps(doc, indent=1), encoding="utf-8")
+                doc = json.loads((folder / "truth.json").read_text(encoding="utf-8"))
+                made.append({"twin": i, "liggghts_effect": spec.effect.label,
+                             "folder": str(folder) if tmp is None else None,
+                             "seeds_used": doc.get("seeds_used"),
+                             "liggghts_seconds": doc.get("seconds")})
+                real = load_measurements(folder / "twin.toml")
+                for kind in todo:
+                    cat = tuple(e for e in effects
+                                if not (kind == "out_of_catalogue" and e.name == spec.true_effect))
+                    diag = diagnose(real, sim, base=base, effects=cat,
+                                    replicates=cfg["replicates"], seed=seed, alpha=alpha,
+                                    select_alpha=select_alpha, gof_alpha=gof_alpha,
+                                    fingerprints=fps, refine=refine, simulator_name="engine")
+                    twins.append(twin_record(diag, i, kind, signature, truth, records=records))
+            except (ValueError, np.linalg.LinAlgError, RuntimeError) as exc:
+                # a LIGGGHTS run that cannot be observed, or an engine rerun without a
+                # measurable observable: recorded, not scored
+                log.warning("LIGGGHTS twin %d (%s) failed: %s", i, spec.effect.label, exc)
+                failed.append({"twin": i, "type": spec.kind, **truth, "error": str(exc)[:500]})
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
+    names = [e.name for e in effects]
+    sc = score_twins(twins, names, removed_rows=True,
+                     identifiable={f.name: bool(f.identifiable) for f in fps.fingerprints})
+    settings = {"replicates": cfg["replicates"], "repetitions": cfg["repetitions"],
+                "liggghts_seeds": list(seeds), "effects": names, "refine": refine,
+                "twins_made": made, "failed": failed,
+                "unobservable": dict(fps.meta.get("unobservable", {})),
+                "missing_runs": dict(fps.meta.get("missing_runs", {})),
+                "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
+                "simulator_runs": sim.n_runs, "cached_calls": sim.n_cached,
+                "engine": {"preset": sim.preset, "overrides": sim.overrides,
+                           "cache": str(sim.cache) if sim.cache else None},
+                "resumed_twins": len(done), "alpha": alpha, "select_alpha": select_alpha,
+                "gof_alpha": gof_alpha, "seed": seed,
+                "twin_magnitudes": "fixed (liggghts_twin_plan): rolling friction +0.20, wall "
+                                   "friction +0.30, liquid bridges gamma 1e-3 N/m, liquid 5e-4",
+                "twin_cohesion": "the base's (the LIGGGHTS numerics are the cohesion's gap)",
+                "design": "liggghts_twin_design()",
+                "note": "twins made with LIGGGHTS 3.8 (one MPI rank); fingerprints on the "
+                        "embedded DEM engine (scale-model preset)"}
+    return ValidationResult(preset, "liggghts", sc["top1_accuracy"], sc["null_false_attribution"],
+                            sc["null_gap_flagged"], sc["out_of_catalogue_unexplained"],
+                            sc["median_gap_shrink"], sc["median_gap_shrink_rms"],
+                            sc["magnitude_coverage"], sc["magnitude_median_relative_error"],
+                            sc["confusion"], sc["magnitudes"], twins, sc["goals"],
+                            time.perf_counter() - t0, settings, sc["identifiable"])

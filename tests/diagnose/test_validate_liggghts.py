@@ -1,0 +1,110 @@
+"""The LIGGGHTS-twin validation's orchestration, with both engines stood in for by the
+surrogate (the real LIGGGHTS twin end to end is in test_external_twins.py): the plan, the
+out-of-catalogue second diagnosis, the reuse of finished twins and records, and the scores
+of a twin whose LIGGGHTS model has no magnitude in the catalogue's terms."""
+
+from __future__ import annotations
+
+import importlib
+import json
+
+import pytest
+
+import bedstruct.diagnose.external_twins as external_twins
+import bedstruct.workflows.diagnosis_sim as diagnosis_sim
+from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator, validate
+from bedstruct.errors import ConfigError
+
+# the package's ``validate_liggghts`` is the function; the tests patch its module
+vl = importlib.import_module("bedstruct.diagnose.validate_liggghts")
+
+#: What each LIGGGHTS deck change stands for on the surrogate (the capillary twin's
+#: humidity is the stand-in's, as LIGGGHTS' model has none).
+_AS_CATALOGUE = {"none": {}, "rolling_friction": {"non_sphericity": 0.20},
+                 "capillary": {"capillary_bridges": 0.5}, "wall_friction": {"wall_friction": 0.30}}
+
+
+class _StandIn(SurrogateSimulator):
+    """The surrogate with the attributes validate_liggghts reads from an engine simulator."""
+    preset, overrides, cache, n_cached = "tiny", [], None, 0
+
+    def __init__(self, design, fixed=None):
+        super().__init__(design)
+        self.fixed = dict(fixed or {})
+        self.n_runs = 0
+
+    def __call__(self, base, effects, seed):
+        self.n_runs += 1
+        return super().__call__(base, {**effects, **self.fixed}, seed)
+
+
+@pytest.fixture
+def stand_ins(monkeypatch):
+    made = []
+
+    def fake_liggghts(design, effect, **kw):
+        made.append(_StandIn(design, _AS_CATALOGUE[effect.kind]))
+        return made[-1]
+
+    monkeypatch.setattr(vl.shutil, "which", lambda name: "/usr/bin/" + name)
+    monkeypatch.setattr(diagnosis_sim, "diagnosis_simulator", lambda design, cfg: _StandIn(design))
+    monkeypatch.setattr(external_twins, "liggghts_simulator", fake_liggghts)
+    return made
+
+
+def test_plan_covers_null_and_three_liggghts_models():
+    plan = vl.liggghts_twin_plan(BASE_PARAMETERS)
+    assert [t.kind for t in plan] == ["null", "effect", "effect", "effect"]
+    rolling, wall = plan[1].effect, plan[3].effect
+    # set relative to the base, as the catalogue's magnitudes are
+    assert rolling.rolling_friction == pytest.approx(BASE_PARAMETERS["rolling_friction"] + 0.2)
+    assert wall.wall_friction == pytest.approx(BASE_PARAMETERS["friction"] + 0.3)
+
+
+def test_validation_scores_resumes_and_reuses_twins(stand_ins, tmp_path):
+    records = tmp_path / "records.jsonl"
+    res = vl.validate_liggghts("tiny", workdir=tmp_path / "twins", records=records, refine=0)
+    assert res.simulator == "liggghts"
+    # 4 twins, the 3 effect twins diagnosed again with their effect removed
+    kinds = sorted(t["type"] for t in res.twins)
+    assert kinds == ["effect"] * 3 + ["null"] + ["out_of_catalogue"] * 3
+    by = {(t["twin"], t["type"]): t for t in res.twins}
+    assert by[0, "null"]["verdict"] == "none"
+    assert by[1, "effect"]["predicted"].split("+")[0] == "non_sphericity"
+    # the capillary twin has no true magnitude: its attribution counts, its interval is not scored
+    assert by[2, "effect"]["true_magnitude"] is None
+    assert all(m["effect"] != "capillary_bridges" for m in res.magnitudes)
+    assert res.top1_accuracy == pytest.approx(
+        sum(by[i, "effect"]["predicted"].split("+")[0] == by[i, "effect"]["true_effect"]
+            and by[i, "effect"]["verdict"] == "attributed" for i in (1, 2, 3)) / 3)
+    def liggghts_runs():
+        return sum(sim.n_runs for sim in stand_ins)
+
+    assert liggghts_runs() == 4 * 3                      # one "LIGGGHTS" run per repetition
+    truth = json.loads((tmp_path / "twins" / "twin1" / "truth.json").read_text())
+    assert truth["seeds"] == [1000, 1001, 1002] and truth["liggghts_twin_rule"] == 1
+    assert len(records.read_text().splitlines()) == 7
+
+    # a second run takes every record as done and remakes no twin
+    again = vl.validate_liggghts("tiny", workdir=tmp_path / "twins", records=records, refine=0)
+    assert liggghts_runs() == 12 and again.settings["resumed_twins"] == 7
+    assert again.top1_accuracy == res.top1_accuracy
+
+    # without the records, the finished twins are reused (no new LIGGGHTS runs), and a
+    # twin whose settings changed is remade
+    doc = json.loads((tmp_path / "twins" / "twin0" / "truth.json").read_text())
+    doc["noise_seed"] = -1
+    (tmp_path / "twins" / "twin0" / "truth.json").write_text(json.dumps(doc))
+    third = vl.validate_liggghts("tiny", workdir=tmp_path / "twins", refine=0)
+    assert liggghts_runs() == 12 + 3
+    assert [t["predicted"] for t in third.twins] == [t["predicted"] for t in res.twins]
+
+
+def test_bad_requests_are_clear_errors(stand_ins, monkeypatch):
+    with pytest.raises(ConfigError, match="small.*hours"):
+        vl.validate_liggghts("small")
+    with pytest.raises(ConfigError, match="twin_repeats"):
+        validate("tiny", simulator="liggghts", twin_repeats=3)
+    monkeypatch.setattr(vl.shutil, "which", lambda name: None)
+    with pytest.raises(ConfigError, match="apt-get install liggghts"):
+        vl.validate_liggghts("tiny")
