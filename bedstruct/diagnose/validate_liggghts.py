@@ -164,6 +164,17 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     ------
     ConfigError
         Unknown preset, or no ``liggghts`` executable on the PATH.
+
+    Examples
+    --------
+    About an hour on one core at ``tiny`` (24 engine calls for the fingerprints, 12
+    LIGGGHTS runs, the reruns); with a cache a second call reuses every run:
+
+    >>> from bedstruct.diagnose import validate_liggghts
+    >>> res = validate_liggghts("tiny", engine={"preset": "tiny", "cache": "runs"},
+    ...                         workdir="runs/liggghts-twins")   # doctest: +SKIP
+    >>> res.confusion["rows"][:4]                                # doctest: +SKIP
+    ['capillary_bridges', 'non_sphericity', 'wall_friction', 'null']
     """
     if preset not in LIGGGHTS_PRESETS:
         raise ConfigError(f"preset: expected one of {sorted(LIGGGHTS_PRESETS)} for LIGGGHTS twins "
@@ -180,6 +191,10 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     design = diagnosis_design(measured, effects)
     engine = dict(engine or {"preset": preset})
     engine.setdefault("preset", preset)
+    if engine["preset"] != preset:
+        # both codes must run the same scale model, or their difference is not numerics
+        raise ConfigError(f"[engine] preset {engine['preset']!r}: LIGGGHTS twins at {preset!r} "
+                          f"need the engine's fingerprints at the same scale model")
     sim = diagnosis_simulator(design, engine)
     overrides = [str(s) for s in engine.get("overrides", [])]
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,

@@ -194,6 +194,28 @@ def test_attribution_combination_of_two_effects():
     assert {e.effect for e in att.selected} == {"A", "C"}
 
 
+def test_the_selected_model_is_the_comparisons_best_not_a_forward_path():
+    """Best subset: the best single (D, which imitates B + C along most of its pattern)
+    is not part of the true pair. Forward selection stopped at D alone (D + B does not
+    pass the pair's threshold) although the model comparison gave D a BIC weight of 0.01
+    and B + C 0.89; the selection now names the comparison's first significant model."""
+    B = np.r_[0, 0, 0, 0, 4, 4, 4, -4, -4, 0, 4, -4] * 2.0
+    C = np.r_[4, 0, 0, 4, 0, 0, 4, 0, 0, 0, 0, 4] * 2.0
+    D = 0.8 * (B + C) + 1.5 * np.r_[0, 3, -3, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+    effects = {"B": B, "C": C, "D": D}
+    design = toy_design(N, n_validate=3)
+    sim = ToySimulator(design, sens=J, effects=effects)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect(n) for n in effects],
+                               nuisance=("k",), replicates=3, alpha=0.01)
+    y = sim({"k": 1.0}, {"B": 0.5, "C": 0.5}, 999)
+    y = np.concatenate([y[m.name] for m in design]) + np.random.default_rng(1).standard_normal(N)
+    att = attribute(y - fps.base_samples.mean(axis=0), fps)
+    assert att.ranking[0].effect == "D"                    # the forward path's first step
+    assert att.verdict == "attributed" and {e.effect for e in att.selected} == {"B", "C"}
+    assert att.best.effects == att.models[0].effects       # the comparison's first model
+    assert all(e.confidence > 0.5 for e in att.selected)
+
+
 def test_out_of_span_residual_is_unexplained():
     design, sim, fps = _setup()
     pattern = np.r_[5, 5, -5, -5, 0, 5, -5, 5, 0, 0, 0, 0] * 1.0    # none of A, B, C, k

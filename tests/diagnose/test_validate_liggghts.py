@@ -103,6 +103,8 @@ def test_validation_scores_resumes_and_reuses_twins(stand_ins, tmp_path):
 def test_bad_requests_are_clear_errors(stand_ins, monkeypatch):
     with pytest.raises(ConfigError, match="small.*hours"):
         vl.validate_liggghts("small")
+    with pytest.raises(ConfigError, match="same scale model"):
+        vl.validate_liggghts("tiny", engine={"preset": "small"})
     with pytest.raises(ConfigError, match="twin_repeats"):
         validate("tiny", simulator="liggghts", twin_repeats=3)
     monkeypatch.setattr(vl.shutil, "which", lambda name: None)
