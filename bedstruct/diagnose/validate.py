@@ -83,8 +83,10 @@ _SCATTER_RULE = 2
 #: leverage are computed on unit-norm columns; before, the recalibration direction (J/m^3,
 #: 1e8 below the magnitudes) was cut as singular, so the intervals ignored it. 6: a rerun
 #: that fails while a recalibration shift exceeds its finite-difference step re-simulates the
-#: base at that shift (paired seeds) and refits with the secant sensitivities.
-_FIT_RULE = 6
+#: base at that shift (paired seeds) and refits with the secant sensitivities. 7: the selected
+#: model is the best by BIC among those whose every effect is significant (best subset), not
+#: the end of a forward selection.
+_FIT_RULE = 7
 
 
 def engine_scale_model(preset: str) -> str:
