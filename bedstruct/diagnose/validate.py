@@ -84,8 +84,8 @@ _SCATTER_RULE = 2
 #: 1e8 below the magnitudes) was cut as singular, so the intervals ignored it. 6: a rerun
 #: that fails while a recalibration shift exceeds its finite-difference step re-simulates the
 #: base at that shift (paired seeds) and refits with the secant sensitivities. 7: the selected
-#: model is the best by BIC among those whose every effect is significant (best subset), not
-#: the end of a forward selection.
+#: model is the best subset of its size, the size chosen by significance (a pair must beat
+#: the best single), not the end of a forward selection through the best single.
 _FIT_RULE = 7
 
 

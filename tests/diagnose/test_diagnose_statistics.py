@@ -194,11 +194,11 @@ def test_attribution_combination_of_two_effects():
     assert {e.effect for e in att.selected} == {"A", "C"}
 
 
-def test_the_selected_model_is_the_comparisons_best_not_a_forward_path():
+def test_the_best_pair_is_chosen_even_without_the_best_single():
     """Best subset: the best single (D, which imitates B + C along most of its pattern)
     is not part of the true pair. Forward selection stopped at D alone (D + B does not
     pass the pair's threshold) although the model comparison gave D a BIC weight of 0.01
-    and B + C 0.89; the selection now names the comparison's first significant model."""
+    and B + C 0.89; the best pair beats the best single significantly, so it is chosen."""
     B = np.r_[0, 0, 0, 0, 4, 4, 4, -4, -4, 0, 4, -4] * 2.0
     C = np.r_[4, 0, 0, 4, 0, 0, 4, 0, 0, 0, 0, 4] * 2.0
     D = 0.8 * (B + C) + 1.5 * np.r_[0, 3, -3, 0, 0, 0, 0, 0, 0, 0, 0, 0]
@@ -214,6 +214,26 @@ def test_the_selected_model_is_the_comparisons_best_not_a_forward_path():
     assert att.verdict == "attributed" and {e.effect for e in att.selected} == {"B", "C"}
     assert att.best.effects == att.models[0].effects       # the comparison's first model
     assert all(e.confidence > 0.5 for e in att.selected)
+
+
+def test_a_pair_must_beat_the_best_single_significantly():
+    """Parsimony: P + Q imitates R and fits the noise a little better (chi2 0.9 against
+    5.0, BIC weight 0.55 against 0.21), but one more effect must lower chi2 by more than
+    the threshold (7.9): R alone is chosen. Picking the comparison's first model whose
+    every effect is significant (P and Q each are, in the pair) named P + Q."""
+    R = np.r_[0, 0, 0, 0, 4, 4, 4, -4, -4, 0, 4, -4] * 2.0
+    u = np.r_[6, -6, 6, -6, 0, 0, 0, 0, 0, 6, -6, 0] * 1.0
+    noise = np.r_[1.2, 0.9, -1.1, 1.3, 0.2, -0.3, 0.1, 0.2, -0.2, 0.5, -0.4, 0.3]
+    effects = {"P": 0.5 * R + u, "Q": 0.5 * R - u + noise, "R": R}
+    design = toy_design(N, n_validate=3)
+    sim = ToySimulator(design, sens=J, effects=effects)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect(n) for n in effects],
+                               nuisance=("k",), replicates=3, alpha=0.01)
+    y = sim({"k": 1.0}, {"R": 0.5}, 999)
+    y = np.concatenate([y[m.name] for m in design]) + noise
+    att = attribute(y - fps.base_samples.mean(axis=0), fps)
+    assert att.models[0].effects == ("P", "Q") and att.models[0].chi2 < att.best.chi2 - 2.2
+    assert att.verdict == "attributed" and [e.effect for e in att.selected] == ["R"]
 
 
 def test_out_of_span_residual_is_unexplained():
