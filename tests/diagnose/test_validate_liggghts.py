@@ -84,6 +84,10 @@ def test_validation_scores_resumes_and_reuses_twins(stand_ins, tmp_path):
     truth = json.loads((tmp_path / "twins" / "twin1" / "truth.json").read_text())
     assert truth["seeds"] == [1000, 1001, 1002] and truth["liggghts_twin_rule"] == 1
     assert len(records.read_text().splitlines()) == 7
+    # the report the CLI writes (--out)
+    from bedstruct.report._render import write_report
+    html, _ = write_report(res.report(), tmp_path / "report")
+    assert "liggghts" in html.read_text(encoding="utf-8")
 
     # a second run takes every record as done and remakes no twin
     again = vl.validate_liggghts("tiny", workdir=tmp_path / "twins", records=records, refine=0)
