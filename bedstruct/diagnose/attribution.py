@@ -7,9 +7,10 @@ the fingerprint responses) plus free recalibration shifts ``beta`` of the
 nuisance parameters. The chosen model is the best subset of its size (lowest BIC),
 the size chosen by significance: a single effect when it lowers the chi-square by
 more than its Bonferroni threshold, a pair when it lowers every single's by more
-than the next threshold. It must then fit within noise (combined chi-square and largest-residual goodness-of-fit
-p-value >= ``gof_alpha``), otherwise the verdict is ``"unexplained"``. All single effects and pairs are fitted for the
-model-comparison table (chi-square, p-value, AIC, BIC, BIC weight).
+than the next threshold. It must then fit within noise (combined chi-square and
+largest-residual goodness-of-fit p-value >= ``gof_alpha``), otherwise the verdict is
+``"unexplained"``. All single effects and pairs are fitted for the model-comparison
+table (chi-square, p-value, AIC, BIC, BIC weight).
 
 .. versionadded:: 0.1
 """

@@ -12,8 +12,9 @@ Validation runs on the analytic
 :class:`~bedstruct.diagnose.surrogate.SurrogateSimulator` (``simulator =
 "surrogate"``, the default: seconds) or on the embedded DEM engine
 (``simulator = "engine"``, :func:`bedstruct.workflows.diagnosis_simulator`, on
-:func:`engine_twin_design` with :data:`ENGINE_PRESETS`: minutes to hours), and
-every result says which.
+:func:`engine_twin_design` with :data:`ENGINE_PRESETS`: minutes to hours), or on
+twins made by LIGGGHTS and diagnosed on the engine (``simulator = "liggghts"``,
+:mod:`bedstruct.diagnose.validate_liggghts`), and every result says which.
 
 .. versionadded:: 0.1
 """
@@ -85,7 +86,7 @@ _SCATTER_RULE = 2
 #: that fails while a recalibration shift exceeds its finite-difference step re-simulates the
 #: base at that shift (paired seeds) and refits with the secant sensitivities. 7: the selected
 #: model is the best subset of its size, the size chosen by significance (a pair must beat
-#: the best single), not the end of a forward selection through the best single.
+#: every single), not the end of a forward selection through the best single.
 _FIT_RULE = 7
 
 
