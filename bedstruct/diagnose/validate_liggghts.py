@@ -209,6 +209,9 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     twins, failed, made = [], [], []
     tmp = None
     if workdir is None:
+        # about an hour and a half of runs that an interruption would lose
+        log.warning("LIGGGHTS twins are made in a temporary folder and removed afterwards; "
+                    "give workdir (CLI: --cache DIR) to keep and reuse them")
         tmp = tempfile.TemporaryDirectory(prefix="bedstruct-liggghts-twins-")
         root = Path(tmp.name)
     else:
