@@ -575,9 +575,5 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 "note": ("runs on the analytic surrogate simulator, not the DEM engine"
                          if simulator == "surrogate" else
                          "runs on the embedded DEM engine (scale-model preset)")}
-    return ValidationResult(preset, simulator, sc["top1_accuracy"], sc["null_false_attribution"],
-                            sc["null_gap_flagged"], sc["out_of_catalogue_unexplained"],
-                            sc["median_gap_shrink"], sc["median_gap_shrink_rms"],
-                            sc["magnitude_coverage"], sc["magnitude_median_relative_error"],
-                            sc["confusion"], sc["magnitudes"], twins, sc["goals"],
-                            time.perf_counter() - t0, settings, sc["identifiable"])
+    return ValidationResult.from_scores(preset, simulator, sc, twins, time.perf_counter() - t0,
+                                        settings)

@@ -288,9 +288,5 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
                 "design": "liggghts_twin_design()",
                 "note": "twins made with LIGGGHTS 3.8 (one MPI rank); fingerprints on the "
                         "embedded DEM engine (scale-model preset)"}
-    return ValidationResult(preset, "liggghts", sc["top1_accuracy"], sc["null_false_attribution"],
-                            sc["null_gap_flagged"], sc["out_of_catalogue_unexplained"],
-                            sc["median_gap_shrink"], sc["median_gap_shrink_rms"],
-                            sc["magnitude_coverage"], sc["magnitude_median_relative_error"],
-                            sc["confusion"], sc["magnitudes"], twins, sc["goals"],
-                            time.perf_counter() - t0, settings, sc["identifiable"])
+    return ValidationResult.from_scores(preset, "liggghts", sc, twins, time.perf_counter() - t0,
+                                        settings)

@@ -80,6 +80,17 @@ class ValidationResult:
     settings: dict = field(default_factory=dict)
     identifiable: dict = field(default_factory=dict)
 
+    @classmethod
+    def from_scores(cls, preset: str, simulator: str, scores: dict, twins, seconds: float,
+                    settings: dict) -> "ValidationResult":
+        """The result of twins scored by :func:`score_twins` (``scores``)."""
+        keys = ("top1_accuracy", "null_false_attribution", "null_gap_flagged",
+                "out_of_catalogue_unexplained", "median_gap_shrink", "median_gap_shrink_rms",
+                "magnitude_coverage", "magnitude_median_relative_error", "confusion",
+                "magnitudes")
+        return cls(preset, simulator, *(scores[k] for k in keys), list(twins), scores["goals"],
+                   seconds, settings, scores["identifiable"])
+
     def report(self):
         """The validation as a :class:`bedstruct.report._model.Report`."""
         from .report import validation_report
