@@ -126,6 +126,14 @@ def _twin_folder_matches(folder: Path, want: dict) -> bool:
     return all(have.get(k) == v for k, v in want.items())
 
 
+def _made_entry(i: int, spec: LiggghtsTwinSpec, folder: Path, *, keep: bool) -> dict:
+    """What ``settings["twins_made"]`` says of a finished twin (from its ``truth.json``)."""
+    doc = json.loads((folder / "truth.json").read_text(encoding="utf-8"))
+    return {"twin": i, "liggghts_effect": spec.effect.label,
+            "folder": str(folder) if keep else None, "seeds_used": doc.get("seeds_used"),
+            "liggghts_seconds": doc.get("seconds")}
+
+
 def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | None = None,
                       workdir=None, records=None, alpha: float = 0.05,
                       select_alpha: float = 0.01, gof_alpha: float = 0.01, refine: int = 1,
@@ -229,13 +237,15 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
             kinds = [spec.kind] + (["out_of_catalogue"] if spec.kind == "effect" else [])
             twins.extend(done[(i, k)] for k in kinds if (i, k) in done)
             todo = [k for k in kinds if (i, k) not in done]
-            if not todo:
-                continue
             folder = root / f"twin{i}"
             noise_seed = 10 + 100 * int(seed) + i
             want = {"effect": spec.effect.to_dict(), "base": base, "seeds": list(seeds),
                     "noise_seed": noise_seed, "preset": preset, "overrides": overrides,
                     "deck_revision": _DECK_REVISION, "liggghts_twin_rule": _LIGGGHTS_TWIN_RULE}
+            if not todo:  # every diagnosis resumed from the records: list the twin, if kept
+                if _twin_folder_matches(folder, want):
+                    made.append(_made_entry(i, spec, folder, keep=tmp is None))
+                continue
             try:
                 if not _twin_folder_matches(folder, want):
                     made_twin = make_liggghts_twin(measured, spec.effect, base=base, out=folder,
@@ -246,11 +256,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
                     doc = json.loads(made_twin.truth_path.read_text(encoding="utf-8"))
                     doc.update(deck_revision=_DECK_REVISION, liggghts_twin_rule=_LIGGGHTS_TWIN_RULE)
                     made_twin.truth_path.write_text(json.dumps(doc, indent=1), encoding="utf-8")
-                doc = json.loads((folder / "truth.json").read_text(encoding="utf-8"))
-                made.append({"twin": i, "liggghts_effect": spec.effect.label,
-                             "folder": str(folder) if tmp is None else None,
-                             "seeds_used": doc.get("seeds_used"),
-                             "liggghts_seconds": doc.get("seconds")})
+                made.append(_made_entry(i, spec, folder, keep=tmp is None))
                 real = load_measurements(folder / "twin.toml")
                 for kind in todo:
                     cat = tuple(e for e in effects

@@ -92,6 +92,7 @@ def test_validation_scores_resumes_and_reuses_twins(stand_ins, tmp_path):
     # a second run takes every record as done and remakes no twin
     again = vl.validate_liggghts("tiny", workdir=tmp_path / "twins", records=records, refine=0)
     assert liggghts_runs() == 12 and again.settings["resumed_twins"] == 7
+    assert [m["seeds_used"] for m in again.settings["twins_made"]] == [[1000, 1001, 1002]] * 4
     assert again.top1_accuracy == res.top1_accuracy
 
     # without the records, the finished twins are reused (no new LIGGGHTS runs), and a
