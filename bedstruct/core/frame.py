@@ -17,7 +17,8 @@ UNIT_STYLES: dict[str, dict[str, float]] = {
     "si": dict(length=1.0, time=1.0, mass=1.0, velocity=1.0, force=1.0, density=1.0),
     "cgs": dict(length=1e-2, time=1.0, mass=1e-3, velocity=1e-2, force=1e-5, density=1e3),
     "micro": dict(length=1e-6, time=1e-6, mass=1e-15, velocity=1.0, force=1e-9, density=1e3),
-    "nano": dict(length=1e-9, time=1e-9, mass=1e-18, velocity=1.0, force=1e-9, density=1e3),
+    # LAMMPS nano: attogram (1e-21 kg), nm, ns; force ag nm/ns^2, density ag/nm^3
+    "nano": dict(length=1e-9, time=1e-9, mass=1e-21, velocity=1.0, force=1e-12, density=1e6),
 }
 _LENGTH_NAMES = {"si": "m", "cgs": "cm", "micro": "um", "nano": "nm"}
 

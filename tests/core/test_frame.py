@@ -3,6 +3,7 @@ import pytest
 
 from bedstruct import Contacts, Frame, Units
 from bedstruct.core import lens_radius
+from bedstruct.core.frame import UNIT_STYLES
 
 
 def test_defaults_and_volume():
@@ -49,6 +50,22 @@ def test_to_si_records_conversion():
     assert "c_x" in g.units.conversions[0]
     with pytest.raises(ValueError, match="SI"):
         Units("lj").to_si("length")
+
+
+@pytest.mark.parametrize("style", sorted(UNIT_STYLES))
+def test_unit_styles_are_dimensionally_consistent(style):
+    # velocity = L/T, force = M L/T^2, density = M/L^3 in every style
+    u = UNIT_STYLES[style]
+    assert u["velocity"] == pytest.approx(u["length"] / u["time"], rel=1e-12)
+    assert u["force"] == pytest.approx(u["mass"] * u["length"] / u["time"] ** 2, rel=1e-12)
+    assert u["density"] == pytest.approx(u["mass"] / u["length"] ** 3, rel=1e-12)
+
+
+@pytest.mark.parametrize("style, mass_kg", [("si", 1.0), ("cgs", 1e-3), ("micro", 1e-15),
+                                             ("nano", 1e-21)])
+def test_unit_styles_mass_is_lammps(style, mass_kg):
+    # LAMMPS `units`: kilogram, gram, picogram, attogram
+    assert UNIT_STYLES[style]["mass"] == mass_kg
 
 
 def test_lens_radius_against_geometry():
