@@ -75,6 +75,23 @@ def test_windows_pipeline(random_bed):
     assert np.isfinite(fit.a) and fit.n_points == 4
 
 
+def test_integer_weights_equal_repeated_points():
+    rng = np.random.default_rng(3)
+    f = rng.uniform(0.45, 0.65, 7)
+    cn = german_cn(f, a=1.9, b=0.05) + rng.normal(0, 0.2, 7)
+    k = np.array([1, 3, 2, 5, 1, 4, 2])
+    weighted = fit_german_law(f, cn, weights=k)
+    repeated = fit_german_law(np.repeat(f, k), np.repeat(cn, k))
+    assert weighted.a == pytest.approx(repeated.a, rel=1e-12)
+    assert weighted.b == pytest.approx(repeated.b, rel=1e-12)
+    # and it is the weighted straight line cn = 2a + 11b f^2 (numpy weights multiply residuals)
+    slope, intercept = np.polyfit(f ** 2, cn, 1, w=np.sqrt(k))
+    assert weighted.a == pytest.approx(intercept / 2, rel=1e-10)
+    assert weighted.b == pytest.approx(slope / 11, rel=1e-10)
+    unweighted = fit_german_law(f, cn)
+    assert abs(unweighted.a - weighted.a) > 1e-3     # the weights matter for these points
+
+
 def test_plot_on_given_axes():
     from matplotlib.figure import Figure
     from bedstruct.plot import plot_german

@@ -391,6 +391,8 @@ def test_simple_cubic_lattice_conductivity_is_isotropic_g_over_s():
     k = conductivity_tensor(net)
     G = 2 * K_S * math.sqrt(10.5 ** 2 - 10.0 ** 2) * 1e-6
     np.testing.assert_allclose(k.tensor, G / 20e-6 * np.eye(3), rtol=1e-10, atol=1e-12)
+    # the temperature field of a perfect lattice is exactly affine: the bound is attained
+    np.testing.assert_allclose(k.affine, G / 20e-6 * np.eye(3), rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(k.fabric, np.eye(3) / 3, atol=1e-12)
     assert k.boundary == ("periodic",) * 3 and k.asymmetry < 1e-10
     assert k.anisotropy == pytest.approx(0.0, abs=1e-10)
@@ -407,6 +409,7 @@ def test_stretched_lattice_gives_predicted_anisotropy():
     sm = s * 1e-6
     expected = G * sm ** 2 / np.prod(sm)            # K_aa = G_a s_a / (s_b s_c)
     np.testing.assert_allclose(np.diag(k.tensor), expected, rtol=1e-10)
+    np.testing.assert_allclose(k.affine, np.diag(expected), rtol=1e-10, atol=1e-10 * expected.min())
     np.testing.assert_allclose(k.eigenvalues, np.sort(expected)[::-1], rtol=1e-10)
     assert abs(k.eigenvectors[0, 0]) == pytest.approx(1.0)   # principal direction x
     # the contact directions alone are isotropic: the fabric cannot see this anisotropy
@@ -447,6 +450,9 @@ def test_random_bed_tensor_is_below_the_affine_bound():
     net = thermal_network(f, c)
     k = conductivity_tensor(net)
     assert k.boundary == ("periodic", "periodic", "slabs")
+    # the affine bound is sum G l (x) l / V over the contacts' branch vectors
+    affine = np.einsum("m,ma,mb->ab", net.conductance, net.branch, net.branch) / k.volume
+    np.testing.assert_allclose(k.affine, affine, rtol=1e-12)
     # relaxing the temperatures can only lower the dissipation: K <= affine (Loewner order)
     assert np.linalg.eigvalsh(k.affine - k.tensor).min() > -1e-9 * k.affine.max()
     assert np.all(k.eigenvalues > 0)

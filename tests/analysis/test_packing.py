@@ -158,6 +158,12 @@ def test_windows_partition_and_agree(random_bed):
     grid = packing_grid(random_bed, (3, 2, 4))
     cell = np.prod([np.diff(e)[0] for e in grid.edges])
     assert (grid.fractions * cell).sum() == pytest.approx(total, rel=1e-12)
+    # every cell where it belongs: the window kernel on that cell's bounds agrees
+    for idx in np.ndindex(grid.fractions.shape):
+        cell_lo = [grid.edges[a][idx[a]] for a in range(3)]
+        cell_hi = [grid.edges[a][idx[a] + 1] for a in range(3)]
+        one = packing_fraction(random_bed, (cell_lo, cell_hi))
+        assert grid.fractions[idx] == pytest.approx(one.fraction, rel=1e-10, abs=1e-12)
     t = packing_table(prof)
     assert len(t["fraction"]) == 3 and set(t) >= {"x_lo", "z_hi"}
 

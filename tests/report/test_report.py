@@ -9,6 +9,7 @@ import bedstruct
 from bedstruct.cli import main
 from bedstruct.report import ReportOptions, build_report, render_html, select_frames, write_report
 from bedstruct.report import build as build_mod
+from lattices import cubic_lattice
 
 
 @pytest.fixture(scope="module")
@@ -57,6 +58,23 @@ def test_report_sections_and_numbers(bed_dump, tmp_path):
     html = html_path.read_text()
     assert html.count("data:image/png;base64,") == sum(len(s.figures) for s in rep.sections) > 3
     assert json.loads(json_path.read_text())["schema"] == "bedstruct.report/1"
+
+
+def test_report_packing_regions_of_a_lattice_with_a_depleted_end():
+    # 24 x 8 x 4 touching spheres (pi/6 everywhere); the last third (x columns 16-23)
+    # loses a checkerboard half of its lower three layers: 5/8 of pi/6 there, so a region
+    # on the wrong axis, in the wrong order or scaled shows at 1e-12
+    lattice = cubic_lattice((24, 8, 4), spacing=50.0, radius=25.0, boundary=("pp", "pp", "ff"))
+    site = np.round(lattice.positions / 50.0 - 0.5).astype(int)
+    removed = (site[:, 0] >= 16) & (site.sum(axis=1) % 2 == 1) & (site[:, 2] < 3)
+    bed = bedstruct.Frame(lattice.positions[~removed], lattice.radii[~removed], box=lattice.box)
+    num = build_report(bed, options=ReportOptions(regions=3)).summary()["values"]
+    full = np.pi / 6
+    assert num["packing.fraction_start"] == pytest.approx(full, rel=1e-12)
+    assert num["packing.fraction_centre"] == pytest.approx(full, rel=1e-12)
+    assert num["packing.fraction_end"] == pytest.approx(5 / 8 * full, rel=1e-12)
+    assert num["packing.bounding_box_fraction"] == pytest.approx(
+        bed.n_particles / lattice.n_particles * full, rel=1e-12)
 
 
 def test_failing_section_does_not_break_report(bed_dump, monkeypatch):

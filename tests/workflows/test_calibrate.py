@@ -15,6 +15,11 @@ def test_inverse_linear_against_numpy():
     assert b == pytest.approx(bb)
     assert xs == pytest.approx((15.0 - aa) / bb)
     assert 0 < sx < 0.2
+    # far from the centroid the slope's error counts: the classical inverse prediction
+    # sigma/|b| sqrt(1/n + (x* - mean x)^2 / Sxx) with sigma known
+    xs, sx, b = inverse_linear(x, y, np.full(4, 0.1), 22.0)
+    sxx = np.sum((x - x.mean()) ** 2)
+    assert sx == pytest.approx(0.1 / abs(b) * np.sqrt(1 / 4 + (xs - x.mean()) ** 2 / sxx), rel=1e-10)
 
 
 def test_bracketing_finds_a_nonlinear_root():
