@@ -28,7 +28,8 @@ def sample_radii(n: int, psd, *, rng=None) -> np.ndarray:
         or a mapping of diameter percentiles ``{10: d10, 50: d50, 90: d90}``
         (m, optional ``"bounds": (d_min, d_max)``, default ``(d10/3, 3 d90)``),
         fitted with :func:`bedstruct.analysis.psd_from_percentiles`. Other
-        percentile sets are interpolated log-linearly in probit space.
+        percentile sets are interpolated log-linearly in probit space. Percentiles
+        are volume-based in both cases; radii are drawn by number.
     rng : int or numpy Generator, optional
 
     Returns
@@ -78,22 +79,31 @@ def _from_percentiles(n, pct: dict, rng) -> np.ndarray:
                           dtype=np.float64)
     q = np.array(sorted(float(k) for k in pct), dtype=np.float64)
     d = np.array([float(pct[k]) for k in sorted(pct, key=float)], dtype=np.float64)
-    if q.size < 2 or np.any(np.diff(d) < 0) or q[0] <= 0 or q[-1] >= 100:
+    if q.size < 2 or np.any(np.diff(d) <= 0) or q[0] <= 0 or q[-1] >= 100 or d[0] <= 0:
         raise ConfigError(f"percentiles must be >= 2 increasing diameters at levels in (0, 100); "
                           f"got {pct!r}")
-    # log-normal-like: interpolate log d linearly in the probit of the level
-    from scipy.special import ndtri
+    d_min, d_max = (d[0] / 3.0, d[-1] * 3.0) if bounds is None else map(float, bounds)
+    if not 0 < d_min < d[0] or not d_max > d[-1]:
+        raise ConfigError(f"bounds must bracket the percentiles' diameters: 0 < d_min < {d[0]:g} "
+                          f"and d_max > {d[-1]:g}; got {bounds!r}")
+    # The percentiles are volume-based (laser diffraction), as in the {10, 50, 90} case: the
+    # volume distribution is log-linear in the probit of the level between them (extended
+    # with the end slopes, truncated to the bounds); particles are drawn by number,
+    # q0(d) ~ q3(d) / d^3.
+    from scipy.special import ndtr, ndtri
     z = ndtri(q / 100.0)
-    u = rng.random(n)
-    zu = ndtri(np.clip(u, 1e-6, 1 - 1e-6))
-    slope_lo = (np.log(d[1]) - np.log(d[0])) / (z[1] - z[0])
-    slope_hi = (np.log(d[-1]) - np.log(d[-2])) / (z[-1] - z[-2])
-    logd = np.interp(zu, z, np.log(d))
-    logd = np.where(zu < z[0], np.log(d[0]) + slope_lo * (zu - z[0]), logd)
-    logd = np.where(zu > z[-1], np.log(d[-1]) + slope_hi * (zu - z[-1]), logd)
-    # clip the tails at 3x beyond the extreme percentiles
-    logd = np.clip(logd, np.log(d[0] / 3.0), np.log(d[-1] * 3.0))
-    return 0.5 * np.exp(logd)
+    logd_knots = np.log(d)
+    slope_lo = (z[1] - z[0]) / (logd_knots[1] - logd_knots[0])
+    slope_hi = (z[-1] - z[-2]) / (logd_knots[-1] - logd_knots[-2])
+    grid = np.linspace(np.log(d_min), np.log(d_max), 4097)
+    zg = np.interp(grid, logd_knots, z)
+    zg = np.where(grid < logd_knots[0], z[0] + slope_lo * (grid - logd_knots[0]), zg)
+    zg = np.where(grid > logd_knots[-1], z[-1] + slope_hi * (grid - logd_knots[-1]), zg)
+    volume_mass = np.diff(ndtr(zg))
+    mid = 0.5 * (grid[1:] + grid[:-1])
+    number_cdf = np.concatenate([[0.0], np.cumsum(volume_mass * np.exp(-3.0 * mid))])
+    number_cdf /= number_cdf[-1]
+    return 0.5 * np.exp(np.interp(rng.random(n), number_cdf, grid))
 
 
 def raindrop_positions(lo, hi, radii, *, existing=None, existing_radii=None, rng=None,

@@ -33,6 +33,33 @@ def test_sample_radii_forms():
         sample_radii(3, lambda n, g: -np.ones(n))
 
 
+def _volume_quantiles(diameters, levels):
+    d = np.sort(diameters)
+    cum = np.cumsum(d ** 3)
+    return np.interp(np.asarray(levels) / 100.0, (cum - 0.5 * d ** 3) / cum[-1], d)
+
+
+def test_sample_radii_any_percentiles_are_volume_based():
+    # percentiles of a log-normal volume distribution (median 30 um, sigma 0.35): any set of
+    # levels gives radii whose volume-weighted percentiles are those numbers
+    from scipy.special import ndtri
+    levels = [16, 50, 84]
+    pct = {k: 30e-6 * np.exp(0.35 * ndtri(k / 100)) for k in levels}
+    d = 2 * sample_radii(200000, pct, rng=4)
+    np.testing.assert_allclose(_volume_quantiles(d, levels), list(pct.values()), rtol=0.01)
+    # drawn by number: the number median of a log-normal lies 3 sigma^2 below (Hatch-Choate)
+    assert np.median(d) == pytest.approx(30e-6 * np.exp(-3 * 0.35 ** 2), rel=0.01)
+    # the {10, 50, 90} path (a fitted family) reads the same distribution alike
+    three = {k: 30e-6 * np.exp(0.35 * ndtri(k / 100)) for k in (10, 50, 90)}
+    d3 = 2 * sample_radii(200000, three, rng=5)
+    np.testing.assert_allclose(_volume_quantiles(d3, levels), list(pct.values()), rtol=0.02)
+    # bounds truncate
+    r = sample_radii(5000, {**pct, "bounds": (20e-6, 45e-6)}, rng=6)
+    assert 2 * r.min() >= 20e-6 and 2 * r.max() <= 45e-6
+    with pytest.raises(ValueError, match="bracket"):
+        sample_radii(5, {**pct, "bounds": (25e-6, 45e-6)})
+
+
 def test_psd_fit_object_is_sampled():
     from bedstruct.analysis.psd import psd_from_percentiles
     fit = psd_from_percentiles(29.84e-6, 52.08e-6, 86.11e-6, (25e-6, 105e-6))
