@@ -56,12 +56,20 @@ def test_probe_bridges_gaps():
 def test_roughness_definitions():
     z = np.array([[0.0, 1.0, 2.0, 5.0]])
     r = surface_roughness(z)
-    dev = z - 2.0
+    # deviations -2, -1, 0, 3: Sa = 6/4, Sq^2 = 14/4, Ssk = (27 - 9)/4 / 3.5^1.5, Sku = 98/4 / 3.5^2
     assert r.mean_height == 2.0 and r.sz == 5.0
-    assert r.sa == pytest.approx(np.mean(np.abs(dev)))
-    assert r.sq == pytest.approx(np.sqrt(np.mean(dev ** 2)))
-    assert r.ssk == pytest.approx(np.mean(dev ** 3) / r.sq ** 3) and r.ssk > 0
+    assert r.sa == pytest.approx(1.5, rel=1e-12)
+    assert r.sq == pytest.approx(math.sqrt(3.5), rel=1e-12)
+    assert r.ssk == pytest.approx(4.5 / 3.5 ** 1.5, rel=1e-12)
+    assert r.sku == pytest.approx(2.0, rel=1e-12)
     assert surface_roughness(-z).ssk == pytest.approx(-r.ssk)
+    assert surface_roughness(-z).sku == pytest.approx(r.sku)
+    # two levels: Sku = 1 (the least possible); Gaussian heights: Ssk 0, Sku 3
+    assert surface_roughness([[0.0, 1.0] * 8]).sku == pytest.approx(1.0, rel=1e-12)
+    gauss = surface_roughness(np.random.default_rng(1).normal(0.0, 2.0, 400000))
+    assert gauss.sq == pytest.approx(2.0, rel=0.01)
+    assert gauss.sa == pytest.approx(2.0 * math.sqrt(2 / math.pi), rel=0.01)
+    assert gauss.ssk == pytest.approx(0.0, abs=0.02) and gauss.sku == pytest.approx(3.0, abs=0.05)
     assert np.isnan(surface_roughness([np.nan]).sa)
 
 

@@ -15,6 +15,7 @@ import pytest
 from bedstruct import Frame
 from bedstruct.analysis import dynamic_angle_of_repose, find_contacts
 from bedstruct.workflows.spread_measure import frame_metrics
+from lattices import cubic_lattice
 
 R = 25e-6              # sphere radius (m)
 Z_PLAT = -400e-6       # platform level (the tool's lowest point is z = 0)
@@ -60,7 +61,15 @@ def test_front_flank_angle_of_a_shouldered_heap(angle):
     dyn, cn = frame_metrics(fr, find_contacts(fr), BLADE, plate_length=PLATE, z_plat=Z_PLAT,
                             r_max=R)
     assert dyn == pytest.approx(angle, abs=1.0)
-    assert cn >= 0
+    assert cn == pytest.approx(2 * find_contacts(fr).n_contacts / fr.n_particles, rel=1e-12)
+
+
+def test_frame_coordination_of_a_lattice_is_six():
+    # every sphere of a periodic simple-cubic lattice touches six others (the diagonal ones lie
+    # 2.8 R apart): 2 N_c / N = 6
+    fr = cubic_lattice((6, 5, 4), spacing=1.98 * R, radius=R)   # overlapping by 1 %
+    _, cn = frame_metrics(fr, find_contacts(fr), 0.0, plate_length=PLATE, z_plat=Z_PLAT, r_max=R)
+    assert cn == pytest.approx(6.0, rel=1e-12)
 
 
 @pytest.mark.parametrize("angle, shoulder", [(35.0, 2.0e-3), (45.0, 1.0e-3)])
