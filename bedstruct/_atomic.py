@@ -42,6 +42,8 @@ def atomic_path(path, *, suffix: str = ".tmp"):
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
     os.close(fd)
+    # mkstemp makes the file private (0600); the result gets the mode a plain open() would give
+    os.chmod(tmp, _default_mode(path))
     try:
         yield tmp
         os.replace(tmp, path)
@@ -49,3 +51,22 @@ def atomic_path(path, *, suffix: str = ".tmp"):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _default_mode(path: Path) -> int:
+    """The existing file's permissions, else 0666 less the process umask."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        return 0o666 & ~_UMASK
+
+
+def _process_umask() -> int:
+    # read once at import: os.umask can only be read by setting it, which would race with
+    # files created meanwhile by other threads
+    umask = os.umask(0o022)
+    os.umask(umask)
+    return umask
+
+
+_UMASK = _process_umask()

@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bedstruct: interrupted", file=sys.stderr)
         return 130
-    except (BedstructError, FileNotFoundError, IsADirectoryError, PermissionError, ValueError,
+    except (BedstructError, OSError, ValueError,
             ImportError) as exc:  # ImportError: an optional dependency, named in the message
         if getattr(args, "traceback", False):
             raise

@@ -60,3 +60,11 @@ def test_spread_summary_never_prints_nan(tmp_path, capsys):
     d = json.loads(out.strip().splitlines()[-1])
     angle = d["mean_dynamic_angle_deg"][0]
     assert angle is None or 0 < angle < 90
+
+
+def test_failed_external_engine_is_one_error_line(tmp_path, capsys):
+    rc = main(["run", "repose", "--preset", "tiny", "--engine", "liggghts", "--exe", "/bin/false",
+               "--out", str(tmp_path / "x")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1
+    assert err[-1].startswith("bedstruct run: error: liggghts failed") and "Traceback" not in err[0]

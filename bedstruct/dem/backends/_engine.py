@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ...errors import BedstructError
+
 __all__ = ["EngineInfo", "EngineRunError", "RunResult", "ThermoRun", "EngineLog", "parse_log",
            "run_deck"]
 
@@ -95,7 +97,7 @@ class EngineInfo:
         return env
 
 
-class EngineRunError(RuntimeError):
+class EngineRunError(BedstructError, RuntimeError):
     """An external engine run failed; the message ends with the tail of its log.
 
     Attributes ``returncode``, ``log_path`` and ``tail`` keep the details.
