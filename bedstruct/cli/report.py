@@ -28,7 +28,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--frames", default="-1", metavar="SEL",
                         help="frames: -1 (last, default), all, an index or start:stop:step")
     parser.add_argument("--radius", type=float, default=None, help="radius when the dump has none")
-    parser.add_argument("--units", default=None, help="unit style of the dump when it does not say (si, cgs, micro)")
+    parser.add_argument("--units", default=None,
+                        choices=["si", "cgs", "micro", "nano", "lj", "real", "metal", "electron"],
+                        help="LAMMPS unit style of the dump when it does not say")
     parser.add_argument("--repose-base", type=float, default=None, metavar="Z",
                         help="height of the plate a pile stands on (length unit of the dump)")
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
@@ -61,4 +63,8 @@ def run(args) -> int:
     elif report.failed:
         print(f"bedstruct report: warning: section(s) failed: {', '.join(report.failed)} "
               f"(see {html_path})", file=sys.stderr)
+    heat = report.section("heat") if args.heat else None
+    if heat is not None and heat.status == "skipped":
+        # asked for by name, so its absence is news even with --json
+        print(f"bedstruct report: warning: --heat skipped: {heat.text}", file=sys.stderr)
     return 0

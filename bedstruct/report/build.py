@@ -343,11 +343,26 @@ def _harmonics(ctx: _Context, s: Section) -> None:
 
 
 def _repose(ctx: _Context, s: Section) -> None:
-    from ..analysis import angle_of_repose
+    from ..analysis import angle_of_repose, largest_cluster
     f, opt = ctx.frame, ctx.options
     try:
-        frame = f if opt.repose_base is None else f.select(f.positions[:, 2] > opt.repose_base - f.radii)
-        res = angle_of_repose(frame, axis=opt.axis_index, base=opt.repose_base)
+        frame, base, how = f, opt.repose_base, "above the given plate height"
+        if base is None:
+            how = ("above the lowest free-surface level (give --repose-base to set the plate "
+                   "height)")
+            pile = largest_cluster(f) if f.n_particles else np.zeros(0, bool)
+            # the pile is its largest touching cluster (clumps still falling off a ledge form
+            # others), resting on the plate its lowest particle touches; without a touching
+            # network (a synthetic or written-rounded frame) the whole frame is the pile
+            if pile.sum() >= 0.5 * f.n_particles > 0:
+                frame = f.select(pile)
+                base = float(np.min(frame.positions[:, 2] - frame.radii))
+                how = (f"on the largest cluster of touching particles ({frame.n_particles} of "
+                       f"{f.n_particles}; clumps still falling are left out), above the plate its "
+                       f"lowest particle rests on (give --repose-base to set the plate height)")
+        else:
+            frame = f.select(f.positions[:, 2] > base - f.radii)
+        res = angle_of_repose(frame, axis=opt.axis_index, base=base)
     except ValueError as exc:
         skip(f"no pile with two flanks found ({exc})")
     if not (np.isfinite(res.angle_deg) and res.angle_deg > 5.0
@@ -364,10 +379,7 @@ def _repose(ctx: _Context, s: Section) -> None:
     if not (two_flanks or aspect >= 0.2):
         skip(f"no pile found: one sloped flank on a layer {aspect:.2f} times as high as long "
              f"(a spread layer, not a heap)")
-    s.text = ("Measured on the whole frame: the base is " + ("the given plate height" if opt.repose_base
-              is not None else "the lowest free-surface level found (particles still falling below a "
-              "ledge lower it and steepen the angle; give --repose-base)") + "; flanks fitted robustly "
-              "between 20 % and 80 % of the pile height.")
+    s.text = f"Measured {how}; flanks fitted robustly between 20 % and 80 % of the pile height."
     s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
                  DOCS + "analysis.md, Angle of repose")
     s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")

@@ -189,3 +189,36 @@ def test_cli_missing_optional_dependency_is_one_line(tmp_path, capsys, monkeypat
     assert main(["info", str(path)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "zstandard" in err[0]
+
+
+def test_cli_out_that_is_a_file_is_an_error_not_a_traceback(bed_dump, tmp_path, capsys):
+    taken = tmp_path / "taken"
+    taken.write_text("")
+    assert main(["report", str(bed_dump), "--out", str(taken)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bedstruct report: error:") and "taken" in err[0]
+    out = tmp_path / "rep"
+    assert main(["report", str(bed_dump), "--out", str(out)]) == 0
+    mode = (out / "report.html").stat().st_mode & 0o777
+    assert mode & 0o044 == 0o044 & ~bedstruct._atomic._UMASK   # readable as the umask allows
+
+
+def test_repose_sample_is_measured_on_its_pile_not_on_falling_clumps():
+    # the bundled pile (data/samples/README.md: its run's three replicates give 29.9 +- 1.0 deg)
+    # has a few clumps still falling below its ledge; they must not set the base (39.5 deg)
+    from pathlib import Path
+    sample = Path(__file__).parents[2] / "data" / "samples" / "repose" / "pile.dump.gz"
+    frame = bedstruct.read_dump(sample, units="si")[-1]
+    sec = build_report(frame).section("repose")
+    assert sec.status == "ok", sec.text
+    assert sec.numbers["angle_deg"].value == pytest.approx(29.9, abs=2.0)
+    assert "largest cluster" in sec.text
+
+
+def test_cli_heat_skipped_for_unknown_units_is_said_on_stderr(bed_dump, tmp_path, capsys):
+    assert main(["report", str(bed_dump), "--heat", "--out", str(tmp_path / "r")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: --heat skipped" in err and "unit" in err
+    with pytest.raises(SystemExit) as exc:       # an unknown unit style is a usage error
+        main(["report", str(bed_dump), "--units", "furlong", "--out", str(tmp_path / "s")])
+    assert exc.value.code == 2
