@@ -3,7 +3,8 @@
 Each subcommand is a module in this package defining ``NAME``, ``HELP``,
 ``add_arguments(parser)`` and ``run(args) -> int``; heavy imports happen
 inside ``run``. Known errors (bad input, bad configuration) print one line
-and exit with status 1; ``--traceback`` shows the full trace.
+and exit with status 1, options that do not fit together (:class:`UsageError`)
+with status 2 like argparse's own; ``--traceback`` shows the full trace.
 """
 
 from __future__ import annotations
@@ -17,9 +18,13 @@ import sys
 from .._version import __version__
 from ..errors import BedstructError
 
-__all__ = ["main", "print_json"]
+__all__ = ["main", "print_json", "UsageError"]
 
 EXIT_OK, EXIT_ERROR, EXIT_USAGE = 0, 1, 2
+
+
+class UsageError(BedstructError):
+    """Options missing or not fitting together, found after parsing: exit status 2."""
 
 
 def _subcommand_modules():
@@ -76,6 +81,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bedstruct: interrupted", file=sys.stderr)
         return 130
+    except UsageError as exc:
+        if getattr(args, "traceback", False):
+            raise
+        print(f"bedstruct {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     except (BedstructError, OSError, ValueError,
             ImportError) as exc:  # ImportError: an optional dependency, named in the message
         if getattr(args, "traceback", False):

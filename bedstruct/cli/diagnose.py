@@ -1,10 +1,12 @@
 """Diagnose the sim-to-real gap, or validate the diagnosis on synthetic twins.
 
-  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--json]
-  bedstruct diagnose validate --preset tiny|small [--simulator surrogate|engine]
-                             [--campaign seed|full] [--sim CONFIG] [--cache DIR]
+  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--seed S] [--cache DIR]
+                     [--jobs N] [--json] [--progress]
+  bedstruct diagnose validate --preset mini|tiny|small
+                             [--simulator surrogate|engine|liggghts] [--campaign seed|full]
+                             [--sim CONFIG] [--cache DIR] [--jobs N] [--seed S] [--twin-seed S]
                              [--records FILE] [--shard K/N] [--twin-repeats R]
-                             [--out DIR] [--json]
+                             [--out DIR] [--json] [--progress]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -17,12 +19,16 @@ and ``median_gap_shrink``. ``validate`` runs its twins on the analytic surrogate
 by default (seconds); ``--simulator engine`` runs them on the embedded DEM engine
 (the ``[engine]`` table of ``--sim CONFIG``, default the scale model named by
 ``--preset``; ``--campaign full`` adds the catalogue's candidate measurements to the
-twins' files; ``--cache DIR``
-keeps every engine run on disk for reruns; ``--preset mini`` is a one-effect smoke
-run; ``--records FILE`` appends each twin's record as it completes and resumes
-from the records already there; ``--shard K/N`` runs every N-th twin from the K-th,
-to split one validation over processes or machines; ``--twin-repeats R`` makes each
-twin's file the mean of R repeated experiments). Every output names its simulator (``"simulator": "surrogate"`` or ``"engine"``).
+twins' files); ``--simulator liggghts`` makes the twins with LIGGGHTS and diagnoses
+them on the engine (tiny only). ``--cache DIR`` keeps every engine run on disk for
+reruns; ``--jobs N`` runs engine calls in N processes; ``--preset mini`` is a
+one-effect smoke run; ``--twin-seed`` draws a further batch of twins on the same
+fingerprints; ``--records FILE`` appends each twin's record as it completes and
+resumes from the records already there; ``--shard K/N`` runs every N-th twin from
+the K-th, to split one validation over processes or machines; ``--twin-repeats R``
+makes each twin's file the mean of R repeated experiments. Options of one mode given
+to the other are a usage error (exit 2). Every output names its simulator
+(``"simulator": "surrogate"``, ``"engine"`` or ``"liggghts"``).
 """
 
 from __future__ import annotations
@@ -37,10 +43,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--sim", metavar="CONFIG", help="simulation config TOML, or 'surrogate'")
     parser.add_argument("--real", metavar="MEASUREMENTS", help="measurement TOML file")
     parser.add_argument("--out", metavar="DIR", help="output folder (HTML + JSON)")
-    parser.add_argument("--preset", choices=["mini", "tiny", "small"], default="tiny",
+    parser.add_argument("--preset", choices=["mini", "tiny", "small"], default=None,
                         help="validation size (default tiny; mini: engine only)")
     parser.add_argument("--simulator", choices=["surrogate", "engine", "liggghts"],
-                        default="surrogate",
+                        default=None,
                         help="validate: simulator of the twins (default surrogate; engine = DEM, "
                              "slow; liggghts = twins made with LIGGGHTS, diagnosed on the DEM "
                              "engine, tiny only)")
@@ -50,7 +56,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=None, help="override the replicate/twin seed")
     parser.add_argument("--twin-seed", type=int, default=None,
                         help="validate: seed of the twins only (a further batch on cached fingerprints)")
-    parser.add_argument("--campaign", choices=["seed", "full"], default="seed",
+    parser.add_argument("--campaign", choices=["seed", "full"], default=None,
                         help="validate --simulator engine: twins measure the seed's design, or "
                              "the full campaign with the catalogue's candidate measurements")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
@@ -61,7 +67,7 @@ def add_arguments(parser) -> None:
                              "completes; twins already recorded there are not rerun")
     parser.add_argument("--shard", metavar="K/N", type=_shard,
                         help="validate: run only twins i with i %% N == K (0 <= K < N)")
-    parser.add_argument("--twin-repeats", type=int, default=1, metavar="R",
+    parser.add_argument("--twin-repeats", type=int, default=None, metavar="R",
                         help="validate: repeated experiments per twin, its file states their mean "
                              "and standard error (default 1; R simulator calls per twin)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
@@ -89,13 +95,26 @@ def _write_json(path, obj) -> None:
     path.write_text(json.dumps(_plain(obj), indent=1, allow_nan=False), encoding="utf-8")
 
 
+#: Options of ``diagnose validate`` alone, with their defaults there.
+_VALIDATE_ONLY = {"preset": "tiny", "simulator": "surrogate", "twin_seed": None,
+                  "campaign": "seed", "records": None, "shard": None, "twin_repeats": 1}
+
+
+def _misplaced(args, names) -> list[str]:
+    return ["--" + n.replace("_", "-") for n in names if getattr(args, n) is not None]
+
+
 def _run_validate(args) -> int:
     from ..diagnose import validate
     from ..report._model import _plain
     from ..report._render import write_report
-    from . import print_json
+    from . import UsageError, print_json
 
-    from ..errors import ConfigError
+    if args.real:
+        raise UsageError("--real is for a diagnosis; validate makes its own measurement files")
+    for name, default in _VALIDATE_ONLY.items():
+        if getattr(args, name) is None:
+            setattr(args, name, default)
     engine = None
     if args.simulator in ("engine", "liggghts"):
         from ..diagnose.validate import engine_scale_model
@@ -108,7 +127,7 @@ def _run_validate(args) -> int:
         if args.jobs is not None:
             engine["jobs"] = args.jobs
     elif args.sim or args.cache or args.jobs is not None:
-        raise ConfigError("--sim/--cache/--jobs with validate need --simulator engine or liggghts")
+        raise UsageError("--sim/--cache/--jobs with validate need --simulator engine or liggghts")
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
                       campaign=args.campaign, records=args.records, shard=args.shard,
@@ -148,12 +167,15 @@ def run(args) -> int:
         return _run_validate(args)
     import dataclasses
 
-    from ..errors import ConfigError
+    from . import UsageError
 
     missing = [f"--{k}" for k in ("sim", "real", "out") if not getattr(args, k)]
     if missing:
-        raise ConfigError(f"missing {', '.join(missing)} (usage: bedstruct diagnose --sim CONFIG "
-                          f"--real MEASUREMENTS --out DIR)")
+        raise UsageError(f"missing {', '.join(missing)} (usage: bedstruct diagnose --sim CONFIG "
+                         f"--real MEASUREMENTS --out DIR)")
+    misplaced = _misplaced(args, _VALIDATE_ONLY)
+    if misplaced:
+        raise UsageError(f"{', '.join(misplaced)} apply to 'bedstruct diagnose validate' only")
     from ..diagnose import diagnose, diagnosis_design, load_measurements, load_sim_config, \
         make_simulator
     from ..report._model import _plain
@@ -162,7 +184,7 @@ def run(args) -> int:
 
     cfg = load_sim_config(args.sim)
     if (args.jobs is not None or args.cache) and cfg.kind != "engine":
-        raise ConfigError("--jobs/--cache need a simulation config with kind = \"engine\"")
+        raise UsageError("--jobs/--cache need a simulation config with kind = \"engine\"")
     if args.jobs is not None:
         cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, jobs=args.jobs))
     if args.cache:
@@ -193,6 +215,6 @@ def run(args) -> int:
         if diag.next:
             print(f"  next: {diag.next[0].observable} ({diag.next[0].conditions})")
         for note in diag.data_notes():
-            print(f"  missing data: {note}")
+            print(f"  note: {note}")
         print(f"  report: {html}")
     return 0

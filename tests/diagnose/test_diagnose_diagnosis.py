@@ -226,8 +226,16 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
     j = json.loads(last)
     assert j["simulator"] == "surrogate" and j["where"] and "shrink" in j and "which" in j
     assert (tmp_path / "d" / "report.html").is_file() and (tmp_path / "d" / "diagnosis.json").is_file()
-    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED)]) == 1
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED)]) == 2     # usage
     assert "missing --out" in capsys.readouterr().err
+    # an option of the other mode is a usage error, not silently ignored
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "e"),
+                 "--simulator", "engine", "--shard", "0/2"]) == 2
+    err = capsys.readouterr().err
+    assert "--simulator, --shard apply to 'bedstruct diagnose validate' only" in err
+    assert not (tmp_path / "e").exists()
+    assert main(["diagnose", "validate", "--real", str(SEED)]) == 2
+    assert "--real is for a diagnosis" in capsys.readouterr().err
     assert main(["diagnose", "--sim", "surrogate", "--real", str(tmp_path / "none.toml"),
                  "--out", str(tmp_path)]) == 1
     from bedstruct.diagnose import PRESETS
