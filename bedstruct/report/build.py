@@ -7,6 +7,7 @@ reason) and the rest of the report still renders.
 from __future__ import annotations
 
 import logging
+import dataclasses
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -259,22 +260,14 @@ def _psd(ctx: _Context, s: Section) -> None:
     s.add_figure(fig, "Cumulative size distribution per region")
     s.tables.append(Table(["region", "particles", "D10", "D50", "D90"], rows,
                           caption=f"volume-weighted percentiles per region ({ctx.length_unit})"))
-    d50s = [r.d50 for r in regions if r.n_particles]
-    if len(d50s) >= 2:
-        s.add_number("d50_shift_start_to_end", d50s[-1] - d50s[0], ctx.length_unit,
-                     "D50 of the last region minus D50 of the first")
-    seg = segregation_index(f, lower, upper) if _accepts_windows(segregation_index) else None
-    if seg is not None:
-        s.add_number("segregation_index", seg, "1", "spread of local mean size over the mean size")
-
-
-def _accepts_windows(func) -> bool:
-    import inspect
-    try:
-        params = list(inspect.signature(func).parameters)
-    except (TypeError, ValueError):
-        return False
-    return len(params) >= 3 and params[1] in ("lower", "windows_lower")
+    if len(regions) >= 2:
+        # the first and last regions themselves: an empty one leaves the shift undefined
+        first, last = regions[0], regions[-1]
+        shift = last.d50 - first.d50 if first.n_particles and last.n_particles else None
+        s.add_number("d50_shift_start_to_end", shift, ctx.length_unit,
+                     "D50 of the last region minus D50 of the first (none when either is empty)")
+    s.add_number("segregation_index", segregation_index(f, lower, upper), "1",
+                 "spread of local mean size over the mean size")
 
 
 def _surface(ctx: _Context, s: Section) -> None:
@@ -459,9 +452,7 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     idx = list(frame_indices) if frame_indices is not None else list(range(len(frames)))
     ctx = _Context(frames, contacts, options, idx)
     report = Report(title="bedstruct report", inputs=dict(inputs or {}),
-                    settings={"regions": options.regions, "axis": options.axis, "frames": options.frames,
-                              "heat": options.heat, "tolerance": options.tolerance, "l_max": options.l_max,
-                              "min_contacts": options.min_contacts},
+                    settings=dataclasses.asdict(options),   # every option, so a rerun can match
                     version=__version__)
     todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
     from tqdm.auto import tqdm

@@ -48,6 +48,8 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
             trajectories.append(read_dump(p, radius=radius, units=units))
     sizes = [len(t) for t in trajectories]
     total = sum(sizes)
+    if total == 0:
+        raise ValueError(f"{', '.join(str(p) for p in paths)}: no frames to report on")
     idx = select_frames(total, frames)
     selected = []
     for k in idx:
@@ -66,7 +68,8 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
                              f"(has {sorted(by_step)[:10]})")
         contact_obj = by_step[last]
     inputs = {"paths": [str(p) for p in paths], "frames_in_input": total,
-              "frames_selected": idx, "contacts": str(contacts) if contacts else "geometric detection"}
+              "frames_selected": idx, "contacts": str(contacts) if contacts else "geometric detection",
+              "units_given": units, "radius_given": radius}
     return selected, idx, contact_obj, inputs
 
 

@@ -222,3 +222,12 @@ def test_cli_heat_skipped_for_unknown_units_is_said_on_stderr(bed_dump, tmp_path
     with pytest.raises(SystemExit) as exc:       # an unknown unit style is a usage error
         main(["report", str(bed_dump), "--units", "furlong", "--out", str(tmp_path / "s")])
     assert exc.value.code == 2
+
+
+def test_d50_shift_is_none_when_the_end_region_is_empty():
+    # periodic along x: the regions span the box, and the last third holds no particle
+    f = bedstruct.Frame([[10, 5, 5], [20, 5, 5], [30, 5, 5], [45, 5, 5]], [2, 2, 3, 3.0],
+                        box=bedstruct.Box([0, 0, 0], [100, 10, 10], boundary="pp pp ff"))
+    sec = build_report(f).section("psd")
+    assert [row[1] for row in sec.tables[0].rows] == [3, 1, 0]
+    assert sec.numbers["d50_shift_start_to_end"].value is None     # not centre minus start
