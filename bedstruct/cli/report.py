@@ -46,11 +46,15 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from ..report import ReportOptions, report_on_files
-    from . import print_json
+    from . import UsageError, print_json
 
-    options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames, heat=args.heat,
-                            heat_length_unit=args.heat_length_unit, heat_stop_fraction=args.heat_stop_fraction,
-                            repose_base=args.repose_base)
+    try:
+        options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames,
+                                heat=args.heat, heat_length_unit=args.heat_length_unit,
+                                heat_stop_fraction=args.heat_stop_fraction,
+                                repose_base=args.repose_base)
+    except ValueError as exc:   # an option's value out of range: a usage error, like argparse's
+        raise UsageError(str(exc)) from None
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     kw = args.contact_keywords.split() if args.contact_keywords else None
     report, html_path, json_path = report_on_files(

@@ -79,6 +79,7 @@ class ReportOptions:
             raise ValueError(f"`regions` must be at least 1; got {self.regions}")
         if self.l_max < 2 or self.l_max % 2:
             raise ValueError(f"`l_max` must be an even number >= 2; got {self.l_max}")
+        _parse_frame_selection(self.frames)
 
     @property
     def axis_index(self) -> int:
@@ -97,28 +98,38 @@ def select_frames(n_frames: int, selection: str) -> list[int]:
     >>> select_frames(5, "-1"), select_frames(5, "all"), select_frames(5, "1:4:2")
     ([4], [0, 1, 2, 3, 4], [1, 3])
     """
-    sel = str(selection).strip()
+    parsed = _parse_frame_selection(selection)
     if n_frames == 0:
         raise ValueError("the input has no frames")
-    if sel in ("all", ":"):
+    if parsed is None:
         return list(range(n_frames))
-    if ":" in sel:
-        parts = [int(p) if p.strip() else None for p in sel.split(":")]
-        if len(parts) > 3:
-            raise ValueError(f"frame selection {selection!r} is not start:stop:step")
-        idx = list(range(n_frames))[slice(*parts)]
+    if isinstance(parsed, slice):
+        idx = list(range(n_frames))[parsed]
     else:
-        try:
-            k = int(sel)
-        except ValueError:
-            raise ValueError(f"frame selection {selection!r}: expected 'all', an index or "
-                             f"start:stop:step") from None
+        k = parsed
         if not -n_frames <= k < n_frames:
             raise ValueError(f"frame {k} out of range: the input has {n_frames} frames")
         idx = [k % n_frames]
     if not idx:
         raise ValueError(f"frame selection {selection!r} selects no frame of {n_frames}")
     return idx
+
+
+def _parse_frame_selection(selection: str):
+    """None for all frames, a slice, or an index; ValueError naming the expected forms."""
+    sel = str(selection).strip()
+    if sel in ("all", ":"):
+        return None
+    expected = f"frame selection {selection!r}: expected 'all', an index or start:stop:step"
+    try:
+        if ":" in sel:
+            parts = [int(p) if p.strip() else None for p in sel.split(":")]
+            if len(parts) > 3:
+                raise ValueError
+            return slice(*parts)
+        return int(sel)
+    except ValueError:
+        raise ValueError(expected) from None
 
 
 def _figure_of(obj):

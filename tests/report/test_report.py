@@ -34,6 +34,17 @@ def test_select_frames_errors():
         select_frames(3, "2:1")
     with pytest.raises(ValueError, match="expected"):
         select_frames(3, "last")
+    with pytest.raises(ValueError, match="expected 'all', an index or start:stop:step"):
+        select_frames(3, "a:b")
+    with pytest.raises(ValueError, match="expected"):
+        select_frames(3, "0:1:2:3")
+
+
+def test_cli_option_values_out_of_range_are_usage_errors(bed_dump, tmp_path, capsys):
+    for bad in (["--regions", "0"], ["--frames", "last"]):
+        assert main(["report", str(bed_dump), "--out", str(tmp_path / "r"), *bad]) == 2
+        assert capsys.readouterr().err.startswith("bedstruct report: error:")
+    assert not (tmp_path / "r").exists()
 
 
 def test_report_sections_and_numbers(bed_dump, tmp_path):
