@@ -1,8 +1,10 @@
 """Summarise LIGGGHTS/LAMMPS files: frames, timesteps, N per frame, box, flags, columns.
 
-Accepts dump files (text, .gz, .bz2, binary), globs and data files. Quiet and
-one block per file by default; ``--json`` prints one JSON object per call as
-the last line.
+Accepts dump files (text, .gz, .bz2, binary), globs and data files: dumps of
+one kind matched by a glob are summarised as one trajectory, every data file
+on its own. Every frame's atom count is checked against its rows; the values
+of the first non-empty frame are parsed. Quiet and one block per summary by
+default; ``--json`` prints one JSON object per call as the last line.
 """
 
 from __future__ import annotations
@@ -16,13 +18,17 @@ def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
     parser.add_argument("--radius", type=float, default=None,
                         help="radius to assume when a dump has no radius/diameter column")
+    parser.add_argument("--columns", default=None, metavar="NAMES",
+                        help="column names for dumps that do not name theirs (old text dumps, "
+                             "old binary dumps), e.g. 'id type x y z radius'")
 
 
 def run(args) -> int:
     from .. import io
     from . import print_json
 
-    summaries = [io.summarise(p, radius=args.radius) for p in args.paths]
+    summaries = [s for p in args.paths
+                 for s in io.summarise_all(p, radius=args.radius, columns=args.columns)]
     if args.json:
         print_json({"files": summaries})
         return 0

@@ -121,7 +121,8 @@ class Frame:
     velocities, omegas, forces : (N, 3) array_like of float, optional
         Velocities (length/time), angular velocities (1/time) and forces.
     images : (N, 3) array_like of int, optional
-        Periodic image flags ``ix iy iz``.
+        Periodic image flags ``ix iy iz``: ``positions + images @ box.matrix.T``
+        is the unwrapped position (0 when the positions are already unwrapped).
     columns : mapping of str to (N,) or (N, k) arrays, optional
         Every other per-atom column under its dump name (``mass``,
         ``density``, ``c_cn``, ``f_temp[1]`` ...).

@@ -15,7 +15,8 @@ Layout per snapshot (native byte order, LAMMPS built with the default
 * the number of chunks, then per chunk its number of doubles and the doubles.
 
 Once a file has declared revision 2, every later snapshot carries the units
-and columns block too, as LAMMPS's ``tools/binary2txt`` reads it.
+and columns block too, as LAMMPS's ``tools/binary2txt`` reads it; LAMMPS
+writes the unit style in the first snapshot only (an empty string after it).
 """
 
 from __future__ import annotations
@@ -25,9 +26,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core import Box
 from ..errors import DumpFormatError
 from ._source import Source, _open_stream
-from ._text import RawFrame, TruncatedFrame
+from ._text import RawFrame, TruncatedFrame, check_unit_style
 
 __all__ = ["is_binary", "scan_binary", "parse_binary_frame", "write_binary_dump", "BinaryScan"]
 
@@ -51,6 +53,8 @@ class BinaryScan:
     timesteps: list = field(default_factory=list)
     counts: list = field(default_factory=list)
     states: list = field(default_factory=list)   # (revision, has_magic) in force at each frame
+    units: list = field(default_factory=list)    # unit style written in the snapshot, or None
+    rows: list = field(default_factory=list)     # rows the chunks hold (None: not whole rows)
     truncated_at: int | None = None              # byte offset of a cut-off last snapshot
     size: int = 0
 
@@ -147,10 +151,12 @@ def scan_binary(source: Source) -> BinaryScan:
                 h = _header(stream.read, source.path, state)
                 if h is None:
                     break
+                values = 0
                 for _ in range(h["nchunk"]):
                     (k,) = struct.unpack("=i", _exact(stream.read, 4))
                     if k < 0 or not stream.skip(8 * k):
                         raise EOFError
+                    values += k
             except EOFError:
                 scan.truncated_at = start
                 break
@@ -159,6 +165,9 @@ def scan_binary(source: Source) -> BinaryScan:
             scan.timesteps.append(int(h["timestep"]))
             scan.counts.append(int(h["n"]))
             scan.states.append(st_before)
+            scan.units.append(check_unit_style(h["units"] or None, path=source.path))
+            size = h["size_one"]
+            scan.rows.append(values // size if size and values % size == 0 else None)
     finally:
         stream.fh.close()
     scan.size = stream.pos
@@ -183,15 +192,21 @@ def parse_binary_frame(buf: bytes, *, path: str, state: dict, columns=None,
     names = h["names"]
     if columns is not None:
         names = list(columns.split() if isinstance(columns, str) else columns)
+    units = check_unit_style(h["units"] or None, path=path)
     if not names:
         raise DumpFormatError("this binary dump (old header layout) has no column names; pass "
                               "columns='id type x y z ...' as in the dump command", path=path)
     if len(names) != h["size_one"]:
         raise DumpFormatError(f"binary dump has {h['size_one']} values per atom but "
                               f"{len(names)} column names were given/found: {names}", path=path)
+    try:
+        Box.from_lammps_bounds(h["bounds"], h["tilt"], h["boundary"])
+    except ValueError as exc:
+        raise DumpFormatError(f"binary snapshot of timestep {h['timestep']}: invalid box: {exc}",
+                              path=path) from None
     raw = RawFrame(path=path, timestep=int(h["timestep"]), n=int(h["n"]), bounds=h["bounds"],
                    tilt=None if h["tilt"] is None else np.array(h["tilt"]), boundary=h["boundary"],
-                   kind="ATOMS", names=names, data=None, units=h["units"], time=h["time"])
+                   kind="ATOMS", names=names, data=None, units=units, time=h["time"])
     if header_only:
         return raw
     parts = []

@@ -7,12 +7,14 @@ Implementation module of :mod:`bedstruct.io.lammps_dump` (import from there).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..core import Box, Frame, Provenance, Units
-from ..errors import DumpFormatError
+from ..errors import BedstructWarning, DumpFormatError
 from ._kernels import gather_rows
-from ._text import RawFrame
+from ._text import RawFrame, check_unit_style
 
 __all__ = ["frame_from_raw"]
 
@@ -41,6 +43,35 @@ def _check_int(col: np.ndarray, raw: RawFrame, name: str, order) -> np.ndarray:
                               f"{float(col.reshape(-1)[bad[0]])!r}", path=raw.path,
                               line=raw.data_line + r, text=raw.row_text(r))
     return ints
+
+
+def _check_range(values: np.ndarray, limit: int, raw: RawFrame, name: str, order, why: str):
+    """Integers read as float64 must stay below ``limit`` in magnitude."""
+    bad = np.flatnonzero(np.abs(values) >= limit)
+    if bad.size:
+        r = int(bad[0] if order is None else order[bad[0]])
+        raise DumpFormatError(f"column {name!r}: row {r + 1} has {int(values[bad[0]])}; {why}",
+                              path=raw.path, line=raw.data_line + r, text=raw.row_text(r))
+
+
+def _warn_repeated_ids(ids: np.ndarray, order, raw: RawFrame) -> None:
+    """Warn when an id appears twice (LAMMPS ids are unique unless ``atom_modify id no``).
+
+    ``ids`` are in id order when ``order`` is given or they already increase.
+    """
+    if ids.size < 2 or np.all(ids[1:] > ids[:-1]):
+        return
+    if order is None:  # file order (sort_by_id=False)
+        order = np.argsort(ids, kind="stable")
+        ids = ids[order]
+    same = np.flatnonzero(ids[1:] == ids[:-1])
+    if not same.size:
+        return
+    k = int(same[0])
+    first, second = int(order[k]), int(order[k + 1])
+    warnings.warn(f"{raw.path}, line {raw.data_line + second}: particle id {int(ids[k])} appears "
+                  f"more than once in the frame of timestep {raw.timestep} (also on line "
+                  f"{raw.data_line + first})", BedstructWarning, stacklevel=4)
 
 
 def _id_order(ids: np.ndarray):
@@ -75,6 +106,30 @@ class _Columns:
         out = np.empty((self.data.shape[0], ks.size), dtype=np.float64)
         gather_rows(self.data, self.order, ks, out)
         return out[:, 0] if ks.size == 1 else out
+
+
+def _unwrapped(positions, images, box: Box, wrap: bool, triple: str, notes: list):
+    """Positions and images from unwrapped coordinates, such that
+    ``positions + images @ box.matrix.T`` is the unwrapped position.
+
+    Unwrapped coordinates already include the image shifts, so the dump's
+    ``ix iy iz`` must not be added again: kept as written (default), the
+    images are 0; wrapped into the box, the images are the box shifts the wrap
+    removed (not the dump's flags, which LAMMPS updates only on reneighbouring).
+    """
+    had = " (the dump's ix iy iz are not applied again)" if images is not None else ""
+    if not wrap:
+        notes.append(f"positions are unwrapped coordinates {triple} (not wrapped into the box)")
+        if images is not None:
+            notes.append(f"images set to 0: positions {triple} already include the dump's "
+                         f"ix iy iz, so unwrapped_positions() are the positions")
+            images = np.zeros_like(images)
+        return positions, images
+    wrapped = box.wrap(positions)
+    images = box.image_shift(positions - wrapped)
+    notes.append(f"unwrapped coordinates {triple} wrapped into the box (wrap=True); images are "
+                 f"the box shifts removed{had}")
+    return wrapped, images
 
 
 def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_by_id=True,
@@ -114,8 +169,12 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
     def row_of(r):  # row index in the file of sorted row r
         return int(r if order is None else order[r])
 
+    # ids beyond 2**53 collapse onto their neighbours in float64
+    _check_range(ids, 2 ** 53, raw, "id", order, "ids of 2**53 or more cannot be read exactly")
+
     # positions
     positions = None
+    unwrapped_set = None
     for triple, scaled, unwrapped in _POSITION_SETS:
         have = [c in idx for c in triple]
         if all(have):
@@ -125,13 +184,7 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
                 positions = box.cartesian(positions)
                 notes.append(f"positions converted from scaled coordinates {' '.join(triple)}")
             if unwrapped:
-                if wrap:
-                    positions = box.wrap(positions)
-                    notes.append(f"unwrapped coordinates {' '.join(triple)} wrapped into the box "
-                                 f"(wrap=True)")
-                else:
-                    notes.append(f"positions are unwrapped coordinates {' '.join(triple)} "
-                                 f"(not wrapped into the box)")
+                unwrapped_set = " ".join(triple)
             break
         if any(have):
             raise DumpFormatError(f"incomplete position columns: found "
@@ -149,8 +202,17 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
                               f"({positions[r].tolist()})", path=raw.path,
                               line=raw.data_line + row_of(r), text=raw.row_text(row_of(r)))
 
+    images = None
+    if all(c in idx for c in ("ix", "iy", "iz")):
+        img = cols.take([idx[c] for c in ("ix", "iy", "iz")]).reshape(n, 3)
+        images = _check_int(img, raw, "ix iy iz", order)
+        used.update(("ix", "iy", "iz"))
+    if unwrapped_set is not None:
+        positions, images = _unwrapped(positions, images, box, wrap, unwrapped_set, notes)
+
     if "type" in idx:
         types = _check_int(cols.take([idx["type"]]), raw, "type", order)
+        _check_range(types, 2 ** 31, raw, "type", order, "types must fit a 32-bit integer")
         used.add("type")
     else:
         types = np.ones(n, dtype=np.int32)
@@ -182,11 +244,7 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
                               line=raw.data_line + row_of(r) if rname else None,
                               text=raw.row_text(row_of(r)) if rname else None)
 
-    kw = {}
-    if all(c in idx for c in ("ix", "iy", "iz")):
-        img = cols.take([idx[c] for c in ("ix", "iy", "iz")]).reshape(n, 3)
-        kw["images"] = _check_int(img, raw, "ix iy iz", order)
-        used.update(("ix", "iy", "iz"))
+    kw = {} if images is None else {"images": images}
     for attr, options in _VECTORS:
         for triple in options:
             if all(c in idx for c in triple):
@@ -196,11 +254,13 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
     columns = {name: cols.take([k]) for k, name in enumerate(names) if name not in used}
 
     style = raw.units
+    units = check_unit_style(units)
     if units is not None:
-        if style is not None and style != str(units).lower():
+        if style is not None and style != units:
             raise DumpFormatError(f"the file says 'ITEM: UNITS {style}' but units={units!r} "
                                   f"was given", path=raw.path)
-        style = str(units).lower()
+        style = units
+    _warn_repeated_ids(ids, order, raw)
     frame = Frame(positions, radii, box=box, timestep=raw.timestep, ids=ids, types=types,
                   time=raw.time, columns=columns, units=Units(style),
                   provenance=Provenance(source=raw.path, frame_index=frame_index,

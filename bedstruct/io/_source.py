@@ -180,13 +180,26 @@ class TextScan:
     lines: list = field(default_factory=list)       # 0-based line index of that line
     timesteps: list = field(default_factory=list)   # int or None
     counts: list = field(default_factory=list)      # NUMBER OF ATOMS / ENTRIES, or None
+    units: list = field(default_factory=list)       # unit style stated before the frame, or None
+    units_lines: list = field(default_factory=list)  # 1-based line of that style, or None
+    body_lines: list = field(default_factory=list)  # 0-based line of ITEM: ATOMS/ENTRIES, or None
     size: int = 0
+    n_lines: int = 0                                # lines in the file (a cut last line counts)
     ends_with_newline: bool = True
     first_bytes: bytes = b""
     tail: bytes | None = None   # text of the last frame
+    cut_line: int | None = None  # the file ends inside the header of its first frame (1-based)
 
     def end(self, k: int) -> int:
         return self.starts[k + 1] if k + 1 < len(self.starts) else self.size
+
+    def rows(self, k: int) -> int | None:
+        """Lines between frame ``k``'s ``ITEM: ATOMS`` line and the next frame (its
+        data rows plus any blank lines), or None when it has no such line."""
+        if self.body_lines[k] is None:
+            return None
+        end = self.lines[k + 1] if k + 1 < len(self.starts) else self.n_lines
+        return end - self.body_lines[k] - 1
 
 
 def _int_value(raw: bytes, path, line):
@@ -204,23 +217,45 @@ def _int_value(raw: bytes, path, line):
                           text=raw.decode("latin-1").strip())
 
 
+def _line_text(buf: bytes, j: int) -> str:
+    """The whole line of ``buf`` around offset ``j``."""
+    a = buf.rfind(b"\n", 0, j) + 1
+    b = buf.find(b"\n", j)
+    return buf[a:len(buf) if b < 0 else b].decode("latin-1").strip()
+
+
+def _before_first_frame(source, buf, j, line):
+    return DumpFormatError("expected a LAMMPS dump: its first frame must start with "
+                           "'ITEM: TIMESTEP' (or 'ITEM: UNITS' / 'ITEM: TIME' before it) at the "
+                           "start of a line, with nothing but blank lines before it",
+                           path=source.path, line=line, text=_line_text(buf, j))
+
+
 def scan_text(source: Source) -> TextScan:
     """Find every frame of a text dump (``ITEM: TIMESTEP``, with any preceding
     ``ITEM: UNITS``/``ITEM: TIME`` items) in one pass.
 
+    Also records, per frame, the unit style stated before it and the line of
+    its ``ITEM: ATOMS``/``ENTRIES`` item, so that row counts can be checked
+    without parsing.
+
     Raises
     ------
     DumpFormatError
-        If the file does not start with an ``ITEM:`` line.
+        If anything but blank lines comes before the first frame, or a unit
+        style or a timestep / atom count value is not valid.
     """
+    from ._text import check_unit_style, starts_frame
+
     scan = TextScan(path=source.path)
-    keep_tail = True  # the last frame is checked for truncation without reading it again
-    tail_parts: list = []
+    tail_parts: list = []  # text of the last frame (checked for truncation without reading
+    tail_from = None       # it again) from absolute offset tail_from
     carry = b""
     base = 0          # absolute offset of buf[0]
     nl_base = 0       # newlines before base
     pending = None    # (start, line) of an UNITS/TIME item waiting for its TIMESTEP
-    want = None       # value line still to read: ("ts"|"n", frame index)
+    pending_units = (None, None)  # (style, line) stated by a pending UNITS item
+    want = None       # value line still to read: ("ts"|"n"|"units", frame index)
     last_byte = b"\n"
     chunks = source.chunks()
     eof = False
@@ -242,7 +277,8 @@ def scan_text(source: Source) -> TextScan:
         while True:
             if want is not None:
                 e = buf.find(b"\n", p)
-                if e < 0:
+                cut = e < 0   # the last line of a file without a final newline
+                if cut:
                     if not eof:
                         break
                     e = n
@@ -251,16 +287,40 @@ def scan_text(source: Source) -> TextScan:
                 kind, k = want
                 raw = buf[p:e]
                 if raw.strip():
-                    value = _int_value(raw, source.path, nl_count + 1)
-                    (scan.timesteps if kind == "ts" else scan.counts)[k] = value
+                    try:
+                        if kind == "units":
+                            text = raw.decode("latin-1").strip()
+                            pending_units = (check_unit_style(text, path=source.path,
+                                                              line=nl_count + 1, text=text),
+                                             nl_count + 1)
+                        else:
+                            value = _int_value(raw, source.path, nl_count + 1)
+                            (scan.timesteps if kind == "ts" else scan.counts)[k] = value
+                    except DumpFormatError:
+                        if not cut:  # a cut-off value is a truncated frame, reported later
+                            raise
                 elif not (eof and e >= n):  # an empty value line before the end of the file
-                    what = "the timestep" if kind == "ts" else "the number of atoms"
+                    what = {"ts": "the timestep", "n": "the number of atoms",
+                            "units": "the unit style"}[kind]
                     raise DumpFormatError(f"expected {what} on this line", path=source.path,
                                           line=nl_count + 1, text="")
                 want = None
                 p = min(e + 1, n)
                 continue
+            begun = bool(scan.starts) or pending is not None
             i = buf.find(b"ITEM:", p)
+            if not begun:  # before the first frame: only blank lines
+                stop = i if i >= 0 else n
+                if i < 0 and not eof:
+                    stop = buf.rfind(b"\n", p, n) + 1 or p
+                j = p + len(buf[p:stop]) - len(buf[p:stop].lstrip())
+                if j < stop:
+                    line = nl_count + buf.count(b"\n", counted_to, j) + 1
+                    if eof and buf.find(b"\n", j) < 0 and starts_frame(buf[j:]):
+                        scan.cut_line = line  # e.g. 'ITE': the file ends in its first line
+                        p = n
+                        break
+                    raise _before_first_frame(source, buf, j, line)
             if i < 0:
                 if eof:
                     p = n
@@ -276,47 +336,66 @@ def scan_text(source: Source) -> TextScan:
             if e < 0 and not eof:
                 p = i
                 break
-            if e < 0:
+            cut = e < 0
+            if cut:
                 e = n
             nl_count += buf.count(b"\n", counted_to, i)
             counted_to = i
             name = buf[i + 5:e].strip()
             absolute = base + i
-            if name.startswith(b"TIMESTEP"):
+            if name == b"TIMESTEP":
                 start, line = pending if pending is not None else (absolute, nl_count)
                 pending = None
                 scan.starts.append(start)
                 scan.lines.append(line)
                 scan.timesteps.append(None)
                 scan.counts.append(None)
+                scan.units.append(pending_units[0])
+                scan.units_lines.append(pending_units[1])
+                scan.body_lines.append(None)
+                pending_units = (None, None)
                 want = ("ts", len(scan.starts) - 1)
-            elif name.startswith(b"UNITS") or (name.startswith(b"TIME") and not name.startswith(b"TIMESTEP")):
+            elif name in (b"UNITS", b"TIME"):
                 if pending is None:
                     pending = (absolute, nl_count)
+                if name == b"UNITS":
+                    want = ("units", None)
+            elif not begun:
+                if cut and starts_frame(buf[i:e]):
+                    scan.cut_line = nl_count + 1  # e.g. 'ITEM: T' is all the file holds
+                else:
+                    raise _before_first_frame(source, buf, i, nl_count + 1)
             elif name.startswith(b"NUMBER OF"):
-                if scan.starts:
+                # a second count in one frame (a frame without its TIMESTEP) is left to the
+                # row count check and the frame parser, which name the line
+                if scan.starts and scan.counts[-1] is None:
                     want = ("n", len(scan.starts) - 1)
+            elif name.startswith(b"ATOMS") or name.startswith(b"ENTRIES"):
+                if scan.starts and scan.body_lines[-1] is None:
+                    scan.body_lines[-1] = nl_count
             p = min(e + 1, n)
         nl_count += buf.count(b"\n", counted_to, p)
-        if keep_tail and scan.starts:
-            last = scan.starts[-1]
-            if last >= base:
-                tail_parts = [buf[last - base:p]]
-            else:
-                tail_parts.append(buf[:p])
+        # keep the text from the last frame's start (or the first frame's pending items)
+        keep_from = scan.starts[-1] if scan.starts else (pending[0] if pending else None)
+        if keep_from is None:
+            tail_parts, tail_from = [], None
+        elif keep_from >= base:
+            tail_parts, tail_from = [buf[keep_from - base:p]], keep_from
+        else:
+            if keep_from != tail_from:  # a frame whose pending items came in an earlier chunk
+                tail_parts = [b"".join(tail_parts)[keep_from - tail_from:]]
+                tail_from = keep_from
+            tail_parts.append(buf[:p])
         carry = buf[p:]
         base += p
         nl_base = nl_count
         if eof:
             break
-    if keep_tail and scan.starts:
-        tail_parts.append(carry)
-        scan.tail = b"".join(tail_parts)
+    if scan.starts:
+        scan.tail = b"".join(tail_parts + [carry])
     scan.size = base + len(carry)
     scan.ends_with_newline = last_byte == b"\n"
-    head = scan.first_bytes.lstrip()
-    if scan.size and not head.startswith(b"ITEM:"):
-        raise DumpFormatError("expected a LAMMPS dump starting with 'ITEM: TIMESTEP'",
-                              path=source.path, line=1,
-                              text=head[:40].decode("latin-1").split("\n")[0])
+    scan.n_lines = nl_base + (0 if scan.ends_with_newline or not scan.size else 1)
+    if not scan.starts and pending is not None and scan.cut_line is None:
+        scan.cut_line = scan.n_lines + (1 if scan.ends_with_newline else 0)
     return scan

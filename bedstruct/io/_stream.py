@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._columns import _POSITION_SETS, _VECTORS, _id_order
-from ._text import RawFrame, general_block, many_slow_rows
+from ._text import RawFrame, general_block, many_slow_rows, parse_token
 
 __all__: list[str] = []
 
@@ -134,7 +134,7 @@ def _parse_piece(piece: bytes, final: bool, row0: int, n: int, ncols: int, flat,
         for r in slow.tolist():
             tokens = piece[starts[r]:ends[r]].split()
             try:
-                values = [float(t) for t in tokens]
+                values = [parse_token(t) for t in tokens]
             except ValueError:
                 return -1
             if len(values) != ncols:

@@ -16,14 +16,15 @@ from ._binary import is_binary, parse_binary_frame, scan_binary
 from ._columns import frame_from_raw
 from ._source import Source, scan_text
 from ._stream import _stream_columns
-from ._text import RawFrame, TruncatedFrame, parse_text_frame
+from ._text import (RawFrame, TruncatedFrame, check_unit_style, normalise_columns,
+                    parse_text_frame, skip_or_raise, tail_truncation, truncated)
 
 __all__ = ["DumpTrajectory"]
 
 
 class _Entry:
     __slots__ = ("file", "kind", "start", "end", "line", "timestep", "count", "at_eof", "state",
-                 "index")
+                 "index", "units", "units_line", "rows")
 
     def __init__(self, **kw):
         for k, v in kw.items():
@@ -48,12 +49,15 @@ class DumpTrajectory(Trajectory):
 
     def __init__(self, paths, *, radius=None, units=None, strict=True, sort_by_id=True,
                  wrap=False, columns=None):
+        units = check_unit_style(units)
         self._opts = dict(radius=radius, units=units, sort_by_id=sort_by_id, wrap=wrap)
-        self._columns = columns
+        self._columns = normalise_columns(columns)
         self._files = [_File(p) for p in paths]
         entries = []
         for f in self._files:
-            entries.extend(self._scan(f, strict))
+            found = self._scan(f, strict)
+            _carry_units(found, units)
+            entries.extend(found)
         if len(self._files) > 1:
             entries.sort(key=lambda e: e.timestep)  # stable: file order, then file position
         self._entries = entries
@@ -69,17 +73,29 @@ class DumpTrajectory(Trajectory):
             return self._scan_binary(f, strict)
         scan = scan_text(src)
         f.ends_with_newline = scan.ends_with_newline
+        if not scan.starts and scan.cut_line is not None:
+            exc = truncated("the file ends inside the header of its first frame", path=f.path,
+                            line=scan.cut_line)
+            skip_or_raise(exc, strict, f"skipping the truncated only frame of {f.path}",
+                          stacklevel=4)
+            return []
         entries = []
         for k, start in enumerate(scan.starts):
             entries.append(_Entry(file=f, kind="text", start=start, end=scan.end(k),
                                   line=scan.lines[k], timestep=scan.timesteps[k],
                                   count=scan.counts[k], at_eof=k == len(scan.starts) - 1,
-                                  state=None, index=k))
+                                  state=None, index=k, units=scan.units[k],
+                                  units_line=scan.units_lines[k], rows=scan.rows(k)))
         if entries:
             self._check_last_text(f, entries, strict, scan.tail)
         return entries
 
     def _check_last_text(self, f, entries, strict, tail=None):
+        """Skip (strict=False) or report a last frame cut off by the end of the file.
+
+        A last line without its newline is always cut off: LAMMPS ends every
+        line with one, and a cut number (``0.0025`` as ``0.002``) still parses.
+        """
         last = entries[-1]
         if tail is not None:
             buf = tail
@@ -91,11 +107,8 @@ class DumpTrajectory(Trajectory):
                                    file_ends_with_newline=f.ends_with_newline,
                                    parse_values=False, ncols_override=self._columns)
         except TruncatedFrame as exc:
-            if strict:
-                raise
-            warnings.warn(f"skipping the truncated last frame of {f.path} "
-                          f"(timestep {last.timestep}): {exc.message}", BedstructWarning,
-                          stacklevel=4)
+            skip_or_raise(exc, strict, f"skipping the truncated last frame of {f.path} "
+                                       f"(timestep {last.timestep})", stacklevel=5)
             entries.pop()
             if entries:
                 entries[-1].at_eof = False
@@ -103,13 +116,9 @@ class DumpTrajectory(Trajectory):
         except DumpFormatError:
             return  # any other defect is reported when that frame is read
         if raw.partial_tail is not None:
-            if strict:
-                raise DumpFormatError("truncated frame: a frame header is cut off at the end of "
-                                      "the file", path=f.path, line=raw.partial_tail)
-            warnings.warn(f"ignoring a cut-off frame header at the end of {f.path} "
-                          f"(line {raw.partial_tail})", BedstructWarning, stacklevel=4)
-            cut = buf.find(b"ITEM:", _offset_of_line(buf, raw.partial_tail - last.line - 1))
-            last.end = last.start + cut
+            skip_or_raise(tail_truncation(raw, buf, last.line), strict,
+                          f"ignoring a cut-off frame header at the end of {f.path}", stacklevel=5)
+            last.end = last.start + raw.tail_offset
             last.at_eof = False
         elif last.timestep is None:
             last.timestep = raw.timestep
@@ -123,9 +132,10 @@ class DumpTrajectory(Trajectory):
             warnings.warn(f"skipping the truncated last snapshot of {f.path} (byte "
                           f"{scan.truncated_at})", BedstructWarning, stacklevel=4)
         return [_Entry(file=f, kind="binary", start=s, end=e, line=None, timestep=t, count=c,
-                       at_eof=False, state=st, index=k)
-                for k, (s, e, t, c, st) in enumerate(zip(scan.starts, scan.ends, scan.timesteps,
-                                                        scan.counts, scan.states))]
+                       at_eof=False, state=st, index=k, units=u, units_line=None, rows=r)
+                for k, (s, e, t, c, st, u, r) in enumerate(zip(
+                    scan.starts, scan.ends, scan.timesteps, scan.counts, scan.states,
+                    scan.units, scan.rows))]
 
     # ----------------------------------------------------------------- access
     def __len__(self) -> int:
@@ -135,14 +145,15 @@ class DumpTrajectory(Trajectory):
         e = self._entries[index]
         buf = e.file.source.read_range(e.start, e.end - e.start)
         if e.kind == "binary":
-            return parse_binary_frame(buf, path=e.file.path, state=e.state,
-                                      columns=self._columns, header_only=header_only)
+            raw = parse_binary_frame(buf, path=e.file.path, state=e.state,
+                                     columns=self._columns, header_only=header_only)
+            return _with_file_units(raw, e)
         raw = parse_text_frame(buf, path=e.file.path, line0=e.line, at_eof=e.at_eof,
                                file_ends_with_newline=e.file.ends_with_newline,
                                header_only=header_only, ncols_override=self._columns)
         del buf  # the frame text is not kept: messages re-read the line they need
         raw._rows = self._row_reader(e, raw.data_line)
-        return raw
+        return _with_file_units(raw, e)
 
     def _row_reader(self, e, data_line):
         def row_text(r):
@@ -185,7 +196,33 @@ class DumpTrajectory(Trajectory):
             return None
         planned.sort()
         raw._rows = self._row_reader(e, raw.data_line)
-        return frame_from_raw(raw, frame_index=e.index, planned=planned, **self._opts)
+        return frame_from_raw(_with_file_units(raw, e), frame_index=e.index, planned=planned,
+                              **self._opts)
+
+    def check_structure(self) -> None:
+        """Check every frame's row count against its header, without parsing values.
+
+        The counts come from the scan (lines between ``ITEM: ATOMS`` and the
+        next frame, or the size of a binary snapshot), so this costs nothing
+        for a well-formed file; a frame that disagrees is re-read to name the
+        exact line.
+
+        Raises
+        ------
+        DumpFormatError
+            For the first frame whose rows do not match its header (or whose
+            header is malformed).
+        """
+        for k, e in enumerate(self._entries):
+            if e.rows is not None and e.rows == e.count:
+                continue
+            if e.kind == "binary":
+                self._raw(k)
+                continue
+            buf = e.file.source.read_range(e.start, e.end - e.start)
+            parse_text_frame(buf, path=e.file.path, line0=e.line, at_eof=e.at_eof,
+                             file_ends_with_newline=e.file.ends_with_newline,
+                             parse_values=False, ncols_override=self._columns)
 
     def header(self, index: int) -> RawFrame:
         """The parsed header of frame ``index`` (box, columns, units) without its data."""
@@ -219,6 +256,29 @@ class DumpTrajectory(Trajectory):
     def __repr__(self) -> str:
         what = self._files[0].path if len(self._files) == 1 else f"{len(self._files)} files"
         return f"DumpTrajectory({what!r}, n_frames={len(self)})"
+
+
+def _carry_units(entries, units) -> None:
+    """Give every frame of one file the unit style stated before it.
+
+    LAMMPS writes ``ITEM: UNITS`` (and the unit string of a binary dump) only
+    before the first snapshot, so a style holds until the file states another.
+    A style that contradicts ``units=`` is an error naming the line.
+    """
+    style = line = None
+    for e in entries:
+        if e.units is not None:
+            style, line = e.units, e.units_line
+            if units is not None and style != units:
+                raise DumpFormatError(f"the file says 'ITEM: UNITS {style}' but units={units!r} "
+                                      f"was given", path=e.file.path, line=line)
+        e.units, e.units_line = style, line
+
+
+def _with_file_units(raw: RawFrame, e: _Entry) -> RawFrame:
+    if raw.units is None:
+        raw.units = e.units
+    return raw
 
 
 def _offset_of_line(buf: bytes, k: int) -> int:

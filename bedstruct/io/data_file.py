@@ -3,9 +3,13 @@
 Supported ``Atoms`` layouts:
 
 * ``sphere`` and LIGGGHTS ``granular``: ``id type diameter density x y z [ix iy iz]``;
-* ``hybrid granular bond/gran`` (and ``hybrid sphere ...``) as LIGGGHTS
-  ``write_data`` writes it: ``id type x y z diameter density [ix iy iz]``,
-  with a molecule id before the image flags when present;
+* ``hybrid`` with the sub-styles named: ``id type x y z`` then each
+  sub-style's own columns in the order of the sub-styles, as LAMMPS writes
+  them (``sphere``/``granular``: ``diameter density``; ``bond``, ``angle``,
+  ``molecular``, LIGGGHTS ``bond/gran``: ``molecule``; ``charge``: ``q``;
+  ``full``: ``molecule q``; ``dipole``: ``q mux muy muz``), then
+  ``[ix iy iz]``. LIGGGHTS ``write_data`` leaves out the ``bond/gran``
+  molecule id, so it may be missing;
 * ``atomic``: ``id type x y z [ix iy iz]`` (radii from ``radius=``).
 
 The style comes from the ``Atoms # style`` comment, the ``atom_style=``
@@ -17,11 +21,13 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 
 import numpy as np
 
 from ..core import Box, Frame, Provenance, Units
-from ..errors import DumpFormatError
+from ..errors import BedstructWarning, DumpFormatError
+from ._text import check_unit_style
 
 __all__ = ["read_data", "write_data"]
 
@@ -42,20 +48,100 @@ def _strip(line: str) -> str:
     return (line if k < 0 else line[:k]).strip()
 
 
-def _style_kind(style: str) -> str:
+# Columns each atom_style hybrid sub-style adds after 'id type x y z', with the per-atom
+# field each fills (LAMMPS data_atom_hybrid / fields_data_atom). A field two sub-styles share is
+# written once by LAMMPS since 2020 and twice before (and by LIGGGHTS), so such a combination
+# is refused rather than guessed.
+_HYBRID_COLUMNS = {
+    "sphere": (("diameter", "radius"), ("density", "rmass")),
+    "granular": (("diameter", "radius"), ("density", "rmass")),  # LIGGGHTS' name for sphere
+    "bond": (("molecule", "molecule"),),
+    "angle": (("molecule", "molecule"),),
+    "molecular": (("molecule", "molecule"),),
+    "bond/gran": (("molecule", "molecule"),),                    # LIGGGHTS
+    "charge": (("q", "q"),),
+    "full": (("molecule", "molecule"), ("q", "q")),
+    "dipole": (("q", "q"), ("mux", "mu"), ("muy", "mu"), ("muz", "mu")),
+    "atomic": (),
+}
+
+
+def _hybrid_layout(style: str) -> tuple[list, str | None]:
+    """Column names of an ``atom_style hybrid`` Atoms row (without image flags), and the
+    one column that may be missing (LIGGGHTS write_data leaves out bond/gran's molecule).
+
+    Raises
+    ------
+    ValueError
+        If the sub-styles are not named, unknown, or share a column.
+    """
+    subs = style.split()[1:]
+    if not subs:
+        raise ValueError("'atom_style hybrid' without its sub-styles: pass them in the order "
+                         "of the atom_style command, e.g. atom_style='hybrid sphere bond'")
+    cols = ["id", "type", "x", "y", "z"]
+    owner: dict = {}
+    for sub in subs:
+        if sub not in _HYBRID_COLUMNS:
+            raise ValueError(f"atom_style hybrid sub-style {sub!r} is not supported; known: "
+                             f"{', '.join(_HYBRID_COLUMNS)}")
+        for col, fld in _HYBRID_COLUMNS[sub]:
+            if owner.setdefault(fld, sub) != sub:
+                raise ValueError(f"atom_style {style!r}: sub-styles {owner[fld]!r} and {sub!r} "
+                                 f"both have '{col}', which LAMMPS versions write once or "
+                                 f"twice; this combination is not supported")
+            cols.append(col)
+    return cols, ("molecule" if "bond/gran" in subs else None)
+
+
+_PLAIN_COLUMNS = {
+    "sphere": ["id", "type", "diameter", "density", "x", "y", "z"],
+    "granular": ["id", "type", "diameter", "density", "x", "y", "z"],
+    "atomic": ["id", "type", "x", "y", "z"],
+    "bond/gran": ["id", "molecule", "type", "x", "y", "z"],
+}
+
+
+def _row_layouts(style: str) -> dict:
+    """Atoms row layouts of ``style``: values per row -> (column names, image flags last?).
+
+    Raises
+    ------
+    ValueError
+        For an unsupported style or hybrid combination.
+    """
     words = style.split()
-    if not words:
-        return "sphere"
-    if words[0] == "hybrid":
-        return "hybrid"
-    if words[0] in ("sphere", "granular"):
-        return "sphere"
-    if words[0] == "atomic":
-        return "atomic"
-    if words[0] == "bond/gran":
-        return "bond/gran"
-    raise ValueError(f"atom_style {style!r} is not supported; expected sphere, granular, "
-                     f"hybrid granular bond/gran, bond/gran or atomic")
+    head = words[0] if words else "sphere"
+    if head == "hybrid":
+        cols, optional = _hybrid_layout(style)
+        variants = [cols] + ([[c for c in cols if c != optional]] if optional else [])
+    elif head in _PLAIN_COLUMNS:
+        variants = [_PLAIN_COLUMNS[head]]
+    else:
+        raise ValueError(f"atom_style {style!r} is not supported; expected sphere, granular, "
+                         f"atomic, bond/gran or hybrid with the sub-styles "
+                         f"{', '.join(_HYBRID_COLUMNS)}")
+    layouts = {}
+    for cols in variants:
+        layouts[len(cols)] = (cols, False)
+        layouts[len(cols) + 3] = (cols, True)
+    return layouts
+
+
+def _map_atoms(table, names, has_images, rows, path):
+    """ids, types, positions, the other named columns and image flags of an Atoms table."""
+    col = {name: table[:, k] for k, name in enumerate(names)}
+    ids = _ints(col.pop("id"), rows, path, "id")
+    types = _ints(col.pop("type"), rows, path, "type")
+    pos = np.stack([col.pop(a) for a in "xyz"], axis=1)
+    columns = {name: values.copy() for name, values in col.items()}
+    if "molecule" in columns:
+        columns["molecule"] = _ints(columns["molecule"], rows, path, "molecule")
+    images = None
+    if has_images:
+        images = np.stack([_ints(table[:, c], rows, path, "image flag")
+                           for c in range(len(names), len(names) + 3)], 1)
+    return ids, types, pos, columns, images
 
 
 def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=None) -> Frame:
@@ -103,11 +189,13 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
     """
     from .lammps_dump import _check_radius
     _check_radius(radius)
+    units = check_unit_style(units)
     path = os.fspath(path)
     with open(path, "r", encoding="latin-1") as fh:
         lines = fh.read().splitlines()
-    if not lines:
-        raise DumpFormatError("empty data file", path=path, line=1)
+    if not any(line.strip() for line in lines):
+        raise DumpFormatError("empty data file (nothing but blank lines); expected a title "
+                              "line, then a header with 'N atoms'", path=path, line=1)
     counts = {}
     bounds = {}
     tilt = None
@@ -125,11 +213,7 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
         done = False
         for axis in ("x", "y", "z"):
             if text.endswith(f"{axis}lo {axis}hi"):
-                try:
-                    bounds[axis] = (float(words[0]), float(words[1]))
-                except (ValueError, IndexError):
-                    raise DumpFormatError(f"expected '{axis}lo {axis}hi' bounds", path=path,
-                                          line=k + 1, text=lines[k]) from None
+                bounds[axis] = _bounds_line(words, axis, path, k + 1, lines[k])
                 done = True
         if text.endswith("xy xz yz"):
             try:
@@ -137,6 +221,9 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
             except ValueError:
                 raise DumpFormatError("expected 'xy xz yz' tilt factors", path=path, line=k + 1,
                                       text=lines[k]) from None
+            if not all(math.isfinite(t) for t in tilt):
+                raise DumpFormatError("tilt factors must be finite", path=path, line=k + 1,
+                                      text=lines[k])
             done = True
         if not done:
             rest = " ".join(words[1:])
@@ -208,49 +295,26 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
             atom_style = "sphere"
             notes.append("atom_style not stated; assumed 'sphere' (id type diameter density x y z)")
     try:
-        kind = _style_kind(atom_style)
+        layouts = _row_layouts(atom_style)
     except ValueError as exc:
         raise DumpFormatError(str(exc), path=path) from None
     if len(rows) != n:
         raise DumpFormatError(f"atom count mismatch: the header says {n} atoms but the Atoms "
                               f"section has {len(rows)} rows", path=path,
                               line=rows[-1][0] if rows else None)
-    base = {"sphere": 7, "hybrid": 7, "atomic": 5, "bond/gran": 6}[kind]
-    table = _numeric_rows(rows, path, "Atoms", allowed=(base, base + 1, base + 3, base + 4))
-    ncol = table.shape[1] if n else base
-    ids = _ints(table[:, 0], rows, path, "id") if n else np.zeros(0, np.int64)
-    types = _ints(table[:, 1], rows, path, "type") if n else np.zeros(0, np.int64)
-    columns = {}
-    images = None
-    if kind == "sphere":
-        diam, dens, pos = table[:, 2], table[:, 3], table[:, 4:7]
-        extra = table[:, 7:]
-    elif kind == "hybrid":
-        pos, diam, dens = table[:, 2:5], table[:, 5], table[:, 6]
-        extra = table[:, 7:]
-    elif kind == "bond/gran":
-        columns["molecule"] = _ints(table[:, 1], rows, path, "molecule")
-        types = _ints(table[:, 2], rows, path, "type")
-        pos, diam, dens = table[:, 3:6], None, None
-        extra = table[:, 6:]
-    else:
-        pos, diam, dens = table[:, 2:5], None, None
-        extra = table[:, 5:]
-    if extra.shape[1] in (1, 4):
-        columns["molecule"] = _ints(extra[:, 0], rows, path, "molecule")
-        extra = extra[:, 1:]
-    if extra.shape[1] == 3:
-        images = np.stack([_ints(extra[:, c], rows, path, "image flag") for c in range(3)], 1)
-    elif extra.shape[1] != 0:
-        raise DumpFormatError(f"unexpected {ncol} values per Atoms row for atom_style "
-                              f"{atom_style!r}", path=path, line=rows[0][0], text=rows[0][1])
+    table = _numeric_rows(rows, path, "Atoms", allowed=tuple(sorted(layouts)))
+    names, has_images = layouts[table.shape[1] if n else min(layouts)]
+    ids, types, pos, columns, images = _map_atoms(table, names, has_images, rows, path)
+    _warn_repeated_ids(ids, rows, path)
+    diam = columns.pop("diameter", None)
+    dens = columns.pop("density", None)
     if diam is not None:
         bad = ~(np.isfinite(diam) & (diam > 0))
         if bad.any():
             r = int(np.flatnonzero(bad)[0])
             raise DumpFormatError(f"diameter must be positive and finite (atom_style "
                                   f"{atom_style!r}: diameter is column "
-                                  f"{3 if kind == 'sphere' else 6})", path=path,
+                                  f"{names.index('diameter') + 1})", path=path,
                                   line=rows[r][0], text=rows[r][1])
         radii = diam / 2.0
         columns["density"] = dens.copy()
@@ -303,6 +367,34 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
                   units=Units(None if units is None else units),
                   provenance=Provenance(source=path, frame_index=0, notes=tuple(notes)), **kw)
     return frame.sorted_by_id()
+
+
+def _warn_repeated_ids(ids, rows, path) -> None:
+    """Warn when an atom id appears twice (LAMMPS read_data refuses that; the Velocities
+    join would pick one of them)."""
+    order = np.argsort(ids, kind="stable")
+    same = np.flatnonzero(ids[order][1:] == ids[order][:-1])
+    if same.size:
+        a, b = int(order[same[0]]), int(order[same[0] + 1])
+        warnings.warn(f"{path}, line {rows[b][0]}: atom id {int(ids[a])} appears more than once "
+                      f"in the Atoms section (also on line {rows[a][0]})", BedstructWarning,
+                      stacklevel=3)
+
+
+def _bounds_line(words, axis, path, line, text):
+    """``lo hi`` of one ``xlo xhi`` header line: finite, ``hi`` not below ``lo``."""
+    try:
+        lo, hi = float(words[0]), float(words[1])
+    except (ValueError, IndexError):
+        raise DumpFormatError(f"expected '{axis}lo {axis}hi' bounds", path=path, line=line,
+                              text=text) from None
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise DumpFormatError(f"box bounds must be finite ('{axis}lo {axis}hi')", path=path,
+                              line=line, text=text)
+    if hi < lo:
+        raise DumpFormatError(f"box '{axis}hi' {hi!r} is below '{axis}lo' {lo!r}", path=path,
+                              line=line, text=text)
+    return lo, hi
 
 
 def _numeric_rows(rows, path, section, allowed):

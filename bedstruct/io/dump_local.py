@@ -18,7 +18,8 @@ import numpy as np
 from ..core import Contacts, Frame, Trajectory
 from ..errors import BedstructWarning, DumpFormatError
 from ._source import Source, scan_text
-from ._text import TruncatedFrame, parse_text_frame
+from ._text import (TruncatedFrame, parse_text_frame, skip_or_raise, tail_truncation,
+                    truncated)
 from ._writer import _box_header, _format_rows, _open_write
 from .lammps_dump import expand_paths, read_dump
 
@@ -232,6 +233,10 @@ def read_dump_local(path, *, keywords=None, columns=None, frames=None, radius=No
         for p in paths:
             src = Source(p)
             scan = scan_text(src)
+            if not scan.starts and scan.cut_line is not None:
+                skip_or_raise(truncated("the file ends inside the header of its first frame",
+                                        path=src.path, line=scan.cut_line), strict,
+                              f"skipping the truncated only frame of {src.path}")
             for k, start in enumerate(scan.starts):
                 at_eof = k == len(scan.starts) - 1
                 buf = src.read_range(start, scan.end(k) - start)
@@ -239,11 +244,11 @@ def read_dump_local(path, *, keywords=None, columns=None, frames=None, radius=No
                     raw = parse_text_frame(buf, path=src.path, line0=scan.lines[k], at_eof=at_eof,
                                            file_ends_with_newline=scan.ends_with_newline)
                 except TruncatedFrame as exc:
-                    if strict:
-                        raise
-                    warnings.warn(f"skipping the truncated last frame of {src.path}: "
-                                  f"{exc.message}", BedstructWarning, stacklevel=2)
+                    skip_or_raise(exc, strict, f"skipping the truncated last frame of {src.path}")
                     continue
+                if raw.partial_tail is not None:  # the data before it are complete
+                    skip_or_raise(tail_truncation(raw, buf, scan.lines[k]), strict,
+                                  f"ignoring a cut-off frame header at the end of {src.path}")
                 if raw.kind != "ENTRIES":
                     raise DumpFormatError("this is an atom dump (ITEM: ATOMS), not a 'dump "
                                           "local' file; read it with read_dump", path=src.path,

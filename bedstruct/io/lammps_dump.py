@@ -73,21 +73,30 @@ def read_dump(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=
         Radius (length) to give every particle when the dump has neither a
         ``radius`` nor a ``diameter`` column; otherwise such a dump is an error.
     units : str, optional
-        The unit style of the numbers (``"si"``, ``"cgs"``, ``"micro"``...),
-        when the file has no ``ITEM: UNITS``; no number is converted. When
-        neither states it the frames have ``units.style = None`` (unknown).
+        The LAMMPS unit style of the numbers (``"si"``, ``"cgs"``, ``"micro"``,
+        ``"nano"``, ``"lj"``, ``"real"``, ``"metal"``, ``"electron"``; any
+        case) when the file has no ``ITEM: UNITS``; no number is converted. A
+        style a file states holds for all its later frames (LAMMPS writes it
+        before the first snapshot only). When neither states it the frames
+        have ``units.style = None`` (unknown).
     strict : bool, optional
         With False, a truncated *last* frame of a file (one still being
         written) is skipped with a :class:`~bedstruct.errors.BedstructWarning`;
-        by default it is a :class:`~bedstruct.errors.DumpFormatError`.
+        by default it is a :class:`~bedstruct.errors.DumpFormatError`. A last
+        line without its newline counts as cut off (LAMMPS ends every line
+        with one), so a number cut short is never read.
     sort_by_id : bool, optional
         Order each frame's rows by particle id (default True).
     wrap : bool, optional
-        Wrap unwrapped coordinates (``xu yu zu``) into the box; recorded in the
+        Wrap unwrapped coordinates (``xu yu zu``) into the box, with
+        ``images`` set to the box shifts removed, so that
+        ``frame.unwrapped_positions()`` gives them back; recorded in the
         frame's provenance. Default False: positions are as written.
     columns : str or sequence of str, optional
-        Column names to use instead of the header's (needed for binary dumps
-        of the old layout, which carry no names).
+        Column names to use instead of the header's, as one string
+        (``"id type x y z radius"``) or a sequence: needed for old-style text
+        dumps (``ITEM: ATOMS`` without names) and binary dumps of the old
+        layout, which carry no names.
 
     Returns
     -------
@@ -103,13 +112,16 @@ def read_dump(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=
         NaN/inf positions, unknown header items.
     FileNotFoundError
         If no file matches.
+    ValueError
+        For an unknown ``units`` style or empty ``columns``.
 
     Notes
     -----
     Columns map onto the frame as follows: ``id``, ``type``; positions from
     ``x y z``, else scaled ``xs ys zs`` (converted with the box, triclinic
     included), else unwrapped ``xu yu zu``, else ``xsu ysu zsu``; ``ix iy iz``
-    to ``images``; ``vx vy vz`` to ``velocities``; ``omegax omegay omegaz``
+    to ``images`` (0 with unwrapped positions, which already include them);
+    ``vx vy vz`` to ``velocities``; ``omegax omegay omegaz``
     to ``omegas``; ``fx fy fz`` to ``forces``; ``radius``, or ``diameter``
     halved. Every other column is kept in ``frame.columns`` under its dump name
     (``c_x[1]``, ``f_temp``, ...). A missing ``id`` column gives ids 1..N, a

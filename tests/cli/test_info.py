@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from bedstruct import Frame, write_dump
@@ -91,3 +92,84 @@ def test_info_binary_and_dump_local(tmp_path, capsys, sc_frame):
     assert main(["info", str(tmp_path / "c.local"), "--json"]) == 0
     s = _json(capsys)["files"][0]
     assert s["format"] == "lammps-dump-local" and s["n_particles"] == [0]
+
+
+def _frame(t, n=2):
+    return Frame([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5]][:n], [0.5] * n, box=([0, 0, 0], [2, 1, 1]),
+                 timestep=t)
+
+
+def test_info_glob_of_data_files_summarises_each(tmp_path, capsys):
+    from bedstruct import write_data
+    for k in range(3):
+        write_data(tmp_path / f"d{k}.data", _frame(0, n=1 + k % 2), density=1000.0)
+    assert main(["info", str(tmp_path / "d*.data"), "--json"]) == 0
+    files = _json(capsys)["files"]
+    assert [s["files"] for s in files] == [[str(tmp_path / f"d{k}.data")] for k in range(3)]
+    assert [s["n_particles"] for s in files] == [[1], [2], [1]]
+    assert all(s["format"] == "lammps-data" for s in files)
+
+
+def test_info_checks_the_row_count_of_every_frame(tmp_path, capsys):
+    path = tmp_path / "d.dump"
+    write_dump(path, [_frame(t) for t in (0, 100, 200)])
+    lines = path.read_text().splitlines(keepends=True)
+    del lines[10 + 11]                   # a row of frame 2 (of 3)
+    path.write_text("".join(lines))
+    assert main(["info", str(path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "count mismatch" in err[0] and "line 22" in err[0]
+
+
+def test_info_says_what_was_checked(tmp_path, capsys):
+    path = tmp_path / "d.dump"
+    write_dump(path, [_frame(t) for t in (0, 100, 200)])
+    assert main(["info", str(path), "--json"]) == 0
+    notes = " ".join(_json(capsys)["files"][0]["notes"])
+    assert "row counts of all 3 frames" in notes and "frame 0 only" in notes
+
+
+@pytest.mark.parametrize("content", ["", "  \n\n"])
+def test_info_empty_file(tmp_path, capsys, content):
+    path = tmp_path / "e.dump"
+    path.write_text(content)
+    assert main(["info", str(path), "--json"]) == 0
+    s = _json(capsys)["files"][0]
+    assert s["format"] == "empty" and s["n_frames"] == 0
+    assert any("empty" in n for n in s["notes"])
+
+
+def test_info_unrecognisable_file(tmp_path, capsys):
+    path = tmp_path / "x.txt"
+    path.write_text("hello world\nthis is not a dump\n")
+    assert main(["info", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "not a recognisable" in err and "line 1" in err
+
+
+def test_info_truncated_last_frame_exits_1(tmp_path, capsys):
+    path = tmp_path / "t.dump"
+    write_dump(path, [Frame([[0.5, 0.5, 0.5]], [0.125], box=[1, 1, 1], timestep=t)
+                      for t in (0, 100)])
+    path.write_bytes(path.read_bytes()[:-3])   # the last radius reads 0.12
+    assert main(["info", str(path)]) == 1
+    assert "truncated" in capsys.readouterr().err
+
+
+def test_info_columns_option(tmp_path, capsys):
+    from bedstruct.io._binary import write_binary_dump
+    text = tmp_path / "old.dump"
+    write_dump(text, _frame(5))
+    text.write_text(text.read_text().replace("ITEM: ATOMS id type x y z radius", "ITEM: ATOMS"))
+    assert main(["info", str(text)]) == 1
+    capsys.readouterr()
+    assert main(["info", str(text), "--columns", "id type x y z radius", "--json"]) == 0
+    s = _json(capsys)["files"][0]
+    assert s["columns"] == ["id", "type", "x", "y", "z", "radius"] and s["n_particles"] == [2]
+    binary = tmp_path / "old.bin"
+    write_binary_dump(binary, [dict(timestep=9, bounds=np.array([[0, 1.0]] * 3), tilt=None,
+                                    boundary=("pp",) * 3, names=[],
+                                    data=np.array([[1, 1, 0.1, 0.2, 0.3, 0.05]]))], revision=1)
+    assert main(["info", str(binary), "--columns", "id type x y z radius", "--json"]) == 0
+    s = _json(capsys)["files"][0]
+    assert s["format"] == "lammps-dump-binary" and s["timesteps"] == [9]

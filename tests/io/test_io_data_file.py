@@ -91,3 +91,99 @@ def test_write_data_requires_density(tmp_path, sc_frame):
     back = read_data(tmp_path / "x.data")
     assert back.columns["density"].tolist() == [7800.0] * f.n_particles
     assert "Atoms # sphere" in (tmp_path / "x.data").read_text()
+
+
+def _hybrid(style, rows, bonds=True):
+    return ("title\n\n2 atoms\n1 atom types\n" + ("1 bonds\n1 bond types\n" if bonds else "")
+            + "\n0 10 xlo xhi\n0 10 ylo yhi\n0 10 zlo zhi\n\n"
+            + (f"Atoms # {style}\n\n" if style else "Atoms\n\n") + "".join(r + "\n" for r in rows))
+
+
+@pytest.mark.parametrize("style,rows", [
+    ("hybrid bond sphere", ["1 1 1 2 3 7 0.5 2500", "2 1 4 5 6 8 0.25 1000"]),
+    ("hybrid sphere bond", ["1 1 1 2 3 0.5 2500 7", "2 1 4 5 6 0.25 1000 8"]),
+    ("hybrid molecular sphere", ["1 1 1 2 3 7 0.5 2500 0 0 1", "2 1 4 5 6 8 0.25 1000 0 0 0"]),
+    ("hybrid granular bond/gran", ["1 1 1 2 3 0.5 2500 7", "2 1 4 5 6 0.25 1000 8"]),
+    ("hybrid sphere full", ["1 1 1 2 3 0.5 2500 7 -1.5", "2 1 4 5 6 0.25 1000 8 1.5"]),
+])
+def test_hybrid_column_order_follows_the_sub_styles(tmp_path, style, rows):
+    p = tmp_path / "h.data"
+    p.write_text(_hybrid(style, rows))
+    f = read_data(p)
+    assert f.positions.tolist() == [[1, 2, 3], [4, 5, 6]]
+    assert f.radii.tolist() == [0.25, 0.125]
+    assert f.columns["density"].tolist() == [2500, 1000]
+    assert f.columns["molecule"].tolist() == [7, 8]
+    if "full" in style:
+        assert f.columns["q"].tolist() == [-1.5, 1.5]
+    if len(rows[0].split()) > 9:
+        assert f.images.tolist() == [[0, 0, 1], [0, 0, 0]]
+
+
+def test_liggghts_write_data_hybrid_layout_without_molecule(tmp_path):
+    p = tmp_path / "h.data"
+    p.write_text(_hybrid("", ["1 1 1 2 3 0.5 2500 0 0 1", "2 1 4 5 6 0.25 1000 0 0 0"]))
+    f = read_data(p)
+    assert f.radii.tolist() == [0.25, 0.125] and f.images.tolist() == [[0, 0, 1], [0, 0, 0]]
+    assert "molecule" not in f.columns
+
+
+@pytest.mark.parametrize("style,match", [
+    ("hybrid sphere ellipsoid", "ellipsoid"),
+    ("hybrid sphere foo", "foo"),
+    ("hybrid", "sub-styles"),
+    ("hybrid bond full sphere", "molecule"),
+])
+def test_unknown_hybrid_combinations_are_errors(tmp_path, style, match):
+    p = tmp_path / "h.data"
+    p.write_text(_hybrid(style, ["1 1 1 2 3 7 0.5 2500", "2 1 4 5 6 8 0.25 1000"]))
+    with pytest.raises(DumpFormatError, match=match) as info:
+        read_data(p)
+    assert info.value.path == str(p)
+
+
+def test_hybrid_without_a_diameter_needs_radius(tmp_path):
+    p = tmp_path / "h.data"
+    p.write_text(_hybrid("hybrid bond charge", ["1 1 1 2 3 7 0.5", "2 1 4 5 6 8 -0.5"]))
+    with pytest.raises(DumpFormatError, match="radius="):
+        read_data(p)
+    f = read_data(p, radius=0.1)
+    assert f.columns["molecule"].tolist() == [7, 8] and f.columns["q"].tolist() == [0.5, -0.5]
+
+
+@pytest.mark.parametrize("edit,line,match", [
+    (("0.0 4.0 xlo xhi", "4.0 0.0 xlo xhi"), 7, "below"),
+    (("0.0 5.0 ylo yhi", "0.0 nan ylo yhi"), 8, "finite"),
+    (("0.5 -0.25 0.125 xy xz yz", "0.5 inf 0.125 xy xz yz"), 10, "finite"),
+])
+def test_bad_box_in_a_data_file_names_the_line(tmp_path, edit, line, match):
+    p = tmp_path / "box.data"
+    p.write_text(DATA.replace(*edit))
+    with pytest.raises(DumpFormatError, match=match) as info:
+        read_data(p)
+    assert info.value.line == line and info.value.path == str(p)
+
+
+@pytest.mark.parametrize("content", ["", "\n\n   \n"])
+def test_empty_data_file(tmp_path, content):
+    p = tmp_path / "e.data"
+    p.write_text(content)
+    with pytest.raises(DumpFormatError, match="empty"):
+        read_data(p)
+
+
+@pytest.mark.parametrize("bad", ["mm", 5])
+def test_data_units_argument_is_checked(tmp_path, bad):
+    p = tmp_path / "d.data"
+    p.write_text(DATA)
+    with pytest.raises(ValueError, match="si, cgs, micro"):
+        read_data(p, units=bad)
+    assert read_data(p, units="real").units.style == "real"
+
+
+def test_repeated_atom_ids_warn(tmp_path):
+    from bedstruct.errors import BedstructWarning
+    p = tmp_path / "dup.data"
+    p.write_text(DATA.replace("2 1 0.6 3000", "1 1 0.6 3000"))
+    with pytest.warns(BedstructWarning, match="line 21: atom id 1 appears more than once"):
+        read_data(p)

@@ -214,3 +214,88 @@ def test_missing_timestep_value(write, dump_text, good_rows):
     assert "expected the timestep" in err.message and err.line == 14
     err = _err(write("bad_ts.dump", dump_text(good_rows).replace("\n0\n", "\nzero\n", 1)))
     assert "integer" in err.message and err.line == 2
+
+
+def test_content_before_the_first_timestep_is_an_error(write, dump_text, good_rows):
+    text = dump_text(good_rows, step=1) + dump_text(good_rows, step=2)
+    missing = write("missing_ts.dump", text.replace("ITEM: TIMESTEP\n1\n", "", 1))
+    for strict in (True, False):
+        err = _err(missing, strict=strict)
+        assert err.line == 1 and "ITEM: TIMESTEP" in err.message
+        assert err.text == "ITEM: NUMBER OF ATOMS"
+    err = _err(write("comment.dump", "\n\n# comment\n" + text))
+    assert err.line == 3 and err.text == "# comment"
+    err = _err(write("junk.dump", "ITEM: TIMESTEP is next\n" + text))
+    assert err.line == 1
+    # blank lines before the first frame are harmless
+    assert read_dump(write("blank.dump", "\n  \n" + text)).timesteps.tolist() == [1, 2]
+
+
+@pytest.mark.parametrize("token", ["1..5", "0x1p-1", "1_0", "1.0D-01", "--1"])
+@pytest.mark.parametrize("n_slow", [1, 200])
+def test_bad_token_names_file_line_and_token(write, dump_text, token, n_slow):
+    """Rows with a token outside the fast path (nan here) go to the general parser; a bad
+    token there is reported exactly as on the fast path, never read as some number."""
+    n = 250
+    rows = [f"{k} 1 0.5 0.5 0.5 0.01 {'nan' if k <= n_slow else '1.5'}" for k in range(1, n + 1)]
+    rows[150] = f"151 1 0.5 0.5 0.5 0.01 {token}"
+    err = _err(write("slowbad.dump", dump_text(rows, cols="id type x y z radius f_temp")))
+    assert err.line == FIRST_ROW + 150 and err.text == rows[150]
+    assert repr(token) in err.message and "f_temp" in err.message
+
+
+@pytest.mark.parametrize("lines,line,match", [
+    ("1 0\n0 10\n0 10\n", 6, "below"),
+    ("0 10\n0 nan\n0 10\n", 7, "finite"),
+    ("0 10\n0 10\n-inf 10\n", 8, "finite"),
+])
+def test_bad_box_bounds_name_the_line(write, dump_text, good_rows, lines, line, match):
+    text = dump_text(good_rows).replace("0 10\n0 10\n0 10\n", lines, 1)
+    err = _err(write("box.dump", text))
+    assert err.line == line and match in err.message
+
+
+def test_bad_triclinic_box_names_the_header_line(write, dump_text, good_rows):
+    # a bounding box narrower than its tilt gives hi < lo once converted back
+    text = dump_text(good_rows).replace("ITEM: BOX BOUNDS pp pp pp\n0 10\n",
+                                        "ITEM: BOX BOUNDS xy xz yz pp pp pp\n0 10 20\n", 1)
+    text = text.replace("0 10\n0 10\n", "0 10 0\n0 10 0\n", 1)
+    err = _err(write("tri.dump", text))
+    assert err.line == 5 and "box" in err.message
+
+
+def test_bad_box_bounds_in_a_binary_dump(tmp_path):
+    from bedstruct.io._binary import write_binary_dump
+    path = tmp_path / "box.bin"
+    write_binary_dump(path, [dict(timestep=3, bounds=np.array([[0, 1.0], [1.0, 0], [0, 1.0]]),
+                                  tilt=None, boundary=("pp",) * 3,
+                                  names="id type x y z radius".split(),
+                                  data=np.array([[1, 1, 0.5, 0.5, 0.5, 0.1]]))])
+    err = _err(path)
+    assert "below" in err.message and "timestep 3" in err.message
+
+
+def test_ids_beyond_2_to_53_and_types_beyond_int32(write, dump_text):
+    rows = ["9007199254740993 1 1 1 1 0.5", "9007199254740992 1 2 2 2 0.5"]
+    err = _err(write("bigid.dump", dump_text(rows)))
+    assert "2**53" in err.message and err.line == FIRST_ROW
+    err = _err(write("bigtype.dump", dump_text(["1 3000000000 1 1 1 0.5", "2 1 2 2 2 0.5"])))
+    assert "type" in err.message and err.line == FIRST_ROW
+
+
+def test_repeated_ids_warn(write, dump_text):
+    rows = ["1 1 1 1 1 0.5", "2 1 2 2 2 0.5", "1 1 3 3 3 0.5"]
+    p = write("dupid.dump", dump_text(rows))
+    for sort in (True, False):
+        with pytest.warns(BedstructWarning, match="line 12: particle id 1 appears more than once"):
+            with read_dump(p, sort_by_id=sort) as traj:
+                f = traj[0]
+        assert f.n_particles == 3
+
+
+def test_general_triclinic_box_is_not_supported_yet(write, dump_text, good_rows):
+    text = dump_text(good_rows).replace(
+        "ITEM: BOX BOUNDS pp pp pp\n0 10\n0 10\n0 10\n",
+        "ITEM: BOX BOUNDS abc origin pp pp pp\n10 0 0 0\n0 10 0 0\n0 0 10 0\n")
+    err = _err(write("abc.dump", text))
+    assert err.line == 5 and "not supported" in err.message

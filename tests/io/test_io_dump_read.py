@@ -263,3 +263,120 @@ def test_gzip_with_and_without_isal(tmp_path, monkeypatch, dump_text, good_rows,
     traj = read_dump(p)
     assert [f.timestep for f in traj] == [5, 6, 7]
     assert traj[0].positions.tolist() == traj[2].positions.tolist()
+
+
+def test_units_stated_once_apply_to_every_frame_of_the_file(write, dump_text, good_rows):
+    """LAMMPS writes ITEM: UNITS before the first snapshot only (dump_modify units yes)."""
+    text = ("ITEM: UNITS\nsi\nITEM: TIME\n0\n" + dump_text(good_rows, step=0)
+            + "ITEM: TIME\n0.001\n" + dump_text(good_rows, step=100) + dump_text(good_rows, step=200))
+    p = write("units.dump", text)
+    traj = read_dump(p)
+    assert [f.units.style for f in traj] == ["si", "si", "si"]
+    assert traj.header(2).units == "si"
+    for k in (0, 2):  # the conflict is found whichever frame is read
+        with pytest.raises(DumpFormatError, match="ITEM: UNITS si") as info:
+            read_dump(p, units="cgs")[k]
+        assert info.value.line == 2
+    assert read_dump(p, units="SI")[2].units.style == "si"
+    # a run appended in another unit style restates it: it applies from there on
+    more = write("more.dump", text + "ITEM: UNITS\ncgs\n" + dump_text(good_rows, step=300))
+    assert [f.units.style for f in read_dump(more)] == ["si", "si", "si", "cgs"]
+    # the unit of one file is not carried into the next file of a glob
+    other = write("units.dump.b", dump_text(good_rows, step=400))
+    traj = read_dump([p, other])
+    assert [f.units.style for f in traj] == ["si", "si", "si", None]
+
+
+def test_binary_units_stated_in_the_first_snapshot_only(tmp_path):
+    from bedstruct.io._binary import write_binary_dump
+    data = np.array([[1, 1, 0.5, 0.5, 0.5, 0.1]])
+    snap = dict(timestep=0, bounds=np.array([[0, 1.0]] * 3), tilt=None, boundary=("pp",) * 3,
+                names="id type x y z radius".split(), data=data, units="cgs")
+    path = tmp_path / "u.bin"
+    write_binary_dump(path, [snap, dict(snap, timestep=10, units=None),
+                             dict(snap, timestep=20, units=None)])
+    assert [f.units.style for f in read_dump(path)] == ["cgs", "cgs", "cgs"]
+    with pytest.raises(DumpFormatError, match="cgs"):
+        read_dump(path, units="si")[2]
+
+
+def _triclinic_unwrapped(write, cols, arrays, name):
+    lo = np.array([1.0, 2.0, 3.0])
+    box = Box(lo, lo + [10.0, 8.0, 6.0], [2.0, -1.0, 1.5], boundary="pp pp ff")
+    b = box.lammps_bounds()
+    head = ("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n5\nITEM: BOX BOUNDS xy xz yz pp pp ff\n"
+            + "".join(f"{float(b[k, 0])!r} {float(b[k, 1])!r} {float(box.tilt[k])!r}\n"
+                      for k in range(3))
+            + f"ITEM: ATOMS id type {cols} radius\n")
+    rows = [f"{i + 1} 1 " + " ".join(repr(float(v)) if a.dtype.kind == "f" else str(int(v))
+                                     for a in arrays for v in a[i]) + " 0.1\n"
+            for i in range(5)]
+    return write(name, head + "".join(rows)), box
+
+
+def test_unwrapped_coordinates_with_image_flags_are_not_shifted_twice(tmp_path, write):
+    rng = np.random.default_rng(0)
+    s = rng.uniform(0.05, 0.95, (5, 3))
+    img = rng.integers(-2, 3, (5, 3))
+    img[:, 2] = 0                                  # z is not periodic
+    lo = np.array([1.0, 2.0, 3.0])
+    m = Box(lo, lo + [10.0, 8.0, 6.0], [2.0, -1.0, 1.5]).matrix
+    xu = lo + (s + img) @ m.T
+    p, box = _triclinic_unwrapped(write, "xu yu zu ix iy iz", [xu, img], "uimg.dump")
+    f = read_dump(p)[0]
+    assert np.array_equal(f.positions, xu)               # as written, default wrap=False
+    assert np.array_equal(f.unwrapped_positions(), xu)   # images not added a second time
+    assert f.images.tolist() == [[0, 0, 0]] * 5
+    assert any("ix iy iz" in n for n in f.provenance.notes)
+    g = read_dump(p, wrap=True)[0]
+    assert box.contains(g.positions).all()
+    assert g.images.tolist() == img.tolist()
+    np.testing.assert_allclose(g.unwrapped_positions(), xu, rtol=0, atol=1e-12)
+    assert any("ix iy iz" in n for n in g.provenance.notes)
+    for frame in (f, g):   # round trip: the same frame, bit for bit
+        out = tmp_path / "rt.dump"
+        write_dump(out, frame)
+        back = read_dump(out)[0]
+        assert np.array_equal(back.positions, frame.positions)
+        assert np.array_equal(back.images, frame.images)
+        np.testing.assert_allclose(back.unwrapped_positions(), frame.unwrapped_positions(),
+                                   rtol=0, atol=1e-12)  # the box may differ in the last bit
+
+
+def test_wrapping_unwrapped_coordinates_records_the_images(write):
+    text = ("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: BOX BOUNDS pp pp ff\n0 10\n0 10\n"
+            "0 10\nITEM: ATOMS id xu yu zu radius\n1 32.5 -1.0 11.0 0.5\n")
+    g = read_dump(write("u.dump", text), wrap=True)[0]
+    assert g.positions.tolist() == [[2.5, 9.0, 11.0]] and g.images.tolist() == [[3, -1, 0]]
+    assert g.unwrapped_positions().tolist() == [[32.5, -1.0, 11.0]]
+
+
+def test_columns_given_as_one_string(write, dump_text, good_rows):
+    p = write("a.dump", dump_text(good_rows))
+    f = read_dump(p, columns="id type x y z radius")[0]
+    assert f.ids.tolist() == [1, 2, 3] and f.radii.tolist() == [0.25, 0.5, 0.5]
+    old = write("old.dump", dump_text(good_rows, cols=""))
+    with pytest.raises(DumpFormatError, match="columns="):
+        read_dump(old)[0]
+    g = read_dump(old, columns="id type x y z radius")[0]
+    assert g.positions.tolist() == f.positions.tolist()
+    with pytest.raises(ValueError, match="columns"):
+        read_dump(p, columns="")
+
+
+@pytest.mark.parametrize("bad", ["mm", "foo", 5, ""])
+def test_units_argument_is_checked(write, dump_text, good_rows, bad):
+    p = write("a.dump", dump_text(good_rows))
+    with pytest.raises(ValueError, match="si, cgs, micro, nano, lj, real, metal, electron"):
+        read_dump(p, units=bad)
+
+
+def test_units_argument_accepts_the_lammps_styles(write, dump_text, good_rows):
+    p = write("a.dump", dump_text(good_rows))
+    for style in ("si", "cgs", "micro", "nano", "lj", "real", "metal", "electron", "CGS"):
+        assert read_dump(p, units=style)[0].units.style == style.lower()
+    assert read_dump(p, units=None)[0].units.style is None
+    bad = write("b.dump", "ITEM: UNITS\nfurlong\n" + dump_text(good_rows))
+    with pytest.raises(DumpFormatError, match="furlong") as info:
+        read_dump(bad)[0]
+    assert info.value.line == 2
