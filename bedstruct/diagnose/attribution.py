@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, stats
 
-from .fingerprints import FingerprintSet
+from .fingerprints import FingerprintSet, selection_threshold
 
 __all__ = ["ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute"]
 
@@ -246,7 +246,9 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
         se = np.full(len(x), np.inf)
     a, b = x[:k], x[k:]
     sea = se[:k]
-    intervals = np.column_stack([a - _Z95 * sea, a + _Z95 * sea]) if k else np.zeros((0, 2))
+    # within the prior: a magnitude at its bound (or near it) has no support beyond it
+    intervals = (np.column_stack([np.maximum(a - _Z95 * sea, lo), np.minimum(a + _Z95 * sea, hi)])
+                 if k else np.zeros((0, 2)))
     # A magnitude held at its prior bound is fixed there, not fitted: it neither uses a
     # degree of freedom nor lends leverage (the slope of a response at its last node can be
     # steep, and counting it would inflate the studentised residuals of the rows it drives).
@@ -264,6 +266,8 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
         pfit = min(1.0, 2.0 * min(pval, pmax))
     else:
         tmax, pmax, pfit = float("nan"), float("nan"), float("nan")
+    # the information criteria still count a magnitude held at its bound: the data put it
+    # there, and counting it keeps a pinned model from winning the comparison for free
     npar = k + p
     return ModelFit(tuple(effects), a, sea, intervals, b, chi2, dof, pval,
                     chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)), nuisance_stderr=se[k:],
@@ -293,8 +297,7 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
     """
     alpha = fps.alpha if alpha is None else alpha
     names = fps.effect_names
-    n_eff = max(len(names), 1)
-    threshold = float(stats.chi2.isf(alpha / n_eff, 1))
+    threshold = selection_threshold(alpha, len(names))
     null = fit_model(residual, fps, (), rows=rows)
     singles = {e: fit_model(residual, fps, (e,), rows=rows) for e in names}
     pairs = {}
@@ -336,7 +339,7 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
     significant = [m for m in singles.values() if null.chi2 - m.chi2 > threshold]
     if max_effects >= 1 and significant:
         current = min(significant, key=lambda m: (m.bic, m.chi2))
-        thr_pair = float(stats.chi2.isf(alpha / max(n_eff - 1, 1), 1))
+        thr_pair = selection_threshold(alpha, len(names) - 1)
         lowest_single = min(m.chi2 for m in singles.values())
         significant = [m for m in pairs.values() if lowest_single - m.chi2 > thr_pair]
         if significant:

@@ -17,7 +17,8 @@ import numpy as np
 from ..errors import ConfigError
 from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
-from .fingerprints import FingerprintSet, compute_fingerprints
+from .fingerprints import FingerprintSet, assess_fingerprints, compute_fingerprints, \
+    selection_threshold
 from .replicates import Simulator, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
 from .separation import nearest_imitations, not_told_apart, separation
@@ -305,7 +306,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     fps, rows_meas, names, y, sm, data_notes = _measured_vectors(measurements, fps)
     sigma_meas = fps.sigma_meas.copy()
     sigma_meas[rows_meas] = sm
-    fps = replace(fps, sigma_meas=sigma_meas)
+    # identifiability in this file's noise and for this catalogue, as fingerprints computed
+    # for the file would have it (reused ones were assessed in their design's noise)
+    fps = assess_fingerprints(replace(fps, sigma_meas=sigma_meas,
+                                      threshold=selection_threshold(select_alpha, len(effects))))
 
     base_meas = fps.base_samples[:, rows_meas]
     # the measured observables in the fingerprints' row order (a file may list them otherwise)

@@ -330,6 +330,19 @@ class FingerprintSet:
                  "identify_with": list(f.identify_with)} for f in self.fingerprints]
 
 
+def selection_threshold(alpha: float, n_effects: int) -> float:
+    """Chi-square decrease a single effect needs to be selected: the chi-square(1)
+    quantile at ``alpha`` shared (Bonferroni) over the ``n_effects`` candidates.
+
+    Examples
+    --------
+    >>> round(selection_threshold(0.05, 1), 3)
+    3.841
+    """
+    from scipy import stats
+    return float(stats.chi2.isf(alpha / max(int(n_effects), 1), 1))
+
+
 def _design_sigma(design: MeasurementSet, names) -> np.ndarray:
     return np.concatenate([design[n].uncertainty for n in names])
 
@@ -528,8 +541,7 @@ def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Map
         resp = np.vstack([np.zeros(D.shape[1]), D])
         fps.append(Fingerprint(e, np.array([m1, m2]), D, SE, nodes, resp, not curved,
                                run_var=run_var_all[k][:, keep]))
-    n_eff = max(len(effects), 1)
-    threshold = float(stats.chi2.isf(alpha / n_eff, 1))
+    threshold = selection_threshold(alpha, len(effects))
     out = FingerprintSet(design, tuple(keep_names), rows_cal, rows_val, rows_cand, base, seeds,
                          base_s, sim_var, _design_sigma(design, keep_names), tuple(nuisance), sens,
                          tuple(fps), threshold, alpha, simulator_name, n_runs,

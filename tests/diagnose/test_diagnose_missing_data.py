@@ -15,6 +15,7 @@ import pytest
 from bedstruct.diagnose import (MeasurementSet, Observations, compute_fingerprints, diagnose,
                                 standardised_residuals)
 from bedstruct.diagnose.diagnosis import gap_size
+from bedstruct.diagnose.fingerprints import selection_threshold
 from bedstruct.diagnose.validate import _twin_measurements
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
 
@@ -160,3 +161,23 @@ def test_null_data_are_not_flagged_when_the_run_scatter_rests_on_few_replicates(
             uncertainty=Observations({f"o{i}": [stated[i]] for i in range(n)}))
         flagged += where(real, fps.base_samples, sim_var=fps.sim_var).significant
     assert flagged / trials < 0.13       # ~0.08 expected
+
+
+def test_reused_fingerprints_are_judged_in_the_files_noise():
+    # fingerprints of a design read to 1 unit, reused for a file that states 8 units (as the
+    # validation reuses its design's for every twin): identifiability as if computed for the file
+    design, sim = _toy()
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
+    noisy = toy_design(N, n_validate=3, sigma=8.0)
+    fresh = compute_fingerprints(sim, noisy, {"k": 1.0}, EFFECTS, nuisance=("k",), replicates=3)
+    assert all(f.identifiable for f in fps.fingerprints)            # the premise: noise matters
+    assert not any(f.identifiable for f in fresh.fingerprints)
+    real = noisy.with_values(sim({"k": 1.05}, {}, 999))
+    reused = diagnose(real, sim, base={"k": 1.0}, effects=EFFECTS, fingerprints=fps, refine=0)
+    for a, b in zip(reused.fingerprints.fingerprints, fresh.fingerprints):
+        assert a.identifiable == b.identifiable
+        assert a.signal == pytest.approx(b.signal, rel=1e-9)
+    # with one effect withheld the selection threshold is the smaller catalogue's
+    one = diagnose(real, sim, base={"k": 1.0}, effects=EFFECTS[:1], fingerprints=fps, refine=0)
+    assert one.fingerprints.threshold == pytest.approx(selection_threshold(0.01, 1))   # select_alpha
+    assert fps.threshold == pytest.approx(selection_threshold(0.05, 2))

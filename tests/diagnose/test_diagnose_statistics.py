@@ -309,9 +309,12 @@ def test_a_magnitude_held_at_its_prior_bound_keeps_the_fit_test_at_its_level():
         if fit.magnitudes[0] >= 1.0 - 1e-6:
             pinned += 1
             assert fit.dof == n_rows - 1                      # only the recalibration is free
+            # its interval lies within the prior, ending at the bound it is held at
+            assert fit.intervals[0][1] == 1.0 and fit.intervals[0][0] < 1.0
         else:
             assert fit.dof == n_rows - 2
     assert 250 < pinned < 550
+    assert all(0.0 <= lo <= hi <= 1.0 for lo, hi in [fit.intervals[0]])   # prior (0, 1)
     assert np.mean(np.array(p_fit) < 0.05) <= 0.05
 
 
