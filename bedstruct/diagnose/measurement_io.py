@@ -4,6 +4,10 @@ The file format is documented in ``docs/diagnose.md``; the containers are in
 :mod:`bedstruct.diagnose.measurements`, which re-exports the public names of this
 module (``load_measurements``, ``write_measurements``, ``measurement_from_dict``).
 
+Every error raised on a bad file is a :class:`~bedstruct.errors.ConfigError` that
+names the file, the observable (its number in the file and its name) and the key,
+and says what was expected.
+
 .. versionadded:: 0.1
 """
 
@@ -17,8 +21,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..errors import ConfigError
-from .measurements import (_DIM, _KNOWN_CONDITIONS, _UNIT, KINDS, ROLES, Conditions, Measurement,
-                           MeasurementSet)
+from .measurements import (_DIM, _KNOWN_CONDITIONS, _UNIT, KINDS, PLAUSIBLE, ROLES, Conditions,
+                           Measurement, MeasurementSet, normalise_region)
 from .replicates import variance_upper_bound
 
 __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
@@ -28,6 +32,67 @@ __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
 
 def _err(where: str, msg: str) -> ConfigError:
     return ConfigError(f"{where}: {msg}")
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+def _number(v, where: str, key: str, *, positive: bool = False, unit: str = "") -> float:
+    """A plain number from the file (not a string, not a boolean)."""
+    u = f" {unit}" if unit else ""
+    if not _is_number(v):
+        hint = " (write the number alone; units go in the documented unit)" if isinstance(v, str) else ""
+        raise _err(where, f"key {key!r}: expected a number{u}; got {v!r}{hint}")
+    x = float(v)
+    if not math.isfinite(x) or (positive and not x > 0):
+        raise _err(where, f"key {key!r}: expected a {'positive' if positive else 'finite'} "
+                          f"number{u}; got {v!r}")
+    return x
+
+
+def _float_array(value, where: str, key: str) -> np.ndarray:
+    """A number or a flat list of numbers."""
+    if _is_number(value):
+        return np.array([float(value)])
+    if not isinstance(value, (list, tuple, np.ndarray)):
+        raise _err(where, f"key {key!r}: expected a number or a list of numbers; got {value!r}")
+    for i, x in enumerate(value):
+        if isinstance(x, (list, tuple)):
+            raise _err(where, f"key {key!r}: expected a flat list of numbers; element {i + 1} is "
+                              f"a list {x!r}")
+        if not _is_number(x):
+            raise _err(where, f"key {key!r}: expected a number or a list of numbers; element "
+                              f"{i + 1} is {x!r}")
+    return np.asarray(value, dtype=float).reshape(-1)
+
+
+def _table(value, where: str, key: str, *, row_name: str, width: int | None = None) -> np.ndarray:
+    """A rectangular list of lists of numbers (rows of equal length)."""
+    if not isinstance(value, (list, tuple)) or not value:
+        raise _err(where, f"key {key!r}: expected a list of {row_name}s (lists of numbers); got {value!r}")
+    rows = []
+    for i, row in enumerate(value):
+        if not isinstance(row, (list, tuple)):
+            raise _err(where, f"key {key!r}: {row_name} {i + 1} is {row!r}, not a list of numbers")
+        for x in row:
+            if not _is_number(x):
+                raise _err(where, f"key {key!r}: {row_name} {i + 1} holds {x!r}, not a number")
+        if width is not None and len(row) != width:
+            raise _err(where, f"key {key!r}: {row_name} {i + 1} is {list(row)!r}; expected "
+                              f"{width} numbers")
+        if rows and len(row) != len(rows[0]):
+            raise _err(where, f"key {key!r}: {row_name} {i + 1} has {len(row)} values but "
+                              f"{row_name} 1 has {len(rows[0])}: every {row_name} needs the same "
+                              f"number of values")
+        rows.append([float(x) for x in row])
+    return np.asarray(rows, dtype=float)
+
+
+def _string(v, where: str, key: str) -> str:
+    if not isinstance(v, str):
+        raise _err(where, f"key {key!r}: expected a string; got {v!r}")
+    return v
 
 
 def _convert(values, unit: str, kind: str, where: str) -> tuple[np.ndarray, str | None]:
@@ -43,14 +108,37 @@ def _convert(values, unit: str, kind: str, where: str) -> tuple[np.ndarray, str 
     return arr, note
 
 
-def _float_array(value, where: str, key: str) -> np.ndarray:
-    try:
-        arr = np.atleast_1d(np.asarray(value, dtype=float))
-    except (TypeError, ValueError):
-        raise _err(where, f"key {key!r}: expected a number or a list of numbers; got {value!r}") from None
-    if arr.ndim != 1:
-        raise _err(where, f"key {key!r}: expected a flat list; got shape {arr.shape}")
-    return arr
+_UNIT_CHOICES = {"angle": ("deg", "rad"), "length": ("m", "mm", "um", "nm"), "fraction": ("1", "%")}
+
+
+def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str, key: str,
+                     file_values=None) -> None:
+    """Values (canonical unit) inside the kind's plausible range, else an error with the likely unit."""
+    if kind not in PLAUSIBLE:
+        return
+    lo, hi = PLAUSIBLE[kind]
+    v = np.asarray(values, dtype=float)
+    bad = ~((v > lo) & (v < hi))
+    if not np.any(bad):
+        return
+    canonical = KINDS[kind]
+    raw = np.asarray(file_values if file_values is not None else values, dtype=float)
+    fits = []
+    for u in _UNIT_CHOICES[_DIM[canonical]]:
+        if u == unit:
+            continue
+        alt = raw * _UNIT[u][1]
+        if np.all((alt > lo) & (alt < hi)):
+            fits.append(u)
+    shown = ", ".join(f"{x:g}" for x in v[bad][:3])
+    u = "" if canonical == "1" else f" {canonical}"
+    how = f"unit {unit!r}" if stated_unit else f"no 'unit' given, read in {unit!r}"
+    msg = f"key {key!r}: implausible {kind} {shown}{u} ({how}); expected {lo:g} < value < {hi:g}{u}"
+    if fits:
+        msg += f"; the values fit unit = {fits[0]!r}: is that their unit?"
+    elif np.any(v <= 0) and lo >= 0:
+        msg += "; it must be positive"
+    raise _err(where, msg)
 
 
 def _read_csv(path: Path, where: str) -> tuple[list[str], np.ndarray]:
@@ -63,8 +151,13 @@ def _read_csv(path: Path, where: str) -> tuple[list[str], np.ndarray]:
         data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:
         raise _err(where, f"key 'csv': {path} is not a numeric CSV with a header row ({exc})") from None
+    if data.size == 0:
+        raise _err(where, f"key 'csv': {path} holds no data rows under its header")
     if data.shape[1] != len(names):
         raise _err(where, f"key 'csv': {path} has {data.shape[1]} columns but header names {names}")
+    if len(names) < 2:
+        raise _err(where, f"key 'csv': {path} has {len(names)} column ({names}); expected at least "
+                          f"two (x and y, picked by 'columns')")
     return names, data
 
 
@@ -79,21 +172,23 @@ def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
                           f"{sorted(_KNOWN_CONDITIONS)}")
     speed = d.get("speed")
     if speed is not None:
-        speed = float(speed)
-        if not speed > 0:
-            raise _err(where, f"key 'conditions.speed': must be > 0 m/s; got {speed}")
+        speed = _number(speed, where, "conditions.speed", positive=True, unit="(m/s)")
     layer = d.get("layer")
-    if layer is not None and (not isinstance(layer, int) or layer < 1):
-        raise _err(where, f"key 'conditions.layer': expected a positive integer; got {layer!r}")
+    if layer is not None and (isinstance(layer, bool) or not isinstance(layer, int) or layer < 1):
+        raise _err(where, f"key 'conditions.layer': expected a positive integer (1-based); got {layer!r}")
     region = d.get("region")
-    if region is not None and not isinstance(region, str):
-        raise _err(where, f"key 'conditions.region': expected a string; got {region!r}")
+    if region is not None:
+        try:
+            region = normalise_region(region)
+        except ConfigError as exc:
+            raise _err(where, f"key 'conditions.region': {exc}") from None
     tw = d.get("time_window")
     if tw is not None:
-        tw = tuple(float(x) for x in tw)
-        if len(tw) != 2 or not (0.0 <= tw[0] < tw[1] <= 1.0):
+        if not isinstance(tw, (list, tuple)) or len(tw) != 2 or not all(_is_number(x) for x in tw) \
+                or not (0.0 <= float(tw[0]) < float(tw[1]) <= 1.0):
             raise _err(where, f"key 'conditions.time_window': expected [t0, t1] with "
-                              f"0 <= t0 < t1 <= 1 (stroke fractions); got {d.get('time_window')!r}")
+                              f"0 <= t0 < t1 <= 1 (stroke fractions); got {tw!r}")
+        tw = (float(tw[0]), float(tw[1]))
     extra = []
     for k in ("stage", "relative_humidity", "rest_time", "box_width"):
         if k in d:
@@ -102,26 +197,51 @@ def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
                 if v not in ("before", "after"):
                     raise _err(where, f"key 'conditions.stage': expected 'before' or 'after'; got {v!r}")
             else:
-                v = float(v)
+                v = _number(v, where, f"conditions.{k}")
                 if k == "relative_humidity" and not 0 <= v <= 1:
-                    raise _err(where, f"key 'conditions.relative_humidity': expected 0..1; got {v}")
+                    raise _err(where, f"key 'conditions.relative_humidity': expected 0..1 (a "
+                                      f"fraction, not %); got {v}")
                 if k in ("rest_time", "box_width") and v < 0:
                     raise _err(where, f"key 'conditions.{k}': must be >= 0; got {v}")
             extra.append((k, v))
     return Conditions(speed, layer, region, tw, tuple(extra))
 
 
-def _windowed(times, series, windows, where):
+def _windowed(times, series, windows, where, key):
     """Mean and standard error of ``series`` in each window (the series operator)."""
     from .observables import windowed_mean
     try:
         return windowed_mean(times, series, windows)
     except ValueError as exc:
-        raise _err(where, f"key 'windows': {exc}") from None
+        raise _err(where, f"key {key!r}: {exc}") from None
+
+
+_SERIES_NOTE = ("uncertainty: the window means' standard errors by batch means (10 blocks, "
+                "corrected for correlated blocks; fewer than 20 samples: their standard deviation)")
+
+
+def _image_angle(path: Path, d, where: str, key: str, powder: str, flanks: str):
+    from .observables import fit_image_angle, read_image
+    if not path.is_file():
+        raise _err(where, f"key {key!r}: image file not found: {path}")
+    try:
+        img = read_image(path)
+    except Exception as exc:  # noqa: BLE001  (any reader failure: not an image)
+        raise _err(where, f"key {key!r}: cannot read {path} as an image ({type(exc).__name__}: "
+                          f"{exc})") from None
+    try:
+        return fit_image_angle(img, pixel_size=d["pixel_size"], powder=powder, flanks=flanks)
+    except ValueError as exc:
+        raise _err(where, f"key {key!r}: {path}: no angle read from this image: {exc}") from None
+
+
+_ALLOWED = {"name", "kind", "unit", "value", "uncertainty", "replicates", "conditions", "role",
+            "windows", "percentiles", "labels", "csv", "columns", "stroke_duration", "image",
+            "images", "pixel_size", "powder", "flanks", "note", "provenance"}
 
 
 def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None = None,
-                          where: str | None = None) -> Measurement:
+                          where: str | None = None, check_range: bool = False) -> Measurement:
     """Build one :class:`Measurement` from a parsed ``[[observable]]`` table.
 
     Parameters
@@ -131,45 +251,54 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     base_dir : path, optional
         Folder that relative ``csv``/``image`` paths are resolved against.
     where : str, optional
-        Location used in error messages.
+        Location put before the observable's name in error messages (the file
+        reader gives ``"<file>: observable #<i>"``).
+    check_range : bool
+        Check the values against the kind's plausible range
+        (:data:`~bedstruct.diagnose.measurements.PLAUSIBLE`), the PSD's order, and
+        the replicates' layout. :func:`load_measurements` always does; designs
+        built in code (values 0 as placeholders) do not.
 
     Raises
     ------
     ConfigError
-        Naming the offending key when the table is invalid.
+        Naming the file (when ``where`` says it), the observable and the offending key.
     """
     base_dir = Path(base_dir) if base_dir is not None else Path(".")
+    if not isinstance(d, Mapping):
+        raise ConfigError(f"{where or 'observable'}: expected a table; got {d!r}")
     name = d.get("name")
-    where = where or f"observable {name!r}"
     if not isinstance(name, str) or not name:
-        raise _err(where, "key 'name': expected a non-empty string")
-    where = f"observable {name!r}"
-    allowed = {"name", "kind", "unit", "value", "uncertainty", "replicates", "conditions", "role",
-               "windows", "percentiles", "labels", "csv", "columns", "stroke_duration", "image",
-               "images", "pixel_size", "note", "provenance"}
-    unknown = set(d) - allowed
+        raise _err(where or "observable", f"key 'name': expected a non-empty string; got {name!r}")
+    where = f"{where} {name!r}" if where else f"observable {name!r}"
+    unknown = set(d) - _ALLOWED
     if unknown:
-        raise _err(where, f"key {sorted(unknown)[0]!r}: unknown key; allowed: {sorted(allowed)}")
+        raise _err(where, f"key {sorted(unknown)[0]!r}: unknown key; allowed: {sorted(_ALLOWED)}")
     kind = d.get("kind")
     if kind not in KINDS:
         raise _err(where, f"key 'kind': expected one of {sorted(KINDS)}; got {kind!r}")
     role = d.get("role", "calibrate")
     if role not in ROLES:
         raise _err(where, f"key 'role': expected one of {ROLES}; got {role!r}")
-    unit = str(d.get("unit", KINDS[kind]))
+    stated_unit = "unit" in d
+    unit = _string(d["unit"], where, "unit") if stated_unit else KINDS[kind]
+    if unit not in _UNIT:
+        _convert([], unit, kind, where)   # the unknown-unit error
     file_unit = unit
     cond = _conditions(d.get("conditions"), where)
     conversions: list[str] = []
     windows = percentiles = replicates = None
     sem = None
+    for key, kinds in (("windows", ("dynamic_angle_series",)), ("percentiles", ("psd",))):
+        if key in d and kind not in kinds:
+            raise _err(where, f"key {key!r}: only a {' or '.join(kinds)} has {key}; this is a {kind}")
 
     if kind == "dynamic_angle_series":
         if "windows" in d:
-            windows = np.asarray(d["windows"], dtype=float)
-            if windows.ndim != 2 or windows.shape[1] != 2 or np.any(windows[:, 0] >= windows[:, 1]) \
-                    or np.any(windows < 0) or np.any(windows > 1):
+            windows = _table(d["windows"], where, "windows", row_name="window", width=2)
+            if np.any(windows[:, 0] >= windows[:, 1]) or np.any(windows < 0) or np.any(windows > 1):
                 raise _err(where, "key 'windows': expected [[t0, t1], ...] with 0 <= t0 < t1 <= 1 "
-                                  "(stroke fractions)")
+                                  f"(stroke fractions); got {d['windows']!r}")
         elif cond.time_window is not None:
             windows = np.asarray([cond.time_window])
         else:
@@ -181,7 +310,14 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
                               "e.g. [10, 50, 90]")
         percentiles = _float_array(d["percentiles"], where, "percentiles")
         if np.any(percentiles <= 0) or np.any(percentiles >= 100):
-            raise _err(where, "key 'percentiles': expected values in (0, 100)")
+            raise _err(where, f"key 'percentiles': expected values in (0, 100); got {d['percentiles']!r}")
+        if len(percentiles) > 1 and np.all(percentiles <= 1):
+            raise _err(where, f"key 'percentiles': {d['percentiles']!r} look like fractions; "
+                              f"percentiles are in percent, e.g. "
+                              f"{[float(f'{p * 100:.6g}') for p in percentiles]}")
+        if np.any(np.diff(percentiles) <= 0):
+            raise _err(where, f"key 'percentiles': expected increasing percentiles; got "
+                              f"{d['percentiles']!r}")
 
     # ---- values: inline value, replicates, csv, or image(s)
     sources = [k for k in ("value", "replicates", "csv", "image", "images") if k in d]
@@ -192,14 +328,42 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
         raise _err(where, "key 'value': give exactly one of 'value', 'replicates', 'csv', 'image', "
                           f"'images'; got {sources or 'none'}")
     src = sources[0] if sources else None
+    for key, needs in (("columns", ("csv",)), ("stroke_duration", ("csv",)),
+                       ("pixel_size", ("image", "images")), ("powder", ("image", "images")),
+                       ("flanks", ("image", "images"))):
+        if key in d and src not in needs:
+            raise _err(where, f"key {key!r}: only used with {' or '.join(repr(n) for n in needs)}")
+    # components expected from the other keys (to check replicates' layout against)
+    n_expected = (len(windows) if windows is not None else len(percentiles) if percentiles is not None
+                  else None)
+    from_image = src in ("image", "images")
     if src == "value":
         values = _float_array(d["value"], where, "value")
     elif src == "replicates":
-        rep = np.asarray(d["replicates"], dtype=float)
-        if rep.ndim == 1:
-            rep = rep[:, None]
-        if rep.ndim != 2 or rep.shape[0] < 2:
-            raise _err(where, "key 'replicates': expected at least 2 replicate readings")
+        raw = d["replicates"]
+        if isinstance(raw, (list, tuple)) and raw and all(isinstance(r, (list, tuple)) for r in raw):
+            rep = _table(raw, where, "replicates", row_name="replicate")
+        elif isinstance(raw, (list, tuple)) and raw and any(isinstance(r, (list, tuple)) for r in raw):
+            raise _err(where, "key 'replicates': mixes numbers and lists; give a flat list (readings "
+                              "of one component) or a list of lists (one list per replicate)")
+        else:
+            rep = _float_array(raw, where, "replicates")[:, None]
+        if rep.shape[0] < 2:
+            raise _err(where, "key 'replicates': expected at least 2 replicate readings "
+                              f"(one row per replicate); got {rep.shape[0]}")
+        if n_expected is not None and rep.shape[1] != n_expected:
+            what = "windows" if windows is not None else "percentiles"
+            if rep.shape[1] == 1:
+                raise _err(where, f"key 'replicates': a flat list holds the readings of one "
+                                  f"component, but the {n_expected} {what} need one list per "
+                                  f"replicate, each of {n_expected} values: [[...], [...], ...]")
+            if rep.shape[0] == n_expected:
+                raise _err(where, f"key 'replicates': {rep.shape[0]} rows of {rep.shape[1]} values, "
+                                  f"but the {n_expected} {what} need rows of {n_expected}: the layout "
+                                  f"looks transposed. Each row is one replicate reading of all "
+                                  f"components, e.g. [[d10, d50, d90], [d10, d50, d90], ...]")
+            raise _err(where, f"key 'replicates': rows of {rep.shape[1]} values, but the "
+                              f"{n_expected} {what} need {n_expected} per row (one row per replicate)")
         replicates = rep
         values = rep.mean(axis=0)
         # a standard error from a few readings is itself uncertain: taken at the same upper
@@ -209,28 +373,53 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
         conversions.append(f"uncertainty: the standard error of {rep.shape[0]} replicates at its "
                            f"one-sided 84 % upper confidence bound (x{bound:.2f})")
     elif src == "csv":
-        path = base_dir / str(d["csv"])
+        if kind not in ("dynamic_angle_series", "psd", "tool_force_ratio"):
+            raise _err(where, f"key 'csv': a CSV is read for dynamic_angle_series, psd and "
+                              f"tool_force_ratio; a {kind} takes 'value' or 'replicates'")
+        path = base_dir / _string(d["csv"], where, "csv")
         names, data = _read_csv(path, where)
-        cols = d.get("columns", ["force_x", "force_z"] if kind == "tool_force_ratio"
-                      else names[:2])
+        cols = d.get("columns", ["force_x", "force_z"] if kind == "tool_force_ratio" else names[:2])
+        if not isinstance(cols, (list, tuple)) or len(cols) != 2 or not all(isinstance(c, str) for c in cols):
+            raise _err(where, f"key 'columns': expected two column names [x, y]; got {cols!r}")
         for c in cols:
             if c not in names:
                 raise _err(where, f"key 'columns': column {c!r} not in {path.name} header {names}")
         x, y = data[:, names.index(cols[0])], data[:, names.index(cols[1])]
         if kind == "dynamic_angle_series":
             dur = d.get("stroke_duration")
-            t = x / float(dur) if dur is not None else x
+            if dur is not None:
+                dur = _number(dur, where, "stroke_duration", positive=True, unit="(s)")
+            t = x / dur if dur is not None else x
             if np.nanmax(t) > 1.0 + 1e-9:
                 raise _err(where, "key 'stroke_duration': times exceed one stroke; give "
                                   "stroke_duration (s) or times as stroke fractions")
-            values, sem = _windowed(t, y, windows, where)
+            values, sem = _windowed(t, y, windows, where, "csv")
+            conversions.append(_SERIES_NOTE)
         elif kind == "psd":
             from .observables import psd_percentiles_from_cumulative
             x_conv, note = _convert(x, unit, kind, where)
             if note:
                 conversions.append(note)
-            values = psd_percentiles_from_cumulative(x_conv, y, percentiles)
-        elif kind == "tool_force_ratio":   # columns: horizontal, vertical load over the stroke
+            yy = np.asarray(y, float)
+            if not np.all(np.isfinite(yy)) or np.any(yy < 0):
+                raise _err(where, f"key 'csv': {path.name}: cumulative column {cols[1]!r} must be "
+                                  f"finite and >= 0 (% passing)")
+            if np.max(yy) <= 1.0:
+                yy = yy * 100.0
+                conversions.append(f"csv {path.name}: cumulative column {cols[1]!r} given as "
+                                   f"fractions (max <= 1) -> percent (x100)")
+            if np.max(yy) > 100.0 + 1e-6:
+                raise _err(where, f"key 'csv': {path.name}: cumulative column {cols[1]!r} exceeds "
+                                  f"100 % (max {np.max(yy):g}); expected % passing (0..100)")
+            if percentiles.min() < yy.min() or percentiles.max() > yy.max():
+                raise _err(where, f"key 'csv': {path.name}: the cumulative curve covers "
+                                  f"{yy.min():g}..{yy.max():g} %, not the percentiles "
+                                  f"{percentiles.tolist()} (no extrapolation)")
+            try:
+                values = psd_percentiles_from_cumulative(x_conv, yy, percentiles)
+            except ValueError as exc:
+                raise _err(where, f"key 'csv': {path.name}: {exc}") from None
+        else:  # tool_force_ratio: columns horizontal, vertical load over the stroke
             from .observables import tool_force_ratio
             try:
                 ratio, se = tool_force_ratio(x, y)
@@ -238,32 +427,62 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
                 raise _err(where, f"key 'csv': {path.name}: {exc}") from None
             values = np.array([ratio])
             sem = np.array([se]) if math.isfinite(se) else None
-        else:
-            values = y
-    elif src in ("image", "images"):
+    elif from_image:
         if kind not in ("static_angle", "dynamic_angle_series"):
             raise _err(where, f"key {src!r}: images are supported for angle kinds only")
         if "pixel_size" not in d:
             raise _err(where, "key 'pixel_size': image observables need the pixel size (m)")
-        from .observables import angle_from_image, read_image
+        _number(d["pixel_size"], where, "pixel_size", positive=True, unit="(m)")
+        powder = d.get("powder", "auto")
+        if powder not in ("bright", "dark", "auto"):
+            raise _err(where, f"key 'powder': expected 'bright' (powder brighter than the "
+                              f"background), 'dark' or 'auto'; got {powder!r}")
+        flanks = d.get("flanks", "both")
+        if flanks not in ("both", "left", "right"):
+            raise _err(where, f"key 'flanks': expected 'both', 'left' or 'right'; got {flanks!r}")
         if src == "image":
-            values = np.asarray([angle_from_image(read_image(base_dir / str(d["image"])),
-                                                  pixel_size=float(d["pixel_size"]))])
+            fname = _string(d["image"], where, "image")
+            fit = _image_angle(base_dir / fname, d, where, "image", powder, flanks)
+            values = np.asarray([fit.angle])
+            fits = [fit]
         else:
             imgs = d["images"]
             if not isinstance(imgs, Mapping) or "files" not in imgs or "times" not in imgs:
                 raise _err(where, "key 'images': expected {files = [...], times = [...]} "
                                   "(times as stroke fractions)")
-            angles = [angle_from_image(read_image(base_dir / str(f)), pixel_size=float(d["pixel_size"]))
-                      for f in imgs["files"]]
-            values, sem = _windowed(np.asarray(imgs["times"], float), np.asarray(angles), windows, where)
+            extra = set(imgs) - {"files", "times"}
+            if extra:
+                raise _err(where, f"key 'images.{sorted(extra)[0]}': unknown; expected files, times")
+            files = imgs["files"]
+            if not isinstance(files, list) or not files or not all(isinstance(f, str) for f in files):
+                raise _err(where, f"key 'images.files': expected a list of file names; got {files!r}")
+            times = _float_array(imgs["times"], where, "images.times")
+            if len(times) != len(files):
+                raise _err(where, f"key 'images.times': {len(times)} times for {len(files)} files "
+                                  f"(one stroke fraction per image)")
+            if np.any(times < 0) or np.any(times > 1):
+                raise _err(where, "key 'images.times': expected stroke fractions in [0, 1]")
+            fits = [_image_angle(base_dir / f, d, where, f"images.files[{i}]", powder, flanks)
+                    for i, f in enumerate(files)]
+            values, sem = _windowed(times, np.asarray([f.angle for f in fits]), windows, where,
+                                    "images")
+            conversions.append(_SERIES_NOTE)
+        pols = sorted({f.powder for f in fits})
+        sides = sorted({"+".join(f.flanks) for f in fits})
+        conversions.append(f"{src}: angle read in deg from {len(fits)} image(s) (powder "
+                           f"{'/'.join(pols)}{', auto-detected' if powder == 'auto' else ''}; "
+                           f"flank(s) {'/'.join(sides)}); the unit applies to the stated "
+                           f"uncertainty only")
     else:  # candidate
         n = (len(windows) if windows is not None else len(percentiles) if percentiles is not None
              else 1)
         values = np.full(n, np.nan)
 
-    if src not in ("csv",) or kind != "psd":
-        values, note = _convert(values, unit, kind, where) if src is not None else (values, None)
+    file_values = values
+    # image angles are measured in deg by the operator: the file's unit is the unit of the
+    # stated numbers (uncertainty), never applied to them; a psd CSV converted its sizes above
+    if src is not None and not from_image and not (src == "csv" and kind == "psd"):
+        values, note = _convert(values, unit, kind, where)
         if note:
             conversions.append(note)
         if replicates is not None:
@@ -277,8 +496,7 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if percentiles is not None and len(percentiles) != n:
         raise _err(where, f"key 'percentiles': {len(percentiles)} percentiles but {n} values")
     if src is not None and not np.all(np.isfinite(values)):
-        raise _err(where, "key 'value': values must be finite numbers")
-
+        raise _err(where, f"key {src!r}: values must be finite numbers")
     # ---- uncertainty: stated (systematic) and/or from replicates/series, in quadrature
     if "uncertainty" in d:
         unc = _float_array(d["uncertainty"], where, "uncertainty")
@@ -286,7 +504,9 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             unc = np.full(n, unc[0])
         if len(unc) != n:
             raise _err(where, f"key 'uncertainty': expected 1 or {n} values; got {len(unc)}")
-        unc, _ = _convert(unc, file_unit, kind, where)
+        unc, note = _convert(unc, file_unit, kind, where)
+        if note and from_image:
+            conversions.append(f"uncertainty: {note}")
         if np.any(~np.isfinite(unc)) or np.any(unc <= 0):
             raise _err(where, "key 'uncertainty': must be positive and finite")
         if sem is not None:
@@ -294,10 +514,38 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     elif sem is not None:
         unc = np.where(sem > 0, sem, np.nan)
         if np.any(~np.isfinite(unc)):
-            raise _err(where, "key 'uncertainty': replicates show no scatter; state an uncertainty")
+            what = "replicates show" if src == "replicates" else f"the {src} gives"
+            raise _err(where, f"key 'uncertainty': {what} no scatter; state an uncertainty")
     else:
         raise _err(where, "key 'uncertainty': needed (one standard deviation), unless replicates "
                           "or a time series give it")
+
+    if check_range and src is not None:
+        key = "value" if src in ("value",) else src
+        if from_image:
+            _check_plausible(values, kind, "deg", True, where, key)
+        elif src == "csv" and kind == "psd":
+            _check_plausible(values, kind, unit, stated_unit, where, key,
+                             file_values=values / _UNIT[unit][1])
+        else:
+            _check_plausible(values, kind, unit, stated_unit, where, key, file_values=file_values)
+        if kind == "psd" and n > 1:
+            if np.any(np.diff(values) <= 0):
+                raise _err(where, f"key {key!r}: the diameters must increase with the percentile "
+                                  f"(d{percentiles[0]:g} < ... < d{percentiles[-1]:g}); got "
+                                  f"{np.asarray(file_values).tolist()} {unit}")
+            if replicates is not None:
+                for i, row in enumerate(replicates):
+                    if np.any(np.diff(row) <= 0):
+                        raise _err(where, f"key 'replicates': replicate {i + 1} "
+                                          f"{(row / _UNIT[unit][1]).tolist()} does not increase with "
+                                          f"the percentile: each row must be one reading of all "
+                                          f"percentiles, e.g. [d10, d50, d90]")
+                spread = replicates.std(axis=0, ddof=1)
+                if np.max(spread) > np.min(np.diff(values)):
+                    raise _err(where, "key 'replicates': the replicates of one percentile scatter "
+                                      "more than the percentiles differ; each row must be one "
+                                      "reading of all percentiles (the layout looks transposed)")
 
     labels = d.get("labels")
     if labels is None:
@@ -309,6 +557,8 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             labels = ["value"]
         else:
             labels = [f"c{i}" for i in range(n)]
+    elif not isinstance(labels, (list, tuple)):
+        raise _err(where, f"key 'labels': expected a list of strings; got {labels!r}")
     labels = tuple(str(x) for x in labels)
     if len(labels) != n:
         raise _err(where, f"key 'labels': {len(labels)} labels but {n} values")
@@ -336,7 +586,10 @@ def load_measurements(path) -> MeasurementSet:
     FileNotFoundError
         If the file does not exist.
     ConfigError
-        If the file is not valid TOML or a table is invalid (the message names the key).
+        If the file is not valid TOML or a table is invalid: the message names the
+        file, the observable (``#<i> '<name>'``) and the key. Values outside the
+        kind's plausible range are errors (usually a unit mistake; the message
+        says which unit would fit).
 
     Examples
     --------
@@ -362,7 +615,8 @@ def load_measurements(path) -> MeasurementSet:
     if unknown:
         raise ConfigError(f"{path}: key {sorted(unknown)[0]!r}: unknown top-level key; "
                           f"expected 'meta' and [[observable]]")
-    ms = tuple(measurement_from_dict(o, base_dir=path.parent, where=f"{path}: observable #{i + 1}")
+    ms = tuple(measurement_from_dict(o, base_dir=path.parent, where=f"{path}: observable #{i + 1}",
+                                     check_range=True)
                for i, o in enumerate(obs))
     try:
         return MeasurementSet(ms, title=str(meta.get("title", path.stem)),

@@ -23,8 +23,9 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["KINDS", "ROLES", "Conditions", "Measurement", "MeasurementSet", "Observations",
-           "load_measurements", "write_measurements", "measurement_from_dict"]
+__all__ = ["KINDS", "ROLES", "PLAUSIBLE", "normalise_region", "Conditions", "Measurement",
+           "MeasurementSet", "Observations", "load_measurements", "write_measurements",
+           "measurement_from_dict"]
 
 #: Observable kinds and their canonical unit.
 KINDS: dict[str, str] = {
@@ -46,6 +47,42 @@ _DIM = {"deg": "angle", "m": "length", "1": "fraction"}
 _KNOWN_CONDITIONS = {"speed", "layer", "region", "time_window", "stage", "relative_humidity",
                      "rest_time", "box_width"}
 
+#: Plausible values per kind, canonical units: ``lo < value < hi`` (checked when a
+#: measurement file is read; a value outside is almost always a unit mistake).
+#: ``tool_force_ratio`` (a signed ratio) is not range-checked.
+PLAUSIBLE: dict[str, tuple[float, float]] = {
+    "static_angle": (5.0, 90.0), "dynamic_angle_series": (5.0, 90.0),   # deg
+    "packing_fraction": (0.0, 1.0), "coordination": (0.0, 20.0),
+    "bed_height": (0.0, 0.1), "psd": (0.0, 1e-2), "roughness": (0.0, 1e-3),   # m
+}
+
+#: Bed regions (``conditions.region``): accepted spellings (case-insensitive) -> the one kept.
+_REGION_SPELLINGS = {"start": "start", "center": "center", "centre": "center", "end": "end"}
+
+
+def normalise_region(region) -> str:
+    """The canonical spelling of a bed region: ``"start"``, ``"center"`` or ``"end"``.
+
+    Case-insensitive; ``"centre"`` is read as ``"center"``. The measurement file
+    reader, the surrogate and the engine's observation all use it, so an unknown
+    region is an error everywhere instead of silently the centre.
+
+    Raises
+    ------
+    ConfigError
+        If ``region`` is not one of those.
+
+    Examples
+    --------
+    >>> normalise_region("Centre")
+    'center'
+    """
+    key = region.strip().lower() if isinstance(region, str) else None
+    if key not in _REGION_SPELLINGS:
+        raise ConfigError(f"region {region!r}: expected one of 'start', 'center' (or 'centre'), "
+                          f"'end'")
+    return _REGION_SPELLINGS[key]
+
 
 @dataclass(frozen=True)
 class Conditions:
@@ -58,7 +95,8 @@ class Conditions:
     layer : int or None
         Layer number (1-based).
     region : str or None
-        Region of the bed (``"start"``, ``"center"``, ``"end"`` or a name).
+        Region of the bed: ``"start"``, ``"center"`` or ``"end"`` (see
+        :func:`normalise_region`; the file reader normalises the spelling).
     time_window : tuple of float or None
         ``(t0, t1)`` as fractions of the stroke (0 = blade starts, 1 = ends).
     extra : tuple of (str, value)

@@ -18,18 +18,46 @@ the contract a simulation workflow fills in.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 import numpy as np
 
 __all__ = ["windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative",
            "render_side_view", "surface_profile", "AngleFit", "fit_surface_angle",
-           "angle_from_image", "angle_from_particles", "read_image", "bed_height",
+           "fit_image_angle", "angle_from_image", "angle_from_particles", "read_image", "bed_height",
            "packing_fraction_in_region", "roughness", "tool_force_ratio", "observe"]
 
 
-def windowed_mean(times, values, windows) -> tuple[np.ndarray, np.ndarray]:
+def _batch_means_se(block_stat, n: int, n_blocks: int = 10) -> float:
+    """Standard error of a statistic of a uniformly sampled, autocorrelated record (batch means).
+
+    The samples ``0 .. n-1`` are cut into ``n_blocks`` consecutive blocks and
+    ``block_stat(indices)`` is evaluated on each; the standard error is the scatter
+    of the blocks' values over ``sqrt(n_blocks)``. Blocks much longer than the
+    correlation time are independent; shorter ones are not, and their scatter
+    understates the error: it is multiplied by ``sqrt((1 + r1) / (1 - r1))``, with
+    ``r1`` the lag-1 correlation of consecutive blocks' values (clipped to
+    ``[0, 0.9]``), the first-order correction of correlated batches.
+
+    Returns NaN with fewer than ``2 n_blocks`` samples (too few to form blocks).
+    Shared by :func:`windowed_mean` and :func:`tool_force_ratio`.
+    """
+    n_blocks = int(n_blocks)
+    if n_blocks < 2:
+        raise ValueError(f"`n_blocks` must be >= 2; got {n_blocks}")
+    if n < 2 * n_blocks:
+        return float("nan")
+    r = np.array([float(block_stat(b)) for b in np.array_split(np.arange(n), n_blocks)])
+    se = float(r.std(ddof=1) / math.sqrt(n_blocks))
+    d = r - r.mean()
+    ss = float(np.sum(d * d))
+    r1 = float(np.sum(d[:-1] * d[1:]) / ss) if ss > 0 else 0.0
+    r1 = min(max(r1, 0.0), 0.9)
+    return se * math.sqrt((1.0 + r1) / (1.0 - r1))
+
+
+def windowed_mean(times, values, windows, *, n_blocks: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """Mean and standard error of a time series in each time window.
 
     Parameters
@@ -37,14 +65,24 @@ def windowed_mean(times, values, windows) -> tuple[np.ndarray, np.ndarray]:
     times : (T,) array_like of float
         Sample times (stroke fractions, dimensionless, or any consistent unit).
     values : (T,) array_like of float
-        The series (e.g. dynamic angle, deg).
+        The series (e.g. dynamic angle, deg), sampled at a uniform rate.
     windows : (n, 2) array_like of float
         ``[t0, t1)`` windows in the unit of ``times`` (the last window includes ``t1``).
+    n_blocks : int
+        Blocks of the batch-means standard error.
 
     Returns
     -------
     mean, sem : (n,) ndarray
-        Window means and standard errors (``std/sqrt(k)``, 0 for a single sample).
+        Window means and their standard errors. A measured series is
+        autocorrelated (a heap's angle drifts over many frames), so ``std/sqrt(k)``
+        of its ``k`` samples would understate the error by the square root of the
+        correlation time in samples; the standard error is taken from batch means
+        instead (``n_blocks`` consecutive blocks, corrected for the correlation of
+        neighbouring blocks; the same estimator as :func:`tool_force_ratio`). A
+        window of fewer than ``2 n_blocks`` samples gets their standard deviation
+        (no credit for averaging: their correlation cannot be estimated), and 0
+        for a single sample.
 
     Raises
     ------
@@ -68,11 +106,15 @@ def windowed_mean(times, values, windows) -> tuple[np.ndarray, np.ndarray]:
     sem = np.empty(len(w))
     for i, (t0, t1) in enumerate(w):
         sel = (t >= t0) & ((t < t1) | ((i == len(w) - 1) & (t <= t1))) & np.isfinite(v)
-        k = int(sel.sum())
+        vals = v[sel]
+        k = len(vals)
         if k == 0:
             raise ValueError(f"window [{t0:g}, {t1:g}] holds no sample")
-        mean[i] = v[sel].mean()
-        sem[i] = v[sel].std(ddof=1) / math.sqrt(k) if k > 1 else 0.0
+        mean[i] = vals.mean()
+        if k >= 2 * n_blocks:
+            sem[i] = _batch_means_se(lambda b: vals[b].mean(), k, n_blocks)
+        else:
+            sem[i] = vals.std(ddof=1) if k > 1 else 0.0
     return mean, sem
 
 
@@ -203,6 +245,56 @@ def read_image(path) -> np.ndarray:
     return np.asarray(img, dtype=float)
 
 
+#: Polarities of :func:`surface_profile` / :func:`angle_from_image`.
+POWDER = ("bright", "dark", "auto")
+
+
+def _powder_polarity(bright) -> str:
+    """Which Otsu class is the powder: the one that fills the bottom of a side view."""
+    q = max(1, bright.shape[0] // 4)
+    fb, ft = float(bright[-q:].mean()), float(bright[:q].mean())
+    if fb - ft >= 0.25:
+        return "bright"
+    if ft - fb >= 0.25:
+        return "dark"
+    raise ValueError(f"cannot tell the powder from the background (bright pixels: {fb:.0%} of the "
+                     f"bottom quarter of the image, {ft:.0%} of the top quarter; the powder should "
+                     f"fill the bottom): give powder='bright' or 'dark'")
+
+
+def _segment(image, powder, min_object):
+    """Otsu segmentation: the powder mask and the polarity used."""
+    from skimage.filters import threshold_otsu
+    from skimage.morphology import remove_small_objects
+
+    img = np.asarray(image, dtype=float)
+    if img.ndim != 2:
+        raise ValueError(f"`image` must be a 2-D greyscale array; got shape {img.shape}")
+    if powder not in POWDER:
+        raise ValueError(f"`powder` must be one of {POWDER}; got {powder!r}")
+    if not np.all(np.isfinite(img)):
+        raise ValueError("`image` holds non-finite pixels")
+    if np.ptp(img) == 0:
+        raise ValueError("`image` is uniform; nothing to segment")
+    t = threshold_otsu(img)
+    if powder == "auto":
+        powder = _powder_polarity(img > t)
+    mask = img > t if powder == "bright" else img < t
+    if min_object > 1:
+        mask = remove_small_objects(mask, max_size=min_object - 1) if _has_max_size() else \
+            remove_small_objects(mask, min_size=min_object)
+    return mask, powder
+
+
+def _profile(mask, pixel_size):
+    nrow, ncol = mask.shape
+    has = mask.any(axis=0)
+    top = np.argmax(mask, axis=0)
+    height = np.where(has, (nrow - top) * pixel_size, np.nan)
+    x = (np.arange(ncol) + 0.5) * pixel_size
+    return x, height
+
+
 def surface_profile(image, *, pixel_size, powder="bright", min_object=16) -> tuple[np.ndarray, np.ndarray]:
     """Free-surface height per image column after Otsu segmentation.
 
@@ -211,8 +303,10 @@ def surface_profile(image, *, pixel_size, powder="bright", min_object=16) -> tup
     image : (rows, cols) array_like
         Greyscale side view, row 0 at the top.
     pixel_size : float, length
-    powder : {"bright", "dark"}
-        Whether the powder is brighter or darker than the background.
+    powder : {"bright", "dark", "auto"}
+        Whether the powder is brighter or darker than the background; ``"auto"``
+        takes the class that fills the bottom of the image (an error when neither
+        clearly does).
     min_object : int
         Foreground objects smaller than this many pixels are removed (dust, noise).
 
@@ -222,27 +316,8 @@ def surface_profile(image, *, pixel_size, powder="bright", min_object=16) -> tup
         Column centres and the height of the topmost powder pixel above the
         image bottom (NaN where a column holds no powder).
     """
-    from skimage.filters import threshold_otsu
-    from skimage.morphology import remove_small_objects
-
-    img = np.asarray(image, dtype=float)
-    if img.ndim != 2:
-        raise ValueError(f"`image` must be a 2-D greyscale array; got shape {img.shape}")
-    if powder not in ("bright", "dark"):
-        raise ValueError(f"`powder` must be 'bright' or 'dark'; got {powder!r}")
-    if np.ptp(img) == 0:
-        raise ValueError("`image` is uniform; nothing to segment")
-    t = threshold_otsu(img)
-    mask = img > t if powder == "bright" else img < t
-    if min_object > 1:
-        mask = remove_small_objects(mask, max_size=min_object - 1) if _has_max_size() else \
-            remove_small_objects(mask, min_size=min_object)
-    nrow, ncol = mask.shape
-    has = mask.any(axis=0)
-    top = np.argmax(mask, axis=0)
-    height = np.where(has, (nrow - top) * pixel_size, np.nan)
-    x = (np.arange(ncol) + 0.5) * pixel_size
-    return x, height
+    mask, _ = _segment(image, powder, min_object)
+    return _profile(mask, pixel_size)
 
 
 def _has_max_size() -> bool:
@@ -258,12 +333,23 @@ class AngleFit:
     Attributes
     ----------
     angle : float
-        Inclination of the surface, deg (positive, 0..90).
+        Inclination of the surface, deg (positive, 0..90): the mean over the
+        fitted flanks.
     slope : float
-        dz/dx of the fitted line (dimensionless; sign tells which way it falls).
+        dz/dx of the fitted line of the first fitted flank (left, then right;
+        the sign tells which way it falls).
     intercept : float, length
+        Of the same line.
     n_points, n_inliers : int
-        Surface points used and those the robust fit kept.
+        Surface points fitted and those within the inlier distance of their
+        flank's line (all flanks together).
+    flanks : tuple of str
+        The flanks fitted (``"left"``: left of the crest, rising to the right;
+        ``"right"``: right of the crest, falling to the right).
+    flank_angles : tuple of float
+        Their angles, deg.
+    powder : str or None
+        Polarity used when the fit comes from an image (:func:`fit_image_angle`).
     """
 
     angle: float
@@ -271,11 +357,39 @@ class AngleFit:
     intercept: float
     n_points: int
     n_inliers: int
+    flanks: tuple = ()
+    flank_angles: tuple = ()
+    powder: str | None = None
 
 
-def fit_surface_angle(x, height, *, band=(0.15, 0.85), method="ransac", residual_threshold=None,
-                      seed=0) -> AngleFit:
-    """Robust line fit of the inclined part of a free-surface profile.
+def _fit_line(xs, hs, method, thr, seed):
+    """Slope, intercept and inlier count of one flank's points."""
+    if method == "theil-sen":
+        from scipy.stats import theilslopes
+        slope, intercept, _, _ = theilslopes(hs, xs)
+        dist = np.abs(hs - (slope * xs + intercept)) / math.sqrt(1.0 + slope * slope)
+        return float(slope), float(intercept), int(np.sum(dist <= thr))
+    from skimage.measure import LineModelND, ransac
+    data = np.column_stack([xs, hs])
+    _, inliers = ransac(data, LineModelND, min_samples=2, residual_threshold=thr,
+                        max_trials=200, rng=np.random.default_rng(seed))
+    if inliers is None or inliers.sum() < 3:
+        inliers = np.ones(len(xs), dtype=bool)
+    slope, intercept = np.polyfit(xs[inliers], hs[inliers], 1)
+    return float(slope), float(intercept), int(inliers.sum())
+
+
+def fit_surface_angle(x, height, *, band=(0.15, 0.85), method="ransac", flanks="both",
+                      residual_threshold=None, seed=0, min_points=5) -> AngleFit:
+    """Robust line fit of the inclined part of a free-surface profile, flank by flank.
+
+    From the crest (the highest point) each flank is followed outwards until the
+    profile drops below the band; its points inside the band are fitted on their
+    own, and the angle is the mean over the flanks found (as
+    :func:`bedstruct.analysis.angle_of_repose` does for simulated piles). A
+    one-sided heap (flat top against a wall, the pile in front of a blade) has
+    one flank; a cone has two, and a single straight line through both would
+    read ~0 deg.
 
     Parameters
     ----------
@@ -286,58 +400,97 @@ def fit_surface_angle(x, height, *, band=(0.15, 0.85), method="ransac", residual
         fitted, which drops the flat top and the toe of the heap.
     method : {"ransac", "theil-sen"}
         RANSAC (scikit-image, then least squares on the inliers) or Theil-Sen (scipy).
+    flanks : {"both", "left", "right"}
+        Which flanks to fit (``"both"``: every flank found).
     residual_threshold : float, optional
-        RANSAC inlier distance; default 2 % of the height range.
+        Inlier distance (RANSAC's, and the one ``n_inliers`` counts); default
+        2 % of the height range.
     seed : int
         Seed of the RANSAC sampler.
+    min_points : int
+        A flank needs at least this many points in the band, descending through
+        at least half of it (a flat top is no flank).
 
     Returns
     -------
     AngleFit
+
+    Raises
+    ------
+    ValueError
+        If the profile is flat or no flank is found.
 
     Examples
     --------
     >>> x = np.linspace(0, 1, 50)
     >>> fit_surface_angle(x, 1 - x * np.tan(np.radians(30))).angle  # doctest: +ELLIPSIS
     30.0...
+    >>> cone = 1 - np.abs(x - 0.5) * np.tan(np.radians(30))
+    >>> f = fit_surface_angle(x, cone, method="theil-sen")
+    >>> f.flanks, [round(a, 1) for a in f.flank_angles]
+    (('left', 'right'), [30.0, 30.0])
     """
+    if method not in ("ransac", "theil-sen"):
+        raise ValueError(f"`method` must be 'ransac' or 'theil-sen'; got {method!r}")
+    if flanks not in ("both", "left", "right"):
+        raise ValueError(f"`flanks` must be 'both', 'left' or 'right'; got {flanks!r}")
     x = np.asarray(x, dtype=float).ravel()
     h = np.asarray(height, dtype=float).ravel()
     ok = np.isfinite(h) & np.isfinite(x)
     x, h = x[ok], h[ok]
+    order = np.argsort(x, kind="stable")
+    x, h = x[order], h[order]
     if len(x) < 3:
         raise ValueError("too few surface points to fit an angle (need >= 3)")
-    lo, hi = np.min(h), np.max(h)
-    sel = (h >= lo + band[0] * (hi - lo)) & (h <= lo + band[1] * (hi - lo))
-    if sel.sum() < 3:
-        sel = np.ones_like(h, dtype=bool)
-    xs, hs = x[sel], h[sel]
-    if method == "theil-sen":
-        from scipy.stats import theilslopes
-        slope, intercept, _, _ = theilslopes(hs, xs)
-        n_in = len(xs)
-    elif method == "ransac":
-        from skimage.measure import LineModelND, ransac
-        thr = residual_threshold if residual_threshold is not None else 0.02 * max(hi - lo, 1e-300)
-        data = np.column_stack([xs, hs])
-        _, inliers = ransac(data, LineModelND, min_samples=2, residual_threshold=thr,
-                            max_trials=200, rng=np.random.default_rng(seed))
-        if inliers is None or inliers.sum() < 3:
-            inliers = np.ones(len(xs), dtype=bool)
-        slope, intercept = np.polyfit(xs[inliers], hs[inliers], 1)
-        n_in = int(inliers.sum())
-    else:
-        raise ValueError(f"`method` must be 'ransac' or 'theil-sen'; got {method!r}")
-    return AngleFit(float(np.degrees(np.arctan(abs(slope)))), float(slope), float(intercept),
-                    int(len(xs)), n_in)
+    lo, hi = float(np.min(h)), float(np.max(h))
+    if not hi > lo:
+        raise ValueError("the surface profile is flat: no inclined surface to fit")
+    q = (h - lo) / (hi - lo)
+    thr = residual_threshold if residual_threshold is not None else 0.02 * (hi - lo)
+    peak = int(np.argmax(h))
+    names, angles, lines, n_pts, n_in = [], [], [], 0, 0
+    for name, step in (("left", -1), ("right", 1)):
+        if flanks not in ("both", name):
+            continue
+        idx, k = [], peak
+        while 0 <= k < len(x):
+            if q[k] < band[0]:
+                break
+            if q[k] <= band[1]:
+                idx.append(k)
+            k += step
+        if len(idx) < max(int(min_points), 3) or np.ptp(q[idx]) < 0.5 * (band[1] - band[0]):
+            continue
+        idx = np.sort(np.asarray(idx))
+        slope, icpt, inl = _fit_line(x[idx], h[idx], method, thr, seed)
+        names.append(name)
+        angles.append(float(np.degrees(np.arctan(abs(slope)))))
+        lines.append((slope, icpt))
+        n_pts += len(idx)
+        n_in += inl
+    if not names:
+        which = "flank" if flanks == "both" else f"{flanks} flank"
+        raise ValueError(f"no inclined {which} found: the profile does not descend from its crest "
+                         f"through the band {band[0]:g}-{band[1]:g} of its height range in "
+                         f">= {min_points} points")
+    return AngleFit(float(np.mean(angles)), float(lines[0][0]), float(lines[0][1]), n_pts, n_in,
+                    tuple(names), tuple(angles))
 
 
-def angle_from_image(image, *, pixel_size=1.0, powder="bright", band=(0.15, 0.85),
-                     method="ransac", seed=0) -> float:
-    """Angle of a powder heap or pile from a side-view image.
+def fit_image_angle(image, *, pixel_size=1.0, powder="bright", band=(0.15, 0.85), method="ransac",
+                    flanks="both", seed=0, min_object=16, min_inlier_fraction=0.5,
+                    min_height_pixels=10) -> AngleFit:
+    """Angle of a powder heap or pile from a side-view image, with quality checks.
 
     Otsu segmentation, topmost powder pixel per column as the free surface, and
-    a robust line fit of the inclined part (:func:`fit_surface_angle`).
+    a robust line fit of each flank's inclined part (:func:`fit_surface_angle`).
+    The image must look like a side view of a heap, otherwise the angle would be
+    a number read from noise: the powder fills the bottom of the image (in the
+    lowest 5 % of the rows in >= 25 % of the columns), stays clear of its top edge
+    (<= 5 % of the columns), is solid under its surface (>= 80 % of the pixels),
+    its surface rises >= ``min_height_pixels`` above the toe, and
+    >= ``min_inlier_fraction`` of the fitted points lie on the fitted lines. An
+    upside-down or rotated image, the wrong polarity or pure noise fail these.
 
     Parameters
     ----------
@@ -345,6 +498,76 @@ def angle_from_image(image, *, pixel_size=1.0, powder="bright", band=(0.15, 0.85
         Greyscale side view (row 0 at the top).
     pixel_size : float, length
         Only the ratio of scales matters for the angle; square pixels assumed.
+    powder : {"bright", "dark", "auto"}
+        See :func:`surface_profile`.
+    band, method, flanks, seed
+        See :func:`fit_surface_angle`.
+
+    Returns
+    -------
+    AngleFit
+        With ``powder`` the polarity used.
+
+    Raises
+    ------
+    ValueError
+        Saying which check failed.
+    """
+    mask, pol = _segment(image, powder, min_object)
+    nrow, ncol = mask.shape
+    if not mask.any():
+        raise ValueError(f"no {pol} powder found in the image")
+    nb = max(1, int(round(0.05 * nrow)))
+    bottom = float(mask[-nb:].any(axis=0).mean())
+    if bottom < 0.25:
+        raise ValueError(f"the {pol} powder does not rest on the bottom of the image (it reaches the "
+                         f"lowest 5 % of the rows in {bottom:.0%} of the columns; >= 25 % expected): "
+                         f"is the image upside down or rotated, or the powder's polarity wrong?")
+    top = float(mask[0].mean())
+    if top > 0.05:
+        raise ValueError(f"the {pol} powder reaches the top edge of the image in {top:.0%} of the "
+                         f"columns (<= 5 % expected): the heap is cut off, the image is rotated, or "
+                         f"a wall, the blade or uneven lighting is segmented as powder (crop the "
+                         f"image to the heap)")
+    has = mask.any(axis=0)
+    under = float(np.sum(nrow - np.argmax(mask, axis=0)[has]))
+    solid = float(mask.sum()) / under
+    if solid < 0.8:
+        raise ValueError(f"the {pol} powder is not solid under its surface ({solid:.0%} of the pixels "
+                         f"under the surface are powder; >= 80 % expected): the image is too noisy, "
+                         f"or not a side view of a heap")
+    x, h = _profile(mask, pixel_size)
+    rise = (np.nanmax(h) - np.nanmin(h)) / pixel_size
+    if rise < min_height_pixels:
+        raise ValueError(f"the free surface rises only {rise:.0f} pixels above its lowest point "
+                         f"(>= {min_height_pixels} expected): no heap to read an angle from")
+    fit = fit_surface_angle(x, h, band=band, method=method, flanks=flanks, seed=seed)
+    frac = fit.n_inliers / max(fit.n_points, 1)
+    if frac < min_inlier_fraction:
+        raise ValueError(f"the free surface is not straight: {frac:.0%} of its {fit.n_points} "
+                         f"points lie on the fitted line(s) ({min_inlier_fraction:.0%} expected)")
+    return replace(fit, powder=pol)
+
+
+def angle_from_image(image, *, pixel_size=1.0, powder="bright", band=(0.15, 0.85),
+                     method="ransac", flanks="both", seed=0) -> float:
+    """Angle of a powder heap or pile from a side-view image.
+
+    Otsu segmentation, topmost powder pixel per column as the free surface, and
+    a robust line fit of the inclined part of each flank, with the quality
+    checks of :func:`fit_image_angle` (which raises ``ValueError`` on an image
+    that is not a side view of a heap).
+
+    Parameters
+    ----------
+    image : (rows, cols) array_like
+        Greyscale side view (row 0 at the top).
+    pixel_size : float, length
+        Only the ratio of scales matters for the angle; square pixels assumed.
+    powder : {"bright", "dark", "auto"}
+        See :func:`surface_profile`.
+    flanks : {"both", "left", "right"}
+        See :func:`fit_surface_angle`: a two-flanked pile reads the mean of its flanks.
 
     Returns
     -------
@@ -358,8 +581,8 @@ def angle_from_image(image, *, pixel_size=1.0, powder="bright", band=(0.15, 0.85
     >>> round(angle_from_image(img), 1)
     26.6
     """
-    x, h = surface_profile(image, pixel_size=pixel_size, powder=powder)
-    return fit_surface_angle(x, h, band=band, method=method, seed=seed).angle
+    return fit_image_angle(image, pixel_size=pixel_size, powder=powder, band=band, method=method,
+                           flanks=flanks, seed=seed).angle
 
 
 def angle_from_particles(positions, radii, *, pixel_size=None, axis=1, **kwargs) -> float:
@@ -443,7 +666,8 @@ def tool_force_ratio(force_x, force_z, *, n_blocks: int = 10) -> tuple[float, fl
     (:attr:`bedstruct.workflows.spread_measure.LayerResult.tool_force`) is the
     same ratio of means. The load is autocorrelated, so the standard error comes
     from ``n_blocks`` consecutive blocks (batch means): the scatter of the
-    blocks' ratios over ``sqrt(n_blocks)``.
+    blocks' ratios over ``sqrt(n_blocks)``, corrected for the correlation of
+    neighbouring blocks (the estimator of :func:`windowed_mean`).
 
     Parameters
     ----------
@@ -475,11 +699,7 @@ def tool_force_ratio(force_x, force_z, *, n_blocks: int = 10) -> tuple[float, fl
     if mx == 0.0:
         raise ValueError("tool_force_ratio: the mean horizontal load is zero (no push recorded)")
     ratio = float(fz.mean()) / mx
-    if fx.size < 2 * int(n_blocks):
-        return ratio, float("nan")
-    blocks = np.array_split(np.arange(fx.size), int(n_blocks))
-    r = np.array([fz[b].mean() / fx[b].mean() for b in blocks])
-    return ratio, float(r.std(ddof=1) / np.sqrt(len(r)))
+    return ratio, _batch_means_se(lambda b: fz[b].mean() / fx[b].mean(), fx.size, n_blocks)
 
 
 def observe(kind: str, data: Mapping[str, Any], *, windows=None, percentiles=None) -> np.ndarray:

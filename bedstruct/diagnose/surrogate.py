@@ -30,7 +30,7 @@ from scipy.special import ndtr
 
 from ..errors import ConfigError
 from .catalogue import CATALOGUE
-from .measurements import MeasurementSet, Observations
+from .measurements import MeasurementSet, Observations, normalise_region
 
 __all__ = ["SurrogateSimulator", "BASE_PARAMETERS", "SPEED_X1", "STROKE_LENGTH"]
 
@@ -44,11 +44,20 @@ BASE_PARAMETERS: dict[str, float] = {
 SPEED_X1 = 0.0254          # m/s
 STROKE_LENGTH = 18.9e-3    # m
 _K_REF = 3.6e7
-_REGION_X = {"start": 1 / 6, "center": 0.5, "centre": 0.5, "end": 5 / 6}
+_REGION_X = {"start": 1 / 6, "center": 0.5, "end": 5 / 6}   # keys: normalise_region's spellings
 _LAYERS_UM = (508.0, 508.0, 102.0, 127.0)
 # Simulated PSD (volume-weighted log-normal, truncated at 28 um diameter) and fines population.
 _PSD_MU, _PSD_SIGMA, _PSD_CUT = math.log(52.5e-6), 0.385, 28e-6
 _FINES_MU, _FINES_SIGMA = math.log(20e-6), 0.25
+
+
+def _region_x(m) -> float:
+    """Position along the stroke of ``m``'s region (strict: an unknown region is an error)."""
+    try:
+        return _REGION_X[normalise_region(m.conditions.region)]
+    except (KeyError, ConfigError) as exc:
+        raise ConfigError(f"observable {m.name!r}: conditions.region {m.conditions.region!r} is "
+                          f"not a region of the surrogate (start, center, end)") from exc
 
 
 def _cap(h: float) -> float:
@@ -114,6 +123,8 @@ class SurrogateSimulator:
 
     @staticmethod
     def _check(m):
+        if m.conditions.region is not None:
+            _region_x(m)   # an unknown region is an error now, not at the first call
         if m.kind == "bed_height" and m.conditions.layer is None:
             raise ConfigError(f"observable {m.name!r}: key 'conditions.layer': the surrogate needs "
                               f"the layer of a bed_height")
@@ -205,7 +216,7 @@ class SurrogateSimulator:
         cap = _cap(rh if (rh is not None and e["capillary_bridges"] > 0) else e["capillary_bridges"])
         A, R, F, W, T = (e["contact_ageing"], e["non_sphericity"], e["missing_fines"],
                          e["wall_friction"], e["blade_startup"])
-        xr = _REGION_X.get(c.region, 0.5) if c.region is not None else 0.5
+        xr = _region_x(m) if c.region is not None else 0.5
         k = m.kind
         if k == "static_angle":
             rest = float(c.get("rest_time", 0.0))

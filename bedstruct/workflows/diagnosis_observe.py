@@ -30,6 +30,19 @@ log = logging.getLogger("bedstruct.workflows.diagnosis_sim")
 REGIONS = {"start": 0, "center": 1, "centre": 1, "middle": 1, "end": 2}
 
 
+def _region_index(m) -> int:
+    """Index of ``m``'s region in the layer's start / centre / end windows (default centre).
+
+    Strict: an unknown region is an error naming the observable, never the centre."""
+    from ..diagnose.measurements import normalise_region
+    region = m.conditions.region
+    try:
+        return REGIONS[normalise_region("center" if region is None else region)]
+    except (KeyError, ConfigError) as exc:
+        raise ConfigError(f"observable {m.name!r}: conditions.region {region!r} is not a region "
+                          f"of the layer (start, center, end)") from exc
+
+
 class CallRuns:
     """Workflow runs of one simulator call, shared between the observables that need them."""
 
@@ -148,7 +161,7 @@ class CallRuns:
         if m.kind == "bed_height":
             return observe("bed_height", {"surface_heights": [lay.bed_height_m]})
         if m.kind in ("packing_fraction", "coordination"):
-            r = REGIONS.get(str(c.region or "center").lower(), 1)
+            r = _region_index(m)
             arr = lay.packing_fraction if m.kind == "packing_fraction" else lay.coordination
             return np.array([float(arr[min(r, len(arr) - 1)])])
         if m.kind == "roughness":

@@ -48,7 +48,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .config import load_config
-from .diagnosis_observe import REGIONS, CallRuns
+from .diagnosis_observe import CallRuns, _region_index
 
 __all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "PRESET_OVERRIDES"]
 
@@ -307,7 +307,7 @@ class EngineSimulator:
             spec["layer"] = n if c.layer is None else min(max(int(c.layer), 1), n)
             spec["speed"] = None if c.speed is None else round(float(c.speed), 12)
             if m.kind in ("packing_fraction", "coordination"):
-                spec["region"] = REGIONS.get(str(c.region or "center").lower(), 1)
+                spec["region"] = _region_index(m)   # the index keeps the cache keys
         if m.kind == "psd":
             spec["stage"] = c.get("stage", "before")
         if m.windows is not None:

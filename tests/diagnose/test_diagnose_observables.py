@@ -130,3 +130,56 @@ def test_observe_accepts_a_frame():
     assert observe("bed_height", f)[0] == pytest.approx(4.0)
     with pytest.raises(TypeError, match="Frame"):
         observe("bed_height", 3.0)
+
+
+def _side_view(left_deg, right_deg, nr=300, nc=600):
+    """Binary side view of a pile with its crest at the centre and two flanks of given angles."""
+    r, c = np.mgrid[0:nr, 0:nc].astype(float)
+    t = np.where(c < nc / 2, np.tan(np.radians(left_deg)), np.tan(np.radians(right_deg)))
+    return (r >= np.minimum(0.15 * nr + np.abs(c - nc / 2) * t, 0.9 * nr)).astype(float)
+
+
+@pytest.mark.parametrize("method", ["ransac", "theil-sen"])
+def test_two_flanked_pile_is_fitted_flank_by_flank(method):
+    img = _side_view(25.0, 35.0)
+    assert angle_from_image(img, method=method) == pytest.approx(30.0, abs=0.3)   # the mean
+    assert angle_from_image(img, method=method, flanks="left") == pytest.approx(25.0, abs=0.3)
+    assert angle_from_image(img, method=method, flanks="right") == pytest.approx(35.0, abs=0.3)
+    fit = fit_surface_angle(*surface_profile(img, pixel_size=1.0), method=method)
+    assert fit.flanks == ("left", "right")
+    np.testing.assert_allclose(fit.flank_angles, [25.0, 35.0], atol=0.3)
+
+
+def test_image_polarity_auto_and_quality_checks():
+    img = _side_view(30.0, 30.0)
+    dark = 0.8 - 0.6 * img
+    assert angle_from_image(dark, powder="auto") == pytest.approx(30.0, abs=0.3)
+    assert angle_from_image(dark, powder="dark") == pytest.approx(30.0, abs=0.3)
+    with pytest.raises(ValueError, match="bottom of the image"):
+        angle_from_image(dark)                        # bright powder assumed: none at the bottom
+    with pytest.raises(ValueError, match="bottom of the image"):
+        angle_from_image(img[::-1])                   # upside down
+    with pytest.raises(ValueError, match="top edge"):
+        angle_from_image(np.rot90(_side_view(30.0, 30.0)[:, :300]))   # rotated by 90 deg
+    with pytest.raises(ValueError):
+        angle_from_image(np.random.default_rng(0).random((300, 600)))  # noise
+    with pytest.raises(ValueError, match="cannot tell the powder"):
+        angle_from_image(np.random.default_rng(0).random((300, 600)), powder="auto")
+    with pytest.raises(ValueError, match="rises only"):
+        angle_from_image(np.r_[np.zeros((200, 300)), np.ones((100, 300))])   # a flat bed
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.9, 0.99])
+def test_windowed_mean_standard_error_of_autocorrelated_series(phi):
+    """The stated standard error of a window mean matches the spread of window means over
+    repeated AR(1) series (std/sqrt(k) was ~15x too small at phi = 0.99)."""
+    from scipy.signal import lfilter
+    rng = np.random.default_rng(11)
+    n, reps = 2000, 300
+    e = rng.normal(0, np.sqrt(1 - phi ** 2), (reps, n))
+    e[:, 0] = rng.normal(0, 1, reps)
+    x = lfilter([1], [1, -phi], e, axis=1)
+    t = np.linspace(0, 1, n)
+    res = np.array([windowed_mean(t, xi, [[0.1, 1.0]]) for xi in x])[:, :, 0]
+    ratio = np.sqrt(np.mean(res[:, 1] ** 2)) / res[:, 0].std()
+    assert 0.75 < ratio < 1.3, ratio
