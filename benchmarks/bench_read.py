@@ -1,15 +1,29 @@
-"""Benchmark: reading a 200,000-particle LIGGGHTS text dump (plain and gz).
+"""Benchmark: reading 6-digit LIGGGHTS dumps (plain, gz) and 17-digit engine dumps vs OVITO.
 
 Generates a 15-column ``dump custom`` file (``id type x y z vx vy vz fx fy fz
-omegax omegay omegaz radius``, 6 significant digits as LIGGGHTS writes) with
-a few frames in a temporary folder, then reads it with bedstruct, OVITO and
-MDAnalysis in the same run. Prints seconds per frame (first frame including
-the scan, later frames), bedstruct's peak memory against the size of the
-arrays it returns, and a final ``RESULT`` line.
+omegax omegay omegaz radius``) with a few frames in a temporary folder, three ways:
+
+* ``text``: 6 significant digits (``%g``), as LIGGGHTS writes;
+* ``gz``: the same file gzip-compressed;
+* ``text17``: the same values at full precision, written by ``bedstruct.write_dump`` (the
+  writer of the embedded engine's ``RunDirectory``): Python's shortest round-trip ``repr``,
+  mostly 16-17 significant digits. These numbers do not fit the parser's one-operation fast
+  path (docs/formats.md), so bedstruct reads them through a slower path;
+
+then reads each with bedstruct and OVITO (the anchor: ``pip install -e .[bench]``), and the
+two text files with MDAnalysis (a second anchor), in the same run. Prints seconds per frame
+(first frame including the scan, later frames), bedstruct's peak memory against the size of
+the arrays it returns, and a final ``RESULT`` line with bedstruct's time over OVITO's
+(``ratio_text``, ``ratio_gz``, ``ratio_text17``; nan when OVITO is not installed) and over
+MDAnalysis's (``ratio_mda_text``, ``ratio_mda_text17``). A ratio below 1 means bedstruct is
+faster.
 
 Usage::
 
-    python benchmarks/bench_read.py [--n 200000] [--frames 4]
+    python benchmarks/bench_read.py [--n 200000] [--frames 4] [--no-mdanalysis]
+
+``--frames`` is 1 (first-frame times only) or at least 3: later frames are read in turn so
+that no reader can answer from a cache of the last frame (OVITO keeps one).
 
 Numbers depend on the machine and its load; compare runs taken side by side.
 """
@@ -31,16 +45,22 @@ import numpy as np
 COLUMNS = "id type x y z vx vy vz fx fy fz omegax omegay omegaz radius"
 
 
-def generate(path, n, frames, seed=0):
+def frame_data(n, frames, seed=0):
+    """Per frame, an (n, 15) array of the COLUMNS (ids permuted, as a parallel run writes)."""
     rng = np.random.default_rng(seed)
+    for _ in range(frames):
+        ids = rng.permutation(n) + 1
+        yield np.column_stack([
+            ids, rng.integers(1, 3, n), rng.uniform(-0.05, 0.05, (n, 2)),
+            rng.uniform(0, 0.15, n), rng.normal(0, 0.1, (n, 3)), rng.normal(0, 1e-3, (n, 3)),
+            rng.normal(0, 10, (n, 3)), rng.uniform(1e-5, 3e-5, n)])
+
+
+def generate(path, n, frames, seed=0):
+    """The LIGGGHTS-style file: 6 significant digits (``%g``)."""
     fmt = "%d %d " + " ".join(["%g"] * 13)
     with open(path, "w") as fh:
-        for k in range(frames):
-            ids = rng.permutation(n) + 1
-            data = np.column_stack([
-                ids, rng.integers(1, 3, n), rng.uniform(-0.05, 0.05, (n, 2)),
-                rng.uniform(0, 0.15, n), rng.normal(0, 0.1, (n, 3)), rng.normal(0, 1e-3, (n, 3)),
-                rng.normal(0, 10, (n, 3)), rng.uniform(1e-5, 3e-5, n)])
+        for k, data in enumerate(frame_data(n, frames, seed)):
             fh.write(f"ITEM: TIMESTEP\n{1000 * k}\nITEM: NUMBER OF ATOMS\n{n}\n"
                      "ITEM: BOX BOUNDS pp pp ff\n-0.05 0.05\n-0.05 0.05\n0 0.15\n"
                      f"ITEM: ATOMS {COLUMNS} \n")
@@ -49,7 +69,30 @@ def generate(path, n, frames, seed=0):
             fh.write("\n")
 
 
+def generate_engine(path, n, frames, seed=0):
+    """The same values at full precision, written as the embedded engine writes them
+    (``bedstruct.write_dump``: shortest round-trip repr, up to 17 significant digits)."""
+    from bedstruct import Box, Frame, write_dump
+    box = Box([-0.05, -0.05, 0.0], [0.05, 0.05, 0.15], boundary="pp pp ff")
+    for k, data in enumerate(frame_data(n, frames, seed)):
+        frame = Frame(data[:, 2:5], data[:, 14], box=box, timestep=1000 * k,
+                      ids=data[:, 0].astype(np.int64), types=data[:, 1].astype(np.int64),
+                      velocities=data[:, 5:8], forces=data[:, 8:11], omegas=data[:, 11:14])
+        write_dump(path, frame, append=k > 0)
+
+
 REPEATS = 3  # later frames are read this many times and the fastest read counts
+OVITO_HINT = "pip install -e .[bench]  (or: pip install 'ovito>=3.10')"
+
+
+def ovito_status():
+    """(version string, None) when OVITO imports, else (None, reason)."""
+    try:
+        import ovito
+        from ovito.io import import_file  # noqa: F401
+    except Exception as exc:  # noqa: BLE001 - report any import failure
+        return None, f"{type(exc).__name__}: {exc}"
+    return ".".join(map(str, ovito.version)), None
 
 
 def open_readers(path):
@@ -60,11 +103,8 @@ def open_readers(path):
     traj[0]
     b_first = time.perf_counter() - t0
     pipe, o_first = None, math.nan
-    try:
+    if ovito_status()[0] is not None:
         from ovito.io import import_file
-    except Exception as exc:  # noqa: BLE001 - report any import failure
-        print(f"ovito: not available ({type(exc).__name__}: {exc})")
-    else:
         t0 = time.perf_counter()
         pipe = import_file(path)
         assert pipe.compute(0).particles.count > 0
@@ -137,19 +177,34 @@ def _threads():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--n", type=int, default=200_000)
-    ap.add_argument("--frames", type=int, default=4)
+    ap.add_argument("--n", type=int, default=200_000, help="particles per frame (200,000)")
+    ap.add_argument("--frames", type=int, default=4, help="frames per file (4)")
+    ap.add_argument("--no-mdanalysis", action="store_true", help="skip the MDAnalysis anchor")
     args = ap.parse_args()
+    if args.frames == 2:  # reads of frame 1 alone would be answered from OVITO's frame cache
+        ap.error("--frames 2 is not supported: later-frame timings cycle through at least two "
+                 "frames (OVITO keeps the last frame it read); use --frames 1 or >= 3")
+    ovito_version, why = ovito_status()
+    if ovito_version is None:
+        print(f"OVITO is not installed ({why}): the ratios against OVITO (the anchor of this "
+              f"benchmark) are nan. Install it with: {OVITO_HINT}")
+    else:
+        print(f"OVITO {ovito_version}")
     tmp = tempfile.mkdtemp(prefix="bedstruct-bench-")
     try:
         text = os.path.join(tmp, "dump.liggghts")
         gz = text + ".gz"
+        text17 = os.path.join(tmp, "dump17.liggghts")
         t0 = time.perf_counter()
         generate(text, args.n, args.frames)
         with open(text, "rb") as src, gzip.open(gz, "wb", compresslevel=6) as dst:
             shutil.copyfileobj(src, dst, 1 << 24)
+        generate_engine(text17, args.n, args.frames)
+        sizes = {label: os.path.getsize(p) / 1e6 for label, p in
+                 (("text", text), ("gz", gz), ("text17", text17))}
         print(f"generated {args.frames} frames x {args.n} particles x 15 columns: "
-              f"{os.path.getsize(text) / 1e6:.1f} MB text, {os.path.getsize(gz) / 1e6:.1f} MB gz "
+              f"{sizes['text']:.1f} MB text (%g), {sizes['gz']:.1f} MB gz, "
+              f"{sizes['text17']:.1f} MB text17 (write_dump, 17 digits) "
               f"({time.perf_counter() - t0:.1f} s)")
 
         # load/compile the numba parser once, outside the timings
@@ -167,7 +222,7 @@ def main():
             backend = "gzip (zlib)"
         print(f"bedstruct gz backend: {backend}; numba threads: {_threads()}")
         res = {}
-        for label, path in (("text", text), ("gz", gz)):
+        for label, path in (("text", text), ("gz", gz), ("text17", text17)):
             traj, b_first, pipe, o_first = open_readers(path)
             b_later, o_later = later_frames(traj, pipe, args.frames)
             assert traj[len(traj) - 1].n_particles == args.n
@@ -178,27 +233,51 @@ def main():
                   f"{o_later:.3f} s/frame")
             res[f"bedstruct_{label}_s"] = b_later if args.frames > 1 else b_first
             res[f"ovito_{label}_s"] = o_later if args.frames > 1 else o_first
-        m_first, m_later = bench_mdanalysis(text, args.frames)
-        print(f"[text] mdanalysis: first frame {m_first:.3f} s (incl. scan), later "
-              f"{m_later:.3f} s/frame")
-        res["mdanalysis_text_s"] = m_later if args.frames > 1 else m_first
+        for label, path in (("text", text), ("text17", text17)):
+            m_first, m_later = (math.nan, math.nan) if args.no_mdanalysis else \
+                bench_mdanalysis(path, args.frames)
+            print(f"[{label}] mdanalysis: first frame {m_first:.3f} s (incl. scan), later "
+                  f"{m_later:.3f} s/frame")
+            res[f"mdanalysis_{label}_s"] = m_later if args.frames > 1 else m_first
         peak, nbytes = bench_memory(text)
         print(f"bedstruct peak traced memory while reading one frame: {peak / 1e6:.1f} MB for "
               f"{nbytes / 1e6:.1f} MB of returned arrays")
-        ratio_text = res["bedstruct_text_s"] / res["ovito_text_s"]
-        ratio_gz = res["bedstruct_gz_s"] / res["ovito_gz_s"]
+        ratio = {label: _ratio(res[f"bedstruct_{label}_s"], res[f"ovito_{label}_s"])
+                 for label in ("text", "gz", "text17")}
+        mda = {label: _ratio(res[f"bedstruct_{label}_s"], res[f"mdanalysis_{label}_s"])
+               for label in ("text", "text17")}
+        slow_b = _ratio(res["bedstruct_text17_s"], res["bedstruct_text_s"])
+        slow_o = _ratio(res["ovito_text17_s"], res["ovito_text_s"])
+        print(f"17-digit over 6-digit text: bedstruct {slow_b:.2f}x, "
+              + ("OVITO n/a" if math.isnan(slow_o) else f"OVITO {slow_o:.2f}x"))
+        if ovito_version is None:
+            print(f"OVITO is not installed: ratio_text, ratio_gz and ratio_text17 are nan "
+                  f"({OVITO_HINT}); ratio_mda_* compare with MDAnalysis instead")
         print("RESULT " + " ".join([
             f"bedstruct_text_s={res['bedstruct_text_s']:.4f}",
             f"ovito_text_s={res['ovito_text_s']:.4f}",
-            f"ratio_text={ratio_text:.3f}",
+            f"ratio_text={ratio['text']:.3f}",
             f"bedstruct_gz_s={res['bedstruct_gz_s']:.4f}",
             f"ovito_gz_s={res['ovito_gz_s']:.4f}",
-            f"ratio_gz={ratio_gz:.3f}",
+            f"ratio_gz={ratio['gz']:.3f}",
+            f"bedstruct_text17_s={res['bedstruct_text17_s']:.4f}",
+            f"ovito_text17_s={res['ovito_text17_s']:.4f}",
+            f"ratio_text17={ratio['text17']:.3f}",
             f"mdanalysis_text_s={res['mdanalysis_text_s']:.4f}",
+            f"ratio_mda_text={mda['text']:.3f}",
+            f"mdanalysis_text17_s={res['mdanalysis_text17_s']:.4f}",
+            f"ratio_mda_text17={mda['text17']:.3f}",
             f"peak_mem_ratio={peak / nbytes:.3f}",
+            f"n={args.n}", f"frames={args.frames}",
+            f"ovito={ovito_version or 'missing'}",
         ]))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _ratio(a, b):
+    """a / b, nan when either is missing (nan) or b is 0."""
+    return a / b if b > 0 and not (math.isnan(a) or math.isnan(b)) else math.nan
 
 
 if __name__ == "__main__":

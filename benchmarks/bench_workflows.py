@@ -13,19 +13,28 @@ repose box as inserted (105,000 spheres) on each engine, one thread / one rank, 
 extrapolates to its whole repose replicate and to one spreading layer of its
 18.9 mm plate (``RESULT preset=seed seed_particles=... dt=... repose_steps=...
 spread_steps_per_layer=... embedded_s_per_step=... embedded_repose_h=...
-embedded_spread_h_per_layer=... liggghts_... lammps_...``). The inserted state is
+embedded_spread_h_per_layer=... liggghts_... lammps_... ratio_liggghts=...
+ratio_lammps=...``; the ratios are the embedded engine's seconds per step over the
+external engine's ``Loop time`` per step). The inserted state is
 loose (few contacts): a lower bound on the cost of a settled bed
 (docs/validation.md, "The seed preset: time per run").
 
 ``--diagnosis-call`` times one engine call of the diagnosis (``bedstruct diagnose
 validate --simulator engine``): the validation twin design on the preset's scale model,
-its reposes and three spreading runs sharing one pile, embedded engine only (the
-diagnosis's extensions have no deck). Ends with ``RESULT preset=... diagnosis_call_s=...
-workflow_runs=... rebuilds=... steps=...``.
+its reposes and three spreading runs sharing one pile, embedded engine only: the
+diagnosis's extensions have no LIGGGHTS/LAMMPS deck, so this mode times **no external
+engine and has no ratio**; it says so in its RESULT line (``RESULT preset=...
+diagnosis_call_s=... workflow_runs=... rebuilds=... steps=... ratio_liggghts=nan
+ratio_lammps=nan external=none``).
 
 Otherwise ends with ``RESULT preset=... engine=embedded repose_s=... repose_particles=...
 spread_s=... spread_layers=... spread_steps=... spread_final_particles=... liggghts_repose_s=...
-liggghts_spread_s=... lammps_repose_s=... lammps_spread_s=...``.
+liggghts_spread_s=... lammps_repose_s=... lammps_spread_s=... ratio_repose_liggghts=...
+ratio_spread_liggghts=... ratio_repose_lammps=... ratio_spread_lammps=...``, the ratios
+being the embedded engine's wall time over the external engine's for the same workflow
+(below 1: the embedded engine is faster; nan where an engine is not installed or not run).
+Both sides time the whole workflow call (the external side includes writing the deck,
+starting the engine and reading its dumps back).
 Timings include numba compilation on the first call unless the cache is warm;
 on a shared machine they are indicative only.
 """
@@ -33,8 +42,18 @@ on a shared machine they are indicative only.
 from __future__ import annotations
 
 import argparse
+import math
 import tempfile
 import time
+
+
+def _ratio(a, b) -> str:
+    """``a / b`` to 3 digits, or nan when either is missing or not a positive number."""
+    try:
+        a, b = float(a), float(b)
+    except (TypeError, ValueError):
+        return "nan"
+    return f"{a / b:.3g}" if b > 0 and not (math.isnan(a) or math.isnan(b)) else "nan"
 
 
 def main(argv=None) -> int:
@@ -97,6 +116,9 @@ def main(argv=None) -> int:
                     out[f"{eng}_spread_s"] = round(time.perf_counter() - t0, 2)
             except ConfigError as exc:   # e.g. an option the engine does not support
                 out[f"{eng}_status"] = f'"{exc}"'.replace(" ", "_")[:60]
+    for eng in ("liggghts", "lammps"):  # embedded wall time over the external engine's
+        out[f"ratio_repose_{eng}"] = _ratio(out.get("repose_s"), out.get(f"{eng}_repose_s"))
+        out[f"ratio_spread_{eng}"] = _ratio(out.get("spread_s"), out.get(f"{eng}_spread_s"))
     print("RESULT " + " ".join(f"{k}={v}" for k, v in out.items()))
     return 0
 
@@ -125,9 +147,12 @@ def diagnosis_call_timing(preset: str, threads: int) -> int:
         wall = time.perf_counter() - t0
     finally:
         Simulation.run = run
+    print("# no external engine timed: the diagnosis's extensions have no LIGGGHTS/LAMMPS deck, "
+          "so this mode has no ratio")
     print(f"RESULT preset={preset} engine=embedded threads={threads} "
           f"diagnosis_call_s={wall:.1f} workflow_runs={sim.n_runs} "
-          f"rebuilds={counts['rebuilds']} steps={counts['steps']}")
+          f"rebuilds={counts['rebuilds']} steps={counts['steps']} "
+          f"ratio_liggghts=nan ratio_lammps=nan external=none")
     return 0
 
 
@@ -182,6 +207,8 @@ def seed_timing(steps: int) -> int:
         out[f"{eng}_s_per_step"] = f"{sps:.4g}"
         out[f"{eng}_repose_h"] = round(sps * n_repose / 3600, 2)
         out[f"{eng}_spread_h_per_layer"] = round(sps * n_layer / 3600, 2)
+    for eng in ("liggghts", "lammps"):  # embedded s/step over the external engine's
+        out[f"ratio_{eng}"] = _ratio(per_step["embedded"], per_step.get(eng))
     print("RESULT " + " ".join(f"{k}={v}" for k, v in out.items()))
     return 0
 
