@@ -7,8 +7,8 @@ omegax omegay omegaz radius``) with a few frames in a temporary folder, three wa
 * ``gz``: the same file gzip-compressed;
 * ``text17``: the same values at full precision, written by ``bedstruct.write_dump`` (the
   writer of the embedded engine's ``RunDirectory``): Python's shortest round-trip ``repr``,
-  mostly 16-17 significant digits. These numbers do not fit the parser's one-operation fast
-  path (docs/formats.md), so bedstruct reads them through a slower path;
+  mostly 16-17 significant digits. These numbers do not fit the parser's one-operation
+  (Clinger) fast path; they take its Eisel-Lemire path (docs/formats.md);
 
 then reads each with bedstruct and OVITO (the anchor: ``pip install -e .[bench]``), and the
 two text files with MDAnalysis (a second anchor), in the same run. Prints seconds per frame
