@@ -23,6 +23,14 @@ before their layer, so contact histories carry over; blade, plate or
 roller; --write-only writes that one deck); calibrate runs its repose
 points on the chosen engine.
 
+Run folders: a run writes run.json (status "running", then "complete"),
+config.toml and, last, results.json into --out, and checkpoints as it goes
+(output.checkpoint_every steps; every spreading layer, repose replicate and
+calibration point). Running the same command again resumes a killed run
+from its latest checkpoint (finished stages are reused, a finished run
+gives its results back); a folder holding a run of another configuration
+is refused unless --overwrite replaces it.
+
 Examples:
   bedstruct run repose --preset tiny --out runs/repose --json
   bedstruct run repose --preset tiny --engine liggghts --np 2 --out runs/repose-lig
@@ -58,6 +66,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
     parser.add_argument("--progress", action="store_true", default=None,
                         help="show a progress bar (default: when stderr is a terminal)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an earlier run in --out (default: resume a run of the "
+                             "same configuration, refuse one of another)")
 
 
 def _summary(workflow, res) -> dict:
@@ -77,6 +88,15 @@ def _summary(workflow, res) -> dict:
             "coordination": [layer["coordination"] for layer in d["layers"]],
             "nominal_height_m": [layer["nominal_height"] for layer in d["layers"]],
             "german_a": d["german_a"], "german_b": d["german_b"], "layers": d["layers"]}
+
+
+def _run_status(out) -> str | None:
+    """The status in ``out/run.json`` ("running", "complete"), or None without one."""
+    from pathlib import Path
+    try:
+        return str(json.loads((Path(out) / "run.json").read_text()).get("status"))
+    except (OSError, ValueError, AttributeError):
+        return None
 
 
 def run(args) -> int:
@@ -101,7 +121,12 @@ def run(args) -> int:
                           "workflow: use it with `run repose|spread --engine liggghts|lammps`")
     func = {"repose": run_repose, "spread": run_spread, "calibrate": calibrate_cohesion}[args.workflow]
     progress = sys.stderr.isatty() if args.progress is None else args.progress
-    res = func(cfg, out=args.out, **({"progress": progress} if args.workflow != "calibrate" else {}))
+    overwrite = bool(getattr(args, "overwrite", False))
+    before = _run_status(args.out) if not overwrite else None
+    res = func(cfg, out=args.out, progress=progress, overwrite=overwrite)
+    if before is not None and cfg["engine"] == "embedded":
+        print(f"resumed the {'finished' if before == 'complete' else 'unfinished'} run in "
+              f"{args.out} (finished stages reused)", file=sys.stderr)
     if getattr(res, "decks", None) is not None and not hasattr(res, "angle_deg"):  # write-only
         for cmd in res.commands:
             print(f"deck written; run it with: {cmd}")

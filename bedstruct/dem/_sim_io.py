@@ -141,12 +141,21 @@ class _StateIO:
               "x_ref", "wslot", "whist", "pi", "pj", "psh", "ht", "hr", "hx", "_W", "_tri",
               "_wstart", "_wcand")
 
-    def save_checkpoint(self, path) -> Path:
-        """Write the complete state (incl. contact history and rng) atomically to ``path`` (.npz)."""
+    def save_checkpoint(self, path, *, extra: dict | None = None) -> Path:
+        """Write the complete state (incl. contact history and rng) atomically to ``path`` (.npz).
+
+        ``extra`` (JSON-ready data) is stored with it and comes back as
+        ``checkpoint_extra`` of :meth:`from_checkpoint`'s simulation (the workflows keep
+        the position in their stage script there; ``{"outputs": {"run_dir": ..., "sizes":
+        ...}}`` is what :meth:`run` records about its :class:`RunDirectory`).
+        """
         path = Path(path)
         if not self._ready:
             self._setup()
         arrays = {name.lstrip("_"): getattr(self, name) for name in self._STATE}
+        arrays["wbuf"] = self._wbuf  # the wall loads of the last step (wall_states)
+        if self._wload is not None:  # a wall-load average in progress
+            arrays["wload"] = self._wload
         meta = dict(version=_CHECKPOINT_VERSION, time=self.time, step=self.step, dt=self.dt,
                     skin=self.skin, n_removed=self.n_removed, n_rebuilds=self.n_rebuilds,
                     next_id=self._next_id, n_threads=self.n_threads, wall_names=self.wall_names,
@@ -154,7 +163,9 @@ class _StateIO:
                     t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz,
                     wall_list_time=self._wall_list_time, wall_speed=self._wall_speed,
                     wall_programs=self._programs, kicked=bool(getattr(self, "_kicked", False)),
-                    pair_bounds=self._qbounds.tolist())
+                    pair_bounds=self._qbounds.tolist(), wload_steps=int(self._wload_steps),
+                    n_lost_nonfinite=int(self.n_lost_nonfinite), nonfinite=self.nonfinite,
+                    extra=extra if extra is not None else {})
         arrays["meta"] = np.array(json.dumps(meta, default=_json_default))
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
@@ -167,7 +178,8 @@ class _StateIO:
 
         ``model`` defaults to the model recorded in the checkpoint; ``walls``
         (the wall objects, for the configuration record) default to the
-        recorded wall table.
+        recorded wall table. The ``extra`` data given to :meth:`save_checkpoint` is
+        ``sim.checkpoint_extra``.
         """
         with np.load(path, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
@@ -178,7 +190,8 @@ class _StateIO:
         box = Box(cfg["box"]["lo"], cfg["box"]["hi"], boundary=cfg["box"]["boundary"])
         sim = cls(box, model, walls=(), gravity=cfg["gravity"], dt=meta["dt"], force=True,
                   skin=meta["skin"], n_threads=meta["n_threads"], v_max=cfg["v_max"],
-                  safety=cfg["safety"], max_rayleigh_fraction=cfg["max_rayleigh_fraction"])
+                  safety=cfg["safety"], max_rayleigh_fraction=cfg["max_rayleigh_fraction"],
+                  nonfinite=meta.get("nonfinite", "raise"))
         sim.walls = list(walls) if walls is not None else []
         sim.wall_names = meta["wall_names"]
         for name in cls._STATE:
@@ -205,6 +218,14 @@ class _StateIO:
         sim._wall_speed = meta["wall_speed"]
         sim._programs = dict(meta.get("wall_programs", {}))
         sim._kicked = bool(meta.get("kicked", False))  # saved after an interrupted run()
+        if "wbuf" in data and data["wbuf"].shape == sim._wbuf.shape:
+            sim._wbuf = np.ascontiguousarray(data["wbuf"])
+        if "wload" in data:
+            sim._wload = np.array(data["wload"])
+            sim._wload_steps = int(meta.get("wload_steps", 0))
+        sim.n_lost_nonfinite = int(meta.get("n_lost_nonfinite", 0))
+        sim.checkpoint_extra = dict(meta.get("extra", {}))
+        sim._resume_outputs = sim.checkpoint_extra.get("outputs")
         sim._ready = True
         return sim
 

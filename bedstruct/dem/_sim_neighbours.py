@@ -15,13 +15,22 @@ import math
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import BedstructError, ConfigError
 from . import _kernels as K
 from ._sim_walls import _WALL_SLOTS
 
-__all__: list[str] = []
+__all__ = ["NumericalInstabilityError"]
 
 log = logging.getLogger("bedstruct.dem.simulation")
+
+
+class NumericalInstabilityError(BedstructError, RuntimeError):
+    """Particles got non-finite positions: the simulation blew up (see the message).
+
+    Raised by :class:`~bedstruct.dem.Simulation` (``nonfinite="raise"``, the default) as
+    soon as a non-finite position is found; such particles are counted in
+    ``Simulation.n_lost_nonfinite``, never in ``n_removed``.
+    """
 
 
 class _NeighbourList:
@@ -67,8 +76,10 @@ class _NeighbourList:
         out = np.zeros(self.n_particles, dtype=bool)
         n_out, n_bad = K.wrap_and_flag(self.x, self.images, self._lo, self._hi, self._L,
                                        self._periodic, out)
+        self._rebuild_due = False
         if n_bad:
-            log.warning("%d particles with non-finite positions removed", int(n_bad))
+            self._lost_nonfinite(int(n_bad))
+            n_out -= n_bad   # a blow-up is not particles leaving the domain
         # keep old list (for history) keyed by ids before permuting
         act = K.active_history(self.ht, self.hr)
         ext = self.model.extension_code
@@ -93,7 +104,7 @@ class _NeighbourList:
         # 2. sort by cell
         nc, cell_len = self._cell_grid()
         cells = np.zeros(keep.size, dtype=np.int64)
-        xk = np.ascontiguousarray(self.x[keep]) if n_out else self.x
+        xk = np.ascontiguousarray(self.x[keep]) if keep.size != self.n_particles else self.x
         K.cell_indices(xk, self._lo, cell_len, nc, cells)
         perm, start = K.counting_sort(cells, int(np.prod(nc)))
         order = keep[perm]
@@ -164,6 +175,30 @@ class _NeighbourList:
         self._alloc_buffers()
         self._balance_pairs()
         self._build_wall_list()
+
+    def _lost_nonfinite(self, n_bad: int) -> None:
+        """``n_bad`` particles have non-finite positions: count them apart from the
+        removals and raise :class:`NumericalInstabilityError` (``nonfinite="raise"``) or
+        warn loudly and let the rebuild drop them (``nonfinite="drop"``)."""
+        self.n_lost_nonfinite += n_bad
+        t_r = getattr(self, "t_rayleigh", None)
+        why = (f"{n_bad} particle(s) got non-finite positions at step {self.step} "
+               f"(t = {self.time:.6g} s): the simulation blew up")
+        hint = (f"; dt = {self.dt:.3g} s" + (f" = {self.dt / t_r:.0%} of the Rayleigh time "
+                                             f"{t_r:.3g} s" if t_r else "")
+                + ". Use a smaller time step (safety, or time.safety in a workflow), check the "
+                  "contact parameters and wall motions")
+        if self.nonfinite == "raise":
+            raise NumericalInstabilityError(why + hint + "; Simulation(nonfinite='drop') drops "
+                                            "such particles and goes on")
+        log.warning("%s%s; dropped (%d so far, counted in n_lost_nonfinite, not n_removed)",
+                    why, hint, self.n_lost_nonfinite)
+        if not getattr(self, "_warned_nonfinite", False):
+            import warnings
+            from ..errors import BedstructWarning
+            warnings.warn(why + "; the particles are dropped (Simulation.n_lost_nonfinite)",
+                          BedstructWarning, stacklevel=4)
+            self._warned_nonfinite = True
 
     def _build_wall_list(self):
         """Candidate walls of each particle (closer than r + skin), built at the

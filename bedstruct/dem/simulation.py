@@ -22,12 +22,15 @@ from ..errors import ConfigError, UnsafeTimestepError
 from . import _kernels as K
 from ._sim_io import _StateIO
 from ._sim_particles import _Particles
-from ._sim_neighbours import _NeighbourList
+from ._sim_neighbours import NumericalInstabilityError, _NeighbourList
 from ._sim_walls import _WALL_SLOTS, WallState, _WallControl, _vec3
 from .params import ContactModel
 from .walls import TriangleMesh
 
-__all__ = ["Simulation", "RunStats", "WallState"]
+__all__ = ["Simulation", "RunStats", "WallState", "NumericalInstabilityError"]
+
+#: Steps between the checks for non-finite positions inside :meth:`Simulation.run`.
+_FINITE_CHECK_EVERY = 64
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +50,9 @@ class RunStats:
         Neighbour-list rebuilds during the run.
     n_removed : int
         Particles removed for leaving the domain during the run.
+    n_lost_nonfinite : int
+        Particles dropped for non-finite positions during the run (only with
+        ``nonfinite="drop"``; the default raises).
     """
 
     n_steps: int
@@ -54,6 +60,7 @@ class RunStats:
     particle_steps_per_s: float
     n_rebuilds: int
     n_removed: int
+    n_lost_nonfinite: int = 0
 
 class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
     """An embedded DEM simulation of polydisperse spheres (SI units).
@@ -77,13 +84,15 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         smallest particle present when the first run starts (or
         ``min_radius``).
     safety : float
-        Fraction of the Rayleigh time used for the default step (0.15).
+        Fraction of the Rayleigh time used for the default step (0.15); it must
+        lie in ``(0, max_rayleigh_fraction]`` (a larger one raises
+        :class:`~bedstruct.UnsafeTimestepError` unless ``force=True``).
     max_rayleigh_fraction : float
         A step above this fraction of the Rayleigh time (0.3), or above a
         tenth of the Hertz impact time at ``v_max``, is refused with
         :class:`~bedstruct.UnsafeTimestepError` unless ``force=True``.
     v_max : float, m/s
-        Largest expected impact speed, for the Hertz-time check (1 m/s).
+        Largest expected impact speed, for the Hertz-time check (1 m/s; > 0).
     min_radius : float, m, optional
         Smallest radius to plan the time step and skin for (default: the
         smallest radius present at the first run).
@@ -98,6 +107,11 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         chunks on one thread (identical results, less overhead).
     seed : int, optional
         Seed of the generator used by insertion.
+    nonfinite : {"raise", "drop"}
+        What a particle with a non-finite position (a blow-up) does: raise
+        :class:`NumericalInstabilityError` (default), or be dropped with a
+        warning. Either way it is counted in :attr:`n_lost_nonfinite`, not in
+        :attr:`n_removed`.
 
     Examples
     --------
@@ -114,7 +128,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
     def __init__(self, box, model: ContactModel, *, walls=(), gravity=(0.0, 0.0, -9.81),
                  dt: float | None = None, safety: float = 0.15, max_rayleigh_fraction: float = 0.3,
                  v_max: float = 1.0, min_radius: float | None = None, skin: float | None = None,
-                 force: bool = False, n_threads: int | None = None, seed=None):
+                 force: bool = False, n_threads: int | None = None, seed=None,
+                 nonfinite: str = "raise"):
         if not isinstance(model, ContactModel):
             raise TypeError(f"`model` must be a ContactModel; got {type(model).__name__}")
         if isinstance(box, Box):
@@ -134,6 +149,14 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         self.min_radius = min_radius
         self._skin_user = skin
         self.force = bool(force)
+        self._check_time_settings()
+        if nonfinite not in ("raise", "drop"):
+            raise ConfigError(f"`nonfinite` must be 'raise' or 'drop'; got {nonfinite!r}")
+        self.nonfinite = nonfinite
+        self.n_lost_nonfinite = 0
+        self._rebuild_due = False
+        self.checkpoint_extra = {}     # what from_checkpoint read besides the state
+        self._resume_outputs = None
         self.n_threads = int(n_threads or _numba.get_num_threads())
         self.serial_below = 5000
         if self.n_threads < 1:
@@ -236,6 +259,25 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
             raise ConfigError("no particles: give `min_radius` or add particles before running")
         return float(self.rad.min())
 
+    def _check_time_settings(self):
+        """``safety``, ``max_rayleigh_fraction`` and ``v_max`` are usable (see the class)."""
+        if not (math.isfinite(self.max_rayleigh_fraction) and self.max_rayleigh_fraction > 0):
+            raise ConfigError("`max_rayleigh_fraction` must be a positive fraction of the "
+                              f"Rayleigh time; got {self.max_rayleigh_fraction!r}")
+        if not (math.isfinite(self.v_max) and self.v_max > 0):
+            raise ConfigError("`v_max` (the largest expected impact speed, for the Hertz-time "
+                              f"limit) must be a positive speed in m/s; got {self.v_max!r}")
+        if not (math.isfinite(self.safety) and self.safety > 0):
+            raise ConfigError("`safety` (the default time step as a fraction of the Rayleigh "
+                              f"time) must be positive; got {self.safety!r}")
+        if self.safety > self.max_rayleigh_fraction:
+            msg = (f"unsafe time step: `safety` = {self.safety:g} would step at {self.safety:.0%} "
+                   f"of the Rayleigh time; the stable limit is max_rayleigh_fraction = "
+                   f"{self.max_rayleigh_fraction:g}. Use a smaller safety or force=True.")
+            if not self.force:
+                raise UnsafeTimestepError(msg)
+            log.warning("%s (accepted because force=True)", msg)
+
     @staticmethod
     def default_time_step(model: ContactModel, min_radius: float, v_max: float,
                           safety: float = 0.15) -> float:
@@ -252,6 +294,10 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         >>> dt == min(0.15 * model.rayleigh_time(1e-4), 0.1 * model.hertz_time(1e-4, 1.0))
         True
         """
+        if not (math.isfinite(float(v_max)) and float(v_max) > 0):
+            raise ConfigError(f"`v_max` must be a positive speed in m/s; got {v_max!r}")
+        if not (math.isfinite(float(safety)) and float(safety) > 0):
+            raise ConfigError(f"`safety` must be positive; got {safety!r}")
         return min(float(safety) * model.rayleigh_time(min_radius),
                    0.1 * model.hertz_time(min_radius, v_max))
 
@@ -337,7 +383,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
             K.kick_drift(self.x, self.v, self.om, self.f, self.tq, self.inv_m, self.inv_i,
                          self.x_ref, dt, self._pbounds, self._disp)
         self._kicked = False
-        if self._disp.max() > (0.5 * self.skin) ** 2:
+        if self._rebuild_due or self._disp.max() > (0.5 * self.skin) ** 2:
             self._rebuild()
         elif self._wall_speed * (self.time + dt - self._wall_list_time) > 0.5 * self.skin:
             self.time += dt  # build the wall list at the time the walls are evaluated
@@ -401,6 +447,24 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         self.hx[touching, 0] += t
         return int(touching.sum())
 
+    def steps_for(self, time: float) -> int:
+        """Number of steps :meth:`run` makes for ``time`` seconds (rounded up to whole steps).
+
+        Sets the time step up first (as the first :meth:`run` does) when it is not yet chosen.
+        """
+        if not self._ready:
+            self._setup()
+        return int(math.ceil(float(time) / self.dt - 1e-9))
+
+    def _check_finite(self) -> None:
+        """Non-finite positions (a blow-up) are handled at once (:meth:`_lost_nonfinite`):
+        the displacement test that triggers rebuilds never sees NaN."""
+        if np.isfinite(self.x).all():
+            return
+        if self.nonfinite == "raise":
+            self._lost_nonfinite(int((~np.isfinite(self.x).all(axis=1)).sum()))
+        self._rebuild_due = True  # the next step's rebuild drops them
+
     def run(self, steps: int | None = None, *, time: float | None = None, progress: bool = False,
             dump_every: int | None = None, run_dir=None, checkpoint_every: int | None = None,
             callback=None) -> RunStats:
@@ -418,7 +482,11 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
             Write a dump frame, a contact dump and the wall state every so
             many steps into ``run_dir`` (also at the end).
         run_dir : RunDirectory or path, optional
-            Where output goes (created with the full configuration).
+            Where output goes (created with the full configuration). The first
+            run of a simulation resumed from ``run_dir``'s checkpoint
+            (:meth:`from_checkpoint`) cuts that folder's dumps back to what they
+            held when the checkpoint was written, so a resumed run's output
+            equals an uninterrupted one's.
         checkpoint_every : int, optional
             Write ``checkpoint.npz`` into ``run_dir`` every so many steps.
         callback : callable, optional
@@ -433,12 +501,17 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
             raise ConfigError("give exactly one of `steps` or `time`")
         if not self._ready:
             self._setup()
-        nsteps = int(steps) if steps is not None else int(math.ceil(float(time) / self.dt - 1e-9))
+        nsteps = int(steps) if steps is not None else self.steps_for(time)
         if nsteps < 0:
             raise ConfigError(f"number of steps must be >= 0; got {nsteps}")
         rd = None
         if run_dir is not None:
             rd = run_dir if isinstance(run_dir, RunDirectory) else RunDirectory(run_dir)
+            resumed = getattr(self, "_resume_outputs", None)
+            if resumed is not None:  # first run after from_checkpoint: drop output past it
+                self._resume_outputs = None
+                if resumed.get("run_dir") == str(rd.path.resolve()):
+                    rd.truncate(resumed.get("sizes", {}))
             rd.write_config(self)
         elif dump_every or checkpoint_every:
             raise ConfigError("`dump_every` and `checkpoint_every` need a `run_dir`")
@@ -452,7 +525,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         if progress:
             from tqdm.auto import tqdm
             bar = tqdm(total=nsteps, unit="step")
-        reb0, rem0 = self.n_rebuilds, self.n_removed
+        reb0, rem0, bad0 = self.n_rebuilds, self.n_removed, self.n_lost_nonfinite
         psteps = 0
         t0 = _time.perf_counter()
         try:
@@ -465,6 +538,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
                         and not (rd is not None and checkpoint_every
                                  and nxt % checkpoint_every == 0))
                 self._one_step(fuse)
+                if s % _FINITE_CHECK_EVERY == _FINITE_CHECK_EVERY - 1 or s + 1 == nsteps:
+                    self._check_finite()
                 psteps += self.n_particles
                 if self._wload is not None:
                     self._accumulate_wall_loads()
@@ -473,7 +548,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
                 if rd is not None and dump_every and self.step % dump_every == 0:
                     rd.write_output(self)
                 if rd is not None and checkpoint_every and self.step % checkpoint_every == 0:
-                    self.save_checkpoint(rd.path / "checkpoint.npz")
+                    self.save_checkpoint(rd.path / "checkpoint.npz", extra={"outputs": {
+                        "run_dir": str(rd.path.resolve()), "sizes": rd.output_sizes()}})
                 if bar is not None and (s % 50 == 49 or s == nsteps - 1):
                     el = _time.perf_counter() - t0
                     bar.set_postfix_str(f"t={self.time:.4g} s, "
@@ -492,7 +568,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
             rd.write_output(self)
         self.wall_overflow = int(self._overflow.sum())
         return RunStats(nsteps, wall, psteps / wall if wall > 0 else float("nan"),
-                        self.n_rebuilds - reb0, self.n_removed - rem0)
+                        self.n_rebuilds - reb0, self.n_removed - rem0,
+                        self.n_lost_nonfinite - bad0)
 
 
 def _numba_max_threads() -> int:

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import RunLayout, to_jsonable
+from ._common import RunLayout, to_jsonable, write_json_atomic
+from .config import validate_config
 from .repose import ReposeResult, run_repose
 
 __all__ = ["CalibrationPoint", "CalibrationResult", "calibrate_cohesion", "inverse_linear"]
@@ -132,7 +133,8 @@ def inverse_linear(x, y, sy, target: float) -> tuple[float, float, float]:
 def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=None,
                        replicates: int | None = None, max_iter: int | None = None,
                        tolerance_deg: float | None = None, out=None,
-                       evaluate=None) -> CalibrationResult:
+                       evaluate=None, progress: bool = False,
+                       overwrite: bool = False) -> CalibrationResult:
     """Find the cohesion energy density whose repose angle matches ``target_deg``.
 
     Parameters
@@ -142,11 +144,19 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
     target_deg, bracket, replicates, max_iter, tolerance_deg : optional
         Override the ``calibrate`` section (bracket: ``(low, high)`` J/m^3).
     out : path, optional
-        Run directory: each evaluation goes into ``k<value>/``; the
-        calibration is written to ``results.json``.
+        Run directory: each evaluation goes into ``k<value>/`` (a repose run folder),
+        the points so far into ``points.json`` after each one, the calibration into
+        ``results.json``. An earlier calibration of the same configuration and settings
+        in ``out`` is resumed: its finished points (and replicates) are reused, so the
+        search retraces its steps without simulating them again; one of another
+        configuration is refused (ConfigError) unless ``overwrite``.
     evaluate : callable, optional
         ``evaluate(cohesion) -> (angle_deg, angle_std_deg, replicate_angles)``
         replacing the simulation (for tests and other models).
+    progress : bool, optional
+        Show a progress bar over the evaluated points (stderr).
+    overwrite : bool, optional
+        Replace an earlier run in ``out``.
 
     Returns
     -------
@@ -162,6 +172,7 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
     >>> round(res.cohesion / 1e7, 3), res.bracketed, res.converged
     (1.3, True, True)
     """
+    validate_config(cfg)
     cc = cfg["calibrate"]
     target = float(cc["target_deg"] if target_deg is None else target_deg)
     lo, hi = (float(v) for v in (cc["cohesion_bracket"] if bracket is None else bracket))
@@ -170,9 +181,19 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
     nrep = int(cc["replicates"] if replicates is None else replicates)
     nmax = int(cc["max_iter"] if max_iter is None else max_iter)
     tol = float(cc["tolerance_deg"] if tolerance_deg is None else tolerance_deg)
-    layout = RunLayout(out, cfg) if out is not None else None
+    if nrep < 1:
+        raise ConfigError(f"config key `calibrate.replicates` must be >= 1; got {nrep}")
+    if not tol > 0:
+        raise ConfigError(f"config key `calibrate.tolerance_deg` must be positive; got {tol}")
+    layout = None
+    if out is not None:
+        inputs = {"target_deg": target, "bracket": [lo, hi], "replicates": nrep,
+                  "max_iter": nmax, "tolerance_deg": tol, "evaluate": evaluate is not None}
+        layout = RunLayout(out, cfg, workflow="calibrate", inputs=inputs, overwrite=overwrite)
     pts: dict[float, CalibrationPoint] = {}
     n_runs = 0
+    from tqdm.auto import tqdm
+    bar = tqdm(total=nmax + 2, desc="calibrate", unit="point", disable=not progress)
 
     def ev(k):
         nonlocal n_runs
@@ -188,6 +209,12 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
         p = CalibrationPoint(float(k), float(a), float(s), tuple(float(v) for v in reps))
         pts[k] = p
         log.info("calibrate: cohesion %.4g -> %.2f +- %.2f deg", k, a, s)
+        bar.update(1)
+        bar.set_postfix_str(f"k={k:.4g} J/m^3: {a:.2f} deg")
+        if layout is not None:  # the curve so far (each point's runs are in k<value>/)
+            write_json_atomic(layout.path / "points.json",
+                              {"target_deg": target,
+                               "points": sorted(pts.values(), key=lambda q: q.cohesion)})
         return p
 
     p_lo, p_hi = ev(lo), ev(hi)
@@ -244,6 +271,7 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
                     target, best.angle_deg, best.cohesion)
         if layout is not None:
             layout.write_results({"workflow": "calibrate", **res.to_dict()})
+        bar.close()
         return res
     use = {p_lo.cohesion: p_lo, p_hi.cohesion: p_hi, best.cohesion: best}
     xs = [p.cohesion for p in use.values()]
@@ -272,6 +300,7 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
                             curve=tuple(sorted(pts.values(), key=lambda p: p.cohesion)), n_runs=n_runs)
     if layout is not None:
         layout.write_results({"workflow": "calibrate", **res.to_dict()})
+    bar.close()
     return res
 
 

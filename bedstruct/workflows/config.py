@@ -21,7 +21,11 @@ from pathlib import Path
 from ..errors import ConfigError
 
 __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path", "config_to_toml",
-           "available_presets"]
+           "available_presets", "validate_config"]
+
+#: Largest ``time.safety``: the engine refuses a step above this fraction of the Rayleigh
+#: time (``Simulation(max_rayleigh_fraction=0.3)``, LIGGGHTS' check/timestep/gran advice).
+MAX_SAFETY = 0.3
 
 #: Default configuration (SI units). Presets and user files override it.
 DEFAULTS: dict = {
@@ -53,8 +57,8 @@ DEFAULTS: dict = {
         "scale": 1.0,               # coarse-graining factor applied to every diameter
     },
     "time": {
-        "safety": 0.15,             # fraction of the Rayleigh time
-        "v_max": 1.0,               # m/s, for the Hertz-time check
+        "safety": 0.15,             # fraction of the Rayleigh time, (0, 0.3]
+        "v_max": 1.0,               # m/s (> 0), largest impact speed: dt <= Hertz time / 10
     },
     "repose": {
         "box": [6e-3, 3e-3, 1.8e-3],    # L x W x H, m
@@ -136,7 +140,9 @@ DEFAULTS: dict = {
         "frames": True,
         "contacts": True,
         "compress": True,
-        "checkpoint": False,
+        "checkpoint": False,        # keep an engine checkpoint of every finished stage
+        "checkpoint_every": 20000,  # steps between resume checkpoints inside a stage (0: only
+                                    # at stage ends: spreading layers)
     },
 }
 
@@ -341,20 +347,89 @@ def load_config(source=None, *, preset: str | None = None, overrides=()) -> dict
     return cfg
 
 
+def validate_config(cfg: dict) -> None:
+    """Check the values of a configuration (types are checked by :func:`load_config`).
+
+    Called by :func:`load_config` and again by the workflows before any simulation (a
+    configuration may be changed after loading).
+
+    Raises
+    ------
+    ConfigError
+        Naming the first key whose value is out of range, and the range.
+
+    Examples
+    --------
+    >>> cfg = load_config(preset="tiny")
+    >>> cfg["spread"]["gaps"] = []
+    >>> validate_config(cfg)
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: config key `spread.gaps` must list at least one layer gap (m); got []
+    """
+    _validate(cfg)
+
+
 def _validate(cfg: dict) -> None:
+    def get(key):
+        node = cfg
+        for part in key.split("."):
+            node = node[part]
+        return node
+
     def positive(key):
-        sec, k = key.split(".")
-        v = cfg[sec][k]
+        v = get(key)
         vals = v if isinstance(v, list) else [v]
         if not all(x > 0 for x in vals):
             raise ConfigError(f"config key `{key}` must be positive; got {v!r}")
+
+    def at_least(key, low, what=""):
+        v = get(key)
+        if not v >= low:
+            raise ConfigError(f"config key `{key}` must be >= {low}{what}; got {v!r}")
+
     for key in ("material.youngs_modulus", "material.density", "psd.d10", "psd.d50", "psd.d90",
                 "psd.d_min", "psd.d_max", "psd.scale", "repose.box",
-                "repose.plate_speed", "repose.replicates", "spread.plate_length", "spread.width",
+                "repose.plate_speed", "repose.replicates", "repose.fill_time",
+                "repose.reservoir_depth", "spread.plate_length", "spread.width",
                 "spread.gaps", "spread.speed", "spread.pile_particles", "spread.pile_length",
-                "spread.lower_speed", "spread.return_speed", "calibrate.replicates",
-                "calibrate.cohesion_bracket"):
+                "spread.pile_time", "spread.lower_speed", "spread.return_speed",
+                "spread.settle_time", "spread.blade_thickness", "spread.blade_height",
+                "spread.roller_radius", "calibrate.replicates", "calibrate.cohesion_bracket",
+                "calibrate.tolerance_deg"):
         positive(key)
+    at_least("n_threads", 1, " (threads)")
+    at_least("seed", 0)
+    at_least("repose.drain_time", 0.0, " s")
+    at_least("repose.n_frames", 0)
+    at_least("spread.n_frames", 1, " (frames recorded per layer)")
+    at_least("spread.regions", 1, " (regions along the platform)")
+    at_least("spread.stop_margin", 0.0, " m (how far beyond the platform end the tool stops)")
+    at_least("calibrate.max_iter", 0)
+    if "checkpoint_every" in cfg["output"]:  # a configuration built before the key existed
+        at_least("output.checkpoint_every", 0, " steps (0: checkpoints at stage ends only)")
+    if not cfg["spread"]["gaps"]:
+        raise ConfigError("config key `spread.gaps` must list at least one layer gap (m); got []")
+    if not 0 <= cfg["spread"]["bevel_deg"] < 90:
+        raise ConfigError("config key `spread.bevel_deg` must lie in [0, 90) degrees; "
+                          f"got {cfg['spread']['bevel_deg']!r}")
+    t = cfg["time"]
+    if not 0 < t["safety"] <= MAX_SAFETY:
+        raise ConfigError(f"config key `time.safety` must lie in (0, {MAX_SAFETY}]: the time "
+                          "step is this fraction of the Rayleigh time of the smallest sphere, "
+                          f"and above {MAX_SAFETY} the contacts are not resolved (the run blows "
+                          f"up); got {t['safety']!r}")
+    if not t["v_max"] > 0:
+        raise ConfigError("config key `time.v_max` must be a positive speed (m/s): the largest "
+                          "expected impact speed, which bounds the time step by the Hertz "
+                          f"contact time; got {t['v_max']!r}")
+    r = cfg["repose"]
+    if not 0 < r["slide_fraction"] <= 1:
+        raise ConfigError(f"config key `repose.slide_fraction` must lie in (0, 1]; "
+                          f"got {r['slide_fraction']!r}")
+    if not 0 <= r["pedestal_fraction"] < 1:
+        raise ConfigError(f"config key `repose.pedestal_fraction` must lie in [0, 1); "
+                          f"got {r['pedestal_fraction']!r}")
     p = cfg["psd"]
     if not p["d_min"] < p["d10"] < p["d50"] < p["d90"] < p["d_max"]:
         raise ConfigError("config keys `psd.d_min < psd.d10 < psd.d50 < psd.d90 < psd.d_max` must "
@@ -378,6 +453,7 @@ def _validate(cfg: dict) -> None:
     if ext["cohesion_model"] not in ("dmt", "jkr", "none"):
         raise ConfigError("config key `external.cohesion_model` must be dmt, jkr or none; "
                           f"got {ext['cohesion_model']!r}")
+    at_least("external.timeout", 0.0, " s (0: none)")
     _validate_effects(cfg["effects"])
     b = cfg["calibrate"]["cohesion_bracket"]
     if len(b) != 2 or not b[0] < b[1]:

@@ -14,6 +14,7 @@ flanks (both fitted), without one a single free flank facing the opening.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import time as _time
@@ -22,7 +23,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import RunLayout, check_engine, contact_model, psd_sampler, run_in_frames
+from ._common import (Resumable, RunLayout, check_engine, clear_run, contact_model, from_plain,
+                      psd_sampler, run_in_frames, write_json_atomic)
+from .config import validate_config
 
 __all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile"]
 
@@ -42,12 +45,17 @@ class ReposeReplicate:
     left_deg, right_deg : float, degrees
         Flank angles (NaN for a flank not fitted).
     n_inserted, n_remaining, n_fallen : int
-        Particles inserted, left in the box, fallen into the reservoir.
+        Particles inserted (all of them, also any lost while the box fills), left in the
+        box, fallen into the reservoir (removed: ``n_inserted = n_remaining + n_fallen +
+        n_lost_nonfinite``).
     pile_height : float, m
         Crest height of the pile above the plate.
     wall_time : float, s
     stage : str
         Sub-folder of the run directory (empty when nothing was written).
+    n_lost_nonfinite : int
+        Particles dropped for non-finite positions (a numerical blow-up; 0 unless the
+        engine was told to drop them rather than raise).
     """
 
     seed: int
@@ -62,6 +70,7 @@ class ReposeReplicate:
     pile_height: float
     wall_time: float
     stage: str = ""
+    n_lost_nonfinite: int = 0
 
 
 @dataclass(frozen=True)
@@ -93,17 +102,23 @@ class ReposeResult:
         return to_jsonable(self)
 
 
-def _record_run(sim, total_time, writer, n_frames):
+def _record_run(ctl, total_time, writer, n_frames):
     """Run ``total_time`` recording ``n_frames`` frames evenly (at least at the end)."""
     if writer is None or n_frames <= 0:
-        sim.run(time=total_time)
+        ctl.run_time(total_time)
         return
-    run_in_frames(sim, total_time, n_frames, lambda: writer.record(sim))
+    run_in_frames(ctl, total_time, n_frames, lambda: ctl.do(lambda: writer.record(ctl.sim)))
 
 
 def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, layout=None,
                      stage: str = "") -> ReposeReplicate:
-    """Run one angle-of-repose simulation of configuration ``cfg`` (see :func:`run_repose`)."""
+    """Run one angle-of-repose simulation of configuration ``cfg`` (see :func:`run_repose`).
+
+    With a ``layout`` and a ``stage`` the replicate checkpoints into
+    ``<stage>/progress.npz`` every ``output.checkpoint_every`` steps and, when that file is
+    there, restarts from it (the result is the uninterrupted run's). :func:`run_repose`
+    records the finished replicate in ``<stage>/result.json`` and removes the checkpoint.
+    """
     from ..core import Box
     from ..dem import Rectangle, Simulation, repose_box
 
@@ -130,10 +145,16 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     if ped > 0:
         walls.append(Rectangle(center=(L / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
                                half_sizes=(ped * L / 2, W if periodic else W / 2), name="ledge"))
-    sim = Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
-                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
-                     n_threads=cfg["n_threads"], seed=seed)
-    writer = layout.stage(stage) if layout is not None and stage else None
+    writer = layout.stage(stage, reset=False) if layout is not None and stage else None
+    ctl = Resumable(None if writer is None else writer.path / "progress.npz",
+                    every=int(cfg["output"].get("checkpoint_every", 0)),
+                    root=None if writer is None else writer.path)
+    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
+                                       v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
+                                       n_threads=cfg["n_threads"], seed=seed),
+                    lambda p: Simulation.from_checkpoint(p, model, walls=walls))
+    if writer is not None:
+        ctl.do(writer.reset)
     t0 = _time.perf_counter()
     n_want = int(rc["n_particles"])
     if n_want <= 0:  # auto: fill_fraction of the box at a packing fraction of 0.6
@@ -141,40 +162,72 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
         v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
         n_want = int(0.6 * L * W * H * float(rc["fill_fraction"]) / v_mean)
     region_top = H * 1.0
-    for _ in range(6):
+    n_inserted = 0   # every particle inserted, also those lost while the box fills
+
+    def fill_round(top):
         need = n_want - sim.n_particles
         if need <= 0:
+            return [0, top]
+        zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9 if sim.n_particles else 0.0
+        if top - zlo < 4 * rmax:
+            top = zlo + max(0.5 * H, 4 * rmax)
+        return [int(sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (L, W, top)))),
+                top, need]
+
+    for _ in range(6):
+        got = ctl.value(lambda: fill_round(region_top))
+        if len(got) == 2:  # the box holds n_want
             break
-        zlo = 0.0
-        if sim.n_particles:
-            zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9
-        if region_top - zlo < 4 * rmax:
-            region_top = zlo + max(0.5 * H, 4 * rmax)
-        sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (L, W, region_top)))
-        sim.run(time=0.5 * rc["fill_time"])
-    n_inserted = sim.n_particles
-    if n_inserted < n_want:
+        n_inserted += int(got[0])
+        region_top = got[1]
+        ctl.run_time(0.5 * rc["fill_time"])
+    if n_inserted < n_want and not ctl.replaying:
         log.warning("repose: inserted %d of %d particles (box full)", n_inserted, n_want)
-    sim.run(time=0.5 * rc["fill_time"])
+    ctl.run_time(0.5 * rc["fill_time"])
     if float(rc["rest_time"]) > 0.0:  # the settled pile rests: its contacts age (no steps)
-        sim.age_contacts(float(rc["rest_time"]))
+        ctl.do(lambda: sim.age_contacts(float(rc["rest_time"])))
     if writer is not None:
-        writer.record(sim)
+        ctl.do(lambda: writer.record(sim))
     slide = L if ped > 0 else float(rc["slide_fraction"]) * L
     v = float(rc["plate_speed"])
-    sim.set_wall_motion("plate", velocity=(-v, 0.0, 0.0))
-    _record_run(sim, slide / v, writer, max(1, int(rc["n_frames"]) // 2))
-    sim.set_wall_motion("plate", velocity=(0.0, 0.0, 0.0))
-    _record_run(sim, float(rc["drain_time"]), writer, max(1, int(rc["n_frames"]) - int(rc["n_frames"]) // 2))
-    frame = sim.frame()
-    if writer is not None:
-        writer.final(sim, "pile")
-    a, s, left, right, top = measure_pile(frame, cfg, r_max=rmax)
-    return ReposeReplicate(seed=int(seed), cohesion=k, angle_deg=float(a), angle_std_deg=float(s),
-                           left_deg=float(left), right_deg=float(right), n_inserted=n_inserted,
-                           n_remaining=int(frame.n_particles), n_fallen=int(sim.n_removed),
-                           pile_height=float(top), wall_time=_time.perf_counter() - t0,
-                           stage=stage if writer is not None else "")
+    ctl.do(lambda: sim.set_wall_motion("plate", velocity=(-v, 0.0, 0.0)))
+    _record_run(ctl, slide / v, writer, max(1, int(rc["n_frames"]) // 2))
+    ctl.do(lambda: sim.set_wall_motion("plate", velocity=(0.0, 0.0, 0.0)))
+    _record_run(ctl, float(rc["drain_time"]), writer,
+                max(1, int(rc["n_frames"]) - int(rc["n_frames"]) // 2))
+
+    def finish():
+        frame = writer.final(sim, "pile") if writer is not None else sim.frame()
+        a, s, left, right, top = measure_pile(frame, cfg, r_max=rmax)
+        lost = int(sim.n_lost_nonfinite)
+        if lost:
+            log.warning("repose: %d particle(s) were lost to non-finite positions (a blow-up)",
+                        lost)
+        return dict(angle_deg=float(a), angle_std_deg=float(s), left_deg=float(left),
+                    right_deg=float(right), n_remaining=int(frame.n_particles),
+                    n_fallen=int(sim.n_removed), n_lost_nonfinite=lost, pile_height=float(top))
+    m = ctl.value(finish)
+    rep = ReposeReplicate(seed=int(seed), cohesion=k, n_inserted=n_inserted,
+                          wall_time=_time.perf_counter() - t0,
+                          stage=stage if writer is not None else "", **m)
+    return rep
+
+
+def _finished_replicate(layout, stage: str, seed: int, cohesion: float):
+    """The replicate recorded in ``<stage>/result.json`` of a resumed run, or None."""
+    if layout is None or not layout.resumed:
+        return None
+    p = layout.path / stage / "result.json"
+    if not p.is_file():
+        return None
+    try:
+        rep = from_plain(ReposeReplicate, json.loads(p.read_text()))
+    except (ValueError, TypeError) as exc:
+        log.warning("%s: unreadable (%s); the replicate runs again", p, exc)
+        return None
+    if rep.seed != int(seed) or rep.cohesion != float(cohesion):
+        return None
+    return rep
 
 
 def measure_pile(frame, cfg: dict, *, r_max: float):
@@ -242,7 +295,7 @@ def combine_replicates(reps, cohesion: float) -> ReposeResult:
 
 
 def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates: int | None = None,
-               progress: bool = False) -> ReposeResult:
+               progress: bool = False, overwrite: bool = False) -> ReposeResult:
     """Static angle of repose of configuration ``cfg`` over replicate seeds.
 
     Parameters
@@ -259,6 +312,11 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
         Override ``repose.replicates``; replicate ``i`` uses seed ``seed + i``.
     progress : bool, optional
         Show a progress bar over the replicates (stderr; embedded engine).
+    overwrite : bool, optional
+        Replace an earlier run in ``out``. Without it, an earlier run of the same
+        configuration, cohesion and replicates is resumed (finished replicates are reused,
+        an unfinished one restarts from its checkpoint) and one of another is refused
+        with a ConfigError (:class:`~bedstruct.workflows.RunLayout`).
 
     Returns
     -------
@@ -275,18 +333,31 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
     >>> 10 < res.angle_deg < 60                      # doctest: +SKIP
     True
     """
+    validate_config(cfg)
     if cfg.get("engine", "embedded") != "embedded":
         from .external import run_repose_external
+        if overwrite and out is not None:
+            clear_run(out)
         return run_repose_external(cfg, out=out, cohesion=cohesion, replicates=replicates)
     n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
     if n < 1:
         raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
-    layout = RunLayout(out, cfg) if out is not None else None
     k = float(cfg["contact"]["cohesion"] if cohesion is None else cohesion)
+    if k < 0:
+        raise ConfigError(f"config key `contact.cohesion` must be >= 0; got {k}")
+    layout = (RunLayout(out, cfg, workflow="repose", inputs={"cohesion": k, "replicates": n},
+                        overwrite=overwrite) if out is not None else None)
     from tqdm.auto import tqdm
-    reps = [repose_replicate(cfg, seed=int(cfg["seed"]) + i, cohesion=k, layout=layout,
-                             stage=f"rep{i:02d}")
-            for i in tqdm(range(n), desc="repose", unit="replicate", disable=not progress)]
+    reps = []
+    for i in tqdm(range(n), desc="repose", unit="replicate", disable=not progress):
+        seed, stage = int(cfg["seed"]) + i, f"rep{i:02d}"
+        rep = _finished_replicate(layout, stage, seed, k)
+        if rep is None:
+            rep = repose_replicate(cfg, seed=seed, cohesion=k, layout=layout, stage=stage)
+            if layout is not None:  # finished: recorded, its checkpoint no longer needed
+                write_json_atomic(layout.path / stage / "result.json", rep, keep_nan=True)
+                (layout.path / stage / "progress.npz").unlink(missing_ok=True)
+        reps.append(rep)
     res = combine_replicates(reps, k)
     if layout is not None:
         layout.write_results({"workflow": "repose", **res.to_dict()})

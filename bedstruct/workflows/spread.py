@@ -31,12 +31,15 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import (RunLayout, check_engine, contact_model, german_fit_values, psd_sampler,
+from ._common import (Resumable, RunLayout, as_resumable, check_engine, clear_run, contact_model,
+                      frame_fingerprint, from_plain, german_fit_values, psd_sampler,
                       run_in_frames, to_jsonable, tool_motion)
+from .config import validate_config
 from .spread_measure import (_REGION_NAMES, LayerResult, _subset_contacts, frame_metrics,
-                             measure_layer, particles_in_flight)
+                             measure_layer, mid_layer_segregation, particles_in_flight)
 
-__all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key"]
+__all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key",
+           "spread_result_from_dict"]
 
 log = logging.getLogger(__name__)
 
@@ -87,10 +90,13 @@ class SpreadResult:
         return d
 
 
-def generate_pile(cfg: dict, *, seed: int, draw=None):
+def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None):
     """Settle ``spread.pile_particles`` by raindrop insertion in a walled box (x from 0, z from 0).
 
     Returns the settled :class:`~bedstruct.Frame` (SI) and the number of steps run.
+    With ``checkpoint`` (a path, ``progress.npz``) the generation checkpoints there every
+    ``output.checkpoint_every`` steps and, when the file exists, restarts from it (the pile
+    is the uninterrupted run's); the caller removes the file once the pile is saved.
     """
     from ..core import Box
     from ..dem import Plane, Simulation
@@ -105,22 +111,32 @@ def generate_pile(cfg: dict, *, seed: int, draw=None):
     box = Box([-draw.r_max, 0.0, -draw.r_max], [Lp + draw.r_max, W, top], boundary="ff pp ff")
     walls = [Plane((0, 0, 0), (0, 0, 1), name="floor"), Plane((0, 0, 0), (1, 0, 0), name="xlo"),
              Plane((Lp, 0, 0), (-1, 0, 0), name="xhi")]
-    sim = Simulation(box, contact_model(cfg), walls=walls, safety=cfg["time"]["safety"],
-                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min, n_threads=cfg["n_threads"],
-                     seed=seed)
+    model = contact_model(cfg)
+    ctl = Resumable(checkpoint, every=int(cfg["output"].get("checkpoint_every", 0)))
+    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
+                                       v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
+                                       n_threads=cfg["n_threads"], seed=seed),
+                    lambda path: Simulation.from_checkpoint(path, model, walls=walls))
     layer = 8 * draw.r_max          # insert in thin slabs so that nothing falls far
-    for _ in range(50):
+
+    def insert_slab():
         need = n - sim.n_particles
         if need <= 0:
-            break
+            return False
         zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9 if sim.n_particles else 0.0
         sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (Lp, W, zlo + layer)))
-        sim.run(time=math.sqrt(2 * layer / 9.81))
+        return True
+
+    for _ in range(50):
+        if not ctl.value(insert_slab):
+            break
+        ctl.run_time(math.sqrt(2 * layer / 9.81))
     # settle: until the fastest particle is slower than 1 mm/s (at most 4 pile_time)
-    t_end = sim.time + 4 * float(sc["pile_time"])
-    sim.run(time=0.25 * float(sc["pile_time"]))
-    while sim.time < t_end and float(np.max(np.linalg.norm(sim.v, axis=1))) > 1e-3:
-        sim.run(time=0.25 * float(sc["pile_time"]))
+    t_end = ctl.value(lambda: sim.time) + 4 * float(sc["pile_time"])
+    ctl.run_time(0.25 * float(sc["pile_time"]))
+    while ctl.value(lambda: sim.time < t_end and
+                    float(np.max(np.linalg.norm(sim.v, axis=1))) > 1e-3):
+        ctl.run_time(0.25 * float(sc["pile_time"]))
     return sim.frame(), sim.step
 
 
@@ -168,15 +184,16 @@ def _tool_walls(cfg, x0, draw):
 
 
 
-def _move(sim, name, velocity, distance, speed):
+def _move(ctl, name, velocity, distance, speed):
     if distance <= 0:
         return
-    sim.set_wall_motion(name, velocity=velocity)
-    sim.run(time=distance / speed)
-    sim.set_wall_motion(name, velocity=(0.0, 0.0, 0.0))
+    ctl.do(lambda: ctl.sim.set_wall_motion(name, velocity=velocity))
+    ctl.run_time(distance / speed)
+    ctl.do(lambda: ctl.sim.set_wall_motion(name, velocity=(0.0, 0.0, 0.0)))
 
 
-def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> SpreadResult:
+def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
+               overwrite: bool = False) -> SpreadResult:
     """Spread ``len(spread.gaps)`` layers with the configured tool and measure each.
 
     Parameters
@@ -187,13 +204,20 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
         Run directory (see :class:`~bedstruct.workflows.RunLayout`): stage
         ``pile`` (the generated pile) and ``layer01``, ``layer02``... with
         frames, contacts, wall states and ``bed.dump.gz`` /
-        ``bed_contacts.dump.gz`` after the layer.
+        ``bed_contacts.dump.gz`` after the layer. The run checkpoints into
+        ``progress.npz`` after every layer and every ``output.checkpoint_every`` steps.
     progress : bool, optional
         Show a progress bar over the layers (stderr; embedded engine).
     pile : Frame, optional
         The settled pile, as ``generate_pile(cfg, seed=cfg["seed"])[0]`` returns it
         (default: generated here). Runs with the same :func:`pile_key` and seed (for
         example at different speeds) can share one.
+    overwrite : bool, optional
+        Replace an earlier run in ``out``. Without it, an earlier run of the same
+        configuration (and pile) is resumed: a finished one gives its results back, an
+        unfinished one restarts from its latest checkpoint (finished layers are not run
+        again; the results equal an uninterrupted run's), and a run of another
+        configuration is refused with a ConfigError.
 
     Returns
     -------
@@ -209,15 +233,36 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
     from ..core import Box, Frame
     from ..dem import Plane, Rectangle, Simulation
 
+    validate_config(cfg)
     if cfg.get("engine", "embedded") != "embedded":  # one layer on LIGGGHTS/LAMMPS
         if pile is not None:
             raise ConfigError("run_spread: a given pile is for the embedded engine; LIGGGHTS and "
                               "LAMMPS decks generate their own")
         from .external import run_spread_external
+        if overwrite and out is not None:
+            clear_run(out)
         return run_spread_external(cfg, out=out)
     check_engine(cfg)
+    if pile is not None:
+        if not isinstance(pile, Frame):
+            raise TypeError(f"run_spread: `pile` must be a Frame (from generate_pile); got "
+                            f"{type(pile).__name__}")
+        if pile.n_particles == 0:
+            raise ConfigError("run_spread: the given pile has no particles")
     sc = cfg["spread"]
-    layout = RunLayout(out, cfg) if out is not None else None
+    inputs = {} if pile is None else {"pile": frame_fingerprint(pile)}
+    layout = (RunLayout(out, cfg, workflow="spread", inputs=inputs, overwrite=overwrite)
+              if out is not None else None)
+    if layout is not None and layout.complete:
+        try:
+            res = spread_result_from_dict(layout.previous_results)
+        except (KeyError, TypeError, ValueError) as exc:
+            log.warning("%s: the finished run's results cannot be read back (%s); it runs "
+                        "again", layout.path, exc)
+        else:
+            layout.write_results({"workflow": "spread", **res.to_dict()})
+            (layout.path / "progress.npz").unlink(missing_ok=True)
+            return res
     seed = int(cfg["seed"])
     draw = psd_sampler(cfg)
     rmax = draw.r_max
@@ -228,17 +273,23 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
     names = _REGION_NAMES.get(n_reg, tuple(f"region{i}" for i in range(n_reg)))
     t_start = _time.perf_counter()
 
-    if pile is None:
-        pile, _ = generate_pile(cfg, seed=seed, draw=draw)
-    elif not isinstance(pile, Frame):
-        raise TypeError(f"run_spread: `pile` must be a Frame (from generate_pile); got "
-                        f"{type(pile).__name__}")
-    elif pile.n_particles == 0:
-        raise ConfigError("run_spread: the given pile has no particles")
+    pile_path = None
     if layout is not None:
-        from ..io import write_dump
-        st = layout.stage("pile")
-        write_dump(st.path / f"pile{st._ext}", pile)
+        pile_path = layout.path / "pile" / ("pile.dump.gz" if cfg["output"]["compress"]
+                                            else "pile.dump")
+    if pile is None:
+        if layout is not None and layout.resumed and pile_path.is_file():
+            from ..io import read_dump
+            pile = read_dump(pile_path, units="si")[0]   # the finished pile of this run
+        else:
+            ck = None
+            if layout is not None:
+                (layout.path / "pile").mkdir(exist_ok=True)
+                ck = layout.path / "pile" / "progress.npz"
+            pile, _ = generate_pile(cfg, seed=seed, draw=draw, checkpoint=ck)
+    if layout is not None and not (layout.resumed and pile_path.is_file()):
+        layout.stage("pile").write_frame("pile", pile)
+        (layout.path / "pile" / "progress.npz").unlink(missing_ok=True)
     n_pile = pile.n_particles
     pile_top = float(np.max(pile.positions[:, 2] + pile.radii))
 
@@ -261,9 +312,14 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
         zc = 0.5 * (depth - 2 * rmax)
         walls.append(Rectangle(center=(Lplat, W / 2, -zc), normal=(-1, 0, 0), axis=(0, 0, 1),
                                half_sizes=(zc, W), name="front"))
-    sim = Simulation(box, contact_model(cfg), walls=walls, safety=cfg["time"]["safety"],
-                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min, n_threads=cfg["n_threads"],
-                     seed=seed)
+    model = contact_model(cfg)
+    ctl = Resumable(None if layout is None else layout.path / "progress.npz",
+                    every=int(cfg["output"].get("checkpoint_every", 0)),
+                    root=None if layout is None else layout.path)
+    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
+                                       v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
+                                       n_threads=cfg["n_threads"], seed=seed),
+                    lambda path: Simulation.from_checkpoint(path, model, walls=walls))
     z_plat = 0.0
     # spin about +y; the surface velocity is u + omega e_y x (R e_r), so omega = -speed/R
     # (factor -1) moves the bottom of the roller forwards: counter-rotating
@@ -272,91 +328,129 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None) -> Spr
     f_all, cn_all = [], []
     inserted_total = 0
     clear = 3 * rmax
+    n_frames = int(sc["n_frames"])
+    i_mid = max(1, n_frames // 2)
+    writer = None
     from tqdm.auto import tqdm
     for k, gap in enumerate(tqdm(gaps, desc="spread", unit="layer", disable=not progress)):
         t_layer = _time.perf_counter()
-        writer = layout.stage(f"layer{k + 1:02d}") if layout is not None else None
+        writer = layout.stage(f"layer{k + 1:02d}", reset=False) if layout is not None else None
+        if writer is not None:
+            ctl.do(writer.reset)
         # 1. lower the platform by this layer's gap; the bed follows under gravity
-        _move(sim, "platform", (0.0, 0.0, -float(sc["lower_speed"])), gap, float(sc["lower_speed"]))
+        _move(ctl, "platform", (0.0, 0.0, -float(sc["lower_speed"])), gap, float(sc["lower_speed"]))
         z_plat -= gap
-        sim.run(time=min(float(sc["settle_time"]), 2 * gap / float(sc["lower_speed"])))
+        ctl.run_time(min(float(sc["settle_time"]), 2 * gap / float(sc["lower_speed"])))
         # 2. reinsert the pile in front of the tool, above whatever is there once powder
         #    thrown up by the stroke has landed (a pile inserted above particles in flight
         #    would fall from their height onto the bed)
         x_off = front0 + 0.5 * rmax
         foot_x = (x_off - 2 * rmax, x_off + float(sc["pile_length"]) + 2 * rmax)
-        waited = _land_flyers(sim, z_plat, foot_x, float(sc["settle_time"]), layer=k + 1)
-        foot = (sim.x[:, 0] > foot_x[0]) & (sim.x[:, 0] < foot_x[1])
-        z_base = max(z_plat, float(np.max(sim.x[foot, 2] + sim.rad[foot])) if foot.any() else z_plat)
-        n_before = sim.n_particles
-        sim.insert_frame(pile, offset=(x_off, 0.0, z_base + 0.25 * rmax))
-        n_ins = sim.n_particles - n_before
-        inserted_total += n_ins
-        sim.run(time=float(sc["settle_time"]))
-        # 3. spread, recording frames
-        if sc["tool"] == "roller":
-            tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0), omega=omega)
-        else:
-            tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0))
-        blade_pos, dyn, cn_series, mid = [], [], [], []
+        waited = _land_flyers(ctl, z_plat, foot_x, float(sc["settle_time"]), layer=k + 1)
 
-        def on_frame():
+        def insert_pile():
+            foot = (sim.x[:, 0] > foot_x[0]) & (sim.x[:, 0] < foot_x[1])
+            z_base = max(z_plat, float(np.max(sim.x[foot, 2] + sim.rad[foot]))
+                         if foot.any() else z_plat)
+            n_before = sim.n_particles
+            sim.insert_frame(pile, offset=(x_off, 0.0, z_base + 0.25 * rmax))
+            return sim.n_particles - n_before
+        n_ins = int(ctl.value(insert_pile))
+        inserted_total += n_ins
+        ctl.run_time(float(sc["settle_time"]))
+        # 3. spread, recording frames
+        def start_tool():
+            if sc["tool"] == "roller":
+                tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0), omega=omega)
+            else:
+                tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0))
+            sim.start_wall_load_average()
+        ctl.do(start_tool)
+        blade_pos, dyn, cn_series, seg = [], [], [], []
+
+        def look():
             fr = sim.frame()
             ws = {w.name: w for w in sim.wall_states()}
             front = float(ws["tool"].origin[0]) + half
-            blade_pos.append(front)
             d_, c_ = frame_metrics(fr, sim.contacts(), front, plate_length=Lplat, z_plat=z_plat,
                                    r_max=rmax)
-            dyn.append(d_)
-            cn_series.append(c_)
             if writer is not None:
                 writer.record(sim, frame=fr)
-            if len(blade_pos) == max(1, int(sc["n_frames"]) // 2):
-                mid.append((fr, front))
-        sim.start_wall_load_average()
-        run_in_frames(sim, (x_end - x0) / speed, int(sc["n_frames"]), on_frame)
-        tool_force = sim.wall_load_average()["tool"]
+            s_ = (mid_layer_segregation(fr, front, Lplat, pile)
+                  if len(blade_pos) + 1 == i_mid else None)
+            return [front, d_, c_, s_]
+
+        def on_frame():
+            front, d_, c_, s_ = ctl.value(look)
+            blade_pos.append(front)
+            dyn.append(d_)
+            cn_series.append(c_)
+            if s_ is not None:
+                seg.append(s_)
+        run_in_frames(ctl, (x_end - x0) / speed, n_frames, on_frame)
+        tool_force = ctl.value(lambda: sim.wall_load_average()["tool"])
         stop = {"omega": 0.0} if sc["tool"] == "roller" else {}
-        sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **stop)
-        sim.run(time=float(sc["settle_time"]))
+        ctl.do(lambda: sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **stop))
+        ctl.run_time(float(sc["settle_time"]))
+
         # 4. measure the bed
-        fr = sim.frame()
-        contacts_all = sim.contacts()
-        if writer is not None:
-            from ..io import write_dump, write_dump_local
-            on_plat = fr.positions[:, 0] < Lplat
-            keep = on_plat & (fr.positions[:, 2] > z_plat - rmax)
-            write_dump(writer.path / f"bed{writer._ext}", fr.select(keep))
-            write_dump_local(writer.path / f"bed_contacts{writer._ext}", fr.select(keep),
-                             _subset_contacts(contacts_all, keep))
-        layer, pack, cnw = measure_layer(
-            fr, contacts_all, cfg, index=k + 1, z_plat=z_plat, front0=front0, r_max=rmax,
-            pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid, n_inserted=n_ins,
-            n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer)
-        layers.append(replace(layer, landing_wait=waited,
-                              tool_force=tuple(float(v) for v in tool_force)))
-        f_all.extend(np.asarray(pack, float).tolist())
-        cn_all.extend(np.asarray(cnw, float).tolist())
-        h, H_k, n_bed = layer.bed_height_m, layer.nominal_height, layer.n_bed
-        log.info("layer %d: bed height %.4g m (nominal %.4g), %d in bed", k + 1, h, H_k, n_bed)
+        def measure():
+            fr = sim.frame()
+            contacts_all = sim.contacts()
+            if writer is not None:
+                on_plat = fr.positions[:, 0] < Lplat
+                keep = on_plat & (fr.positions[:, 2] > z_plat - rmax)
+                writer.write_frame("bed", fr.select(keep), _subset_contacts(contacts_all, keep))
+            layer, pack, cnw = measure_layer(
+                fr, contacts_all, cfg, index=k + 1, z_plat=z_plat, front0=front0, r_max=rmax,
+                pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=[],
+                segregation_values=seg[0] if seg else None, n_inserted=n_ins,
+                n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer)
+            layer = replace(layer, landing_wait=waited,
+                            tool_force=tuple(float(v) for v in tool_force))
+            return [layer, pack, cnw]
+        ld, pack, cnw = ctl.value(measure)
+        layer = from_plain(LayerResult, ld)
+        layers.append(layer)
+        f_all.extend(float(v) for v in pack)
+        cn_all.extend(float(v) for v in cnw)
+        if not ctl.replaying:
+            log.info("layer %d: bed height %.4g m (nominal %.4g), %d in bed", k + 1,
+                     layer.bed_height_m, layer.nominal_height, layer.n_bed)
         # 5. return the tool above the bed to its start
         if k + 1 < len(gaps):
             vr = float(sc["return_speed"])
-            _move(sim, "tool", (0.0, 0.0, vr), clear, vr)
-            back = float(sim.wall_states()[sim.wall_names.index("tool")].origin[0]) - x0
-            _move(sim, "tool", (-vr, 0.0, 0.0), back, vr)
-            _move(sim, "tool", (0.0, 0.0, -vr), clear, vr)
+            _move(ctl, "tool", (0.0, 0.0, vr), clear, vr)
+            back = ctl.value(lambda: float(sim.wall_states()[sim.wall_names.index("tool")]
+                                           .origin[0]) - x0)
+            _move(ctl, "tool", (-vr, 0.0, 0.0), back, vr)
+            _move(ctl, "tool", (0.0, 0.0, -vr), clear, vr)
+        # the layer is done: a resumed run starts after it
+        ctl.checkpoint()
+        if writer is not None and cfg["output"]["checkpoint"] and k + 1 < len(gaps):
+            ctl.do(lambda: sim.save_checkpoint(writer.path / "checkpoint.npz"))
     ga, gb, gr = german_fit_values(f_all, cn_all)
+    run_info = ctl.value(lambda: {"dt": sim.dt, "steps": sim.step,
+                                  "n_particles_final": sim.n_particles})
     res = SpreadResult(layers=tuple(layers), tool=str(sc["tool"]), speed=speed, regions=tuple(names),
                        n_pile=n_pile, n_inserted_total=inserted_total, german_a=ga, german_b=gb,
                        german_r_squared=gr,
-                       extra={"wall_time": _time.perf_counter() - t_start, "dt": sim.dt,
-                              "steps": sim.step, "n_particles_final": sim.n_particles})
+                       extra={"wall_time": _time.perf_counter() - t_start, **run_info})
     if layout is not None:
         if writer is not None:
-            writer.final(sim, "final")
+            ctl.do(lambda: writer.final(sim, "final"))
         layout.write_results({"workflow": "spread", **res.to_dict()})
+        ctl.finish()
     return res
+
+
+def spread_result_from_dict(d: dict) -> SpreadResult:
+    """The :class:`SpreadResult` of ``SpreadResult.to_dict()`` (as read from results.json)."""
+    layers = tuple(from_plain(LayerResult, la) for la in d["layers"])
+    base = {k: v for k, v in d.items() if k != "layers"}
+    res = from_plain(SpreadResult, {**base, "layers": []})
+    extra = d.get("extra") or {}
+    return replace(res, layers=layers, regions=tuple(d["regions"]), extra=dict(extra))
 
 
 #: Settling intervals waited at most for powder in flight to land before a pile is reinserted.
@@ -366,27 +460,37 @@ _MAX_LANDING_WAIT = 20
 def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) -> float:
     """Settle in intervals of ``settle_time`` while particles in flight over the pile's foot
     ``(xa, xb)`` (:func:`particles_in_flight`) would lift the pile by more than the largest
-    radius above what rests there; returns the time waited (0: the state is untouched)."""
-    waited = 0.0
-    for attempt in range(_MAX_LANDING_WAIT + 1):
-        fr = sim.frame()
-        flying = particles_in_flight(fr, z_plat, foot, gravity=sim.gravity)
+    radius above what rests there; returns the time waited (0: the state is untouched).
+
+    ``sim`` is a :class:`~bedstruct.dem.Simulation` or the run's
+    :class:`~bedstruct.workflows._common.Resumable`."""
+    ctl = as_resumable(sim)
+
+    def n_flying():
+        fr = ctl.sim.frame()
+        flying = particles_in_flight(fr, z_plat, foot, gravity=ctl.sim.gravity)
         if flying.any():
             p, r = fr.positions, fr.radii
             top = p[:, 2] + r
             foot_mask = (p[:, 0] >= foot[0]) & (p[:, 0] <= foot[1]) & ~flying
             rest_top = max(z_plat, float(top[foot_mask].max()) if foot_mask.any() else z_plat)
             flying &= top > rest_top + float(r.max())
-        if not flying.any():
-            if waited:
+        return int(flying.sum())
+
+    waited = 0.0
+    for attempt in range(_MAX_LANDING_WAIT + 1):
+        n_fly = ctl.value(n_flying)
+        if not n_fly:
+            if waited and not ctl.replaying:
                 log.info("layer %d: waited %.3g s for powder thrown up by the stroke to land "
                          "before reinserting the pile", layer, waited)
             return waited
         if attempt == _MAX_LANDING_WAIT:
-            log.warning("layer %d: %d particle(s) still in flight over the pile's foot after "
-                        "%.3g s; the pile is reinserted above them", layer, int(flying.sum()),
-                        waited)
+            if not ctl.replaying:
+                log.warning("layer %d: %d particle(s) still in flight over the pile's foot "
+                            "after %.3g s; the pile is reinserted above them", layer, n_fly,
+                            waited)
             return waited
-        sim.run(time=settle_time)
+        ctl.run_time(settle_time)
         waited += settle_time
     raise AssertionError("unreachable")  # the last attempt returns

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LayerResult", "frame_metrics", "measure_layer", "particles_in_flight"]
+__all__ = ["LayerResult", "frame_metrics", "measure_layer", "particles_in_flight",
+           "mid_layer_segregation"]
 
 # the spreading workflow's logger: these messages belong to its run
 log = logging.getLogger("bedstruct.workflows.spread")
@@ -209,16 +210,32 @@ def _dynamic_angle(fr, front: float, *, plate_length: float, z_plat: float, r_ma
     return float(r.angle_deg)
 
 
+def mid_layer_segregation(mfr, mfront: float, plate_length: float, pile) -> tuple:
+    """``(heap_d50_shift, segregation_index)`` of the frame ``mfr`` in the middle of a layer
+    with the tool's front at ``mfront``, against the initial ``pile`` (NaN, with a logged
+    warning, when it cannot be measured)."""
+    from ..analysis import segregation
+    try:
+        sg = segregation(mfr.select(mfr.positions[:, 0] < plate_length), mfront, direction=1,
+                         axis=0, initial=pile)
+        return float(sg.heap_vs_bed.d50_shift), float(sg.index)
+    except (ValueError, AttributeError) as exc:
+        log.warning("spread: segregation failed: %s", exc)
+        return float("nan"), float("nan")
+
+
 def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, front0: float,
                   r_max: float, pile, dyn, cn_series, blade_pos, mid, n_inserted: int,
-                  n_removed: int, wall_time: float):
+                  n_removed: int, wall_time: float, segregation_values=None):
     """Measure the bed of spread layer ``index`` in frame ``fr`` (SI) with its contacts.
 
-    The same measurement for every engine (see :func:`run_spread`). Returns
+    The same measurement for every engine (see :func:`run_spread`). ``mid`` is a list
+    holding the ``(frame, tool front)`` of the middle of the layer (or empty), or give
+    ``segregation_values``, :func:`mid_layer_segregation` of it. Returns
     ``(LayerResult, packing_per_region, coordination_per_region)``.
     """
     from ..analysis import (coordination, coordination_by_window, packing_along, region_fabric,
-                            segregation, surface_height_map)
+                            surface_height_map)
     sc = cfg["spread"]
     rmax = r_max
     Lplat, W = float(sc["plate_length"]), float(sc["width"])
@@ -261,15 +278,10 @@ def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, fro
         log.warning("spread: fabric failed: %s", exc)
         aniso = (float("nan"),) * n_reg
     d50s = seg_i = float("nan")
-    if mid:
-        mfr, mfront = mid[0]
-        try:
-            sg = segregation(mfr.select(mfr.positions[:, 0] < Lplat), mfront, direction=1, axis=0,
-                             initial=pile)
-            d50s = float(sg.heap_vs_bed.d50_shift)
-            seg_i = float(sg.index)
-        except (ValueError, AttributeError) as exc:
-            log.warning("spread: segregation failed: %s", exc)
+    if segregation_values is not None:
+        d50s, seg_i = (float(v) for v in segregation_values)
+    elif mid:
+        d50s, seg_i = mid_layer_segregation(mid[0][0], mid[0][1], Lplat, pile)
     dyn_a = np.array(dyn, dtype=float)
     ok = np.isfinite(dyn_a)
     layer = (LayerResult(

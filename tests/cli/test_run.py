@@ -68,3 +68,75 @@ def test_failed_external_engine_is_one_error_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 1
     assert err[-1].startswith("bedstruct run: error: liggghts failed") and "Traceback" not in err[0]
+
+
+def test_calibrate_progress_is_passed_on(tmp_path, monkeypatch):
+    # `bedstruct run calibrate --progress` was accepted and dropped
+    import bedstruct.workflows as wf
+    from bedstruct.workflows import CalibrationResult
+    seen = {}
+
+    def fake(cfg, **kw):
+        seen.update(kw)
+        return CalibrationResult(cohesion=1e3, cohesion_std=1.0, target_deg=30.0,
+                                 slope_deg_per_unit=1e-3, converged=True, bracketed=True,
+                                 curve=(), n_runs=0)
+    monkeypatch.setattr(wf, "calibrate_cohesion", fake)
+    assert main(["run", "calibrate", "--preset", "tiny", "--progress", "--out",
+                 str(tmp_path)]) == 0
+    assert seen["progress"] is True and seen["overwrite"] is False
+
+
+def test_a_folder_of_another_configuration_needs_overwrite(tmp_path, capsys):
+    args = ["run", "repose", "--preset", "tiny", "--set", "repose.drain_time=0.01",
+            "--set", "repose.fill_time=0.01", "--out", str(tmp_path)]
+    assert main(args) == 0
+    first = json.loads((tmp_path / "results.json").read_text())
+    capsys.readouterr()
+    assert main(args) == 0                        # the same run again: reused at once
+    assert "resumed the finished run" in capsys.readouterr().err
+    assert json.loads((tmp_path / "results.json").read_text()) == first
+    assert main(args + ["--set", "seed=2"]) == 1
+    err = capsys.readouterr().err
+    assert "`seed`: 1 in the folder, 2 now" in err and "--overwrite" in err
+    assert json.loads((tmp_path / "results.json").read_text()) == first
+    assert main(args + ["--set", "seed=2", "--overwrite"]) == 0
+    assert json.loads((tmp_path / "run.json").read_text())["config"]["seed"] == 2
+    assert json.loads((tmp_path / "results.json").read_text())["replicates"][0]["seed"] == 2
+
+
+def test_sigterm_then_the_same_command_resumes(tmp_path):
+    # the audit's case: a run killed with SIGTERM left no mark of being unfinished and
+    # could not be resumed
+    import signal
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / "run"
+    args = ["run", "spread", "--preset", "tiny", "--set", "spread.gaps=[4.5e-4]",
+            "--set", "spread.n_frames=3", "--set", "spread.pile_particles=300",
+            "--set", "spread.pile_time=0.004", "--set", "spread.plate_length=1.2e-3",
+            "--set", "spread.pile_length=0.6e-3", "--set", "output.checkpoint_every=1000",
+            "--out", str(out)]
+    proc = subprocess.Popen([sys.executable, "-m", "bedstruct", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    t0 = time.time()
+    while not (out / "progress.npz").is_file():
+        assert proc.poll() is None, proc.communicate()
+        assert time.time() - t0 < 300
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGTERM
+    assert json.loads((out / "run.json").read_text())["status"] == "running"
+    assert not (out / "results.json").exists()
+    assert main(args) == 0
+    assert json.loads((out / "run.json").read_text())["status"] == "complete"
+    assert not (out / "progress.npz").exists()
+    ref = tmp_path / "ref"
+    assert main(args[:-1] + [str(ref)]) == 0
+    a, b = (json.loads((d / "results.json").read_text()) for d in (out, ref))
+    for d in (a, b):
+        d.pop("extra")
+        d["layers"][0].pop("wall_time")
+    assert a == b

@@ -88,3 +88,59 @@ def test_other_engines_not_yet_supported():
     with pytest.raises(ConfigError, match="not available"):
         run_spread(load_config(preset="tiny", overrides=['engine="lammps"', "spread.tool=roller",
                                                          'external.exe="/nonexistent/x"']))
+
+
+@pytest.mark.parametrize("assignment, key", [
+    # values that crashed a run (UnboundLocalError, ZeroDivisionError, box-bounds errors)
+    # or were named by an internal name, or were accepted
+    ("spread.gaps=[]", "spread.gaps"),
+    ("spread.roller_radius=0", "spread.roller_radius"),
+    ("spread.settle_time=-1", "spread.settle_time"),
+    ("spread.settle_time=0", "spread.settle_time"),
+    ("spread.regions=0", "spread.regions"),
+    ("spread.stop_margin=-1", "spread.stop_margin"),
+    ("spread.n_frames=0", "spread.n_frames"),
+    ("n_threads=0", "n_threads"),
+    ("seed=-1", "seed"),
+    ("spread.blade_thickness=0", "spread.blade_thickness"),
+    ("spread.bevel_deg=90", "spread.bevel_deg"),
+    ("repose.fill_time=0", "repose.fill_time"),
+    ("repose.drain_time=-0.1", "repose.drain_time"),
+    ("repose.slide_fraction=0", "repose.slide_fraction"),
+    ("repose.pedestal_fraction=1", "repose.pedestal_fraction"),
+    ("calibrate.tolerance_deg=0", "calibrate.tolerance_deg"),
+    ("output.checkpoint_every=-5", "output.checkpoint_every"),
+    ("external.timeout=-1", "external.timeout"),
+    # an unstable time step: the run exited 0 with an angle of nan
+    ("time.safety=2.5", "time.safety"),
+    ("time.safety=0", "time.safety"),
+    ("time.v_max=0", "time.v_max"),
+    ("time.v_max=-1e-4", "time.v_max"),
+])
+def test_values_out_of_range_name_the_key(assignment, key):
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        load_config(preset="tiny", overrides=[assignment])
+
+
+def test_safety_limit_is_the_engines_rayleigh_limit():
+    from bedstruct.dem import Simulation
+    from bedstruct.workflows.config import MAX_SAFETY
+    import inspect
+    limit = inspect.signature(Simulation).parameters["max_rayleigh_fraction"].default
+    assert MAX_SAFETY == limit
+    assert load_config(preset="tiny", overrides=[f"time.safety={limit}"])["time"]["safety"] == limit
+
+
+def test_workflows_validate_a_config_changed_after_loading(tmp_path):
+    from bedstruct.workflows import calibrate_cohesion, run_repose, run_spread
+    cfg = load_config(preset="tiny")
+    cfg["spread"]["gaps"] = []
+    with pytest.raises(ConfigError, match=r"`spread\.gaps`"):
+        run_spread(cfg, out=tmp_path / "s")
+    assert not (tmp_path / "s").exists()          # refused before anything was written
+    cfg = load_config(preset="tiny")
+    cfg["time"]["v_max"] = 0.0
+    with pytest.raises(ConfigError, match=r"`time\.v_max`"):
+        run_repose(cfg)
+    with pytest.raises(ConfigError, match=r"`time\.v_max`"):
+        calibrate_cohesion(cfg, evaluate=lambda k: (30.0, 1.0, ()))

@@ -12,7 +12,9 @@ import logging
 import os
 import re
 import shlex
+import signal
 import subprocess
+import threading
 import time
 from dataclasses import dataclass, field, fields
 from typing import Any, Mapping
@@ -426,9 +428,8 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
     log.info("running %s in %s", " ".join(shlex.quote(c) for c in cmd), cwd)
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run(cmd, cwd=cwd, env=info.environment(env), stdin=subprocess.DEVNULL,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                              errors="replace", timeout=timeout)
+        stdout, returncode = _run_in_own_group(cmd, cwd=cwd, env=info.environment(env),
+                                               timeout=timeout)
     except subprocess.TimeoutExpired as exc:
         out = exc.stdout or ""
         if isinstance(out, bytes):
@@ -438,14 +439,89 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
     wall = time.perf_counter() - t0
     text = log_path.read_text(errors="replace") if log_path.is_file() else ""
     parsed = parse_log(text) if text else EngineLog("", "", ())
-    if proc.returncode != 0 or parsed.errors:
+    if returncode != 0 or parsed.errors:
         # the log holds the ERROR line of rank 0; MPI launchers and other ranks print to stdout
         tail = _tail(text) if text else ""
-        extra = [ln for ln in (proc.stdout or "").splitlines()
+        extra = [ln for ln in (stdout or "").splitlines()
                  if ln.strip() and ln not in text][-15:]
         if extra:
             tail = (tail + "\n--- engine stdout ---\n" if tail else "") + "\n".join(extra)
         raise EngineRunError(
-            f"{info.name} failed on {deck_path.name} (exit code {proc.returncode}, "
-            f"np={np}, cwd={cwd})", returncode=proc.returncode, log_path=str(log_path), tail=tail)
+            f"{info.name} failed on {deck_path.name} (exit code {returncode}, "
+            f"np={np}, cwd={cwd})", returncode=returncode, log_path=str(log_path), tail=tail)
     return RunResult(parsed, log_path, cwd, tuple(cmd), wall)
+
+
+class _Terminated(BaseException):
+    """SIGTERM arrived while an engine ran (internal: unwinds to :func:`_run_in_own_group`)."""
+
+
+def _kill_group(proc, grace: float = 5.0) -> None:
+    """End ``proc``'s process group (the engine, mpirun and its ranks): SIGTERM, then
+    SIGKILL after ``grace`` seconds; reaps ``proc``."""
+    for sig, wait in ((signal.SIGTERM, grace), (signal.SIGKILL, None)):
+        try:
+            os.killpg(proc.pid, sig)
+        except (ProcessLookupError, PermissionError):
+            pass
+        try:
+            proc.wait(timeout=wait)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    try:  # members of the group that outlive the leader (MPI ranks)
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def _run_in_own_group(cmd, *, cwd, env, timeout):
+    """Run ``cmd`` in its own process group and return ``(stdout, returncode)``.
+
+    Whatever ends the wait (a timeout, Ctrl-C, an exception, SIGTERM to this process)
+    ends the whole group, so no engine or MPI rank outlives the run. SIGTERM (in the
+    main thread) kills the group and is then delivered again to this process under its
+    previous handler: by default the process dies of it (exit status 143 in a shell).
+    """
+    proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            errors="replace", start_new_session=True)
+    old = None
+    installed = False
+    if threading.current_thread() is threading.main_thread():
+        old = signal.getsignal(signal.SIGTERM)
+        if old is not signal.SIG_IGN:
+            def on_term(signum, frame):
+                raise _Terminated()
+            signal.signal(signal.SIGTERM, on_term)
+            installed = True
+    try:
+        try:
+            stdout, _ = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired as exc:
+            _kill_group(proc, grace=1.0)
+            out = exc.stdout
+            try:
+                rest, _ = proc.communicate(timeout=5)
+                out = (out or "") + (rest or "") if not isinstance(out, bytes) else out
+            except (subprocess.TimeoutExpired, ValueError, OSError):
+                pass
+            raise subprocess.TimeoutExpired(cmd, timeout, output=out) from None
+        except BaseException:
+            _kill_group(proc)
+            raise
+    except _Terminated:
+        log.warning("SIGTERM: the engine run (process group %d) was ended", proc.pid)
+        if installed:
+            signal.signal(signal.SIGTERM, old if old is not None else signal.SIG_DFL)
+            installed = False
+        if callable(old):
+            old(signal.SIGTERM, None)
+        else:
+            os.kill(os.getpid(), signal.SIGTERM)  # die of it, as without the handler
+            time.sleep(5)
+        raise SystemExit(128 + signal.SIGTERM) from None
+    finally:
+        if installed:
+            signal.signal(signal.SIGTERM, old if old is not None else signal.SIG_DFL)
+    return stdout, proc.returncode
