@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 from ..errors import DumpFormatError
 
-__all__ = ["Source", "compression_of", "scan_text", "TextScan"]
+__all__ = ["Source", "compression_of", "scan_text", "TextScan", "stream_cut"]
 
 _CHUNK = 1 << 23  # 8 MiB
 _EXT = {".gz": "gz", ".gzip": "gz", ".bz2": "bz2", ".zst": "zst", ".zstd": "zst"}
@@ -51,15 +51,81 @@ def compression_of(path) -> str | None:
     return None
 
 
+class _GzipMembers:
+    """Forward reader of the (possibly multi-member) gzip stream of a file that stops, rather
+    than fails, where the compressed data end early.
+
+    A dump written frame by frame as gzip members and killed during a write ends inside its
+    last member; :class:`gzip.GzipFile` then raises and nothing of the file can be read.
+    Here everything decoded up to the cut is returned and ``truncated_at`` says where the
+    compressed data stopped (None for a complete stream); corrupt data still raise.
+    """
+
+    _RAW = 1 << 20
+
+    def __init__(self, path):
+        self._raw = open(path, "rb")
+        self._inflate = _gzip_inflater()
+        self._member = None          # decompressor of the member being read
+        self._pending = b""          # decoded bytes not yet returned
+        self._read_raw = 0           # compressed bytes consumed
+        self._done = False
+        self.truncated_at = None
+
+    def _decode_more(self) -> None:
+        data = self._raw.read(self._RAW)
+        if not data:
+            if self._member is not None and not self._member.eof:
+                self.truncated_at = self._read_raw  # inside a member: the file was cut
+            self._done = True
+            return
+        self._read_raw += len(data)
+        out = []
+        while data:
+            if self._member is None:
+                data = data.lstrip(b"\0")   # zero padding between members is allowed
+                if not data:
+                    break
+                self._member = self._inflate()
+            out.append(self._member.decompress(data))
+            if self._member.eof:
+                data = self._member.unused_data
+                self._member = None
+            else:
+                data = b""
+        self._pending += b"".join(out)
+
+    def read(self, size: int = -1) -> bytes:
+        size = (1 << 62) if size is None or size < 0 else size
+        while len(self._pending) < size and not self._done:
+            self._decode_more()
+        got, self._pending = self._pending[:size], self._pending[size:]
+        return got
+
+    def close(self) -> None:
+        self._raw.close()
+
+    def __del__(self):  # a Source left open by a caller closes with it, as GzipFile did
+        raw = getattr(self, "_raw", None)
+        if raw is not None:
+            raw.close()
+
+
+def _gzip_inflater():
+    """A factory of gzip-member decompressors: ISA-L's (about three times faster) when the
+    optional 'isal' is installed, else zlib's."""
+    try:
+        from isal import isal_zlib
+        return lambda: isal_zlib.decompressobj(wbits=31)
+    except (ImportError, AttributeError):
+        return lambda: zlib.decompressobj(wbits=31)
+
+
 def _open_stream(path, compression):
     if compression is None:
         return open(path, "rb")
     if compression == "gz":
-        try:  # ISA-L inflates about three times faster when the optional 'isal' is installed
-            from isal import igzip
-        except ImportError:
-            return gzip.GzipFile(path, "rb")
-        return igzip.IGzipFile(path, "rb")
+        return _GzipMembers(path)
     if compression == "bz2":
         return bz2.BZ2File(path, "rb")
     if compression == "zst":
@@ -92,6 +158,9 @@ class Source:
         self.compression = compression_of(self.path)
         self._fh = None
         self._pos = 0
+        #: Byte of the compressed file at which its data end early (a gz file cut while
+        #: being written), once a read has reached that end; None otherwise.
+        self.stream_truncated_at = None
 
     def _reopen(self):
         self.close()
@@ -160,6 +229,9 @@ class Source:
 
     def close(self):
         if self._fh is not None:
+            cut = getattr(self._fh, "truncated_at", None)
+            if cut is not None:
+                self.stream_truncated_at = cut
             self._fh.close()
             self._fh = None
             self._pos = 0
@@ -399,3 +471,22 @@ def scan_text(source: Source) -> TextScan:
     if not scan.starts and pending is not None and scan.cut_line is None:
         scan.cut_line = scan.n_lines + (1 if scan.ends_with_newline else 0)
     return scan
+
+
+def stream_cut(source: Source, strict: bool, stacklevel: int = 2) -> None:
+    """After a full pass over ``source``: a compressed stream that ends early is an error
+    (strict) or a warning; the frames before the cut are then read as usual, the one it
+    cuts through being a truncated last frame."""
+    cut = source.stream_truncated_at
+    if cut is None:
+        return
+    msg = (f"cannot decompress ({source.compression}): the compressed data end inside a member "
+           f"at the end of the file ({cut} bytes): the file was cut, e.g. while being written")
+    if strict:
+        raise DumpFormatError(msg + "; read with strict=False for the frames before the cut",
+                              path=source.path)
+    import warnings
+
+    from ..errors import BedstructWarning
+    warnings.warn(f"{source.path}: {msg}; reading the frames before the cut", BedstructWarning,
+                  stacklevel=stacklevel + 1)

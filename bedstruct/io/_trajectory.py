@@ -14,7 +14,7 @@ from ..core import Frame, Trajectory
 from ..errors import BedstructWarning, DumpFormatError
 from ._binary import is_binary, parse_binary_frame, scan_binary
 from ._columns import frame_from_raw
-from ._source import Source, scan_text
+from ._source import Source, scan_text, stream_cut
 from ._stream import _stream_columns
 from ._text import (RawFrame, TruncatedFrame, check_unit_style, normalise_columns,
                     parse_text_frame, skip_or_raise, tail_truncation, truncated)
@@ -72,6 +72,7 @@ class DumpTrajectory(Trajectory):
         if is_binary(head):
             return self._scan_binary(f, strict)
         scan = scan_text(src)
+        stream_cut(src, strict, stacklevel=5)
         f.ends_with_newline = scan.ends_with_newline
         if not scan.starts and scan.cut_line is not None:
             exc = truncated("the file ends inside the header of its first frame", path=f.path,

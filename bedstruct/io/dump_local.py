@@ -17,7 +17,7 @@ import numpy as np
 
 from ..core import Contacts, Frame, Trajectory
 from ..errors import BedstructWarning, DumpFormatError
-from ._source import Source, scan_text
+from ._source import Source, scan_text, stream_cut
 from ._text import (TruncatedFrame, parse_text_frame, skip_or_raise, tail_truncation,
                     truncated)
 from ._writer import _box_header, _format_rows, _open_write
@@ -233,6 +233,7 @@ def read_dump_local(path, *, keywords=None, columns=None, frames=None, radius=No
         for p in paths:
             src = Source(p)
             scan = scan_text(src)
+            stream_cut(src, strict, stacklevel=3)
             if not scan.starts and scan.cut_line is not None:
                 skip_or_raise(truncated("the file ends inside the header of its first frame",
                                         path=src.path, line=scan.cut_line), strict,

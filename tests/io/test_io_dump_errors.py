@@ -299,3 +299,35 @@ def test_general_triclinic_box_is_not_supported_yet(write, dump_text, good_rows)
         "ITEM: BOX BOUNDS abc origin pp pp pp\n10 0 0 0\n0 10 0 0\n0 0 10 0\n")
     err = _err(write("abc.dump", text))
     assert err.line == 5 and "not supported" in err.message
+
+
+def test_gzip_members_cut_while_being_written(tmp_path):
+    # frames appended as gzip members (as the engine writes) and the file cut inside one:
+    # strict names the cut; otherwise every frame before it reads exactly
+    import gzip
+    import numpy as np
+    from bedstruct import Frame, write_dump
+    frames = [Frame(np.random.default_rng(k).uniform(0, 10, (200, 3)), np.full(200, 0.5),
+                    box=([0, 0, 0], [10, 10, 10]), timestep=100 * k) for k in range(5)]
+    plain = tmp_path / "all.dump"
+    write_dump(plain, frames)
+    whole = read_dump(plain)
+    parts = plain.read_bytes().split(b"ITEM: TIMESTEP")[1:]
+    members = [gzip.compress(b"ITEM: TIMESTEP" + part) for part in parts]
+    p = tmp_path / "cut.dump.gz"
+    for k_cut in (1, 3, 4):
+        for frac in (0.1, 0.5, 0.95):
+            cut = sum(len(m) for m in members[:k_cut]) + int(frac * len(members[k_cut]))
+            p.write_bytes(b"".join(members)[:cut])
+            with pytest.raises(DumpFormatError, match="cannot decompress.*cut"):
+                read_dump(p)
+            with pytest.warns(BedstructWarning) as said:
+                t = read_dump(p, strict=False)
+            said = [str(w.message) for w in said]
+            assert any("compressed data end inside a member" in m for m in said)
+            assert any(f"truncated last frame of {p} (timestep {100 * k_cut})" in m for m in said)
+            assert t.timesteps.tolist() == [100 * k for k in range(k_cut)]
+            for k in range(k_cut):
+                np.testing.assert_array_equal(t[k].positions, whole[k].positions)
+    p.write_bytes(b"".join(members))                      # complete: no warning, all frames
+    assert read_dump(p).timesteps.tolist() == [0, 100, 200, 300, 400]
