@@ -38,7 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import RunLayout, contact_model, german_fit_values, psd_sampler
+from ._common import contact_model, german_fit_values, psd_sampler
+from ._rundir import RunLayout
 
 __all__ = ["ExternalDecks", "engine_for", "run_repose_external", "repose_inputs",
            "run_spread_external"]

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import (Resumable, RunLayout, check_engine, clear_run, contact_model, from_plain,
-                      psd_sampler, run_in_frames, write_json_atomic)
+from ._common import check_engine, contact_model, from_plain, psd_sampler, write_json_atomic
+from ._rundir import Resumable, RunLayout, clear_run, run_in_frames
 from .config import validate_config
 
 __all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile"]

@@ -31,9 +31,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import (Resumable, RunLayout, as_resumable, check_engine, clear_run, contact_model,
-                      frame_fingerprint, from_plain, german_fit_values, psd_sampler,
-                      run_in_frames, to_jsonable, tool_motion)
+from ._common import (check_engine, contact_model, frame_fingerprint, from_plain,
+                      german_fit_values, psd_sampler, to_jsonable, tool_motion)
+from ._rundir import Resumable, RunLayout, as_resumable, clear_run, run_in_frames
 from .config import validate_config
 from .spread_measure import (_REGION_NAMES, LayerResult, _subset_contacts, frame_metrics,
                              measure_layer, mid_layer_segregation, particles_in_flight)
@@ -463,7 +463,7 @@ def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) ->
     radius above what rests there; returns the time waited (0: the state is untouched).
 
     ``sim`` is a :class:`~bedstruct.dem.Simulation` or the run's
-    :class:`~bedstruct.workflows._common.Resumable`."""
+    :class:`~bedstruct.workflows._rundir.Resumable`."""
     ctl = as_resumable(sim)
 
     def n_flying():

@@ -1,0 +1,231 @@
+"""Parsers of the pieces of one ``[[observable]]`` table of a measurement file.
+
+The building blocks of :func:`~bedstruct.diagnose.measurement_io.measurement_from_dict`:
+typed keys (numbers, flat lists, tables of rows, strings), unit conversion to the
+kind's canonical unit and the check against its plausible range (naming the unit
+the values would fit), the ``conditions`` table, and the external sources of
+values: a CSV file, a time series reduced to window means (with their
+batch-means standard errors) and the angle read from an image by the image
+operator (:mod:`bedstruct.diagnose.observables_image`). Each raises a
+:class:`~bedstruct.errors.ConfigError` that names where in the file it is
+(``where``), the key and what was expected.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..errors import ConfigError
+from .measurements import (_DIM, _KNOWN_CONDITIONS, _UNIT, KINDS, PLAUSIBLE, Conditions,
+                           normalise_region)
+
+
+def _err(where: str, msg: str) -> ConfigError:
+    return ConfigError(f"{where}: {msg}")
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+def _number(v, where: str, key: str, *, positive: bool = False, unit: str = "") -> float:
+    """A plain number from the file (not a string, not a boolean)."""
+    u = f" {unit}" if unit else ""
+    if not _is_number(v):
+        hint = " (write the number alone; units go in the documented unit)" if isinstance(v, str) else ""
+        raise _err(where, f"key {key!r}: expected a number{u}; got {v!r}{hint}")
+    x = float(v)
+    if not math.isfinite(x) or (positive and not x > 0):
+        raise _err(where, f"key {key!r}: expected a {'positive' if positive else 'finite'} "
+                          f"number{u}; got {v!r}")
+    return x
+
+
+def _float_array(value, where: str, key: str) -> np.ndarray:
+    """A number or a flat list of numbers."""
+    if _is_number(value):
+        return np.array([float(value)])
+    if not isinstance(value, (list, tuple, np.ndarray)):
+        raise _err(where, f"key {key!r}: expected a number or a list of numbers; got {value!r}")
+    for i, x in enumerate(value):
+        if isinstance(x, (list, tuple)):
+            raise _err(where, f"key {key!r}: expected a flat list of numbers; element {i + 1} is "
+                              f"a list {x!r}")
+        if not _is_number(x):
+            raise _err(where, f"key {key!r}: expected a number or a list of numbers; element "
+                              f"{i + 1} is {x!r}")
+    return np.asarray(value, dtype=float).reshape(-1)
+
+
+def _table(value, where: str, key: str, *, row_name: str, width: int | None = None) -> np.ndarray:
+    """A rectangular list of lists of numbers (rows of equal length)."""
+    if not isinstance(value, (list, tuple)) or not value:
+        raise _err(where, f"key {key!r}: expected a list of {row_name}s (lists of numbers); got {value!r}")
+    rows = []
+    for i, row in enumerate(value):
+        if not isinstance(row, (list, tuple)):
+            raise _err(where, f"key {key!r}: {row_name} {i + 1} is {row!r}, not a list of numbers")
+        for x in row:
+            if not _is_number(x):
+                raise _err(where, f"key {key!r}: {row_name} {i + 1} holds {x!r}, not a number")
+        if width is not None and len(row) != width:
+            raise _err(where, f"key {key!r}: {row_name} {i + 1} is {list(row)!r}; expected "
+                              f"{width} numbers")
+        if rows and len(row) != len(rows[0]):
+            raise _err(where, f"key {key!r}: {row_name} {i + 1} has {len(row)} values but "
+                              f"{row_name} 1 has {len(rows[0])}: every {row_name} needs the same "
+                              f"number of values")
+        rows.append([float(x) for x in row])
+    return np.asarray(rows, dtype=float)
+
+
+def _string(v, where: str, key: str) -> str:
+    if not isinstance(v, str):
+        raise _err(where, f"key {key!r}: expected a string; got {v!r}")
+    return v
+
+
+def _convert(values, unit: str, kind: str, where: str) -> tuple[np.ndarray, str | None]:
+    canonical = KINDS[kind]
+    if unit not in _UNIT:
+        raise _err(where, f"key 'unit': unknown unit {unit!r}; expected one of {sorted(_UNIT)}")
+    dim, factor = _UNIT[unit]
+    if dim != _DIM[canonical]:
+        raise _err(where, f"key 'unit': {unit!r} is a {dim} unit but kind {kind!r} needs "
+                          f"a {_DIM[canonical]} unit (canonical {canonical!r})")
+    arr = np.asarray(values, dtype=float) * factor
+    note = None if factor == 1.0 else f"{unit} -> {canonical} (x{factor:g})"
+    return arr, note
+
+
+_UNIT_CHOICES = {"angle": ("deg", "rad"), "length": ("m", "mm", "um", "nm"), "fraction": ("1", "%")}
+
+
+def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str, key: str,
+                     file_values=None) -> None:
+    """Values (canonical unit) inside the kind's plausible range, else an error with the likely unit."""
+    if kind not in PLAUSIBLE:
+        return
+    lo, hi = PLAUSIBLE[kind]
+    v = np.asarray(values, dtype=float)
+    bad = ~((v > lo) & (v < hi))
+    if not np.any(bad):
+        return
+    canonical = KINDS[kind]
+    raw = np.asarray(file_values if file_values is not None else values, dtype=float)
+    fits = []
+    for u in _UNIT_CHOICES[_DIM[canonical]]:
+        if u == unit:
+            continue
+        alt = raw * _UNIT[u][1]
+        if np.all((alt > lo) & (alt < hi)):
+            fits.append(u)
+    shown = ", ".join(f"{x:g}" for x in v[bad][:3])
+    u = "" if canonical == "1" else f" {canonical}"
+    how = f"unit {unit!r}" if stated_unit else f"no 'unit' given, read in {unit!r}"
+    msg = f"key {key!r}: implausible {kind} {shown}{u} ({how}); expected {lo:g} < value < {hi:g}{u}"
+    if fits:
+        msg += f"; the values fit unit = {fits[0]!r}: is that their unit?"
+    elif np.any(v <= 0) and lo >= 0:
+        msg += "; it must be positive"
+    raise _err(where, msg)
+
+
+def _read_csv(path: Path, where: str) -> tuple[list[str], np.ndarray]:
+    if not path.is_file():
+        raise _err(where, f"key 'csv': file not found: {path}")
+    with open(path, encoding="utf-8") as fh:
+        header = fh.readline().strip()
+    names = [h.strip() for h in header.split(",")]
+    try:
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as exc:
+        raise _err(where, f"key 'csv': {path} is not a numeric CSV with a header row ({exc})") from None
+    if data.size == 0:
+        raise _err(where, f"key 'csv': {path} holds no data rows under its header")
+    if data.shape[1] != len(names):
+        raise _err(where, f"key 'csv': {path} has {data.shape[1]} columns but header names {names}")
+    if len(names) < 2:
+        raise _err(where, f"key 'csv': {path} has {len(names)} column ({names}); expected at least "
+                          f"two (x and y, picked by 'columns')")
+    return names, data
+
+
+def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
+    if d is None:
+        return Conditions()
+    if not isinstance(d, Mapping):
+        raise _err(where, f"key 'conditions': expected a table; got {d!r}")
+    unknown = set(d) - _KNOWN_CONDITIONS
+    if unknown:
+        raise _err(where, f"key 'conditions.{sorted(unknown)[0]}': unknown condition; known: "
+                          f"{sorted(_KNOWN_CONDITIONS)}")
+    speed = d.get("speed")
+    if speed is not None:
+        speed = _number(speed, where, "conditions.speed", positive=True, unit="(m/s)")
+    layer = d.get("layer")
+    if layer is not None and (isinstance(layer, bool) or not isinstance(layer, int) or layer < 1):
+        raise _err(where, f"key 'conditions.layer': expected a positive integer (1-based); got {layer!r}")
+    region = d.get("region")
+    if region is not None:
+        try:
+            region = normalise_region(region)
+        except ConfigError as exc:
+            raise _err(where, f"key 'conditions.region': {exc}") from None
+    tw = d.get("time_window")
+    if tw is not None:
+        if not isinstance(tw, (list, tuple)) or len(tw) != 2 or not all(_is_number(x) for x in tw) \
+                or not (0.0 <= float(tw[0]) < float(tw[1]) <= 1.0):
+            raise _err(where, f"key 'conditions.time_window': expected [t0, t1] with "
+                              f"0 <= t0 < t1 <= 1 (stroke fractions); got {tw!r}")
+        tw = (float(tw[0]), float(tw[1]))
+    extra = []
+    for k in ("stage", "relative_humidity", "rest_time", "box_width"):
+        if k in d:
+            v = d[k]
+            if k == "stage":
+                if v not in ("before", "after"):
+                    raise _err(where, f"key 'conditions.stage': expected 'before' or 'after'; got {v!r}")
+            else:
+                v = _number(v, where, f"conditions.{k}")
+                if k == "relative_humidity" and not 0 <= v <= 1:
+                    raise _err(where, f"key 'conditions.relative_humidity': expected 0..1 (a "
+                                      f"fraction, not %); got {v}")
+                if k in ("rest_time", "box_width") and v < 0:
+                    raise _err(where, f"key 'conditions.{k}': must be >= 0; got {v}")
+            extra.append((k, v))
+    return Conditions(speed, layer, region, tw, tuple(extra))
+
+
+def _windowed(times, series, windows, where, key):
+    """Mean and standard error of ``series`` in each window (the series operator)."""
+    from .observables import windowed_mean
+    try:
+        return windowed_mean(times, series, windows)
+    except ValueError as exc:
+        raise _err(where, f"key {key!r}: {exc}") from None
+
+
+_SERIES_NOTE = ("uncertainty: the window means' standard errors by batch means (10 blocks, "
+                "corrected for correlated blocks; fewer than 20 samples: their standard deviation)")
+
+
+def _image_angle(path: Path, d, where: str, key: str, powder: str, flanks: str):
+    from .observables import fit_image_angle, read_image
+    if not path.is_file():
+        raise _err(where, f"key {key!r}: image file not found: {path}")
+    try:
+        img = read_image(path)
+    except Exception as exc:  # noqa: BLE001  (any reader failure: not an image)
+        raise _err(where, f"key {key!r}: cannot read {path} as an image ({type(exc).__name__}: "
+                          f"{exc})") from None
+    try:
+        return fit_image_angle(img, pixel_size=d["pixel_size"], powder=powder, flanks=flanks)
+    except ValueError as exc:
+        raise _err(where, f"key {key!r}: {path}: no angle read from this image: {exc}") from None

@@ -1,0 +1,485 @@
+"""Run folders and resuming of the workflows.
+
+:class:`RunLayout` is the folder of one workflow run: its marker (``run.json``:
+workflow, configuration, inputs and status), the resolved configuration, the
+results written last, and the check that decides whether a folder is resumed,
+refused (another run) or cleared (:func:`clear_run`). :class:`StageWriter` writes
+the frames, contacts and wall states of one stage. :class:`Resumable` runs a
+stage script so that a killed run restarts from its latest checkpoint, bit for
+bit (:func:`run_in_frames`, :func:`as_resumable`). The names are re-exported by
+:mod:`bedstruct.workflows._common`, whose JSON helpers (``write_json_atomic``,
+``plain``) this module uses; it imports them where they are called, since
+``_common`` imports this module.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import logging
+import re
+from pathlib import Path
+
+from .._atomic import atomic_path
+from ..errors import ConfigError
+from .config import config_to_toml
+
+log = logging.getLogger("bedstruct.workflows._common")  # the logger of _common, as before
+
+__all__ = ["RunLayout", "StageWriter", "Resumable", "clear_run", "run_in_frames", "as_resumable",
+           "RUN_MARKER"]
+
+
+def _write_dump_atomic(path, frame, **kw) -> None:
+    from ..io import write_dump
+    path = Path(path)
+    with atomic_path(path, suffix="".join(path.suffixes)) as tmp:
+        write_dump(tmp, frame, **kw)
+
+
+def _write_local_atomic(path, frame, contacts) -> None:
+    from ..io import write_dump_local
+    path = Path(path)
+    with atomic_path(path, suffix="".join(path.suffixes)) as tmp:
+        write_dump_local(tmp, frame, contacts)
+
+
+#: The marker of a run folder: workflow, configuration and inputs of the run, and its status
+#: ("running" until results.json is written, then "complete").
+RUN_MARKER = "run.json"
+
+#: Configuration keys a run may be resumed with other values of (they change what is
+#: written, not the results).
+_RESUME_FREE = (("output", "checkpoint"), ("output", "checkpoint_every"))
+
+_STAGE_DIR = re.compile(r"^(rep\d+|layer\d+|pile|k[0-9.eE+-]+)$")
+_RUN_FILES = (RUN_MARKER, "config.toml", "results.json", "progress.npz", "points.json")
+
+
+def _identity(workflow: str, cfg: dict, inputs) -> dict:
+    c = copy.deepcopy(cfg)
+    for sec, key in _RESUME_FREE:
+        if isinstance(c.get(sec), dict):
+            c[sec].pop(key, None)
+    from ._common import plain
+    return plain({"workflow": workflow, "config": c, "inputs": dict(inputs or {})})
+
+
+def _differences(old, new, prefix: str = "") -> list[str]:
+    """``key: old -> new`` for every leaf that differs between two nested mappings."""
+    out = []
+    for k in sorted(set(old) | set(new), key=str):
+        a, b = old.get(k, "(missing)"), new.get(k, "(missing)")
+        name = f"{prefix}{k}"
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += _differences(a, b, prefix=f"{name}.")
+        elif a != b:
+            out.append(f"`{name}`: {a!r} in the folder, {b!r} now")
+    return out
+
+
+_TOML_HEADER = "# bedstruct workflow configuration"
+
+
+def _is_run_toml(path: Path) -> bool:
+    """``path`` is a config.toml written by :func:`~bedstruct.workflows.config_to_toml`."""
+    try:
+        with open(path) as fh:
+            return fh.readline().startswith(_TOML_HEADER)
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def clear_run(path) -> None:
+    """Remove a bedstruct run from folder ``path`` (``--overwrite``): its marker,
+    configuration, results, checkpoints and stage folders (``rep*``, ``layer*``,
+    ``pile``, ``k<cohesion>``). Other files are left alone; a folder that holds no run
+    (no ``run.json`` or ``config.toml``) is not touched."""
+    import shutil
+    path = Path(path)
+    if not ((path / RUN_MARKER).is_file() or _is_run_toml(path / "config.toml")):
+        return
+    for name in _RUN_FILES:
+        (path / name).unlink(missing_ok=True)
+    for p in path.iterdir():
+        if p.is_dir() and _STAGE_DIR.match(p.name):
+            shutil.rmtree(p)
+        elif p.is_file() and p.name.startswith(".") and p.name.endswith(".tmp"):
+            p.unlink()
+    log.info("%s: the earlier run was removed (overwrite)", path)
+
+
+class RunLayout:
+    """The folder of one workflow run.
+
+    Layout::
+
+        OUT/run.json               workflow, configuration, inputs and status of the run
+                                   ("running" until the results are written, then "complete")
+        OUT/config.toml            the resolved configuration
+        OUT/results.json           results (written atomically, last; removed when a run starts)
+        OUT/progress.npz           spreading: the resume checkpoint (removed at the end)
+        OUT/<stage>/frames.dump.gz LIGGGHTS dump custom frames (SI, ITEM: UNITS si)
+        OUT/<stage>/contacts.dump.gz  pair/gran/local dump local of the same timesteps
+        OUT/<stage>/walls.jsonl    wall (plate, blade, roller) position/velocity/force per frame
+        OUT/<stage>/final.dump.gz, final_contacts.dump.gz  the state at the end of the stage
+        OUT/<stage>/progress.npz   resume checkpoint of an unfinished repose replicate
+        OUT/<stage>/result.json    a finished repose replicate (reused when resuming)
+        OUT/<stage>/checkpoint.npz engine checkpoint at the end of the stage
+                                   (output.checkpoint = true)
+
+    ``<stage>`` is ``rep00``, ``rep01``... for repose replicates,
+    ``pile`` and ``layer01``... for spreading, ``k<value>/rep00`` for
+    calibration points.
+
+    Parameters
+    ----------
+    path : path
+        The run folder (created).
+    cfg : dict, optional
+        The resolved configuration. Without it the folder is only created.
+    workflow : str
+        ``"repose"``, ``"spread"``, ``"calibrate"`` ("" for callers that do not resume).
+    inputs : dict, optional
+        What else decides the results (arguments beyond the configuration).
+    overwrite : bool
+        Remove an earlier run in the folder first (:func:`clear_run`).
+
+    Raises
+    ------
+    ConfigError
+        The folder holds a run of another workflow, configuration or inputs (the message
+        lists the differences) and ``overwrite`` is false.
+
+    Notes
+    -----
+    A folder that holds a run of the same workflow, configuration (``output.checkpoint``
+    and ``output.checkpoint_every`` aside) and inputs is resumed: :attr:`resumed` is true and
+    the workflow reuses what was finished (:attr:`complete`: all of it, with
+    :attr:`previous_results`). Either way ``results.json`` is removed before anything
+    runs and ``run.json`` says ``"running"`` until the new results are written, so a
+    stale result never sits beside a new configuration.
+    """
+
+    def __init__(self, path, cfg: dict | None = None, *, workflow: str = "", inputs=None,
+                 overwrite: bool = False):
+        self.path = Path(path)
+        self.cfg = cfg
+        self.workflow = workflow
+        self.resumed = False
+        self.complete = False
+        self.previous_results = None
+        if cfg is None:
+            self.path.mkdir(parents=True, exist_ok=True)
+            return
+        if overwrite:
+            clear_run(self.path)
+        self.path.mkdir(parents=True, exist_ok=True)
+        self._identity = _identity(workflow, cfg, inputs)
+        self._check_previous()
+        (self.path / "results.json").unlink(missing_ok=True)
+        self._mark("running")
+        (self.path / "config.toml").write_text(config_to_toml(cfg))
+
+    def _check_previous(self) -> None:
+        marker = self.path / RUN_MARKER
+        hint = (" Resume it with the same configuration, choose another --out, or pass "
+                "--overwrite (overwrite=True) to replace it.")
+        if marker.is_file():
+            try:
+                old = json.loads(marker.read_text())
+                ident = {k: old[k] for k in ("workflow", "config", "inputs")}
+                status = old["status"]
+            except (ValueError, KeyError, TypeError) as exc:
+                raise ConfigError(f"{marker}: not a readable run marker ({exc}).{hint}") from None
+            if ident != self._identity:
+                diff = []
+                if ident["workflow"] != self._identity["workflow"]:
+                    diff.append(f"workflow: {ident['workflow'] or '?'} in the folder, "
+                                f"{self._identity['workflow'] or '?'} now")
+                diff += _differences(ident["config"], self._identity["config"])
+                diff += _differences({"inputs": ident["inputs"]},
+                                     {"inputs": self._identity["inputs"]})
+                shown = "; ".join(diff[:6]) + (f"; and {len(diff) - 6} more" if len(diff) > 6 else "")
+                raise ConfigError(f"{self.path} holds another run ({shown}).{hint}")
+            self.resumed = True
+            self.complete = status == "complete"
+            res = self.path / "results.json"
+            if self.complete and res.is_file():
+                try:
+                    self.previous_results = json.loads(res.read_text())
+                except ValueError:
+                    self.complete = False
+            else:
+                self.complete = False
+            log.info("%s: resuming the %s run found there (%s)", self.path, self.workflow,
+                     "complete" if self.complete else "unfinished")
+            return
+        toml = self.path / "config.toml"
+        if toml.is_file() and not _is_run_toml(toml):
+            raise ConfigError(f"{toml} was not written by bedstruct; a run would replace it: "
+                              "choose another --out")
+        if toml.is_file():  # a folder written before run.json existed: no resume data
+            import tomllib
+            from .config import load_config
+            try:
+                old_cfg = load_config(tomllib.loads(toml.read_text()))
+            except (ConfigError, ValueError) as exc:
+                raise ConfigError(f"{toml}: the folder holds a run whose configuration cannot "
+                                  f"be read ({exc}).{hint}") from None
+            old = _identity(self.workflow, old_cfg, self._identity["inputs"])
+            if old["config"] != self._identity["config"]:
+                diff = _differences(old["config"], self._identity["config"])
+                raise ConfigError(f"{self.path} holds another run ({'; '.join(diff[:6])})."
+                                  f"{hint}")
+            log.info("%s: an earlier run of this configuration (without resume data) is "
+                     "replaced", self.path)
+
+    def _mark(self, status: str) -> None:
+        from ._common import write_json_atomic
+        write_json_atomic(self.path / RUN_MARKER, {"status": status, **self._identity},
+                          keep_nan=True)
+
+    def stage(self, name: str, *, reset: bool = True) -> "StageWriter":
+        out = self.cfg["output"] if self.cfg else {"frames": True, "contacts": True,
+                                                    "compress": True, "checkpoint": False}
+        return StageWriter(self.path / name, out, reset=reset)
+
+    def write_results(self, data) -> Path:
+        """Write ``results.json`` atomically, then mark the run complete."""
+        from ._common import write_json_atomic
+        p = write_json_atomic(self.path / "results.json", data)
+        if self.cfg is not None:
+            self._mark("complete")
+        return p
+
+
+class StageWriter:
+    """Writes frames, contacts and wall states of one stage (see :class:`RunLayout`).
+
+    With ``reset`` (default) earlier frames, contacts and wall states of the stage are
+    removed (:meth:`reset`); a resumed stage keeps them.
+    """
+
+    def __init__(self, path: Path, out: dict, *, reset: bool = True):
+        self.path = Path(path)
+        self.path.mkdir(parents=True, exist_ok=True)
+        self.out = out
+        ext = ".dump.gz" if out.get("compress", True) else ".dump"
+        self.frames_path = self.path / f"frames{ext}"
+        self.contacts_path = self.path / f"contacts{ext}"
+        self.walls_path = self.path / "walls.jsonl"
+        self._ext = ext
+        if reset:
+            self.reset()
+
+    def reset(self) -> None:
+        """Remove the stage's frames, contacts and wall states (a stage that starts over)."""
+        for p in (self.frames_path, self.contacts_path, self.walls_path):
+            if p.exists():
+                p.unlink()
+
+    def record(self, sim, *, frame=None) -> None:
+        """Append the current frame (``ITEM: UNITS si``), contacts and wall states of ``sim``."""
+        from ..dem.output import write_walls
+        from ..io import write_dump, write_dump_local
+        frame = sim.frame() if frame is None else frame
+        if self.out.get("frames", True):
+            write_dump(self.frames_path, frame, append=self.frames_path.exists(), units_item=True)
+        if self.out.get("contacts", True):
+            write_dump_local(self.contacts_path, frame, sim.contacts(),
+                             append=self.contacts_path.exists())
+        write_walls(self.walls_path, sim)
+
+    def write_frame(self, name: str, frame, contacts=None) -> None:
+        """Write ``<name>.dump.gz`` (and ``<name>_contacts.dump.gz``) atomically."""
+        _write_dump_atomic(self.path / f"{name}{self._ext}", frame, units_item=True)
+        if contacts is not None:
+            _write_local_atomic(self.path / f"{name}_contacts{self._ext}", frame, contacts)
+
+    def final(self, sim, name: str = "final"):
+        """Write the final state (atoms and contacts) and a checkpoint when configured."""
+        frame = sim.frame()
+        self.write_frame(name, frame, sim.contacts())
+        if self.out.get("checkpoint", False):
+            sim.save_checkpoint(self.path / "checkpoint.npz")
+        return frame
+
+
+def run_in_frames(sim, duration: float, n_frames: int, on_frame) -> None:
+    """Run ``duration`` seconds in ``n_frames`` even chunks, calling ``on_frame()`` after each.
+
+    ``sim`` is a :class:`~bedstruct.dem.Simulation` or a :class:`Resumable`.
+    """
+    ctl = as_resumable(sim)
+    steps = max(1, ctl.sim.steps_for(duration))
+    k = max(1, int(n_frames))
+    done = 0
+    for i in range(k):
+        nxt = int(round(steps * (i + 1) / k))
+        if nxt > done:
+            ctl.run(nxt - done)
+            done = nxt
+        on_frame()
+
+
+_APPENDED = ("frames.dump", "frames.dump.gz", "contacts.dump", "contacts.dump.gz", "walls.jsonl")
+
+
+def _appended_files(root: Path) -> list[Path]:
+    """The appended outputs (frames, contacts, wall states) in ``root`` and its sub-folders."""
+    out = [root / n for n in _APPENDED if (root / n).is_file()]
+    if root.is_dir():
+        for d in sorted(root.iterdir()):
+            if d.is_dir():
+                out += [d / n for n in _APPENDED if (d / n).is_file()]
+    return out
+
+
+class Resumable:
+    """Runs a stage script so that a killed run restarts from its latest checkpoint.
+
+    The script drives the simulation only through this object: :meth:`run` (advance
+    steps), :meth:`value` (anything read from the simulation, with its side effects on
+    output files: memoised) and :meth:`do` (a change of the simulation that is not a step:
+    inserting particles, moving walls; or a write). Each call is a numbered segment.
+    Checkpoints (:meth:`checkpoint` at the script's stage boundaries, and every ``every``
+    steps strictly inside a :meth:`run`) store the engine state with the number of finished
+    segments, the steps done of the current one and the memoised values. Restarted from a
+    checkpoint, the script runs again from its start: finished segments are skipped (values
+    come back from the checkpoint), the interrupted run finishes its steps, and the
+    appended outputs are cut back to their size at the checkpoint. The result is the
+    uninterrupted run's, bit for bit (tested).
+
+    With ``path=None`` nothing is saved: the calls pass straight through.
+
+    Parameters
+    ----------
+    path : path or None
+        The checkpoint file (``progress.npz``).
+    every : int
+        Steps between checkpoints inside runs (0: only at :meth:`checkpoint`).
+    root : path, optional
+        Folder whose appended outputs (and those of its sub-folders) are cut back on resume.
+    """
+
+    def __init__(self, path=None, *, every: int = 0, root=None):
+        self.path = None if path is None else Path(path)
+        self.every = max(0, int(every))
+        self.root = None if root is None else Path(root)
+        self.sim = None
+        self.seg = 0          # segments entered so far in this pass over the script
+        self.done = 0         # segments finished at the checkpoint resumed from
+        self.partial = 0      # steps of segment `done` run before that checkpoint
+        self.values: dict[int, object] = {}
+        self.resumed_at = None
+
+    @classmethod
+    def passthrough(cls, sim) -> "Resumable":
+        """A :class:`Resumable` that saves nothing, around ``sim``."""
+        ctl = cls(None)
+        ctl.sim = sim
+        return ctl
+
+    def start(self, make, restore):
+        """The simulation: ``restore(path)`` from the checkpoint when there is one (then
+        the script replays up to it), else ``make()``."""
+        if self.path is not None and self.path.is_file():
+            sim = restore(self.path)
+            st = getattr(sim, "checkpoint_extra", {}).get("stage")
+            if st is not None:
+                self.sim = sim
+                self.done, self.partial = int(st["seg"]), int(st["partial"])
+                self.values = {int(k): v for k, v in st["values"].items()}
+                self.resumed_at = sim.step
+                if self.root is not None:
+                    from ..dem.output import truncate_outputs
+                    sizes = {str(self.root / k): v
+                             for k, v in sim.checkpoint_extra.get("stage_outputs", {}).items()}
+                    truncate_outputs(sizes, _appended_files(self.root))
+                log.info("%s: resuming from the checkpoint at step %d", self.path.parent,
+                         sim.step)
+                return sim
+            log.warning("%s is not a stage checkpoint; starting the stage over", self.path)
+        self.sim = make()
+        return self.sim
+
+    @property
+    def replaying(self) -> bool:
+        """The script is still before the checkpoint it was resumed from."""
+        return self.seg < self.done
+
+    def _enter(self) -> int:
+        i = self.seg
+        self.seg += 1
+        return i
+
+    def run(self, steps: int) -> None:
+        """Advance ``steps`` steps (checkpoints every ``every`` steps inside)."""
+        i = self._enter()
+        if i < self.done:
+            return
+        first = self.partial if i == self.done else 0
+        self.partial = 0
+        left = int(steps) - first
+        if first and left <= 0:
+            return
+        sim = self.sim
+        while True:
+            if self.path is not None and self.every > 0 and left > 0:
+                to_next = self.every - sim.step % self.every
+                if to_next < left:  # a checkpoint strictly inside the run
+                    sim.run(to_next)
+                    left -= to_next
+                    first += to_next
+                    self._save(i, first)
+                    continue
+            sim.run(max(left, 0))
+            return
+
+    def run_time(self, seconds: float) -> None:
+        """Advance ``seconds`` (rounded up to whole steps, as ``Simulation.run(time=)``)."""
+        self.run(self.sim.steps_for(seconds))
+
+    def value(self, fn):
+        """``fn()`` (a read of the simulation), as :func:`plain` data; on a replay the value
+        the interrupted run got."""
+        i = self._enter()
+        if i < self.done:
+            return self.values[i]
+        from ._common import plain
+        v = plain(fn())
+        if self.path is not None:
+            self.values[i] = v
+        return v
+
+    def do(self, fn) -> None:
+        """``fn()`` (a change of the simulation or a write), skipped on a replay."""
+        i = self._enter()
+        if i >= self.done:
+            fn()
+
+    def checkpoint(self) -> None:
+        """Save a checkpoint here (a stage boundary)."""
+        if self.path is None or self.seg <= self.done:
+            return  # nothing to save, or the checkpoint resumed from is this one
+        self._save(self.seg, 0)
+
+    def _save(self, seg: int, partial: int) -> None:
+        extra = {"stage": {"seg": seg, "partial": partial,
+                           "values": {str(k): v for k, v in self.values.items()}}}
+        if self.root is not None:
+            from ..dem.output import output_sizes
+            extra["stage_outputs"] = {str(Path(k).relative_to(self.root)): v for k, v in
+                                      output_sizes(_appended_files(self.root)).items()}
+        self.sim.save_checkpoint(self.path, extra=extra)
+
+    def finish(self) -> None:
+        """The stage is done: remove its checkpoint."""
+        if self.path is not None:
+            self.path.unlink(missing_ok=True)
+
+
+def as_resumable(obj) -> Resumable:
+    """``obj`` if it is a :class:`Resumable`, else a pass-through one around the simulation."""
+    return obj if isinstance(obj, Resumable) else Resumable.passthrough(obj)
