@@ -370,13 +370,17 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
                        conversions=tuple(conversions))
 
 
-def load_measurements(path) -> MeasurementSet:
+def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
     """Read and validate a measurement file (TOML, with optional CSV/image files beside it).
 
     Parameters
     ----------
     path : str or Path
         The TOML file. Relative ``csv``/``image`` paths are resolved against its folder.
+    check_range : bool, optional
+        Refuse values outside their kind's plausible range (default). The
+        validation reads its synthetic twins without it: a toy simulator's
+        numbers need not be physical.
 
     Returns
     -------
@@ -417,7 +421,7 @@ def load_measurements(path) -> MeasurementSet:
         raise ConfigError(f"{path}: key {sorted(unknown)[0]!r}: unknown top-level key; "
                           f"expected 'meta' and [[observable]]")
     ms = tuple(measurement_from_dict(o, base_dir=path.parent, where=f"{path}: observable #{i + 1}",
-                                     check_range=True)
+                                     check_range=check_range)
                for i, o in enumerate(obs))
     try:
         return MeasurementSet(ms, title=str(meta.get("title", path.stem)),
