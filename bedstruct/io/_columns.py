@@ -233,7 +233,8 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
         rname = None
         notes.append(f"no radius/diameter column: radius {float(radius)!r} given by the caller")
     else:
-        raise DumpFormatError("no 'radius' or 'diameter' column; pass radius= to read_dump",
+        raise DumpFormatError("no 'radius' or 'diameter' column; pass radius= to read_dump "
+                              "(--radius on the command line)",
                               path=raw.path, line=raw.header_line, text=" ".join(names))
     good = np.isfinite(radii) & (radii > 0)
     if not good.all():

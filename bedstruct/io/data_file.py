@@ -323,8 +323,8 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
         radii = np.full(n, float(radius))
         notes.append(f"radius {float(radius)!r} given by the caller (atom_style {atom_style!r})")
     else:
-        raise DumpFormatError(f"atom_style {atom_style!r} has no diameter; pass radius=",
-                              path=path)
+        raise DumpFormatError(f"atom_style {atom_style!r} has no diameter; pass radius= "
+                              f"(--radius on the command line)", path=path)
     bad = ~np.isfinite(pos).all(axis=1)
     if bad.any():
         r = int(np.flatnonzero(bad)[0])
