@@ -480,6 +480,25 @@ class Resumable:
             self.path.unlink(missing_ok=True)
 
 
+def resumable_simulation(cfg: dict, checkpoint, box, model, walls, *, min_radius: float, seed,
+                         root=None):
+    """A workflow stage's :class:`~bedstruct.dem.Simulation` behind a :class:`Resumable`.
+
+    The controller checkpoints into ``checkpoint`` (a path, or None to save nothing)
+    every ``output.checkpoint_every`` steps, and cuts the appended outputs under ``root``
+    back on a restart; the simulation is restored from the checkpoint when there is one,
+    else made from the configuration's time-step settings. Returns
+    ``(controller, simulation)``.
+    """
+    from ..dem import Simulation
+    ctl = Resumable(checkpoint, every=int(cfg["output"].get("checkpoint_every", 0)), root=root)
+    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
+                                       v_max=cfg["time"]["v_max"], min_radius=min_radius,
+                                       n_threads=cfg["n_threads"], seed=seed),
+                    lambda path: Simulation.from_checkpoint(path, model, walls=walls))
+    return ctl, sim
+
+
 def as_resumable(obj) -> Resumable:
     """``obj`` if it is a :class:`Resumable`, else a pass-through one around the simulation."""
     return obj if isinstance(obj, Resumable) else Resumable.passthrough(obj)

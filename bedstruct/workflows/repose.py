@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ._common import check_engine, contact_model, from_plain, psd_sampler, write_json_atomic
-from ._rundir import Resumable, RunLayout, clear_run, run_in_frames
+from ._rundir import RunLayout, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
 
 __all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile"]
@@ -120,7 +120,7 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     records the finished replicate in ``<stage>/result.json`` and removes the checkpoint.
     """
     from ..core import Box
-    from ..dem import Rectangle, Simulation, repose_box
+    from ..dem import Rectangle, repose_box
 
     check_engine(cfg)
     rc = cfg["repose"]
@@ -146,13 +146,9 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
         walls.append(Rectangle(center=(L / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
                                half_sizes=(ped * L / 2, W if periodic else W / 2), name="ledge"))
     writer = layout.stage(stage, reset=False) if layout is not None and stage else None
-    ctl = Resumable(None if writer is None else writer.path / "progress.npz",
-                    every=int(cfg["output"].get("checkpoint_every", 0)),
-                    root=None if writer is None else writer.path)
-    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
-                                       v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
-                                       n_threads=cfg["n_threads"], seed=seed),
-                    lambda p: Simulation.from_checkpoint(p, model, walls=walls))
+    folder = None if writer is None else writer.path
+    ctl, sim = resumable_simulation(cfg, None if folder is None else folder / "progress.npz", box,
+                                    model, walls, min_radius=draw.r_min, seed=seed, root=folder)
     if writer is not None:
         ctl.do(writer.reset)
     t0 = _time.perf_counter()

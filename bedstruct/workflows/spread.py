@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import ConfigError
 from ._common import (check_engine, contact_model, frame_fingerprint, from_plain,
                       german_fit_values, psd_sampler, to_jsonable, tool_motion)
-from ._rundir import Resumable, RunLayout, as_resumable, clear_run, run_in_frames
+from ._rundir import RunLayout, as_resumable, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
 from .spread_measure import (_REGION_NAMES, LayerResult, _subset_contacts, frame_metrics,
                              measure_layer, mid_layer_segregation, particles_in_flight)
@@ -99,7 +99,7 @@ def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None):
     is the uninterrupted run's); the caller removes the file once the pile is saved.
     """
     from ..core import Box
-    from ..dem import Plane, Simulation
+    from ..dem import Plane
     sc = cfg["spread"]
     draw = psd_sampler(cfg) if draw is None else draw
     Lp, W = float(sc["pile_length"]), float(sc["width"])
@@ -112,11 +112,8 @@ def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None):
     walls = [Plane((0, 0, 0), (0, 0, 1), name="floor"), Plane((0, 0, 0), (1, 0, 0), name="xlo"),
              Plane((Lp, 0, 0), (-1, 0, 0), name="xhi")]
     model = contact_model(cfg)
-    ctl = Resumable(checkpoint, every=int(cfg["output"].get("checkpoint_every", 0)))
-    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
-                                       v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
-                                       n_threads=cfg["n_threads"], seed=seed),
-                    lambda path: Simulation.from_checkpoint(path, model, walls=walls))
+    ctl, sim = resumable_simulation(cfg, checkpoint, box, model, walls, min_radius=draw.r_min,
+                                    seed=seed)
     layer = 8 * draw.r_max          # insert in thin slabs so that nothing falls far
 
     def insert_slab():
@@ -231,7 +228,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
     [...]
     """
     from ..core import Box, Frame
-    from ..dem import Plane, Rectangle, Simulation
+    from ..dem import Plane, Rectangle
 
     validate_config(cfg)
     if cfg.get("engine", "embedded") != "embedded":  # one layer on LIGGGHTS/LAMMPS
@@ -313,13 +310,9 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         walls.append(Rectangle(center=(Lplat, W / 2, -zc), normal=(-1, 0, 0), axis=(0, 0, 1),
                                half_sizes=(zc, W), name="front"))
     model = contact_model(cfg)
-    ctl = Resumable(None if layout is None else layout.path / "progress.npz",
-                    every=int(cfg["output"].get("checkpoint_every", 0)),
-                    root=None if layout is None else layout.path)
-    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
-                                       v_max=cfg["time"]["v_max"], min_radius=draw.r_min,
-                                       n_threads=cfg["n_threads"], seed=seed),
-                    lambda path: Simulation.from_checkpoint(path, model, walls=walls))
+    folder = None if layout is None else layout.path
+    ctl, sim = resumable_simulation(cfg, None if folder is None else folder / "progress.npz", box,
+                                    model, walls, min_radius=draw.r_min, seed=seed, root=folder)
     z_plat = 0.0
     # spin about +y; the surface velocity is u + omega e_y x (R e_r), so omega = -speed/R
     # (factor -1) moves the bottom of the roller forwards: counter-rotating
