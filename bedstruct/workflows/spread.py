@@ -90,13 +90,15 @@ class SpreadResult:
         return d
 
 
-def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None):
+def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress: bool = False):
     """Settle ``spread.pile_particles`` by raindrop insertion in a walled box (x from 0, z from 0).
 
     Returns the settled :class:`~bedstruct.Frame` (SI) and the number of steps run.
     With ``checkpoint`` (a path, ``progress.npz``) the generation checkpoints there every
     ``output.checkpoint_every`` steps and, when the file exists, restarts from it (the pile
     is the uninterrupted run's); the caller removes the file once the pile is saved.
+    ``progress`` shows a bar over the particles inserted, then the settling (stderr): at
+    the seed's scale the pile takes about an hour.
     """
     from ..core import Box
     from ..dem import Plane
@@ -124,16 +126,20 @@ def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None):
         sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (Lp, W, zlo + layer)))
         return True
 
-    for _ in range(50):
-        if not ctl.value(insert_slab):
-            break
-        ctl.run_time(math.sqrt(2 * layer / 9.81))
-    # settle: until the fastest particle is slower than 1 mm/s (at most 4 pile_time)
-    t_end = ctl.value(lambda: sim.time) + 4 * float(sc["pile_time"])
-    ctl.run_time(0.25 * float(sc["pile_time"]))
-    while ctl.value(lambda: sim.time < t_end and
-                    float(np.max(np.linalg.norm(sim.v, axis=1))) > 1e-3):
+    from tqdm.auto import tqdm
+    with tqdm(total=n, desc="pile", unit="particle", disable=not progress, leave=False) as bar:
+        for _ in range(50):
+            if not ctl.value(insert_slab):
+                break
+            ctl.run_time(math.sqrt(2 * layer / 9.81))
+            bar.update(sim.n_particles - bar.n)
+        bar.set_description("pile (settling)")
+        # settle: until the fastest particle is slower than 1 mm/s (at most 4 pile_time)
+        t_end = ctl.value(lambda: sim.time) + 4 * float(sc["pile_time"])
         ctl.run_time(0.25 * float(sc["pile_time"]))
+        while ctl.value(lambda: sim.time < t_end and
+                        float(np.max(np.linalg.norm(sim.v, axis=1))) > 1e-3):
+            ctl.run_time(0.25 * float(sc["pile_time"]))
     return sim.frame(), sim.step
 
 
@@ -204,7 +210,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         ``bed_contacts.dump.gz`` after the layer. The run checkpoints into
         ``progress.npz`` after every layer and every ``output.checkpoint_every`` steps.
     progress : bool, optional
-        Show a progress bar over the layers (stderr; embedded engine).
+        Show progress bars over the pile's generation and the layers (stderr; embedded
+        engine).
     pile : Frame, optional
         The settled pile, as ``generate_pile(cfg, seed=cfg["seed"])[0]`` returns it
         (default: generated here). Runs with the same :func:`pile_key` and seed (for
@@ -283,7 +290,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
             if layout is not None:
                 (layout.path / "pile").mkdir(exist_ok=True)
                 ck = layout.path / "pile" / "progress.npz"
-            pile, _ = generate_pile(cfg, seed=seed, draw=draw, checkpoint=ck)
+            pile, _ = generate_pile(cfg, seed=seed, draw=draw, checkpoint=ck, progress=progress)
     if layout is not None and not (layout.resumed and pile_path.is_file()):
         layout.stage("pile").write_frame("pile", pile)
         (layout.path / "pile" / "progress.npz").unlink(missing_ok=True)

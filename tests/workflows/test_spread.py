@@ -153,3 +153,17 @@ def test_a_failed_fabric_leaves_a_warning_and_nan_anisotropy(tiny_spread, monkey
     assert np.all(np.isnan(failed.fabric_anisotropy))
     assert "fabric failed: no contacts in a region" in caplog.text
     assert failed.packing_fraction == measured.packing_fraction
+
+
+def test_pile_generation_shows_progress_and_is_the_same_pile(capsys):
+    from bedstruct.workflows import load_config
+    from bedstruct.workflows.spread import generate_pile
+    cfg = load_config(preset="tiny", overrides=[
+        "spread.pile_particles=200", "spread.pile_time=0.003", "spread.pile_length=0.6e-3"])
+    quiet, steps = generate_pile(cfg, seed=3)
+    assert capsys.readouterr().err == ""
+    shown, steps_shown = generate_pile(cfg, seed=3, progress=True)
+    err = capsys.readouterr().err
+    assert "pile" in err and "200/200" in err
+    assert steps_shown == steps
+    np.testing.assert_array_equal(shown.positions, quiet.positions)
