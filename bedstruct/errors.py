@@ -12,6 +12,7 @@ __all__ = [
     "DumpFormatError",
     "ConfigError",
     "UnsafeTimestepError",
+    "RunFolderInUseError",
     "BedstructWarning",
 ]
 
@@ -80,6 +81,11 @@ class ConfigError(BedstructError, ValueError):
 
 class UnsafeTimestepError(BedstructError, ValueError):
     """The requested DEM time step exceeds the stable limit (see message)."""
+
+
+class RunFolderInUseError(BedstructError, RuntimeError):
+    """Another process is writing a workflow run in the same output folder (it holds the
+    folder's lock until its run ends, fails or is killed)."""
 
 
 class BedstructWarning(UserWarning):

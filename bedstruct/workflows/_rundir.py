@@ -17,17 +17,24 @@ from __future__ import annotations
 import copy
 import json
 import logging
+import os
 import re
+import weakref
 from pathlib import Path
 
 from .._atomic import atomic_path
-from ..errors import ConfigError
+from ..errors import ConfigError, RunFolderInUseError
 from .config import config_to_toml
+
+try:
+    import fcntl
+except ImportError:  # no flock (Windows): runs in one folder are not guarded against each other
+    fcntl = None
 
 log = logging.getLogger("bedstruct.workflows._common")  # the logger of _common, as before
 
 __all__ = ["RunLayout", "StageWriter", "Resumable", "clear_run", "run_in_frames", "as_resumable",
-           "RUN_MARKER"]
+           "RUN_MARKER", "RUN_LOCK"]
 
 
 def _write_dump_atomic(path, frame, **kw) -> None:
@@ -51,6 +58,56 @@ RUN_MARKER = "run.json"
 #: Configuration keys a run may be resumed with other values of (they change what is
 #: written, not the results).
 _RESUME_FREE = (("output", "checkpoint"), ("output", "checkpoint_every"))
+
+#: The lock file of a run folder: held (``flock``) by the process writing the run.
+RUN_LOCK = ".bedstruct.lock"
+
+
+_held_locks: "weakref.WeakValueDictionary[str, _FolderLock]" = weakref.WeakValueDictionary()
+
+
+class _FolderLock:
+    """An exclusive ``flock`` on ``<folder>/.bedstruct.lock``, released when this object is
+    released or collected, or when its process ends (killed too: the kernel drops it)."""
+
+    def __init__(self, folder: Path):
+        self.path = folder / RUN_LOCK
+        self._file = open(self.path, "a+")
+        try:
+            fcntl.flock(self._file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self._file.seek(0)
+            holder = self._file.read().strip() or "another process"
+            self._file.close()
+            raise RunFolderInUseError(
+                f"{folder} is in use: a run is being written there ({holder}). Wait for it to "
+                "end, or choose another --out.") from None
+        self._file.seek(0)
+        self._file.truncate()
+        self._file.write(f"pid {os.getpid()}\n")
+        self._file.flush()
+
+    def release(self) -> None:
+        if not self._file.closed:
+            self._file.truncate(0)  # while still held: no holder is named once it is let go
+            self._file.close()  # closing the file drops the flock
+
+    def __del__(self):
+        self.release()
+
+
+def _lock_folder(folder: Path):
+    """The lock of run folder ``folder`` for this process (shared by the layouts of one
+    process, which may reopen a folder; another process gets RunFolderInUseError)."""
+    if fcntl is None:
+        return None
+    key = str(folder.resolve())
+    lock = _held_locks.get(key)
+    if lock is None or lock._file.closed:
+        lock = _FolderLock(folder)
+        _held_locks[key] = lock
+    return lock
+
 
 _STAGE_DIR = re.compile(r"^(rep\d+|layer\d+|pile|k[0-9.eE+-]+)$")
 _RUN_FILES = (RUN_MARKER, "config.toml", "results.json", "progress.npz", "points.json")
@@ -150,6 +207,9 @@ class RunLayout:
     ConfigError
         The folder holds a run of another workflow, configuration or inputs (the message
         lists the differences) and ``overwrite`` is false.
+    RunFolderInUseError
+        Another process is writing a run in the folder (it holds the folder's lock,
+        ``.bedstruct.lock``, until its run ends, fails or is killed).
 
     Notes
     -----
@@ -169,12 +229,16 @@ class RunLayout:
         self.resumed = False
         self.complete = False
         self.previous_results = None
+        self._lock = None
         if cfg is None:
             self.path.mkdir(parents=True, exist_ok=True)
             return
+        self.path.mkdir(parents=True, exist_ok=True)
+        # before anything is read or cleared: two processes must not resume, overwrite or
+        # write one folder at the same time
+        self._lock = _lock_folder(self.path)
         if overwrite:
             clear_run(self.path)
-        self.path.mkdir(parents=True, exist_ok=True)
         self._identity = _identity(workflow, cfg, inputs)
         self._check_previous()
         (self.path / "results.json").unlink(missing_ok=True)
@@ -251,7 +315,13 @@ class RunLayout:
         p = write_json_atomic(self.path / "results.json", data)
         if self.cfg is not None:
             self._mark("complete")
+        self.release()
         return p
+
+    def release(self) -> None:
+        """Release the folder's lock (done by :meth:`write_results`, and when the layout is
+        collected or its process ends)."""
+        self._lock = None  # the last layout of this process holding it lets it go
 
 
 class StageWriter:

@@ -248,3 +248,46 @@ def test_a_config_toml_bedstruct_did_not_write_is_never_replaced(tmp_path):
         with pytest.raises(ConfigError, match="not written by bedstruct"):
             run_repose(load_config(preset="tiny"), out=tmp_path, overwrite=overwrite)
     assert (tmp_path / "config.toml").read_text() == '[tool.something]\nx = 1\n'
+
+
+def test_a_folder_another_process_writes_is_refused_until_it_ends(tmp_path):
+    # two processes resuming or overwriting one run folder would interleave their stages;
+    # the second is refused while the first holds the folder, also when the first is killed
+    import signal
+    import subprocess
+    import sys
+    from bedstruct.errors import RunFolderInUseError
+    from bedstruct.workflows._rundir import RunLayout
+    cfg = load_config(preset="tiny")
+    out = tmp_path / "run"
+    holder = subprocess.Popen(
+        [sys.executable, "-c",
+         "import sys, time; from bedstruct.workflows import load_config; "
+         "from bedstruct.workflows._rundir import RunLayout; "
+         f"l = RunLayout({str(out)!r}, load_config(preset='tiny'), workflow='repose'); "
+         "print('held', flush=True); time.sleep(120)"],
+        stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(RunFolderInUseError, match=rf"{out}.*in use.*pid {holder.pid}"):
+            RunLayout(out, cfg, workflow="repose")
+        with pytest.raises(RunFolderInUseError):
+            RunLayout(out, cfg, workflow="repose", overwrite=True)  # nothing is cleared
+        assert json.loads((out / "run.json").read_text())["status"] == "running"
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+    first = RunLayout(out, cfg, workflow="repose")  # the kernel dropped the killed one's lock
+    assert first.resumed
+    again = RunLayout(out, cfg, workflow="repose")  # one process may reopen its own folder
+    assert again.resumed
+    first.write_results({"done": True})
+    again.write_results({"done": True})
+    assert (out / ".bedstruct.lock").read_text() == ""
+    probe = subprocess.run(
+        [sys.executable, "-c",
+         "from bedstruct.workflows import load_config; "
+         "from bedstruct.workflows._rundir import RunLayout; "
+         f"RunLayout({str(out)!r}, load_config(preset='tiny'), workflow='repose')"],
+        capture_output=True, text=True)
+    assert probe.returncode == 0, probe.stderr  # released once the results are written
