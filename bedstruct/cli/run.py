@@ -29,7 +29,9 @@ config.toml and, last, results.json into --out, and checkpoints as it goes
 calibration point). Running the same command again resumes a killed run
 from its latest checkpoint (finished stages are reused, a finished run
 gives its results back); a folder holding a run of another configuration
-is refused unless --overwrite replaces it.
+is refused unless --overwrite replaces it. On liggghts/lammps a resumed run
+reuses finished repose replicates, the spreading pile and a finished
+spreading engine run; an engine run that was killed runs again from its start.
 
 Examples:
   bedstruct run repose --preset tiny --out runs/repose --json
@@ -124,7 +126,7 @@ def run(args) -> int:
     overwrite = bool(getattr(args, "overwrite", False))
     before = _run_status(args.out) if not overwrite else None
     res = func(cfg, out=args.out, progress=progress, overwrite=overwrite)
-    if before is not None and cfg["engine"] == "embedded":
+    if before is not None and not cfg["external"]["write_only"]:
         print(f"resumed the {'finished' if before == 'complete' else 'unfinished'} run in "
               f"{args.out} (finished stages reused)", file=sys.stderr)
     if getattr(res, "decks", None) is not None and not hasattr(res, "angle_deg"):  # write-only

@@ -56,8 +56,8 @@ def _write_local_atomic(path, frame, contacts) -> None:
 RUN_MARKER = "run.json"
 
 #: Configuration keys a run may be resumed with other values of (they change what is
-#: written, not the results).
-_RESUME_FREE = (("output", "checkpoint"), ("output", "checkpoint_every"))
+#: written, or whether an external engine run is given time to finish, not the results).
+_RESUME_FREE = (("output", "checkpoint"), ("output", "checkpoint_every"), ("external", "timeout"))
 
 #: The lock file of a run folder: held (``flock``) by the process writing the run.
 RUN_LOCK = ".bedstruct.lock"
@@ -213,12 +213,13 @@ class RunLayout:
 
     Notes
     -----
-    A folder that holds a run of the same workflow, configuration (``output.checkpoint``
-    and ``output.checkpoint_every`` aside) and inputs is resumed: :attr:`resumed` is true and
-    the workflow reuses what was finished (:attr:`complete`: all of it, with
-    :attr:`previous_results`). Either way ``results.json`` is removed before anything
-    runs and ``run.json`` says ``"running"`` until the new results are written, so a
-    stale result never sits beside a new configuration.
+    A folder that holds a run of the same workflow, configuration (``output.checkpoint``,
+    ``output.checkpoint_every`` and ``external.timeout`` aside) and inputs is resumed:
+    :attr:`resumed` is true and the workflow reuses what was finished (:attr:`complete`:
+    all of it, with :attr:`previous_results`; :meth:`reuse_results`). Either way
+    ``results.json`` is removed before anything runs and ``run.json`` says ``"running"``
+    until the new results are written, so a stale result never sits beside a new
+    configuration.
     """
 
     def __init__(self, path, cfg: dict | None = None, *, workflow: str = "", inputs=None,
@@ -252,9 +253,10 @@ class RunLayout:
         if marker.is_file():
             try:
                 old = json.loads(marker.read_text())
-                ident = {k: old[k] for k in ("workflow", "config", "inputs")}
+                # normalised as now: a marker written before a key became resume-free matches
+                ident = _identity(old["workflow"], old["config"], old["inputs"])
                 status = old["status"]
-            except (ValueError, KeyError, TypeError) as exc:
+            except (ValueError, KeyError, TypeError, AttributeError) as exc:
                 raise ConfigError(f"{marker}: not a readable run marker ({exc}).{hint}") from None
             if ident != self._identity:
                 diff = []
@@ -303,6 +305,24 @@ class RunLayout:
         from ._common import write_json_atomic
         write_json_atomic(self.path / RUN_MARKER, {"status": status, **self._identity},
                           keep_nan=True)
+
+    def reuse_results(self, from_dict):
+        """The result of the complete run resumed here, or None.
+
+        ``from_dict(previous_results)`` rebuilds the result; its ``results.json`` is
+        written back (the run is complete again) and nothing needs to run. None when the
+        run is not complete, or when its results cannot be read back (then it runs again).
+        """
+        if not self.complete:
+            return None
+        try:
+            res = from_dict(self.previous_results)
+        except (KeyError, TypeError, ValueError) as exc:
+            log.warning("%s: the finished run's results cannot be read back (%s); it runs "
+                        "again", self.path, exc)
+            return None
+        self.write_results(self.previous_results)
+        return res
 
     def stage(self, name: str, *, reset: bool = True) -> "StageWriter":
         out = self.cfg["output"] if self.cfg else {"frames": True, "contacts": True,

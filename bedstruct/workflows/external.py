@@ -13,7 +13,9 @@ dumps back with :func:`bedstruct.io.read_dump` and measures the pile with
 The run directory has the embedded layout (``config.toml``, ``results.json``,
 ``rep00/frames.dump.gz``, ``rep00/contacts.dump.gz``, ``rep00/pile.dump.gz``)
 plus the inputs (``rep00/in.repose``, ``initial.data``, STL meshes) and the
-engine log (``rep00/in.log``).
+engine log (``rep00/in.log``). A finished replicate is recorded in
+``rep00/result.json``, which a resumed run (the same call again) reuses; one
+without it starts over in an emptied folder.
 
 Differences from the embedded run (docs/workflows.md): all spheres are
 inserted at once (the embedded engine inserts in rounds when the box is full);
@@ -23,7 +25,8 @@ frozen at a reference contact.
 
 :func:`run_spread_external` spreads every layer with a blade, plate or roller
 on either engine, all layers in one engine run so that contact histories carry
-over between layers (:func:`bedstruct.dem.backends.spread_layers_deck`).
+over between layers (:func:`bedstruct.dem.backends.spread_layers_deck`). A resumed
+run reuses the finished pile and, when the engine run finished, its output.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import atomic_path
 from ..errors import ConfigError
 from ._common import contact_model, german_fit_values, psd_sampler
 from ._rundir import RunLayout
@@ -196,11 +200,29 @@ def _reference_contact(p, radii, *, height: float) -> dict:
 
 
 def _gzip(path: Path) -> Path:
+    """Compress ``path`` into ``path.gz``, then remove ``path``.
+
+    Atomic: a run killed meanwhile leaves ``path`` (and perhaps a complete ``path.gz``
+    beside it), never a cut ``.gz`` without its source (:func:`_engine_file`).
+    """
     out = path.with_name(path.name + ".gz")
-    with open(path, "rb") as src, gzip.open(out, "wb", compresslevel=5) as dst:
-        shutil.copyfileobj(src, dst)
+    with atomic_path(out) as tmp:
+        with open(path, "rb") as src, open(tmp, "wb") as raw, \
+                gzip.GzipFile(filename=path.name, mode="wb", fileobj=raw,
+                              compresslevel=5) as dst:
+            shutil.copyfileobj(src, dst)
     path.unlink()
     return out
+
+
+def _engine_file(stage: Path, name: str):
+    """``stage/name`` as the engine wrote it, else the ``.gz`` the post-processing made of
+    it, else None. The plain file wins: a compression killed before removing it left
+    both."""
+    for path in (stage / name, stage / (name + ".gz")):
+        if path.is_file():
+            return path
+    return None
 
 
 def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only):
@@ -214,7 +236,11 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
     engine = cfg["engine"]
     p, cm, model = _granular_params(cfg, cohesion)
     inp = repose_inputs(cfg, seed=seed)
-    stage_dir.mkdir(parents=True, exist_ok=True)
+    # a replicate not recorded as finished starts over (no restart of a killed engine run):
+    # none of an earlier attempt's dumps or log is mixed into this one
+    if stage_dir.exists():
+        shutil.rmtree(stage_dir)
+    stage_dir.mkdir(parents=True)
     data = write_sphere_data(stage_dir / "initial.data", inp["positions"], inp["radii"],
                              box_lo=inp["box_lo"], box_hi=inp["box_hi"], density=p.density,
                              n_types=2, title=f"bedstruct repose seed {seed}")
@@ -265,6 +291,11 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
     ``timeout``) drives the engine. Without ``out`` the run happens in a
     temporary folder that is removed afterwards.
 
+    The same call on a folder holding this run resumes it: a complete run gives its
+    results back without running anything; in an unfinished one every replicate
+    recorded in ``repNN/result.json`` is reused and the others run from their start
+    (an engine run is not restarted midway).
+
     Returns
     -------
     ReposeResult or ExternalDecks
@@ -288,7 +319,8 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
     """
     import tempfile
 
-    from .repose import combine_replicates
+    from .repose import (_finished_replicate, _record_replicate, combine_replicates,
+                         repose_result_from_dict)
 
     n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
     if n < 1:
@@ -302,10 +334,21 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
         tmp = tempfile.mkdtemp(prefix="bedstruct-repose-")
         out = tmp
     try:
-        layout = RunLayout(out, cfg)
-        reps = [_repose_replicate(cfg, seed=int(cfg["seed"]) + i, cohesion=k,
-                                  stage_dir=layout.path / f"rep{i:02d}", info=info,
-                                  write_only=write_only) for i in range(n)]
+        layout = RunLayout(out, cfg, workflow="repose", inputs={"cohesion": k, "replicates": n})
+        if not write_only:
+            res = layout.reuse_results(repose_result_from_dict)
+            if res is not None:
+                return res
+        reps = []
+        for i in range(n):
+            seed, stage = int(cfg["seed"]) + i, f"rep{i:02d}"
+            rep = None if write_only else _finished_replicate(layout, stage, seed, k)
+            if rep is None:
+                rep = _repose_replicate(cfg, seed=seed, cohesion=k, stage_dir=layout.path / stage,
+                                        info=info, write_only=write_only)
+                if not write_only:
+                    _record_replicate(layout, stage, rep)
+            reps.append(rep)
         if write_only:
             np_ = int(cfg["external"]["np"])
             cmds = []
@@ -350,6 +393,13 @@ def run_spread_external(cfg: dict, *, out=None):
     :func:`bedstruct.workflows.spread.measure_layer`, the embedded run's code.
     LAMMPS' moving blade is unbevelled (docs/backends.md).
 
+    The same call on a folder holding this run resumes it: a complete run gives its
+    results back without running anything; an unfinished one reuses the finished pile
+    (``pile/pile.dump.gz``; a killed generation goes on from ``pile/progress.npz``, as
+    in :func:`~bedstruct.workflows.run_spread`) and, when the engine run finished
+    (:func:`_engine_finished`), its output: only the measurement runs again. An engine
+    run that did not finish runs again from its start, its output removed first.
+
     Returns
     -------
     SpreadResult or ExternalDecks
@@ -362,7 +412,7 @@ def run_spread_external(cfg: dict, *, out=None):
     from ..dem.backends import (BladeGeometry, RollerGeometry, SpreadLayersPlan, landing_offsets,
                                 run_deck, spread_layers_deck, tool_loads, write_sphere_data)
     from ..io import read_dump, write_dump
-    from .spread import _MAX_LANDING_WAIT, SpreadResult, generate_pile
+    from .spread import _MAX_LANDING_WAIT, SpreadResult, _run_pile, spread_result_from_dict
     from .spread_measure import _REGION_NAMES, frame_metrics, measure_layer
 
     sc = cfg["spread"]
@@ -378,18 +428,19 @@ def run_spread_external(cfg: dict, *, out=None):
         tmp = tempfile.mkdtemp(prefix="bedstruct-spread-")
         out = tmp
     try:
-        layout = RunLayout(out, cfg)
+        layout = RunLayout(out, cfg, workflow="spread")
+        if not write_only:
+            res = layout.reuse_results(spread_result_from_dict)
+            if res is not None:
+                return res
         root = layout.path
         t_start = _time.perf_counter()
         seed = int(cfg["seed"])
         draw = psd_sampler(cfg)
         rmax = draw.r_max
         p, cm, model = _granular_params(cfg, None, spreading=True)
-        pile, _ = generate_pile(cfg, seed=seed, draw=draw)
-        st = root / "pile"
-        st.mkdir(parents=True, exist_ok=True)
+        pile = _run_pile(cfg, layout, seed=seed, draw=draw)   # a resumed run's finished pile
         gz = ".dump.gz" if cfg["output"]["compress"] else ".dump"
-        write_dump(st / f"pile{gz}", pile)
         Lplat, W, speed = float(sc["plate_length"]), float(sc["width"]), float(sc["speed"])
         if tool_name == "roller":
             R = float(sc["roller_radius"])
@@ -464,8 +515,13 @@ def run_spread_external(cfg: dict, *, out=None):
                                 (f"cd {root} && " + " ".join(argv),))
             layout.write_results({"workflow": "spread", "engine": cfg["engine"], **res.to_dict()})
             return res
-        timeout = float(cfg["external"]["timeout"]) or None
-        run_deck(deck_path, engine=info, np=np_, cwd=root, log_path="in.log", timeout=timeout)
+        contacts = bool(cfg["output"]["contacts"])
+        if layout.resumed and _engine_finished(root, plan, contacts=contacts):
+            log.info("%s: the engine run had finished; its output is measured again", root)
+        else:
+            _clear_engine_output(root, K)
+            timeout = float(cfg["external"]["timeout"]) or None
+            run_deck(deck_path, engine=info, np=np_, cwd=root, log_path="in.log", timeout=timeout)
         wall_run = _time.perf_counter() - t_start
         # the landing waits shift every later event off the planned steps
         offsets = landing_offsets(root / "in.log", K)
@@ -481,7 +537,7 @@ def run_spread_external(cfg: dict, *, out=None):
             stage = root / f"layer{k + 1:02d}"
             z_plat = -sum(gaps[:k + 1])
             n_active = (k + 1) * n
-            traj = read_dump(stage / "frames.dump", units="si")
+            traj = read_dump(_engine_file(stage, "frames.dump"), units="si")
             blade_pos, dyn, cn_series, mid = [], [], [], []
             final = None
             for i in range(len(traj)):
@@ -534,3 +590,45 @@ def run_spread_external(cfg: dict, *, out=None):
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _engine_finished(root: Path, plan, *, contacts: bool) -> bool:
+    """Whether ``root`` holds the output of a finished engine run of ``plan`` (all layers).
+
+    Its log ends with the deck's end marker (:func:`~bedstruct.dem.backends.run_finished`,
+    printed once every dump is closed), and every layer's frames (as the engine wrote
+    them, or compressed by the post-processing, :func:`_engine_file`) read back complete
+    up to the layer's last step, its contacts and start frames beside them.
+    """
+    from ..dem.backends import landing_offsets, run_finished
+    from ..errors import BedstructError
+    from ..io import read_dump
+    log_path = root / "in.log"
+    n = len(plan.layers)
+    if not run_finished(log_path, n):
+        return False
+    for k, ls in enumerate(plan.shifted(landing_offsets(log_path, n))):
+        stage = root / f"layer{k + 1:02d}"
+        names = (["contacts.dump"] if contacts else []) + (
+            (["start.dump"] + (["start_contacts.dump"] if contacts else [])) if k else [])
+        frames = _engine_file(stage, "frames.dump")
+        if frames is None or any(_engine_file(stage, name) is None for name in names):
+            return False
+        try:
+            steps = read_dump(frames, units="si").timesteps
+        except (BedstructError, OSError, EOFError, ValueError):
+            return False
+        if not len(steps) or int(steps[-1]) != ls.end:
+            return False
+    return True
+
+
+def _clear_engine_output(root: Path, n_layers: int) -> None:
+    """Remove the log and layer folders of an earlier engine run in ``root`` that did not
+    finish, so that none of its output is mixed into the run that starts over."""
+    (root / "in.log").unlink(missing_ok=True)
+    for k in range(n_layers):
+        stage = root / f"layer{k + 1:02d}"
+        if stage.exists():
+            shutil.rmtree(stage)
+        stage.mkdir()

@@ -18,7 +18,7 @@ import json
 import logging
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -27,7 +27,8 @@ from ._common import check_engine, contact_model, from_plain, psd_sampler, write
 from ._rundir import RunLayout, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
 
-__all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile"]
+__all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile",
+           "repose_result_from_dict"]
 
 log = logging.getLogger(__name__)
 
@@ -226,6 +227,20 @@ def _finished_replicate(layout, stage: str, seed: int, cohesion: float):
     return rep
 
 
+def _record_replicate(layout, stage: str, rep: ReposeReplicate) -> None:
+    """Record the finished replicate in ``<stage>/result.json`` (atomically; a resumed run
+    reuses it, :func:`_finished_replicate`) and remove its checkpoint."""
+    write_json_atomic(layout.path / stage / "result.json", rep, keep_nan=True)
+    (layout.path / stage / "progress.npz").unlink(missing_ok=True)
+
+
+def repose_result_from_dict(d: dict) -> ReposeResult:
+    """The :class:`ReposeResult` of ``ReposeResult.to_dict()`` (as read from results.json;
+    other keys are ignored)."""
+    reps = tuple(from_plain(ReposeReplicate, r) for r in d["replicates"])
+    return replace(from_plain(ReposeResult, {**d, "replicates": []}), replicates=reps)
+
+
 def measure_pile(frame, cfg: dict, *, r_max: float):
     """Angle of the pile left in ``frame`` (SI) by a repose run of ``cfg``.
 
@@ -343,6 +358,9 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
         raise ConfigError(f"config key `contact.cohesion` must be >= 0; got {k}")
     layout = (RunLayout(out, cfg, workflow="repose", inputs={"cohesion": k, "replicates": n},
                         overwrite=overwrite) if out is not None else None)
+    res = layout.reuse_results(repose_result_from_dict) if layout is not None else None
+    if res is not None:
+        return res
     from tqdm.auto import tqdm
     reps = []
     for i in tqdm(range(n), desc="repose", unit="replicate", disable=not progress):
@@ -351,8 +369,7 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
         if rep is None:
             rep = repose_replicate(cfg, seed=seed, cohesion=k, layout=layout, stage=stage)
             if layout is not None:  # finished: recorded, its checkpoint no longer needed
-                write_json_atomic(layout.path / stage / "result.json", rep, keep_nan=True)
-                (layout.path / stage / "progress.npz").unlink(missing_ok=True)
+                _record_replicate(layout, stage, rep)
         reps.append(rep)
     res = combine_replicates(reps, k)
     if layout is not None:

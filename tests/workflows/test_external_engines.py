@@ -9,6 +9,7 @@ Tiny piles (~400 spheres) scatter by ~4 degrees between seeds on every engine
 Cohesion is off: LAMMPS has no SJKR (docs/backends.md).
 """
 
+import gzip
 import json
 import math
 import re
@@ -90,6 +91,81 @@ def test_mean_angles_agree_over_replicates(tmp_path):
         assert abs(r.angle_deg - emb.angle_deg) < tol, (engine, r.angle_deg, emb.angle_deg)
 
 
+class Killed(BaseException):
+    """Stands for a kill: nothing in the workflows catches it."""
+
+
+#: Written by the engine with paths or times in them; everything else is compared.
+_VARYING = ("in.log", "in.repose", "in.spread", "run.json", "results.json", "result.json",
+            ".bedstruct.lock")
+
+
+def _files(root):
+    """{relative path: content (decompressed)} of the files of a run folder."""
+    out = {}
+    for f in sorted(root.rglob("*")):
+        if f.is_file() and f.name not in _VARYING:
+            data = f.read_bytes()
+            out[str(f.relative_to(root))] = gzip.decompress(data) if f.suffix == ".gz" else data
+    return out
+
+
+def _without_times(d):
+    d = json.loads(json.dumps(d))
+    d.pop("extra", None)
+    for item in d.get("replicates", []) + d.get("layers", []):
+        item.pop("wall_time")
+    return d
+
+
+@pytest.mark.parametrize("engine", sorted(ENGINES))
+def test_killed_external_repose_reuses_finished_replicates(tmp_path, monkeypatch, engine):
+    """Killed while the engine runs the second replicate: the same call runs that
+    replicate again from its start (its partial dumps and log removed first) and reuses
+    the first; the results and files are those of an uninterrupted run (both engines are
+    bit-for-bit deterministic at np=1: two runs give the same dumps and results)."""
+    _need(engine)
+    import bedstruct.dem.backends as backends
+    cfg = _cfg(engine, "repose.replicates=2", "repose.fill_time=0.01", "repose.drain_time=0.01")
+    ref = run_repose(cfg, out=tmp_path / "ref")
+    out = tmp_path / "run"
+    engine_runs = []
+
+    def killed_in_rep01(deck, **kw):
+        engine_runs.append(kw["cwd"].name)
+        if kw["cwd"].name == "rep01":   # what a killed engine leaves: a cut dump and log
+            (kw["cwd"] / "frames.dump").write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n")
+            (kw["cwd"] / "in.log").write_text("LIGGGHTS (Version)\n")
+            raise Killed
+        return run_deck(deck, **kw)
+    with monkeypatch.context() as m:
+        m.setattr(backends, "run_deck", killed_in_rep01)
+        with pytest.raises(Killed):
+            run_repose(cfg, out=out)
+    assert engine_runs == ["rep00", "rep01"]
+    assert (out / "rep00" / "result.json").is_file() and not (out / "results.json").exists()
+    assert not (out / "rep01" / "result.json").exists()
+    assert json.loads((out / "run.json").read_text())["status"] == "running"
+
+    def counted(deck, **kw):
+        engine_runs.append(kw["cwd"].name)
+        return run_deck(deck, **kw)
+    engine_runs.clear()
+    monkeypatch.setattr(backends, "run_deck", counted)
+    res = run_repose(cfg, out=out)
+    assert engine_runs == ["rep01"]                  # the finished replicate is not run again
+    assert _without_times(res.to_dict()) == _without_times(ref.to_dict())
+    assert _files(out) == _files(tmp_path / "ref")   # no dump of the killed attempt is left
+    assert json.loads((out / "run.json").read_text())["status"] == "complete"
+    # a complete run: its results come back from results.json without any engine run
+    engine_runs.clear()
+    again = run_repose(cfg, out=out)
+    assert engine_runs == []
+    assert again.to_dict() == res.to_dict()
+    assert json.loads((out / "run.json").read_text())["status"] == "complete"
+    assert (out / "results.json").is_file()
+
+
 def test_missing_engine_is_a_clear_error(tmp_path):
     cfg = _cfg("lammps", "external.exe=/nonexistent/lmp")
     with pytest.raises(ConfigError, match="not available"):
@@ -152,3 +228,6 @@ def test_spread_write_only_deck_is_parsed(tmp_path, engine):
     zero.write_text(text)
     log = run_deck(zero, np=1, cwd=tmp_path).log
     assert log.last.n_atoms == res_atoms(tmp_path / "initial.data")
+    # the deck's last line marks the run finished (a resumed run reuses such an output)
+    from bedstruct.dem.backends import run_finished
+    assert run_finished(tmp_path / "in.log", 2) and not run_finished(tmp_path / "in.log", 3)

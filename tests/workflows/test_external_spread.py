@@ -123,21 +123,30 @@ def test_roller_one_layer(tmp_path, engine, embedded_roller):
     assert 1 / 3 < layer.tool_force[0] / ref.tool_force[0] < 3, (layer.tool_force, ref.tool_force)
 
 
-def _two_layer_cfg(engine, small: bool):
+def _two_layer_cfg(engine, small: bool, *extra):
     extra = (["spread.pile_particles=400", "spread.pile_time=0.005", "spread.plate_length=1.6e-3",
-              "spread.pile_length=1.0e-3", "spread.n_frames=2"] if small else ["spread.n_frames=3"])
+              "spread.pile_length=1.0e-3", "spread.n_frames=2"] if small else ["spread.n_frames=3"]
+             ) + list(extra)
     return load_config(preset="tiny", overrides=["contact.cohesion=0.0", f"engine={engine}",
                                                  *extra])
 
 
-def test_liggghts_keeps_contact_histories_between_layers(tmp_path):
+@pytest.fixture(scope="module")
+def liggghts_two_layers(tmp_path_factory):
+    """The small two-layer LIGGGHTS run, uninterrupted (its pile checkpoints every 5000 of
+    its ~21000 steps: the checkpoints change nothing in the results)."""
+    _need("liggghts")
+    cfg = _two_layer_cfg("liggghts", True, "output.checkpoint_every=5000")
+    out = tmp_path_factory.mktemp("two-layers")
+    return cfg, run_spread(cfg, out=out), out
+
+
+def test_liggghts_keeps_contact_histories_between_layers(liggghts_two_layers):
     """Two layers in one LIGGGHTS run. The bed at rest at the start of layer 2 (before the
     platform moves) carries the tangential contact forces it had at the end of layer 1:
     static friction lives in the tangential springs, which a deck per layer (restarted
     histories) set back to zero. Every sphere is accounted for in both layers."""
-    _need("liggghts")
-    cfg = _two_layer_cfg("liggghts", small=True)
-    res = run_spread(cfg, out=tmp_path)
+    cfg, res, tmp_path = liggghts_two_layers
     assert len(res.layers) == 2 and res.n_inserted_total == 2 * res.n_pile == 800
     inserted = 0
     for layer in res.layers:
@@ -152,6 +161,157 @@ def test_liggghts_keeps_contact_histories_between_layers(tmp_path):
     # change 0.39 (these 400-sphere piles), 0.95 and 0.29 (800), 0.99 and 0.07 (300)
     assert 0.7 < ratio < 1.3
     assert change < 0.6
+
+
+class Killed(BaseException):
+    """Stands for a kill: nothing in the workflows catches it."""
+
+
+def _files(root):
+    """{relative path: content (decompressed)} of a run folder, without the files that
+    hold paths or times (deck, log, marker, results)."""
+    out = {}
+    for f in sorted(root.rglob("*")):
+        if f.is_file() and f.name not in ("in.log", "in.spread", "run.json", "results.json",
+                                          ".bedstruct.lock"):
+            data = f.read_bytes()
+            out[str(f.relative_to(root))] = gzip.decompress(data) if f.suffix == ".gz" else data
+    return out
+
+
+def _without_times(d):
+    d = json.loads(json.dumps(d))
+    d.pop("extra", None)
+    for layer in d["layers"]:
+        layer.pop("wall_time")
+    return d
+
+
+def test_killed_liggghts_spread_reuses_its_pile_and_finished_engine_run(liggghts_two_layers,
+                                                                        tmp_path, monkeypatch):
+    """The same call resumes a killed run: killed while the pile settles (it goes on from
+    pile/progress.npz), then as the engine starts (a cut log and dump of layer 1 are left:
+    the engine runs again from its start, its earlier output removed), then while layer 2
+    is measured (the finished engine run is reused, not run again). The results and files
+    equal the uninterrupted run's (LIGGGHTS at np=1 is bit-for-bit deterministic: two runs
+    give the same dumps and results); a complete run then runs nothing at all."""
+    import bedstruct.dem.backends as backends
+    import bedstruct.workflows.spread as spread
+    import bedstruct.workflows.spread_measure as spread_measure
+    from bedstruct.dem import Simulation
+    cfg, ref, ref_out = liggghts_two_layers
+    out = tmp_path / "run"
+    calls = {"pile": 0, "engine": 0, "measure": 0}
+    gen, deck, meas = spread.generate_pile, backends.run_deck, spread_measure.measure_layer
+
+    def count(key, fn):
+        def wrapped(*a, **kw):
+            calls[key] += 1
+            return fn(*a, **kw)
+        return wrapped
+    monkeypatch.setattr(spread, "generate_pile", count("pile", gen))
+
+    def run_killed(**patches):
+        for key in calls:
+            calls[key] = 0
+        with monkeypatch.context() as m:
+            for name, (obj, fn) in patches.items():
+                m.setattr(obj, name, fn)
+            with pytest.raises(Killed):
+                run_spread(cfg, out=out)
+        assert json.loads((out / "run.json").read_text())["status"] == "running"
+        assert not (out / "results.json").exists()
+
+    # 1. killed while the pile settles, after its first checkpoint
+    run = Simulation.run
+
+    def pile_killed(sim, *a, **kw):
+        stats = run(sim, *a, **kw)
+        if (out / "pile" / "progress.npz").is_file():
+            raise Killed
+        return stats
+    run_killed(run=(Simulation, pile_killed))
+    assert not (out / "pile" / "pile.dump.gz").exists()
+
+    # 2. killed as the engine runs: what it leaves is a cut log and a cut dump
+    def engine_killed(deck_path, **kw):
+        calls["engine"] += 1
+        root = kw["cwd"]
+        (root / "in.log").write_text("LIGGGHTS (Version)\nBEDSTRUCT_OFFSET layer=1 steps=0\n")
+        (root / "layer01" / "frames.dump").write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF")
+        raise Killed
+    run_killed(run_deck=(backends, engine_killed))
+    assert calls["pile"] == 1 and (out / "pile" / "pile.dump.gz").is_file()
+    assert not (out / "pile" / "progress.npz").exists()
+
+    # 3. the engine runs again from its start; killed while layer 2 is measured
+    def measure_killed(*a, **kw):
+        calls["measure"] += 1
+        if kw["index"] == 2:
+            raise Killed
+        return meas(*a, **kw)
+    run_killed(run_deck=(backends, count("engine", deck)),
+               measure_layer=(spread_measure, measure_killed))
+    assert (calls["pile"], calls["engine"], calls["measure"]) == (0, 1, 2)
+
+    # 4. resumed: neither the pile nor the engine run again; only the measurement
+    for key in calls:
+        calls[key] = 0
+    monkeypatch.setattr(backends, "run_deck", count("engine", deck))
+    monkeypatch.setattr(spread_measure, "measure_layer", count("measure", meas))
+    res = run_spread(cfg, out=out)
+    assert (calls["pile"], calls["engine"], calls["measure"]) == (0, 0, 2)
+    assert _without_times(res.to_dict()) == _without_times(ref.to_dict())
+    assert _files(out) == _files(ref_out)
+    assert json.loads((out / "run.json").read_text())["status"] == "complete"
+
+    # 5. complete: the results come back from results.json, nothing runs
+    for key in calls:
+        calls[key] = 0
+    again = run_spread(cfg, out=out)
+    assert calls == {"pile": 0, "engine": 0, "measure": 0}
+    assert again.to_dict() == res.to_dict()
+    assert json.loads((out / "run.json").read_text())["status"] == "complete"
+
+
+def test_an_engine_run_counts_as_finished_only_with_its_end_marker_and_whole_dumps(tmp_path):
+    """No engine needed: the check that lets a resumed run reuse the engine's output."""
+    from bedstruct.core import Frame
+    from bedstruct.dem.backends import BladeGeometry, SpreadLayersPlan
+    from bedstruct.io import write_dump
+    from bedstruct.workflows.external import _engine_finished, _gzip
+    blade = BladeGeometry(x0=0.0, z_bottom=0.0, speed=0.1, height=1e-3)
+    plan = SpreadLayersPlan(3e-3, 2e-3, (2e-4, 2e-4), blade, ((1, 1), (2, 2)), (0.0, 5e-3),
+                            (5e-4, 1.5e-3), 1e-6, x_end=3.5e-3, n_frames=4, settle_time=5e-3)
+    shift = 300
+    ends = [ls.end for ls in plan.shifted((0, shift))]
+    log = tmp_path / "in.log"
+    log.write_text("BEDSTRUCT_OFFSET layer=1 steps=0\nBEDSTRUCT_OFFSET layer=2 steps=300\n")
+    for k, end in enumerate(ends):
+        stage = tmp_path / f"layer{k + 1:02d}"
+        stage.mkdir()
+        frames = [Frame(np.full((1, 3), 5e-4), [1e-5], box=[1e-3, 1e-3, 1e-3], timestep=t)
+                  for t in (end - 100, end)]
+        write_dump(stage / "frames.dump", frames)
+        for name in ("contacts.dump", "start.dump", "start_contacts.dump")[:1 + 2 * (k > 0)]:
+            (stage / name).write_text("x\n")
+    assert not _engine_finished(tmp_path, plan, contacts=True)     # no end marker: killed
+    with open(log, "a") as fh:
+        fh.write("BEDSTRUCT_DONE layer=2\n")
+    assert _engine_finished(tmp_path, plan, contacts=True)
+    _gzip(tmp_path / "layer01" / "frames.dump")          # compressed by a killed measurement
+    assert _engine_finished(tmp_path, plan, contacts=True)
+    frames2 = tmp_path / "layer02" / "frames.dump"
+    text = frames2.read_text()
+    frames2.write_text(text[:len(text) - 40])             # the last frame cut off
+    assert not _engine_finished(tmp_path, plan, contacts=True)
+    frames2.write_text(text)
+    assert _engine_finished(tmp_path, plan, contacts=True)
+    (tmp_path / "layer02" / "start_contacts.dump").unlink()
+    assert not _engine_finished(tmp_path, plan, contacts=True)
+    assert _engine_finished(tmp_path, plan, contacts=False)   # no contact dumps asked for
+    (tmp_path / "layer02" / "start.dump").unlink()
+    assert not _engine_finished(tmp_path, plan, contacts=False)
 
 
 @pytest.mark.slow

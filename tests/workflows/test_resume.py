@@ -143,6 +143,24 @@ def test_checkpoint_settings_may_change_on_resume(tmp_path, monkeypatch):
     assert (out / "layer01" / "checkpoint.npz").is_file()
 
 
+def test_an_external_engine_run_may_resume_with_another_timeout(tmp_path):
+    # an engine run that timed out is resumed with more time; a marker written before the
+    # timeout was free to change (it names it) is resumed too
+    from bedstruct.workflows import RunLayout
+    cfg = load_config(preset="tiny", overrides=["engine=liggghts", "external.timeout=60"])
+    RunLayout(tmp_path, cfg, workflow="spread").release()
+    marker = json.loads((tmp_path / "run.json").read_text())
+    assert "timeout" not in marker["config"]["external"]
+    marker["config"]["external"]["timeout"] = 60.0
+    (tmp_path / "run.json").write_text(json.dumps(marker))
+    more = load_config(preset="tiny", overrides=["engine=liggghts", "external.timeout=0"])
+    assert RunLayout(tmp_path, more, workflow="spread").resumed
+    with pytest.raises(ConfigError, match="`external.np`"):
+        RunLayout(tmp_path, load_config(preset="tiny", overrides=["engine=liggghts",
+                                                                  "external.np=2"]),
+                  workflow="spread")
+
+
 def test_legacy_folder_of_another_configuration_is_refused(tmp_path):
     from bedstruct.workflows import config_to_toml
     (tmp_path / "config.toml").write_text(config_to_toml(load_config(preset="tiny")))

@@ -24,7 +24,7 @@ from .decks import (DUMP_COLUMNS, ImpactResult, bed_deck, data_file_radii, hertz
 from .lammps import find_lammps, lammps_granular_coeffs
 from .liggghts import find_liggghts, liggghts_model_commands
 from .spread_decks import LayerSteps, SpreadLayersPlan, spread_layers_deck
-from .spread_logs import landing_offsets, tool_loads
+from .spread_logs import landing_offsets, run_finished, tool_loads
 from .stl import (BladeGeometry, RollerGeometry, box_triangles, cylinder_triangles,
                   read_stl_triangles, stl_text, write_stl)
 from .workflow_decks import (ReposeGeometry, ReposeSchedule, SpreadGeometry, SpreadSchedule,
@@ -41,5 +41,5 @@ __all__ = [
     "ReposeGeometry", "ReposeSchedule", "repose_deck", "repose_wall_stls", "SpreadGeometry",
     "SpreadSchedule", "spread_deck",
     "LayerSteps", "RollerGeometry", "SpreadLayersPlan", "cylinder_triangles", "landing_offsets",
-    "spread_layers_deck", "tool_loads",
+    "run_finished", "spread_layers_deck", "tool_loads",
 ]

@@ -45,6 +45,9 @@ layer, every ``every`` steps; from layer 2 on also ``start.dump`` (and
 before the platform moves). Parked spheres appear in them (select by id:
 pile ``k`` has ids ``pile_ids[k][0]..pile_ids[k][1]``). :class:`SpreadLayersPlan`
 gives the step of each event so that frames can be matched to tool positions.
+The deck's last command prints ``BEDSTRUCT_DONE layer=K`` (K layers), after every
+dump is closed: :func:`~bedstruct.dem.backends.run_finished` tells a finished run
+from a killed one by it.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ from pathlib import Path
 from ._common import as_granular_params
 from .decks import DUMP_COLUMNS, _contact_cols, _contact_computes
 from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
-from .spread_logs import _LOAD_LINE, _OFFSET_LINE
+from .spread_logs import _DONE_LINE, _LOAD_LINE, _OFFSET_LINE
 from .stl import BladeGeometry, RollerGeometry, write_stl
 from .workflow_decks import _chamber_meshes, _granular_head, _liggghts_mesh_walls
 
@@ -426,6 +429,8 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
                           f"run {n_up}", "unfix mvdown"]
             else:
                 lines += [f"run {n_up}", f"run {n_back}", f"run {n_up}"]
+    # last: the run got to its end, every dump closed (run_finished reads it)
+    lines.append(f'print "{_DONE_LINE} layer={len(pl.layers)}"')
     return "\n".join(lines) + "\n"
 
 

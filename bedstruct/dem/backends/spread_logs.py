@@ -3,15 +3,17 @@
 The decks of :func:`~bedstruct.dem.backends.spread_layers_deck` print one marker line
 per layer, ``MARKER layer=K key=value ...``: the steps waited for flying powder to land
 (:func:`landing_offsets`) and the load of the powder on the tool averaged over the
-stroke (:func:`tool_loads`). The markers are defined here, beside their readers.
+stroke (:func:`tool_loads`), and, as their last command, that the run got to its end
+(:func:`run_finished`). The markers are defined here, beside their readers.
 """
 
 from __future__ import annotations
 
-__all__ = ["landing_offsets", "tool_loads"]
+__all__ = ["landing_offsets", "run_finished", "tool_loads"]
 
 _OFFSET_LINE = "BEDSTRUCT_OFFSET"
 _LOAD_LINE = "BEDSTRUCT_TOOL_FORCE"
+_DONE_LINE = "BEDSTRUCT_DONE"
 
 
 def _log_records(log_path, marker: str, keys) -> dict:
@@ -78,3 +80,17 @@ def tool_loads(log_path, n_layers: int) -> tuple:
              for k, v in _log_records(log_path, _LOAD_LINE, ("fx", "fy", "fz")).items()}
     nan = (float("nan"),) * 3
     return tuple(found.get(k + 1, nan) for k in range(n_layers))
+
+
+def run_finished(log_path, n_layers: int) -> bool:
+    """Whether the run of a :func:`spread_layers_deck` deck of ``n_layers`` layers got to its end.
+
+    The deck's last command prints ``BEDSTRUCT_DONE layer=K`` (K = ``n_layers``) after
+    the dumps of the last layer are closed, so a log holding it belongs to a run that
+    finished every layer and left every dump complete; a killed, failed or timed-out
+    run, or a missing log, gives False.
+    """
+    try:
+        return n_layers in _log_records(log_path, _DONE_LINE, ())
+    except FileNotFoundError:
+        return False
