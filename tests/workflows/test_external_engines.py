@@ -9,7 +9,6 @@ Tiny piles (~400 spheres) scatter by ~4 degrees between seeds on every engine
 Cohesion is off: LAMMPS has no SJKR (docs/backends.md).
 """
 
-import gzip
 import json
 import math
 import re
@@ -20,6 +19,8 @@ from bedstruct.cli import main
 from bedstruct.dem.backends import find_lammps, find_liggghts, run_deck
 from bedstruct.errors import ConfigError
 from bedstruct.workflows import load_config, run_repose
+
+from _runfiles import run_files, without_times
 
 ENGINES = {"liggghts": find_liggghts, "lammps": find_lammps}
 
@@ -101,21 +102,7 @@ _VARYING = ("in.log", "in.repose", "in.spread", "run.json", "results.json", "res
 
 
 def _files(root):
-    """{relative path: content (decompressed)} of the files of a run folder."""
-    out = {}
-    for f in sorted(root.rglob("*")):
-        if f.is_file() and f.name not in _VARYING:
-            data = f.read_bytes()
-            out[str(f.relative_to(root))] = gzip.decompress(data) if f.suffix == ".gz" else data
-    return out
-
-
-def _without_times(d):
-    d = json.loads(json.dumps(d))
-    d.pop("extra", None)
-    for item in d.get("replicates", []) + d.get("layers", []):
-        item.pop("wall_time")
-    return d
+    return run_files(root, skip=_VARYING)
 
 
 @pytest.mark.parametrize("engine", sorted(ENGINES))
@@ -154,7 +141,7 @@ def test_killed_external_repose_reuses_finished_replicates(tmp_path, monkeypatch
     monkeypatch.setattr(backends, "run_deck", counted)
     res = run_repose(cfg, out=out)
     assert engine_runs == ["rep01"]                  # the finished replicate is not run again
-    assert _without_times(res.to_dict()) == _without_times(ref.to_dict())
+    assert without_times(res.to_dict()) == without_times(ref.to_dict())
     assert _files(out) == _files(tmp_path / "ref")   # no dump of the killed attempt is left
     assert json.loads((out / "run.json").read_text())["status"] == "complete"
     # a complete run: its results come back from results.json without any engine run

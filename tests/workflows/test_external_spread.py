@@ -13,6 +13,8 @@ import pytest
 from bedstruct.dem.backends import find_lammps, find_liggghts
 from bedstruct.workflows import load_config, run_spread
 
+from _runfiles import run_files, without_times
+
 ENGINES = {"liggghts": find_liggghts, "lammps": find_lammps}
 
 
@@ -168,23 +170,10 @@ class Killed(BaseException):
 
 
 def _files(root):
-    """{relative path: content (decompressed)} of a run folder, without the files that
-    hold paths or times (deck, log, marker, results)."""
-    out = {}
-    for f in sorted(root.rglob("*")):
-        if f.is_file() and f.name not in ("in.log", "in.spread", "run.json", "results.json",
-                                          ".bedstruct.lock"):
-            data = f.read_bytes()
-            out[str(f.relative_to(root))] = gzip.decompress(data) if f.suffix == ".gz" else data
-    return out
-
-
-def _without_times(d):
-    d = json.loads(json.dumps(d))
-    d.pop("extra", None)
-    for layer in d["layers"]:
-        layer.pop("wall_time")
-    return d
+    """The run folder's files, without those that hold paths or times (deck, log, marker,
+    results)."""
+    return run_files(root, skip=("in.log", "in.spread", "run.json", "results.json",
+                                 ".bedstruct.lock"))
 
 
 def test_killed_liggghts_spread_reuses_its_pile_and_finished_engine_run(liggghts_two_layers,
@@ -261,7 +250,7 @@ def test_killed_liggghts_spread_reuses_its_pile_and_finished_engine_run(liggghts
     monkeypatch.setattr(spread_measure, "measure_layer", count("measure", meas))
     res = run_spread(cfg, out=out)
     assert (calls["pile"], calls["engine"], calls["measure"]) == (0, 0, 2)
-    assert _without_times(res.to_dict()) == _without_times(ref.to_dict())
+    assert without_times(res.to_dict()) == without_times(ref.to_dict())
     assert _files(out) == _files(ref_out)
     assert json.loads((out / "run.json").read_text())["status"] == "complete"
 

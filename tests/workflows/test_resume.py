@@ -2,7 +2,6 @@
 run's, bit for bit, and so are the files), folders of another configuration are refused
 unless overwritten, and a stale results.json never sits beside a new configuration."""
 
-import gzip
 import json
 
 import numpy as np
@@ -12,6 +11,8 @@ from bedstruct.dem import Simulation
 from bedstruct.errors import ConfigError
 from bedstruct.io import read_dump
 from bedstruct.workflows import load_config, run_repose, run_spread
+
+from _runfiles import run_files, without_times
 
 SPREAD = ["spread.gaps=[4.5e-4, 3e-4]", "spread.n_frames=3", "spread.pile_particles=300",
           "spread.pile_time=0.004", "spread.plate_length=1.2e-3", "spread.pile_length=0.6e-3",
@@ -37,22 +38,7 @@ def kill_when(monkeypatch, cond):
 
 
 def _files(root):
-    out = {}
-    for f in sorted(root.rglob("*")):
-        if f.is_file() and f.name not in ("run.json", "results.json", "result.json"):
-            data = f.read_bytes()
-            out[str(f.relative_to(root))] = gzip.decompress(data) if f.suffix == ".gz" else data
-    return out
-
-
-def _without_times(d):
-    d = json.loads(json.dumps(d))
-    d.pop("extra", None)
-    for la in d.get("layers", ()):
-        la.pop("wall_time")
-    for r in d.get("replicates", ()):
-        r.pop("wall_time")
-    return d
+    return run_files(root)
 
 
 @pytest.fixture(scope="module")
@@ -81,19 +67,19 @@ def test_killed_spread_resumes_to_the_uninterrupted_result(spread_ref, tmp_path,
         assert not (out / "results.json").exists()
     assert prog.is_file()
     res = run_spread(cfg, out=out)
-    assert _without_times(res.to_dict()) == _without_times(ref.to_dict())
+    assert without_times(res.to_dict()) == without_times(ref.to_dict())
     assert _files(out) == _files(ref_out)            # frames, contacts, walls, beds: equal
     assert not prog.exists() and not pile_prog.exists()
     assert json.loads((out / "run.json").read_text())["status"] == "complete"
-    assert _without_times(json.loads((out / "results.json").read_text())) == \
-        _without_times(json.loads((ref_out / "results.json").read_text()))
+    assert without_times(json.loads((out / "results.json").read_text())) == \
+        without_times(json.loads((ref_out / "results.json").read_text()))
 
 
 def test_finished_spread_is_reused_not_run_again(spread_ref, monkeypatch):
     cfg, ref, out = spread_ref
     kill_when(monkeypatch, lambda s: True)   # any simulation step would fail the test
     res = run_spread(cfg, out=out)
-    assert res == ref or _without_times(res.to_dict()) == _without_times(ref.to_dict())
+    assert res == ref or without_times(res.to_dict()) == without_times(ref.to_dict())
     assert json.loads((out / "run.json").read_text())["status"] == "complete"
 
 
@@ -190,7 +176,7 @@ def test_killed_repose_reuses_finished_replicates(tmp_path, monkeypatch):
     monkeypatch.setattr(repose, "repose_replicate", counting)
     res = run_repose(cfg, out=out)
     assert seeds == [int(cfg["seed"]) + 1]           # the finished replicate is not run again
-    assert _without_times(res.to_dict()) == _without_times(ref.to_dict())
+    assert without_times(res.to_dict()) == without_times(ref.to_dict())
     assert _files(out) == _files(tmp_path / "ref")
     assert not (out / "rep01" / "progress.npz").exists()
 
