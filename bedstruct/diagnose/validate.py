@@ -259,7 +259,11 @@ def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx:
     # replicate noise) plus reading noise; the file states the mean of the repeated
     # experiments with its standard error (both noises over the number of repeats that
     # observed it), as a lab that repeats a test reports it.
-    runs = [sim(base_true, effects, _repeat_seed(seed, k)) for k in range(repeats)]
+    calls = [(dict(base_true), dict(effects), _repeat_seed(seed, k)) for k in range(repeats)]
+    prefetch = getattr(sim, "prefetch", None)
+    if prefetch is not None:  # a parallel simulator runs the repeated experiments side by side
+        prefetch(calls)
+    runs = [sim(*c) for c in calls]
     rng = np.random.default_rng([seed, 99])
     noisy, stated = {}, {}
     for m in design:

@@ -345,3 +345,28 @@ def test_engine_twin_plan_takes_the_effects_in_turn():
     # any half of it (a shard) still covers every effect
     assert {e for _, e in plan[2::2]} == {e for _, e in plan[3::2]} == set("abc")
     assert _twin_plan(["a", "b"], cfg, in_turn=False)[:4] == [("effect", "a")] * 2 + [("effect", "b")] * 2
+
+
+def test_a_twins_repeated_experiments_are_handed_to_a_parallel_simulator_at_once(twin_setup,
+                                                                                 tmp_path):
+    # on the engine with jobs > 1 the repeats run side by side (three calls of ~4 min each
+    # at small), not one after another; the file is the same either way
+    from bedstruct.diagnose.validate import _repeat_seed
+    eff, sim, fps = twin_setup
+    batches = []
+
+    class Parallel:
+        def prefetch(self, calls):
+            batches.append(list(calls))
+
+        def __call__(self, base, effects, seed):
+            return sim(base, effects, seed)
+
+    design = twin_design()
+    args = (dict(BASE_PARAMETERS), {"blade_startup": 0.1}, 11, tmp_path, 11, sim.noise_sd(), 3)
+    with_prefetch = _twin_measurements(design, Parallel(), *args)
+    assert batches == [[(dict(BASE_PARAMETERS), {"blade_startup": 0.1}, _repeat_seed(11, k))
+                        for k in range(3)]]
+    plain = _twin_measurements(design, sim, *args)
+    for m in design:
+        assert np.array_equal(with_prefetch[m.name].values, plain[m.name].values)
