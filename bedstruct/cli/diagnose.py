@@ -193,7 +193,8 @@ def run(args) -> int:
     design = diagnosis_design(ms, cfg.effects)
     sim = make_simulator(cfg, design)
     diag = diagnose(ms, sim, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
-                    replicates=cfg.replicates, seed=cfg.seed if args.seed is None else args.seed,
+                    replicates=cfg.replicates, top_up=cfg.top_up,
+                    seed=cfg.seed if args.seed is None else args.seed,
                     alpha=cfg.alpha, select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
                     max_effects=cfg.max_effects, refine=cfg.refine,
                     confirm_rounds=cfg.confirm_rounds, progress=args.progress)

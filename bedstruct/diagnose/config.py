@@ -6,6 +6,7 @@ parameters recalibration may change, the catalogue and the statistical levels::
     [simulator]
     kind = "surrogate"        # "engine" once bedstruct.workflows provides the hook
     replicates = 4
+    top_up = 4                # more seeds where identifiability is marginal (default 0)
     seed = 0
 
     [base]
@@ -62,6 +63,7 @@ class SimConfig:
     nuisance: tuple[str, ...] = ("cohesion_energy_density",)
     effects: tuple[Effect, ...] = field(default_factory=catalogue)
     replicates: int = 4
+    top_up: int = 0
     seed: int = 0
     alpha: float = 0.05
     select_alpha: float = 0.01
@@ -76,7 +78,7 @@ class SimConfig:
     def as_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "base": dict(self.base), "recalibrate": list(self.nuisance),
                 "effects": [e.name for e in self.effects], "replicates": self.replicates,
-                "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
+                "top_up": self.top_up, "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
                 "gof_alpha": self.gof_alpha,
                 "max_effects": self.max_effects, "refine": self.refine,
                 "confirm_rounds": self.confirm_rounds, "path": self.path}
@@ -147,6 +149,7 @@ def load_sim_config(path) -> SimConfig:
     dg = doc.get("diagnosis", {})
     cfg = SimConfig(kind=kind, base=base, nuisance=nuisance, effects=effects,
                     replicates=_get(sim, "replicates", int, f"{p} [simulator]", 4),
+                    top_up=_get(sim, "top_up", int, f"{p} [simulator]", 0),
                     seed=_get(sim, "seed", int, f"{p} [simulator]", 0),
                     noise=_get(sim, "noise", float, f"{p} [simulator]", 1.0),
                     alpha=_get(dg, "alpha", float, f"{p} [diagnosis]", 0.05),
@@ -158,6 +161,9 @@ def load_sim_config(path) -> SimConfig:
                     engine=dict(doc.get("engine", {})), path=str(p))
     if cfg.replicates < 2:
         raise ConfigError(f"{p} [simulator]: key 'replicates': need >= 2; got {cfg.replicates}")
+    if cfg.top_up < 0:
+        raise ConfigError(f"{p} [simulator]: key 'top_up': expected an integer >= 0; "
+                          f"got {cfg.top_up}")
     for key in ("alpha", "select_alpha", "gof_alpha"):
         if not 0 < getattr(cfg, key) < 1:
             raise ConfigError(f"{p} [diagnosis]: key {key!r} must lie in (0, 1); got {getattr(cfg, key)}")
@@ -169,7 +175,7 @@ def load_sim_config(path) -> SimConfig:
                          "confirm_rounds"}
     if unknown:
         raise ConfigError(f"{p} [diagnosis]: key {sorted(unknown)[0]!r}: unknown")
-    unknown = set(sim) - {"kind", "replicates", "seed", "noise"}
+    unknown = set(sim) - {"kind", "replicates", "top_up", "seed", "noise"}
     if unknown:
         raise ConfigError(f"{p} [simulator]: key {sorted(unknown)[0]!r}: unknown")
     if cfg.max_effects not in (1, 2):

@@ -240,7 +240,7 @@ def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):
 def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mapping[str, float],
              effects: Sequence[Effect] | None = None,
              nuisance: Sequence[str] = ("cohesion_energy_density",), replicates: int = 4,
-             seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
+             top_up: int = 0, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, max_effects: int = 2,
              fingerprints: FingerprintSet | None = None, simulator_name: str | None = None,
              refine: int = 2, confirm_rounds: int = 2, progress: bool = False) -> Diagnosis:
@@ -262,6 +262,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         Base parameters that recalibration may change (projected out of the fingerprints).
     replicates : int
         Replicate seeds per parameter point.
+    top_up : int
+        Further seeds for the base and the effects whose identifiability is marginal
+        after ``replicates`` seeds (see :func:`compute_fingerprints`).
     seed : int
         First seed.
     alpha : float
@@ -295,7 +298,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     if fingerprints is None:
         design = diagnosis_design(measurements, effects)
         fps = compute_fingerprints(simulator, design, base, effects, nuisance=nuisance,
-                                   replicates=replicates, seed=seed, alpha=select_alpha,
+                                   replicates=replicates, top_up=top_up, seed=seed,
+                                   alpha=select_alpha,
                                    simulator_name=name, progress=progress)
     else:
         missing = [e.name for e in effects if e.name not in fingerprints.effect_names]
@@ -440,7 +444,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
             + ": see what to measure next")
 
     nxt = _next_measurements(att, fps)
-    settings = {"replicates": fps.n_replicates, "seed": seed, "alpha": alpha,
+    settings = {"replicates": fps.n_replicates, "top_up": {
+                    "effects": list(fps.topped_up), "seeds": list(fps.top_up_seeds)},
+                "seed": seed, "alpha": alpha,
                 "select_alpha": select_alpha, "gof_alpha": gof_alpha,
                 "max_effects": max_effects, "nuisance": list(fps.nuisance),
                 "base": dict(fps.base), "effects": [e.name for e in effects],

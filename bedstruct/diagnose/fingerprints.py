@@ -8,7 +8,9 @@ two magnitudes agree with linearity within noise, else a monotone interpolation
 parameters (e.g. the cohesion energy density) span the *nuisance* directions: a
 gap along them is closed by recalibrating, not by an effect. Identifiability is
 judged on the calibration observables, whitened by the combined noise, after
-projecting those directions out.
+projecting those directions out. The runs and the set built from them are in
+:mod:`bedstruct.diagnose.fingerprint_runs` (:func:`compute_fingerprints`, re-exported
+here), identifiability in :mod:`bedstruct.diagnose.identifiability`.
 
 .. versionadded:: 0.1
 """
@@ -17,19 +19,16 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from typing import Sequence
 
 import numpy as np
-from scipy import stats
 
 from ..errors import ConfigError
 from .catalogue import Effect
 # identifiability's two public functions live there and are re-exported here
-from .identifiability import _uneven_scatter, assess_fingerprints, nuisance_projector  # noqa: F401
+from .identifiability import assess_fingerprints, nuisance_projector  # noqa: F401
 from .measurements import MeasurementSet
-from .replicates import (Simulator, homogeneous_variance, simulate_replicates,
-                         variance_upper_bound)
-from .where import _nan_mean, _nan_var
+from .where import _nan_mean
 
 __all__ = ["Fingerprint", "FingerprintSet", "compute_fingerprints", "assess_fingerprints",
            "nuisance_projector"]
@@ -63,6 +62,9 @@ class Fingerprint:
         (``sqrt`` of the chi-square the effect at the prior top would add).
     noise : float
         Expected norm of the fingerprint's own estimation noise (same metric).
+    signal_se : float
+        Standard error of ``signal``: the estimation noise along the signal's own
+        direction (at most ``noise``).
     identifiable : bool
         ``signal**2 > threshold + noise**2``: detectable at the prior top with the
         calibration observables.
@@ -92,6 +94,7 @@ class Fingerprint:
     confounded_with: tuple[str, ...] = ()
     identify_with: tuple[str, ...] = ()
     run_var: np.ndarray | None = None
+    signal_se: float = 0.0
 
     def __post_init__(self):
         order = np.argsort(self.nodes)
@@ -172,9 +175,11 @@ class FingerprintSet:
     base : dict
         Base parameters.
     seeds : tuple of int
-        Replicate seeds shared by all runs.
+        Replicate seeds of the base runs: the first :attr:`n_replicates` are shared by
+        every parameter point, the rest (:attr:`top_up_seeds`) were added for the
+        effects in :attr:`topped_up` only.
     base_samples : (R, n) ndarray
-        Replicates at the base parameters.
+        Replicates at the base parameters, one row per seed of :attr:`seeds`.
     sim_var : (n,) ndarray
         Replicate variance of one run, pooled over the parameter points that scatter like
         the base point (all of them unless Bartlett's test sets one aside,
@@ -191,6 +196,12 @@ class FingerprintSet:
     fingerprints : tuple of Fingerprint
     threshold : float
         Chi-square increase an effect needs to be selected (Bonferroni over effects).
+    topped_up : tuple of str
+        Effects whose identifiability was marginal with the shared seeds
+        (:meth:`marginal`) and that were run again with :attr:`top_up_seeds`, as was the
+        base.
+    top_up_seeds : tuple of int
+        The seeds added for them.
     """
 
     design: MeasurementSet
@@ -212,10 +223,42 @@ class FingerprintSet:
     n_runs: int = 0
     meta: dict = field(default_factory=dict)
     sim_dof: np.ndarray | None = None
+    topped_up: tuple[str, ...] = ()
+    top_up_seeds: tuple[int, ...] = ()
 
     @property
     def n_replicates(self) -> int:
-        return self.base_samples.shape[0]
+        """Replicate seeds shared by every parameter point."""
+        return self.base_samples.shape[0] - len(self.top_up_seeds)
+
+    def marginal(self, width: float = 2.0) -> tuple[str, ...]:
+        """Effects whose identifiability is undecided by their own estimation noise.
+
+        An effect is identifiable when ``signal**2 > threshold + noise**2``; it is
+        marginal when its signal lies within ``width`` standard errors
+        (:attr:`Fingerprint.signal_se`) of that bound, so that other replicate seeds
+        could well have judged it the other way.
+
+        Examples
+        --------
+        >>> from dataclasses import replace
+        >>> effect = Effect(name="e", title="e", magnitude="m", unit="1", prior=(0.0, 1.0),
+        ...                 physics="", signature="", sources=(), engine_map=())
+        >>> fp = Fingerprint(effect, np.array([1.0, 2.0]), np.zeros((2, 1)), np.zeros((2, 1)),
+        ...                  np.array([0.0, 1.0, 2.0]), np.zeros((3, 1)), True,
+        ...                  signal=4.1, noise=2.6, signal_se=0.8)
+        >>> fps = FingerprintSet(*[None] * 12, (fp,), threshold=9.55)
+        >>> fps.marginal()  # 4.1 against a bound of 4.04, known to +-0.8
+        ('e',)
+        >>> replace(fps, fingerprints=(replace(fp, signal=6.0),)).marginal()
+        ()
+        """
+        out = []
+        for f in self.fingerprints:
+            bound = float(np.sqrt(self.threshold + f.noise ** 2))
+            if abs(f.signal - bound) < width * f.signal_se:
+                out.append(f.name)
+        return tuple(out)
 
     @property
     def sigma(self) -> np.ndarray:
@@ -323,9 +366,11 @@ class FingerprintSet:
         return replace(self, fingerprints=keep)
 
     def table(self) -> list[dict]:
-        """One row per effect: signal, noise, identifiability and what would identify it."""
-        return [{"effect": f.name, "signal_sigma": f.signal, "noise_sigma": f.noise,
-                 "identifiable": f.identifiable, "nonlinearity": f.nonlinearity(),
+        """One row per effect: signal (with its standard error), noise, identifiability,
+        the seeds behind it and what would identify it."""
+        return [{"effect": f.name, "signal_sigma": f.signal, "signal_se_sigma": f.signal_se,
+                 "noise_sigma": f.noise, "identifiable": f.identifiable,
+                 "seeds": len(self.seeds) if f.name in self.topped_up else self.n_replicates, "nonlinearity": f.nonlinearity(),
                  "confounded_with": list(f.confounded_with),
                  "identify_with": list(f.identify_with)} for f in self.fingerprints]
 
@@ -347,205 +392,5 @@ def _design_sigma(design: MeasurementSet, names) -> np.ndarray:
     return np.concatenate([design[n].uncertainty for n in names])
 
 
-def compute_fingerprints(simulator: Simulator, design: MeasurementSet, base: Mapping[str, float],
-                         effects: Sequence[Effect], *, nuisance: Sequence[str] = ("cohesion_energy_density",),
-                         rel_step: float = 0.05, replicates: int = 4, seed: int = 0,
-                         alpha: float = 0.05, simulator_name: str = "",
-                         progress: bool = False) -> FingerprintSet:
-    """Simulate base, nuisance and effect runs and build the fingerprints.
-
-    Parameters
-    ----------
-    simulator : callable
-        ``simulator(base, effects, seed) -> Observations`` covering ``design``.
-    design : MeasurementSet
-        Observables (calibrate/validate/candidate). Measured observables missing
-        from the simulator output raise ConfigError; candidates it cannot produce
-        are dropped.
-    base : mapping
-        Base parameters (SI).
-    effects : sequence of Effect
-        The catalogue to fingerprint.
-    nuisance : sequence of str
-        Base parameters that recalibration may change.
-    rel_step : float
-        Relative finite-difference step of the nuisance sensitivities.
-    replicates : int
-        Seeds per parameter point (>= 2).
-    seed : int
-        First replicate seed; seeds are ``seed, seed+1, ...``.
-    alpha : float
-        Family-wise level; the selection threshold is the chi-square(1) quantile
-        at ``alpha / n_effects``.
-
-    Returns
-    -------
-    FingerprintSet
-    """
-    if replicates < 2:
-        raise ConfigError(f"replicates: need >= 2 replicate seeds; got {replicates}")
-    base = dict(base)
-    for p in nuisance:
-        if p not in base:
-            raise ConfigError(f"recalibrate: parameter {p!r} is not among the base parameters "
-                              f"{sorted(base)}")
-    seeds = tuple(int(seed) + i for i in range(replicates))
-
-    def step(p):  # the nuisance parameter's finite-difference point and step
-        h = rel_step * abs(base[p]) if base[p] != 0 else rel_step
-        return dict(base, **{p: base[p] + h}), h
-
-    if hasattr(simulator, "prefetch"):
-        # every point's replicates at once (parallel simulators), the probe below among them:
-        # run on its own first, it would keep all but one process waiting (the engine checks
-        # its design's kinds when it is made)
-        points = [(dict(base), {})] + [(step(p)[0], {}) for p in nuisance]
-        points += [(dict(base), {e.name: m}) for e in effects for m in e.reference_magnitudes]
-        simulator.prefetch([(b, e, s) for b, e in points for s in seeds], progress=progress)
-    probe = simulator(dict(base), {}, seeds[0])
-    names = []
-    for m in design:
-        if m.name in probe:
-            if len(probe[m.name]) != m.n_components:
-                raise ConfigError(f"observable {m.name!r}: simulator gives {len(probe[m.name])} "
-                                  f"components, the design {m.n_components}")
-            names.append(m.name)
-        elif m.role != "candidate":
-            raise ConfigError(f"observable {m.name!r}: the simulator does not produce it "
-                              f"(it produces {sorted(probe.names)})")
-    design = design.__class__(tuple(design[n] for n in names), design.title, design.source,
-                              design.path, design.notes)
-    if not (design.roles() == "calibrate").any():
-        raise ConfigError("measurements: no observable has role 'calibrate'; the attribution is "
-                          "fitted on calibration observables only")
-
-    def run(params, eff):
-        return simulate_replicates(simulator, params, eff, seeds, names)
-
-    progress_bar = None
-    if progress:
-        from tqdm import tqdm
-        progress_bar = tqdm(total=1 + len(nuisance) + 2 * len(effects), desc="fingerprints")
-    groups = []   # replicate samples of every parameter point (pooled run-to-run scatter)
-    point_names = []   # what each group is, for the notes
-    base_s = run(base, {})
-    groups.append(base_s)
-    point_names.append("base")
-    if progress_bar:
-        progress_bar.update()
-    sens = np.zeros((base_s.shape[1], len(nuisance)))
-    steps = {}
-    for j, p in enumerate(nuisance):
-        plus, h = step(p)
-        sp = run(plus, {})
-        groups.append(sp)
-        point_names.append(f"{p} {plus[p]:.4g}")
-        sens[:, j] = _nan_mean(sp - base_s) / h
-        steps[p] = float(h)
-        if progress_bar:
-            progress_bar.update()
-    paired = []
-    for e in effects:
-        for m in e.reference_magnitudes:
-            se = run(base, {e.name: m})
-            groups.append(se)
-            point_names.append(f"{e.name} {m:g}")
-            paired.append(se - base_s)
-            if progress_bar:
-                progress_bar.update()
-    if progress_bar:
-        progress_bar.close()
-    n_runs = replicates * len(groups)
-    # one scatter pooled over the points that scatter like the base: a point far from it
-    # (e.g. a cohesive block that stands or falls) keeps its own
-    sim_var_estimate, sim_dof, aside, p_scatter = homogeneous_variance(groups, alpha=0.01)
-    sim_var = sim_var_estimate * variance_upper_bound(sim_dof)
-    first_effect = 1 + len(nuisance)
-    own = [np.where(aside[g], _nan_var(groups[g]), sim_var_estimate) for g in range(len(groups))]
-    run_var_all = [np.vstack(own[first_effect + 2 * k:first_effect + 2 * k + 2])
-                   for k in range(len(effects))]
-
-    # Missing data: a run that could not observe a component (e.g. no heap to fit) gives
-    # NaN there. Means and paired differences use the finite replicates; an observable
-    # that some parameter point never observed has no fingerprint and is dropped.
-    D_all = np.array([_nan_mean(d) for d in paired]).reshape(len(paired), -1)
-    n_pairs = np.array([np.isfinite(d).sum(axis=0) for d in paired]).reshape(len(paired), -1)
-    sd_pairs = np.array([np.sqrt(_nan_var(d)) for d in paired]).reshape(len(paired), -1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # one finite pair: its scatter from the pooled run variance (two runs differ)
-        SE_all = np.where(n_pairs >= 2, sd_pairs / np.sqrt(np.maximum(n_pairs, 1)),
-                          np.sqrt(2.0 * sim_var / np.maximum(n_pairs, 1)))
-    # an effect strong enough to remove what is observed (e.g. no heap left at the prior
-    # top) leaves one magnitude unobserved: its response is the other's, scaled linearly
-    comp = design.component_names()
-    extrapolated = {}
-    for k, e in enumerate(effects):
-        mags = np.asarray(e.reference_magnitudes, float)
-        for a, b in ((0, 1), (1, 0)):
-            lost = ~np.isfinite(D_all[2 * k + a]) & np.isfinite(D_all[2 * k + b])
-            if lost.any():
-                r = mags[a] / mags[b]
-                D_all[2 * k + a, lost] = D_all[2 * k + b, lost] * r
-                SE_all[2 * k + a, lost] = SE_all[2 * k + b, lost] * abs(r)
-                extrapolated.setdefault(e.name, []).extend(
-                    f"{comp[i]} at {mags[a]:g} (from {mags[b]:g})" for i in np.flatnonzero(lost))
-    usable = np.isfinite(sim_var) & (np.isfinite(base_s).sum(axis=0) > 0) \
-        & np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(D_all), axis=0) \
-        & np.all(np.isfinite(SE_all), axis=0)
-    stacked = np.concatenate(groups, axis=0)
-    missing, unobservable = {}, {}
-    for n in names:
-        i = comp == n
-        k = int(np.sum(~np.all(np.isfinite(stacked[:, i]), axis=1)))
-        if k:
-            missing[n] = k
-        if not usable[i].all():
-            unobservable[n] = (f"not observed in {k} of {n_runs} fingerprint runs (too few to "
-                               f"estimate its response to every parameter)")
-    if unobservable:
-        log.warning("fingerprints: observable(s) %s dropped: the simulator could not observe "
-                    "them often enough", sorted(unobservable))
-    keep_names = [n for n in names if n not in unobservable]
-    keep = np.isin(comp, keep_names)
-    design = design.__class__(tuple(design[n] for n in keep_names), design.title, design.source,
-                              design.path, design.notes)
-    roles = design.roles()
-    rows_cal, rows_val, rows_cand = roles == "calibrate", roles == "validate", roles == "candidate"
-    if not rows_cal.any():
-        raise ConfigError(f"the simulator could not observe any calibration observable often "
-                          f"enough to fingerprint it ({unobservable})")
-    base_s, sim_var, sens, sim_dof = base_s[:, keep], sim_var[keep], sens[keep], sim_dof[keep]
-    uneven = _uneven_scatter([g[:, keep] for g in groups], point_names, design,
-                             p_scatter[keep], aside[:, keep])
-    if uneven:
-        log.warning("fingerprints: the run-to-run scatter differs between parameter points "
-                    "for %s; points that scatter unlike the base keep their own",
-                    sorted(uneven))
-    D_all, SE_all = D_all[:, keep], SE_all[:, keep]
-
-    fps = []
-    for k, e in enumerate(effects):
-        m1, m2 = e.reference_magnitudes
-        D, SE = D_all[2 * k:2 * k + 2], SE_all[2 * k:2 * k + 2]
-        # Keep the quadratic term only where the two magnitudes disagree with a linear
-        # response beyond the fingerprints' own estimation noise (else it fits noise).
-        dev = D[1] / m2 - D[0] / m1
-        se_dev = np.sqrt((SE[1] / m2) ** 2 + (SE[0] / m1) ** 2)
-        ok = se_dev > 0
-        if ok.any():
-            curv_chi2 = float(np.sum((dev[ok] / se_dev[ok]) ** 2))
-            curved = curv_chi2 > stats.chi2.isf(0.01, int(ok.sum())) or (~ok & (dev != 0)).any()
-        else:
-            curved = bool(np.any(dev != 0))
-        nodes = np.array([0.0, m1, m2])
-        resp = np.vstack([np.zeros(D.shape[1]), D])
-        fps.append(Fingerprint(e, np.array([m1, m2]), D, SE, nodes, resp, not curved,
-                               run_var=run_var_all[k][:, keep]))
-    threshold = selection_threshold(alpha, len(effects))
-    out = FingerprintSet(design, tuple(keep_names), rows_cal, rows_val, rows_cand, base, seeds,
-                         base_s, sim_var, _design_sigma(design, keep_names), tuple(nuisance), sens,
-                         tuple(fps), threshold, alpha, simulator_name, n_runs,
-                         {"missing_runs": missing, "unobservable": unobservable,
-                          "extrapolated": extrapolated, "uneven_scatter": uneven,
-                          "sensitivity_steps": steps}, sim_dof)
-    return assess_fingerprints(out)
+# the computation lives beside the types it builds and is re-exported here
+from .fingerprint_runs import compute_fingerprints  # noqa: E402

@@ -99,6 +99,11 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
         P_c = nuisance_projector(fps.sensitivities[cal] / sig_c[:, None])
         signal = float(np.linalg.norm(P_c @ (D[1][cal] / sig_c)))
         noise = float(np.sqrt(np.sum((SE[1][cal] / sig_c) ** 2)))
+        # the estimation noise along the signal's own direction: how far the signal
+        # itself is known (the projector leaves that direction unchanged)
+        f_c = P_c @ (D[1][cal] / sig_c)
+        u = f_c / signal if signal > 0 else f_c
+        signal_se = float(np.sqrt(np.sum((u * SE[1][cal] / sig_c) ** 2)))
         identifiable = signal ** 2 > fps.threshold + noise ** 2
         conf = []
         for j, other in enumerate(projected):
@@ -123,6 +128,7 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
                     ident.append(nm)
                 if len(ident) == 3:
                     break
-        out.append(replace(fp, signal=signal, noise=noise, identifiable=bool(identifiable),
+        out.append(replace(fp, signal=signal, noise=noise, signal_se=signal_se,
+                           identifiable=bool(identifiable),
                            confounded_with=tuple(conf), identify_with=tuple(ident)))
     return replace(fps, fingerprints=tuple(out))

@@ -80,11 +80,17 @@ def diagnosis_report(diag, *, title: str | None = None):
         s.text = ("Change of every observable per effect at the top of its prior, whitened by the "
                   "combined noise; identifiability judged on calibration observables after "
                   "projecting out what recalibrating " + ", ".join(fps.nuisance) + " absorbs.")
-        s.tables.append(Table(["effect", "signal (sigma)", "noise (sigma)", "identifiable",
-                               "confounded with", "would be identified by"],
-                              [[r["effect"], _fmt(r["signal_sigma"]), _fmt(r["noise_sigma"]),
-                                r["identifiable"], ", ".join(r["confounded_with"]),
+        s.tables.append(Table(["effect", "signal (sigma)", "its standard error", "noise (sigma)",
+                               "identifiable", "seeds", "confounded with",
+                               "would be identified by"],
+                              [[r["effect"], _fmt(r["signal_sigma"]), _fmt(r["signal_se_sigma"]),
+                                _fmt(r["noise_sigma"]), r["identifiable"], r["seeds"],
+                                ", ".join(r["confounded_with"]),
                                 _identified_by(fps, r)] for r in fps.table()]))
+        if fps.topped_up:
+            s.text += (f" {', '.join(fps.topped_up)}: identifiability marginal on the "
+                       f"{fps.n_replicates} shared seeds, so run again with the base on "
+                       f"{len(fps.top_up_seeds)} more.")
         from .separation import nearest_imitations
         s.tables.append(Table(["effect", "closest imitation by", "unique part", "told apart from a gap of (sigma)",
                                "signal at prior top (sigma)"],

@@ -52,11 +52,13 @@ PRESETS = {
 }
 #: Twin counts and replicate seeds per preset on the DEM engine (``simulator="engine"``):
 #: one engine call costs ~10-60 s on one core, so the engine presets are much smaller.
+#: ``top_up``: seeds added for the base and the effects whose identifiability is marginal
+#: after ``replicates`` (:func:`compute_fingerprints`).
 ENGINE_PRESETS = {
     "mini": dict(per_effect=0, null=1, out_of_catalogue=0, replicates=2, effects=("wall_friction",)),
     "tiny": dict(per_effect=1, null=1, out_of_catalogue=0, replicates=2,
                  effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup")),
-    "small": dict(per_effect=2, null=4, out_of_catalogue=0, replicates=3,
+    "small": dict(per_effect=2, null=4, out_of_catalogue=0, replicates=3, top_up=3,
                   effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup",
                            "non_sphericity")),
 }
@@ -476,7 +478,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         design = diagnosis_design(measured, _catalogue())
         sim = diagnosis_simulator(design, dict(engine or {"preset": engine_scale_model(preset)}))
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
-                               alpha=select_alpha, simulator_name=simulator, progress=progress)
+                               top_up=cfg.get("top_up", 0), alpha=select_alpha, simulator_name=simulator, progress=progress)
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
     # twins are sized in the noise their own diagnosis sees (their files state one run's
     # scatter on top of the reading noise), not in the design's reading noise alone
@@ -495,7 +497,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "gof_alpha": gof_alpha, "refine": int(refine),
                  "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
                  "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
-                 "twin_repeats": twin_repeats}
+                 "twin_repeats": twin_repeats, "top_up": int(cfg.get("top_up", 0))}
     done = _records_done(records, signature)
     twins, failed = [], []
     iterator = enumerate(plan)
@@ -557,6 +559,11 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 "out_of_catalogue_per_effect": cfg["out_of_catalogue"] or (
                     "each effect twin, its effect removed" if reuse_ooc else 0),
                 "effects": [e.name for e in effects], "refine": refine,
+                "top_up": {"seeds": list(fps.top_up_seeds), "effects": {
+                    name: dict(fps.meta["top_up"][name], signal_after=fps[name].signal,
+                               signal_se_after=fps[name].signal_se,
+                               identifiable_after=fps[name].identifiable)
+                    for name in fps.topped_up}},
                 "failed": failed, "unobservable": dict(fps.meta.get("unobservable", {})),
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
                 "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),

@@ -34,10 +34,16 @@ measured = V.engine_twin_design("full")
 design = diagnosis_design(measured, catalogue())
 sim = diagnosis_simulator(design, {"preset": "small", "cache": cache})
 fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=0,
+                           top_up=cfg.get("top_up", 0),
                            alpha=0.01, simulator_name="engine")
 print("design noise (fingerprints as computed):")
 for f in fps.fingerprints:
-    print(f"  {f.name:18s} signal {f.signal:6.1f} noise {f.noise:5.1f} identifiable {f.identifiable}")
+    print(f"  {f.name:18s} signal {f.signal:6.2f} +- {f.signal_se:4.2f} noise {f.noise:5.2f} "
+          f"bound {np.sqrt(fps.threshold + f.noise ** 2):5.2f} identifiable {f.identifiable}")
+for name in fps.topped_up:
+    before = fps.meta["top_up"][name]
+    print(f"  {name} topped up on seeds {fps.top_up_seeds}: before signal {before['signal']:.2f} "
+          f"+- {before['signal_se']:.2f}, identifiable {before['identifiable']}")
 comp = fps.design.component_names()
 rows_meas = ~fps.rows_candidate
 twin_repeats = 3
