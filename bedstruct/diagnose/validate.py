@@ -478,7 +478,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         design = diagnosis_design(measured, _catalogue())
         sim = diagnosis_simulator(design, dict(engine or {"preset": engine_scale_model(preset)}))
     fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
-                               top_up=cfg.get("top_up", 0), alpha=select_alpha, simulator_name=simulator, progress=progress)
+                               top_up=cfg.get("top_up", 0), alpha=select_alpha,
+                               simulator_name=simulator, progress=progress)
     intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
     # twins are sized in the noise their own diagnosis sees (their files state one run's
     # scatter on top of the reading noise), not in the design's reading noise alone
