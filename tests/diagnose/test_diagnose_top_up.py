@@ -117,6 +117,11 @@ def test_a_topped_up_set_diagnoses_and_refines_on_its_seeds():
     assert diag.attribution.selected[0].effect == "A"
     assert diag.settings["top_up"] == {"effects": ["M"], "seeds": [3, 4, 5, 6]}
     assert diag.settings["replicates"] == 3
+    # the report names the topped-up effect and gives each effect's seeds
+    section = diag.report().section("fingerprints")
+    assert "M: identifiability marginal on the 3 shared seeds" in section.text
+    seeds = {row[0]: row[5] for row in section.tables[0].rows}
+    assert seeds == {"A": 3, "M": 7, "Z": 3}
 
 
 def test_config_top_up(tmp_path):
