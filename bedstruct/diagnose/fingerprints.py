@@ -132,6 +132,22 @@ class Fingerprint:
             return self._f(hi) + self._df(hi) * (a - hi)
         return self._f(a)
 
+    def predict_se(self, a: float) -> np.ndarray:
+        """Standard error of :meth:`predict` at ``a``, from the replicate scatter.
+
+        ``delta_se`` interpolated linearly over the simulated magnitudes (0 at no effect),
+        proportional to ``a`` beyond them; an approximation for the fitted line and for
+        nodes added by refinement, which have no replicates of their own.
+        """
+        m = np.r_[0.0, self.magnitudes]
+        se = np.vstack([np.zeros_like(self.delta_se[0]), self.delta_se])
+        a = abs(float(a))
+        if a >= m[-1]:
+            return se[-1] * (a / m[-1])
+        j = int(np.searchsorted(m, a, side="right")) - 1
+        w = (a - m[j]) / (m[j + 1] - m[j])
+        return (1.0 - w) * se[j] + w * se[j + 1]
+
     def derivative(self, a: float) -> np.ndarray:
         """d(prediction)/d(magnitude) at ``a``."""
         a = float(a)

@@ -22,6 +22,7 @@ twins made by LIGGGHTS and diagnosed on the engine (``simulator = "liggghts"``,
 from __future__ import annotations
 
 import logging
+import math
 import tempfile
 import time
 from dataclasses import replace
@@ -323,13 +324,19 @@ def _twin_sigma(fps, intrinsic, repeats: int = 1) -> np.ndarray:
     return np.sqrt((fps.sigma_meas ** 2 + sd ** 2) / repeats + fps.sim_var / n)
 
 
-def _projected_gap(fps, name: str, sigma=None):
+def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
     """``gap(a)``: the recalibration-projected gap of effect ``name`` at magnitude ``a``, in sigma.
 
-    The norm, on the calibration observables, of the fingerprint's predicted change with the
-    part recalibration absorbs projected out, in the noise ``sigma`` (per component, default
+    The norm, on the calibration observables, of the effect's change with the part
+    recalibration absorbs projected out, in the noise ``sigma`` (per component, default
     :attr:`FingerprintSet.sigma`; a twin's is :func:`_twin_sigma`; a callable ``sigma(a)``
     gives the noise at each magnitude, as for a twin whose scatter depends on it).
+
+    The fingerprint's predicted change carries its own estimation noise, which adds
+    ``sum_i P_ii (se_i / sigma_i)**2`` to the expected squared norm (``se`` from
+    :meth:`Fingerprint.predict_se`). With ``debias`` (twin rule 4) that is subtracted, so
+    the gap is an unbiased estimate of the true effect's squared gap (its square root; 0
+    where the noise exceeds it); without it, the fingerprint's prediction as it is.
     """
     from .fingerprints import nuisance_projector
     cal = fps.rows_calibrate
@@ -339,17 +346,20 @@ def _projected_gap(fps, name: str, sigma=None):
         s = sigma(a) if callable(sigma) else (fps.sigma if sigma is None else sigma)
         sig = np.asarray(s, dtype=float)[cal]
         P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
-        return float(np.linalg.norm(P @ (fp.predict(a)[cal] / sig)))
+        g2 = float(np.sum((P @ (fp.predict(a)[cal] / sig)) ** 2))
+        if debias:
+            g2 -= float(np.diag(P) @ (fp.predict_se(a)[cal] / sig) ** 2)
+        return math.sqrt(max(g2, 0.0))
     return gap
 
 
-def _magnitude_for_snr(fps, name: str, snr: float, sigma=None) -> float:
+def _magnitude_for_snr(fps, name: str, snr: float, sigma=None, *, debias: bool = False) -> float:
     """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
 
-    ``sigma`` as in :func:`_projected_gap`. Solved by bisection on the fingerprint within the
-    prior range (the prior top when even that is weaker).
+    ``sigma`` and ``debias`` as in :func:`_projected_gap`. Solved by bisection on the
+    fingerprint within the prior range (the prior top when even that is weaker).
     """
-    norm = _projected_gap(fps, name, sigma)
+    norm = _projected_gap(fps, name, sigma, debias=debias)
     lo, hi = 0.0, fps[name].effect.prior[1]
     if norm(hi) <= snr:
         return hi
@@ -529,7 +539,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 # below the draw when the prior top is weaker: such a twin is scored as
                 # drawn, and its record says how strong it could be
                 gaps = {"requested_gap_sigma": snr,
-                        "twin_gap_sigma": _projected_gap(fps, name, own_sigma)(magnitude)}
+                        "twin_gap_sigma": _projected_gap(fps, name, own_sigma)(magnitude),
+                        "twin_gap_debiased_sigma": _projected_gap(fps, name, own_sigma,
+                                                                  debias=True)(magnitude)}
             twin_run_seed = tseed * 100003 + 5000 + i
             truth = {"true_effect": name, "true_magnitude": magnitude,
                      "true_cohesion": base_true["cohesion_energy_density"], **gaps}

@@ -209,6 +209,8 @@ def test_tiny_validation_meets_the_goals():
     eff = [t for t in r.twins if t["type"] == "effect"]
     assert all(5.0 <= t["requested_gap_sigma"] <= 10.0 for t in eff)
     assert all(t["twin_gap_sigma"] <= t["requested_gap_sigma"] * (1 + 1e-6) for t in eff)
+    # less the fingerprint's own estimation noise, each twin's gap is estimated lower
+    assert all(0 <= t["twin_gap_debiased_sigma"] < t["twin_gap_sigma"] for t in eff)
     uncapped = [t for t in eff if t not in capped_twins(r.twins)]
     assert uncapped and all(t["twin_gap_sigma"] == pytest.approx(t["requested_gap_sigma"], rel=1e-6)
                             for t in uncapped)

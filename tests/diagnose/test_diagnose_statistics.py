@@ -409,3 +409,43 @@ def test_an_effect_close_to_another_is_reported_not_told_apart_at_a_small_gap():
     y = _real(sim, design, effects={"C": 1.0}, seed=7)
     att = attribute(y - fps.base_samples.mean(axis=0), fps)
     assert att.selected[0].effect == "C" and not_told_apart(att, fps) == []
+
+
+
+def test_twins_sized_by_a_noisy_fingerprint_carry_less_than_requested():
+    # A fingerprint's estimation noise adds to its predicted gap, so a twin sized by the
+    # prediction (twin rule 3) carries less than requested: the validation's twins are
+    # weaker than stated, never stronger. Less that noise, the squared gap is estimated
+    # without bias (the toy's true response is known).
+    from bedstruct.diagnose.validate import _magnitude_for_snr, _projected_gap
+    design = toy_design(N, n_validate=3)
+    effect = {"A": 0.6 * F["A"]}
+    sim = ToySimulator(design, sens=J, effects=effect, noise_sd=1.0)
+    carried, true2, plain2, debiased2 = [], [], [], []
+    for seed in range(60):
+        fps = compute_fingerprints(sim, design, {"k": 1.0}, [EFFECTS[0]], nuisance=("k",),
+                                   replicates=3, alpha=0.01, seed=100 * seed)
+        cal = fps.rows_calibrate
+        sig = fps.sigma[cal]
+        P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
+        true_gap = float(np.linalg.norm(P @ (effect["A"][cal] / sig)))   # per unit magnitude
+        a = _magnitude_for_snr(fps, "A", 1.2)
+        assert a < 1.0 and _projected_gap(fps, "A")(a) == pytest.approx(1.2, rel=1e-6)
+        carried.append(true_gap * a)
+        true2.append(true_gap ** 2)
+        plain2.append(_projected_gap(fps, "A")(1.0) ** 2)
+        debiased2.append(_projected_gap(fps, "A", debias=True)(1.0) ** 2)
+    assert np.median(carried) < 0.92 * 1.2 and np.mean(carried) < 0.92 * 1.2
+    assert np.mean(plain2) > 1.15 * np.mean(true2)
+    assert np.mean(debiased2) == pytest.approx(np.mean(true2), rel=0.12)
+
+
+def test_prediction_standard_error_follows_the_simulated_magnitudes():
+    _, _, fps = _setup(noise_sd=0.5)
+    f = fps["A"]
+    m1, m2 = f.magnitudes
+    assert np.all(f.predict_se(0.0) == 0)
+    np.testing.assert_allclose(f.predict_se(m1), f.delta_se[0])
+    np.testing.assert_allclose(f.predict_se(m2), f.delta_se[1])
+    np.testing.assert_allclose(f.predict_se(0.5 * (m1 + m2)), 0.5 * (f.delta_se[0] + f.delta_se[1]))
+    np.testing.assert_allclose(f.predict_se(2 * m2), 2 * f.delta_se[1])
