@@ -5,8 +5,8 @@
   bedstruct diagnose validate --preset mini|tiny|small
                              [--simulator surrogate|engine|liggghts] [--campaign seed|full]
                              [--sim CONFIG] [--cache DIR] [--jobs N] [--seed S] [--twin-seed S]
-                             [--records FILE] [--shard K/N] [--twin-repeats R]
-                             [--out DIR] [--json] [--progress]
+                             [--records FILE [--records-only]] [--shard K/N]
+                             [--twin-repeats R] [--out DIR] [--json] [--progress]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -24,7 +24,8 @@ them on the engine (tiny only). ``--cache DIR`` keeps every engine run on disk f
 reruns; ``--jobs N`` runs engine calls in N processes; ``--preset mini`` is a
 one-effect smoke run; ``--twin-seed`` draws a further batch of twins on the same
 fingerprints; ``--records FILE`` appends each twin's record as it completes and
-resumes from the records already there; ``--shard K/N`` runs every N-th twin from
+resumes from the records already there (with ``--records-only`` it scores them and
+runs no twin: the table of a partial run or of shards merged with ``cat``); ``--shard K/N`` runs every N-th twin from
 the K-th, to split one validation over processes or machines; ``--twin-repeats R``
 makes each twin's file the mean of R repeated experiments. Options of one mode given
 to the other are a usage error (exit 2). Every output names its simulator
@@ -65,6 +66,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--records", metavar="FILE",
                         help="validate: append each twin's record to this JSON-lines file as it "
                              "completes; twins already recorded there are not rerun")
+    parser.add_argument("--records-only", action="store_true", default=None,
+                        help="validate: score the twins recorded in --records FILE and run none "
+                             "(a partial or sharded run's table; fingerprints from --cache)")
     parser.add_argument("--shard", metavar="K/N", type=_shard,
                         help="validate: run only twins i with i %% N == K (0 <= K < N)")
     parser.add_argument("--twin-repeats", type=int, default=None, metavar="R",
@@ -97,7 +101,8 @@ def _write_json(path, obj) -> None:
 
 #: Options of ``diagnose validate`` alone, with their defaults there.
 _VALIDATE_ONLY = {"preset": "tiny", "simulator": "surrogate", "twin_seed": None,
-                  "campaign": "seed", "records": None, "shard": None, "twin_repeats": 1}
+                  "campaign": "seed", "records": None, "shard": None, "twin_repeats": 1,
+                  "records_only": False}
 
 
 def _misplaced(args, names) -> list[str]:
@@ -131,7 +136,7 @@ def _run_validate(args) -> int:
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
                       campaign=args.campaign, records=args.records, shard=args.shard,
-                      twin_repeats=args.twin_repeats)
+                      twin_repeats=args.twin_repeats, records_only=args.records_only)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)
@@ -141,8 +146,10 @@ def _run_validate(args) -> int:
         print_json(_plain(compact))
     else:
         failed = result.settings.get("failed") or []
+        not_run = result.settings.get("not_run") or []
         print(f"validation ({result.preset}, simulator = {result.simulator}; twins: {len(result.twins)}"
-              + (f", failed: {len(failed)}" if failed else "") + ")")
+              + (f", failed: {len(failed)}" if failed else "")
+              + (f", not run: {len(not_run)}" if not_run else "") + ")")
         for k, g in result.goals.items():
             print(f"  {k:30s} {g['value']:.3f}   goal {g['goal']:8s} {'met' if g['met'] else 'NOT MET'}")
         print(f"  {'null_gap_flagged':30s} {result.null_gap_flagged:.3f}")

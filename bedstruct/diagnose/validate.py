@@ -22,7 +22,6 @@ twins made by LIGGGHTS and diagnosed on the engine (``simulator = "liggghts"``,
 from __future__ import annotations
 
 import logging
-import math
 import tempfile
 import time
 from dataclasses import replace
@@ -34,10 +33,11 @@ from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
 from .diagnosis import diagnose, diagnosis_design
 from .fingerprints import compute_fingerprints
-from .measurements import MeasurementSet, Observations, load_measurements, measurement_from_dict, \
-    write_measurements
+from .measurements import MeasurementSet, measurement_from_dict
 from .separation import not_told_apart
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
+from .twins import (_intrinsic_sd, _magnitude_for_snr, _projected_gap, _twin_measurements,
+                    _twin_plan, _twin_sigma)
 from .validation_scores import GOALS, ValidationResult, _records_done, score_twins
 
 __all__ = ["PRESETS", "ENGINE_PRESETS", "twin_design", "engine_twin_design", "engine_scale_model",
@@ -251,143 +251,12 @@ def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, record
     return rec
 
 
-def _repeat_seed(seed: int, k: int) -> int:
-    """Seed of the ``k``-th repeated experiment of a twin (the first is the twin's own)."""
-    return int(seed) + 7919 * int(k)
-
-
-def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx: int,
-                       intrinsic, repeats: int = 1) -> MeasurementSet:
-    # Each 'real' experiment carries the run-to-run scatter of the process (the simulator's
-    # replicate noise) plus reading noise; the file states the mean of the repeated
-    # experiments with its standard error (both noises over the number of repeats that
-    # observed it), as a lab that repeats a test reports it.
-    calls = [(dict(base_true), dict(effects), _repeat_seed(seed, k)) for k in range(repeats)]
-    prefetch = getattr(sim, "prefetch", None)
-    if prefetch is not None:  # a parallel simulator runs the repeated experiments side by side
-        prefetch(calls)
-    runs = [sim(*c) for c in calls]
-    rng = np.random.default_rng([seed, 99])
-    noisy, stated = {}, {}
-    for m in design:
-        vals = np.array([r[m.name] + m.uncertainty * rng.standard_normal(m.n_components)
-                         for r in runs])
-        seen = np.isfinite(vals).sum(axis=0)
-        with np.errstate(invalid="ignore"):
-            noisy[m.name] = np.where(seen > 0, np.nansum(vals, axis=0) / np.maximum(seen, 1), np.nan)
-        stated[m.name] = np.sqrt((m.uncertainty ** 2 + intrinsic[m.name] ** 2) / np.maximum(seen, 1))
-    twin = design.with_values(Observations(noisy, source="twin"),
-                              uncertainty=Observations(stated), provenance="synthetic twin")
-    # what the 'experiment' could not observe (e.g. no heap to fit) is not in its file
-    seen = tuple(m for m in twin.measurements if np.all(np.isfinite(m.values)))
-    lost = [m.name for m in twin.measurements if not np.all(np.isfinite(m.values))]
-    if lost:
-        log.info("twin %d: not observable in its run, left out of its file: %s", idx, lost)
-    twin = MeasurementSet(seen, title=f"twin {idx}", source="synthetic twin (withheld truth)",
-                          notes=(f"not observable in the twin's run: {', '.join(lost)}" if lost else ""))
-    path = write_measurements(twin, folder / f"twin_{idx:03d}.toml")
-    # the file round trip checks the format; plausible ranges are for measured numbers
-    return load_measurements(path, check_range=False)
-
-
-def _twin_plan(effect_names, cfg: dict, *, in_turn: bool) -> list[tuple[str, str | None]]:
-    """The twins to run, as ``(kind, effect)``.
-
-    ``in_turn`` (engine twins, few and slow): the null twins first, then the effects in
-    turn, so that a partial run, or any shard of it, covers every effect.
-    """
-    plan = [("effect", e) for e in effect_names for _ in range(cfg["per_effect"])]
-    plan += [("null", None)] * cfg["null"]
-    plan += [("out_of_catalogue", e) for e in effect_names for _ in range(cfg["out_of_catalogue"])]
-    if in_turn:
-        rank = {e: j for j, e in enumerate(effect_names)}
-        turn, keyed = {}, []
-        for k in plan:
-            keyed.append(((k[0] != "null", turn.get(k, 0), rank.get(k[1], -1)), k))
-            turn[k] = turn.get(k, 0) + 1
-        plan = [k for _, k in sorted(keyed, key=lambda t: t[0])]
-    return plan
-
-
-def _twin_sigma(fps, intrinsic, repeats: int = 1) -> np.ndarray:
-    """Per component, the noise of ``twin - mean(base runs)`` as the twin's diagnosis sees it.
-
-    The twin's stated uncertainty (reading noise and one run's scatter, over the number of
-    repeated experiments) combined with the base runs' mean, i.e.
-    :attr:`FingerprintSet.sigma` with the twin's file in place of the design's uncertainties.
-    """
-    comp = fps.design.component_names()
-    sd = np.zeros(len(comp))
-    for name in fps.names:
-        sd[comp == name] = np.asarray(intrinsic[name], dtype=float)
-    n = np.maximum(np.sum(np.isfinite(fps.base_samples), axis=0), 1)
-    return np.sqrt((fps.sigma_meas ** 2 + sd ** 2) / repeats + fps.sim_var / n)
-
-
-def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
-    """``gap(a)``: the recalibration-projected gap of effect ``name`` at magnitude ``a``, in sigma.
-
-    The norm, on the calibration observables, of the effect's change with the part
-    recalibration absorbs projected out, in the noise ``sigma`` (per component, default
-    :attr:`FingerprintSet.sigma`; a twin's is :func:`_twin_sigma`; a callable ``sigma(a)``
-    gives the noise at each magnitude, as for a twin whose scatter depends on it).
-
-    The fingerprint's predicted change carries its own estimation noise, which adds
-    ``sum_i P_ii (se_i / sigma_i)**2`` to the expected squared norm (``se`` from
-    :meth:`Fingerprint.predict_se`). With ``debias`` (twin rule 4) that is subtracted, so
-    the gap is an unbiased estimate of the true effect's squared gap (its square root; 0
-    where the noise exceeds it); without it, the fingerprint's prediction as it is.
-    """
-    from .fingerprints import nuisance_projector
-    cal = fps.rows_calibrate
-    fp = fps[name]
-
-    def gap(a):
-        s = sigma(a) if callable(sigma) else (fps.sigma if sigma is None else sigma)
-        sig = np.asarray(s, dtype=float)[cal]
-        P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
-        g2 = float(np.sum((P @ (fp.predict(a)[cal] / sig)) ** 2))
-        if debias:
-            g2 -= float(np.diag(P) @ (fp.predict_se(a)[cal] / sig) ** 2)
-        return math.sqrt(max(g2, 0.0))
-    return gap
-
-
-def _magnitude_for_snr(fps, name: str, snr: float, sigma=None, *, debias: bool = False) -> float:
-    """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
-
-    ``sigma`` and ``debias`` as in :func:`_projected_gap`. Solved by bisection on the
-    fingerprint within the prior range (the prior top when even that is weaker).
-    """
-    norm = _projected_gap(fps, name, sigma, debias=debias)
-    lo, hi = 0.0, fps[name].effect.prior[1]
-    if norm(hi) <= snr:
-        return hi
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if norm(mid) < snr else (lo, mid)
-    return 0.5 * (lo + hi)
-
-
-def _intrinsic_sd(fps, effect: str | None = None, magnitude: float | None = None) -> Observations:
-    """Per-observable standard deviation of one simulator run at a twin's parameter point.
-
-    The replicate scatter itself, not the upper confidence bound the diagnosis puts on it
-    (:attr:`FingerprintSet.sim_var`): a twin's run scatters like any run at its point, and
-    its file states that scatter as the standard deviation of repeated experiments would
-    (:meth:`FingerprintSet.run_sd`; the base point's without an effect).
-    """
-    comp = fps.design.component_names()
-    sd = fps.run_sd(effect, float(magnitude or 0.0))
-    return Observations({n: sd[comp == n] for n in fps.names})
-
-
 def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, snr_range: tuple[float, float] = (5.0, 10.0),
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
              twin_seed: int | None = None, records=None, campaign: str = "seed",
              shard: tuple[int, int] | None = None, twin_repeats: int = 1,
-             progress: bool = False) -> ValidationResult:
+             records_only: bool = False, progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
     Parameters
@@ -433,6 +302,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         Engine twins: the seed's measurement design (default) or the full campaign
         that adds the catalogue's candidate measurements (:func:`engine_twin_design`).
         The surrogate's :func:`twin_design` is a full campaign already.
+    records_only : bool
+        Score the twins already in ``records`` and run none (the table of a partial or
+        sharded run; the others are listed in ``settings["not_run"]``). The fingerprints
+        are computed as usual, so give the engine's cache that holds them.
     twin_repeats : int
         Repeated experiments per twin (default 1): its file states their mean and standard
         error, as a lab that repeats each test reports it. Twins are sized in that noise,
@@ -446,9 +319,11 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     if simulator == "liggghts":
         # twins from another code: their own plan and preset table, same records and scores
         from .validate_liggghts import validate_liggghts
-        if campaign != "seed" or shard is not None or twin_repeats != 1 or twin_seed is not None:
-            raise ConfigError("simulator='liggghts': campaign, shard, twin_repeats and twin_seed "
-                              "are for the engine's twins; LIGGGHTS twins follow liggghts_twin_plan")
+        if (campaign != "seed" or shard is not None or twin_repeats != 1 or twin_seed is not None
+                or records_only):
+            raise ConfigError("simulator='liggghts': campaign, shard, twin_repeats, twin_seed and "
+                              "records_only are for the engine's twins; LIGGGHTS twins follow "
+                              "liggghts_twin_plan")
         workdir = Path(engine["cache"]) / "liggghts-twins" if engine and engine.get("cache") else None
         return validate_liggghts(preset, seed=seed, engine=engine, workdir=workdir, records=records,
                                  alpha=alpha, select_alpha=select_alpha, gof_alpha=gof_alpha,
@@ -471,6 +346,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     if int(twin_repeats) != twin_repeats or twin_repeats < 1:
         raise ConfigError(f"twin_repeats: expected a whole number >= 1; got {twin_repeats!r}")
     twin_repeats = int(twin_repeats)
+    if records_only and records is None:
+        raise ConfigError("records_only: give the records file whose twins to score")
     if refine is None:
         refine = 2 if simulator == "surrogate" else 0
     t0 = time.perf_counter()
@@ -510,7 +387,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
                  "twin_repeats": twin_repeats, "top_up": int(cfg.get("top_up", 0))}
     done = _records_done(records, signature)
-    twins, failed = [], []
+    twins, failed, not_run = [], [], []
     iterator = enumerate(plan)
     if progress:
         from tqdm import tqdm
@@ -552,6 +429,9 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             twins.extend(done[(i, k)] for k in kinds if (i, k) in done)
             if not todo:
                 continue
+            if records_only:
+                not_run.extend({"twin": i, "type": k, "true_effect": name} for k in todo)
+                continue
             try:
                 own = intrinsic if simulator == "surrogate" else _intrinsic_sd(fps, name, magnitude)
                 real = _twin_measurements(measured, sim, base_true, effects_true, twin_run_seed,
@@ -577,7 +457,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                                signal_se_after=fps[name].signal_se,
                                identifiable_after=fps[name].identifiable)
                     for name in fps.topped_up}},
-                "failed": failed, "unobservable": dict(fps.meta.get("unobservable", {})),
+                "failed": failed, "not_run": not_run, "unobservable": dict(fps.meta.get("unobservable", {})),
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
                 "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
                 "simulator_runs": getattr(sim, "n_runs", None),

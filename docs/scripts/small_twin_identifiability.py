@@ -23,6 +23,7 @@ from bedstruct.diagnose.fingerprints import assess_fingerprints, compute_fingerp
 from bedstruct.diagnose.surrogate import BASE_PARAMETERS
 import importlib
 V = importlib.import_module("bedstruct.diagnose.validate")
+T = importlib.import_module("bedstruct.diagnose.twins")
 from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
 
 cache = sys.argv[1]
@@ -48,15 +49,15 @@ comp = fps.design.component_names()
 rows_meas = ~fps.rows_candidate
 twin_repeats = 3
 rng = np.random.default_rng([0, 2024])
-plan = V._twin_plan(names, cfg, in_turn=True)
+plan = T._twin_plan(names, cfg, in_turn=True)
 for i, (kind, name) in enumerate(plan):
     rng.uniform(-0.02, 0.02)
     mag = None
     if name is not None:
         snr = float(rng.uniform(5.0, 10.0))
-        own = lambda a, e=name: V._twin_sigma(fps, V._intrinsic_sd(fps, e, a), twin_repeats)
-        mag = V._magnitude_for_snr(fps, name, snr, own)
-    intr = V._intrinsic_sd(fps, name, mag)
+        own = lambda a, e=name: T._twin_sigma(fps, T._intrinsic_sd(fps, e, a), twin_repeats)
+        mag = T._magnitude_for_snr(fps, name, snr, own)
+    intr = T._intrinsic_sd(fps, name, mag)
     for variant in ("x5 seen 3x", "x5 seen 1x", "x5 absent"):
         base_f = fps
         if variant == "x5 absent":

@@ -12,7 +12,8 @@ from bedstruct.cli import main
 from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, compute_fingerprints,
                                 diagnose, diagnosis_design, load_measurements, validate)
 from bedstruct.diagnose.validation_scores import capped_twins
-from bedstruct.diagnose.validate import _magnitude_for_snr, _twin_measurements, _twin_sigma, twin_design
+from bedstruct.diagnose.twins import _magnitude_for_snr, _twin_measurements, _twin_sigma
+from bedstruct.diagnose.validate import twin_design
 
 SEED = pathlib.Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
 
@@ -81,7 +82,7 @@ def test_repeated_experiments_state_the_standard_error_of_their_mean(twin_setup,
 
 def test_a_repeat_that_could_not_observe_leaves_the_mean_of_the_others(twin_setup, tmp_path):
     from bedstruct.diagnose import Observations
-    from bedstruct.diagnose.validate import _repeat_seed
+    from bedstruct.diagnose.twins import _repeat_seed
     eff, sim, fps = twin_setup
     design = twin_design()
     name = design.measurements[0].name
@@ -315,6 +316,24 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     for a, b in zip(sorted(merged.twins, key=key), sorted(whole.twins, key=key)):
         assert (a["predicted"], a["true_effect"]) == (b["predicted"], b["true_effect"])
     assert merged.top1_accuracy == whole.top1_accuracy
+    # one shard's records scored alone: its twins only, none run, the others listed as not run
+    half = tmp_path / "half.jsonl"
+    mine = {t["twin"] for t in parts[0].twins}
+    half.write_text("".join(x + "\n" for x in recs.read_text().splitlines()
+                            if json.loads(x)["twin"] in mine))
+    scored = validate("tiny", refine=0, records=half, records_only=True)
+    assert calls == [] and sorted(map(key, scored.twins)) == sorted(mine)
+    assert sorted(t["twin"] for t in scored.settings["not_run"]) == \
+        sorted(t["twin"] for t in parts[1].twins)
+    assert scored.top1_accuracy == parts[0].top1_accuracy
+    cli = ["diagnose", "validate", "--preset", "tiny", "--records", str(tmp_path / "cli.jsonl")]
+    assert main(cli + ["--shard", "1/2"]) == 0
+    capsys.readouterr()
+    calls.clear()
+    assert main(cli + ["--records-only"]) == 0 and calls == []
+    assert f"twins: {len(parts[1].twins)}, not run: {len(parts[0].twins)})" in capsys.readouterr().out
+    with pytest.raises(ConfigError, match="records_only"):
+        validate("tiny", records_only=True)
     # another validation's records are not taken as done
     other = validate("tiny", refine=0, records=recs, twin_seed=7)
     assert other.settings["resumed_twins"] == 0 and len(calls) == len(whole.twins)
@@ -340,7 +359,7 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
 
 
 def test_engine_twin_plan_takes_the_effects_in_turn():
-    from bedstruct.diagnose.validate import _twin_plan
+    from bedstruct.diagnose.twins import _twin_plan
     cfg = dict(per_effect=2, null=2, out_of_catalogue=0)
     plan = _twin_plan(["a", "b", "c"], cfg, in_turn=True)
     assert plan == [("null", None)] * 2 + [("effect", e) for e in "abcabc"]
@@ -353,7 +372,7 @@ def test_a_twins_repeated_experiments_are_handed_to_a_parallel_simulator_at_once
                                                                                  tmp_path):
     # on the engine with jobs > 1 the repeats run side by side (three calls of ~4 min each
     # at small), not one after another; the file is the same either way
-    from bedstruct.diagnose.validate import _repeat_seed
+    from bedstruct.diagnose.twins import _repeat_seed
     eff, sim, fps = twin_setup
     batches = []
 

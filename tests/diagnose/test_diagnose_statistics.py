@@ -113,10 +113,10 @@ def test_scatter_that_differs_between_parameter_points_is_reported():
     assert 12.0 < noisy.run_sd("A", 1.0)[i] < 50.0 and noisy.run_sd("B", 1.0)[i] < 1.1
     assert noisy.run_sd("A", 0.25)[i] < noisy.run_sd("A", 0.5)[i]
     # a validation twin at A's point states that scatter in its file, one at the base not
-    from bedstruct.diagnose.validate import _intrinsic_sd
+    from bedstruct.diagnose.twins import _intrinsic_sd
     assert _intrinsic_sd(noisy, "A", 1.0)["o2"][0] > 12.0 > 1.1 > _intrinsic_sd(noisy)["o2"][0]
     # ... and is sized in it: A's gap in the noise at its own magnitude is the smaller one
-    from bedstruct.diagnose.validate import _projected_gap, _twin_sigma
+    from bedstruct.diagnose.twins import _projected_gap, _twin_sigma
     at_base = _twin_sigma(noisy, _intrinsic_sd(noisy))
     own = lambda a: _twin_sigma(noisy, _intrinsic_sd(noisy, "A", a))  # noqa: E731
     assert _projected_gap(noisy, "A", own)(0.0) == _projected_gap(noisy, "A", at_base)(0.0) == 0.0
@@ -417,7 +417,7 @@ def test_twins_sized_by_a_noisy_fingerprint_carry_less_than_requested():
     # prediction (twin rule 3) carries less than requested: the validation's twins are
     # weaker than stated, never stronger. Less that noise, the squared gap is estimated
     # without bias (the toy's true response is known).
-    from bedstruct.diagnose.validate import _magnitude_for_snr, _projected_gap
+    from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap
     design = toy_design(N, n_validate=3)
     effect = {"A": 0.6 * F["A"]}
     sim = ToySimulator(design, sens=J, effects=effect, noise_sd=1.0)

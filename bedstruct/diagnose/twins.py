@@ -1,0 +1,154 @@
+"""How a validation's synthetic twins are made and sized.
+
+A twin's measurement file is the mean of repeated simulator runs at a withheld effect
+and magnitude, plus reading noise, stating the noise a lab would
+(:func:`_twin_measurements`); its magnitude is set so that the effect's gap on the
+calibration observables, after recalibration, is a drawn number of sigma in that noise
+(:func:`_magnitude_for_snr`). Split from :mod:`bedstruct.diagnose.validate`, which runs
+the plan and scores it.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .measurements import MeasurementSet, Observations, load_measurements, write_measurements
+
+log = logging.getLogger("bedstruct.diagnose.validate")
+
+
+def _repeat_seed(seed: int, k: int) -> int:
+    """Seed of the ``k``-th repeated experiment of a twin (the first is the twin's own)."""
+    return int(seed) + 7919 * int(k)
+
+
+def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx: int,
+                       intrinsic, repeats: int = 1) -> MeasurementSet:
+    # Each 'real' experiment carries the run-to-run scatter of the process (the simulator's
+    # replicate noise) plus reading noise; the file states the mean of the repeated
+    # experiments with its standard error (both noises over the number of repeats that
+    # observed it), as a lab that repeats a test reports it.
+    calls = [(dict(base_true), dict(effects), _repeat_seed(seed, k)) for k in range(repeats)]
+    prefetch = getattr(sim, "prefetch", None)
+    if prefetch is not None:  # a parallel simulator runs the repeated experiments side by side
+        prefetch(calls)
+    runs = [sim(*c) for c in calls]
+    rng = np.random.default_rng([seed, 99])
+    noisy, stated = {}, {}
+    for m in design:
+        vals = np.array([r[m.name] + m.uncertainty * rng.standard_normal(m.n_components)
+                         for r in runs])
+        seen = np.isfinite(vals).sum(axis=0)
+        with np.errstate(invalid="ignore"):
+            noisy[m.name] = np.where(seen > 0, np.nansum(vals, axis=0) / np.maximum(seen, 1), np.nan)
+        stated[m.name] = np.sqrt((m.uncertainty ** 2 + intrinsic[m.name] ** 2) / np.maximum(seen, 1))
+    twin = design.with_values(Observations(noisy, source="twin"),
+                              uncertainty=Observations(stated), provenance="synthetic twin")
+    # what the 'experiment' could not observe (e.g. no heap to fit) is not in its file
+    seen = tuple(m for m in twin.measurements if np.all(np.isfinite(m.values)))
+    lost = [m.name for m in twin.measurements if not np.all(np.isfinite(m.values))]
+    if lost:
+        log.info("twin %d: not observable in its run, left out of its file: %s", idx, lost)
+    twin = MeasurementSet(seen, title=f"twin {idx}", source="synthetic twin (withheld truth)",
+                          notes=(f"not observable in the twin's run: {', '.join(lost)}" if lost else ""))
+    path = write_measurements(twin, folder / f"twin_{idx:03d}.toml")
+    # the file round trip checks the format; plausible ranges are for measured numbers
+    return load_measurements(path, check_range=False)
+
+
+def _twin_plan(effect_names, cfg: dict, *, in_turn: bool) -> list[tuple[str, str | None]]:
+    """The twins to run, as ``(kind, effect)``.
+
+    ``in_turn`` (engine twins, few and slow): the null twins first, then the effects in
+    turn, so that a partial run, or any shard of it, covers every effect.
+    """
+    plan = [("effect", e) for e in effect_names for _ in range(cfg["per_effect"])]
+    plan += [("null", None)] * cfg["null"]
+    plan += [("out_of_catalogue", e) for e in effect_names for _ in range(cfg["out_of_catalogue"])]
+    if in_turn:
+        rank = {e: j for j, e in enumerate(effect_names)}
+        turn, keyed = {}, []
+        for k in plan:
+            keyed.append(((k[0] != "null", turn.get(k, 0), rank.get(k[1], -1)), k))
+            turn[k] = turn.get(k, 0) + 1
+        plan = [k for _, k in sorted(keyed, key=lambda t: t[0])]
+    return plan
+
+
+def _twin_sigma(fps, intrinsic, repeats: int = 1) -> np.ndarray:
+    """Per component, the noise of ``twin - mean(base runs)`` as the twin's diagnosis sees it.
+
+    The twin's stated uncertainty (reading noise and one run's scatter, over the number of
+    repeated experiments) combined with the base runs' mean, i.e.
+    :attr:`FingerprintSet.sigma` with the twin's file in place of the design's uncertainties.
+    """
+    comp = fps.design.component_names()
+    sd = np.zeros(len(comp))
+    for name in fps.names:
+        sd[comp == name] = np.asarray(intrinsic[name], dtype=float)
+    n = np.maximum(np.sum(np.isfinite(fps.base_samples), axis=0), 1)
+    return np.sqrt((fps.sigma_meas ** 2 + sd ** 2) / repeats + fps.sim_var / n)
+
+
+def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
+    """``gap(a)``: the recalibration-projected gap of effect ``name`` at magnitude ``a``, in sigma.
+
+    The norm, on the calibration observables, of the effect's change with the part
+    recalibration absorbs projected out, in the noise ``sigma`` (per component, default
+    :attr:`FingerprintSet.sigma`; a twin's is :func:`_twin_sigma`; a callable ``sigma(a)``
+    gives the noise at each magnitude, as for a twin whose scatter depends on it).
+
+    The fingerprint's predicted change carries its own estimation noise, which adds
+    ``sum_i P_ii (se_i / sigma_i)**2`` to the expected squared norm (``se`` from
+    :meth:`Fingerprint.predict_se`). With ``debias`` (twin rule 4) that is subtracted, so
+    the gap is an unbiased estimate of the true effect's squared gap (its square root; 0
+    where the noise exceeds it); without it, the fingerprint's prediction as it is.
+    """
+    from .fingerprints import nuisance_projector
+    cal = fps.rows_calibrate
+    fp = fps[name]
+
+    def gap(a):
+        s = sigma(a) if callable(sigma) else (fps.sigma if sigma is None else sigma)
+        sig = np.asarray(s, dtype=float)[cal]
+        P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
+        g2 = float(np.sum((P @ (fp.predict(a)[cal] / sig)) ** 2))
+        if debias:
+            g2 -= float(np.diag(P) @ (fp.predict_se(a)[cal] / sig) ** 2)
+        return math.sqrt(max(g2, 0.0))
+    return gap
+
+
+def _magnitude_for_snr(fps, name: str, snr: float, sigma=None, *, debias: bool = False) -> float:
+    """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
+
+    ``sigma`` and ``debias`` as in :func:`_projected_gap`. Solved by bisection on the
+    fingerprint within the prior range (the prior top when even that is weaker).
+    """
+    norm = _projected_gap(fps, name, sigma, debias=debias)
+    lo, hi = 0.0, fps[name].effect.prior[1]
+    if norm(hi) <= snr:
+        return hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if norm(mid) < snr else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def _intrinsic_sd(fps, effect: str | None = None, magnitude: float | None = None) -> Observations:
+    """Per-observable standard deviation of one simulator run at a twin's parameter point.
+
+    The replicate scatter itself, not the upper confidence bound the diagnosis puts on it
+    (:attr:`FingerprintSet.sim_var`): a twin's run scatters like any run at its point, and
+    its file states that scatter as the standard deviation of repeated experiments would
+    (:meth:`FingerprintSet.run_sd`; the base point's without an effect).
+    """
+    comp = fps.design.component_names()
+    sd = fps.run_sd(effect, float(magnitude or 0.0))
+    return Observations({n: sd[comp == n] for n in fps.names})
