@@ -270,7 +270,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         if pile is not None:
             raise ConfigError("run_spread: a given pile is for the embedded engine; LIGGGHTS and "
                               "LAMMPS decks generate their own")
-        from .external import run_spread_external
+        from .external_spread import run_spread_external
         if overwrite and out is not None:
             clear_run(out)
         return run_spread_external(cfg, out=out)

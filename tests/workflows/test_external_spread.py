@@ -268,7 +268,8 @@ def test_an_engine_run_counts_as_finished_only_with_its_end_marker_and_whole_dum
     from bedstruct.core import Frame
     from bedstruct.dem.backends import BladeGeometry, SpreadLayersPlan
     from bedstruct.io import write_dump
-    from bedstruct.workflows.external import _engine_finished, _gzip
+    from bedstruct.workflows.external import _gzip
+    from bedstruct.workflows.external_spread import _engine_finished
     blade = BladeGeometry(x0=0.0, z_bottom=0.0, speed=0.1, height=1e-3)
     plan = SpreadLayersPlan(3e-3, 2e-3, (2e-4, 2e-4), blade, ((1, 1), (2, 2)), (0.0, 5e-3),
                             (5e-4, 1.5e-3), 1e-6, x_end=3.5e-3, n_frames=4, settle_time=5e-3)
