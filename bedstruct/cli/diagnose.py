@@ -160,6 +160,11 @@ def _run_validate(args) -> int:
             print(f"  identifiable effects only (not: {', '.join(ident['not_identifiable'])}): "
                   f"top1 {ident['top1_accuracy']:.3f}, "
                   f"out-of-catalogue unexplained {ident['out_of_catalogue_unexplained']:.3f}")
+        det = result.detected
+        if det.get("n_effect_twins_undetected"):
+            print(f"  twins with a significant gap only ({det['n_effect_twins_undetected']} effect "
+                  f"twin(s) without): top1 {det['top1_accuracy']:.3f}, "
+                  f"out-of-catalogue unexplained {det['out_of_catalogue_unexplained']:.3f}")
         from ..diagnose.validation_scores import capped_summary
         capped = capped_summary(result.twins, sigma=" sigma")
         if capped:

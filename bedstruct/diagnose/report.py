@@ -224,6 +224,16 @@ def validation_report(result):
             s.add_number("out_of_catalogue_unexplained_identifiable",
                          ident["out_of_catalogue_unexplained"], "1",
                          f"{why}; {ident['n_out_of_catalogue_twins']} twin(s)")
+        det = result.detected
+        if det.get("n_effect_twins_undetected"):
+            why = (f"over the twins whose gap 'where' found significant ("
+                   f"{det['n_effect_twins_undetected']} effect twin(s) carry none: no method can "
+                   "attribute them)")
+            s.add_number("top1_accuracy_detected", det["top1_accuracy"], "1",
+                         f"{why}; {det['n_effect_twins']} twin(s)")
+            s.add_number("out_of_catalogue_unexplained_detected",
+                         det["out_of_catalogue_unexplained"], "1",
+                         f"{why}; {det['n_out_of_catalogue_twins']} twin(s)")
         capped = capped_summary(result.twins)
         if capped:
             s.text += (f" Effect twins held at the top of the prior below the drawn gap: {capped}; "

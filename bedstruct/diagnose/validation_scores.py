@@ -60,6 +60,13 @@ class ValidationResult:
         counts); empty when identifiability was not given. A twin of an effect that these
         observables cannot see at any magnitude of its prior tests the identifiability
         report, not the attribution.
+    detected : dict
+        Scores over the twins whose gap the "where" test found significant
+        (``top1_accuracy``, ``out_of_catalogue_unexplained``, the twin counts and
+        ``n_effect_twins_undetected``). A twin sized on a fingerprint's interpolated response
+        can carry less than requested (a response that is not straight between the
+        simulated magnitudes, the fingerprint's own noise); one without a significant gap
+        cannot be attributed by any method and tests how the twins are made.
     """
 
     preset: str
@@ -79,6 +86,7 @@ class ValidationResult:
     seconds: float
     settings: dict = field(default_factory=dict)
     identifiable: dict = field(default_factory=dict)
+    detected: dict = field(default_factory=dict)
 
     @classmethod
     def from_scores(cls, preset: str, simulator: str, scores: dict, twins, seconds: float,
@@ -89,7 +97,7 @@ class ValidationResult:
                 "magnitude_coverage", "magnitude_median_relative_error", "confusion",
                 "magnitudes")
         return cls(preset, simulator, *(scores[k] for k in keys), list(twins), scores["goals"],
-                   seconds, settings, scores["identifiable"])
+                   seconds, settings, scores["identifiable"], scores.get("detected", {}))
 
     def report(self):
         """The validation as a :class:`bedstruct.report._model.Report`."""
@@ -108,7 +116,7 @@ class ValidationResult:
                 "magnitude_coverage": self.magnitude_coverage,
                 "magnitude_median_relative_error": self.magnitude_median_relative_error,
                 "confusion": self.confusion, "magnitudes": self.magnitudes, "goals": self.goals,
-                "identifiable": self.identifiable,
+                "identifiable": self.identifiable, "detected": self.detected,
                 "n_twins": len(self.twins), "twins": self.twins, "seconds": self.seconds,
                 "settings": self.settings}
 
@@ -210,7 +218,9 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True,
         ``top1_accuracy``, ``null_false_attribution``, ``null_gap_flagged``,
         ``out_of_catalogue_unexplained``, ``median_gap_shrink`` (and ``_rms``),
         ``magnitude_coverage``, ``magnitude_median_relative_error``, ``confusion``,
-        ``magnitudes``, ``goals``, ``identifiable`` (``{}`` without `identifiable`).
+        ``magnitudes``, ``goals``, ``identifiable`` (``{}`` without `identifiable`),
+        ``detected`` (the twins whose gap "where" found significant; ``{}`` without effect
+        twins).
 
     Examples
     --------
@@ -235,6 +245,11 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True,
     ...                 identifiable={"a": True, "b": False})
     >>> s["top1_accuracy"], s["identifiable"]["top1_accuracy"], s["identifiable"]["not_identifiable"]
     (0.5, 1.0, ['b'])
+
+    So is a twin that carries no significant gap:
+
+    >>> s["detected"]["top1_accuracy"], s["detected"]["n_effect_twins_undetected"]
+    (1.0, 1)
     """
     eff_tw = [t for t in twins if t["type"] == "effect"]
     null_tw = [t for t in twins if t["type"] == "null"]
@@ -300,8 +315,16 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True,
         ident = {"effects": seen, "not_identifiable": [e for e in effect_names if e not in seen],
                  "top1_accuracy": frac(eff_i, top1_hit), "n_effect_twins": len(eff_i),
                  "out_of_catalogue_unexplained": frac(ooc_i, ooc_hit), "n_out_of_catalogue_twins": len(ooc_i)}
+    detected = {}
+    if eff_tw:
+        eff_d = [t for t in eff_tw if t["gap_significant"]]
+        ooc_d = [t for t in ooc_tw if t["gap_significant"]]
+        detected = {"top1_accuracy": frac(eff_d, top1_hit), "n_effect_twins": len(eff_d),
+                    "n_effect_twins_undetected": len(eff_tw) - len(eff_d),
+                    "out_of_catalogue_unexplained": frac(ooc_d, ooc_hit),
+                    "n_out_of_catalogue_twins": len(ooc_d)}
     return {"top1_accuracy": top1, "null_false_attribution": null_false, "null_gap_flagged": null_flag,
             "out_of_catalogue_unexplained": ooc, "median_gap_shrink": med,
             "median_gap_shrink_rms": med_rms, "magnitude_coverage": coverage,
             "magnitude_median_relative_error": med_rel, "confusion": confusion, "magnitudes": mags,
-            "goals": goals, "identifiable": ident}
+            "goals": goals, "identifiable": ident, "detected": detected}

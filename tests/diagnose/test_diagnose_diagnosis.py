@@ -205,6 +205,25 @@ def test_tiny_validation_meets_the_goals():
     blind = replace(r, identifiable=dict(ident, not_identifiable=["wall_friction"]))
     goals = [s for s in blind.report().sections if s.key == "goals"][0]
     assert "wall_friction" in goals.numbers["top1_accuracy_identifiable"].definition
+    # a twin that carries no significant gap is scored apart as well (no method attributes it);
+    # the surrogate's twins all carry theirs
+    det = j["detected"]
+    assert det["n_effect_twins"] == 12 and det["n_effect_twins_undetected"] == 0
+    assert det["top1_accuracy"] == r.top1_accuracy
+    assert "top1_accuracy_detected" not in goals.numbers
+    from bedstruct.diagnose.validation_scores import score_twins
+    hit = next(t for t in r.twins if t["type"] == "effect" and t["verdict"] == "attributed"
+               and t["predicted"] == t["true_effect"])
+    weak = [dict(t, gap_significant=False, verdict="none", predicted="none") if t is hit else t
+            for t in r.twins]
+    scored = score_twins(weak, r.settings["effects"])
+    n_hits = round(r.top1_accuracy * 12)
+    assert scored["top1_accuracy"] == pytest.approx((n_hits - 1) / 12)
+    assert scored["detected"]["n_effect_twins_undetected"] == 1
+    assert scored["detected"]["top1_accuracy"] == pytest.approx((n_hits - 1) / 11)
+    goals = [s for s in replace(r, detected=scored["detected"]).report().sections
+             if s.key == "goals"][0]
+    assert "carry none" in goals.numbers["top1_accuracy_detected"].definition
     # every effect twin records the gap drawn for it and the gap it has (the drawn one unless
     # the prior top caps it); the report lists every twin
     eff = [t for t in r.twins if t["type"] == "effect"]
