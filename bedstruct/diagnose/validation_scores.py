@@ -317,8 +317,8 @@ def score_twins(twins, effect_names, *, removed_rows: bool = True,
                  "out_of_catalogue_unexplained": frac(ooc_i, ooc_hit), "n_out_of_catalogue_twins": len(ooc_i)}
     detected = {}
     if eff_tw:
-        eff_d = [t for t in eff_tw if t["gap_significant"]]
-        ooc_d = [t for t in ooc_tw if t["gap_significant"]]
+        eff_d = [t for t in eff_tw if t.get("gap_significant")]
+        ooc_d = [t for t in ooc_tw if t.get("gap_significant")]
         detected = {"top1_accuracy": frac(eff_d, top1_hit), "n_effect_twins": len(eff_d),
                     "n_effect_twins_undetected": len(eff_tw) - len(eff_d),
                     "out_of_catalogue_unexplained": frac(ooc_d, ooc_hit),

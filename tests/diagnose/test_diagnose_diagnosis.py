@@ -353,6 +353,17 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     assert f"twins: {len(parts[1].twins)}, not run: {len(parts[0].twins)})" in capsys.readouterr().out
     with pytest.raises(ConfigError, match="records_only"):
         validate("tiny", records_only=True)
+    # a recorded effect twin without a significant gap is scored apart in the text output
+    lines = [json.loads(x) for x in (tmp_path / "cli.jsonl").read_text().splitlines()]
+    first = next(i for i, t in enumerate(lines) if t["type"] == "effect")
+    lines[first]["gap_significant"] = False
+    weak = tmp_path / "weak.jsonl"
+    weak.write_text("".join(json.dumps(t) + "\n" for t in lines))
+    capsys.readouterr()
+    assert main(["diagnose", "validate", "--preset", "tiny", "--records", str(weak),
+                 "--records-only"]) == 0 and calls == []
+    out = capsys.readouterr().out
+    assert "twins with a significant gap only (1 effect twin(s) without)" in out, out
     # another validation's records are not taken as done
     other = validate("tiny", refine=0, records=recs, twin_seed=7)
     assert other.settings["resumed_twins"] == 0 and len(calls) == len(whole.twins)
