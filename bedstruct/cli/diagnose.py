@@ -1,12 +1,13 @@
 """Diagnose the sim-to-real gap, or validate the diagnosis on synthetic twins.
 
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--seed S] [--cache DIR]
-                     [--jobs N] [--json] [--progress]
+                     [--jobs N] [--refine N] [--json] [--progress]
   bedstruct diagnose validate --preset mini|tiny|small
                              [--simulator surrogate|engine|liggghts] [--campaign seed|full]
                              [--sim CONFIG] [--cache DIR] [--jobs N] [--seed S] [--twin-seed S]
                              [--records FILE [--records-only]] [--shard K/N]
-                             [--twin-repeats R] [--out DIR] [--json] [--progress]
+                             [--twin-repeats R] [--refine N] [--out DIR] [--json]
+                             [--progress]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -27,7 +28,10 @@ fingerprints; ``--records FILE`` appends each twin's record as it completes and
 resumes from the records already there (with ``--records-only`` it scores them and
 runs no twin: the table of a partial run or of shards merged with ``cat``); ``--shard K/N`` runs every N-th twin from
 the K-th, to split one validation over processes or machines; ``--twin-repeats R``
-makes each twin's file the mean of R repeated experiments. Options of one mode given
+makes each twin's file the mean of R repeated experiments. ``--refine N`` sets the
+refinement rounds of each diagnosis (the effects leading the fit simulated at their fitted
+magnitudes and the fit repeated; a diagnosis's default is its config's ``refine``, a
+validation's 2 on the surrogate, 0 on the engine, 1 with LIGGGHTS twins). Options of one mode given
 to the other are a usage error (exit 2). Every output names its simulator
 (``"simulator": "surrogate"``, ``"engine"`` or ``"liggghts"``).
 """
@@ -74,6 +78,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--twin-repeats", type=int, default=None, metavar="R",
                         help="validate: repeated experiments per twin, its file states their mean "
                              "and standard error (default 1; R simulator calls per twin)")
+    parser.add_argument("--refine", type=_rounds, default=None, metavar="N",
+                        help="refinement rounds of each diagnosis: the leading effects simulated "
+                             "at their fitted magnitudes, the fit repeated (default: the config's "
+                             "refine; validate: 2 on the surrogate, 0 on the engine, 1 with "
+                             "LIGGGHTS twins)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -87,6 +96,17 @@ def _shard(text: str) -> tuple[int, int]:
     if not (n >= 1 and 0 <= k < n):
         raise argparse.ArgumentTypeError(f"expected 0 <= K < N; got {text!r}")
     return k, n
+
+
+def _rounds(text: str) -> int:
+    import argparse
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0; got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0; got {text!r}")
+    return n
 
 
 def _write_json(path, obj) -> None:
@@ -136,7 +156,8 @@ def _run_validate(args) -> int:
     result = validate(args.preset, seed=args.seed or 0, progress=args.progress,
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
                       campaign=args.campaign, records=args.records, shard=args.shard,
-                      twin_repeats=args.twin_repeats, records_only=args.records_only)
+                      twin_repeats=args.twin_repeats, records_only=args.records_only,
+                      refine=args.refine)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)
@@ -201,6 +222,8 @@ def run(args) -> int:
         cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, jobs=args.jobs))
     if args.cache:
         cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, cache=args.cache))
+    if args.refine is not None:  # recorded in the output's sim_config
+        cfg = dataclasses.replace(cfg, refine=args.refine)
     ms = load_measurements(args.real)
     design = diagnosis_design(ms, cfg.effects)
     sim = make_simulator(cfg, design)

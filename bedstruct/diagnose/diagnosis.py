@@ -19,10 +19,11 @@ from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
 from .fingerprints import FingerprintSet, assess_fingerprints, compute_fingerprints, \
     selection_threshold
+from .fingerprint_runs import simulate_node
 from .replicates import Simulator, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
 from .separation import nearest_imitations, not_told_apart, separation
-from .where import WhereResult, _nan_mean, standardised_residuals, where
+from .where import WhereResult, standardised_residuals, where
 from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
                       p_fit_z as _p_fit_z, params_after as _params_after)
 
@@ -339,15 +340,13 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
             break
         new = {}
         for e, a in lead:
-            fp = fps[e]
-            a = float(a)
-            if a == 0.0 or np.min(np.abs(fp.nodes - a)) < 0.05 * abs(fp.magnitudes[1]):
+            node = simulate_node(simulator, fps, e, a)
+            if node is None:
                 continue
-            s_e = simulate_replicates(simulator, fps.base, {e: a}, fps.seeds, fps.names)
             n_refine_runs += len(fps.seeds)
             if bar is not None:
                 bar.update(len(fps.seeds))
-            new[e] = fp.with_node(a, _nan_mean(s_e - fps.base_samples))
+            new[e] = node
         if not new:
             break
         fps = replace(fps, fingerprints=tuple(new.get(f.name, f) for f in fps.fingerprints))

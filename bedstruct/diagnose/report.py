@@ -267,7 +267,9 @@ def validation_report(result):
         drawn = next((tuple(t["snr_range"]) for t in result.twins if t.get("snr_range")), None)
         s.text = ("One row per diagnosis. Twin gap: the effect's gap on the calibration "
                   "observables after recalibration, in the twin's own noise (drawn "
-                  + (f"from U{drawn}σ, " if drawn else "") + "capped at the prior top).")
+                  + (f"from U{drawn}σ, " if drawn else "") + "capped at the prior top), on the "
+                  "response simulated at the magnitude first solved on the fingerprint (each "
+                  "record states that node and its gap: twin_node_magnitude, twin_node_gap_sigma).")
         s.tables.append(Table(
             ["twin", "type", "true effect", "true magnitude", "twin gap (σ)", "verdict",
              "diagnosis", "fitted", "held-out gap shrink", "not told apart from"],

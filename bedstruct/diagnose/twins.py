@@ -4,7 +4,8 @@ A twin's measurement file is the mean of repeated simulator runs at a withheld e
 and magnitude, plus reading noise, stating the noise a lab would
 (:func:`_twin_measurements`); its magnitude is set so that the effect's gap on the
 calibration observables, after recalibration, is a drawn number of sigma in that noise
-(:func:`_magnitude_for_snr`). Split from :mod:`bedstruct.diagnose.validate`, which runs
+(:func:`_magnitude_for_snr`), on the response simulated at that magnitude
+(:func:`_size_twin`). Split from :mod:`bedstruct.diagnose.validate`, which runs
 the plan and scores it.
 
 .. versionadded:: 0.1
@@ -126,19 +127,51 @@ def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
 
 
 def _magnitude_for_snr(fps, name: str, snr: float, sigma=None, *, debias: bool = False) -> float:
-    """Magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
+    """Smallest magnitude whose recalibration-projected gap on the calibration observables is ``snr`` sigma.
 
-    ``sigma`` and ``debias`` as in :func:`_projected_gap`. Solved by bisection on the
-    fingerprint within the prior range (the prior top when even that is weaker).
+    ``sigma`` and ``debias`` as in :func:`_projected_gap`. The first crossing on a grid
+    over the prior range, refined by bisection; a response need not grow monotonically
+    (ageing's gap falls again towards its prior top). When no magnitude in the prior
+    range reaches ``snr``, the one with the largest gap (the twin is capped there).
     """
     norm = _projected_gap(fps, name, sigma, debias=debias)
-    lo, hi = 0.0, fps[name].effect.prior[1]
-    if norm(hi) <= snr:
-        return hi
-    for _ in range(60):
+    top = fps[name].effect.prior[1]
+    grid = np.linspace(0.0, top, 65)
+    gaps = np.array([norm(a) for a in grid])
+    above = np.nonzero(gaps >= snr)[0]
+    if not above.size:
+        return float(grid[int(np.argmax(gaps))])
+    lo, hi = grid[above[0] - 1], grid[above[0]]
+    for _ in range(50):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if norm(mid) < snr else (lo, mid)
     return 0.5 * (lo + hi)
+
+
+def _size_twin(sim, fps, name: str, snr: float, sigma) -> tuple[float, object, dict]:
+    """A twin's magnitude, sized on its effect's response simulated at that magnitude.
+
+    The magnitude first solved on the fingerprint (:func:`_magnitude_for_snr`, with the
+    response interpolated between its nodes) is simulated on the fingerprint's seeds
+    (:func:`~bedstruct.diagnose.fingerprint_runs.simulate_node`), that response added as
+    a node, and the magnitude solved once more: a twin carries the gap drawn for it even
+    where the response is far from straight between the nodes. ``sigma(fps, a)`` gives the
+    twin's noise at magnitude ``a``.
+
+    Returns the magnitude, the fingerprint set with the node (for sizing the twin only:
+    the diagnosis never sees it) and the record's fields on the node.
+    """
+    from dataclasses import replace
+
+    from .fingerprint_runs import simulate_node
+    first = _magnitude_for_snr(fps, name, snr, lambda a: sigma(fps, a))
+    node = simulate_node(sim, fps, name, first)
+    if node is None:
+        return first, fps, {"twin_node_magnitude": None, "twin_node_gap_sigma": None}
+    own = replace(fps, fingerprints=tuple(node if f.name == name else f for f in fps.fingerprints))
+    gap_at_node = _projected_gap(own, name, lambda a: sigma(own, a))(first)
+    magnitude = _magnitude_for_snr(own, name, snr, lambda a: sigma(own, a))
+    return magnitude, own, {"twin_node_magnitude": first, "twin_node_gap_sigma": gap_at_node}
 
 
 def _intrinsic_sd(fps, effect: str | None = None, magnitude: float | None = None) -> Observations:

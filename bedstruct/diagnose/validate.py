@@ -36,7 +36,7 @@ from .fingerprints import compute_fingerprints
 from .measurements import MeasurementSet, measurement_from_dict
 from .separation import not_told_apart
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
-from .twins import (_intrinsic_sd, _magnitude_for_snr, _projected_gap, _twin_measurements,
+from .twins import (_intrinsic_sd, _projected_gap, _size_twin, _twin_measurements,
                     _twin_plan, _twin_sigma)
 from .validation_scores import GOALS, ValidationResult, _records_done, score_twins
 
@@ -64,13 +64,18 @@ ENGINE_PRESETS = {
                            "non_sphericity")),
 }
 #: Revision of how twins are made, in every twin record: records of another revision are not
-#: resumed. 3: a twin's file states one run's scatter at its own parameter point
+#: resumed. 4: a twin's magnitude is sized on its effect's response simulated at that
+#: magnitude (one node on the fingerprint's seeds, the magnitude solved again; the first
+#: crossing of the drawn gap, not a bisection that assumed the gap grows with the magnitude;
+#: :func:`~bedstruct.diagnose.twins._size_twin`); 3 sized it on the response interpolated
+#: between the fingerprint's nodes, so a twin between nodes of a curved response carried
+#: less gap than drawn. 3: a twin's file states one run's scatter at its own parameter point
 #: (:meth:`FingerprintSet.run_sd`: the pooled estimate, or where a fingerprint point
 #: scattered unlike the base, interpolated towards that point's own), on top of the reading
 #: noise, and its magnitude is sized in that noise; 2 stated the pooled scatter at every
 #: point. 1 sized it in the design's reading noise and stated the scatter at its upper
 #: bound, so its gap was smaller than stated.
-_TWIN_RULE = 3
+_TWIN_RULE = 4
 
 #: Revision of the simulation scatter, in every twin record. 2: pooled over the points that
 #: scatter like the base (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`);
@@ -405,23 +410,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         for i, (kind, name) in iterator:
             base_true = dict(base)
             base_true["cohesion_energy_density"] *= 1.0 + rng.uniform(-0.02, 0.02)
-            effects_true, magnitude, gaps = {}, None, {}
-            if name is not None:
-                snr = float(rng.uniform(*snr_range))
-                # in the noise the twin's file will state, at the twin's own magnitude
-                own_sigma = twin_sigma if simulator == "surrogate" else (
-                    lambda a, e=name: _twin_sigma(fps, _intrinsic_sd(fps, e, a), twin_repeats))
-                magnitude = _magnitude_for_snr(fps, name, snr, own_sigma)
-                effects_true = {name: magnitude}
-                # below the draw when the prior top is weaker: such a twin is scored as
-                # drawn, and its record says how strong it could be
-                gaps = {"requested_gap_sigma": snr,
-                        "twin_gap_sigma": _projected_gap(fps, name, own_sigma)(magnitude),
-                        "twin_gap_debiased_sigma": _projected_gap(fps, name, own_sigma,
-                                                                  debias=True)(magnitude)}
+            snr = float(rng.uniform(*snr_range)) if name is not None else None
             twin_run_seed = tseed * 100003 + 5000 + i
-            truth = {"true_effect": name, "true_magnitude": magnitude,
-                     "true_cohesion": base_true["cohesion_energy_density"], **gaps}
             if shard is not None and i % n_shard != k_shard:
                 continue  # another shard's twin (its draws above keep the plan's)
             kinds = [kind] + (["out_of_catalogue"] if reuse_ooc and kind == "effect" else [])
@@ -432,7 +422,25 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             if records_only:
                 not_run.extend({"twin": i, "type": k, "true_effect": name} for k in todo)
                 continue
+            truth = {"true_effect": name, "true_magnitude": None,
+                     "true_cohesion": base_true["cohesion_energy_density"]}
             try:
+                effects_true, magnitude = {}, None
+                if name is not None:
+                    # in the noise the twin's file will state, at the twin's own magnitude
+                    def noise(f, a, e=name):
+                        return twin_sigma if simulator == "surrogate" else \
+                            _twin_sigma(f, _intrinsic_sd(f, e, a), twin_repeats)
+                    magnitude, own_fps, node = _size_twin(sim, fps, name, snr, noise)
+                    effects_true = {name: magnitude}
+                    # below the draw when the prior top is weaker: such a twin is scored as
+                    # drawn, and its record says how strong it could be
+                    own_sigma = lambda a: noise(own_fps, a)  # noqa: E731
+                    truth.update(true_magnitude=magnitude, requested_gap_sigma=snr,
+                                 twin_gap_sigma=_projected_gap(own_fps, name, own_sigma)(magnitude),
+                                 twin_gap_debiased_sigma=_projected_gap(
+                                     own_fps, name, own_sigma, debias=True)(magnitude),
+                                 **node)
                 own = intrinsic if simulator == "surrogate" else _intrinsic_sd(fps, name, magnitude)
                 real = _twin_measurements(measured, sim, base_true, effects_true, twin_run_seed,
                                           folder, i, own, twin_repeats)

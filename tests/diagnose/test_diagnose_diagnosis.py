@@ -269,6 +269,17 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
         assert k in j
     assert j["simulator"] == "surrogate"
     assert (tmp_path / "v" / "report.html").is_file()
+    assert j["settings"]["refine"] == 2      # the surrogate's default
+    # --refine sets each diagnosis's refinement rounds, in either mode, and is recorded
+    assert main(["diagnose", "validate", "--preset", "tiny", "--refine", "0", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["settings"]["refine"] == 0
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "r"),
+                 "--refine", "0", "--json"]) == 0
+    j = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert j["sim_config"]["refine"] == 0 and j["settings"]["refine"] == 0
+    with pytest.raises(SystemExit) as exc:
+        main(["diagnose", "validate", "--refine", "-1"])
+    assert exc.value.code == 2 and "whole number >= 0" in capsys.readouterr().err
 
 
 def test_cli_help(capsys):
@@ -374,7 +385,7 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     with caplog.at_level("WARNING", logger="bedstruct.diagnose.validate"):
         assert validate("tiny", refine=0, records=recs).settings["resumed_twins"] == 0
     # the user is told why nothing was resumed
-    assert "twin_rule 1 (this run: 3)" in caplog.text
+    assert "twin_rule 1 (this run: 4)" in caplog.text
     recs.write_text("{not json\n")
     with pytest.raises(ConfigError, match="line 1"):
         validate("tiny", refine=0, records=recs)

@@ -449,3 +449,78 @@ def test_prediction_standard_error_follows_the_simulated_magnitudes():
     np.testing.assert_allclose(f.predict_se(m2), f.delta_se[1])
     np.testing.assert_allclose(f.predict_se(0.5 * (m1 + m2)), 0.5 * (f.delta_se[0] + f.delta_se[1]))
     np.testing.assert_allclose(f.predict_se(2 * m2), 2 * f.delta_se[1])
+
+
+def _step(a):
+    """A response that switches on over a narrow range of magnitude (0 at 0)."""
+    def s(x):
+        return 1.0 / (1.0 + np.exp(-(x - 0.3) / 0.08))
+    return s(a) - s(0.0)
+
+
+class _StepToy(ToySimulator):
+    """Effect A's response is ``F_A * _step(m)``: far from any line between 0, m1 and m2."""
+
+    def __call__(self, base, effects, seed):
+        from bedstruct.diagnose import Observations
+        y = super().__call__(base, {}, seed)
+        out = np.concatenate([np.asarray(y[m.name], float) for m in self.design])
+        for e, m in effects.items():
+            out = out + self.F[e] * _step(m)
+        return Observations({m.name: [out[i]] for i, m in enumerate(self.design)}, source="toy")
+
+
+def _exact_gap(fps, response):
+    cal = fps.rows_calibrate
+    sig = fps.sigma[cal]
+    P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
+    return lambda a: float(np.linalg.norm(P @ (response(a)[cal] / sig)))
+
+
+def test_a_twin_is_sized_on_the_response_simulated_at_its_magnitude():
+    # Interpolated between the fingerprint's nodes (0, m1, m2), a response that switches on
+    # between them is misjudged, and a twin sized on the interpolation alone carries another
+    # gap than drawn (twin rule 3). Rule 4 simulates that first magnitude, adds it as a
+    # node and solves again.
+    from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap, _size_twin
+    design = toy_design(N, n_validate=3)
+    sim = _StepToy(design, sens=J, effects={"A": F["A"]})
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [EFFECTS[0]], nuisance=("k",),
+                               replicates=3, alpha=0.01)
+    true_gap = _exact_gap(fps, lambda a: F["A"] * _step(a))
+
+    def noise(f, a):
+        return f.sigma
+
+    snr = 0.5 * true_gap(1.0)
+    first = _magnitude_for_snr(fps, "A", snr)
+    a, own, node = _size_twin(sim, fps, "A", snr, noise)
+    assert node["twin_node_magnitude"] == pytest.approx(first)
+    assert node["twin_node_gap_sigma"] == pytest.approx(true_gap(first), rel=1e-6)
+    # the diagnosis's fingerprints are untouched; the twin's own set has the node
+    assert first in own["A"].nodes and first not in fps["A"].nodes
+    # one correction brings the twin's true gap much closer to the drawn one
+    assert abs(true_gap(first) - snr) > 0.2 * snr
+    assert abs(true_gap(a) - snr) < 0.25 * abs(true_gap(first) - snr)
+    # a magnitude at a node of the fingerprint needs no run
+    calls = []
+    counting = lambda *args: calls.append(1) or sim(*args)  # noqa: E731
+    b, same, node = _size_twin(counting, fps, "A", true_gap(1.0) + 10.0, noise)
+    assert calls == [] and same is fps and node["twin_node_magnitude"] is None
+    assert b == fps["A"].effect.prior[1]
+
+
+def test_a_twin_magnitude_is_the_first_to_reach_the_drawn_gap():
+    # A response that peaks and falls back (as contact ageing's does in the engine): the
+    # prior top carries less than the drawn gap, a magnitude below it the drawn gap.
+    from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap
+    design, sim, fps = _setup(effects={"A": F["A"]}, curvature={"A": -0.9 * F["A"]})
+    true_gap = _exact_gap(fps, lambda a: F["A"] * (a - 0.9 * a * a))
+    peak = max(true_gap(a) for a in np.linspace(0, 1, 201))
+    snr = 0.8 * peak
+    assert true_gap(1.0) < snr
+    first = _magnitude_for_snr(fps, "A", snr)
+    assert first < 0.5 and _projected_gap(fps, "A")(first) == pytest.approx(snr, rel=1e-6)
+    # no magnitude reaches a stronger gap: the strongest one, not the prior top
+    strongest = _magnitude_for_snr(fps, "A", 2 * peak)
+    assert 0.4 < strongest < 0.7
