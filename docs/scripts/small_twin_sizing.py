@@ -1,0 +1,79 @@
+"""Usage: python docs/scripts/small_twin_sizing.py CACHE K  (the --cache of the small
+full-campaign validation; K as in --shard K/14).
+
+Sizes twin K of `validate("small", simulator="engine", campaign="full", twin_repeats=3)`
+by the current twin rule (4: the magnitude first solved on the fingerprint is simulated on
+the fingerprint's seeds, added as a node, and the magnitude solved again), makes its
+measurement file, and prints, before any rerun of its diagnosis (no refinement, no "how far"):
+- the drawn gap, the first magnitude and the gap the simulated node carried there, the
+  magnitude the twin is made at;
+- the *where* test (significance, chi-square, the largest standardised residuals);
+- the recalibrated null's chi-square, each single effect's chi-square decrease with its
+  fitted magnitude and interval, the best models and the attribution's reason.
+New engine calls: the node (six) and the twin's three repeated experiments, unless cached.
+"""
+import importlib
+import sys
+from dataclasses import replace
+
+import numpy as np
+
+V = importlib.import_module("bedstruct.diagnose.validate")
+D = importlib.import_module("bedstruct.diagnose.diagnosis")
+
+
+class _Stop(ValueError):
+    """Raised once the twin's file is made (the validation records it as a failed twin)."""
+
+
+def main(cache, k):
+    from bedstruct.diagnose.attribution import attribute
+    from bedstruct.diagnose.fingerprints import assess_fingerprints, selection_threshold
+    from bedstruct.diagnose.where import where
+    got = {}
+    make_file, size = V._twin_measurements, V._size_twin
+
+    def twin_file(*args, **kw):
+        got["real"] = make_file(*args, **kw)
+        raise _Stop("the twin's file is made")
+
+    def sized(sim, fps, name, snr, noise):
+        out = size(sim, fps, name, snr, noise)
+        got.update(fps=fps, name=name, snr=snr, magnitude=out[0], node=out[2])
+        return out
+
+    V._twin_measurements, V._size_twin = twin_file, sized
+    V.validate("small", simulator="engine", campaign="full", twin_repeats=3, shard=(k, 14),
+               refine=0, engine={"preset": "small", "cache": cache})
+    node = got.get("node") or {}
+    if node.get("twin_node_magnitude") is not None:
+        print(f"twin {k} ({got['name']}): drawn gap {got['snr']:.2f} sigma; first magnitude "
+              f"{node['twin_node_magnitude']:.4g} carried {node['twin_node_gap_sigma']:.2f} sigma "
+              f"when simulated; the twin is made at {got['magnitude']:.4g}")
+    real = got["real"]
+    effects = V._catalogue(V.ENGINE_PRESETS["small"]["effects"])
+    fps = replace(got["fps"].subset([e.name for e in effects]), alpha=0.01)
+    fps, rows_meas, names, _, sm, _ = D._measured_vectors(real, fps)
+    sigma_meas = fps.sigma_meas.copy()
+    sigma_meas[rows_meas] = sm
+    fps = assess_fingerprints(replace(fps, sigma_meas=sigma_meas,
+                                      threshold=selection_threshold(0.01, len(effects))))
+    measured = replace(real, measurements=tuple(real[n] for n in names))
+    wh = where(measured, fps.base_samples[:, rows_meas], sim_var=fps.sim_var[rows_meas], alpha=0.05)
+    print(f"where: significant {wh.significant}, chi2 {wh.chi2:.1f} on {wh.dof}")
+    for line in wh.summary[:3]:
+        print(f"    {line}")
+    att = attribute(D._residual(real, fps), fps, alpha=0.01, gof_alpha=0.01, max_effects=2)
+    print(f"recalibrated null: chi2 {att.null.chi2:.1f} on {att.null.dof}; selection threshold "
+          f"{att.threshold:.2f}")
+    for r in att.ranking:
+        print(f"    {r.effect:18s} chi2 decrease {r.delta_chi2:7.2f} at {r.magnitude:.3g} "
+              f"({r.interval[0]:.3g}-{r.interval[1]:.3g})")
+    for m in att.models[:3]:
+        print(f"    model {m.label}: chi2 {m.chi2:.1f} on {m.dof} dof, p_fit {m.p_fit:.2g}, "
+              f"magnitudes {np.round(m.magnitudes, 3).tolist()}")
+    print(f"before reruns: {att.reason}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], int(sys.argv[2]))
