@@ -192,8 +192,9 @@ def simulate_node(simulator: Simulator, fps: FingerprintSet, effect: str,
 
     The effect runs on the set's replicate seeds and is paired with the base runs of the
     same seeds, as the fingerprint's own points are. ``None`` when no run is needed: at
-    magnitude 0, or within 5 % of the upper reference magnitude of a node it has.
-    Costs ``len(fps.seeds)`` simulator calls otherwise.
+    magnitude 0, or when one of the fingerprint's nodes already lies closer to
+    ``magnitude`` than 5 % of the effect's upper reference magnitude. Costs
+    ``len(fps.seeds)`` simulator calls otherwise.
 
     Examples
     --------

@@ -165,6 +165,8 @@ def _size_twin(sim, fps, name: str, snr: float, sigma) -> tuple[float, object, d
 
     from .fingerprint_runs import simulate_node
     first = _magnitude_for_snr(fps, name, snr, lambda a: sigma(fps, a))
+    # a long wait at the engine presets: say what it is for
+    log.info("twin sizing: %s simulated at %.4g on %d seeds", name, first, len(fps.seeds))
     node = simulate_node(sim, fps, name, first)
     if node is None:
         return first, fps, {"twin_node_magnitude": None, "twin_node_gap_sigma": None}

@@ -422,6 +422,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             if records_only:
                 not_run.extend({"twin": i, "type": k, "true_effect": name} for k in todo)
                 continue
+            if progress:  # a twin takes hours at the engine presets: say which one runs
+                iterator.set_postfix_str(f"twin {i} ({name or 'null'})", refresh=True)
             truth = {"true_effect": name, "true_magnitude": None,
                      "true_cohesion": base_true["cohesion_energy_density"]}
             try:

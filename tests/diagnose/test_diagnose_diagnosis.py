@@ -334,7 +334,12 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     monkeypatch.setitem(PRESETS, "tiny", dict(per_effect=1, null=2, out_of_catalogue=0, replicates=2))
     whole = validate("tiny", refine=0)
     recs = tmp_path / "twins.jsonl"
-    parts = [validate("tiny", refine=0, shard=(k, 2), records=recs) for k in (0, 1)]
+    capsys.readouterr()
+    parts = [validate("tiny", refine=0, shard=(k, 2), records=recs, progress=k == 1)
+             for k in (0, 1)]
+    # the bar names the twin it is working on, and only the shard's own twins
+    bar = capsys.readouterr().err
+    assert "twin 1 (" in bar and "twin 0 (" not in bar
     assert sorted(t["twin"] for p in parts for t in p.twins) == sorted(t["twin"] for t in whole.twins)
     assert not {t["twin"] for t in parts[0].twins} & {t["twin"] for t in parts[1].twins}
     calls = []
