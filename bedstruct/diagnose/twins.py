@@ -107,9 +107,10 @@ def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
 
     The fingerprint's predicted change carries its own estimation noise, which adds
     ``sum_i P_ii (se_i / sigma_i)**2`` to the expected squared norm (``se`` from
-    :meth:`Fingerprint.predict_se`). With ``debias`` (twin rule 4) that is subtracted, so
-    the gap is an unbiased estimate of the true effect's squared gap (its square root; 0
-    where the noise exceeds it); without it, the fingerprint's prediction as it is.
+    :meth:`Fingerprint.predict_se`). With ``debias`` that is subtracted, so the gap is an
+    unbiased estimate of the true effect's squared gap (its square root; 0 where the noise
+    exceeds it); without it, the fingerprint's prediction as it is. Twins are sized
+    without it and record both (``twin_gap_sigma``, ``twin_gap_debiased_sigma``).
     """
     from .fingerprints import nuisance_projector
     cal = fps.rows_calibrate

@@ -20,50 +20,77 @@ import numpy as np
 
 V = importlib.import_module("bedstruct.diagnose.validate")
 D = importlib.import_module("bedstruct.diagnose.diagnosis")
+T = importlib.import_module("bedstruct.diagnose.twins")
 
 
 class _Stop(ValueError):
     """Raised once the twin's file is made (the validation records it as a failed twin)."""
 
 
-def main(cache, k):
-    from bedstruct.diagnose.attribution import attribute
-    from bedstruct.diagnose.fingerprints import assess_fingerprints, selection_threshold
-    from bedstruct.diagnose.where import where
+def capture(cache, k):
+    """Twin ``k``'s sizing and file, stopped before its diagnosis.
+
+    Returns a dict: ``fps`` (the diagnosis's fingerprints), ``own`` (with the sizing's
+    node), ``name``, ``snr``, ``magnitude``, ``node`` (the record's fields), ``sim``,
+    ``noise`` (the twin's noise at a magnitude), the twin's ``base_true``, ``effects``,
+    ``seed``, ``repeats`` and ``real`` (its measurement file).
+    """
     got = {}
     make_file, size = V._twin_measurements, V._size_twin
 
-    def twin_file(*args, **kw):
-        got["real"] = make_file(*args, **kw)
+    def twin_file(design, sim, base_true, effects, seed, folder, idx, intrinsic, repeats=1):
+        got.update(base_true=base_true, effects=effects, seed=seed, repeats=repeats,
+                   real=make_file(design, sim, base_true, effects, seed, folder, idx,
+                                  intrinsic, repeats))
         raise _Stop("the twin's file is made")
 
     def sized(sim, fps, name, snr, noise):
         out = size(sim, fps, name, snr, noise)
-        got.update(fps=fps, name=name, snr=snr, magnitude=out[0], node=out[2])
+        got.update(fps=fps, own=out[1], name=name, snr=snr, magnitude=out[0], node=out[2],
+                   sim=sim, noise=noise)
         return out
 
     V._twin_measurements, V._size_twin = twin_file, sized
-    V.validate("small", simulator="engine", campaign="full", twin_repeats=3, shard=(k, 14),
-               refine=0, engine={"preset": "small", "cache": cache})
+    try:
+        V.validate("small", simulator="engine", campaign="full", twin_repeats=3, shard=(k, 14),
+                   refine=0, engine={"preset": "small", "cache": cache})
+    finally:
+        V._twin_measurements, V._size_twin = make_file, size
+    return got
+
+
+def diagnosis_view(got):
+    """The fingerprints as twin ``got``'s diagnosis sees them (its file's uncertainties, the
+    catalogue's effects, the selection threshold at 1 %), the measured rows and names, and
+    its residual."""
+    from bedstruct.diagnose.fingerprints import assess_fingerprints, selection_threshold
+    effects = V._catalogue(V.ENGINE_PRESETS["small"]["effects"])
+    fps = replace(got["fps"].subset([e.name for e in effects]), alpha=0.01)
+    fps, rows_meas, names, _, sm, _ = D._measured_vectors(got["real"], fps)
+    sigma_meas = fps.sigma_meas.copy()
+    sigma_meas[rows_meas] = sm
+    fps = assess_fingerprints(replace(fps, sigma_meas=sigma_meas,
+                                      threshold=selection_threshold(0.01, len(effects))))
+    return fps, rows_meas, names, D._residual(got["real"], fps)
+
+
+def main(cache, k):
+    from bedstruct.diagnose.attribution import attribute
+    from bedstruct.diagnose.where import where
+    got = capture(cache, k)
     node = got.get("node") or {}
     if node.get("twin_node_magnitude") is not None:
         print(f"twin {k} ({got['name']}): drawn gap {got['snr']:.2f} sigma; first magnitude "
               f"{node['twin_node_magnitude']:.4g} carried {node['twin_node_gap_sigma']:.2f} sigma "
               f"when simulated; the twin is made at {got['magnitude']:.4g}")
     real = got["real"]
-    effects = V._catalogue(V.ENGINE_PRESETS["small"]["effects"])
-    fps = replace(got["fps"].subset([e.name for e in effects]), alpha=0.01)
-    fps, rows_meas, names, _, sm, _ = D._measured_vectors(real, fps)
-    sigma_meas = fps.sigma_meas.copy()
-    sigma_meas[rows_meas] = sm
-    fps = assess_fingerprints(replace(fps, sigma_meas=sigma_meas,
-                                      threshold=selection_threshold(0.01, len(effects))))
+    fps, rows_meas, names, residual = diagnosis_view(got)
     measured = replace(real, measurements=tuple(real[n] for n in names))
     wh = where(measured, fps.base_samples[:, rows_meas], sim_var=fps.sim_var[rows_meas], alpha=0.05)
     print(f"where: significant {wh.significant}, chi2 {wh.chi2:.1f} on {wh.dof}")
     for line in wh.summary[:3]:
         print(f"    {line}")
-    att = attribute(D._residual(real, fps), fps, alpha=0.01, gof_alpha=0.01, max_effects=2)
+    att = attribute(residual, fps, alpha=0.01, gof_alpha=0.01, max_effects=2)
     print(f"recalibrated null: chi2 {att.null.chi2:.1f} on {att.null.dof}; selection threshold "
           f"{att.threshold:.2f}")
     for r in att.ranking:
