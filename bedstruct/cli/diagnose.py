@@ -31,7 +31,7 @@ the K-th, to split one validation over processes or machines; ``--twin-repeats R
 makes each twin's file the mean of R repeated experiments. ``--refine N`` sets the
 refinement rounds of each diagnosis (the effects leading the fit simulated at their fitted
 magnitudes and the fit repeated; a diagnosis's default is its config's ``refine``, a
-validation's 2 on the surrogate, 0 on the engine, 1 with LIGGGHTS twins). Options of one mode given
+validation's 2 on the surrogate, 1 on the engine and with LIGGGHTS twins). Options of one mode given
 to the other are a usage error (exit 2). Every output names its simulator
 (``"simulator": "surrogate"``, ``"engine"`` or ``"liggghts"``).
 """
@@ -81,7 +81,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--refine", type=_rounds, default=None, metavar="N",
                         help="refinement rounds of each diagnosis: the leading effects simulated "
                              "at their fitted magnitudes, the fit repeated (default: the config's "
-                             "refine; validate: 2 on the surrogate, 0 on the engine, 1 with "
+                             "refine; validate: 2 on the surrogate, 1 on the engine and with "
                              "LIGGGHTS twins)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")

@@ -288,7 +288,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         ``{"preset": "small"}`` for ``small``, else ``{"preset": "tiny"}``); give ``cache`` to
         keep every run on disk (reruns and other diagnoses of the same design reuse it).
     refine : int, optional
-        Refinement rounds of each diagnosis (default 2 on the surrogate, 0 on the engine).
+        Refinement rounds of each diagnosis (default 2 on the surrogate, 1 on the engine).
     twin_seed : int, optional
         Seed of the twins only (magnitudes, truth runs, noise; default ``seed``): a
         further batch of twins on the same (cached) fingerprints.
@@ -354,7 +354,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     if records_only and records is None:
         raise ConfigError("records_only: give the records file whose twins to score")
     if refine is None:
-        refine = 2 if simulator == "surrogate" else 0
+        # one round on the engine: each costs a call per fingerprint seed for every diagnosis
+        # with a leading effect, and one rescued a small capillary twin without making any
+        # twin wrong (docs/diagnose-validation.md)
+        refine = 2 if simulator == "surrogate" else 1
     t0 = time.perf_counter()
     effects = _catalogue(cfg.get("effects"))
     base = dict(BASE_PARAMETERS)
