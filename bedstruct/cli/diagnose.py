@@ -172,7 +172,10 @@ def _run_validate(args) -> int:
               + (f", failed: {len(failed)}" if failed else "")
               + (f", not run: {len(not_run)}" if not_run else "") + ")")
         for k, g in result.goals.items():
-            print(f"  {k:30s} {g['value']:.3f}   goal {g['goal']:8s} {'met' if g['met'] else 'NOT MET'}")
+            over = (f"  (over {g['n_twins']} twins with a held-out gap; "
+                    f"{g['n_no_heldout_gap']} without)" if g.get("n_no_heldout_gap") else "")
+            print(f"  {k:30s} {g['value']:.3f}   goal {g['goal']:8s} "
+                  f"{'met' if g['met'] else 'NOT MET'}{over}")
         print(f"  {'null_gap_flagged':30s} {result.null_gap_flagged:.3f}")
         print(f"  {'median_gap_shrink_rms':30s} {result.median_gap_shrink_rms:.3f}")
         print(f"  {'magnitude_coverage':30s} {result.magnitude_coverage:.3f}")

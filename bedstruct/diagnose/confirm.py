@@ -70,7 +70,9 @@ class Shrink:
     to the held-out observables (NaN without an attribution): the checks that confirm it.
     ``refits``: earlier reruns whose calibration check failed and after which the model was
     refitted (model, magnitudes, their p-values, seeds, and what was re-simulated:
-    ``recalibration`` or ``node``), oldest first.
+    ``recalibration`` or ``node``), oldest first. ``p_before``: chi-square p-value of the
+    held-out gap before (``n_heldout`` components, the observed ones): at or above a test's
+    level there is no held-out gap beyond noise, and ``fraction`` measures noise.
     """
 
     model: str
@@ -89,6 +91,7 @@ class Shrink:
     p_rerun_calibration: float = float("nan")
     p_rerun_heldout: float = float("nan")
     refits: tuple[dict, ...] = ()
+    p_before: float = float("nan")
 
     def as_dict(self) -> dict:
         return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
@@ -98,6 +101,7 @@ class Shrink:
                 "fraction_rms": self.fraction_rms, "n_heldout": self.n_heldout,
                 "p_rerun_calibration": self.p_rerun_calibration,
                 "p_rerun_heldout": self.p_rerun_heldout, "refits": list(self.refits),
+                "p_before": self.p_before,
                 "per_observable": list(self.per_observable)}
 
 

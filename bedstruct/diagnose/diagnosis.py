@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 from typing import Mapping, Sequence
 
 import numpy as np
+from scipy import stats
 
 from ..errors import ConfigError
 from .attribution import Attribution, attribute
@@ -390,8 +391,11 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")
     frac_rms = 1.0 - a[0] / b[0] if b[0] > 0 else float("nan")
     p_cal, p_held = conf.p_calibration, conf.p_heldout
+    zb = z_before[held_meas]
+    zb = zb[np.isfinite(zb)]
+    p_before = float(stats.chi2.sf(zb @ zb, zb.size)) if zb.size else float("nan")
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
-                    tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits)
+                    tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before)
     refit_note = "; ".join(_refit_text(r) for r in conf.refits)
     if refit_note:
         refit_note += ("; refitted" + (f" and rerun at {_magnitudes_text(mags)}"

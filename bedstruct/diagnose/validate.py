@@ -236,6 +236,7 @@ def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, record
            "verdict": att.verdict, "gap_significant": diag.where.significant,
            "shrink": diag.shrink.fraction, "shrink_rms": diag.shrink.fraction_rms,
            "gap_before": diag.shrink.before_excess, "gap_after": diag.shrink.after_excess,
+           "p_gap_heldout_before": diag.shrink.p_before,
            "p_rerun_calibration": diag.shrink.p_rerun_calibration,
            "p_rerun_heldout": diag.shrink.p_rerun_heldout,
            "refits": len(diag.shrink.refits), "reason": att.reason,

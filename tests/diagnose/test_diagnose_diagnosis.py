@@ -130,6 +130,10 @@ def test_withheld_effect_is_found_with_magnitude(twin_setup, tmp_path):
     assert top.effect == "blade_startup"
     assert top.interval[0] <= a <= top.interval[1]
     assert d.shrink.after <= d.shrink.before
+    # the held-out gap before, tested against noise (chi-square of its standardised residuals)
+    from scipy import stats
+    n = d.shrink.n_heldout
+    assert d.shrink.p_before == pytest.approx(stats.chi2.sf(n * d.shrink.before ** 2, n))
     j = d.to_json()
     assert j["simulator"] == "surrogate" and j["which"][0]["effect"] == "blade_startup"
     assert {"where", "which", "shrink", "next", "confidence"} <= set(j)
@@ -322,6 +326,26 @@ def test_observable_order_in_the_file_does_not_matter(twin_setup, tmp_path):
     assert d1.where.chi2 == pytest.approx(d2.where.chi2)
     assert d1.where.ranked(1) == d2.where.ranked(1)
     assert d2.attribution.selected[0].effect == "non_sphericity"
+
+
+def test_the_median_shrink_is_taken_over_twins_with_a_held_out_gap():
+    """A twin whose held-out observables show no gap beyond noise has no shrink to score."""
+    from bedstruct.diagnose.validation_scores import score_twins
+
+    def twin(shrink, p):
+        t = {"type": "effect", "true_effect": "a", "true_magnitude": 0.5, "predicted": "none",
+             "verdict": "none", "gap_significant": True, "shrink": shrink, "shrink_rms": shrink}
+        return t if p is None else dict(t, p_gap_heldout_before=p)
+
+    # a noise-level gap 'closed' by recalibration alone would lift the median to 1
+    s = score_twins([twin(1.0, 0.6), twin(0.2, 1e-4), twin(0.4, 0.01)], ["a"], removed_rows=False)
+    assert s["median_gap_shrink"] == pytest.approx(0.3)
+    g = s["goals"]["median_gap_shrink"]
+    assert (g["n_twins"], g["n_no_heldout_gap"], g["met"]) == (2, 1, False)
+    # records written before the test carry no p-value and are kept
+    s = score_twins([twin(1.0, None), twin(0.2, 1e-4), twin(0.4, 0.01)], ["a"], removed_rows=False)
+    assert s["median_gap_shrink"] == pytest.approx(0.4)
+    assert s["goals"]["median_gap_shrink"]["n_no_heldout_gap"] == 0
 
 
 def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, capsys, caplog):
