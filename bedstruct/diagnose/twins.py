@@ -110,7 +110,10 @@ def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
     :meth:`Fingerprint.predict_se`). With ``debias`` that is subtracted, so the gap is an
     unbiased estimate of the true effect's squared gap (its square root; 0 where the noise
     exceeds it); without it, the fingerprint's prediction as it is. Twins are sized
-    without it and record both (``twin_gap_sigma``, ``twin_gap_debiased_sigma``).
+    without it and record both (``twin_gap_sigma``, ``twin_gap_debiased_sigma``): the
+    debiased estimate is skewed, its median below the true gap (and zero where noise
+    dominates), so twins sized on it carry more than drawn in a noisy fingerprint, where
+    those sized on the prediction carry less; a validation errs on the weak side.
     """
     from .fingerprints import nuisance_projector
     cal = fps.rows_calibrate
