@@ -225,11 +225,14 @@ def _label(diag) -> str:
     return att.verdict
 
 
-def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, records=None) -> dict:
+def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, records=None,
+                identifiable: dict | None = None) -> dict:
     """One twin's record (scores, verdict, rerun checks), appended to ``records`` if given.
 
     ``signature`` holds the settings that make two validations the same (records of
-    another are not resumed); ``truth`` the withheld effect and magnitude.
+    another are not resumed); ``truth`` the withheld effect and magnitude;
+    ``identifiable`` the validation's fingerprints' judgement per effect
+    (``fingerprint_identifiable``: records that carry it are scored without them).
     """
     att = diag.attribution
     rec = {"twin": i, "type": kind, **signature, **truth, "predicted": _label(diag),
@@ -242,6 +245,8 @@ def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, record
            "refits": len(diag.shrink.refits), "reason": att.reason,
            "where_top": [(w["observable"], w["component"], round(w["z"], 2))
                          for w in diag.where.ranked(3)]}
+    if identifiable is not None:
+        rec["fingerprint_identifiable"] = {k: bool(v) for k, v in identifiable.items()}
     if att.selected:
         top = att.selected[0]
         rec.update(fitted_magnitude=top.magnitude, interval=list(top.interval),
@@ -255,6 +260,21 @@ def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, record
         with open(records, "a", encoding="utf-8") as fh:
             fh.write(json.dumps(_plain(rec)) + "\n")
     return rec
+
+
+def _fingerprint_settings(fps) -> dict:
+    """A validation's settings that come from its fingerprints (``None`` when scored from records)."""
+    if fps is None:
+        return {"top_up": None, "unobservable": None, "missing_runs": None,
+                "uneven_scatter": None, "scored_from_records": True}
+    return {"top_up": {"seeds": list(fps.top_up_seeds), "effects": {
+                name: dict(fps.meta["top_up"][name], signal_after=fps[name].signal,
+                           signal_se_after=fps[name].signal_se,
+                           identifiable_after=fps[name].identifiable)
+                for name in fps.topped_up}},
+            "unobservable": dict(fps.meta.get("unobservable", {})),
+            "missing_runs": dict(fps.meta.get("missing_runs", {})),
+            "uneven_scatter": dict(fps.meta.get("uneven_scatter", {}))}
 
 
 def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
@@ -310,8 +330,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         The surrogate's :func:`twin_design` is a full campaign already.
     records_only : bool
         Score the twins already in ``records`` and run none (the table of a partial or
-        sharded run; the others are listed in ``settings["not_run"]``). The fingerprints
-        are computed as usual, so give the engine's cache that holds them.
+        sharded run; the others are listed in ``settings["not_run"]``). Records state
+        their fingerprints' identifiability, so they are scored without a simulator;
+        only records written before they did (no ``fingerprint_identifiable``) need the
+        fingerprints computed, from the engine's cache that holds them.
     twin_repeats : int
         Repeated experiments per twin (default 1): its file states their mean and standard
         error, as a lab that repeats each test reports it. Twins are sized in that noise,
@@ -361,33 +383,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         refine = 2 if simulator == "surrogate" else 1
     t0 = time.perf_counter()
     effects = _catalogue(cfg.get("effects"))
-    base = dict(BASE_PARAMETERS)
-    if simulator == "surrogate":
-        measured = twin_design()
-        design = diagnosis_design(measured, effects)
-        sim = SurrogateSimulator(design)
-    else:
-        from ..workflows.diagnosis_sim import diagnosis_simulator
-        measured = engine_twin_design(campaign)
-        # with the whole catalogue's candidate measurements (one humid repose more per call),
-        # so that a diagnosis of any measurement file of this design finds every run cached
-        design = diagnosis_design(measured, _catalogue())
-        sim = diagnosis_simulator(design, dict(engine or {"preset": engine_scale_model(preset)}))
-    fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"], seed=seed,
-                               top_up=cfg.get("top_up", 0), alpha=select_alpha,
-                               simulator_name=simulator, progress=progress)
-    intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
-    # twins are sized in the noise their own diagnosis sees (their files state one run's
-    # scatter on top of the reading noise), not in the design's reading noise alone
-    twin_sigma = _twin_sigma(fps, intrinsic, twin_repeats)
-    if fps.meta.get("unobservable"):  # the simulator cannot give them: no twin measures them
-        measured = MeasurementSet(tuple(m for m in measured if m.name in fps.names),
-                                  measured.title, measured.source, measured.path, measured.notes)
     tseed = int(seed if twin_seed is None else twin_seed)
-    rng = np.random.default_rng([tseed, 2024])
-    reuse_ooc = simulator == "engine"
-    plan = _twin_plan([e.name for e in effects], cfg, in_turn=reuse_ooc)
-
     # everything that changes a twin's record: records of another validation are not reused
     signature = {"preset": preset, "simulator": simulator, "campaign": campaign, "seed": int(seed),
                  "twin_seed": tseed, "alpha": alpha, "select_alpha": select_alpha,
@@ -396,6 +392,42 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
                  "twin_repeats": twin_repeats, "top_up": int(cfg.get("top_up", 0))}
     done = _records_done(records, signature)
+    # records that state their fingerprints' identifiability are scored without a simulator
+    offline = records_only and all("fingerprint_identifiable" in r for r in done.values())
+    base = dict(BASE_PARAMETERS)
+    sim = fps = None
+    if simulator == "surrogate":
+        measured = twin_design()
+        design = diagnosis_design(measured, effects)
+        sim = SurrogateSimulator(design)
+    elif not offline:
+        from ..workflows.diagnosis_sim import diagnosis_simulator
+        measured = engine_twin_design(campaign)
+        # with the whole catalogue's candidate measurements (one humid repose more per call),
+        # so that a diagnosis of any measurement file of this design finds every run cached
+        design = diagnosis_design(measured, _catalogue())
+        sim = diagnosis_simulator(design, dict(engine or {"preset": engine_scale_model(preset)}))
+    if not offline:
+        fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"],
+                                   seed=seed, top_up=cfg.get("top_up", 0), alpha=select_alpha,
+                                   simulator_name=simulator, progress=progress)
+        identifiable = {f.name: bool(f.identifiable) for f in fps.fingerprints}
+        intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
+        # twins are sized in the noise their own diagnosis sees (their files state one run's
+        # scatter on top of the reading noise), not in the design's reading noise alone
+        twin_sigma = _twin_sigma(fps, intrinsic, twin_repeats)
+        if fps.meta.get("unobservable"):  # the simulator cannot give them: no twin measures them
+            measured = MeasurementSet(tuple(m for m in measured if m.name in fps.names),
+                                      measured.title, measured.source, measured.path,
+                                      measured.notes)
+    else:
+        identifiable = {}
+        for r in done.values():
+            identifiable.update(r["fingerprint_identifiable"])
+    rng = np.random.default_rng([tseed, 2024])
+    reuse_ooc = simulator == "engine"
+    plan = _twin_plan([e.name for e in effects], cfg, in_turn=reuse_ooc)
+
     twins, failed, not_run = [], [], []
     iterator = enumerate(plan)
     if progress:
@@ -407,7 +439,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         diag = diagnose(real, sim, base=base, effects=cat, replicates=cfg["replicates"], seed=seed,
                         alpha=alpha, select_alpha=select_alpha, gof_alpha=gof_alpha,
                         fingerprints=fps, refine=refine, simulator_name=simulator)
-        twins.append(twin_record(diag, i, kind, signature, truth, records=records))
+        twins.append(twin_record(diag, i, kind, signature, truth, records=records,
+                                 identifiable=identifiable))
 
     with tempfile.TemporaryDirectory(prefix="bedstruct-twins-") as tmp:
         folder = Path(tmp)
@@ -461,19 +494,13 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
 
     sc = score_twins(twins, [e.name for e in effects],
                      removed_rows=bool(cfg["out_of_catalogue"] or reuse_ooc),
-                     identifiable={f.name: bool(f.identifiable) for f in fps.fingerprints})
+                     identifiable=identifiable or None)
     settings = {"replicates": cfg["replicates"], "per_effect": cfg["per_effect"], "null": cfg["null"],
                 "out_of_catalogue_per_effect": cfg["out_of_catalogue"] or (
                     "each effect twin, its effect removed" if reuse_ooc else 0),
                 "effects": [e.name for e in effects], "refine": refine,
-                "top_up": {"seeds": list(fps.top_up_seeds), "effects": {
-                    name: dict(fps.meta["top_up"][name], signal_after=fps[name].signal,
-                               signal_se_after=fps[name].signal_se,
-                               identifiable_after=fps[name].identifiable)
-                    for name in fps.topped_up}},
-                "failed": failed, "not_run": not_run, "unobservable": dict(fps.meta.get("unobservable", {})),
-                "missing_runs": dict(fps.meta.get("missing_runs", {})),
-                "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
+                **_fingerprint_settings(fps),
+                "failed": failed, "not_run": not_run,
                 "simulator_runs": getattr(sim, "n_runs", None),
                 "cached_calls": getattr(sim, "n_cached", None),
                 "engine": dict(getattr(sim, "base_cfg", {}) and {

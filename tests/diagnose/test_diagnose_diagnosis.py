@@ -380,8 +380,23 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     mine = {t["twin"] for t in parts[0].twins}
     half.write_text("".join(x + "\n" for x in recs.read_text().splitlines()
                             if json.loads(x)["twin"] in mine))
+    # records state their fingerprints' identifiability: scored without fingerprints
+    real_fps = vmod.compute_fingerprints
+    fp_calls = []
+    monkeypatch.setattr(vmod, "compute_fingerprints",
+                        lambda *a, **k: fp_calls.append(1) or real_fps(*a, **k))
     scored = validate("tiny", refine=0, records=half, records_only=True)
+    assert fp_calls == [] and scored.settings["scored_from_records"]
+    same = lambda a, b: json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)  # noqa: E731
+    assert scored.identifiable["effects"] and same(scored.identifiable, parts[0].identifiable)
     assert calls == [] and sorted(map(key, scored.twins)) == sorted(mine)
+    # a record written before they did sends the scoring back to the fingerprints
+    old = tmp_path / "old.jsonl"
+    old.write_text("".join(json.dumps({k: v for k, v in json.loads(x).items()
+                                       if k != "fingerprint_identifiable"}) + "\n"
+                           for x in half.read_text().splitlines()))
+    assert same(validate("tiny", refine=0, records=old, records_only=True).identifiable,
+                scored.identifiable) and fp_calls == [1]
     assert sorted(t["twin"] for t in scored.settings["not_run"]) == \
         sorted(t["twin"] for t in parts[1].twins)
     assert scored.top1_accuracy == parts[0].top1_accuracy
