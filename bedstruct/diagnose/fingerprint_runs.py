@@ -266,6 +266,7 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
                 r = mags[a] / mags[b]
                 D_all[2 * k + a, lost] = D_all[2 * k + b, lost] * r
                 SE_all[2 * k + a, lost] = SE_all[2 * k + b, lost] * abs(r)
+                n_pairs[2 * k + a, lost] = n_pairs[2 * k + b, lost]
                 extrapolated.setdefault(e.name, []).extend(
                     f"{comp[i]} at {mags[a]:g} (from {mags[b]:g})" for i in np.flatnonzero(lost))
     usable = np.isfinite(sim_var) & (np.isfinite(base_s).sum(axis=0) > 0) \
@@ -300,7 +301,7 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
         log.warning("fingerprints: the run-to-run scatter differs between parameter points "
                     "for %s; points that scatter unlike the base keep their own",
                     sorted(uneven))
-    D_all, SE_all = D_all[:, keep], SE_all[:, keep]
+    D_all, SE_all, n_pairs = D_all[:, keep], SE_all[:, keep], n_pairs[:, keep]
 
     fps = []
     for k, e in enumerate(effects):
@@ -319,7 +320,8 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
         nodes = np.array([0.0, m1, m2])
         resp = np.vstack([np.zeros(D.shape[1]), D])
         fps.append(Fingerprint(e, np.array([m1, m2]), D, SE, nodes, resp, not curved,
-                               run_var=run_var_all[k][:, keep]))
+                               run_var=run_var_all[k][:, keep],
+                               delta_n=n_pairs[2 * k:2 * k + 2].copy()))
     threshold = selection_threshold(alpha, len(effects))
     out = FingerprintSet(design, tuple(keep_names), rows_cal, rows_val, rows_cand, base,
                          tuple(base_seeds), base_s, sim_var, _design_sigma(design, keep_names),

@@ -79,6 +79,13 @@ class Fingerprint:
         where its scatter was set aside from the pooled one
         (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`), else the pooled
         estimate.
+    delta_n : (2, n) ndarray of int or None
+        Paired runs behind each component of ``delta`` (a run that could not observe a
+        component leaves it out).
+    single_run_share : float
+        Share of ``signal**2`` carried by calibration components that the prior top
+        observed in fewer than two runs: their response, and the scatter it is judged
+        against, rest on one run (:meth:`FingerprintSet.marginal`).
     """
 
     effect: Effect
@@ -95,6 +102,8 @@ class Fingerprint:
     identify_with: tuple[str, ...] = ()
     run_var: np.ndarray | None = None
     signal_se: float = 0.0
+    delta_n: np.ndarray | None = None
+    single_run_share: float = 0.0
 
     def __post_init__(self):
         order = np.argsort(self.nodes)
@@ -247,13 +256,17 @@ class FingerprintSet:
         """Replicate seeds shared by every parameter point."""
         return self.base_samples.shape[0] - len(self.top_up_seeds)
 
-    def marginal(self, width: float = 2.0) -> tuple[str, ...]:
+    def marginal(self, width: float = 2.0, single_run: float = 0.5) -> tuple[str, ...]:
         """Effects whose identifiability is undecided by their own estimation noise.
 
         An effect is identifiable when ``signal**2 > threshold + noise**2``; it is
         marginal when its signal lies within ``width`` standard errors
         (:attr:`Fingerprint.signal_se`) of that bound, so that other replicate seeds
-        could well have judged it the other way.
+        could well have judged it the other way; or when more than ``single_run`` of
+        its signal lies on components that the prior top observed in only one run
+        (:attr:`Fingerprint.single_run_share`): there the standard error assumes the
+        base's scatter, which the point that lost a run has not shown it keeps (an
+        ageing pile that stands as a block in one run and reads 59 deg in the other).
 
         Examples
         --------
@@ -268,11 +281,13 @@ class FingerprintSet:
         ('e',)
         >>> replace(fps, fingerprints=(replace(fp, signal=6.0),)).marginal()
         ()
+        >>> replace(fps, fingerprints=(replace(fp, signal=6.0, single_run_share=0.8),)).marginal()
+        ('e',)
         """
         out = []
         for f in self.fingerprints:
             bound = float(np.sqrt(self.threshold + f.noise ** 2))
-            if abs(f.signal - bound) < width * f.signal_se:
+            if abs(f.signal - bound) < width * f.signal_se or f.single_run_share > single_run:
                 out.append(f.name)
         return tuple(out)
 
@@ -351,7 +366,8 @@ class FingerprintSet:
             raise ConfigError("no calibration observable left in the fingerprint set")
         fps = tuple(replace(f, delta=f.delta[:, keep], delta_se=f.delta_se[:, keep],
                             responses=f.responses[:, keep],
-                            run_var=None if f.run_var is None else f.run_var[:, keep])
+                            run_var=None if f.run_var is None else f.run_var[:, keep],
+                            delta_n=None if f.delta_n is None else f.delta_n[:, keep])
                     for f in self.fingerprints)
         roles = design.roles()
         out = replace(self, design=design, names=tuple(keep_names),
@@ -386,6 +402,7 @@ class FingerprintSet:
         the seeds behind it and what would identify it."""
         return [{"effect": f.name, "signal_sigma": f.signal, "signal_se_sigma": f.signal_se,
                  "noise_sigma": f.noise, "identifiable": f.identifiable,
+                 "single_run_share": f.single_run_share,
                  "seeds": len(self.seeds) if f.name in self.topped_up else self.n_replicates, "nonlinearity": f.nonlinearity(),
                  "confounded_with": list(f.confounded_with),
                  "identify_with": list(f.identify_with)} for f in self.fingerprints]

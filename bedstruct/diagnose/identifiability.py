@@ -104,6 +104,10 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
         f_c = P_c @ (D[1][cal] / sig_c)
         u = f_c / signal if signal > 0 else f_c
         signal_se = float(np.sqrt(np.sum((u * SE[1][cal] / sig_c) ** 2)))
+        single = 0.0
+        if fp.delta_n is not None and signal > 0:
+            one = fp.delta_n[1][cal] < 2
+            single = float(np.sum(f_c[one] ** 2) / signal ** 2)
         identifiable = signal ** 2 > fps.threshold + noise ** 2
         conf = []
         for j, other in enumerate(projected):
@@ -129,6 +133,7 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
                 if len(ident) == 3:
                     break
         out.append(replace(fp, signal=signal, noise=noise, signal_se=signal_se,
+                           single_run_share=single,
                            identifiable=bool(identifiable),
                            confounded_with=tuple(conf), identify_with=tuple(ident)))
     return replace(fps, fingerprints=tuple(out))

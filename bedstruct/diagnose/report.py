@@ -81,16 +81,22 @@ def diagnosis_report(diag, *, title: str | None = None):
                   "combined noise; identifiability judged on calibration observables after "
                   "projecting out what recalibrating " + ", ".join(fps.nuisance) + " absorbs.")
         s.tables.append(Table(["effect", "signal (sigma)", "its standard error", "noise (sigma)",
-                               "identifiable", "seeds", "confounded with",
+                               "identifiable", "seeds", "signal on one run", "confounded with",
                                "would be identified by"],
                               [[r["effect"], _fmt(r["signal_sigma"]), _fmt(r["signal_se_sigma"]),
                                 _fmt(r["noise_sigma"]), r["identifiable"], r["seeds"],
-                                ", ".join(r["confounded_with"]),
+                                _fmt(r["single_run_share"]), ", ".join(r["confounded_with"]),
                                 _identified_by(fps, r)] for r in fps.table()]))
         if fps.topped_up:
             s.text += (f" {', '.join(fps.topped_up)}: identifiability marginal on the "
                        f"{fps.n_replicates} shared seeds, so run again with the base on "
                        f"{len(fps.top_up_seeds)} more.")
+        thin = [f.name for f in fps.fingerprints
+                if f.single_run_share > 0.5 and f.name not in fps.topped_up]
+        if thin:
+            s.text += (f" {', '.join(thin)}: more than half the signal lies on observables that "
+                       "the prior top observed in one run only (the other runs could not observe "
+                       "them), so its size rests on that run; more replicate seeds would judge it.")
         from .separation import nearest_imitations
         s.tables.append(Table(["effect", "closest imitation by", "unique part", "told apart from a gap of (sigma)",
                                "signal at prior top (sigma)"],

@@ -1,7 +1,8 @@
-"""Usage: python docs/scripts/small_twin_seeds.py CACHE K  (as small_twin_sizing.py).
+"""Usage: python docs/scripts/small_twin_seeds.py CACHE K [PRESET [TWIN_SEED]]  (as
+small_twin_sizing.py).
 
-Where a small twin's gap goes between its sizing and its diagnosis, seed by seed. For twin
-K of `validate("small", simulator="engine", campaign="full", twin_repeats=3)` (sized by the
+Where a twin's gap goes between its sizing and its diagnosis, seed by seed. For twin
+K of `validate(PRESET, simulator="engine", campaign="full", twin_repeats=3)` (sized by the
 current twin rule) it prints, all in the twin's own noise with the part recalibration
 absorbs projected out, on the calibration observables:
 - the gap the sizing's node carried (its mean over the fingerprint's seeds, paired with the
@@ -20,7 +21,7 @@ import sys
 
 import numpy as np
 
-from small_twin_sizing import T, capture, diagnosis_view
+from small_twin_sizing import T, capture, diagnosis_view, settings
 
 
 def _vector(fps, obs):
@@ -86,4 +87,5 @@ def main(cache, k):
 
 
 if __name__ == "__main__":
+    settings(sys.argv)
     main(sys.argv[1], int(sys.argv[2]))

@@ -1,7 +1,9 @@
-"""Usage: python docs/scripts/small_twin_sizing.py CACHE K  (the --cache of the small
-full-campaign validation; K as in --shard K/14).
+"""Usage: python docs/scripts/small_twin_sizing.py CACHE K [PRESET [TWIN_SEED]]  (the --cache
+of the full-campaign engine validation; K as in --shard K/14 at small, K/5 at tiny; PRESET
+small, with three repeated experiments per twin, or tiny, with one; TWIN_SEED as
+--twin-seed, default 0).
 
-Sizes twin K of `validate("small", simulator="engine", campaign="full", twin_repeats=3)`
+Sizes twin K of `validate(PRESET, simulator="engine", campaign="full", twin_repeats=3)`
 by the current twin rule (4: the magnitude first solved on the fingerprint is simulated on
 the fingerprint's seeds, added as a node, and the magnitude solved again), makes its
 measurement file, and prints, before any rerun of its diagnosis (no refinement, no "how far"):
@@ -21,6 +23,19 @@ import numpy as np
 V = importlib.import_module("bedstruct.diagnose.validate")
 D = importlib.import_module("bedstruct.diagnose.diagnosis")
 T = importlib.import_module("bedstruct.diagnose.twins")
+
+
+#: The validation replayed: preset, repeated experiments per twin, twin seed (set by main).
+RUN = {"preset": "small", "twin_repeats": 3, "twin_seed": None}
+
+
+def settings(argv):
+    """``RUN`` from the command line's optional PRESET and TWIN_SEED."""
+    if len(argv) > 3:
+        RUN.update(preset=argv[3], twin_repeats=3 if argv[3] == "small" else 1)
+    if len(argv) > 4:
+        RUN["twin_seed"] = int(argv[4])
+    return RUN
 
 
 class _Stop(ValueError):
@@ -52,8 +67,12 @@ def capture(cache, k):
 
     V._twin_measurements, V._size_twin = twin_file, sized
     try:
-        V.validate("small", simulator="engine", campaign="full", twin_repeats=3, shard=(k, 14),
-                   refine=0, engine={"preset": "small", "cache": cache})
+        cfg = V.ENGINE_PRESETS[RUN["preset"]]
+        n_twins = len(V._twin_plan(cfg["effects"], cfg, in_turn=True))
+        V.validate(RUN["preset"], simulator="engine", campaign="full",
+                   twin_repeats=RUN["twin_repeats"], twin_seed=RUN["twin_seed"],
+                   shard=(k, n_twins), refine=0,
+                   engine={"preset": RUN["preset"], "cache": cache})
     finally:
         V._twin_measurements, V._size_twin = make_file, size
     return got
@@ -64,7 +83,7 @@ def diagnosis_view(got):
     catalogue's effects, the selection threshold at 1 %), the measured rows and names, and
     its residual."""
     from bedstruct.diagnose.fingerprints import assess_fingerprints, selection_threshold
-    effects = V._catalogue(V.ENGINE_PRESETS["small"]["effects"])
+    effects = V._catalogue(V.ENGINE_PRESETS[RUN["preset"]]["effects"])
     fps = replace(got["fps"].subset([e.name for e in effects]), alpha=0.01)
     fps, rows_meas, names, _, sm, _ = D._measured_vectors(got["real"], fps)
     sigma_meas = fps.sigma_meas.copy()
@@ -103,4 +122,5 @@ def main(cache, k):
 
 
 if __name__ == "__main__":
+    settings(sys.argv)
     main(sys.argv[1], int(sys.argv[2]))

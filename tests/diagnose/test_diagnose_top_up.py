@@ -132,3 +132,40 @@ def test_config_top_up(tmp_path):
     path.write_text('[simulator]\nkind = "surrogate"\ntop_up = -1\n')
     with pytest.raises(ConfigError, match=r"sim.toml \[simulator\]: key 'top_up'"):
         load_sim_config(path)
+
+
+class _LossyToy(ToySimulator):
+    """At A's prior top, seeds 1 and 2 cannot observe the first six components (NaN), as
+    a pile that stands as a block leaves no flank to fit."""
+
+    def __call__(self, base, effects, seed):
+        from bedstruct.diagnose import Observations
+        y = super().__call__(base, effects, seed)
+        if effects.get("A", 0.0) >= EFFECTS[0].reference_magnitudes[1] and seed in (1, 2):
+            return Observations({m.name: [np.nan] if i < 6 else y[m.name]
+                                 for i, m in enumerate(self.design)}, source="toy")
+        return y
+
+
+def test_an_effect_whose_signal_rests_on_one_run_is_topped_up():
+    design = toy_design(N, n_validate=3)
+    toy = _LossyToy(design, sens=J, effects=F, noise_sd=0.3)
+    effects = [EFFECTS[0], EFFECTS[2]]
+    before = compute_fingerprints(toy, design, {"k": 1.0}, effects, nuisance=("k",), replicates=3,
+                                  alpha=0.01)
+    a = before["A"]
+    # far above the bound by its standard error, yet most of it lies on one run per component
+    bound = np.sqrt(before.threshold + a.noise ** 2)
+    assert a.identifiable and a.signal - bound > 2 * a.signal_se
+    assert (a.delta_n[1][:6] == 1).all() and (a.delta_n[1][6:9] == 3).all()
+    assert a.single_run_share > 0.5 and before["Z"].single_run_share == 0.0
+    assert before.marginal() == ("A",) and before.marginal(single_run=1.0) == ()
+    assert before.table()[0]["single_run_share"] == pytest.approx(a.single_run_share)
+    sim = _Recorder(toy)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, effects, nuisance=("k",), replicates=3,
+                               top_up=2, alpha=0.01)
+    assert fps.topped_up == ("A",) and (fps["A"].delta_n[1][:6] == 3).all()
+    assert fps["A"].single_run_share == 0.0 and fps.marginal() == ()
+    # the restricted set keeps the counts of the rows it keeps
+    kept = fps.restrict([m.name for m in design][3:])
+    assert kept["A"].delta_n.shape == (2, N - 3)
