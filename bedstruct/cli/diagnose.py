@@ -1,13 +1,13 @@
 """Diagnose the sim-to-real gap, or validate the diagnosis on synthetic twins.
 
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--seed S] [--cache DIR]
-                     [--jobs N] [--refine N] [--json] [--progress]
+                     [--jobs N] [--refine N] [--top-up N] [--json] [--progress]
   bedstruct diagnose validate --preset mini|tiny|small
                              [--simulator surrogate|engine|liggghts] [--campaign seed|full]
                              [--sim CONFIG] [--cache DIR] [--jobs N] [--seed S] [--twin-seed S]
                              [--records FILE [--records-only]] [--shard K/N]
-                             [--twin-repeats R] [--refine N] [--out DIR] [--json]
-                             [--progress]
+                             [--twin-repeats R] [--refine N] [--top-up N] [--out DIR]
+                             [--json] [--progress]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
 workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
@@ -31,7 +31,9 @@ the K-th, to split one validation over processes or machines; ``--twin-repeats R
 makes each twin's file the mean of R repeated experiments. ``--refine N`` sets the
 refinement rounds of each diagnosis (the effects leading the fit simulated at their fitted
 magnitudes and the fit repeated; a diagnosis's default is its config's ``refine``, a
-validation's 2 on the surrogate, 1 on the engine and with LIGGGHTS twins). Options of one mode given
+validation's 2 on the surrogate, 1 on the engine and with LIGGGHTS twins); ``--top-up N``
+the fingerprint seeds added where an effect's identifiability is marginal (a diagnosis's
+default is its config's ``top_up``, a validation's its preset's). Options of one mode given
 to the other are a usage error (exit 2). Every output names its simulator
 (``"simulator": "surrogate"``, ``"engine"`` or ``"liggghts"``).
 """
@@ -83,6 +85,10 @@ def add_arguments(parser) -> None:
                              "at their fitted magnitudes, the fit repeated (default: the config's "
                              "refine; validate: 2 on the surrogate, 1 on the engine and with "
                              "LIGGGHTS twins)")
+    parser.add_argument("--top-up", type=_rounds, default=None, metavar="N",
+                        help="fingerprint seeds added for the base and every effect whose "
+                             "identifiability is marginal (default: the config's top_up; "
+                             "validate: the preset's, see ENGINE_PRESETS)")
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -157,7 +163,7 @@ def _run_validate(args) -> int:
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
                       campaign=args.campaign, records=args.records, shard=args.shard,
                       twin_repeats=args.twin_repeats, records_only=args.records_only,
-                      refine=args.refine)
+                      refine=args.refine, top_up=args.top_up)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)
@@ -227,6 +233,8 @@ def run(args) -> int:
         cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, cache=args.cache))
     if args.refine is not None:  # recorded in the output's sim_config
         cfg = dataclasses.replace(cfg, refine=args.refine)
+    if args.top_up is not None:
+        cfg = dataclasses.replace(cfg, top_up=args.top_up)
     ms = load_measurements(args.real)
     design = diagnosis_design(ms, cfg.effects)
     sim = make_simulator(cfg, design)

@@ -282,7 +282,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
              twin_seed: int | None = None, records=None, campaign: str = "seed",
              shard: tuple[int, int] | None = None, twin_repeats: int = 1,
-             records_only: bool = False, progress: bool = False) -> ValidationResult:
+             records_only: bool = False, top_up: int | None = None,
+             progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
     Parameters
@@ -334,6 +335,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         their fingerprints' identifiability, so they are scored without a simulator;
         only records written before they did (no ``fingerprint_identifiable``) need the
         fingerprints computed, from the engine's cache that holds them.
+    top_up : int, optional
+        Fingerprint seeds added for the base and every effect whose identifiability is
+        marginal after the preset's replicates (default: the preset's ``top_up``, 0 where
+        it names none; see :data:`ENGINE_PRESETS`).
     twin_repeats : int
         Repeated experiments per twin (default 1): its file states their mean and standard
         error, as a lab that repeats each test reports it. Twins are sized in that noise,
@@ -348,10 +353,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         # twins from another code: their own plan and preset table, same records and scores
         from .validate_liggghts import validate_liggghts
         if (campaign != "seed" or shard is not None or twin_repeats != 1 or twin_seed is not None
-                or records_only):
-            raise ConfigError("simulator='liggghts': campaign, shard, twin_repeats, twin_seed and "
-                              "records_only are for the engine's twins; LIGGGHTS twins follow "
-                              "liggghts_twin_plan")
+                or records_only or top_up is not None):
+            raise ConfigError("simulator='liggghts': campaign, shard, twin_repeats, twin_seed, "
+                              "records_only and top_up are for the engine's twins; LIGGGHTS twins "
+                              "follow liggghts_twin_plan")
         workdir = Path(engine["cache"]) / "liggghts-twins" if engine and engine.get("cache") else None
         return validate_liggghts(preset, seed=seed, engine=engine, workdir=workdir, records=records,
                                  alpha=alpha, select_alpha=select_alpha, gof_alpha=gof_alpha,
@@ -376,6 +381,11 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     twin_repeats = int(twin_repeats)
     if records_only and records is None:
         raise ConfigError("records_only: give the records file whose twins to score")
+    if top_up is None:
+        top_up = int(cfg.get("top_up", 0))
+    elif int(top_up) != top_up or top_up < 0:
+        raise ConfigError(f"top_up: expected a whole number >= 0; got {top_up!r}")
+    top_up = int(top_up)
     if refine is None:
         # one round on the engine: each costs a call per fingerprint seed for every diagnosis
         # with a leading effect, and one rescued a small capillary twin without making any
@@ -390,7 +400,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "gof_alpha": gof_alpha, "refine": int(refine),
                  "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
                  "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
-                 "twin_repeats": twin_repeats, "top_up": int(cfg.get("top_up", 0))}
+                 "twin_repeats": twin_repeats, "top_up": top_up}
     done = _records_done(records, signature)
     # records that state their fingerprints' identifiability are scored without a simulator
     offline = records_only and all("fingerprint_identifiable" in r for r in done.values())
@@ -409,7 +419,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         sim = diagnosis_simulator(design, dict(engine or {"preset": engine_scale_model(preset)}))
     if not offline:
         fps = compute_fingerprints(sim, design, base, effects, replicates=cfg["replicates"],
-                                   seed=seed, top_up=cfg.get("top_up", 0), alpha=select_alpha,
+                                   seed=seed, top_up=top_up, alpha=select_alpha,
                                    simulator_name=simulator, progress=progress)
         identifiable = {f.name: bool(f.identifiable) for f in fps.fingerprints}
         intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)

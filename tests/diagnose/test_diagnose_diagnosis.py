@@ -284,6 +284,14 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
     with pytest.raises(SystemExit) as exc:
         main(["diagnose", "validate", "--refine", "-1"])
     assert exc.value.code == 2 and "whole number >= 0" in capsys.readouterr().err
+    # --top-up overrides the config's (diagnosis) or the preset's (validation) seeds for
+    # marginal effects, and is recorded
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "t"),
+                 "--refine", "0", "--top-up", "3", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["sim_config"]["top_up"] == 3
+    with pytest.raises(SystemExit) as exc:
+        main(["diagnose", "validate", "--top-up", "x"])
+    assert exc.value.code == 2 and "whole number >= 0" in capsys.readouterr().err
 
 
 def test_cli_help(capsys):
@@ -400,6 +408,22 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     assert sorted(t["twin"] for t in scored.settings["not_run"]) == \
         sorted(t["twin"] for t in parts[1].twins)
     assert scored.top1_accuracy == parts[0].top1_accuracy
+    # fingerprints topped up otherwise make other twins: those records are not resumed
+    other = validate("tiny", refine=0, records=recs, records_only=True, top_up=2)
+    assert other.twins == [] and len(other.settings["not_run"]) == len(whole.twins)
+
+    class Stop(Exception):
+        pass
+
+    def fingerprints_asked(*a, **k):
+        raise Stop(k["top_up"])
+
+    monkeypatch.setattr(vmod, "compute_fingerprints", fingerprints_asked)
+    with pytest.raises(Stop, match="^2$"):
+        validate("tiny", refine=0, top_up=2)
+    monkeypatch.setattr(vmod, "compute_fingerprints", real_fps)
+    with pytest.raises(ConfigError, match="top_up"):
+        validate("tiny", top_up=-1)
     cli = ["diagnose", "validate", "--preset", "tiny", "--records", str(tmp_path / "cli.jsonl")]
     assert main(cli + ["--shard", "1/2"]) == 0
     capsys.readouterr()
