@@ -1,4 +1,4 @@
-"""Usage: python docs/scripts/small_twin_seeds.py CACHE K [PRESET [TWIN_SEED]]  (as
+"""Usage: python docs/scripts/small_twin_seeds.py CACHE K [PRESET [TWIN_SEED [TOP_UP]]]  (as
 small_twin_sizing.py).
 
 Where a twin's gap goes between its sizing and its diagnosis, seed by seed. For twin

@@ -1,7 +1,7 @@
-"""Usage: python docs/scripts/small_twin_sizing.py CACHE K [PRESET [TWIN_SEED]]  (the --cache
-of the full-campaign engine validation; K as in --shard K/14 at small, K/5 at tiny; PRESET
-small, with three repeated experiments per twin, or tiny, with one; TWIN_SEED as
---twin-seed, default 0).
+"""Usage: python docs/scripts/small_twin_sizing.py CACHE K [PRESET [TWIN_SEED [TOP_UP]]]  (the
+--cache of the full-campaign engine validation; K as in --shard K/14 at small, K/5 at tiny;
+PRESET small, with three repeated experiments per twin, or tiny, with one; TWIN_SEED as
+--twin-seed, default 0; TOP_UP as --top-up, default the preset's).
 
 Sizes twin K of `validate(PRESET, simulator="engine", campaign="full", twin_repeats=3)`
 by the current twin rule (4: the magnitude first solved on the fingerprint is simulated on
@@ -26,15 +26,17 @@ T = importlib.import_module("bedstruct.diagnose.twins")
 
 
 #: The validation replayed: preset, repeated experiments per twin, twin seed (set by main).
-RUN = {"preset": "small", "twin_repeats": 3, "twin_seed": None}
+RUN = {"preset": "small", "twin_repeats": 3, "twin_seed": None, "top_up": None}
 
 
 def settings(argv):
-    """``RUN`` from the command line's optional PRESET and TWIN_SEED."""
+    """``RUN`` from the command line's optional PRESET, TWIN_SEED and TOP_UP."""
     if len(argv) > 3:
         RUN.update(preset=argv[3], twin_repeats=3 if argv[3] == "small" else 1)
     if len(argv) > 4:
         RUN["twin_seed"] = int(argv[4])
+    if len(argv) > 5:
+        RUN["top_up"] = int(argv[5])
     return RUN
 
 
@@ -71,7 +73,7 @@ def capture(cache, k):
         n_twins = len(V._twin_plan(cfg["effects"], cfg, in_turn=True))
         V.validate(RUN["preset"], simulator="engine", campaign="full",
                    twin_repeats=RUN["twin_repeats"], twin_seed=RUN["twin_seed"],
-                   shard=(k, n_twins), refine=0,
+                   shard=(k, n_twins), refine=0, top_up=RUN["top_up"],
                    engine={"preset": RUN["preset"], "cache": cache})
     finally:
         V._twin_measurements, V._size_twin = make_file, size
