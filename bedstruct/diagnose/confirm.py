@@ -73,6 +73,9 @@ class Shrink:
     ``recalibration`` or ``node``), oldest first. ``p_before``: chi-square p-value of the
     held-out gap before (``n_heldout`` components, the observed ones): at or above a test's
     level there is no held-out gap beyond noise, and ``fraction`` measures noise.
+    ``rerun_worst``: the components on which the final rerun (of the attributed model, or of
+    the recalibrated base) departs most from the data, largest ``|z|`` first (observable,
+    component label, role, ``z``): where a failed check comes from.
     """
 
     model: str
@@ -92,6 +95,7 @@ class Shrink:
     p_rerun_heldout: float = float("nan")
     refits: tuple[dict, ...] = ()
     p_before: float = float("nan")
+    rerun_worst: tuple[dict, ...] = ()
 
     def as_dict(self) -> dict:
         return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
@@ -102,7 +106,8 @@ class Shrink:
                 "p_rerun_calibration": self.p_rerun_calibration,
                 "p_rerun_heldout": self.p_rerun_heldout, "refits": list(self.refits),
                 "p_before": self.p_before,
-                "per_observable": list(self.per_observable)}
+                "per_observable": list(self.per_observable),
+                "rerun_worst": list(self.rerun_worst)}
 
 
 

@@ -394,8 +394,11 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     zb = z_before[held_meas]
     zb = zb[np.isfinite(zb)]
     p_before = float(stats.chi2.sf(zb @ zb, zb.size)) if zb.size else float("nan")
+    comp_labels = [measurements[n].labels[j] for n in names for j in range(measurements[n].n_components)]
+    worst = _worst_components(z_after, comp_names, comp_labels, held_meas)
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
-                    tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before)
+                    tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before,
+                    worst)
     refit_note = "; ".join(_refit_text(r) for r in conf.refits)
     if refit_note:
         refit_note += ("; refitted" + (f" and rerun at {_magnitudes_text(mags)}"
@@ -427,10 +430,11 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     elif att.verdict == "attributed":
         failed = []
         if p_cal < gof_alpha:
-            failed.append(f"the calibration observables (p = {p_cal:.2g}; the fit interpolated "
-                          f"between simulated magnitudes said p = {att.best.p_fit:.2g})")
+            failed.append(f"the calibration observables (p = {p_cal:.2g}{_worst_text(worst, 'calibrate')}; "
+                          f"the fit interpolated between simulated magnitudes said "
+                          f"p = {att.best.p_fit:.2g})")
         if p_held < gof_alpha:
-            failed.append(f"the held-out observables (p = {p_held:.2g})")
+            failed.append(f"the held-out observables (p = {p_held:.2g}{_worst_text(worst, 'validate')})")
         if failed:
             verdict_note = ((refit_note + "; " if refit_note else "")
                             + f"{att.best.label} fits the calibration observables but the rerun at "
@@ -481,6 +485,25 @@ def _residual(measurements: MeasurementSet, fps: FingerprintSet) -> np.ndarray:
     rows = ~fps.rows_candidate
     out[rows] = np.concatenate([measurements[n].values for n in names]) - fps.base_mean[rows]
     return out
+
+
+def _worst_components(z, comp_names, comp_labels, held, n: int = 3) -> tuple[dict, ...]:
+    """The ``n`` calibration and the ``n`` held-out components of largest ``|z|``."""
+    z = np.asarray(z, float)
+    out = []
+    for role, mask in (("calibrate", ~held), ("validate", held)):
+        idx = np.flatnonzero(mask & np.isfinite(z))
+        for i in idx[np.argsort(-np.abs(z[idx]), kind="stable")][:n]:
+            out.append({"observable": str(comp_names[i]), "component": str(comp_labels[i]),
+                        "role": role, "z": float(z[i])})
+    return tuple(out)
+
+
+def _worst_text(worst, role: str) -> str:
+    """", largest OBS [label] +z sigma, ..." for the components of one role beyond 2 sigma."""
+    items = [f"{w['observable']} [{w['component']}] {w['z']:+.1f} sigma" for w in worst
+             if w["role"] == role and abs(w["z"]) > 2.0]
+    return (", largest " + ", ".join(items)) if items else ""
 
 
 def _magnitudes_text(mags: Mapping[str, float]) -> str:

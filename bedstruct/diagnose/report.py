@@ -172,6 +172,14 @@ def diagnosis_report(diag, *, title: str | None = None):
         s.tables.append(Table(["observable", "before", "recalibrated", "after"],
                               [[r["observable"], _fmt(r["before"]), _fmt(r["recalibrated"]),
                                 _fmt(r["after"])] for r in sh.per_observable]))
+        if sh.rerun_worst:
+            s.tables.append(Table(
+                ["observable", "component", "role", "z (rerun)"],
+                [[w["observable"], w["component"],
+                  "calibration" if w["role"] == "calibrate" else "held out", f"{w['z']:+.2f}"]
+                 for w in sh.rerun_worst],
+                caption="where the final rerun departs most from the data (a failed check "
+                        "comes from these components)"))
         fig, _ = pdg.plot_shrink(sh)
         s.add_figure(fig, "held-out gap before and after")
 

@@ -246,7 +246,9 @@ def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, record
            "p_rerun_heldout": diag.shrink.p_rerun_heldout,
            "refits": len(diag.shrink.refits), "reason": att.reason,
            "where_top": [(w["observable"], w["component"], round(w["z"], 2))
-                         for w in diag.where.ranked(3)]}
+                         for w in diag.where.ranked(3)],
+           "rerun_worst": [(w["observable"], w["component"], w["role"], round(w["z"], 2))
+                           for w in diag.shrink.rerun_worst]}
     if identifiable is not None:
         rec["fingerprint_identifiable"] = {k: bool(v) for k, v in identifiable.items()}
     if att.selected:

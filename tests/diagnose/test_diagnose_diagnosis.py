@@ -383,6 +383,10 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     for a, b in zip(sorted(merged.twins, key=key), sorted(whole.twins, key=key)):
         assert (a["predicted"], a["true_effect"]) == (b["predicted"], b["true_effect"])
     assert merged.top1_accuracy == whole.top1_accuracy
+    # each record says where its final rerun departed most, as its diagnosis does
+    rows = [json.loads(x) for x in recs.read_text().splitlines()]
+    assert all(len(r["rerun_worst"]) > 0 and {w[2] for w in r["rerun_worst"]} <= {"calibrate", "validate"}
+               for r in rows)
     # one shard's records scored alone: its twins only, none run, the others listed as not run
     half = tmp_path / "half.jsonl"
     mine = {t["twin"] for t in parts[0].twins}

@@ -89,6 +89,13 @@ def test_an_attribution_its_rerun_contradicts_on_the_calibration_observables_is_
     assert d.verdict == "unexplained"
     assert "calibration observables (p =" in d.attribution.reason
     assert "not confirmed" in d.attribution.reason
+    # the reason names where the rerun departs: the bump doubles A's response, so the
+    # largest calibration departures lie where A responds (o0-o5), none where it does not
+    worst = [w for w in d.shrink.rerun_worst if w["role"] == "calibrate"]
+    assert worst and abs(worst[0]["z"]) > 2.0
+    assert all(int(w["observable"][1:]) <= 5 for w in worst if abs(w["z"]) > 2.0)
+    assert f"largest {worst[0]['observable']} [value] {worst[0]['z']:+.1f} sigma" in d.attribution.reason
+    assert d.shrink.as_dict()["rerun_worst"][0] == worst[0]
 
 
 def test_a_rerun_that_contradicts_the_interpolation_becomes_a_node_and_the_refit_is_confirmed():
