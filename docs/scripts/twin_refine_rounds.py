@@ -53,6 +53,9 @@ def main(cache, k, preset, twin_seed, top_up, rounds):
         print(f"    held-out shrink {s.fraction:.2f} (excess gap {s.before_excess:.2f} -> "
               f"{s.after_excess:.2f}); rerun p calibration {s.p_rerun_calibration}, "
               f"held out {s.p_rerun_heldout}")
+        for w in s.rerun_worst:
+            print(f"    rerun departs: {w['observable']} [{w['component']}] ({w['role']}) "
+                  f"{w['z']:+.2f} sigma")
 
 
 if __name__ == "__main__":
