@@ -258,9 +258,10 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
     held = fps.rows_validate[rows_meas]
     var_meas = fps.sim_var[rows_meas]
 
-    def z_of(samples, extra_var=None):
+    def z_of(samples, extra_var=None, run_var=None):
         s = sigma_meas if extra_var is None else np.sqrt(sigma_meas ** 2 + extra_var)
-        return standardised_residuals(y, s, samples, sim_var=var_meas)[0]
+        v = var_meas if run_var is None else np.maximum(var_meas, run_var)
+        return standardised_residuals(y, s, samples, sim_var=v)[0]
 
     refits, n_runs, secants = [], 0, {}
     samples = z_after = z_check = None
@@ -278,7 +279,12 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         n_runs += len(seeds)
         if progress is not None:
             progress.update(len(seeds))
-        z_after = z_of(samples)
+        # the rerun's mean scatters as runs do at the model's magnitudes: more than the
+        # pooled scatter where the fingerprint's later nodes or this rerun showed it
+        local = np.max([fps.run_sd(e, a) ** 2 for e, a in mags.items()], axis=0) \
+            if mags else fps.sim_var
+        local = np.maximum(local, fps.node_run_var(samples, rows=rows_meas))[rows_meas]
+        z_after = z_of(samples, run_var=local)
         # the held-out check adds the variance that the calibration-fit uncertainty of the
         # magnitudes and recalibration shifts puts on the prediction
         pred_var = np.zeros(len(fps.sigma))
@@ -286,7 +292,7 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
             pred_var += (fps[e].derivative(float(a_e)) * se_e) ** 2
         for j, se_b in enumerate(model.nuisance_stderr):
             pred_var += (fps.sensitivities[:, j] * se_b) ** 2
-        z_check = z_of(samples, pred_var[rows_meas])
+        z_check = z_of(samples, pred_var[rows_meas], run_var=local)
         # no prediction variance on the calibration observables: the fitted values were
         # chosen on these data, so the rerun must agree with them as the fit said it would
         p_cal = p_fit_z(z_after[cal]) if cal.any() else float("nan")
@@ -338,7 +344,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         response[rows_meas] = _nan_mean(samples) - fps.base_mean[rows_meas] - shift
         record["node"] = {effect: a}
         refits.append(record)
-        fps = replace(fps, fingerprints=tuple(f.with_node(a, response) if f.name == effect else f
-                                              for f in fps.fingerprints))
+        run_var = fps.node_run_var(samples, rows=rows_meas)
+        fps = replace(fps, fingerprints=tuple(f.with_node(a, response, run_var=run_var)
+                                              if f.name == effect else f for f in fps.fingerprints))
         att = attribute(residual, fps, alpha=alpha, gof_alpha=att.gof_alpha, max_effects=max_effects)
     return Confirmation(att, fps, samples, z_after, z_check, p_cal, p_held, tuple(refits), n_runs)

@@ -213,7 +213,8 @@ def simulate_node(simulator: Simulator, fps: FingerprintSet, effect: str,
     if a == 0.0 or np.min(np.abs(fp.nodes - a)) < 0.05 * abs(fp.magnitudes[1]):
         return None
     runs = simulate_replicates(simulator, fps.base, {effect: a}, fps.seeds, fps.names)
-    return fp.with_node(a, _nan_mean(runs - fps.base_samples))
+    # its runs' own scatter where it exceeds the pooled one (heaps that stand or fall)
+    return fp.with_node(a, _nan_mean(runs - fps.base_samples), run_var=fps.node_run_var(runs))
 
 
 def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, simulator_name,

@@ -86,6 +86,10 @@ class Fingerprint:
         Share of ``signal**2`` carried by calibration components that the prior top
         observed in fewer than two runs: their response, and the scatter it is judged
         against, rest on one run (:meth:`FingerprintSet.marginal`).
+    scatter_nodes : tuple of (float, (n,) ndarray)
+        Variance of one run at magnitudes simulated after the fingerprint (refinement
+        nodes, reruns, a twin's sizing node; :meth:`FingerprintSet.node_run_var`), which
+        :meth:`FingerprintSet.run_sd` interpolates with :attr:`run_var`.
     """
 
     effect: Effect
@@ -104,6 +108,7 @@ class Fingerprint:
     signal_se: float = 0.0
     delta_n: np.ndarray | None = None
     single_run_share: float = 0.0
+    scatter_nodes: tuple = ()
 
     def __post_init__(self):
         order = np.argsort(self.nodes)
@@ -164,10 +169,12 @@ class Fingerprint:
             return self._slope
         return self._df(min(max(a, self.nodes[0]), self.nodes[-1]))
 
-    def with_node(self, a: float, response) -> "Fingerprint":
+    def with_node(self, a: float, response, run_var=None) -> "Fingerprint":
         """A copy with a simulated response at magnitude ``a`` added (non-linear interpolation).
 
         Components not observed at ``a`` (NaN) keep the current interpolation there.
+        ``run_var``, the variance of one run at ``a`` (:meth:`FingerprintSet.node_run_var`),
+        is added to :attr:`scatter_nodes`.
         """
         from dataclasses import replace
         response = np.array(response, dtype=float)
@@ -175,7 +182,9 @@ class Fingerprint:
         response[gap] = self.predict(a)[gap]
         nodes = np.append(self.nodes, float(a))
         resp = np.vstack([self.responses, response[None]])
-        return replace(self, nodes=nodes, responses=resp, linear=False)
+        scatter = self.scatter_nodes if run_var is None else \
+            self.scatter_nodes + ((float(a), np.asarray(run_var, float)),)
+        return replace(self, nodes=nodes, responses=resp, linear=False, scatter_nodes=scatter)
 
     def nonlinearity(self) -> float:
         """Relative deviation at ``m1`` from the straight line through 0 and ``m2`` (0 if linear)."""
@@ -309,18 +318,86 @@ class FingerprintSet:
         variance interpolated linearly in the magnitude between the base and those
         points (held beyond them).
         """
-        from .replicates import variance_upper_bound as bound
-        var = self.sim_var if self.sim_dof is None else self.sim_var / bound(self.sim_dof)
+        var = self._pooled_run_var()
         if effect is None or not magnitude:
             return np.sqrt(var)
         fp = self[effect]
-        if fp.run_var is None:
+        if fp.run_var is None and not fp.scatter_nodes:
             return np.sqrt(var)
-        nodes = np.r_[0.0, fp.magnitudes]
-        order = np.argsort(nodes)
-        table = np.vstack([var, fp.run_var])[order]
-        return np.sqrt(np.array([np.interp(float(magnitude), nodes[order], table[:, i])
+        run_var = np.vstack([var, var]) if fp.run_var is None else fp.run_var
+        nodes = np.r_[0.0, fp.magnitudes, [a for a, _ in fp.scatter_nodes]]
+        table = np.vstack([var, run_var] + [v[None] for _, v in fp.scatter_nodes])
+        # a later node at a fingerprint magnitude replaces that point's estimate
+        nodes, first = np.unique(nodes[::-1], return_index=True)
+        table = table[::-1][first]
+        return np.sqrt(np.array([np.interp(float(magnitude), nodes, table[:, i])
                                  for i in range(table.shape[1])]))
+
+    def _pooled_run_var(self) -> np.ndarray:
+        from .replicates import variance_upper_bound as bound
+        return self.sim_var if self.sim_dof is None else self.sim_var / bound(self.sim_dof)
+
+    def node_run_var(self, samples, alpha: float = 0.01, rows=None) -> np.ndarray:
+        """Variance of one run at a parameter point simulated after the fingerprints.
+
+        Per component, the point's own replicate variance where it exceeds the pooled
+        run variance significantly (one-sided F-test at ``alpha`` over the components
+        tested, as the fingerprint's points are set aside,
+        :func:`~bedstruct.diagnose.replicates.homogeneous_variance`), else the pooled
+        estimate: a magnitude at which heaps stand or fall scatters unlike the base, and
+        two seeds' runs there must be judged in that scatter.
+
+        Parameters
+        ----------
+        samples : (R, n) array_like
+            The point's replicates (NaN where a run did not observe a component).
+        alpha : float
+            Family-wise level.
+        rows : (n,) bool array, optional
+            The components that ``samples`` holds (default all); the others keep the
+            pooled estimate.
+
+        Returns
+        -------
+        (n,) ndarray
+
+        Examples
+        --------
+        >>> from dataclasses import replace
+        >>> from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue,
+        ...                                 compute_fingerprints, diagnosis_design, twin_design)
+        >>> effects = catalogue(["wall_friction"])
+        >>> design = diagnosis_design(twin_design(), effects)
+        >>> fps = compute_fingerprints(SurrogateSimulator(design), design, BASE_PARAMETERS,
+        ...                            effects, replicates=3)
+        >>> sd = np.sqrt(fps._pooled_run_var())
+        >>> rng = np.random.default_rng(0)
+        >>> wild = fps.base_mean + 30.0 * sd * rng.standard_normal((4, sd.size))
+        >>> bool(np.all(fps.node_run_var(wild) > fps._pooled_run_var()))
+        True
+        >>> tame = fps.base_mean + sd * rng.standard_normal((4, sd.size))
+        >>> bool(np.allclose(fps.node_run_var(tame), fps._pooled_run_var()))
+        True
+        """
+        from scipy import stats
+
+        from .where import _nan_var
+        pooled = self._pooled_run_var()
+        if rows is not None:
+            s = np.full((len(samples), pooled.size), np.nan)
+            s[:, np.asarray(rows, bool)] = samples
+        else:
+            s = np.atleast_2d(np.asarray(samples, float))
+        own = _nan_var(s)
+        dof_own = np.sum(np.isfinite(s), axis=0) - 1
+        dof_pool = np.full(pooled.shape, np.inf) if self.sim_dof is None else \
+            np.asarray(self.sim_dof, float)
+        ok = (dof_own >= 1) & np.isfinite(own) & (pooled > 0)
+        p = np.ones(pooled.shape)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            p[ok] = stats.f.sf(own[ok] / pooled[ok], dof_own[ok], dof_pool[ok])
+        wider = ok & (p < alpha / max(int(ok.sum()), 1))
+        return np.where(wider, own, pooled)
 
     @property
     def base_mean(self) -> np.ndarray:
@@ -367,6 +444,7 @@ class FingerprintSet:
         fps = tuple(replace(f, delta=f.delta[:, keep], delta_se=f.delta_se[:, keep],
                             responses=f.responses[:, keep],
                             run_var=None if f.run_var is None else f.run_var[:, keep],
+                            scatter_nodes=tuple((a, v[keep]) for a, v in f.scatter_nodes),
                             delta_n=None if f.delta_n is None else f.delta_n[:, keep])
                     for f in self.fingerprints)
         roles = design.roles()

@@ -66,7 +66,10 @@ ENGINE_PRESETS = {
                            "non_sphericity")),
 }
 #: Revision of how twins are made, in every twin record: records of another revision are not
-#: resumed. 4: a twin's magnitude is sized on its effect's response simulated at that
+#: resumed. 5: the one-run scatter a twin's file states, and its sizing noise, take its
+#: sizing node's own replicate scatter where it exceeds the pooled one
+#: (:meth:`FingerprintSet.node_run_var`: at tiny a capillary heap at RH 0.3-0.55 scatters
+#: ~10 deg from seed to seed, the base ~3 deg); 4 stated the pooled scatter there. 4: a twin's magnitude is sized on its effect's response simulated at that
 #: magnitude (one node on the fingerprint's seeds, the magnitude solved again; the first
 #: crossing of the drawn gap, not a bisection that assumed the gap grows with the magnitude;
 #: :func:`~bedstruct.diagnose.twins._size_twin`); 3 sized it on the response interpolated
@@ -77,7 +80,7 @@ ENGINE_PRESETS = {
 #: noise, and its magnitude is sized in that noise; 2 stated the pooled scatter at every
 #: point. 1 sized it in the design's reading noise and stated the scatter at its upper
 #: bound, so its gap was smaller than stated.
-_TWIN_RULE = 4
+_TWIN_RULE = 5
 
 #: Revision of the simulation scatter, in every twin record. 2: pooled over the points that
 #: scatter like the base (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`);
@@ -96,8 +99,10 @@ _SCATTER_RULE = 2
 #: that fails while a recalibration shift exceeds its finite-difference step re-simulates the
 #: base at that shift (paired seeds) and refits with the secant sensitivities. 7: the selected
 #: model is the best subset of its size, the size chosen by significance (a pair must beat
-#: every single), not the end of a forward selection through the best single.
-_FIT_RULE = 7
+#: every single), not the end of a forward selection through the best single. 8: a rerun
+#: is checked in the scatter of runs at its magnitudes (refinement nodes and reruns keep their
+#: own replicate scatter where it exceeds the pooled one), not in the pooled scatter.
+_FIT_RULE = 8
 
 
 def engine_scale_model(preset: str) -> str:
@@ -478,7 +483,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             truth = {"true_effect": name, "true_magnitude": None,
                      "true_cohesion": base_true["cohesion_energy_density"]}
             try:
-                effects_true, magnitude = {}, None
+                effects_true, magnitude, own_fps = {}, None, fps
                 if name is not None:
                     # in the noise the twin's file will state, at the twin's own magnitude
                     def noise(f, a, e=name):
@@ -494,7 +499,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                                  twin_gap_debiased_sigma=_projected_gap(
                                      own_fps, name, own_sigma, debias=True)(magnitude),
                                  **node)
-                own = intrinsic if simulator == "surrogate" else _intrinsic_sd(fps, name, magnitude)
+                # one run's scatter at the twin's point, its sizing node's where those runs
+                # scattered unlike the base (the replicate scatter an experimenter would state)
+                own = intrinsic if simulator == "surrogate" else \
+                    _intrinsic_sd(own_fps, name, magnitude)
                 real = _twin_measurements(measured, sim, base_true, effects_true, twin_run_seed,
                                           folder, i, own, twin_repeats)
                 for k in todo:

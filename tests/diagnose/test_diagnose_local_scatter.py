@@ -1,0 +1,94 @@
+"""Runs that scatter unlike the base between the fingerprint's magnitudes.
+
+At the tiny engine preset a capillary heap at RH 0.3-0.55 stands or falls from seed to seed
+(static angle 14-55 deg), while the base and the fingerprint's points scatter by ~3 deg. A
+node simulated there (refinement, a rerun, a twin's sizing node) keeps its own scatter where
+it exceeds the pooled one, and a rerun there is judged in it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from bedstruct.diagnose import Observations, compute_fingerprints, diagnose
+from bedstruct.diagnose.fingerprint_runs import simulate_node
+from diagnose_helpers import ToySimulator, toy_design, toy_effect
+
+N = 12
+SENS = {"k": np.linspace(1.0, 2.0, N)}
+RESP = {"A": np.r_[6, -6, 6, -6, 6, -6, 0, 0, 0, 3, -3, 0] * 4.0}
+WILD = 30.0   # extra standard deviation of o0 at m = 0.25
+
+
+class _WildBetweenNodes(ToySimulator):
+    """Noise sd 1 (twice) everywhere, plus WILD * sin^2(2 pi m) on o0: wild at m = 0.25,
+    tame at the base and at the fingerprint's magnitudes 0.5 and 1."""
+
+    def __call__(self, base, effects, seed):
+        obs = super().__call__(base, effects, seed)
+        names = [m.name for m in self.design]
+        y = obs.vector(names)
+        m = float(effects.get("A", 0.0))
+        rng = np.random.default_rng([int(seed), 99, int(round(1e6 * m))])
+        y[0] += WILD * np.sin(2.0 * np.pi * m) ** 2 * rng.standard_normal()
+        return Observations({n: [v] for n, v in zip(names, y)}, source="toy")
+
+
+def _setup():
+    design = toy_design(N, n_validate=3)
+    sim = _WildBetweenNodes(design, sens=SENS, effects=RESP, noise_sd=1.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01)
+    return design, sim, fps
+
+
+def test_a_node_keeps_its_own_scatter_where_it_exceeds_the_pooled_one():
+    design, sim, fps = _setup()
+    pooled = fps.run_sd()
+    # the fingerprint's points are tame: nothing tells the scatter at 0.25 in advance
+    assert fps["A"].run_var is None or np.allclose(fps["A"].run_var, pooled ** 2)
+    np.testing.assert_allclose(fps.run_sd("A", 0.25), pooled)
+    node = simulate_node(sim, fps, "A", 0.25)
+    (a, var), = node.scatter_nodes
+    assert a == 0.25
+    assert var[0] > 50.0 * pooled[0] ** 2            # o0: its own, wild scatter
+    np.testing.assert_allclose(var[1:], pooled[1:] ** 2)   # the rest: the pooled estimate
+    own = replace(fps, fingerprints=(node,))
+    sd = own.run_sd("A", 0.25)
+    assert sd[0] == pytest.approx(np.sqrt(var[0]))
+    # interpolated towards the tame neighbours, the pooled scatter at the base
+    assert own.run_sd("A", 0.375)[0] < sd[0] and own.run_sd("A", 0.0)[0] == pooled[0]
+    # restricted to some observables, the node's scatter follows
+    assert own.restrict(["o0", "o3", "o9"])["A"].scatter_nodes[0][1].shape == (3,)
+    # a twin sized there states that scatter as its repeated experiments would
+    from bedstruct.diagnose.twins import _intrinsic_sd
+    assert _intrinsic_sd(own, "A", 0.25).vector(["o0"])[0] == pytest.approx(sd[0])
+
+
+def test_a_rerun_where_runs_scatter_wildly_is_judged_in_their_scatter(monkeypatch):
+    design, sim, fps = _setup()
+    y = 0.25 * RESP["A"] + np.random.default_rng(3).normal(0.0, 1.0, N)
+    real = design.with_values(Observations({f"o{i}": [v] for i, v in enumerate(y)}))
+
+    def runs():  # ten diagnoses, each rerun on its own seeds
+        return [diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                         refine=0, confirm_rounds=0, seed=s) for s in range(10)]
+
+    ds = runs()
+    for d in ds:
+        assert d.attribution.best.effects == ("A",)
+        assert d.attribution.best.magnitudes[0] == pytest.approx(0.25, abs=0.05)
+    # a rerun's three runs scatter on o0 by ~30: their mean lies far from the data there,
+    # as far as such runs fall, and the true model is confirmed every time
+    assert all(d.verdict == "attributed" and d.shrink.p_rerun_calibration >= 0.01 for d in ds)
+    # judged in the pooled scatter (the rule before), most of the same reruns contradict it,
+    # on o0
+    monkeypatch.setattr(type(fps), "node_run_var",
+                        lambda self, s, alpha=0.01, rows=None: self._pooled_run_var())
+    failed = [d for d in runs() if d.verdict == "unexplained"]
+    assert len(failed) >= 6
+    assert all(d.shrink.p_rerun_calibration < 0.01 and d.shrink.rerun_worst[0]["observable"] == "o0"
+               for d in failed)
