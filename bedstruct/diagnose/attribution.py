@@ -241,7 +241,17 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     J = jac(x)
     try:
         cov = _gram_pinv(J)
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
+        var_x = np.clip(np.diag(cov), 0, None)
+        if k:
+            # the interpolated response is itself an estimate from a few runs: its noise at
+            # the fitted magnitudes (Fingerprint.predict_se) passes into the parameters
+            # through the same normal equations (a steep response between two noisy nodes
+            # otherwise gives an interval of a few thousandths)
+            v_pred = sum(np.nan_to_num(f.predict_se(float(ai))[rows] / sig) ** 2
+                         for f, ai in zip(fs, x[:k]))
+            G = cov @ J.T
+            var_x = var_x + np.einsum("ij,j,ij->i", G, v_pred, G)
+        se = np.sqrt(var_x)
     except np.linalg.LinAlgError:  # pragma: no cover
         se = np.full(len(x), np.inf)
     a, b = x[:k], x[k:]

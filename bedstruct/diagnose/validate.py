@@ -101,8 +101,10 @@ _SCATTER_RULE = 2
 #: model is the best subset of its size, the size chosen by significance (a pair must beat
 #: every single), not the end of a forward selection through the best single. 8: a rerun
 #: is checked in the scatter of runs at its magnitudes (refinement nodes and reruns keep their
-#: own replicate scatter where it exceeds the pooled one), not in the pooled scatter.
-_FIT_RULE = 8
+#: own replicate scatter where it exceeds the pooled one), not in the pooled scatter. 9: a
+#: magnitude's interval carries the noise of the interpolated response at it
+#: (:meth:`Fingerprint.predict_se`), and a node's own scatter is tested per component.
+_FIT_RULE = 9
 
 
 def engine_scale_model(preset: str) -> str:

@@ -13,6 +13,7 @@ import sys
 import numpy as np
 
 V = importlib.import_module("bedstruct.diagnose.validate")
+V.diagnosis_module = importlib.import_module("bedstruct.diagnose.diagnosis")
 
 
 def main(cache, k, preset, twin_seed, top_up, rounds):
@@ -45,9 +46,22 @@ def main(cache, k, preset, twin_seed, top_up, rounds):
         for r in att.ranking[:3]:
             print(f"    {r.effect:18s} chi2 decrease {r.delta_chi2:7.2f} at {r.magnitude:.3g} "
                   f"({r.interval[0]:.3g}-{r.interval[1]:.3g})")
+        fps = d.fingerprints
+        residual = V.diagnosis_module._residual(d.measurements, fps)
+        comp = fps.design.component_names()
+        labels = fps.design.component_labels()
+        cal = np.flatnonzero(fps.rows_calibrate)
         for m in att.models[:3]:
             print(f"    model {m.label}: chi2 {m.chi2:.1f} on {m.dof} dof, p_fit {m.p_fit:.2g}, "
                   f"magnitudes {np.round(m.magnitudes, 3).tolist()}")
+            # where the model misses: its largest calibration residuals, in sigma
+            pred = fps.sensitivities @ m.nuisance if len(m.nuisance) else 0.0
+            for e, a in zip(m.effects, m.magnitudes):
+                pred = pred + fps[e].predict(float(a))
+            r = (residual - pred) / fps.sigma
+            worst = cal[np.argsort(-np.abs(r[cal]))][:3]
+            print("        misses: " + ", ".join(f"{comp[i]} [{labels[i]}] {r[i]:+.1f}"
+                                                for i in worst))
         for f in d.fingerprints.fingerprints:
             print(f"    {f.name} nodes: {np.round(f.nodes, 4).tolist()}")
         print(f"    held-out shrink {s.fraction:.2f} (excess gap {s.before_excess:.2f} -> "
