@@ -190,6 +190,11 @@ class Diagnosis:
         out = [f"{n}: not observed in {k} fingerprint run(s); averaged over the runs that did"
                for n, k in missing.items()]
         out += [uneven_scatter_note(n, u) for n, u in (self.settings.get("uneven_scatter") or {}).items()]
+        out += [f"{w['effect']} at {w['magnitude']:.3g} (simulated after the fingerprints): "
+                f"{w['component']} scatters from run to run with standard deviation "
+                f"{w['sd']:.3g} against {w['sd_pooled']:.3g} pooled; runs there are judged in "
+                f"their own scatter, and more seeds at that magnitude would sharpen the answer"
+                for w in self.settings.get("node_scatter") or []]
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])
 
@@ -461,9 +466,26 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "data_notes": list(data_notes),
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
                 "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
+                "node_scatter": _node_scatter(fps),
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
                 + len(rerun_seeds) + conf.n_runs}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)
+
+
+def _node_scatter(fps: FingerprintSet) -> list[dict]:
+    """Components on which a node simulated after the fingerprints scattered unlike the base."""
+    pooled = fps.run_sd()
+    comp = fps.design.component_names()
+    labels = fps.design.component_labels()
+    out = []
+    for f in fps.fingerprints:
+        for a, var in f.scatter_nodes:
+            sd = np.sqrt(var)
+            for i in np.flatnonzero(np.isfinite(sd) & (sd > pooled * (1.0 + 1e-9))):
+                out.append({"effect": f.name, "magnitude": float(a),
+                            "component": f"{comp[i]} [{labels[i]}]", "sd": float(sd[i]),
+                            "sd_pooled": float(pooled[i])})
+    return out
 
 
 def _refit_text(refit: dict) -> str:

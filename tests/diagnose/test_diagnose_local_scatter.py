@@ -129,3 +129,21 @@ def test_a_magnitude_interval_carries_the_noise_of_the_interpolated_response(mon
     # without it (the rule before) the 95 % intervals cover the truth in three draws of four
     monkeypatch.setattr(Fingerprint, "predict_se", lambda self, a: np.zeros(self.delta_se.shape[1]))
     assert coverage() <= 0.8
+
+
+def test_the_diagnosis_says_where_runs_scattered_unlike_the_base():
+    design, sim, fps = _setup()
+    y = 0.25 * RESP["A"] + np.random.default_rng(3).normal(0.0, 1.0, N)
+    real = design.with_values(Observations({f"o{i}": [v] for i, v in enumerate(y)}))
+    d = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps, refine=1)
+    wild = d.settings["node_scatter"]
+    # the refinement node near 0.25 scattered wildly on o0 only
+    assert [w["component"] for w in wild] == ["o0 [value]"]
+    assert wild[0]["effect"] == "A" and wild[0]["magnitude"] == pytest.approx(0.25, abs=0.05)
+    assert wild[0]["sd"] > 5.0 * wild[0]["sd_pooled"]
+    assert any(n.startswith("A at ") and "o0 [value]" in n and "more seeds" in n
+               for n in d.data_notes())
+    # and nowhere without such a node
+    quiet = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                     refine=0, confirm_rounds=0)
+    assert quiet.settings["node_scatter"] == []
