@@ -195,6 +195,11 @@ class Diagnosis:
                 f"{w['sd']:.3g} against {w['sd_pooled']:.3g} pooled; runs there are judged in "
                 f"their own scatter, and more seeds at that magnitude would sharpen the answer"
                 for w in self.settings.get("node_scatter") or []]
+        out += [f"{c['components'][0]} and {c['components'][1]}: their run-to-run deviations "
+                f"move together (r = {c['r']:.2f} over {c['dof']} degrees of freedom), as when "
+                f"one run or one sample gives both; the statistics treat them as independent "
+                f"and count a common deviation about twice"
+                for c in self.settings.get("correlated_scatter") or []]
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])
 
@@ -467,6 +472,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
                 "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
                 "node_scatter": _node_scatter(fps),
+                "correlated_scatter": list(fps.meta.get("correlated_scatter", [])),
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
                 + len(rerun_seeds) + conf.n_runs}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)

@@ -23,7 +23,7 @@ from scipy import stats
 from ..errors import ConfigError
 from .catalogue import Effect
 from .fingerprints import (Fingerprint, FingerprintSet, _design_sigma, selection_threshold)
-from .identifiability import _uneven_scatter, assess_fingerprints
+from .identifiability import _correlated_scatter, _uneven_scatter, assess_fingerprints
 from .measurements import MeasurementSet
 from .replicates import (Simulator, homogeneous_variance, simulate_replicates,
                          variance_upper_bound)
@@ -330,5 +330,7 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
                          n_runs,
                          {"missing_runs": missing, "unobservable": unobservable,
                           "extrapolated": extrapolated, "uneven_scatter": uneven,
+                          "correlated_scatter": _correlated_scatter(
+                              [g[:, keep] for g in groups], point_seeds, design),
                           "sensitivity_steps": steps}, sim_dof)
     return assess_fingerprints(out)

@@ -457,7 +457,10 @@ class FingerprintSet:
                       sensitivities=self.sensitivities[keep], fingerprints=fps,
                       meta=dict(self.meta, uneven_scatter={
                           k: v for k, v in self.meta.get("uneven_scatter", {}).items()
-                          if k.split(" ")[0] in wanted}))
+                          if k.split(" ")[0] in wanted},
+                          correlated_scatter=[
+                              c for c in self.meta.get("correlated_scatter", [])
+                              if all(k.split(" ")[0] in wanted for k in c["components"])]))
         return assess_fingerprints(out)
 
     def __getitem__(self, name: str) -> Fingerprint:

@@ -13,6 +13,7 @@ shows most. Split from :mod:`bedstruct.diagnose.fingerprints`, which re-exports 
 
 from __future__ import annotations
 
+import warnings
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -71,6 +72,91 @@ def _uneven_scatter(groups, points, design: MeasurementSet, p, aside) -> dict:
                     "sd_min": float(col[lo]), "smallest_at": points[lo],
                     "sd_max": float(col[hi]), "largest_at": points[hi],
                     "set_aside": [points[k] for k in np.flatnonzero(aside[:, i])]}
+    return out
+
+
+def _correlated_scatter(groups, seeds, design: MeasurementSet, *, r_min: float = 0.9,
+                        min_dof: int = 10) -> list[dict]:
+    """Pairs of measured components whose run-to-run deviations move together.
+
+    Each run's value less its parameter point's mean and its seed's mean (over the points
+    run on that seed), so that what a seed shares across points (the same initial pile) is
+    not taken for two readings of one run; a pair is listed when the correlation of these
+    residuals reaches ``r_min`` over at least ``min_dof`` degrees of freedom
+    (``(points - 1) (seeds - 1)`` over the runs that observed both). Such components are read
+    from one run (the avalanche angle after rest is the static angle's heap when nothing
+    ages) or one sample (PSD percentiles); the diagnosis treats them as independent and
+    counts a common deviation about twice.
+
+    Parameters
+    ----------
+    groups : sequence of (R_k, n) array_like
+        Replicates of each parameter point.
+    seeds : sequence of sequence of int
+        The seed of each replicate, per point.
+    design : MeasurementSet
+        The ``n`` components' observables (candidates are skipped).
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import MeasurementSet, measurement_from_dict
+    >>> design = MeasurementSet(tuple(measurement_from_dict(dict(
+    ...     name=n, kind="static_angle", value=0.0, uncertainty=1.0, role="calibrate"))
+    ...     for n in ("a", "b", "c")))
+    >>> rng = np.random.default_rng(0)
+    >>> shared = rng.normal(size=(4, 3))        # what each seed gives every point
+    >>> groups = []
+    >>> for _ in range(6):
+    ...     x = shared + rng.normal(size=(4, 3))
+    ...     x[:, 1] = x[:, 0] + 0.01 * rng.normal(size=4)   # b read from a's run
+    ...     groups.append(x)
+    >>> [(p["components"], p["dof"]) for p in _correlated_scatter(groups, [range(4)] * 6, design)]
+    [(['a', 'b'], 15)]
+    """
+    names, labels = design.component_names(), design.component_labels()
+    single = {m.name: m.n_components == 1 for m in design}
+    keys = [str(n) if single[str(n)] else f"{n} {lab}" for n, lab in zip(names, labels)]
+    measured = np.flatnonzero(design.roles() != "candidate")
+    seed_ids = sorted({int(s) for ss in seeds for s in ss})
+    col = {s: c for c, s in enumerate(seed_ids)}
+    n = len(keys)
+    table = np.full((len(groups), len(seed_ids), n), np.nan)   # point x seed x component
+    for k, (g, ss) in enumerate(zip(groups, seeds)):
+        g = np.atleast_2d(np.asarray(g, float))
+        for row, s in zip(g, ss):
+            table[k, col[int(s)]] = row
+    out = []
+    for a_i, i in enumerate(measured):
+        for j in measured[a_i + 1:]:
+            both = np.isfinite(table[:, :, i]) & np.isfinite(table[:, :, j])
+            # points and seeds with at least two runs observing both
+            rows = both.sum(axis=1) >= 2
+            cols = both.sum(axis=0) >= 2
+            m = both & rows[:, None] & cols[None, :]
+            n_p, n_s = int(rows.sum()), int(cols.sum())
+            dof = int(m.sum()) - n_p - n_s + 1
+            if dof < min_dof:
+                continue
+            res, flat = [], False
+            for c in (i, j):
+                x = np.where(m, table[:, :, c], np.nan)
+                r = x - np.nanmean(x)
+                total = float(np.nansum(r * r))
+                for _ in range(10):  # two-way means by alternating (missing cells allowed)
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore", RuntimeWarning)  # all-missing rows
+                        r = r - np.nan_to_num(np.nanmean(r, axis=1, keepdims=True))
+                        r = r - np.nan_to_num(np.nanmean(r, axis=0, keepdims=True))
+                res.append(r[m])
+                # a component the seed alone decides (the PSD drawn before spreading) leaves
+                # rounding noise, whose correlation means nothing
+                flat |= float(res[-1] @ res[-1]) <= 1e-9 * total
+            den = float(np.sqrt((res[0] @ res[0]) * (res[1] @ res[1])))
+            if flat or den <= 0:
+                continue
+            r = float(res[0] @ res[1]) / den
+            if abs(r) >= r_min:
+                out.append({"components": [keys[i], keys[j]], "r": r, "dof": dof})
     return out
 
 

@@ -147,3 +147,34 @@ def test_the_diagnosis_says_where_runs_scattered_unlike_the_base():
     quiet = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
                      refine=0, confirm_rounds=0)
     assert quiet.settings["node_scatter"] == []
+
+
+class _TwoReadingsOfOneRun(ToySimulator):
+    """Independent run-to-run noise on every component, except that o1 is read from the same
+    run as o0 and shares its deviation."""
+
+    def __call__(self, base, effects, seed):
+        obs = super().__call__(base, effects, seed)
+        names = [m.name for m in self.design]
+        y = obs.vector(names)
+        m = float(effects.get("A", 0.0))
+        noise = np.random.default_rng([int(seed), 7, int(round(1e6 * m))]).standard_normal(len(y))
+        noise[1] = noise[0] + 0.05 * noise[1]
+        return Observations({n: [v] for n, v in zip(names, y + noise)}, source="toy")
+
+
+def test_components_read_from_one_run_are_named():
+    design = toy_design(N, n_validate=3)
+    sim = _TwoReadingsOfOneRun(design, sens={"k": np.zeros(N)}, effects=RESP, noise_sd=0.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=5, alpha=0.01)
+    pairs = fps.meta["correlated_scatter"]
+    assert [p["components"] for p in pairs] == [["o0", "o1"]]
+    assert pairs[0]["r"] > 0.99 and pairs[0]["dof"] >= 10
+    y = 0.5 * RESP["A"] + np.random.default_rng(1).normal(0.0, 1.0, N)
+    real = design.with_values(Observations({f"o{i}": [v] for i, v in enumerate(y)}))
+    d = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps, refine=0)
+    assert any(n.startswith("o0 and o1: their run-to-run deviations move together")
+               for n in d.data_notes())
+    # a file without o1 has nothing to say about it
+    assert fps.restrict([f"o{i}" for i in range(N) if i != 1]).meta["correlated_scatter"] == []
