@@ -143,6 +143,12 @@ def test_the_diagnosis_says_where_runs_scattered_unlike_the_base():
     assert wild[0]["sd"] > 5.0 * wild[0]["sd_pooled"]
     assert any(n.startswith("A at ") and "o0 [value]" in n and "more seeds" in n
                for n in d.data_notes())
+    # the report carries the note and the rerun's largest departures
+    rep = d.report()
+    assert rep.failed == []
+    assert any("more seeds at that magnitude" in s.text for s in rep.sections)
+    assert any(t.caption.startswith("where the final rerun departs most")
+               for s in rep.sections for t in s.tables)
     # and nowhere without such a node
     quiet = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
                      refine=0, confirm_rounds=0)
