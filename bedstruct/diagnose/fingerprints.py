@@ -316,7 +316,9 @@ class FingerprintSet:
         The pooled estimate (not its upper bound) at the base; with an effect whose
         fingerprint points scattered differently (:attr:`Fingerprint.run_var`), the
         variance interpolated linearly in the magnitude between the base and those
-        points (held beyond them).
+        points (held beyond them); nodes simulated later
+        (:attr:`Fingerprint.scatter_nodes`) join the table, replacing a fingerprint point
+        at the same magnitude.
         """
         var = self._pooled_run_var()
         if effect is None or not magnitude:
@@ -353,7 +355,7 @@ class FingerprintSet:
         samples : (R, n) array_like
             The point's replicates (NaN where a run did not observe a component).
         alpha : float
-            Family-wise level.
+            Level of each component's test.
         rows : (n,) bool array, optional
             The components that ``samples`` holds (default all); the others keep the
             pooled estimate.
@@ -364,7 +366,6 @@ class FingerprintSet:
 
         Examples
         --------
-        >>> from dataclasses import replace
         >>> from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue,
         ...                                 compute_fingerprints, diagnosis_design, twin_design)
         >>> effects = catalogue(["wall_friction"])
