@@ -372,13 +372,13 @@ class FingerprintSet:
         >>> design = diagnosis_design(twin_design(), effects)
         >>> fps = compute_fingerprints(SurrogateSimulator(design), design, BASE_PARAMETERS,
         ...                            effects, replicates=3)
-        >>> sd = np.sqrt(fps._pooled_run_var())
+        >>> sd = fps.run_sd()                       # the pooled scatter of one run
         >>> rng = np.random.default_rng(0)
         >>> wild = fps.base_mean + 30.0 * sd * rng.standard_normal((4, sd.size))
-        >>> bool(np.all(fps.node_run_var(wild) > fps._pooled_run_var()))
+        >>> bool(np.all(fps.node_run_var(wild) > sd ** 2))
         True
         >>> tame = fps.base_mean + sd * rng.standard_normal((4, sd.size))
-        >>> bool(np.allclose(fps.node_run_var(tame), fps._pooled_run_var()))
+        >>> bool(np.allclose(fps.node_run_var(tame), sd ** 2))
         True
         """
         from scipy import stats

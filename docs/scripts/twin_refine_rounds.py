@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 V = importlib.import_module("bedstruct.diagnose.validate")
-V.diagnosis_module = importlib.import_module("bedstruct.diagnose.diagnosis")
+D = importlib.import_module("bedstruct.diagnose.diagnosis")
 
 
 def main(cache, k, preset, twin_seed, top_up, rounds):
@@ -47,7 +47,7 @@ def main(cache, k, preset, twin_seed, top_up, rounds):
             print(f"    {r.effect:18s} chi2 decrease {r.delta_chi2:7.2f} at {r.magnitude:.3g} "
                   f"({r.interval[0]:.3g}-{r.interval[1]:.3g})")
         fps = d.fingerprints
-        residual = V.diagnosis_module._residual(d.measurements, fps)
+        residual = D._residual(d.measurements, fps)
         comp = fps.design.component_names()
         labels = fps.design.component_labels()
         cal = np.flatnonzero(fps.rows_calibrate)
