@@ -344,8 +344,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         response[rows_meas] = _nan_mean(samples) - fps.base_mean[rows_meas] - shift
         record["node"] = {effect: a}
         refits.append(record)
-        run_var = fps.node_run_var(samples, rows=rows_meas)
-        fps = replace(fps, fingerprints=tuple(f.with_node(a, response, run_var=run_var)
+        run_var, se = fps.node_scatter(samples, rows=rows_meas)
+        fps = replace(fps, fingerprints=tuple(f.with_node(a, response, run_var=run_var, se=se)
                                               if f.name == effect else f for f in fps.fingerprints))
         att = attribute(residual, fps, alpha=alpha, gof_alpha=att.gof_alpha, max_effects=max_effects)
     return Confirmation(att, fps, samples, z_after, z_check, p_cal, p_held, tuple(refits), n_runs)

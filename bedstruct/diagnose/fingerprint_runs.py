@@ -214,7 +214,8 @@ def simulate_node(simulator: Simulator, fps: FingerprintSet, effect: str,
         return None
     runs = simulate_replicates(simulator, fps.base, {effect: a}, fps.seeds, fps.names)
     # its runs' own scatter where it exceeds the pooled one (heaps that stand or fall)
-    return fp.with_node(a, _nan_mean(runs - fps.base_samples), run_var=fps.node_run_var(runs))
+    run_var, se = fps.node_scatter(runs)
+    return fp.with_node(a, _nan_mean(runs - fps.base_samples), run_var=run_var, se=se)
 
 
 def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, simulator_name,

@@ -35,6 +35,16 @@ __all__ = ["Fingerprint", "FingerprintSet", "compute_fingerprints", "assess_fing
 
 log = logging.getLogger(__name__)
 
+def _interp_se(a: float, knots, se) -> np.ndarray:
+    """Rows ``se`` at sorted magnitudes ``knots`` (0 first) interpolated linearly at ``a`` >= 0,
+    proportional to ``a`` beyond the last."""
+    if a >= knots[-1]:
+        return se[-1] * (a / knots[-1])
+    j = int(np.searchsorted(knots, a, side="right")) - 1
+    w = (a - knots[j]) / (knots[j + 1] - knots[j])
+    return (1.0 - w) * se[j] + w * se[j + 1]
+
+
 @dataclass(frozen=True)
 class Fingerprint:
     """The response of all design components to one effect.
@@ -90,6 +100,10 @@ class Fingerprint:
         Variance of one run at magnitudes simulated after the fingerprint (refinement
         nodes, reruns, a twin's sizing node; :meth:`FingerprintSet.node_run_var`), which
         :meth:`FingerprintSet.run_sd` interpolates with :attr:`run_var`.
+    se_nodes : tuple of (float, (n,) ndarray)
+        Standard error of the response at those nodes where their runs scattered beyond
+        the pooled estimate (NaN elsewhere: the interpolated :attr:`delta_se` holds there),
+        which :meth:`predict_se` interpolates with :attr:`delta_se`.
     """
 
     effect: Effect
@@ -109,6 +123,7 @@ class Fingerprint:
     delta_n: np.ndarray | None = None
     single_run_share: float = 0.0
     scatter_nodes: tuple = ()
+    se_nodes: tuple = ()
 
     def __post_init__(self):
         order = np.argsort(self.nodes)
@@ -150,17 +165,39 @@ class Fingerprint:
         """Standard error of :meth:`predict` at ``a``, from the replicate scatter.
 
         ``delta_se`` interpolated linearly over the simulated magnitudes (0 at no effect),
-        proportional to ``a`` beyond them; an approximation for the fitted line and for
-        nodes added by refinement, which have no replicates of their own.
+        proportional to ``a`` beyond them. A node simulated later whose runs scattered
+        beyond the pooled estimate (:attr:`se_nodes`: heaps that stand or fall there) joins
+        the interpolation with its own standard error on those components, replacing a
+        fingerprint point at the same magnitude; elsewhere such nodes, and the fitted line,
+        take the interpolated value (an approximation: their runs scattered like the rest).
+
+        Examples
+        --------
+        >>> from bedstruct.diagnose import catalogue
+        >>> f = Fingerprint(catalogue(["wall_friction"])[0], np.array([0.2, 0.4]),
+        ...                 np.array([[1.0, 2.0], [2.0, 4.0]]), np.array([[0.1, 0.1], [0.2, 0.2]]),
+        ...                 np.array([0.0, 0.2, 0.4]), np.array([[0, 0], [1.0, 2.0], [2.0, 4.0]]),
+        ...                 linear=True)
+        >>> f.predict_se(0.3)
+        array([0.15, 0.15])
+        >>> g = f.with_node(0.3, [1.5, 3.0], se=[2.0, np.nan])   # wild on the first only
+        >>> g.predict_se(0.3), g.predict_se(0.35)
+        (array([2.  , 0.15]), array([1.1  , 0.175]))
         """
         m = np.r_[0.0, self.magnitudes]
         se = np.vstack([np.zeros_like(self.delta_se[0]), self.delta_se])
         a = abs(float(a))
-        if a >= m[-1]:
-            return se[-1] * (a / m[-1])
-        j = int(np.searchsorted(m, a, side="right")) - 1
-        w = (a - m[j]) / (m[j + 1] - m[j])
-        return (1.0 - w) * se[j] + w * se[j + 1]
+        out = _interp_se(a, m, se)
+        if not self.se_nodes:
+            return out
+        own = np.vstack([s for _, s in self.se_nodes])
+        for i in np.flatnonzero(np.isfinite(own).any(axis=0)):
+            knots = np.r_[m, [b for (b, _), ok in zip(self.se_nodes, np.isfinite(own[:, i])) if ok]]
+            vals = np.r_[se[:, i], own[np.isfinite(own[:, i]), i]]
+            # a later node at a fingerprint magnitude replaces that point's estimate
+            knots, first = np.unique(np.abs(knots[::-1]), return_index=True)
+            out[i] = _interp_se(a, knots, vals[::-1][first][:, None])[0]
+        return out
 
     def derivative(self, a: float) -> np.ndarray:
         """d(prediction)/d(magnitude) at ``a``."""
@@ -169,12 +206,14 @@ class Fingerprint:
             return self._slope
         return self._df(min(max(a, self.nodes[0]), self.nodes[-1]))
 
-    def with_node(self, a: float, response, run_var=None) -> "Fingerprint":
+    def with_node(self, a: float, response, run_var=None, se=None) -> "Fingerprint":
         """A copy with a simulated response at magnitude ``a`` added (non-linear interpolation).
 
         Components not observed at ``a`` (NaN) keep the current interpolation there.
         ``run_var``, the variance of one run at ``a`` (:meth:`FingerprintSet.node_run_var`),
-        is added to :attr:`scatter_nodes`.
+        is added to :attr:`scatter_nodes`; ``se``, the response's own standard error where
+        its runs scattered beyond the pooled estimate (:meth:`FingerprintSet.node_scatter`,
+        NaN elsewhere), to :attr:`se_nodes`.
         """
         from dataclasses import replace
         response = np.array(response, dtype=float)
@@ -184,7 +223,10 @@ class Fingerprint:
         resp = np.vstack([self.responses, response[None]])
         scatter = self.scatter_nodes if run_var is None else \
             self.scatter_nodes + ((float(a), np.asarray(run_var, float)),)
-        return replace(self, nodes=nodes, responses=resp, linear=False, scatter_nodes=scatter)
+        own_se = self.se_nodes if se is None or not np.isfinite(se).any() else \
+            self.se_nodes + ((float(a), np.asarray(se, float)),)
+        return replace(self, nodes=nodes, responses=resp, linear=False, scatter_nodes=scatter,
+                       se_nodes=own_se)
 
     def nonlinearity(self) -> float:
         """Relative deviation at ``m1`` from the straight line through 0 and ``m2`` (0 if linear)."""
@@ -381,6 +423,55 @@ class FingerprintSet:
         >>> bool(np.allclose(fps.node_run_var(tame), sd ** 2))
         True
         """
+        own, pooled, wider, _ = self._node_test(samples, alpha, rows)
+        return np.where(wider, own, pooled)
+
+    def node_scatter(self, samples, alpha: float = 0.01, rows=None) -> tuple[np.ndarray, np.ndarray]:
+        """One run's variance at a node simulated after the fingerprints, and its response's
+        standard error where those runs scattered beyond the pooled estimate.
+
+        The variance is :meth:`node_run_var`'s. The standard error, on the components whose
+        scatter exceeded the pooled one, is ``sqrt(own / runs + pooled / base runs)`` (the
+        node's mean against the base runs' mean; the pairing by seed is ignored, which only
+        overstates it, and the node's own scatter dominates there); NaN elsewhere, where
+        :meth:`Fingerprint.predict_se` interpolates the fingerprint's own.
+
+        Parameters
+        ----------
+        samples, alpha, rows
+            As in :meth:`node_run_var`.
+
+        Returns
+        -------
+        run_var, se : (n,) ndarray
+
+        Examples
+        --------
+        >>> from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue,
+        ...                                 compute_fingerprints, diagnosis_design, twin_design)
+        >>> effects = catalogue(["wall_friction"])
+        >>> design = diagnosis_design(twin_design(), effects)
+        >>> fps = compute_fingerprints(SurrogateSimulator(design), design, BASE_PARAMETERS,
+        ...                            effects, replicates=3)
+        >>> sd = fps.run_sd()
+        >>> rng = np.random.default_rng(0)
+        >>> wild = fps.base_mean + sd * rng.standard_normal((4, sd.size))
+        >>> wild[:, 0] += 30.0 * sd[0] * rng.standard_normal(4)      # one component only
+        >>> run_var, se = fps.node_scatter(wild)
+        >>> bool(run_var[0] > 25.0 * sd[0] ** 2), bool(np.isnan(se[1:]).all())
+        (True, True)
+        >>> bool(np.isclose(se[0], np.sqrt(run_var[0] / 4 + sd[0] ** 2 / 3)))  # 4 runs, 3 base
+        True
+        """
+        own, pooled, wider, n_own = self._node_test(samples, alpha, rows)
+        n_base = np.maximum(np.sum(np.isfinite(self.base_samples), axis=0), 1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            se = np.sqrt(own / np.maximum(n_own, 1) + pooled / n_base)
+        return np.where(wider, own, pooled), np.where(wider, se, np.nan)
+
+    def _node_test(self, samples, alpha, rows):
+        """Own and pooled variance per component, whether the own one is wider (one-sided
+        F-test at ``alpha``) and the runs behind it."""
         from scipy import stats
 
         from .where import _nan_var
@@ -391,15 +482,15 @@ class FingerprintSet:
         else:
             s = np.atleast_2d(np.asarray(samples, float))
         own = _nan_var(s)
-        dof_own = np.sum(np.isfinite(s), axis=0) - 1
+        n_own = np.sum(np.isfinite(s), axis=0)
+        dof_own = n_own - 1
         dof_pool = np.full(pooled.shape, np.inf) if self.sim_dof is None else \
             np.asarray(self.sim_dof, float)
         ok = (dof_own >= 1) & np.isfinite(own) & (pooled > 0)
         p = np.ones(pooled.shape)
         with np.errstate(invalid="ignore", divide="ignore"):
             p[ok] = stats.f.sf(own[ok] / pooled[ok], dof_own[ok], dof_pool[ok])
-        wider = ok & (p < alpha)
-        return np.where(wider, own, pooled)
+        return own, pooled, ok & (p < alpha), n_own
 
     @property
     def base_mean(self) -> np.ndarray:
@@ -447,6 +538,7 @@ class FingerprintSet:
                             responses=f.responses[:, keep],
                             run_var=None if f.run_var is None else f.run_var[:, keep],
                             scatter_nodes=tuple((a, v[keep]) for a, v in f.scatter_nodes),
+                            se_nodes=tuple((a, v[keep]) for a, v in f.se_nodes),
                             delta_n=None if f.delta_n is None else f.delta_n[:, keep])
                     for f in self.fingerprints)
         roles = design.roles()

@@ -104,7 +104,10 @@ _SCATTER_RULE = 2
 #: own replicate scatter where it exceeds the pooled one), not in the pooled scatter. 9: a
 #: magnitude's interval carries the noise of the interpolated response at it
 #: (:meth:`Fingerprint.predict_se`), and a node's own scatter is tested per component.
-_FIT_RULE = 9
+#: 10: that noise, at a node simulated after the fingerprints whose runs scattered beyond the
+#: pooled estimate, is the node's own (:attr:`Fingerprint.se_nodes`), not the fingerprint
+#: points' interpolated; a magnitude fitted where heaps stand or fall gets a wider interval.
+_FIT_RULE = 10
 
 
 def engine_scale_model(preset: str) -> str:
