@@ -484,7 +484,13 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 not_run.extend({"twin": i, "type": k, "true_effect": name} for k in todo)
                 continue
             if progress:  # a twin takes hours at the engine presets: say which one runs
-                iterator.set_postfix_str(f"twin {i} ({name or 'null'})", refresh=True)
+                label = f"twin {i} ({name or 'null'})"
+                iterator.set_postfix_str(label, refresh=True)
+                if hasattr(sim, "on_call"):  # and how many engine calls it has run so far
+                    sim.on_call = lambda s, label=label, c0=sim.n_calls, t0=time.perf_counter(): \
+                        iterator.set_postfix_str(
+                            f"{label}: {s.n_calls - c0} engine calls, "
+                            f"{(time.perf_counter() - t0) / 60:.0f} min", refresh=True)
             truth = {"true_effect": name, "true_magnitude": None,
                      "true_cohesion": base_true["cohesion_energy_density"]}
             try:

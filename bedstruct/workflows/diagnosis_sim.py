@@ -217,6 +217,10 @@ class EngineSimulator:
         self.workdir = cfg.get("workdir")
         self.cache = Path(cfg["cache"]).expanduser() if cfg.get("cache") else None
         self.n_cached = 0
+        # calls that ran the engine (here or in a worker), and a hook called after each
+        # (``on_call(sim)``: a long validation says how far its twin has come)
+        self.n_calls = 0
+        self.on_call = None
         for m in design:
             if m.kind not in ("static_angle", "dynamic_angle_series", "bed_height",
                               "packing_fraction", "psd", "roughness", "coordination",
@@ -383,7 +387,13 @@ class EngineSimulator:
         for (b, e, s), (values, n_runs) in zip(todo, done):
             self._memo[self._memo_key(b, e, s)] = values
             self.n_runs += n_runs
+        self._called(len(todo))
         return len(todo)
+
+    def _called(self, n: int = 1) -> None:
+        self.n_calls += n
+        if self.on_call is not None:
+            self.on_call(self)
 
     def _fully_cached(self, base, effects, seed) -> bool:
         if self.cache is None:
@@ -417,6 +427,7 @@ class EngineSimulator:
                 self._cache_write(key, entries, {"base": dict(base), "effects": dict(effects),
                                                  "seed": int(seed), "preset": self.preset,
                                                  "overrides": self.overrides})
+            self._called()
         else:
             self.n_cached += 1
         values = {m.name: values[m.name] for m in self.design}

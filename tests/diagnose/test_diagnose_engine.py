@@ -303,6 +303,24 @@ def test_a_pile_without_flanks_is_missing_data_and_cached_as_such(monkeypatch, t
     assert len(calls) == 1 and again.n_cached == 1
 
 
+def test_each_engine_call_is_counted_and_reported_but_not_a_cached_one(monkeypatch, tmp_path):
+    """A twin of a validation runs for hours: the simulator counts the calls that ran the
+    engine and calls ``on_call`` after each, which the validation's bar shows; a cached
+    answer runs nothing and is not counted."""
+    import types
+
+    import bedstruct.workflows.repose as repose
+    monkeypatch.setattr(repose, "run_repose",
+                        lambda cfg, *, out, replicates: types.SimpleNamespace(angle_deg=30.0))
+    design = MeasurementSet((dg.engine_twin_design()["static_angle"],))
+    sim = EngineSimulator(design, {"preset": "tiny", "cache": str(tmp_path)})
+    seen = []
+    sim.on_call = lambda s: seen.append(s.n_calls)
+    for seed in (0, 1, 0):
+        sim({}, {}, seed)
+    assert seen == [1, 2] and sim.n_calls == 2 and sim.n_cached == 1
+
+
 @pytest.mark.slow
 def test_engine_mini_validation(tmp_path):
     """One effect (wall friction), one null twin, on the DEM engine (minutes)."""
