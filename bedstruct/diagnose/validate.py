@@ -489,7 +489,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                 if hasattr(sim, "on_call"):  # and how many engine calls it has run so far
                     sim.on_call = lambda s, label=label, c0=sim.n_calls, t0=time.perf_counter(): \
                         iterator.set_postfix_str(
-                            f"{label}: {s.n_calls - c0} engine calls, "
+                            f"{label}: {s.n_calls - c0} engine call{'' if s.n_calls - c0 == 1 else 's'}, "
                             f"{(time.perf_counter() - t0) / 60:.0f} min", refresh=True)
             truth = {"true_effect": name, "true_magnitude": None,
                      "true_cohesion": base_true["cohesion_energy_density"]}
