@@ -31,8 +31,9 @@ from ._kernels_contact import (ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE, SQRT_
                                tangential_history, wall_contact)
 from ._kernels_ext import capillary_force, pair_forces_ext  # noqa: F401
 from ._kernels_neighbours import (HALF_STENCIL, active_history, cell_indices,  # noqa: F401
-                                  counting_sort, pair_build, pair_keys, raindrop_accept,
-                                  remap_history, wrap_and_flag)
+                                  counting_sort, pair_build, pair_keys, partner_csr,
+                                  raindrop_accept, remap_history, remap_history_csr,
+                                  wrap_and_flag)
 from ._kernels_pairs import pair_forces  # noqa: F401
 from ._kernels_step import finish_step, kick_drift  # noqa: F401
 from ._kernels_walls import (WALL_CYLINDER, WALL_MESH, WALL_NCOL, WALL_PLANE,  # noqa: F401

@@ -236,6 +236,59 @@ def remap_history(new_keys, new_sign, old_keys_sorted, old_sign_sorted, old_ht_s
 
 
 @njit
+def partner_csr(old_keys, n_lo):
+    """The old pairs grouped by their lower id (``key >> 31``): ``start`` (n_lo + 1) and
+    ``order`` (indices into ``old_keys``), for :func:`remap_history_csr`."""
+    start = np.zeros(n_lo + 1, dtype=np.int64)
+    for q in range(old_keys.shape[0]):
+        start[(old_keys[q] >> 31) + 1] += 1
+    for a in range(n_lo):
+        start[a + 1] += start[a]
+    pos = start[:-1].copy()
+    order = np.empty(old_keys.shape[0], dtype=np.int64)
+    for q in range(old_keys.shape[0]):
+        lo = old_keys[q] >> 31
+        order[pos[lo]] = q
+        pos[lo] += 1
+    return start, order
+
+
+@njit(parallel=True)
+def remap_history_csr(new_keys, new_sign, old_keys, old_sign, start, order, old_ht, old_hr,
+                      bounds, ht, hr, slots):
+    """Carry history to the new pair list by looking each pair up among its lower-id
+    sphere's old partners (:func:`partner_csr`): linear in the pairs, a few comparisons
+    each, where :func:`remap_history`'s binary search mispredicts ~log2(m) branches.
+
+    The same values as :func:`remap_history` (history flips sign with the pair's
+    orientation); ``slots[k]`` is the old pair carried to pair ``k``, or -1.
+    """
+    nt = bounds.shape[0] - 1
+    n_lo = start.shape[0] - 1
+    for t in prange(nt):
+        for k in range(bounds[t], bounds[t + 1]):
+            key = new_keys[k]
+            lo = key >> 31
+            idx = -1
+            if lo < n_lo:
+                for p in range(start[lo], start[lo + 1]):
+                    q = order[p]
+                    if old_keys[q] == key:
+                        idx = q
+                        break
+            slots[k] = idx
+            if idx >= 0:
+                s = new_sign[k] * old_sign[idx]
+                for c in range(3):
+                    ht[k, c] = s * old_ht[idx, c]
+                    hr[k, c] = s * old_hr[idx, c]
+            else:
+                for c in range(3):
+                    ht[k, c] = 0.0
+                    hr[k, c] = 0.0
+
+
+@njit
 def active_history(ht, hr):
     """Indices of pairs with nonzero history."""
     m = ht.shape[0]

@@ -87,14 +87,19 @@ class _NeighbourList:
             act = np.union1d(act, np.flatnonzero(np.any(self.hx != 0.0, axis=1)))
         # the old history arrays are replaced, not overwritten, by the new list below
         old_ht, old_hr, old_hx = self.ht, self.hr, self.hx
-        src = act  # active old pairs, sorted by key for the remap's binary search
+        # the remap looks each new pair up among its lower-id sphere's old partners (ids
+        # dense enough for a table by id), else by binary search in the sorted keys
+        n_lo = int(self.ids.max(initial=-1)) + 1
+        by_partner = n_lo <= 8 * self.n_particles + 1024
+        src = act  # active old pairs (sorted by key for the binary search)
         old_keys = np.zeros(0, dtype=np.int64)
         old_sign = np.zeros(0)
         if act.size:
             kk = np.zeros(self.n_pairs, dtype=np.int64)
             ss = np.zeros(self.n_pairs)
             K.pair_keys(self.ids, self.pi, self.pj, self._chunks(self.n_pairs), kk, ss)
-            src = act[np.argsort(kk[act], kind="stable")]
+            if not by_partner:
+                src = act[np.argsort(kk[act], kind="stable")]
             old_keys = kk[src]
             old_sign = ss[src]
         if n_out:
@@ -166,12 +171,21 @@ class _NeighbourList:
             sign = np.zeros(m)
             qb = self._chunks(m)
             K.pair_keys(self.ids, self.pi, self.pj, qb, keys, sign)
-            K.remap_history(keys, sign, old_keys, old_sign, old_ht[src], old_hr[src], qb,
-                            self.ht, self.hr)
-            if ext & 2:
-                idx = np.minimum(np.searchsorted(old_keys, keys), old_keys.size - 1)
-                hit = old_keys[idx] == keys
-                self.hx[hit] = old_hx[src[idx[hit]]]
+            if by_partner:
+                start, order = K.partner_csr(old_keys, n_lo)
+                slots = np.empty(m, dtype=np.int64)
+                K.remap_history_csr(keys, sign, old_keys, old_sign, start, order, old_ht[src],
+                                    old_hr[src], qb, self.ht, self.hr, slots)
+                if ext & 2:
+                    hit = slots >= 0
+                    self.hx[hit] = old_hx[src[slots[hit]]]
+            else:
+                K.remap_history(keys, sign, old_keys, old_sign, old_ht[src], old_hr[src], qb,
+                                self.ht, self.hr)
+                if ext & 2:
+                    idx = np.minimum(np.searchsorted(old_keys, keys), old_keys.size - 1)
+                    hit = old_keys[idx] == keys
+                    self.hx[hit] = old_hx[src[idx[hit]]]
         self._alloc_buffers()
         self._balance_pairs()
         self._build_wall_list()
