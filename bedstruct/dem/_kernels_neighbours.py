@@ -211,6 +211,21 @@ def pair_keys(ids, pi, pj, bounds, keys, sign):
                 sign[k] = -1.0
 
 
+@njit(inline="always")
+def _carry(k, idx, new_sign, old_sign, old_ht, old_hr, ht, hr):
+    """Pair ``k``'s history from old pair ``idx`` (sign flipped with the orientation), or
+    zero where ``idx`` < 0 (a new contact)."""
+    if idx >= 0:
+        s = new_sign[k] * old_sign[idx]
+        for c in range(3):
+            ht[k, c] = s * old_ht[idx, c]
+            hr[k, c] = s * old_hr[idx, c]
+    else:
+        for c in range(3):
+            ht[k, c] = 0.0
+            hr[k, c] = 0.0
+
+
 @njit(parallel=True)
 def remap_history(new_keys, new_sign, old_keys_sorted, old_sign_sorted, old_ht_sorted,
                   old_hr_sorted, bounds, ht, hr):
@@ -224,15 +239,9 @@ def remap_history(new_keys, new_sign, old_keys_sorted, old_sign_sorted, old_ht_s
         for k in range(bounds[t], bounds[t + 1]):
             key = new_keys[k]
             idx = np.searchsorted(old_keys_sorted, key)
-            if idx < m and old_keys_sorted[idx] == key:
-                s = new_sign[k] * old_sign_sorted[idx]
-                for c in range(3):
-                    ht[k, c] = s * old_ht_sorted[idx, c]
-                    hr[k, c] = s * old_hr_sorted[idx, c]
-            else:
-                for c in range(3):
-                    ht[k, c] = 0.0
-                    hr[k, c] = 0.0
+            if not (idx < m and old_keys_sorted[idx] == key):
+                idx = -1
+            _carry(k, idx, new_sign, old_sign_sorted, old_ht_sorted, old_hr_sorted, ht, hr)
 
 
 @njit
@@ -277,15 +286,7 @@ def remap_history_csr(new_keys, new_sign, old_keys, old_sign, start, order, old_
                         idx = q
                         break
             slots[k] = idx
-            if idx >= 0:
-                s = new_sign[k] * old_sign[idx]
-                for c in range(3):
-                    ht[k, c] = s * old_ht[idx, c]
-                    hr[k, c] = s * old_hr[idx, c]
-            else:
-                for c in range(3):
-                    ht[k, c] = 0.0
-                    hr[k, c] = 0.0
+            _carry(k, idx, new_sign, old_sign, old_ht, old_hr, ht, hr)
 
 
 @njit
