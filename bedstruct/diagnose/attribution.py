@@ -1,6 +1,7 @@
 """Which effect: fingerprint regression, model comparison and the 'unexplained' verdict.
 
-The residual on the calibration observables, whitened by the combined noise, is
+The residual on the calibration observables, whitened by the combined noise (and by the
+correlation of components read from one run, :mod:`bedstruct.diagnose.noise_correlation`), is
 fitted by models ``r = sum_e delta_e(a_e) + S beta``: a subset of effects with
 magnitudes ``a_e`` inside their prior ranges (bounded non-linear least squares on
 the fingerprint responses) plus free recalibration shifts ``beta`` of the
@@ -25,6 +26,7 @@ import numpy as np
 from scipy import optimize, stats
 
 from .fingerprints import FingerprintSet, selection_threshold
+from .noise_correlation import correlation_matrix, inverse_cholesky, whiten
 
 __all__ = ["ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute"]
 
@@ -198,8 +200,11 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     """
     rows = fps.rows_calibrate if rows is None else rows
     sig = fps.sigma[rows]
-    r = np.asarray(residual, dtype=float)[rows] / sig
-    S = fps.sensitivities[rows] / sig[:, None]
+    # components read from one run share their noise: generalised least squares
+    R = correlation_matrix(fps, rows)
+    W = None if R is None else inverse_cholesky(R)
+    r = whiten(W, np.asarray(residual, dtype=float)[rows] / sig)
+    S = whiten(W, fps.sensitivities[rows] / sig[:, None])
     fs = [fps[e] for e in effects]
     k, p = len(fs), S.shape[1]
     lo = np.array([f.effect.prior[0] for f in fs])
@@ -210,12 +215,12 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
         a, b = x[:k], x[k:]
         out = r - S @ b
         for f, ai in zip(fs, a):
-            out = out - f.predict(ai)[rows] / sig
+            out = out - whiten(W, f.predict(ai)[rows] / sig)
         return out
 
     def jac(x):
         a = x[:k]
-        Ja = (np.column_stack([-f.derivative(ai)[rows] / sig for f, ai in zip(fs, a)])
+        Ja = (whiten(W, np.column_stack([-f.derivative(ai)[rows] / sig for f, ai in zip(fs, a)]))
               if k else np.zeros((n, 0)))
         return np.hstack([Ja, -S])
 
@@ -247,10 +252,15 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
             # the fitted magnitudes (Fingerprint.predict_se) passes into the parameters
             # through the same normal equations (a steep response between two noisy nodes
             # otherwise gives an interval of a few thousandths)
-            v_pred = sum(np.nan_to_num(f.predict_se(float(ai))[rows] / sig) ** 2
-                         for f, ai in zip(fs, x[:k]))
+            d_pred = [np.nan_to_num(f.predict_se(float(ai))[rows] / sig) for f, ai in zip(fs, x[:k])]
             G = cov @ J.T
-            var_x = var_x + np.einsum("ij,j,ij->i", G, v_pred, G)
+            if W is None:
+                var_x = var_x + np.einsum("ij,j,ij->i", G, sum(d ** 2 for d in d_pred), G)
+            else:
+                # the nodes' runs share the components' correlation too
+                GW = G @ W
+                for d in d_pred:
+                    var_x = var_x + np.einsum("ij,jk,ik->i", GW, R * np.outer(d, d), GW)
         se = np.sqrt(var_x)
     except np.linalg.LinAlgError:  # pragma: no cover
         se = np.full(len(x), np.inf)

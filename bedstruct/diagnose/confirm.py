@@ -25,6 +25,7 @@ import numpy as np
 from .attribution import Attribution, attribute
 from .fingerprints import FingerprintSet
 from .replicates import Simulator, simulate_replicates
+from .noise_correlation import correlation_matrix, quadratic_form
 from .where import _nan_mean, standardised_residuals
 
 __all__ = ["gap_size", "Shrink", "Confirmation", "confirm_attribution", "p_fit_z"]
@@ -34,8 +35,17 @@ __all__ = ["gap_size", "Shrink", "Confirmation", "confirm_attribution", "p_fit_z
 RERUN_SEED_STRIDE = 1000
 
 
-def gap_size(z) -> tuple[float, float]:
+def gap_size(z, correlation=None) -> tuple[float, float]:
     """RMS of standardised residuals and the *excess* gap beyond noise.
+
+    Parameters
+    ----------
+    z : (n,) array_like
+        Standardised residuals (NaN: not observed, left out).
+    correlation : (n, n) array_like, optional
+        Correlation of their noise (:func:`~bedstruct.diagnose.noise_correlation.correlation_matrix`);
+        the mean square is then ``z^T R^{-1} z / n``, so that a deviation read twice from
+        one run counts about once.
 
     Returns
     -------
@@ -49,10 +59,16 @@ def gap_size(z) -> tuple[float, float]:
     (1.7320508075688772, 1.4142135623730951)
     """
     z = np.asarray(z, dtype=float)
-    z = z[np.isfinite(z)]  # a component no rerun could observe carries no evidence
-    if z.size == 0:
-        return float("nan"), float("nan")
-    ms = float(np.mean(z * z))
+    if correlation is None:
+        z = z[np.isfinite(z)]  # a component no rerun could observe carries no evidence
+        if z.size == 0:
+            return float("nan"), float("nan")
+        ms = float(np.mean(z * z))
+    else:
+        q, n = quadratic_form(z, correlation)
+        if n == 0:
+            return float("nan"), float("nan")
+        ms = q / n
     return math.sqrt(ms), math.sqrt(max(ms - 1.0, 0.0))
 
 
@@ -122,10 +138,18 @@ def params_after(base, nuisance_names, shifts):
 
 
 
-def p_fit_z(z) -> float:
+def _sub(correlation, rows):
+    """The correlation among ``rows`` (a boolean mask), ``None`` staying ``None``."""
+    return None if correlation is None else correlation[np.ix_(rows, rows)]
+
+
+def p_fit_z(z, correlation=None) -> float:
     """Combined (chi-square and largest-|z|, Bonferroni) p-value of standardised residuals.
 
-    Components that are not finite (no rerun observed them) carry no evidence.
+    Components that are not finite (no rerun observed them) carry no evidence. With the
+    noise's ``correlation`` (as in :func:`gap_size`) the chi-square is ``z^T R^{-1} z``;
+    the largest-|z| test stays on the marginal residuals (Sidak is conservative under
+    positive correlation).
 
     Examples
     --------
@@ -135,12 +159,12 @@ def p_fit_z(z) -> float:
     True
     """
     from scipy import stats
+    q, n = quadratic_form(z, correlation)
     z = np.asarray(z, dtype=float)
     z = z[np.isfinite(z)]  # components no rerun observed
-    n = z.size
     if n == 0:
         return 1.0
-    p_chi = float(stats.chi2.sf(float(z @ z), n))
+    p_chi = float(stats.chi2.sf(q, n))
     p1 = min(2.0 * stats.norm.sf(float(np.max(np.abs(z)))), 1.0 - 1e-16)
     p_max = float(-np.expm1(n * np.log1p(-p1)))
     return min(1.0, 2.0 * min(p_chi, p_max))
@@ -257,6 +281,7 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
     cal = fps.rows_calibrate[rows_meas]
     held = fps.rows_validate[rows_meas]
     var_meas = fps.sim_var[rows_meas]
+    corr = correlation_matrix(fps, rows_meas)   # components read from one run
 
     def z_of(samples, extra_var=None, run_var=None):
         s = sigma_meas if extra_var is None else np.sqrt(sigma_meas ** 2 + extra_var)
@@ -295,8 +320,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         z_check = z_of(samples, pred_var[rows_meas], run_var=local)
         # no prediction variance on the calibration observables: the fitted values were
         # chosen on these data, so the rerun must agree with them as the fit said it would
-        p_cal = p_fit_z(z_after[cal]) if cal.any() else float("nan")
-        p_held = p_fit_z(z_check[held]) if held.any() else float("nan")
+        p_cal = p_fit_z(z_after[cal], _sub(corr, cal)) if cal.any() else float("nan")
+        p_held = p_fit_z(z_check[held], _sub(corr, held)) if held.any() else float("nan")
         if not p_cal < att.gof_alpha or k == rounds:
             break
         record = {"model": model.label, "magnitudes": mags, "p_fit": float(model.p_fit),

@@ -25,8 +25,9 @@ from .replicates import Simulator, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
 from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult, standardised_residuals, where
-from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
+from .confirm import (RERUN_SEED_STRIDE, Shrink, _sub, confirm_attribution, gap_size,
                       p_fit_z as _p_fit_z, params_after as _params_after)
+from .noise_correlation import correlation_matrix, quadratic_form
 
 __all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
            "NextMeasurement",
@@ -330,8 +331,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     base_meas = fps.base_samples[:, rows_meas]
     # the measured observables in the fingerprints' row order (a file may list them otherwise)
     measured = replace(measurements, measurements=tuple(measurements[n] for n in names))
+    corr = correlation_matrix(fps, rows_meas)   # components read from one run
     wh = where(measured, base_meas,
-               sim_var=fps.sim_var[rows_meas], alpha=alpha)
+               sim_var=fps.sim_var[rows_meas], alpha=alpha, correlation=corr)
     residual = _residual(measurements, fps)
     att = attribute(residual, fps, alpha=select_alpha, gof_alpha=gof_alpha, max_effects=max_effects)
     bar = None  # the runs after the fingerprints: their number depends on what the fits find
@@ -394,16 +396,18 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     comp_names = np.asarray([n for n in names for _ in range(measurements[n].n_components)])
     for n in dict.fromkeys(comp_names[held_meas]):
         i = (comp_names == n) & held_meas
-        b, r_, a = gap_size(z_before[i]), gap_size(z_recal[i]), gap_size(z_after[i])
+        c = _sub(corr, i)
+        b, r_, a = gap_size(z_before[i], c), gap_size(z_recal[i], c), gap_size(z_after[i], c)
         per_obs.append({"observable": str(n), "before": b[0], "recalibrated": r_[0], "after": a[0],
                         "before_excess": b[1], "after_excess": a[1]})
-    b, r_, a = gap_size(z_before[held_meas]), gap_size(z_recal[held_meas]), gap_size(z_after[held_meas])
+    c = _sub(corr, held_meas)
+    b, r_, a = (gap_size(z_before[held_meas], c), gap_size(z_recal[held_meas], c),
+                gap_size(z_after[held_meas], c))
     frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")
     frac_rms = 1.0 - a[0] / b[0] if b[0] > 0 else float("nan")
     p_cal, p_held = conf.p_calibration, conf.p_heldout
-    zb = z_before[held_meas]
-    zb = zb[np.isfinite(zb)]
-    p_before = float(stats.chi2.sf(zb @ zb, zb.size)) if zb.size else float("nan")
+    q, n_held = quadratic_form(z_before[held_meas], c)
+    p_before = float(stats.chi2.sf(q, n_held)) if n_held else float("nan")
     comp_labels = [measurements[n].labels[j] for n in names for j in range(measurements[n].n_components)]
     worst = _worst_components(z_after, comp_names, comp_labels, held_meas)
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
@@ -423,8 +427,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         # Recalibration alone may close a significant gap (e.g. a cohesion calibrated
         # elsewhere): then the rerun at the recalibrated base must agree with every measured
         # observable, the held-out ones included, else nothing explains the gap.
-        p_recal = _p_fit_z(z_recal)
-        p_recal_held = _p_fit_z(z_recal[held_meas]) if held_meas.any() else float("nan")
+        p_recal = _p_fit_z(z_recal, corr)
+        p_recal_held = _p_fit_z(z_recal[held_meas], c) if held_meas.any() else float("nan")
         if held_meas.any() and p_recal >= gof_alpha and p_recal_held >= gof_alpha:
             att = replace(att, reason=(
                 f"recalibration alone closes the gap: the rerun at the recalibrated "

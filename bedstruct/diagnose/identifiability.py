@@ -168,10 +168,14 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
     the set change (:meth:`FingerprintSet.restrict`).
     """
     from dataclasses import replace
+    from .noise_correlation import correlation_matrix, inverse_cholesky, whiten
     cal = fps.rows_calibrate
     sigma = fps.sigma
-    P = nuisance_projector(fps.sensitivities[cal] / sigma[cal, None])
-    projected = [P @ (f.delta[1][cal] / sigma[cal]) for f in fps.fingerprints]
+    # components read from one run: judged in the metric of the fit (generalised least squares)
+    R = correlation_matrix(fps, cal)
+    W = None if R is None else inverse_cholesky(R)
+    P = nuisance_projector(whiten(W, fps.sensitivities[cal] / sigma[cal, None]))
+    projected = [P @ whiten(W, f.delta[1][cal] / sigma[cal]) for f in fps.fingerprints]
     noncal = ~cal
     comp_names = fps.design.component_names()
     out = []
@@ -182,14 +186,18 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
         # the experiment's and the fingerprint's own (a component whose response at the prior
         # top is known to no better than its scatter there carries no more than that)
         sig_c = np.sqrt(sigma[cal] ** 2 + SE[1][cal] ** 2)
-        P_c = nuisance_projector(fps.sensitivities[cal] / sig_c[:, None])
-        signal = float(np.linalg.norm(P_c @ (D[1][cal] / sig_c)))
-        noise = float(np.sqrt(np.sum((SE[1][cal] / sig_c) ** 2)))
+        P_c = nuisance_projector(whiten(W, fps.sensitivities[cal] / sig_c[:, None]))
+        f_c = P_c @ whiten(W, D[1][cal] / sig_c)
+        signal = float(np.linalg.norm(f_c))
+        d = SE[1][cal] / sig_c
+        # the estimation noise's covariance in the whitened metric (its runs share the
+        # components' correlation)
+        C = None if W is None else W @ (R * np.outer(d, d)) @ W.T
+        noise = float(np.sqrt(np.sum(d ** 2) if C is None else np.trace(C)))
         # the estimation noise along the signal's own direction: how far the signal
         # itself is known (the projector leaves that direction unchanged)
-        f_c = P_c @ (D[1][cal] / sig_c)
         u = f_c / signal if signal > 0 else f_c
-        signal_se = float(np.sqrt(np.sum((u * SE[1][cal] / sig_c) ** 2)))
+        signal_se = float(np.sqrt(np.sum((u * d) ** 2) if C is None else u @ C @ u))
         single = 0.0
         if fp.delta_n is not None and signal > 0:
             one = fp.delta_n[1][cal] < 2
@@ -208,7 +216,8 @@ def assess_fingerprints(fps: FingerprintSet) -> FingerprintSet:
             # calibration rows, beyond 2 sigma and twice its own estimation noise (a noisy
             # fingerprint must not name a measurement by chance)
             J = fps.sensitivities
-            beta = np.linalg.lstsq(J[cal] / sigma[cal, None], D[1][cal] / sigma[cal], rcond=None)[0]
+            beta = np.linalg.lstsq(whiten(W, J[cal] / sigma[cal, None]),
+                                   whiten(W, D[1][cal] / sigma[cal]), rcond=None)[0]
             left = np.abs(D[1][noncal] - J[noncal] @ beta)
             w = left / sigma[noncal]
             real = left > 2.0 * SE[1][noncal]

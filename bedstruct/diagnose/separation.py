@@ -64,12 +64,14 @@ def separation(fps: FingerprintSet) -> list[dict]:
     >>> all(r["separable"] for r in rows)
     True
     """
+    from .noise_correlation import decorrelator, whiten
     cal = fps.rows_calibrate
     sigma = fps.sigma[cal]
-    P = nuisance_projector(fps.sensitivities[cal] / sigma[:, None])
+    W = decorrelator(fps, cal)   # the fit's metric (components read from one run)
+    P = nuisance_projector(whiten(W, fps.sensitivities[cal] / sigma[:, None]))
 
     def projected(fp, a):
-        return P @ (np.asarray(fp.predict(a), float)[cal] / sigma)
+        return P @ whiten(W, np.asarray(fp.predict(a), float)[cal] / sigma)
 
     curves = {}
     for fp in fps.fingerprints:

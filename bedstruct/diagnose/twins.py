@@ -116,16 +116,22 @@ def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
     those sized on the prediction carry less; a validation errs on the weak side.
     """
     from .fingerprints import nuisance_projector
+    from .noise_correlation import correlation_matrix, inverse_cholesky, whiten
     cal = fps.rows_calibrate
     fp = fps[name]
+    # in the metric the fit uses (components read from one run share their noise)
+    R = correlation_matrix(fps, cal)
+    W = None if R is None else inverse_cholesky(R)
 
     def gap(a):
         s = sigma(a) if callable(sigma) else (fps.sigma if sigma is None else sigma)
         sig = np.asarray(s, dtype=float)[cal]
-        P = nuisance_projector(fps.sensitivities[cal] / sig[:, None])
-        g2 = float(np.sum((P @ (fp.predict(a)[cal] / sig)) ** 2))
+        P = nuisance_projector(whiten(W, fps.sensitivities[cal] / sig[:, None]))
+        g2 = float(np.sum((P @ whiten(W, fp.predict(a)[cal] / sig)) ** 2))
         if debias:
-            g2 -= float(np.diag(P) @ (fp.predict_se(a)[cal] / sig) ** 2)
+            d = fp.predict_se(a)[cal] / sig
+            g2 -= float(np.diag(P) @ d ** 2 if W is None
+                        else np.trace(P @ W @ (R * np.outer(d, d)) @ W.T))
         return math.sqrt(max(g2, 0.0))
     return gap
 

@@ -79,8 +79,11 @@ ENGINE_PRESETS = {
 #: scattered unlike the base, interpolated towards that point's own), on top of the reading
 #: noise, and its magnitude is sized in that noise; 2 stated the pooled scatter at every
 #: point. 1 sized it in the design's reading noise and stated the scatter at its upper
-#: bound, so its gap was smaller than stated.
-_TWIN_RULE = 5
+#: bound, so its gap was smaller than stated. 6: sized in the metric of the fit, which
+#: whitens components read from one run by their correlation
+#: (:mod:`~bedstruct.diagnose.noise_correlation`); where the fingerprints list no such pair
+#: it makes the twins of 5.
+_TWIN_RULE = 6
 
 #: Revision of the simulation scatter, in every twin record. 2: pooled over the points that
 #: scatter like the base (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`);
@@ -107,7 +110,16 @@ _SCATTER_RULE = 2
 #: 10: that noise, at a node simulated after the fingerprints whose runs scattered beyond the
 #: pooled estimate, is the node's own (:attr:`Fingerprint.se_nodes`), not the fingerprint
 #: points' interpolated; a magnitude fitted where heaps stand or fall gets a wider interval.
-_FIT_RULE = 10
+#: 11: components whose run-to-run deviations move together (read from one run:
+#: ``FingerprintSet.meta["correlated_scatter"]``) enter the fit, the identifiability, the
+#: gap tests and the held-out shrink by generalised least squares, at the lower end of their
+#: correlation's confidence interval, instead of as independent readings that count one
+#: deviation twice; where no such pair is listed it gives the verdicts of 10.
+_FIT_RULE = 11
+
+#: The rules of the records that the current rules reproduce where the fingerprints list no
+#: correlated pair (``meta["correlated_scatter"]`` empty): such records are resumed.
+_RULES_WITHOUT_CORRELATED_PAIRS = {"twin_rule": 5, "fit_rule": 10}
 
 
 def engine_scale_model(preset: str) -> str:
@@ -415,9 +427,11 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
                  "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
                  "twin_repeats": twin_repeats, "top_up": top_up}
-    done = _records_done(records, signature)
+    done, done_older = _records_done(records, signature, older=_RULES_WITHOUT_CORRELATED_PAIRS)
     # records that state their fingerprints' identifiability are scored without a simulator
-    offline = records_only and all("fingerprint_identifiable" in r for r in done.values())
+    # (those of the older rules need the fingerprints: whether they list a correlated pair)
+    offline = (records_only and not done_older
+               and all("fingerprint_identifiable" in r for r in done.values()))
     base = dict(BASE_PARAMETERS)
     sim = fps = None
     if simulator == "surrogate":
@@ -436,6 +450,18 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                                    seed=seed, top_up=top_up, alpha=select_alpha,
                                    simulator_name=simulator, progress=progress)
         identifiable = {f.name: bool(f.identifiable) for f in fps.fingerprints}
+        if done_older and not fps.meta.get("correlated_scatter"):
+            log.info("%d twin record(s) of twin rule %d / fit rule %d taken as done: with no "
+                     "correlated pair the current rules make the same records", len(done_older),
+                     _RULES_WITHOUT_CORRELATED_PAIRS["twin_rule"],
+                     _RULES_WITHOUT_CORRELATED_PAIRS["fit_rule"])
+            done = {**done_older, **done}
+        elif done_older:
+            log.warning("%s: %d record(s) of twin rule %d / fit rule %d ignored: these "
+                        "fingerprints list correlated components, which the current rules "
+                        "fit differently", records, len(done_older),
+                        _RULES_WITHOUT_CORRELATED_PAIRS["twin_rule"],
+                        _RULES_WITHOUT_CORRELATED_PAIRS["fit_rule"])
         intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
         # twins are sized in the noise their own diagnosis sees (their files state one run's
         # scatter on top of the reading noise), not in the design's reading noise alone

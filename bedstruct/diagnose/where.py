@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from .noise_correlation import quadratic_form
 from .measurements import MeasurementSet
 
 __all__ = ["standardised_residuals", "Residuals", "GapGroup", "WhereResult", "where", "where_table"]
@@ -187,7 +188,8 @@ def _window_key(label: str) -> str:
     return label if label.startswith("t=") else ""
 
 
-def where(measurements: MeasurementSet, sim_samples, *, sim_var=None, alpha: float = 0.05) -> WhereResult:
+def where(measurements: MeasurementSet, sim_samples, *, sim_var=None, alpha: float = 0.05,
+          correlation=None) -> WhereResult:
     """Rank where the simulation misses the measurements.
 
     Parameters
@@ -200,6 +202,11 @@ def where(measurements: MeasurementSet, sim_samples, *, sim_var=None, alpha: flo
         Pooled replicate variance of one run (see :func:`standardised_residuals`).
     alpha : float
         Significance level of the "no gap" tests.
+    correlation : (n, n) array_like, optional
+        Correlation of the components' noise
+        (:func:`~bedstruct.diagnose.noise_correlation.correlation_matrix`): the chi-squares
+        of the groups and of the whole are then ``z^T R^{-1} z``, so that a deviation read
+        twice from one run counts about once; the ranking stays on each component's own z.
 
     Returns
     -------
@@ -219,7 +226,8 @@ def where(measurements: MeasurementSet, sim_samples, *, sim_var=None, alpha: flo
 
     def add(group, key, idx):
         zz = z[idx]
-        chi2 = float(np.sum(zz ** 2))
+        chi2 = (float(np.sum(zz ** 2)) if correlation is None
+                else quadratic_form(zz, np.asarray(correlation)[np.ix_(idx, idx)])[0])
         j = int(np.argmax(np.abs(zz)))
         groups.append(GapGroup(group, key, len(idx), chi2, math.sqrt(chi2 / len(idx)), float(zz[j]),
                                float(stats.chi2.sf(chi2, len(idx)))))
@@ -234,7 +242,7 @@ def where(measurements: MeasurementSet, sim_samples, *, sim_var=None, alpha: flo
     groups.sort(key=lambda g: -g.chi2 / g.n)
 
     n = len(z)
-    chi2 = float(np.sum(z ** 2))
+    chi2 = float(np.sum(z ** 2)) if correlation is None else quadratic_form(z, correlation)[0]
     p = float(stats.chi2.sf(chi2, n))
     mx = float(np.max(np.abs(z))) if n else 0.0
     p1 = 2.0 * stats.norm.sf(mx)
