@@ -27,7 +27,7 @@ from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult, standardised_residuals, where
 from .confirm import (RERUN_SEED_STRIDE, Shrink, _sub, confirm_attribution, gap_size,
                       p_fit_z as _p_fit_z, params_after as _params_after)
-from .noise_correlation import correlation_matrix, quadratic_form
+from .noise_correlation import correlation_matrix, effective_correlation, quadratic_form
 
 __all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
            "NextMeasurement",
@@ -198,8 +198,10 @@ class Diagnosis:
                 for w in self.settings.get("node_scatter") or []]
         out += [f"{c['components'][0]} and {c['components'][1]}: their run-to-run deviations "
                 f"move together (r = {c['r']:.2f} over {c['dof']} degrees of freedom), as when "
-                f"one run or one sample gives both; the statistics treat them as independent "
-                f"and count a common deviation about twice"
+                f"one run or one sample gives both; the statistics take them together "
+                f"(generalised least squares at r = "
+                f"{effective_correlation(c['r'], c['dof']):.2f}, the lower end of its 95 % "
+                f"interval), so that a common deviation counts about once"
                 for c in self.settings.get("correlated_scatter") or []]
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])

@@ -32,7 +32,7 @@ import math
 import numpy as np
 from scipy import linalg
 
-__all__ = ["component_keys", "conservative_correlation", "correlation_matrix",
+__all__ = ["component_keys", "conservative_correlation", "correlation_matrix", "effective_correlation",
            "decorrelator", "inverse_cholesky", "quadratic_form", "whiten"]
 
 #: Lower end of a two-sided 95 % interval: z - 1.96 se.
@@ -73,6 +73,20 @@ def conservative_correlation(r: float, dof: int) -> float:
     return math.copysign(math.tanh(z), r)
 
 
+def effective_correlation(r: float, dof: int) -> float:
+    """The correlation a listed pair enters the statistics with: the lower end of its 95 %
+    interval (:func:`conservative_correlation`), kept within ±0.95.
+
+    Examples
+    --------
+    >>> effective_correlation(0.999, 40)
+    0.95
+    >>> round(effective_correlation(0.93, 76), 3)
+    0.892
+    """
+    return float(np.clip(conservative_correlation(r, dof), -_R_MAX, _R_MAX))
+
+
 def correlation_matrix(fps, rows=None) -> np.ndarray | None:
     """Correlation of the noise among ``rows`` of ``fps`` (``None``: independent).
 
@@ -87,7 +101,7 @@ def correlation_matrix(fps, rows=None) -> np.ndarray | None:
     Returns
     -------
     (m, m) ndarray or None
-        Identity except at the listed pairs (their :func:`conservative_correlation`);
+        Identity except at the listed pairs (their :func:`effective_correlation`);
         ``None`` when no listed pair has both components among ``rows``. Each
         correlation is kept within ±0.95: two readings that agree to rounding would
         otherwise give their difference, which is noise of another kind, an unbounded
@@ -124,8 +138,7 @@ def correlation_matrix(fps, rows=None) -> np.ndarray | None:
     for p in pairs:
         a, b = p["components"]
         if a in pos and b in pos:
-            r = conservative_correlation(float(p["r"]), int(p.get("dof", 0)))
-            r = float(np.clip(r, -_R_MAX, _R_MAX))
+            r = effective_correlation(float(p["r"]), int(p.get("dof", 0)))
             if r != 0.0:
                 R[pos[a], pos[b]] = R[pos[b], pos[a]] = r
                 any_pair = True
