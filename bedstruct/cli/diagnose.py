@@ -5,7 +5,7 @@
   bedstruct diagnose validate --preset mini|tiny|small
                              [--simulator surrogate|engine|liggghts] [--campaign seed|full]
                              [--sim CONFIG] [--cache DIR] [--jobs N] [--seed S] [--twin-seed S]
-                             [--records FILE [--records-only]] [--shard K/N]
+                             [--records FILE [--records-only]] [--shard K/N | --twin-jobs N]
                              [--twin-repeats R] [--refine N] [--top-up N] [--out DIR]
                              [--json] [--progress]
 
@@ -27,7 +27,9 @@ one-effect smoke run; ``--twin-seed`` draws a further batch of twins on the same
 fingerprints; ``--records FILE`` appends each twin's record as it completes and
 resumes from the records already there (with ``--records-only`` it scores them and
 runs no twin: the table of a partial run or of shards merged with ``cat``); ``--shard K/N`` runs every N-th twin from
-the K-th, to split one validation over processes or machines; ``--twin-repeats R``
+the K-th, to split one validation over processes or machines; ``--twin-jobs N`` runs
+the twins in N processes on this machine, one twin each at a time (the fingerprints first,
+here; on the engine it needs ``--cache``); ``--twin-repeats R``
 makes each twin's file the mean of R repeated experiments. ``--refine N`` sets the
 refinement rounds of each diagnosis (the effects leading the fit simulated at their fitted
 magnitudes and the fit repeated; a diagnosis's default is its config's ``refine``, a
@@ -77,6 +79,9 @@ def add_arguments(parser) -> None:
                              "(a partial or sharded run's table; fingerprints from --cache)")
     parser.add_argument("--shard", metavar="K/N", type=_shard,
                         help="validate: run only twins i with i %% N == K (0 <= K < N)")
+    parser.add_argument("--twin-jobs", type=int, default=None, metavar="N",
+                        help="validate: run the twins in N processes, one twin each at a time "
+                             "(the fingerprints first, in this process; engine: needs --cache)")
     parser.add_argument("--twin-repeats", type=int, default=None, metavar="R",
                         help="validate: repeated experiments per twin, its file states their mean "
                              "and standard error (default 1; R simulator calls per twin)")
@@ -128,7 +133,7 @@ def _write_json(path, obj) -> None:
 #: Options of ``diagnose validate`` alone, with their defaults there.
 _VALIDATE_ONLY = {"preset": "tiny", "simulator": "surrogate", "twin_seed": None,
                   "campaign": "seed", "records": None, "shard": None, "twin_repeats": 1,
-                  "records_only": False}
+                  "records_only": False, "twin_jobs": 1}
 
 
 def _misplaced(args, names) -> list[str]:
@@ -163,7 +168,7 @@ def _run_validate(args) -> int:
                       simulator=args.simulator, engine=engine, twin_seed=args.twin_seed,
                       campaign=args.campaign, records=args.records, shard=args.shard,
                       twin_repeats=args.twin_repeats, records_only=args.records_only,
-                      refine=args.refine, top_up=args.top_up)
+                      refine=args.refine, top_up=args.top_up, twin_jobs=args.twin_jobs)
     out = result.to_json()
     if args.out:
         write_report(result.report(), args.out)

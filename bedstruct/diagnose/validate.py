@@ -24,7 +24,6 @@ from __future__ import annotations
 import logging
 import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,11 +32,12 @@ from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
 from .diagnosis import diagnose, diagnosis_design
 from .fingerprints import compute_fingerprints
-from .measurements import MeasurementSet, measurement_from_dict
+from .measurements import MeasurementSet
 from .separation import not_told_apart
-from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
+from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 from .twins import (_intrinsic_sd, _projected_gap, _size_twin, _twin_measurements,
                     _twin_plan, _twin_sigma)
+from .validation_design import engine_scale_model, engine_twin_design, twin_design
 from .validation_scores import GOALS, ValidationResult, _records_done, score_twins
 
 __all__ = ["PRESETS", "ENGINE_PRESETS", "twin_design", "engine_twin_design", "engine_scale_model",
@@ -122,126 +122,6 @@ _FIT_RULE = 11
 _RULES_WITHOUT_CORRELATED_PAIRS = {"twin_rule": 5, "fit_rule": 10}
 
 
-def engine_scale_model(preset: str) -> str:
-    """The engine preset (scale model) a validation preset runs on by default.
-
-    Examples
-    --------
-    >>> [engine_scale_model(p) for p in ("mini", "tiny", "small")]
-    ['tiny', 'tiny', 'small']
-    """
-    return "small" if preset == "small" else "tiny"
-
-
-def twin_design() -> MeasurementSet:
-    """The observables of a validation twin: what a full experimental campaign would give.
-
-    Static angle in the narrow (3 mm, as simulated) and a wide (30 mm, as in the seed
-    experiment) box; dynamic angle in three stroke windows at x1, x2, x5 speed; bed
-    height per layer; packing fraction per region; PSD before and after
-    spreading; roughness per speed. Roles split every kind of observable between
-    calibration and held-out validation (x2 speed, layers 2 and 4, ...).
-    Uncertainties are stated per observable (one standard deviation).
-    """
-    w = [[0.0, 0.05], [0.05, 0.3], [0.3, 1.0]]
-    specs = [dict(name="static_angle", kind="static_angle", uncertainty=0.5, role="calibrate",
-                  conditions=dict(box_width=3e-3)),
-             dict(name="static_angle_wide_box", kind="static_angle", uncertainty=0.5,
-                  role="calibrate", conditions=dict(box_width=30e-3))]
-    for f, role in ((1, "calibrate"), (5, "calibrate"), (2, "validate")):
-        specs.append(dict(name=f"dynamic_angle_x{f}", kind="dynamic_angle_series", windows=w,
-                          uncertainty=[1.0, 0.7, 0.6], role=role,
-                          conditions=dict(speed=f * SPEED_X1, layer=3)))
-    for layer, role in ((1, "calibrate"), (2, "validate"), (3, "calibrate"), (4, "validate")):
-        specs.append(dict(name=f"bed_height_layer{layer}", kind="bed_height", uncertainty=10e-6,
-                          unit="m", role=role, conditions=dict(layer=layer, speed=SPEED_X1)))
-    for f, region, role in ((1, "start", "calibrate"), (1, "end", "calibrate"),
-                            (1, "center", "validate"), (5, "start", "validate")):
-        specs.append(dict(name=f"packing_fraction_x{f}_{region}", kind="packing_fraction",
-                          uncertainty=0.005, role=role,
-                          conditions=dict(speed=f * SPEED_X1, layer=1, region=region)))
-    specs.append(dict(name="psd_before", kind="psd", percentiles=[10, 50, 90], unit="m",
-                      uncertainty=[0.6e-6, 1.0e-6, 1.7e-6], role="calibrate",
-                      conditions=dict(stage="before")))
-    specs.append(dict(name="psd_after_x1", kind="psd", percentiles=[10, 50, 90], unit="m",
-                      uncertainty=[0.6e-6, 1.0e-6, 1.7e-6], role="validate",
-                      conditions=dict(stage="after", speed=SPEED_X1, layer=1, region="start")))
-    for f, role in ((1, "calibrate"), (5, "calibrate"), (2, "validate")):
-        specs.append(dict(name=f"roughness_x{f}", kind="roughness", uncertainty=1.5e-6, unit="m",
-                          role=role, conditions=dict(speed=f * SPEED_X1, layer=1)))
-    ms = []
-    for s in specs:
-        d = dict(s)
-        d["value"] = [0.0] * (3 if s["kind"] in ("dynamic_angle_series", "psd") else 1)
-        ms.append(measurement_from_dict(d))
-    return MeasurementSet(tuple(ms), title="validation twin design",
-                          source="bedstruct.diagnose.validate.twin_design")
-
-
-def engine_twin_design(campaign: str = "seed") -> MeasurementSet:
-    """The observables of an engine validation twin (``validate(simulator="engine")``).
-
-    With ``campaign="full"`` the twins also measure every candidate measurement of
-    the catalogue (the avalanche angle after rest, the dry-powder static angle, the
-    packing at the start of an x5 stroke, ...; role ``calibrate``): the campaign the
-    diagnosis' "what to measure next" asks for. Every engine call simulates them
-    anyway, so the full campaign costs no extra runs.
-
-    The seed's measurement design (``data/measurements/seed.toml``: static angle in the
-    30 mm box, dynamic angle at x1 (first 10 % and rest of the stroke), x2 (held
-    out) and x5, bed height after layers 1 and 2 (2 held out), PSD before spreading)
-    with the same kinds, conditions and roles, so that engine runs cached for twins
-    serve the seed case too; plus the static angle in a narrow box with side walls
-    (3 mm, the seed simulation's box: wall friction), the packing fraction of layer 1
-    at the start and end (calibration) and centre (held out), the roughness of layer
-    1 (held out) and the PSD after spreading (held out). The engine maps layers
-    beyond its preset's to the last one (``tiny``: 2 layers).
-    """
-    x1, x2, x5 = SPEED_X1, 2 * SPEED_X1, 5 * SPEED_X1
-    specs = [dict(name="static_angle", kind="static_angle", uncertainty=1.0, role="calibrate",
-                  conditions=dict(box_width=0.030)),
-             dict(name="static_angle_narrow_box", kind="static_angle", uncertainty=1.0,
-                  role="calibrate", conditions=dict(box_width=3e-3)),
-             dict(name="dynamic_angle_x1_early", kind="dynamic_angle_series", uncertainty=4.0,
-                  role="calibrate", conditions=dict(speed=x1, layer=3, time_window=[0.0, 0.1]))]
-    for name, v, role in (("x1", x1, "calibrate"), ("x2", x2, "validate"), ("x5", x5, "calibrate")):
-        specs.append(dict(name=f"dynamic_angle_{name}_steady", kind="dynamic_angle_series",
-                          uncertainty=1.0, role=role,
-                          conditions=dict(speed=v, layer=3, time_window=[0.1, 1.0])))
-    for layer, role in ((1, "calibrate"), (2, "validate")):
-        specs.append(dict(name=f"bed_height_layer{layer}", kind="bed_height", uncertainty=10e-6,
-                          unit="m", role=role, conditions=dict(layer=layer, speed=x1)))
-    specs.append(dict(name="psd_before", kind="psd", percentiles=[10, 50, 90], unit="m",
-                      uncertainty=[0.6e-6, 1.0e-6, 1.7e-6], role="calibrate",
-                      conditions=dict(stage="before")))
-    for region, role in (("start", "calibrate"), ("end", "calibrate"), ("center", "validate")):
-        specs.append(dict(name=f"packing_fraction_x1_{region}", kind="packing_fraction",
-                          uncertainty=0.005, role=role,
-                          conditions=dict(speed=x1, layer=1, region=region)))
-    specs.append(dict(name="roughness_x1", kind="roughness", uncertainty=1.5e-6, unit="m",
-                      role="validate", conditions=dict(speed=x1, layer=1)))
-    specs.append(dict(name="psd_after_x1", kind="psd", percentiles=[10, 50, 90], unit="m",
-                      uncertainty=[0.6e-6, 1.0e-6, 1.7e-6], role="validate",
-                      conditions=dict(stage="after", speed=x1, layer=1, region="start")))
-    if campaign not in ("seed", "full"):
-        raise ConfigError(f"campaign: expected 'seed' or 'full'; got {campaign!r}")
-    ms = []
-    for s in specs:
-        d = dict(s)
-        d["value"] = [0.0] * (3 if s["kind"] == "psd" else 1)
-        ms.append(measurement_from_dict(d))
-    seed_design = MeasurementSet(tuple(ms), title="engine validation twin design",
-                                 source="bedstruct.diagnose.validate.engine_twin_design")
-    if campaign == "seed":
-        return seed_design
-    from .diagnosis import candidate_design
-    extra = tuple(replace(m, role="calibrate")
-                  for m in candidate_design(_catalogue(), seed_design))
-    return MeasurementSet(seed_design.measurements + extra,
-                          title="engine validation twin design (full campaign)",
-                          source="bedstruct.diagnose.validate.engine_twin_design")
-
-
 def _label(diag) -> str:
     att = diag.attribution
     if att.verdict == "attributed":
@@ -303,12 +183,28 @@ def _fingerprint_settings(fps) -> dict:
             "uneven_scatter": dict(fps.meta.get("uneven_scatter", {}))}
 
 
+def _with_older_records(done: dict, done_older: dict, fps, records) -> dict:
+    """``done`` with the records of the rules before the generalised metric added where the
+    fingerprints list no correlated pair (:data:`_RULES_WITHOUT_CORRELATED_PAIRS`)."""
+    if not done_older:
+        return done
+    older = (_RULES_WITHOUT_CORRELATED_PAIRS["twin_rule"], _RULES_WITHOUT_CORRELATED_PAIRS["fit_rule"])
+    if not fps.meta.get("correlated_scatter"):
+        log.info("%d twin record(s) of twin rule %d / fit rule %d taken as done: with no "
+                 "correlated pair the current rules make the same records", len(done_older), *older)
+        return {**done_older, **done}
+    log.warning("%s: %d record(s) of twin rule %d / fit rule %d ignored: these fingerprints "
+                "list correlated components, which the current rules fit differently", records,
+                len(done_older), *older)
+    return done
+
+
 def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, snr_range: tuple[float, float] = (5.0, 10.0),
              simulator: str = "surrogate", engine: dict | None = None, refine: int | None = None,
              twin_seed: int | None = None, records=None, campaign: str = "seed",
              shard: tuple[int, int] | None = None, twin_repeats: int = 1,
-             records_only: bool = False, top_up: int | None = None,
+             records_only: bool = False, top_up: int | None = None, twin_jobs: int = 1,
              progress: bool = False) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
@@ -370,6 +266,13 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         error, as a lab that repeats each test reports it. Twins are sized in that noise,
         so an effect that its prior caps below the drawn gap in one experiment can reach
         it in several; each repeat is one more simulator call per twin.
+    twin_jobs : int
+        Run the twins in this many processes, one twin each at a time
+        (:func:`~bedstruct.diagnose.validate_parallel.run_twins_in_processes`; default 1:
+        in this process). The fingerprints are computed first, here; on the engine the
+        workers read them back from ``engine["cache"]``, which is then required. Records
+        go to ``records`` as each twin finishes (a temporary file without it). Not with
+        ``shard`` or ``records_only``.
 
     Returns
     -------
@@ -379,10 +282,10 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         # twins from another code: their own plan and preset table, same records and scores
         from .validate_liggghts import validate_liggghts
         if (campaign != "seed" or shard is not None or twin_repeats != 1 or twin_seed is not None
-                or records_only or top_up is not None):
+                or records_only or top_up is not None or int(twin_jobs) != 1):
             raise ConfigError("simulator='liggghts': campaign, shard, twin_repeats, twin_seed, "
-                              "records_only and top_up are for the engine's twins; LIGGGHTS twins "
-                              "follow liggghts_twin_plan")
+                              "records_only, top_up and twin_jobs are for the engine's twins; "
+                              "LIGGGHTS twins follow liggghts_twin_plan")
         workdir = Path(engine["cache"]) / "liggghts-twins" if engine and engine.get("cache") else None
         return validate_liggghts(preset, seed=seed, engine=engine, workdir=workdir, records=records,
                                  alpha=alpha, select_alpha=select_alpha, gof_alpha=gof_alpha,
@@ -427,6 +330,19 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                  "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
                  "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
                  "twin_repeats": twin_repeats, "top_up": top_up}
+    if int(twin_jobs) != twin_jobs or twin_jobs < 1:
+        raise ConfigError(f"twin_jobs: expected a whole number >= 1; got {twin_jobs!r}")
+    twin_jobs = int(twin_jobs)
+    if twin_jobs > 1:
+        if shard is not None or records_only:
+            raise ConfigError("twin_jobs: runs the whole plan's twins in processes; not with "
+                              "shard or records_only")
+        if simulator == "engine" and not (engine or {}).get("cache"):
+            raise ConfigError("twin_jobs: the twin processes read the fingerprints back from the "
+                              "engine cache; give [engine] cache (CLI: --cache DIR)")
+        if records is None:
+            tmp_records = tempfile.TemporaryDirectory(prefix="bedstruct-validate-")
+            records = Path(tmp_records.name) / "records.jsonl"
     done, done_older = _records_done(records, signature, older=_RULES_WITHOUT_CORRELATED_PAIRS)
     # records that state their fingerprints' identifiability are scored without a simulator
     # (those of the older rules need the fingerprints: whether they list a correlated pair)
@@ -450,18 +366,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                                    seed=seed, top_up=top_up, alpha=select_alpha,
                                    simulator_name=simulator, progress=progress)
         identifiable = {f.name: bool(f.identifiable) for f in fps.fingerprints}
-        if done_older and not fps.meta.get("correlated_scatter"):
-            log.info("%d twin record(s) of twin rule %d / fit rule %d taken as done: with no "
-                     "correlated pair the current rules make the same records", len(done_older),
-                     _RULES_WITHOUT_CORRELATED_PAIRS["twin_rule"],
-                     _RULES_WITHOUT_CORRELATED_PAIRS["fit_rule"])
-            done = {**done_older, **done}
-        elif done_older:
-            log.warning("%s: %d record(s) of twin rule %d / fit rule %d ignored: these "
-                        "fingerprints list correlated components, which the current rules "
-                        "fit differently", records, len(done_older),
-                        _RULES_WITHOUT_CORRELATED_PAIRS["twin_rule"],
-                        _RULES_WITHOUT_CORRELATED_PAIRS["fit_rule"])
+        done = _with_older_records(done, done_older, fps, records)
         intrinsic = sim.noise_sd() if simulator == "surrogate" else _intrinsic_sd(fps)
         # twins are sized in the noise their own diagnosis sees (their files state one run's
         # scatter on top of the reading noise), not in the design's reading noise alone
@@ -477,6 +382,22 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     rng = np.random.default_rng([tseed, 2024])
     reuse_ooc = simulator == "engine"
     plan = _twin_plan([e.name for e in effects], cfg, in_turn=reuse_ooc)
+    n_in_processes, n_resumed = 0, len(done)
+    if twin_jobs > 1:
+        from .validate_parallel import run_twins_in_processes
+        kinds_of = lambda kind: [kind] + (["out_of_catalogue"]  # noqa: E731
+                                          if reuse_ooc and kind == "effect" else [])
+        todo = [i for i, (kind, _) in enumerate(plan)
+                if any((i, k) not in done for k in kinds_of(kind))]
+        n_in_processes = run_twins_in_processes(
+            dict(preset=preset, seed=seed, alpha=alpha, select_alpha=select_alpha,
+                 gof_alpha=gof_alpha, snr_range=tuple(snr_range), simulator=simulator,
+                 engine=engine, refine=refine, twin_seed=tseed, campaign=campaign,
+                 twin_repeats=twin_repeats, top_up=top_up),
+            todo, len(plan), records, twin_jobs, progress=progress)
+        # every twin is recorded now: the loop below scores them
+        done, done_older = _records_done(records, signature, older=_RULES_WITHOUT_CORRELATED_PAIRS)
+        done = _with_older_records(done, done_older, fps, records)
 
     twins, failed, not_run = [], [], []
     iterator = enumerate(plan)
@@ -567,7 +488,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
                     "cache": str(sim.cache) if sim.cache else None}),
                 "alpha": alpha,
                 "shard": list(shard) if shard is not None else None,
-                "resumed_twins": len(done),
+                "resumed_twins": n_resumed,
+                "twin_jobs": twin_jobs, "twins_run_in_processes": n_in_processes,
                 "select_alpha": select_alpha,
                 "gof_alpha": gof_alpha, "seed": seed, "twin_seed": tseed,
                 "twin_magnitudes": f"gap of U{tuple(snr_range)} sigma on calibration observables "

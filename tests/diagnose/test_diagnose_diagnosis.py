@@ -525,3 +525,32 @@ def test_a_twins_repeated_experiments_are_handed_to_a_parallel_simulator_at_once
     plain = _twin_measurements(design, sim, *args)
     for m in design:
         assert np.array_equal(with_prefetch[m.name].values, plain[m.name].values)
+
+
+def test_twins_run_in_processes_make_the_serial_records(tmp_path):
+    """``twin_jobs``: the twins left to run go to worker processes, one twin each; their
+    records are those a serial run makes, and are merged into ``records``."""
+    whole = tmp_path / "whole.jsonl"
+    serial = validate("tiny", refine=0, records=whole)
+    lines = whole.read_text().splitlines()
+    left = {json.loads(x)["twin"] for x in lines[-2:]}
+    part = tmp_path / "part.jsonl"
+    part.write_text("".join(x + "\n" for x in lines if json.loads(x)["twin"] not in left))
+    par = validate("tiny", refine=0, records=part, twin_jobs=2)
+    assert par.settings["twins_run_in_processes"] == len(left)
+    assert par.settings["resumed_twins"] == len(lines) - sum(
+        json.loads(x)["twin"] in left for x in lines)
+    key = lambda t: (t["twin"], t["type"])  # noqa: E731
+    # every twin of the parallel run is scored from its record: compare records with records
+    assert json.dumps(sorted(par.twins, key=key), sort_keys=True) == \
+        json.dumps(sorted(map(json.loads, lines), key=key), sort_keys=True)
+    assert sorted(json.loads(x)["twin"] for x in part.read_text().splitlines()) == \
+        sorted(json.loads(x)["twin"] for x in lines)
+    assert par.top1_accuracy == serial.top1_accuracy
+    from bedstruct.errors import ConfigError
+    with pytest.raises(ConfigError, match="twin_jobs"):
+        validate("tiny", twin_jobs=2, shard=(0, 2))
+    with pytest.raises(ConfigError, match="cache"):
+        validate("mini", simulator="engine", twin_jobs=2)
+    with pytest.raises(ConfigError, match="whole number"):
+        validate("tiny", twin_jobs=0)
