@@ -92,8 +92,16 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
                 i, part = f.result()   # the first failed twin stops the run, with its error
                 _append(Path(part), records)
         except BaseException:
-            # the queued twins are dropped; those running finish, and their records are kept
-            pool.shutdown(wait=True, cancel_futures=True)
+            # A failed twin or Ctrl-C: the queued twins are dropped and the running ones
+            # stopped (a twin runs for hours; the engine calls it finished are in the cache,
+            # so running it again costs only the call it was in). Twins that finished keep
+            # their records.
+            procs = list((getattr(pool, "_processes", None) or {}).values())
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                proc.terminate()
+            for proc in procs:
+                proc.join(timeout=30)
             for f in futures:
                 if f.done() and not f.cancelled() and f.exception() is None:
                     _append(Path(f.result()[1]), records)
