@@ -113,9 +113,8 @@ def _correlated_scatter(groups, seeds, design: MeasurementSet, *, r_min: float =
     >>> [(p["components"], p["dof"]) for p in _correlated_scatter(groups, [range(4)] * 6, design)]
     [(['a', 'b'], 15)]
     """
-    names, labels = design.component_names(), design.component_labels()
-    single = {m.name: m.n_components == 1 for m in design}
-    keys = [str(n) if single[str(n)] else f"{n} {lab}" for n, lab in zip(names, labels)]
+    from .noise_correlation import component_keys
+    keys = component_keys(design)   # the names the statistics look the pairs up by
     measured = np.flatnonzero(design.roles() != "candidate")
     seed_ids = sorted({int(s) for ss in seeds for s in ss})
     col = {s: c for c, s in enumerate(seed_ids)}

@@ -12,7 +12,8 @@ The statistics instead whiten by the noise's correlation: with ``R`` the correla
 of the listed pairs (identity elsewhere) and ``R = L L^T``, residuals already divided by
 their standard deviations are multiplied by ``L^{-1}``; chi-squares, fits and gap sizes are
 then taken in that metric. Each listed correlation enters at the lower bound of its 95 %
-confidence interval (Fisher's z over the pair's degrees of freedom): a correlation taken
+confidence interval (Fisher's z over the pair's degrees of freedom), and at most 0.95
+(:func:`effective_correlation`): a correlation taken
 too high would overweight the *difference* of the two readings, which the runs determine
 less well, and turn noise there into a gap; one taken lower only keeps part of the double
 count. Where no pair is listed nothing changes (:func:`decorrelator` returns ``None`` and
