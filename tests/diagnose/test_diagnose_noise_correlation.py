@@ -103,7 +103,7 @@ def test_null_data_are_rejected_at_the_nominal_rate(setup):
     # a simulation known exactly (no noise of its own): the measurement's noise alone
     base = np.zeros((4, N))
     zero = np.zeros(N)
-    draws = 400
+    draws = 300
     z = np.array([_pair_noise([k, 11]) for k in range(draws)])
     real = [design.with_values(Observations({f"o{i}": [v] for i, v in enumerate(y)})) for y in z]
     rate_gls = np.mean([where(r, base, sim_var=zero, correlation=corr).significant for r in real])
