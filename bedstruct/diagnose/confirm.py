@@ -25,7 +25,7 @@ import numpy as np
 from .attribution import Attribution, attribute
 from .fingerprints import FingerprintSet
 from .replicates import Simulator, simulate_replicates
-from .noise_correlation import correlation_matrix, quadratic_form
+from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
 from .where import _nan_mean, standardised_residuals
 
 __all__ = ["gap_size", "Shrink", "Confirmation", "confirm_attribution", "p_fit_z"]
@@ -136,11 +136,6 @@ def params_after(base, nuisance_names, shifts):
     return p
 
 
-
-
-def _sub(correlation, rows):
-    """The correlation among ``rows`` (a boolean mask), ``None`` staying ``None``."""
-    return None if correlation is None else correlation[np.ix_(rows, rows)]
 
 
 def p_fit_z(z, correlation=None) -> float:
@@ -320,8 +315,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         z_check = z_of(samples, pred_var[rows_meas], run_var=local)
         # no prediction variance on the calibration observables: the fitted values were
         # chosen on these data, so the rerun must agree with them as the fit said it would
-        p_cal = p_fit_z(z_after[cal], _sub(corr, cal)) if cal.any() else float("nan")
-        p_held = p_fit_z(z_check[held], _sub(corr, held)) if held.any() else float("nan")
+        p_cal = p_fit_z(z_after[cal], correlation_among(corr, cal)) if cal.any() else float("nan")
+        p_held = p_fit_z(z_check[held], correlation_among(corr, held)) if held.any() else float("nan")
         if not p_cal < att.gof_alpha or k == rounds:
             break
         record = {"model": model.label, "magnitudes": mags, "p_fit": float(model.p_fit),

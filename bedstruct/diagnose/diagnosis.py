@@ -25,9 +25,10 @@ from .replicates import Simulator, simulate_replicates
 from .measurements import MeasurementSet, measurement_from_dict
 from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult, standardised_residuals, where
-from .confirm import (RERUN_SEED_STRIDE, Shrink, _sub, confirm_attribution, gap_size,
+from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
                       p_fit_z as _p_fit_z, params_after as _params_after)
-from .noise_correlation import correlation_matrix, effective_correlation, quadratic_form
+from .noise_correlation import (correlation_among, correlation_matrix, effective_correlation,
+                                quadratic_form)
 
 __all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
            "NextMeasurement",
@@ -398,11 +399,11 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     comp_names = np.asarray([n for n in names for _ in range(measurements[n].n_components)])
     for n in dict.fromkeys(comp_names[held_meas]):
         i = (comp_names == n) & held_meas
-        c = _sub(corr, i)
+        c = correlation_among(corr, i)
         b, r_, a = gap_size(z_before[i], c), gap_size(z_recal[i], c), gap_size(z_after[i], c)
         per_obs.append({"observable": str(n), "before": b[0], "recalibrated": r_[0], "after": a[0],
                         "before_excess": b[1], "after_excess": a[1]})
-    c = _sub(corr, held_meas)
+    c = correlation_among(corr, held_meas)
     b, r_, a = (gap_size(z_before[held_meas], c), gap_size(z_recal[held_meas], c),
                 gap_size(z_after[held_meas], c))
     frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")

@@ -33,7 +33,8 @@ import math
 import numpy as np
 from scipy import linalg
 
-__all__ = ["component_keys", "conservative_correlation", "correlation_matrix", "effective_correlation",
+__all__ = ["component_keys", "conservative_correlation", "correlation_among", "correlation_matrix",
+           "effective_correlation",
            "decorrelator", "inverse_cholesky", "quadratic_form", "whiten"]
 
 #: Lower end of a two-sided 95 % interval: z - 1.96 se.
@@ -193,6 +194,24 @@ def inverse_cholesky(R) -> np.ndarray:
 def whiten(W, x):
     """``W @ x`` for a vector or a matrix of columns; ``x`` itself when ``W`` is ``None``."""
     return x if W is None else W @ x
+
+
+def correlation_among(correlation, rows):
+    """The correlation among ``rows`` (a boolean mask or indices); ``None`` stays ``None``.
+
+    Examples
+    --------
+    >>> R = np.array([[1.0, 0.5, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> correlation_among(R, np.array([True, True, False]))
+    array([[1. , 0.5],
+           [0.5, 1. ]])
+    >>> correlation_among(None, [0, 1]) is None
+    True
+    """
+    if correlation is None:
+        return None
+    rows = np.asarray(rows)
+    return np.asarray(correlation, dtype=float)[np.ix_(rows, rows)]
 
 
 def quadratic_form(z, correlation=None) -> tuple[float, int]:

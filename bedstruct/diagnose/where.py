@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from .noise_correlation import quadratic_form
+from .noise_correlation import correlation_among, quadratic_form
 from .measurements import MeasurementSet
 
 __all__ = ["standardised_residuals", "Residuals", "GapGroup", "WhereResult", "where", "where_table"]
@@ -227,7 +227,7 @@ def where(measurements: MeasurementSet, sim_samples, *, sim_var=None, alpha: flo
     def add(group, key, idx):
         zz = z[idx]
         chi2 = (float(np.sum(zz ** 2)) if correlation is None
-                else quadratic_form(zz, np.asarray(correlation)[np.ix_(idx, idx)])[0])
+                else quadratic_form(zz, correlation_among(correlation, idx))[0])
         j = int(np.argmax(np.abs(zz)))
         groups.append(GapGroup(group, key, len(idx), chi2, math.sqrt(chi2 / len(idx)), float(zz[j]),
                                float(stats.chi2.sf(chi2, len(idx)))))
