@@ -29,7 +29,8 @@ resumes from the records already there (with ``--records-only`` it scores them a
 runs no twin: the table of a partial run or of shards merged with ``cat``); ``--shard K/N`` runs every N-th twin from
 the K-th, to split one validation over processes or machines; ``--twin-jobs N`` runs
 the twins in N processes on this machine, one twin each at a time (the fingerprints first,
-here; on the engine it needs ``--cache``); ``--twin-repeats R``
+here; on the engine it needs ``--cache``; with ``--progress`` the bar names each running
+twin and the engine calls it has run); ``--twin-repeats R``
 makes each twin's file the mean of R repeated experiments. ``--refine N`` sets the
 refinement rounds of each diagnosis (the effects leading the fit simulated at their fitted
 magnitudes and the fit repeated; a diagnosis's default is its config's ``refine``, a

@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -205,7 +206,8 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
              twin_seed: int | None = None, records=None, campaign: str = "seed",
              shard: tuple[int, int] | None = None, twin_repeats: int = 1,
              records_only: bool = False, top_up: int | None = None, twin_jobs: int = 1,
-             progress: bool = False) -> ValidationResult:
+             progress: bool = False,
+             on_status: Callable[[str], None] | None = None) -> ValidationResult:
     """Run the twin validation on the surrogate simulator or the DEM engine.
 
     Parameters
@@ -273,6 +275,13 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         workers read them back from ``engine["cache"]``, which is then required. Records
         go to ``records`` as each twin finishes (a temporary file without it). Not with
         ``shard`` or ``records_only``.
+    progress : bool
+        Progress bars (fingerprint calls, twins; the running twin and its engine calls so far
+        beside the twins' bar).
+    on_status : callable, optional
+        Called with a one-line status of the running twin as it changes (``"twin 3
+        (capillary_bridges): 5 engine calls, 17 min"``), for callers that show progress their
+        own way (the worker processes of ``twin_jobs`` report through it).
 
     Returns
     -------
@@ -430,14 +439,21 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
             if records_only:
                 not_run.extend({"twin": i, "type": k, "true_effect": name} for k in todo)
                 continue
-            if progress:  # a twin takes hours at the engine presets: say which one runs
+            if progress or on_status is not None:
+                # a twin takes hours at the engine presets: say which one runs
                 label = f"twin {i} ({name or 'null'})"
-                iterator.set_postfix_str(label, refresh=True)
+
+                def announce(text, bar=iterator if progress else None):
+                    if bar is not None:
+                        bar.set_postfix_str(text, refresh=True)
+                    if on_status is not None:
+                        on_status(text)
+                announce(label)
                 if hasattr(sim, "on_call"):  # and how many engine calls it has run so far
-                    sim.on_call = lambda s, label=label, c0=sim.n_calls, t0=time.perf_counter(): \
-                        iterator.set_postfix_str(
+                    sim.on_call = lambda s, label=label, c0=sim.n_calls, t0=time.perf_counter(), \
+                        announce=announce: announce(
                             f"{label}: {s.n_calls - c0} engine call{'' if s.n_calls - c0 == 1 else 's'}, "
-                            f"{(time.perf_counter() - t0) / 60:.0f} min", refresh=True)
+                            f"{(time.perf_counter() - t0) / 60:.0f} min")
             truth = {"true_effect": name, "true_magnitude": None,
                      "true_cohesion": base_true["cohesion_energy_density"]}
             try:

@@ -24,23 +24,35 @@ import logging
 import multiprocessing
 import os
 import tempfile
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, as_completed, wait
 from pathlib import Path
 
 log = logging.getLogger(__name__)
 
 __all__ = ["run_twins_in_processes"]
 
+#: a worker's status line of its twin sits beside the twin's records file, with this suffix
+_STATUS = ".status"
+#: seconds between looks at the running twins' status lines (with a progress bar)
+_POLL_S = 10.0
+
 
 def _one_twin(kwargs: dict, index: int, n_twins: int, part: str) -> tuple[int, str]:
-    """Worker: run twin ``index`` alone (records appended to ``part``)."""
+    """Worker: run twin ``index`` alone (records appended to ``part``, its status line
+    written to ``part`` + ``.status`` as it changes)."""
     from .validate import validate
     kw = dict(kwargs)
     engine = kw.get("engine")
     if engine:
         # one twin per process already: its calls run in it, one after the other
         kw["engine"] = dict(engine, jobs=1)
-    validate(**kw, shard=(index, n_twins), records=part, progress=False)
+    status = Path(part + _STATUS)
+
+    def report(text: str) -> None:
+        tmp = status.with_name(status.name + f".{os.getpid()}")
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, status)   # the parent never reads half a line
+    validate(**kw, shard=(index, n_twins), records=part, progress=False, on_status=report)
     return index, part
 
 
@@ -63,7 +75,8 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
     jobs : int
         Worker processes.
     progress : bool
-        A bar over the finished twins.
+        A bar over the finished twins, with the running twins' status beside it (each
+        worker's twin and the engine calls it has run so far).
 
     Returns
     -------
@@ -82,15 +95,15 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
                                    initializer=_exit_with_parent, initargs=(os.getpid(),))
         futures = []
         try:
-            futures = [pool.submit(_one_twin, kwargs, i, n_twins, str(Path(tmp) / f"twin{i}.jsonl"))
-                       for i in twins]
-            done = as_completed(futures)
+            parts = {pool.submit(_one_twin, kwargs, i, n_twins, p): p
+                     for i, p in ((i, str(Path(tmp) / f"twin{i}.jsonl")) for i in twins)}
+            futures = list(parts)
             if progress:
-                from tqdm import tqdm
-                done = tqdm(done, total=len(futures), desc=f"twins ({workers} processes)")
-            for f in done:
-                i, part = f.result()   # the first failed twin stops the run, with its error
-                _append(Path(part), records)
+                _wait_with_bar(parts, workers, records)
+            else:
+                for f in as_completed(futures):
+                    i, part = f.result()   # the first failed twin stops the run, with its error
+                    _append(Path(part), records)
         except BaseException:
             # A failed twin or Ctrl-C: the queued twins are dropped and the running ones
             # stopped (a twin runs for hours; the engine calls it finished are in the cache,
@@ -110,6 +123,31 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
     return len(twins)
 
 
+def _wait_with_bar(parts: dict, workers: int, records: Path) -> None:
+    """Merge finished twins' records as they come (``parts``: future -> its records file),
+    with a bar over the twins whose postfix shows what each running twin has done so far
+    (its worker's status line)."""
+    from tqdm import tqdm
+    pending = set(parts)
+    with tqdm(total=len(parts), desc=f"twins ({workers} processes)") as bar:
+        while pending:
+            finished, pending = wait(pending, timeout=_POLL_S, return_when=FIRST_COMPLETED)
+            for f in finished:
+                i, part = f.result()   # the first failed twin stops the run, with its error
+                _append(Path(part), records)
+                bar.update(1)
+            lines = (_read_status(parts[f]) for f in pending if f.running())
+            bar.set_postfix_str(" | ".join(x for x in lines if x), refresh=True)
+
+
+def _read_status(part: str) -> str:
+    """The running twin's status line ('' before its worker wrote one)."""
+    try:
+        return Path(part + _STATUS).read_text(encoding="utf-8").strip()
+    except OSError:
+        return ""
+
+
 def _append(part: Path, records: Path) -> None:
     """Append a finished twin's records (whole lines) to ``records`` once."""
     if not part.exists():
@@ -121,3 +159,4 @@ def _append(part: Path, records: Path) -> None:
         with open(records, "a", encoding="utf-8") as fh:
             fh.write("".join(ln + "\n" for ln in lines))
     part.unlink()
+    part.with_name(part.name + _STATUS).unlink(missing_ok=True)

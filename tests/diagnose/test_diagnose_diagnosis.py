@@ -554,3 +554,21 @@ def test_twins_run_in_processes_make_the_serial_records(tmp_path):
         validate("mini", simulator="engine", twin_jobs=2)
     with pytest.raises(ConfigError, match="whole number"):
         validate("tiny", twin_jobs=0)
+
+
+def test_running_twins_say_how_far_they_have_come(tmp_path):
+    """``on_status`` hears which twin runs (its worker process writes that line beside its
+    records, where the bar of ``twin_jobs`` reads it); merging the records removes it."""
+    from bedstruct.diagnose.validate_parallel import _append, _one_twin, _read_status
+    statuses = []
+    res = validate("tiny", refine=0, on_status=statuses.append)
+    names = {t["twin"]: t["true_effect"] or "null" for t in res.twins}
+    assert statuses == [f"twin {i} ({names[i]})" for i in sorted(names)]
+    part = str(tmp_path / "twin3.jsonl")
+    assert _read_status(part) == ""
+    _one_twin(dict(preset="tiny", refine=0), 3, len(names), part)
+    assert _read_status(part) == f"twin 3 ({names[3]})"
+    merged = tmp_path / "records.jsonl"
+    _append(pathlib.Path(part), merged)
+    assert {json.loads(x)["twin"] for x in merged.read_text().splitlines()} == {3}
+    assert not list(tmp_path.glob("twin3*"))
