@@ -50,8 +50,11 @@ def _one_twin(kwargs: dict, index: int, n_twins: int, part: str) -> tuple[int, s
 
     def report(text: str) -> None:
         tmp = status.with_name(status.name + f".{os.getpid()}")
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, status)   # the parent never reads half a line
+        try:
+            tmp.write_text(text, encoding="utf-8")
+            os.replace(tmp, status)   # the parent never reads half a line
+        except OSError as exc:   # a status line is not worth an hours-long twin
+            log.debug("twin %d: status line not written: %s", index, exc)
     validate(**kw, shard=(index, n_twins), records=part, progress=False, on_status=report)
     return index, part
 
