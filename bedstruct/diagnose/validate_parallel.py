@@ -11,8 +11,9 @@ magnitude and truth runs those of the whole plan) and takes the next when it fin
 The fingerprints are computed once, before the twins, in the calling process (its calls
 spread by ``jobs``); the workers read them back from the engine cache, which ``twin_jobs``
 therefore requires on the engine. Each worker appends its twin's records to a file of its
-own; they are merged into ``records`` as each twin finishes, so an interrupted run resumes
-from there as a serial one does.
+own, started with what ``records`` already holds of that twin (a twin cut short between
+its two diagnoses resumes with the second); they are merged into ``records`` as each twin
+finishes, so an interrupted run resumes from there as a serial one does.
 
 .. versionadded:: 0.1
 """
@@ -98,8 +99,9 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
                                    initializer=_exit_with_parent, initargs=(os.getpid(),))
         futures = []
         try:
-            parts = {pool.submit(_one_twin, kwargs, i, n_twins, p): p
-                     for i, p in ((i, str(Path(tmp) / f"twin{i}.jsonl")) for i in twins)}
+            paths = {i: str(Path(tmp) / f"twin{i}.jsonl") for i in twins}
+            _seed_parts(paths, records)
+            parts = {pool.submit(_one_twin, kwargs, i, n_twins, p): p for i, p in paths.items()}
             futures = list(parts)
             if progress:
                 _wait_with_bar(parts, workers, records)
@@ -151,13 +153,36 @@ def _read_status(part: str) -> str:
         return ""
 
 
+def _seed_parts(paths: dict, records: Path) -> None:
+    """Start each twin's records file (``paths``: twin index -> file) with the lines
+    ``records`` holds of that twin, so that its worker resumes it (an engine effect twin
+    whose attribution finished before an interruption runs only its withheld diagnosis)."""
+    if not records.exists():
+        return
+    seeded = {i: [] for i in paths}
+    for ln in records.read_text(encoding="utf-8").splitlines():
+        try:
+            i = json.loads(ln).get("twin")
+        except (ValueError, AttributeError):
+            continue   # the resume itself reports a damaged records file, with its line
+        if i in seeded:
+            seeded[i].append(ln + "\n")
+    for i, lines in seeded.items():
+        if lines:
+            Path(paths[i]).write_text("".join(lines), encoding="utf-8")
+
+
 def _append(part: Path, records: Path) -> None:
-    """Append a finished twin's records (whole lines) to ``records`` once."""
+    """Append a finished twin's records (whole lines) to ``records`` once: lines it
+    already holds (those its file was started with) are not written again."""
     if not part.exists():
         return
     lines = [ln for ln in part.read_text(encoding="utf-8").splitlines() if ln.strip()]
     for ln in lines:
         json.loads(ln)  # a worker writes whole records; anything else is a bug, not data
+    if lines and records.exists():
+        have = set(records.read_text(encoding="utf-8").splitlines())
+        lines = [ln for ln in lines if ln not in have]
     if lines:
         with open(records, "a", encoding="utf-8") as fh:
             fh.write("".join(ln + "\n" for ln in lines))

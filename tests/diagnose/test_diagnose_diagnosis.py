@@ -556,6 +556,28 @@ def test_twins_run_in_processes_make_the_serial_records(tmp_path):
         validate("tiny", twin_jobs=0)
 
 
+def test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once(tmp_path):
+    """A worker's records file starts with what ``records`` holds of its twin, so a twin
+    interrupted between its diagnoses is not diagnosed again, and merging writes each line
+    once (before, a resumed twin's finished record was redone and then stood twice)."""
+    from bedstruct.diagnose.validate_parallel import run_twins_in_processes
+    whole = tmp_path / "whole.jsonl"
+    validate("tiny", refine=0, records=whole)
+    lines = whole.read_text().splitlines()
+    first = json.loads(lines[0])["twin"]
+    other = json.loads(lines[-1])["twin"]
+    records = tmp_path / "records.jsonl"
+    records.write_text(lines[0] + "\n")
+    n_twins = len({json.loads(x)["twin"] for x in lines})
+    run_twins_in_processes(dict(preset="tiny", refine=0), [first, other], n_twins, records, 2)
+    got = records.read_text().splitlines()
+    assert got.count(lines[0]) == 1
+    # the resumed twin's worker ran nothing new: its line is the one it was given
+    assert [json.loads(x)["twin"] for x in got].count(first) == 1
+    assert json.loads(got[-1]) == json.loads(lines[-1])
+    assert not list(tmp_path.glob("bedstruct-twin-records-*"))
+
+
 def test_running_twins_say_how_far_they_have_come(tmp_path):
     """``on_status`` hears which twin runs (its worker process writes that line beside its
     records, where the bar of ``twin_jobs`` reads it); merging the records removes it."""
