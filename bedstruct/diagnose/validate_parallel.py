@@ -162,10 +162,11 @@ def _seed_parts(paths: dict, records: Path) -> None:
     seeded = {i: [] for i in paths}
     for ln in records.read_text(encoding="utf-8").splitlines():
         try:
-            i = json.loads(ln).get("twin")
-        except (ValueError, AttributeError):
-            continue   # the resume itself reports a damaged records file, with its line
-        if i in seeded:
+            rec = json.loads(ln)
+        except ValueError:
+            continue   # the resume reads the records first and names a damaged line
+        i = rec.get("twin") if isinstance(rec, dict) else None
+        if isinstance(i, int) and i in seeded:
             seeded[i].append(ln + "\n")
     for i, lines in seeded.items():
         if lines:

@@ -566,16 +566,32 @@ def test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once(tmp_path):
     lines = whole.read_text().splitlines()
     first = json.loads(lines[0])["twin"]
     other = json.loads(lines[-1])["twin"]
+    # the finished record carries a mark a rerun would not write: had the worker diagnosed
+    # the twin again, an unmarked record of it would stand beside the marked one
+    given = json.dumps({**json.loads(lines[0]), "given": True})
     records = tmp_path / "records.jsonl"
-    records.write_text(lines[0] + "\n")
+    records.write_text(given + "\n")
     n_twins = len({json.loads(x)["twin"] for x in lines})
     run_twins_in_processes(dict(preset="tiny", refine=0), [first, other], n_twins, records, 2)
     got = records.read_text().splitlines()
-    assert got.count(lines[0]) == 1
-    # the resumed twin's worker ran nothing new: its line is the one it was given
+    assert got.count(given) == 1
     assert [json.loads(x)["twin"] for x in got].count(first) == 1
     assert json.loads(got[-1]) == json.loads(lines[-1])
     assert not list(tmp_path.glob("bedstruct-twin-records-*"))
+
+
+def test_a_status_line_that_cannot_be_written_does_not_stop_the_twin(tmp_path, monkeypatch):
+    """The status line is a courtesy: a disk error writing it leaves the twin's records."""
+    from bedstruct.diagnose import validate_parallel
+
+    def refuse(*args):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(validate_parallel.os, "replace", refuse)
+    part = str(tmp_path / "twin0.jsonl")
+    # a shard count above the plan's length: twin 0 alone
+    validate_parallel._one_twin(dict(preset="tiny", refine=0), 0, 1000, part)
+    assert [json.loads(x)["twin"] for x in pathlib.Path(part).read_text().splitlines()] == [0]
+    assert validate_parallel._read_status(part) == ""
 
 
 def test_running_twins_say_how_far_they_have_come(tmp_path):
