@@ -48,6 +48,11 @@ class ModelFit:
         Recalibration shifts of the nuisance parameters (their units).
     nuisance_stderr : (p,) ndarray
         Their standard errors.
+    stderr_runs, nuisance_stderr_runs : (k,), (p,) ndarray
+        The part of those standard errors that comes from the noise of the runs the fit
+        reads the data through (the base mean, the interpolated responses, the
+        finite-difference points), not from the data's: a rerun at the fitted values departs
+        from the data it was fitted to by that part (empty: not known).
     chi2 : float
         Whitened residual sum of squares on the fitted rows.
     dof : int
@@ -81,6 +86,8 @@ class ModelFit:
     p_max: float = float("nan")
     p_fit: float = float("nan")
     weight: float = float("nan")
+    stderr_runs: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    nuisance_stderr_runs: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def label(self) -> str:
@@ -246,24 +253,40 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     J = jac(x)
     try:
         cov = _gram_pinv(J)
-        var_x = np.clip(np.diag(cov), 0, None)
-        if k:
-            # the interpolated response is itself an estimate from a few runs: its noise at
-            # the fitted magnitudes (Fingerprint.predict_se) passes into the parameters
-            # through the same normal equations (a steep response between two noisy nodes
-            # otherwise gives an interval of a few thousandths)
-            d_pred = [np.nan_to_num(f.predict_se(float(ai))[rows] / sig) for f, ai in zip(fs, x[:k])]
-            G = cov @ J.T
+        G = cov @ J.T
+
+        def through_fit(d_noise):
+            """Variance a noise of (whitened) sd ``d_noise`` per row puts on the parameters."""
             if W is None:
-                var_x = var_x + np.einsum("ij,j,ij->i", G, sum(d ** 2 for d in d_pred), G)
-            else:
-                # the nodes' runs share the components' correlation too
-                GW = G @ W
-                for d in d_pred:
-                    var_x = var_x + np.einsum("ij,jk,ik->i", GW, R * np.outer(d, d), GW)
+                return np.einsum("ij,j,ij->i", G, d_noise ** 2, G)
+            GW = G @ W   # the runs share the components' correlation too
+            return np.einsum("ij,jk,ik->i", GW, R * np.outer(d_noise, d_noise), GW)
+
+        var_x = np.clip(np.diag(cov), 0, None)
+        # the interpolated response is itself an estimate from a few runs: its noise at
+        # the fitted magnitudes (Fingerprint.predict_se) passes into the parameters
+        # through the same normal equations (a steep response between two noisy nodes
+        # otherwise gives an interval of a few thousandths)
+        d_pred = [np.nan_to_num(f.predict_se(float(ai))[rows] / sig) for f, ai in zip(fs, x[:k])]
+        for d in d_pred:
+            var_x = var_x + through_fit(d)
+        # the runs' share alone (fit rule 12): the prediction at the fitted values is
+        # (1 - k - sum beta) B + sum_e N_e + sum_j beta_j P_j in the means of the base (B),
+        # the effects' nodes (N_e, at most one node's scatter where interpolated) and the
+        # finite-difference points (P_j, beta_j = shift / step), each over the base seeds
+        # and taken as independent, in one run's pooled scatter (not its upper bound)
+        n_base = np.maximum(np.sum(np.isfinite(fps.base_samples), axis=0), 1)[rows]
+        beta = np.array([float(bj) / fps.sensitivity_step(name)
+                         for bj, name in zip(x[k:], fps.nuisance)])
+        pooled = fps.run_sd()[rows] ** 2
+        runs = ((1.0 - k - beta.sum()) ** 2 + np.sum(beta ** 2)) * pooled
+        for f, ai in zip(fs, x[:k]):
+            runs = runs + fps.run_sd(f.name, float(ai))[rows] ** 2
+        var_runs = through_fit(np.nan_to_num(np.sqrt(runs / n_base) / sig))
         se = np.sqrt(var_x)
+        se_runs = np.sqrt(np.clip(var_runs, 0, None))
     except np.linalg.LinAlgError:  # pragma: no cover
-        se = np.full(len(x), np.inf)
+        se = se_runs = np.full(len(x), np.inf)
     a, b = x[:k], x[k:]
     sea = se[:k]
     # within the prior: a magnitude at its bound (or near it) has no support beyond it
@@ -292,7 +315,8 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     return ModelFit(tuple(effects), a, sea, intervals, b, chi2, dof, pval,
                     chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)), nuisance_stderr=se[k:],
                     max_resid=tmax,
-                    p_max=pmax, p_fit=pfit)
+                    p_max=pmax, p_fit=pfit, stderr_runs=se_runs[:k],
+                    nuisance_stderr_runs=se_runs[k:])
 
 
 def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_alpha: float = 0.01,

@@ -167,12 +167,9 @@ def p_fit_z(z, correlation=None) -> float:
 
 
 
-def _fd_step(fps: FingerprintSet, name: str) -> float:
-    """The finite-difference step of a nuisance sensitivity (5 % of the base by default)."""
-    steps = fps.meta.get("sensitivity_steps") or {}
-    if name in steps:
-        return float(steps[name])
-    return 0.05 * abs(fps.base[name]) if fps.base[name] != 0 else 0.05
+def _or_zero(values, j: int) -> float:
+    """``values[j]``, or 0 where a fit does not state it (one made before fit rule 12)."""
+    return float(values[j]) if len(values) > j and np.isfinite(values[j]) else 0.0
 
 
 @dataclass(frozen=True)
@@ -190,8 +187,10 @@ class Confirmation:
         The last rerun of the attributed model (measured components), None when the
         final attribution attributes nothing.
     z_after, z_check : (m,) ndarray or None
-        Standardised residuals of the data against that rerun; ``z_check`` adds the
-        variance the fit's uncertainty puts on the prediction (the held-out check).
+        Standardised residuals of the data against that rerun; ``z_check``, which the
+        checks test, adds the variance the fit's uncertainty puts on the prediction: on
+        the calibration observables only the part from the runs' noise
+        (:attr:`~bedstruct.diagnose.attribution.ModelFit.stderr_runs`), on the held-out ones all of it.
     p_calibration, p_heldout : float
         Goodness of fit of that rerun to the calibration and the held-out observables
         (NaN without an attribution or without such observables).
@@ -305,17 +304,24 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
             if mags else fps.sim_var
         local = np.maximum(local, fps.node_run_var(samples, rows=rows_meas))[rows_meas]
         z_after = z_of(samples, run_var=local)
-        # the held-out check adds the variance that the calibration-fit uncertainty of the
-        # magnitudes and recalibration shifts puts on the prediction
+        # Both checks add the variance that the uncertainty of the fitted magnitudes and
+        # shifts puts on the prediction. On the held-out observables it is the fit's whole
+        # uncertainty. On the calibration observables the data's own noise cancels from it
+        # (the values were fitted to these data), but the noise of the runs the fit read
+        # them through does not (fit rule 12; before, the calibration check left it out,
+        # and a true model with a noisy prediction failed it beyond its level).
         pred_var = np.zeros(len(fps.sigma))
-        for e, a_e, se_e in zip(model.effects, model.magnitudes, model.stderr):
-            pred_var += (fps[e].derivative(float(a_e)) * se_e) ** 2
+        runs_var = np.zeros(len(fps.sigma))
+        for j, (e, a_e) in enumerate(zip(model.effects, model.magnitudes)):
+            slope = fps[e].derivative(float(a_e))
+            pred_var += (slope * model.stderr[j]) ** 2
+            runs_var += (slope * _or_zero(model.stderr_runs, j)) ** 2
         for j, se_b in enumerate(model.nuisance_stderr):
             pred_var += (fps.sensitivities[:, j] * se_b) ** 2
-        z_check = z_of(samples, pred_var[rows_meas], run_var=local)
-        # no prediction variance on the calibration observables: the fitted values were
-        # chosen on these data, so the rerun must agree with them as the fit said it would
-        p_cal = p_fit_z(z_after[cal], correlation_among(corr, cal)) if cal.any() else float("nan")
+            runs_var += (fps.sensitivities[:, j] * _or_zero(model.nuisance_stderr_runs, j)) ** 2
+        z_check = np.where(cal, z_of(samples, runs_var[rows_meas], run_var=local),
+                           z_of(samples, pred_var[rows_meas], run_var=local))
+        p_cal = p_fit_z(z_check[cal], correlation_among(corr, cal)) if cal.any() else float("nan")
         p_held = p_fit_z(z_check[held], correlation_among(corr, held)) if held.any() else float("nan")
         if not p_cal < att.gof_alpha or k == rounds:
             break
@@ -324,12 +330,12 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         # The recalibration first: a shift beyond the finite-difference step extrapolates the
         # linear sensitivities, and their error would otherwise pass into an effect's node.
         far = [j for j, name in enumerate(fps.nuisance)
-               if name not in secants and abs(model.nuisance[j]) > _fd_step(fps, name)]
+               if name not in secants and abs(model.nuisance[j]) > fps.sensitivity_step(name)]
         if far:
             sens = fps.sensitivities.copy()
             for j in far:
                 name, shift = fps.nuisance[j], float(model.nuisance[j])
-                h = _fd_step(fps, name)
+                h = fps.sensitivity_step(name)
                 point = dict(fps.base, **{name: fps.base[name] + shift})
                 # on the base runs' seeds, paired like the finite difference itself
                 s_b = simulate_replicates(simulator, point, {}, fps.seeds, fps.names)

@@ -412,7 +412,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     q, n_held = quadratic_form(z_before[held_meas], c)
     p_before = float(stats.chi2.sf(q, n_held)) if n_held else float("nan")
     comp_labels = [measurements[n].labels[j] for n in names for j in range(measurements[n].n_components)]
-    worst = _worst_components(z_after, comp_names, comp_labels, held_meas)
+    # where the checks see the rerun depart, in the noise each check tests
+    z_worst = conf.z_check if conf.samples is not None else z_after
+    worst = _worst_components(z_worst, comp_names, comp_labels, held_meas)
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
                     tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before,
                     worst)

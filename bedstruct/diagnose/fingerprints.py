@@ -492,6 +492,14 @@ class FingerprintSet:
             p[ok] = stats.f.sf(own[ok] / pooled[ok], dof_own[ok], dof_pool[ok])
         return own, pooled, ok & (p < alpha), n_own
 
+    def sensitivity_step(self, name: str) -> float:
+        """The finite-difference step of a nuisance parameter's sensitivity (its units;
+        5 % of the base where the fingerprints do not state it)."""
+        steps = self.meta.get("sensitivity_steps") or {}
+        if name in steps:
+            return float(steps[name])
+        return 0.05 * abs(self.base[name]) if self.base[name] != 0 else 0.05
+
     @property
     def base_mean(self) -> np.ndarray:
         """Mean of the base replicates per component (over those that observed it)."""

@@ -131,18 +131,12 @@ class ValidationResult:
 _SIGNATURE_DEFAULTS = {"twin_repeats": 1, "fit_rule": 1, "scatter_rule": 1}
 
 
-def _records_done(records, signature: dict, *, older: dict | None = None):
-    """Twin records of the same validation already in ``records``, by (twin, type).
-
-    With ``older`` (signature values of earlier rules that made the same records under a
-    condition the caller checks), returns ``(done, done_older)``: the records made under
-    those rules come separately, and are not reported as another validation's.
-    """
+def _records_done(records, signature: dict) -> dict:
+    """Twin records of the same validation already in ``records``, by (twin, type)."""
     import json
     if records is None or not Path(records).exists():
-        return {} if older is None else ({}, {})
-    done, done_older, other, why = {}, {}, 0, ""
-    alt = None if older is None else {**signature, **older}
+        return {}
+    done, other, why = {}, 0, ""
     for n, line in enumerate(Path(records).read_text(encoding="utf-8").splitlines(), 1):
         if not line.strip():
             continue
@@ -157,9 +151,6 @@ def _records_done(records, signature: dict, *, older: dict | None = None):
         differ = [k for k, v in signature.items() if rec.get(k, _SIGNATURE_DEFAULTS.get(k)) != v]
         if not differ:
             done[(int(rec["twin"]), rec["type"])] = rec
-        elif alt is not None and all(rec.get(k, _SIGNATURE_DEFAULTS.get(k)) == v
-                                     for k, v in alt.items()):
-            done_older[(int(rec["twin"]), rec["type"])] = rec
         else:
             other += 1
             why = why or ", ".join(f"{k} {rec.get(k)!r} (this run: {signature[k]!r})" for k in differ[:3])
@@ -168,7 +159,7 @@ def _records_done(records, signature: dict, *, older: dict | None = None):
         log.warning("%s: %d record(s) of another validation ignored, e.g. %s", records, other, why)
     if done:
         log.info("%s: %d twin record(s) of this validation taken as done", records, len(done))
-    return done if older is None else (done, done_older)
+    return done
 
 
 def capped_twins(twins) -> list[dict]:
