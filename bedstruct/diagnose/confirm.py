@@ -190,7 +190,8 @@ class Confirmation:
         Standardised residuals of the data against that rerun; ``z_check``, which the
         checks test, adds the variance the fit's uncertainty puts on the prediction: on
         the calibration observables only the part from the runs' noise
-        (:attr:`~bedstruct.diagnose.attribution.ModelFit.stderr_runs`), on the held-out ones all of it.
+        (:attr:`~bedstruct.diagnose.attribution.ModelFit.stderr_runs`), on the held-out
+        ones all of it.
     p_calibration, p_heldout : float
         Goodness of fit of that rerun to the calibration and the held-out observables
         (NaN without an attribution or without such observables).

@@ -116,11 +116,11 @@ _SCATTER_RULE = 2
 #: gap tests and the held-out shrink by generalised least squares, at the lower end of their
 #: correlation's confidence interval, instead of as independent readings that count one
 #: deviation twice; where no such pair is listed it gives the verdicts of 10. 12: the rerun's
-#: calibration check adds the noise of the fit's prediction at the fitted magnitudes and
-#: shifts, itself a combination of means of few runs
-#: (:func:`~bedstruct.diagnose.confirm.prediction_var`); before, a true model whose
-#: prediction was off by that noise could fail the check (the small twin 9, wall friction
-#: at 0.167: p = 0.00012 under 11, 0.12 under 12).
+#: calibration check adds the variance the fitted magnitudes and shifts put on the
+#: prediction through the noise of the runs the fit reads the data through
+#: (:attr:`~bedstruct.diagnose.attribution.ModelFit.stderr_runs`); before, a true model
+#: whose prediction was off by that noise could fail the check (the small twin 9, wall
+#: friction at 0.167: p = 0.00012 under 11, 0.071 under 12).
 _FIT_RULE = 12
 
 
