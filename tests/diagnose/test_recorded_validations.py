@@ -33,6 +33,12 @@ DOCUMENTED = {
     # "DEM engine, tiny, ... fingerprints topped up to four seeds": 3 of 8, 0 of 2, 5 of 8,
     # 0.53, 3 of 3
     "tiny-engine-top-up-2": (18, 3 / 8, 0.0, 5 / 8, 0.53, 1.0),
+    # "DEM engine, small, full campaign, 3 repeats, twin rule 6 and fit rule 12": 9 of 10,
+    # 0 of 4, 7 of 10, 0.73 (2 twins with a held-out gap), 5 of 9
+    "small-engine-fit12": (24, 9 / 10, 0.0, 7 / 10, 0.73, 5 / 9),
+    # "... rescored from its cache at fit rule 13 (profile intervals)": the same but
+    # intervals 7 of 9
+    "small-engine-fit13": (24, 9 / 10, 0.0, 7 / 10, 0.73, 7 / 9),
 }
 
 
