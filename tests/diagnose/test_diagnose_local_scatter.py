@@ -186,6 +186,24 @@ def test_components_read_from_one_run_are_named():
     assert fps.restrict([f"o{i}" for i in range(N) if i != 1]).meta["correlated_scatter"] == []
 
 
+def wild_node_fit(r):
+    """Draw ``r``: data at A = 0.25, fingerprints on their own seeds, a refinement node
+    simulated at the first fit (wild on o0 near 0.25) and the fit through it.
+
+    Returns the residual (data less the base runs' mean), the fingerprints with the node,
+    and the fit."""
+    from bedstruct.diagnose.attribution import fit_model
+    design = toy_design(N, n_validate=3)
+    sim = _WildBetweenNodes(design, sens=SENS, effects=RESP, noise_sd=1.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01, seed=1000 * r)
+    y = 0.25 * RESP["A"] + np.random.default_rng(r).normal(0.0, 1.0, N)
+    first = fit_model(y - fps.base_mean, fps, ["A"])
+    node = simulate_node(sim, fps, "A", float(first.magnitudes[0]))
+    own = replace(fps, fingerprints=(node,)) if node is not None else fps
+    return y - own.base_mean, own, fit_model(y - own.base_mean, own, ["A"])
+
+
 def test_a_wild_node_widens_the_magnitude_interval_where_its_response_is_noisy(monkeypatch):
     """A refinement node where heaps stand or fall: its response on o0 is the mean of three
     runs scattering by ~30, and the interval of the magnitude fitted through it carries that
@@ -193,21 +211,13 @@ def test_a_wild_node_widens_the_magnitude_interval_where_its_response_is_noisy(m
     fingerprint points (the rule before) made it about half as wide, covering 0.25 in 12 of
     40 draws against 22. Still short of 95 %: the wild o0 also pulls the estimate itself,
     which the interval's linearisation at the fitted magnitude does not carry."""
-    from bedstruct.diagnose.attribution import fit_model
     from bedstruct.diagnose.fingerprints import FingerprintSet
 
     def coverage():
         hits, widths = [], []
         for r in range(40):
-            design = toy_design(N, n_validate=3)
-            sim = _WildBetweenNodes(design, sens=SENS, effects=RESP, noise_sd=1.0)
-            fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
-                                       replicates=3, alpha=0.01, seed=1000 * r)
-            y = 0.25 * RESP["A"] + np.random.default_rng(r).normal(0.0, 1.0, N)
-            first = fit_model(y - fps.base_mean, fps, ["A"])
-            node = simulate_node(sim, fps, "A", float(first.magnitudes[0]))
-            own = replace(fps, fingerprints=(node,)) if node is not None else fps
-            lo, hi = fit_model(y - own.base_mean, own, ["A"]).intervals[0]
+            y, own, fit = wild_node_fit(r)
+            lo, hi = fit.intervals[0]
             hits.append(lo <= 0.25 <= hi)
             widths.append(hi - lo)
         return np.mean(hits), np.median(widths)

@@ -7,17 +7,14 @@ prior and carries the interpolated responses' noise as an added variance.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
 from bedstruct.diagnose import compute_fingerprints
 from bedstruct.diagnose.attribution import attribute, fit_model
-from bedstruct.diagnose.fingerprint_runs import simulate_node
 from bedstruct.diagnose.profile_interval import profile_interval
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
-from test_diagnose_local_scatter import RESP, SENS, N, _WildBetweenNodes
+from test_diagnose_local_scatter import RESP, SENS, N, wild_node_fit
 
 LINEAR = {"A": np.r_[3, -2, 1, 4, -1, 2, -3, 1, 0, 0, 0, 0] * 1.0,
           "B": np.r_[3, -1, 2, 3, -1, 2, -2, 2, -1, 0, 0, 0] * 1.0}   # much like A
@@ -70,19 +67,10 @@ def test_the_profile_covers_where_a_wild_node_pulls_the_estimate():
     the wild component on the estimate); the profile covers it far more often."""
     hits_normal, hits_profile = [], []
     for r in range(40):
-        design = toy_design(N, n_validate=3)
-        sim = _WildBetweenNodes(design, sens=SENS, effects=RESP, noise_sd=1.0)
-        fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
-                                   replicates=3, alpha=0.01, seed=1000 * r)
-        y = 0.25 * RESP["A"] + np.random.default_rng(r).normal(0.0, 1.0, N)
-        first = fit_model(y - fps.base_mean, fps, ["A"])
-        node = simulate_node(sim, fps, "A", float(first.magnitudes[0]))
-        own = replace(fps, fingerprints=(node,)) if node is not None else fps
-        fit = fit_model(y - own.base_mean, own, ["A"])
+        residual, own, fit = wild_node_fit(r)
         lo, hi = fit.intervals[0]
         hits_normal.append(lo <= 0.25 <= hi)
-        plo, phi = profile_interval(y - own.base_mean, own, ["A"], "A",
-                                    float(fit.magnitudes[0])).interval
+        plo, phi = profile_interval(residual, own, ["A"], "A", float(fit.magnitudes[0])).interval
         hits_profile.append(plo <= 0.25 <= phi)
     # 40 draws: normal 0.55, profile 0.95
     assert np.mean(hits_profile) >= 0.85
