@@ -27,6 +27,8 @@ DOCUMENTED = {
     # "LIGGGHTS 3.8, tiny, ... fit rule 11 (third session)": 2 of 3, 0 of 1 (the null twin
     # `unexplained`), 3 of 3, shrink 1.0 and 1.0, 1 of 1
     "liggghts-tiny-fit11": (7, 2 / 3, 0.0, 1.0, 1.0, 1.0),
+    # "... the fit-11 rerun rescored from its cache at fit rule 13": the same
+    "liggghts-tiny-fit13": (7, 2 / 3, 0.0, 1.0, 1.0, 1.0),
     # "DEM engine, tiny, full campaign, twin rule 5 and fit rule 9": 2 of 8, 0 of 2, 5 of 8,
     # 0.03, 2 of 2
     "tiny-engine-rule5-fit9": (18, 2 / 8, 0.0, 5 / 8, 0.03, 1.0),
