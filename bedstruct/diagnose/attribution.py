@@ -114,7 +114,11 @@ class ModelFit:
 
 @dataclass(frozen=True)
 class EffectEstimate:
-    """One effect's fitted magnitude, interval and evidence."""
+    """One effect's fitted magnitude, interval and evidence.
+
+    ``interval_kind`` is that of the model it was read from (:attr:`ModelFit.interval_kind`):
+    ``"profile"`` for the chosen model's effects, ``"normal"`` for the other candidates.
+    """
 
     effect: str
     unit: str
@@ -126,9 +130,11 @@ class EffectEstimate:
     p_value: float
     confidence: float
     identifiable: bool
+    interval_kind: str = "normal"
 
     def as_dict(self) -> dict:
         return {"effect": self.effect, "magnitude": self.magnitude, "interval": list(self.interval),
+                "interval_kind": self.interval_kind,
                 "unit": self.unit, "scale": self.scale, "scale_interval": list(self.scale_interval),
                 "delta_chi2": self.delta_chi2, "p_value": self.p_value,
                 "confidence": self.confidence, "identifiable": self.identifiable}
@@ -375,7 +381,7 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
         dchi = null.chi2 - singles[e].chi2
         return EffectEstimate(e, f.effect.unit, mag, (lo, hi), mag / mref, (lo / mref, hi / mref),
                               float(dchi), float(stats.chi2.sf(max(dchi, 0.0), 1)), conf[e],
-                              f.identifiable)
+                              f.identifiable, fit.interval_kind)
 
     # best subset of each size, the size chosen by significance: of the singles that lower
     # the null's chi2 by more than chi2_1 at alpha / n_effects the best (lowest BIC; BIC

@@ -123,7 +123,9 @@ def diagnosis_report(diag, *, title: str | None = None):
                               [[e.effect, _fmt(e.magnitude), f"[{e.interval[0]:.3g}, {e.interval[1]:.3g}]",
                                 e.unit, _fmt(e.scale), _fmt(e.delta_chi2), _fmt(e.p_value),
                                 _fmt(e.confidence), e.identifiable] for e in att.ranking],
-                              caption="each effect fitted alone (with recalibration), ranked by chi-square drop"))
+                              caption="each effect fitted alone (with recalibration), ranked by "
+                                      "chi-square drop; the chosen model's intervals are from the "
+                                      "profile of chi-square, the others' the normal approximation"))
         s.tables.append(Table(["model", "chi2", "dof", "p (fit)", "AIC", "BIC", "BIC weight"],
                               [[m.label, _fmt(m.chi2), m.dof, _fmt(m.p_value), _fmt(m.aic), _fmt(m.bic),
                                 _fmt(m.weight)] for m in att.models[:12]],
@@ -134,6 +136,9 @@ def diagnosis_report(diag, *, title: str | None = None):
             fig, _ = pdg.plot_effect_response(diag)
             s.add_figure(fig, "the leading effect's interpolated response against its magnitude, "
                               "through its simulated nodes, and what the data ask of it (dotted)")
+            fig, _ = pdg.plot_magnitude_profile(diag)
+            s.add_figure(fig, "the profile of chi-square over the leading effect's magnitude: "
+                              "the band is its 95 % interval")
 
     def shrink_(s):
         sh = diag.shrink

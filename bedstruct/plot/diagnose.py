@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["plot_where", "plot_fingerprints", "plot_attribution", "plot_effect_response",
-           "plot_shrink", "plot_confusion"]
+           "plot_magnitude_profile", "plot_shrink", "plot_confusion"]
 
 
 def _axes(ax, size=(6.4, 4.0)):
@@ -181,6 +181,61 @@ def plot_effect_response(diagnosis, effect=None, *, ax=None, n=4):
     ax.legend(fontsize=6)
     ax.set_title(f"{effect}: circles simulated, diamonds simulated at fitted magnitudes; "
                  "dotted: data", fontsize=8)
+    return _ret(fig, ax)
+
+
+def plot_magnitude_profile(diagnosis, effect=None, *, ax=None):
+    """The profile of chi-square over an effect's magnitude, and the interval read from it.
+
+    At each magnitude over the prior the recalibration (and a partner effect of the chosen
+    model) is refitted (:func:`~bedstruct.diagnose.profile_interval.profile_interval`); the
+    curve is the chi-square above its lowest point, the dashed line the 95 % threshold, the
+    band the interval and the vertical line the fitted magnitude. A flat curve says the data
+    hardly tell magnitudes apart, however narrow the local slope at the optimum would make
+    the interval look.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+    effect : str, optional
+        Default: the attributed effect, else the best candidate fitted alone.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> import bedstruct.diagnose as dg
+    >>> from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnose,
+    ...                                 diagnosis_design, load_measurements)
+    >>> ms = load_measurements(pathlib.Path(dg.__file__).parents[2] / "data/measurements/seed.toml")
+    >>> sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
+    >>> d = diagnose(ms, sim, base=BASE_PARAMETERS, replicates=2, refine=0)
+    >>> fig, ax = plot_magnitude_profile(d)
+    >>> ax.get_ylabel()
+    'chi2 - min chi2 (calibration)'
+    """
+    from ..diagnose.profile_interval import profile_interval
+    att, fps = diagnosis.attribution, diagnosis.fingerprints
+    if effect is None:
+        if att.selected:
+            effect = att.selected[0].effect
+        elif att.ranking:
+            effect = att.ranking[0].effect
+        else:
+            raise ValueError("plot_magnitude_profile: the diagnosis has no effect to show")
+    model = att.best if effect in att.best.effects else next(
+        m for m in att.models if m.effects == (effect,))
+    fitted = model.magnitude(effect)
+    prof = profile_interval(diagnosis.residual, fps, model.effects, effect, fitted)
+    fig, ax = _axes(ax)
+    ax.plot(prof.magnitudes, prof.chi2 - prof.chi2.min(), color="k", lw=1.2)
+    ax.axhline(prof.threshold, color="0.4", ls="--", lw=0.8)
+    ax.axvspan(*prof.interval, color="0.85", zorder=0)
+    ax.axvline(fitted, color="#c53030", lw=0.8)
+    ax.set_xlabel(f"{effect} magnitude ({fps[effect].effect.unit})")
+    ax.set_ylabel("chi2 - min chi2 (calibration)")
+    ax.set_ylim(0.0, max(4.0 * prof.threshold, 1.0))
+    ax.set_title(f"{model.label}: profile of chi2 (recalibration refitted at each magnitude); "
+                 f"95 % interval {prof.interval[0]:.3g}-{prof.interval[1]:.3g}", fontsize=8)
     return _ret(fig, ax)
 
 

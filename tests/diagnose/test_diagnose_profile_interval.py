@@ -119,3 +119,31 @@ def test_bad_arguments_are_named():
     fps = _linear_fps()
     with pytest.raises(ValueError, match="'C' must be one of"):
         profile_interval(np.zeros(N), fps, ["A"], "C", 0.1)
+
+
+def test_the_report_draws_the_profile_the_interval_was_read_from():
+    from bedstruct.diagnose import Observations, diagnose
+    from bedstruct.plot.diagnose import plot_magnitude_profile
+    design = toy_design(N, n_validate=3, sigma=0.3)
+    sim = ToySimulator(design, sens=SENS, effects=LINEAR, noise_sd=0.3)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A"), toy_effect("B")],
+                               nuisance=("k",), replicates=3, alpha=0.01)
+    y = 0.6 * LINEAR["A"] + 0.3 * np.random.default_rng(2).standard_normal(N)
+    real = design.with_values(Observations({f"o{i}": [v] for i, v in enumerate(y)}))
+    d = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A"), toy_effect("B")],
+                 fingerprints=fps, refine=0, confirm_rounds=0)
+    assert d.verdict == "attributed"
+    top = d.attribution.selected[0]
+    assert d.to_json()["which"][0]["interval_kind"] == "profile"
+    fig, ax = plot_magnitude_profile(d)
+    band = ax.patches[0]   # a Rectangle (matplotlib >= 3.9) or a Polygon
+    edges = ((band.get_x(), band.get_x() + band.get_width()) if hasattr(band, "get_width")
+             else (band.get_xy()[:, 0].min(), band.get_xy()[:, 0].max()))
+    np.testing.assert_allclose(edges, top.interval)
+    # the curve is at or below the threshold exactly inside the band
+    x, c = ax.lines[0].get_data()
+    inside = (x >= top.interval[0]) & (x <= top.interval[1])
+    assert np.all(c[~inside] > 3.84 - 1e-9) and np.all(c[inside] <= 3.84 + 0.5)
+    rep = d.report()
+    assert any("profile of chi-square" in caption for sec in rep.sections
+               for caption, _ in sec.figures)
