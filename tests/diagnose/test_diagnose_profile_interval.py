@@ -147,3 +147,20 @@ def test_the_report_draws_the_profile_the_interval_was_read_from():
     rep = d.report()
     assert any("profile of chi-square" in caption for sec in rep.sections
                for caption, _ in sec.figures)
+
+
+def test_a_gap_along_the_recalibration_does_not_move_the_profile():
+    """The recalibration is refitted at every magnitude: adding any shift of the nuisance
+    parameters to the data leaves the profile (and so the interval) unchanged."""
+    design = toy_design(N, n_validate=3)
+    sim = ToySimulator(design, sens=SENS, effects=RESP, noise_sd=1.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01, seed=3)
+    y = 0.3 * RESP["A"] + np.random.default_rng(3).standard_normal(N) - fps.base_mean
+    prof = profile_interval(y, fps, ["A"], "A", 0.3)
+    shifted = profile_interval(y + fps.sensitivities @ np.array([0.7]), fps, ["A"], "A", 0.3)
+    np.testing.assert_allclose(shifted.chi2, prof.chi2, rtol=1e-8, atol=1e-8)
+    assert shifted.interval == pytest.approx(prof.interval)
+    # a gap along the effect does move it
+    moved = profile_interval(y + 0.2 * fps["A"].predict(1.0), fps, ["A"], "A", 0.5)
+    assert moved.magnitudes[moved.chi2.argmin()] > prof.magnitudes[prof.chi2.argmin()] + 0.1
