@@ -27,6 +27,17 @@ def _ret(fig, ax):
     return ax if fig is None else (fig, ax)
 
 
+def _leading_effect(attribution, effect, caller: str) -> str:
+    """``effect``, or by default the attributed effect, else the best candidate fitted alone."""
+    if effect is not None:
+        return effect
+    if attribution.selected:
+        return attribution.selected[0].effect
+    if attribution.ranking:
+        return attribution.ranking[0].effect
+    raise ValueError(f"{caller}: the diagnosis has no effect to show")
+
+
 def plot_where(result, *, ax=None, n=15):
     """Horizontal bars of the largest standardised residuals (``WhereResult``).
 
@@ -135,13 +146,7 @@ def plot_effect_response(diagnosis, effect=None, *, ax=None, n=4):
     'missing_fines magnitude (1)'
     """
     att, fps = diagnosis.attribution, diagnosis.fingerprints
-    if effect is None:
-        if att.selected:
-            effect = att.selected[0].effect
-        elif att.ranking:
-            effect = att.ranking[0].effect
-        else:
-            raise ValueError("plot_effect_response: the diagnosis has no effect to show")
+    effect = _leading_effect(att, effect, "plot_effect_response")
     fp = fps[effect]
     model = next((m for m in (att.best, *att.models) if effect in m.effects), None)
     fig, ax = _axes(ax)
@@ -215,13 +220,7 @@ def plot_magnitude_profile(diagnosis, effect=None, *, ax=None):
     """
     from ..diagnose.profile_interval import profile_interval
     att, fps = diagnosis.attribution, diagnosis.fingerprints
-    if effect is None:
-        if att.selected:
-            effect = att.selected[0].effect
-        elif att.ranking:
-            effect = att.ranking[0].effect
-        else:
-            raise ValueError("plot_magnitude_profile: the diagnosis has no effect to show")
+    effect = _leading_effect(att, effect, "plot_magnitude_profile")
     model = att.best if effect in att.best.effects else next(
         m for m in att.models if m.effects == (effect,))
     fitted = model.magnitude(effect)
