@@ -124,6 +124,11 @@ DIAGNOSE = [
            "the fit), with what the data ask of it (dotted). The fitted magnitude and its "
            "interval are the vertical line and band."),
     ("code", "fig, _ = plot_diagnose.plot_effect_response(result)\nfig"),
+    ("md", "The interval is read from the profile of chi-square over the magnitude: at each "
+           "magnitude the recalibration is refitted, and the interval holds the magnitudes within "
+           "3.84 of the lowest chi-square (dashed line). A flat profile would say the data hardly "
+           "tell magnitudes apart."),
+    ("code", "fig, _ = plot_diagnose.plot_magnitude_profile(result)\nfig"),
     ("md", "Validation on synthetic twins whose effect is withheld (tiny preset, surrogate simulator):"),
     ("code", "result = diagnose.validate(preset='tiny', seed=0)\n"
              "print({k: getattr(result, k) for k in ('top1_accuracy', 'null_false_attribution', "
