@@ -403,9 +403,12 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
     chosen: tuple[str, ...] = current.effects
     chosen_fit = current
     gof_ok = (not math.isnan(current.p_fit)) and current.p_fit >= gof_alpha
-    if chosen and gof_ok:
-        # fit rule 13: the magnitudes of a chosen model that fits get intervals from the
-        # profile of the chi-square (the other models keep the normal approximation: a
+    # an effect whose fingerprint is within its own estimation noise can absorb any gap of
+    # similar shape (e.g. the numerics of another code): naming it would be confidently wrong
+    weak = [e for e in chosen if not fps[e].identifiable]
+    if chosen and gof_ok and not weak:
+        # fit rule 13: the magnitudes of a chosen model that fits (and is named) get intervals
+        # from the profile of the chi-square (the other models keep the normal approximation: a
         # profile costs ~15 ms for one effect and ~0.1 s each with a partner)
         prof = [profile_interval(residual, fps, chosen, e, float(a), rows=rows).interval
                 for e, a in zip(chosen, current.magnitudes)]
@@ -416,9 +419,6 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
     ranking = tuple(sorted((estimate(e, singles[e]) for e in names), key=lambda x: -x.delta_chi2))
 
     models = tuple(sorted(allm, key=lambda m: m.bic))
-    # an effect whose fingerprint is within its own estimation noise can absorb any gap of
-    # similar shape (e.g. the numerics of another code): naming it would be confidently wrong
-    weak = [e for e in chosen if not fps[e].identifiable]
     if chosen and gof_ok and weak:
         verdict = "unexplained"
         sel = ()

@@ -121,11 +121,19 @@ def profile_interval(residual, fps: FingerprintSet, effects, effect: str, fitted
     if effect not in effects or len(effects) > 2:
         raise ValueError(f"profile_interval: {effect!r} must be one of one or two effects, "
                          f"got {effects}")
+    if not np.isfinite(float(fitted)):
+        raise ValueError(f"profile_interval: the fitted magnitude of {effect!r} is {fitted}")
     sig = fps.sigma[rows]
     n = int(rows.sum())
     R = correlation_matrix(fps, rows)
     R = np.eye(n) if R is None else R
     u0 = np.asarray(residual, dtype=float)[rows] / sig
+    bad = ~np.isfinite(u0)
+    if bad.any():
+        names = np.asarray(fps.design.component_names())[rows][bad]
+        raise ValueError(f"profile_interval: the residual is not finite on fitted rows "
+                         f"{', '.join(map(str, names[:5]))}{' ...' if bad.sum() > 5 else ''}: "
+                         "leave unobserved components out of rows")
     S = fps.sensitivities[rows] / sig[:, None]
     f = fps[effect]
     lo, hi = (float(v) for v in f.effect.prior)

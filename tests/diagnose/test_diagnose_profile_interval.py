@@ -119,6 +119,12 @@ def test_bad_arguments_are_named():
     fps = _linear_fps()
     with pytest.raises(ValueError, match="'C' must be one of"):
         profile_interval(np.zeros(N), fps, ["A"], "C", 0.1)
+    gap = np.zeros(N)
+    gap[2] = np.nan
+    with pytest.raises(ValueError, match="not finite on fitted rows o2"):
+        profile_interval(gap, fps, ["A"], "A", 0.1)
+    with pytest.raises(ValueError, match="fitted magnitude of 'A' is nan"):
+        profile_interval(np.zeros(N), fps, ["A"], "A", float("nan"))
 
 
 def test_the_report_draws_the_profile_the_interval_was_read_from():
