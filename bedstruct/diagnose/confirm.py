@@ -92,6 +92,9 @@ class Shrink:
     ``rerun_worst``: the components on which the final rerun (of the attributed model, or of
     the recalibrated base) departs most from the data, largest ``|z|`` first (observable,
     component label, role, ``z``): where a failed check comes from.
+    ``p_rerun_trials``: the file's trials without a reading against the final model's runs
+    (:func:`~bedstruct.diagnose.trial_counts.trial_check`; 1 when nothing could be tested,
+    NaN when the file states no trials); ``trial_rows``: its observables, smallest p first.
     """
 
     model: str
@@ -112,6 +115,8 @@ class Shrink:
     refits: tuple[dict, ...] = ()
     p_before: float = float("nan")
     rerun_worst: tuple[dict, ...] = ()
+    p_rerun_trials: float = float("nan")
+    trial_rows: tuple[dict, ...] = ()
 
     def as_dict(self) -> dict:
         return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
@@ -122,6 +127,7 @@ class Shrink:
                 "p_rerun_calibration": self.p_rerun_calibration,
                 "p_rerun_heldout": self.p_rerun_heldout, "refits": list(self.refits),
                 "p_before": self.p_before,
+                "p_rerun_trials": self.p_rerun_trials, "trial_rows": list(self.trial_rows),
                 "per_observable": list(self.per_observable),
                 "rerun_worst": list(self.rerun_worst)}
 
@@ -201,6 +207,12 @@ class Confirmation:
         (the rerun itself, as the effect's fingerprint node).
     n_runs : int
         Simulator runs made.
+    extra_samples : (R, q) ndarray or None
+        The last rerun's components of ``extra_names`` (observables the checks do not
+        fit, such as those a file read in no trial; fit rule 14 counts their runs without a
+        reading).
+    rerun_seeds : tuple of int
+        The seeds of the last rerun.
     """
 
     attribution: Attribution
@@ -212,6 +224,8 @@ class Confirmation:
     p_heldout: float
     refits: tuple[dict, ...]
     n_runs: int
+    extra_samples: np.ndarray | None = None
+    rerun_seeds: tuple[int, ...] = ()
 
     @property
     def confirmed(self) -> bool:
@@ -224,7 +238,7 @@ class Confirmation:
 def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulator: Simulator, *,
                         y, sigma_meas, names, seed: int = 0, rounds: int = 2,
                         alpha: float = 0.01, max_effects: int = 2,
-                        progress=None) -> Confirmation:
+                        progress=None, extra_names=()) -> Confirmation:
     """Rerun the attributed model at its fitted magnitudes and check it against the data.
 
     Parameters
@@ -250,6 +264,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         Selection level and largest combination, as for :func:`attribute`.
     progress : tqdm-like, optional
         Its ``update(n)`` is called after every ``n`` simulator runs.
+    extra_names : sequence of str
+        Further observables the reruns are to give (:attr:`Confirmation.extra_samples`).
 
     Returns
     -------
@@ -284,6 +300,10 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         return standardised_residuals(y, s, samples, sim_var=v)[0]
 
     refits, n_runs, secants = [], 0, {}
+    extra_names = [n for n in extra_names if n not in set(names)]
+    n_cols = int(np.sum(rows_meas))
+    extra = None
+    seeds: list[int] = []
     samples = z_after = z_check = None
     p_cal = p_held = float("nan")
     for k in range(max(int(rounds), 0) + 1):
@@ -295,7 +315,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         seeds = [int(seed) + RERUN_SEED_STRIDE * (k + 1) + i for i in range(fps.n_replicates)]
         mags = {e: float(a) for e, a in zip(model.effects, model.magnitudes)}
         params = params_after(fps.base, fps.nuisance, model.nuisance)
-        samples = simulate_replicates(simulator, params, mags, seeds, names)
+        samples = simulate_replicates(simulator, params, mags, seeds, list(names) + extra_names)
+        samples, extra = samples[:, :n_cols], samples[:, n_cols:]
         n_runs += len(seeds)
         if progress is not None:
             progress.update(len(seeds))
@@ -375,4 +396,6 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         fps = replace(fps, fingerprints=tuple(f.with_node(a, response, run_var=run_var, se=se)
                                               if f.name == effect else f for f in fps.fingerprints))
         att = attribute(residual, fps, alpha=alpha, gof_alpha=att.gof_alpha, max_effects=max_effects)
-    return Confirmation(att, fps, samples, z_after, z_check, p_cal, p_held, tuple(refits), n_runs)
+    return Confirmation(att, fps, samples, z_after, z_check, p_cal, p_held, tuple(refits), n_runs,
+                        extra if samples is not None and extra_names else None,
+                        tuple(seeds) if samples is not None else ())

@@ -27,6 +27,7 @@ from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult, standardised_residuals, where
 from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
                       p_fit_z as _p_fit_z, params_after as _params_after)
+from .trial_counts import TrialCheck, file_trials, trial_check, unread_counts
 from .noise_correlation import (correlation_among, correlation_matrix, effective_correlation,
                                 quadratic_form)
 
@@ -178,8 +179,31 @@ class Diagnosis:
             "not_told_apart_from": not_told_apart(att, self.fingerprints, rows=pairs),
             "not_identifiable": [identification(self.fingerprints, f.name)
                                  for f in self.fingerprints.fingerprints if not f.identifiable],
+            "not_measured": self.trials_without_reading(),
             "settings": self.settings,
         }
+
+    def trials_without_reading(self) -> list[dict]:
+        """The observables whose file states trials that gave no reading.
+
+        One row per such observable: ``observable``, ``role``, ``trials``, ``not_measured``
+        (per component), ``in_no_trial`` (no reading at all: it has no value and takes no
+        part in the fit), ``fingerprint_runs`` and ``fingerprint_runs_without_reading``
+        (the simulation's runs behind the fingerprints, and those in which it could not
+        read the observable either).
+        """
+        missing = self.settings.get("missing_runs") or {}
+        runs = self.fingerprints.n_runs
+        out = []
+        for m in self.measurements.measurements + tuple(self.measurements.unmeasured):
+            if m.trials is None or m.not_measured is None or not np.any(m.not_measured):
+                continue
+            out.append({"observable": m.name, "role": m.role, "trials": int(m.trials),
+                        "not_measured": [int(k) for k in m.not_measured],
+                        "in_no_trial": m.measured_in_no_trial,
+                        "fingerprint_runs": int(runs),
+                        "fingerprint_runs_without_reading": int(missing.get(m.name, 0))})
+        return out
 
     def data_notes(self) -> list[str]:
         """Notes on the data, one sentence each.
@@ -204,6 +228,18 @@ class Diagnosis:
                 f"{effective_correlation(c['r'], c['dof']):.2f}, the lower end of its 95 % "
                 f"interval), so that a common deviation counts about once"
                 for c in self.settings.get("correlated_scatter") or []]
+        for t in self.trials_without_reading():
+            sim = (f"the simulation could not read it in {t['fingerprint_runs_without_reading']} "
+                   f"of its {t['fingerprint_runs']} fingerprint runs")
+            if t["in_no_trial"]:
+                out.append(f"{t['observable']}: no reading in any of its {t['trials']} trial(s); "
+                           f"it has no value and takes no part in the fit ({sim}): a test that "
+                           f"gives no reading, such as a heap that stands as a block, is an "
+                           f"outcome the attribution does not yet weigh")
+            else:
+                k = max(t["not_measured"])
+                out.append(f"{t['observable']}: no reading in {k} of its {t['trials']} trials; "
+                           f"the value is the mean of the others ({sim})")
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])
 
@@ -324,6 +360,13 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         fps = fingerprints.subset([e.name for e in effects])
         fps = replace(fps, alpha=select_alpha)
     fps, rows_meas, names, y, sm, data_notes = _measured_vectors(measurements, fps)
+    # the file's trials without a reading (fit rule 14), and the observables the reruns must
+    # give for them that the fit does not use (read in no trial)
+    trials = file_trials(measurements)
+    unread_pts = fps.meta.get("unread_runs", {})
+    trial_names = [n for n in trials if n not in names and n in unread_pts]
+    n_comp = {m.name: m.n_components
+              for m in tuple(measurements.measurements) + tuple(measurements.unmeasured)}
     sigma_meas = fps.sigma_meas.copy()
     sigma_meas[rows_meas] = sm
     # identifiability in this file's noise and for this catalogue, as fingerprints computed
@@ -374,16 +417,29 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     z_before = wh.residuals.z
     recal_shift = att.null.nuisance   # what the recalibrated rerun simulates
     p_recal = _params_after(fps.base, fps.nuisance, recal_shift)
-    s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds, names)
+    s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds, list(names) + trial_names)
+    n_meas_cols = int(np.sum(rows_meas))
+    s_recal, s_recal_extra = s_recal[:, :n_meas_cols], s_recal[:, n_meas_cols:]
     if bar is not None:
         bar.update(len(rerun_seeds))
     z_recal, _, _ = standardised_residuals(y, sm, s_recal, sim_var=fps.sim_var[rows_meas])
     conf = confirm_attribution(att, fps, residual, simulator, y=y, sigma_meas=sm, names=names,
                                seed=seed, rounds=confirm_rounds, alpha=select_alpha,
-                               max_effects=max_effects, progress=bar)
-    if bar is not None:
-        bar.close()
+                               max_effects=max_effects, progress=bar, extra_names=trial_names)
     att, fps = conf.attribution, conf.fingerprints
+    if conf.samples is not None:
+        chk, n_trial_runs = _trial_check(
+            simulator, trials, unread_pts, n_comp, names, trial_names, conf.samples,
+            conf.extra_samples, _params_after(fps.base, fps.nuisance, att.best.nuisance),
+            {e: float(a) for e, a in zip(att.best.effects, att.best.magnitudes)},
+            conf.rerun_seeds)
+    else:
+        chk, n_trial_runs = _trial_check(simulator, trials, unread_pts, n_comp, names,
+                                         trial_names, s_recal, s_recal_extra, p_recal, {},
+                                         rerun_seeds)
+    if bar is not None:
+        bar.update(n_trial_runs)
+        bar.close()
     if conf.samples is not None:
         model = att.best
         z_after = conf.z_after
@@ -415,9 +471,11 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     # where the checks see the rerun depart, in the noise each check tests
     z_worst = conf.z_check if conf.samples is not None else z_after
     worst = _worst_components(z_worst, comp_names, comp_labels, held_meas)
+    p_trials = chk.p_value if trials else float("nan")
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
                     tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before,
-                    worst)
+                    worst, p_trials, chk.rows)
+    trials_failed = bool(trials) and chk.p_value < gof_alpha
     refit_note = "; ".join(_refit_text(r) for r in conf.refits)
     if refit_note:
         refit_note += ("; refitted" + (f" and rerun at {_magnitudes_text(mags)}"
@@ -434,7 +492,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         # observable, the held-out ones included, else nothing explains the gap.
         p_recal = _p_fit_z(z_recal, corr)
         p_recal_held = _p_fit_z(z_recal[held_meas], c) if held_meas.any() else float("nan")
-        if held_meas.any() and p_recal >= gof_alpha and p_recal_held >= gof_alpha:
+        if held_meas.any() and p_recal >= gof_alpha and p_recal_held >= gof_alpha \
+                and not trials_failed:
             att = replace(att, reason=(
                 f"recalibration alone closes the gap: the rerun at the recalibrated "
                 f"{', '.join(fps.nuisance)} agrees with all measured observables (p = {p_recal:.2g}) "
@@ -445,7 +504,14 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                             "show it beyond recalibration nor attribute it"
                             + (f", and the rerun at the recalibrated base leaves the measured "
                                f"observables inconsistent (p = {min(p_recal, p_recal_held):.2g})"
-                               if held_meas.any() else "") + "; " + att.reason)
+                               if held_meas.any() and not trials_failed else "")
+                            + (f", and the recalibrated base does not give the trials without a "
+                               f"reading ({chk.text()})" if trials_failed else "")
+                            + "; " + att.reason)
+    elif att.verdict == "none" and trials_failed:
+        verdict_note = (f"the trials without a reading depart from the recalibrated base's runs "
+                        f"({chk.text()}): a gap that no catalogue effect was fitted to; "
+                        + att.reason)
     elif att.verdict == "attributed":
         failed = []
         if p_cal < gof_alpha:
@@ -454,6 +520,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                           f"p = {att.best.p_fit:.2g})")
         if p_held < gof_alpha:
             failed.append(f"the held-out observables (p = {p_held:.2g}{_worst_text(worst, 'validate')})")
+        if trials_failed:
+            failed.append(f"the trials without a reading ({chk.text()})")
         if failed:
             verdict_note = ((refit_note + "; " if refit_note else "")
                             + f"{att.best.label} fits the calibration observables but the rerun at "
@@ -485,6 +553,32 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "simulator_runs": (0 if fingerprints is not None else fps.n_runs) + n_refine_runs
                 + len(rerun_seeds) + conf.n_runs}
     return Diagnosis(measurements, fps, wh, att, shrink, nxt, name, settings)
+
+
+def _trial_check(simulator, trials, unread_pts, n_comp, names, trial_names, samples, extra,
+                 params, mags, seeds) -> tuple[TrialCheck, int]:
+    """Fit rule 14: the file's trials without a reading against the final model's runs.
+
+    The runs are the last rerun (``samples`` on ``names``, ``extra`` on ``trial_names``);
+    where the file holds an observable read in no trial, ``2 x len(seeds)`` further seeds
+    at the same parameters are run for the trials' observables (a model is then judged on
+    an outcome its fit never saw, and three runs cannot contradict three trials at the
+    fit's level). Returns the check and the further runs made.
+    """
+    if not trials:
+        return TrialCheck(), 0
+    cols = list(names) + list(trial_names)
+    both = np.hstack([samples, extra]) if extra is not None and extra.size else samples
+    counts = unread_counts(both, cols, n_comp)
+    tried = [n for n in trials if n in counts]
+    n_more = 0
+    if any(trials[n][0] >= trials[n][1] for n in tried) and seeds:
+        more_seeds = [int(max(seeds)) + 1 + i for i in range(2 * len(seeds))]
+        more = simulate_replicates(simulator, params, mags, more_seeds, tried)
+        n_more = len(more_seeds)
+        for n, (k, r) in unread_counts(more, tried, n_comp).items():
+            counts[n] = (counts[n][0] + k, counts[n][1] + r)
+    return trial_check(trials, unread_pts, mags, counts), n_more
 
 
 def _node_scatter(fps: FingerprintSet) -> list[dict]:

@@ -275,6 +275,16 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
         & np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(D_all), axis=0) \
         & np.all(np.isfinite(SE_all), axis=0)
     stacked = np.concatenate(groups, axis=0)
+    # runs without a reading, per observable and point (fit rule 14 weighs a file's trials
+    # without one against them; see trial_counts)
+    point_effects = [{}] * first_effect + [{e.name: float(m)} for e in effects
+                                           for m in e.reference_magnitudes]
+    unread_runs = {}
+    for n in names:
+        i = comp == n
+        unread_runs[n] = [{"effects": dict(point_effects[g]),
+                           "unread": int(np.sum(~np.all(np.isfinite(groups[g][:, i]), axis=1))),
+                           "runs": int(groups[g].shape[0])} for g in range(len(groups))]
     missing, unobservable = {}, {}
     for n in names:
         i = comp == n
@@ -330,6 +340,7 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
                          tuple(nuisance), sens, tuple(fps), threshold, alpha, simulator_name,
                          n_runs,
                          {"missing_runs": missing, "unobservable": unobservable,
+                          "unread_runs": unread_runs,
                           "extrapolated": extrapolated, "uneven_scatter": uneven,
                           "correlated_scatter": _correlated_scatter(
                               [g[:, keep] for g in groups], point_seeds, design),

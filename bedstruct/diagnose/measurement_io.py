@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import ConfigError
 from .measurement_parse import (_SERIES_NOTE, _check_plausible, _conditions, _convert, _err,
                                 _float_array, _image_angle, _number, _read_csv, _string, _table,
-                                _windowed)
+                                _trials, _windowed)
 from .measurements import _UNIT, KINDS, ROLES, Measurement, MeasurementSet
 from .replicates import variance_upper_bound
 
@@ -38,7 +38,8 @@ __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
 
 _ALLOWED = {"name", "kind", "unit", "value", "uncertainty", "replicates", "conditions", "role",
             "windows", "percentiles", "labels", "csv", "columns", "stroke_duration", "image",
-            "images", "pixel_size", "powder", "flanks", "note", "provenance"}
+            "images", "pixel_size", "powder", "flanks", "note", "provenance", "trials",
+            "not_measured"}
 
 
 def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None = None,
@@ -120,11 +121,19 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             raise _err(where, f"key 'percentiles': expected increasing percentiles; got "
                               f"{d['percentiles']!r}")
 
+    # ---- trials: a test that gave no reading in some (or all) of its trials
+    trials, not_measured = _trials(d, where, role)
+    in_no_trial = trials is not None and bool(np.all(np.asarray(not_measured) == trials))
+
     # ---- values: inline value, replicates, csv, or image(s)
     sources = [k for k in ("value", "replicates", "csv", "image", "images") if k in d]
     if role == "candidate":
         if sources:
             raise _err(where, f"key {sources[0]!r}: a candidate (not yet measured) observable has no values")
+    elif in_no_trial:
+        if sources:
+            raise _err(where, f"key {sources[0]!r}: no reading in any of its {trials} trial(s) "
+                              f"(not_measured = trials), so it has no value; give none")
     elif len(sources) != 1:
         raise _err(where, "key 'value': give exactly one of 'value', 'replicates', 'csv', 'image', "
                           f"'images'; got {sources or 'none'}")
@@ -274,9 +283,9 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
                            f"{'/'.join(pols)}{', auto-detected' if powder == 'auto' else ''}; "
                            f"flank(s) {'/'.join(sides)}); the unit applies to the stated "
                            f"uncertainty only")
-    else:  # candidate
+    else:  # candidate, or tried in vain
         n = (len(windows) if windows is not None else len(percentiles) if percentiles is not None
-             else 1)
+             else len(not_measured) if isinstance(not_measured, np.ndarray) else 1)
         values = np.full(n, np.nan)
 
     file_values = values
@@ -317,9 +326,22 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
         if np.any(~np.isfinite(unc)):
             what = "replicates show" if src == "replicates" else f"the {src} gives"
             raise _err(where, f"key 'uncertainty': {what} no scatter; state an uncertainty")
+    elif in_no_trial:
+        unc = np.full(n, np.nan)
     else:
         raise _err(where, "key 'uncertainty': needed (one standard deviation), unless replicates "
                           "or a time series give it")
+    if trials is not None:
+        not_measured = np.broadcast_to(np.asarray(not_measured, dtype=int), (n,)).copy() \
+            if np.ndim(not_measured) == 0 else not_measured
+        if len(not_measured) != n:
+            raise _err(where, f"key 'not_measured': {len(not_measured)} counts but {n} components")
+        if not in_no_trial and np.any(not_measured == trials):
+            raise _err(where, "key 'not_measured': some components had a reading in no trial and "
+                              "others did; give those components as an observable of their own")
+        if replicates is not None and np.any(trials - not_measured != replicates.shape[0]):
+            raise _err(where, f"key 'trials': {replicates.shape[0]} replicate readings, but "
+                              f"trials - not_measured = {(trials - not_measured).tolist()}")
 
     if check_range and src is not None:
         key = "value" if src in ("value",) else src
@@ -367,7 +389,7 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
                        conditions=cond, role=role, windows=windows, percentiles=percentiles,
                        replicates=replicates, note=str(d.get("note", "")),
                        provenance=str(d.get("provenance", "measured" if src else "design")),
-                       conversions=tuple(conversions))
+                       conversions=tuple(conversions), trials=trials, not_measured=not_measured)
 
 
 def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
@@ -424,9 +446,11 @@ def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
                                      check_range=check_range)
                for i, o in enumerate(obs))
     try:
-        return MeasurementSet(ms, title=str(meta.get("title", path.stem)),
+        return MeasurementSet(tuple(m for m in ms if not m.measured_in_no_trial),
+                              title=str(meta.get("title", path.stem)),
                               source=str(meta.get("source", "")), path=str(path),
-                              notes=str(meta.get("notes", "")))
+                              notes=str(meta.get("notes", "")),
+                              unmeasured=tuple(m for m in ms if m.measured_in_no_trial))
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
 
@@ -453,18 +477,24 @@ def write_measurements(mset: MeasurementSet, path) -> Path:
     """Write a :class:`MeasurementSet` as a measurement TOML file (canonical units).
 
     Values are written inline; replicates are not kept (their mean and standard
-    error are). Reading the file back gives the same values and uncertainties.
+    error are), nor is an unmeasured observable's value (it has none), but the trials and
+    the counts of those without a reading are. Reading the file back gives the same
+    values, uncertainties and counts.
     """
     path = Path(path)
     lines = ["[meta]", f"title = {_toml_value(mset.title)}", f"source = {_toml_value(mset.source)}"]
     if mset.notes:
         lines.append(f"notes = {_toml_value(mset.notes)}")
-    for m in mset.measurements:
+    for m in mset.measurements + tuple(mset.unmeasured):
         lines += ["", "[[observable]]", f"name = {_toml_value(m.name)}", f"kind = {_toml_value(m.kind)}",
                   f"unit = {_toml_value(m.unit)}", f"role = {_toml_value(m.role)}"]
-        if m.role != "candidate":
+        if m.role != "candidate" and not m.measured_in_no_trial:
             lines.append(f"value = {_toml_value(m.values)}")
-        lines.append(f"uncertainty = {_toml_value(m.uncertainty)}")
+        if np.all(np.isfinite(m.uncertainty)):
+            lines.append(f"uncertainty = {_toml_value(m.uncertainty)}")
+        if m.trials is not None:
+            lines.append(f"trials = {_toml_value(int(m.trials))}")
+            lines.append(f"not_measured = {_toml_value([int(k) for k in m.not_measured])}")
         lines.append(f"labels = {_toml_value(list(m.labels))}")
         if m.windows is not None:
             lines.append(f"windows = {_toml_value(m.windows)}")

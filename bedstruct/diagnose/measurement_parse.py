@@ -229,3 +229,32 @@ def _image_angle(path: Path, d, where: str, key: str, powder: str, flanks: str):
         return fit_image_angle(img, pixel_size=d["pixel_size"], powder=powder, flanks=flanks)
     except ValueError as exc:
         raise _err(where, f"key {key!r}: {path}: no angle read from this image: {exc}") from None
+
+
+def _trials(d: Mapping[str, Any], where: str, role: str):
+    """The ``trials`` and ``not_measured`` keys: how many repeated trials the values summarise
+    and, per component, how many of them gave no reading (``(None, None)`` when not stated).
+
+    ``not_measured`` is a whole number (every component) or a list of them (one per
+    component), each in ``0 .. trials``; it needs ``trials``.
+    """
+    if "trials" not in d:
+        if "not_measured" in d:
+            raise _err(where, "key 'not_measured': needs 'trials' (how many trials were made)")
+        return None, None
+    if role == "candidate":
+        raise _err(where, "key 'trials': a candidate (not yet measured) observable has no trials")
+    t = d["trials"]
+    if not _is_number(t) or float(t) != int(t) or int(t) < 1:
+        raise _err(where, f"key 'trials': expected a whole number >= 1; got {t!r}")
+    trials = int(t)
+    raw = d.get("not_measured", 0)
+    items = raw if isinstance(raw, (list, tuple)) else [raw]
+    if not items or not all(_is_number(k) and float(k) == int(k) for k in items):
+        raise _err(where, f"key 'not_measured': expected a whole number or a list of them (one "
+                          f"per component); got {raw!r}")
+    counts = np.asarray([int(k) for k in items], dtype=int)
+    if np.any(counts < 0) or np.any(counts > trials):
+        raise _err(where, f"key 'not_measured': expected counts between 0 and trials = {trials} "
+                          f"(trials that gave no reading); got {raw!r}")
+    return trials, (counts if isinstance(raw, (list, tuple)) else int(counts[0]))

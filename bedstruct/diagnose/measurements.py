@@ -180,6 +180,12 @@ class Measurement:
     conversions : tuple of str
         What was done to the file's numbers at load time: unit conversions, and an
         uncertainty taken from replicates at its upper confidence bound.
+    trials : int or None
+        Repeated trials the values summarise, when the file states them.
+    not_measured : (n,) ndarray of int or None
+        Per component, the trials that could not give a reading (a heap that stood as a
+        block after rest, no heap left to fit): a heap that does not flow is an outcome
+        of the test, not a gap in the file. ``None`` when ``trials`` is not stated.
     """
 
     name: str
@@ -195,6 +201,14 @@ class Measurement:
     note: str = ""
     provenance: str = "measured"
     conversions: tuple[str, ...] = ()
+    trials: int | None = None
+    not_measured: np.ndarray | None = None
+
+    @property
+    def measured_in_no_trial(self) -> bool:
+        """Whether every stated trial failed to give a reading (no value at all)."""
+        return self.trials is not None and self.not_measured is not None and \
+            bool(np.all(self.not_measured >= self.trials))
 
     @property
     def unit(self) -> str:
@@ -267,6 +281,10 @@ class MeasurementSet:
     >>> ms = MeasurementSet((m,), title="demo")
     >>> ms.n_components, ms.roles().tolist()
     (1, ['calibrate'])
+
+    ``unmeasured`` holds the observables that were tried but gave a reading in none of
+    their trials (``trials`` and ``not_measured`` equal in the file); they have no values
+    and take no part in the fit, and the diagnosis reports them as data.
     """
 
     measurements: tuple[Measurement, ...]
@@ -274,10 +292,11 @@ class MeasurementSet:
     source: str = ""
     path: str | None = None
     notes: str = ""
+    unmeasured: tuple[Measurement, ...] = ()
 
     def __post_init__(self):
         seen = set()
-        for m in self.measurements:
+        for m in self.measurements + tuple(self.unmeasured):
             if m.name in seen:
                 raise ConfigError(f"observable name {m.name!r} is used twice")
             seen.add(m.name)

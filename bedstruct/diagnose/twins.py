@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -41,23 +42,30 @@ def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx:
         prefetch(calls)
     runs = [sim(*c) for c in calls]
     rng = np.random.default_rng([seed, 99])
-    noisy, stated = {}, {}
+    noisy, stated, seen_in = {}, {}, {}
     for m in design:
         vals = np.array([r[m.name] + m.uncertainty * rng.standard_normal(m.n_components)
                          for r in runs])
         seen = np.isfinite(vals).sum(axis=0)
+        seen_in[m.name] = seen
         with np.errstate(invalid="ignore"):
             noisy[m.name] = np.where(seen > 0, np.nansum(vals, axis=0) / np.maximum(seen, 1), np.nan)
         stated[m.name] = np.sqrt((m.uncertainty ** 2 + intrinsic[m.name] ** 2) / np.maximum(seen, 1))
     twin = design.with_values(Observations(noisy, source="twin"),
                               uncertainty=Observations(stated), provenance="synthetic twin")
-    # what the 'experiment' could not observe (e.g. no heap to fit) is not in its file
+    # the file states its trials and those that gave no reading (e.g. no heap to fit, or
+    # a heap that stood as a block): a reading in no trial is an outcome, not a value
+    twin = replace(twin, measurements=tuple(
+        replace(m, trials=int(repeats), not_measured=int(repeats) - seen_in[m.name])
+        for m in twin.measurements))
     seen = tuple(m for m in twin.measurements if np.all(np.isfinite(m.values)))
+    tried = tuple(m for m in twin.measurements if m.measured_in_no_trial)
     lost = [m.name for m in twin.measurements if not np.all(np.isfinite(m.values))]
     if lost:
         log.info("twin %d: not observable in its run, left out of its file: %s", idx, lost)
     twin = MeasurementSet(seen, title=f"twin {idx}", source="synthetic twin (withheld truth)",
-                          notes=(f"not observable in the twin's run: {', '.join(lost)}" if lost else ""))
+                          notes=(f"not observable in the twin's run: {', '.join(lost)}" if lost else ""),
+                          unmeasured=tried)
     path = write_measurements(twin, folder / f"twin_{idx:03d}.toml")
     # the file round trip checks the format; plausible ranges are for measured numbers
     return load_measurements(path, check_range=False)

@@ -83,8 +83,10 @@ ENGINE_PRESETS = {
 #: bound, so its gap was smaller than stated. 6: sized in the metric of the fit, which
 #: whitens components read from one run by their correlation
 #: (:mod:`~bedstruct.diagnose.noise_correlation`); where the fingerprints list no such pair
-#: it makes the twins of 5.
-_TWIN_RULE = 6
+#: it makes the twins of 5. 7: the file states its trials (the repeated experiments) and,
+#: per observable, those that gave no reading, and keeps an observable read in none of them
+#: (``MeasurementSet.unmeasured``) instead of leaving it out; its values are those of 6.
+_TWIN_RULE = 7
 
 #: Revision of the simulation scatter, in every twin record. 2: pooled over the points that
 #: scatter like the base (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`);
@@ -124,8 +126,14 @@ _SCATTER_RULE = 2
 #: intervals come from the profile of the chi-square with the interpolated responses' noise
 #: (:mod:`~bedstruct.diagnose.profile_interval`), not the normal approximation at the
 #: optimum; verdicts and magnitudes are those of 12 (the small capillary twin 5, 0.153:
-#: 0.028-0.112 under 12, 0.044-0.194 under 13).
-_FIT_RULE = 13
+#: 0.028-0.112 under 12, 0.044-0.194 under 13). 14: the file's trials without a reading
+#: are weighed: the final model's runs (its rerun, with twice its seeds more where the file
+#: holds an observable read in no trial, pooled with the model's fingerprint points on either
+#: side of its magnitude) must give them as often as the trials did (Fisher's exact test per
+#: observable, Sidak over those with a trial or a run without a reading;
+#: :mod:`~bedstruct.diagnose.trial_counts`), or the answer is ``unexplained``; files that
+#: state no trials are diagnosed as under 13.
+_FIT_RULE = 14
 
 
 def _label(diag) -> str:
@@ -152,6 +160,7 @@ def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, record
            "p_gap_heldout_before": diag.shrink.p_before,
            "p_rerun_calibration": diag.shrink.p_rerun_calibration,
            "p_rerun_heldout": diag.shrink.p_rerun_heldout,
+           "p_rerun_trials": diag.shrink.p_rerun_trials,
            "refits": len(diag.shrink.refits), "reason": att.reason,
            "where_top": [(w["observable"], w["component"], round(w["z"], 2))
                          for w in diag.where.ranked(3)],
