@@ -162,6 +162,19 @@ def diagnosis_report(diag, *, title: str | None = None):
         if math.isfinite(sh.p_rerun_heldout):
             s.add_number("p_rerun_heldout", sh.p_rerun_heldout, "1",
                          "fit of the rerun to the held-out observables, within the fit's uncertainty")
+        if math.isfinite(sh.p_rerun_trials):
+            s.add_number("p_rerun_trials", sh.p_rerun_trials, "1",
+                         "the file's trials without a reading against the model's runs "
+                         "(Fisher exact per observable, Sidak; 1: nothing to test)")
+        if sh.trial_rows:
+            s.tables.append(Table(
+                ["observable", "trials without a reading", "model's runs without one", "p"],
+                [[r["observable"], f"{r['unread']} of {r['trials']}",
+                  " or ".join(f"{k} of {n}" for k, n in r["pools"]), _fmt(r["p"])]
+                 for r in sh.trial_rows],
+                caption="trials that gave no reading (a pile that stood as a block, no heap to "
+                        "fit) against the final model's runs: its rerun, and its fingerprint "
+                        "points below and above its magnitude; the larger p of the two pools"))
         if sh.refits:
             s.tables.append(Table(
                 ["rerun model", "magnitudes", "p (fit)", "p (rerun, calibration)",
