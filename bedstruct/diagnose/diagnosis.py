@@ -187,10 +187,11 @@ class Diagnosis:
         """The observables whose file states trials that gave no reading.
 
         One row per such observable: ``observable``, ``role``, ``trials``, ``not_measured``
-        (per component), ``in_no_trial`` (no reading at all: it has no value and takes no
-        part in the fit), ``fingerprint_runs`` and ``fingerprint_runs_without_reading``
-        (the simulation's runs behind the fingerprints, and those in which it could not
-        read the observable either).
+        (per component), ``in_no_trial`` (no reading at all: it has no value to fit),
+        ``fingerprint_runs`` and ``fingerprint_runs_without_reading`` (the simulation's
+        runs behind the fingerprints, and those in which it could not read the observable
+        either). The final model is tested on these counts (fit rule 14,
+        :attr:`Shrink.p_rerun_trials`).
         """
         missing = self.settings.get("missing_runs") or {}
         runs = self.fingerprints.n_runs
@@ -233,13 +234,14 @@ class Diagnosis:
                    f"of its {t['fingerprint_runs']} fingerprint runs")
             if t["in_no_trial"]:
                 out.append(f"{t['observable']}: no reading in any of its {t['trials']} trial(s); "
-                           f"it has no value and takes no part in the fit ({sim}): a test that "
-                           f"gives no reading, such as a heap that stands as a block, is an "
-                           f"outcome the attribution does not yet weigh")
+                           f"it has no value to fit ({sim}), and the answer's model must give "
+                           f"such trials as often (a test that gives no reading, such as a "
+                           f"heap that stands as a block, is an outcome)")
             else:
                 k = max(t["not_measured"])
                 out.append(f"{t['observable']}: no reading in {k} of its {t['trials']} trials; "
-                           f"the value is the mean of the others ({sim})")
+                           f"the value is the mean of the others ({sim}), and the answer's "
+                           f"model must give such trials as often")
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])
 
