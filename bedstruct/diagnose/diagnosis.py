@@ -188,22 +188,23 @@ class Diagnosis:
 
         One row per such observable: ``observable``, ``role``, ``trials``, ``not_measured``
         (per component), ``in_no_trial`` (no reading at all: it has no value to fit),
-        ``fingerprint_runs`` and ``fingerprint_runs_without_reading`` (the simulation's
-        runs behind the fingerprints, and those in which it could not read the observable
-        either). The final model is tested on these counts (fit rule 14,
+        ``simulated`` (the fingerprints' simulator gives it), ``fingerprint_runs`` and
+        ``fingerprint_runs_without_reading`` (the simulation's runs behind the
+        fingerprints, and those in which it could not read the observable either). The final model is tested on these counts (fit rule 14,
         :attr:`Shrink.p_rerun_trials`).
         """
-        missing = self.settings.get("missing_runs") or {}
-        runs = self.fingerprints.n_runs
+        pts = self.fingerprints.meta.get("unread_runs", {})
         out = []
         for m in self.measurements.measurements + tuple(self.measurements.unmeasured):
             if m.trials is None or m.not_measured is None or not np.any(m.not_measured):
                 continue
+            mine = pts.get(m.name, [])
             out.append({"observable": m.name, "role": m.role, "trials": int(m.trials),
                         "not_measured": [int(k) for k in m.not_measured],
                         "in_no_trial": m.measured_in_no_trial,
-                        "fingerprint_runs": int(runs),
-                        "fingerprint_runs_without_reading": int(missing.get(m.name, 0))})
+                        "simulated": bool(mine),
+                        "fingerprint_runs": int(sum(p["runs"] for p in mine)),
+                        "fingerprint_runs_without_reading": int(sum(p["unread"] for p in mine))})
         return out
 
     def data_notes(self) -> list[str]:
@@ -230,6 +231,11 @@ class Diagnosis:
                 f"interval), so that a common deviation counts about once"
                 for c in self.settings.get("correlated_scatter") or []]
         for t in self.trials_without_reading():
+            if not t["simulated"]:
+                out.append(f"{t['observable']}: no reading in {max(t['not_measured'])} of its "
+                           f"{t['trials']} trials; the simulation does not give this "
+                           f"observable, so those trials are not tested")
+                continue
             sim = (f"the simulation could not read it in {t['fingerprint_runs_without_reading']} "
                    f"of its {t['fingerprint_runs']} fingerprint runs")
             if t["in_no_trial"]:

@@ -225,3 +225,15 @@ def test_pools_and_the_p_value_follow_the_counts():
     runs = {n: (0, 12) for n in many}
     chk = trial_check(many, {}, {}, runs)
     assert chk.n_tested == 1 and chk.p_value == pytest.approx(observable_p((3, 3), [(0, 12)]))
+
+
+def test_trials_of_an_observable_the_simulation_does_not_give_are_not_tested(tmp_path):
+    design, sim = _mimic()
+    effects, fps, twin = _twin_and_fingerprints(tmp_path, design, sim)
+    extra = replace(twin.unmeasured[0], name="not_simulated")
+    both = replace(twin, unmeasured=twin.unmeasured + (extra,))
+    d = diagnose(both, sim, base={"k": 1.0}, effects=effects[:1], fingerprints=fps, refine=0)
+    rows = {r["observable"]: r for r in d.to_json()["not_measured"]}
+    assert rows["o3"]["simulated"] and not rows["not_simulated"]["simulated"]
+    assert any(n.startswith("not_simulated:") and "not tested" in n for n in d.data_notes())
+    assert all(r["observable"] != "not_simulated" for r in d.shrink.trial_rows)
