@@ -300,7 +300,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         return standardised_residuals(y, s, samples, sim_var=v)[0]
 
     refits, n_runs, secants = [], 0, {}
-    extra_names = [n for n in extra_names if n not in set(names)]
+    measured_names = set(names)
+    extra_names = [n for n in extra_names if n not in measured_names]
     n_cols = int(np.sum(rows_meas))
     extra = None
     seeds: list[int] = []

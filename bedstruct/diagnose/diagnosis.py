@@ -98,7 +98,11 @@ def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):
         notes.append(f"{n}: measured but not used: {unobservable[n]}")
     if absent:
         fps = fps.restrict([n for n in fps.names if n not in set(absent)])
-        notes.append(f"not measured, left out of the fingerprints: {', '.join(absent)}")
+        # those read in no trial have a note of their own (Diagnosis.data_notes)
+        tried = {m.name for m in measurements.unmeasured}
+        untried = [n for n in absent if n not in tried]
+        if untried:
+            notes.append(f"not measured, left out of the fingerprints: {', '.join(untried)}")
     names = [n for n in fps.names if fps.design[n].role != "candidate"]
     rows = ~fps.rows_candidate
     y = np.concatenate([measurements[n].values for n in names])
@@ -163,6 +167,13 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     Diagnosis
     """
     effects = tuple(_catalogue() if effects is None else effects)
+    if not any(m.role == "calibrate" for m in measurements) and \
+            any(m.role == "calibrate" for m in measurements.unmeasured):
+        raise ConfigError(
+            f"{measurements.path or measurements.title or 'measurements'}: no calibration "
+            f"observable gave a reading in any of its trials "
+            f"({', '.join(m.name for m in measurements.unmeasured)}); there is nothing to fit "
+            f"the recalibration and the effects to")
     name = simulator_name or getattr(simulator, "name", type(simulator).__name__)
     if fingerprints is None:
         design = diagnosis_design(measurements, effects)

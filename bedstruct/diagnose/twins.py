@@ -60,12 +60,17 @@ def _twin_measurements(design, sim, base_true, effects, seed, folder: Path, idx:
         for m in twin.measurements))
     seen = tuple(m for m in twin.measurements if np.all(np.isfinite(m.values)))
     tried = tuple(m for m in twin.measurements if m.measured_in_no_trial)
-    lost = [m.name for m in twin.measurements if not np.all(np.isfinite(m.values))]
+    # a component read in no repeat beside components read in some: left out, as before
+    lost = [m.name for m in twin.measurements
+            if not np.all(np.isfinite(m.values)) and not m.measured_in_no_trial]
     if lost:
         log.info("twin %d: not observable in its run, left out of its file: %s", idx, lost)
+    notes = [f"not observable in the twin's run: {', '.join(lost)}"] if lost else []
+    if tried:
+        notes.append(f"no reading in any of its {int(repeats)} repeat(s), stated as such: "
+                     f"{', '.join(m.name for m in tried)}")
     twin = MeasurementSet(seen, title=f"twin {idx}", source="synthetic twin (withheld truth)",
-                          notes=(f"not observable in the twin's run: {', '.join(lost)}" if lost else ""),
-                          unmeasured=tried)
+                          notes="; ".join(notes), unmeasured=tried)
     path = write_measurements(twin, folder / f"twin_{idx:03d}.toml")
     # the file round trip checks the format; plausible ranges are for measured numbers
     return load_measurements(path, check_range=False)

@@ -171,8 +171,12 @@ def test_a_model_that_never_gives_the_trials_without_a_reading_is_unexplained(tm
     sh = d.shrink
     assert sh.p_rerun_trials < 0.01 and sh.trial_rows[0]["observable"] == "o3"
     assert sh.trial_rows[0]["unread"] == 3 and all(k == 0 for k, _ in sh.trial_rows[0]["pools"])
-    # its rerun was topped up with twice its seeds, for o3 only
-    assert max(n for _, n in sh.trial_rows[0]["pools"]) >= 3 * 3
+    # its rerun (3 seeds) was topped up with twice its seeds: 9 runs at B in both pools, with
+    # the base-like points (base and k step, 3 each) and B at 0.5 below, B at 1.0 above
+    b = d.attribution.selected[0].magnitude if d.attribution.selected else \
+        float(sh.magnitudes["B"])
+    assert 0.5 < b < 1.0
+    assert sh.trial_rows[0]["pools"] == [[0, 3 + 3 + 3 + 9], [0, 3 + 9]]
     # the report shows the check and its table
     secs = [x for x in d.report().sections if "p_rerun_trials" in x.numbers]
     assert secs and secs[0].numbers["p_rerun_trials"].value == pytest.approx(sh.p_rerun_trials)
@@ -220,11 +224,20 @@ def test_pools_and_the_p_value_follow_the_counts():
     # the larger p of the two sides: the side whose rate is nearer the data's
     assert observable_p((3, 3), [(0, 15), (4, 6)]) == observable_p((3, 3), [(4, 6)])
     assert observable_p((0, 3), [(0, 9)]) == 1.0 and observable_p((3, 3), [(9, 9)]) == 1.0
+    # Fisher's exact test by hand: 3 of 3 trials unread against 0 of n runs is the chance
+    # that the three unread fall on the trials, 1 / C(n + 3, 3)
+    assert observable_p((3, 3), [(0, 15)]) == pytest.approx(1 / 816)
+    assert observable_p((3, 3), [(0, 12)]) == pytest.approx(1 / 455)
     # Sidak over the observables with a trial or a run without a reading only
     many = {f"o{i}": (0, 3) for i in range(10)} | {"x": (3, 3)}
     runs = {n: (0, 12) for n in many}
     chk = trial_check(many, {}, {}, runs)
     assert chk.n_tested == 1 and chk.p_value == pytest.approx(observable_p((3, 3), [(0, 12)]))
+    two = trial_check({"x": (3, 3), "y": (2, 3), "z": (0, 3)}, {}, {},
+                      {"x": (0, 12), "y": (0, 12), "z": (0, 12)})
+    p0 = observable_p((3, 3), [(0, 12)])
+    assert two.n_tested == 2 and two.p_value == pytest.approx(1 - (1 - p0) ** 2)
+    assert [r["observable"] for r in two.rows] == ["x", "y"]
 
 
 def test_trials_of_an_observable_the_simulation_does_not_give_are_not_tested(tmp_path):
@@ -237,3 +250,35 @@ def test_trials_of_an_observable_the_simulation_does_not_give_are_not_tested(tmp
     assert rows["o3"]["simulated"] and not rows["not_simulated"]["simulated"]
     assert any(n.startswith("not_simulated:") and "not tested" in n for n in d.data_notes())
     assert all(r["observable"] != "not_simulated" for r in d.shrink.trial_rows)
+
+
+def test_the_trials_check_holds_its_level_for_a_true_model():
+    """Data and runs drawn from one model: the check rejects at most at its level, also where
+    the rate of a run without a reading grows with the magnitude and the pools straddle it."""
+    from bedstruct.diagnose.trial_counts import trial_check
+    rng = np.random.default_rng(7)
+    alpha, n_draws = 0.05, 1500
+    # flat; rising; and from never at the base to always at the prior top, where the smaller
+    # of the two pools' p-values would reject a true model in about a third of the draws
+    for rate in (lambda a: 0.3, lambda a: 0.1 + 0.6 * a, lambda a: a):
+        a = 0.5
+        rejected = 0
+        for _ in range(n_draws):
+            points = {"o": [{"effects": {}, "unread": int(rng.binomial(6, rate(0.0))), "runs": 6},
+                            {"effects": {"e": 0.25}, "unread": int(rng.binomial(3, rate(0.25))),
+                             "runs": 3},
+                            {"effects": {"e": 1.0}, "unread": int(rng.binomial(3, rate(1.0))),
+                             "runs": 3}]}
+            data = {"o": (int(rng.binomial(3, rate(a))), 3)}
+            rerun = {"o": (int(rng.binomial(9, rate(a))), 9)}
+            rejected += trial_check(data, points, {"e": a}, rerun).p_value < alpha
+        assert rejected / n_draws <= alpha + 3 * np.sqrt(alpha * (1 - alpha) / n_draws)
+
+
+def test_a_file_read_in_no_trial_at_all_is_refused_by_name(tmp_path):
+    design, sim = _mimic()
+    effects, fps, twin = _twin_and_fingerprints(tmp_path, design, sim)
+    nothing = type(twin)((), title="nothing read", unmeasured=twin.unmeasured)
+    with pytest.raises(ConfigError, match="nothing read: no calibration observable gave a "
+                                          "reading in any of its trials \\(o3\\)"):
+        diagnose(nothing, sim, base={"k": 1.0}, effects=effects, fingerprints=fps, refine=0)
