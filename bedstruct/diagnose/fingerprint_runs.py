@@ -274,7 +274,6 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
     usable = np.isfinite(sim_var) & (np.isfinite(base_s).sum(axis=0) > 0) \
         & np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(D_all), axis=0) \
         & np.all(np.isfinite(SE_all), axis=0)
-    stacked = np.concatenate(groups, axis=0)
     # runs without a reading, per observable and point (fit rule 14 weighs a file's trials
     # without one against them; see trial_counts)
     point_effects = [{}] * first_effect + [{e.name: float(m)} for e in effects
@@ -288,7 +287,7 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
     missing, unobservable = {}, {}
     for n in names:
         i = comp == n
-        k = int(np.sum(~np.all(np.isfinite(stacked[:, i]), axis=1)))
+        k = sum(p["unread"] for p in unread_runs[n])
         if k:
             missing[n] = k
         if not usable[i].all():
