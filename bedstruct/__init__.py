@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import importlib
 
+from ._json import to_jsonable
 from ._version import __version__
 from .core import Box, Contacts, Frame, FrameList, Provenance, Trajectory, Units, WallContacts
 from .errors import ConfigError, DumpFormatError, UnsafeTimestepError
@@ -53,6 +54,7 @@ _LAZY = {
 
 __all__ = ["__version__", "Box", "Frame", "FrameList", "Trajectory", "Units", "Provenance",
            "Contacts", "WallContacts", "DumpFormatError", "ConfigError", "UnsafeTimestepError",
+           "to_jsonable",
            *_LAZY]
 
 

@@ -1,12 +1,89 @@
 """Analyses of frames and contacts: packing, coordination, PSD, surface,
 angle of repose, fabric tensors, spherical harmonics and heat conduction.
 
-Each module keeps its own ``__all__``; this package re-exports them all.
+Examples
+--------
+>>> import bedstruct.analysis
+>>> "packing_fraction" in bedstruct.analysis.__all__
+True
 """
 
-from .._lazy import collect as _collect
+from __future__ import annotations
 
-__all__ = _collect(__name__, [
-    "contacts", "coordination", "packing", "german", "psd", "segregation", "surface", "repose",
-    "fabric", "harmonics", "heat", "heat_study", "timeseries",
-], globals())
+from .contacts import (
+    find_contacts, Wall, ContactMatch, compare_contacts,
+)
+from .coordination import (
+    CoordinationResult, coordination, remove_rattlers, WindowCoordination,
+    coordination_by_window, CoordinationSeries, coordination_series, coordination_table,
+)
+from .packing import (
+    PackingResult, PackingProfile, PackingGrid, packing_fraction, packing_fractions,
+    packing_along, packing_sliding, packing_grid, layer_packing, bed_bounds, bed_windows,
+    sphere_box_volume, packing_table,
+)
+from .german import (
+    german_cn, GermanFit, fit_german_law,
+)
+from .psd import (
+    PSDResult, particle_size_distribution, percentile_diameter, psd_by_region, psd_series,
+    PSDFit, psd_from_percentiles, psd_table,
+)
+from .segregation import (
+    PSDComparison, compare_psd, wasserstein_psd, segregation_index, SegregationResult,
+    segregation, heap_mask,
+)
+from .surface import (
+    SurfaceResult, Roughness, surface_roughness, surface_height_map, height_profile,
+    bed_height, layer_heights, grounded_particles, largest_cluster,
+)
+from .repose import (
+    FlankFit, ReposeResult, angle_of_repose, dynamic_angle_of_repose, ReposeSeries,
+    dynamic_repose_series, free_surface_profile,
+)
+from .fabric import (
+    FabricTensors, fabric_tensors, fabric_density, projected_density, sample_directions,
+    contact_regions, RegionFabric, region_fabric, LammpsFabric, lammps_fabric, lammps_voigt,
+    fabric_table, deviatoric_rank4, sym_delta_tensor, isotropic_rank4,
+)
+from .harmonics import (
+    HarmonicExpansion, harmonic_expansion, real_spherical_harmonics, harmonic_density,
+    sphere_grid, harmonics_from_fabric, fabric_from_harmonics,
+)
+from .heat import (
+    ThermalMaterial, COCR, GasGap, ThermalNetwork, thermal_network, HemisphereSource,
+    source_nodes, EnergyRecord, HeatResult, conduct_heat, TemperatureMap, temperature_map,
+    HAZShape, haz_shape, haz_table, ConductivityTensor, conductivity_tensor,
+)
+from .heat_study import (
+    HeatRegionsResult, heat_regions, heat_regions_table, tile_network, planar_axes,
+)
+from .timeseries import (
+    TimeSeries, TimeSeriesResults,
+)
+
+__all__ = [
+    "find_contacts", "Wall", "ContactMatch", "compare_contacts", "CoordinationResult",
+    "coordination", "remove_rattlers", "WindowCoordination", "coordination_by_window",
+    "CoordinationSeries", "coordination_series", "coordination_table", "PackingResult",
+    "PackingProfile", "PackingGrid", "packing_fraction", "packing_fractions", "packing_along",
+    "packing_sliding", "packing_grid", "layer_packing", "bed_bounds", "bed_windows",
+    "sphere_box_volume", "packing_table", "german_cn", "GermanFit", "fit_german_law",
+    "PSDResult", "particle_size_distribution", "percentile_diameter", "psd_by_region",
+    "psd_series", "PSDFit", "psd_from_percentiles", "psd_table", "PSDComparison",
+    "compare_psd", "wasserstein_psd", "segregation_index", "SegregationResult", "segregation",
+    "heap_mask", "SurfaceResult", "Roughness", "surface_roughness", "surface_height_map",
+    "height_profile", "bed_height", "layer_heights", "grounded_particles", "largest_cluster",
+    "FlankFit", "ReposeResult", "angle_of_repose", "dynamic_angle_of_repose", "ReposeSeries",
+    "dynamic_repose_series", "free_surface_profile", "FabricTensors", "fabric_tensors",
+    "fabric_density", "projected_density", "sample_directions", "contact_regions",
+    "RegionFabric", "region_fabric", "LammpsFabric", "lammps_fabric", "lammps_voigt",
+    "fabric_table", "deviatoric_rank4", "sym_delta_tensor", "isotropic_rank4",
+    "HarmonicExpansion", "harmonic_expansion", "real_spherical_harmonics", "harmonic_density",
+    "sphere_grid", "harmonics_from_fabric", "fabric_from_harmonics", "ThermalMaterial", "COCR",
+    "GasGap", "ThermalNetwork", "thermal_network", "HemisphereSource", "source_nodes",
+    "EnergyRecord", "HeatResult", "conduct_heat", "TemperatureMap", "temperature_map",
+    "HAZShape", "haz_shape", "haz_table", "ConductivityTensor", "conductivity_tensor",
+    "HeatRegionsResult", "heat_regions", "heat_regions_table", "tile_network", "planar_axes",
+    "TimeSeries", "TimeSeriesResults",
+]

@@ -16,6 +16,7 @@ import pkgutil
 import sys
 
 from .._version import __version__
+from .._json import json_default
 from ..errors import BedstructError
 
 __all__ = ["main", "print_json", "UsageError"]
@@ -57,16 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def print_json(obj) -> None:
     """Print ``obj`` as one line of JSON (the last line scripts parse)."""
-    print(json.dumps(obj, separators=(",", ":"), sort_keys=False, default=_json_default))
-
-
-def _json_default(o):
-    import numpy as np
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+    print(json.dumps(obj, separators=(",", ":"), sort_keys=False, default=json_default))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -9,17 +9,15 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Self
 
 import numpy as np
 
 from .._atomic import atomic_path
+from .._json import json_default
 from ..core import Box, Contacts, Frame, WallContacts
 from .params import ContactModel, Material
 from ._sim_walls import _WALL_SLOTS
-
-if TYPE_CHECKING:
-    from .simulation import Simulation
 
 __all__: list[str] = []
 
@@ -166,14 +164,14 @@ class _StateIO:
                     pair_bounds=self._qbounds.tolist(), wload_steps=int(self._wload_steps),
                     n_lost_nonfinite=int(self.n_lost_nonfinite), nonfinite=self.nonfinite,
                     extra=extra if extra is not None else {})
-        arrays["meta"] = np.array(json.dumps(meta, default=_json_default))
+        arrays["meta"] = np.array(json.dumps(meta, default=json_default))
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
                 np.savez(fh, **arrays)
         return path
 
     @classmethod
-    def from_checkpoint(cls, path, model: ContactModel | None = None, *, walls=None) -> "Simulation":
+    def from_checkpoint(cls, path, model: ContactModel | None = None, *, walls=None) -> Self:
         """Resume from :meth:`save_checkpoint`; continuing gives the same result bit for bit.
 
         ``model`` defaults to the model recorded in the checkpoint; ``walls``
@@ -228,16 +226,6 @@ class _StateIO:
         sim._resume_outputs = sim.checkpoint_extra.get("outputs")
         sim._ready = True
         return sim
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, (np.floating,)):
-        return float(o)
-    return str(o)
 
 
 _EXTENSION_KEYS = ("capillary", "capillary_surface_tension", "capillary_contact_angle",

@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..core import Contacts, Frame
+from ..io import read, read_dump_local
 from .build import ReportOptions, build_report, select_frames
 from ._model import Report
 from ._render import write_report
@@ -22,8 +23,9 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
     Parameters
     ----------
     paths : sequence of str
-        Dump files or globs (text, gz, bz2, binary) or LAMMPS data files
-        (``*.data``); their frames are concatenated in order.
+        Dump files or globs (text, gz, bz2, binary), LAMMPS data files or
+        bedstruct HDF5 archives, recognised from their content
+        (:func:`bedstruct.io.read`); their frames are concatenated in order.
     contacts : str, optional
         A ``dump local`` contact file; contacts of the last selected frame
         are joined by particle id (geometric contacts are used otherwise).
@@ -38,14 +40,7 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
         The selected frames, their indices, the contacts of the last one
         (or None) and a description of the inputs for the report.
     """
-    from ..io import read_data, read_dump
-
-    trajectories = []
-    for p in paths:
-        if str(p).endswith((".data", ".lmp")) or Path(p).name.startswith("data."):
-            trajectories.append([read_data(p, radius=radius, units=units)])
-        else:
-            trajectories.append(read_dump(p, radius=radius, units=units))
+    trajectories = [read(p, radius=radius, units=units) for p in paths]
     sizes = [len(t) for t in trajectories]
     total = sum(sizes)
     if total == 0:
@@ -60,7 +55,6 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
         selected.append(trajectories[t][k])
     contact_obj = None
     if contacts is not None:
-        from ..io import read_dump_local
         by_step = read_dump_local(contacts, keywords=contact_keywords, frames=selected[-1])
         last = selected[-1].timestep
         if last not in by_step:

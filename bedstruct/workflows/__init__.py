@@ -9,7 +9,8 @@ docs/workflows.md.
 
 from .config import (DEFAULTS, PRESETS, apply_override, available_presets, config_to_toml,
                      load_config, preset_path)
-from ._common import CONTACT_KEYWORDS, write_json_atomic
+from .._json import write_json_atomic
+from ._common import CONTACT_KEYWORDS
 from ._rundir import RunLayout
 from .calibrate import CalibrationPoint, CalibrationResult, calibrate_cohesion, inverse_linear
 from .repose import ReposeReplicate, ReposeResult, repose_replicate, run_repose

@@ -1,34 +1,23 @@
-"""Shared pieces of the workflows: model from config, size distribution, tool motion, JSON.
+"""Shared pieces of the workflows: model from config, size distribution, tool motion.
 
-The run folders and resuming (:class:`RunLayout`, :class:`StageWriter`,
-:class:`Resumable`, :func:`clear_run`) live in :mod:`bedstruct.workflows._rundir`
-and are re-exported here.
+The run folders and resuming live in :mod:`bedstruct.workflows._rundir`; JSON
+conversion in :mod:`bedstruct._json`.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import math
-from dataclasses import asdict, fields, is_dataclass
-from pathlib import Path
+from dataclasses import fields
 
 import numpy as np
 
-from .._atomic import atomic_path
 from ..errors import ConfigError
-from . import _rundir
-from ._rundir import RUN_MARKER, Resumable, RunLayout, StageWriter, clear_run
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RunLayout", "StageWriter", "Resumable", "clear_run", "write_json_atomic",
-           "contact_model", "psd_sampler", "check_engine", "to_jsonable", "tool_motion",
-           "CONTACT_KEYWORDS", "RUN_MARKER"]
-
-# Also re-exported from :mod:`bedstruct.workflows._rundir` (where they are defined).
-run_in_frames = _rundir.run_in_frames
-as_resumable = _rundir.as_resumable
+__all__ = ["contact_model", "psd_sampler", "check_engine", "tool_motion", "from_plain",
+           "frame_fingerprint", "german_fit_values", "CONTACT_KEYWORDS"]
 
 #: LIGGGHTS ``compute pair/gran/local`` keywords of the contact dumps written by the workflows.
 CONTACT_KEYWORDS = ("pos", "id", "force", "force_normal", "force_tangential", "contactArea")
@@ -163,65 +152,8 @@ def _with_fines(base, phi, fx, *, d_cut, scale):
     return draw
 
 
-def to_jsonable(obj):
-    """Convert dataclasses, arrays and numpy scalars to JSON-ready data (NaN -> None)."""
-    if is_dataclass(obj) and not isinstance(obj, type):
-        return {k: to_jsonable(v) for k, v in asdict(obj).items()}
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, np.generic):
-        return to_jsonable(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
-
-
-def write_json_atomic(path, data, *, keep_nan: bool = False) -> Path:
-    """Write JSON to ``path`` atomically (temporary file in the same folder, then rename).
-
-    NaN becomes ``null`` unless ``keep_nan`` (then JSON's ``NaN``, which Python reads back).
-    """
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        with open(tmp, "w") as fh:
-            if keep_nan:
-                json.dump(data, fh, indent=2, default=_json_default)
-            else:
-                json.dump(to_jsonable(data), fh, indent=2)
-            fh.write("\n")
-    return path
-
-
-def _json_default(o):
-    if is_dataclass(o) and not isinstance(o, type):
-        return asdict(o)
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.bool_):
-        return bool(o)
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-
-def plain(value):
-    """``value`` as a checkpoint gives it back: a JSON round trip that keeps NaN and inf
-    (tuples become lists, numpy scalars Python numbers, dataclasses dicts)."""
-    return json.loads(json.dumps(value, default=_json_default))
-
-
 def from_plain(cls, data: dict):
-    """Rebuild the dataclass ``cls`` from :func:`plain` data (keys that are not fields are
+    """Rebuild the dataclass ``cls`` from :func:`bedstruct._json.plain` data (keys that are not fields are
     ignored; lists become tuples, ``None`` in a float field NaN)."""
     out = {}
     for f in fields(cls):

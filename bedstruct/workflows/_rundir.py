@@ -6,10 +6,7 @@ results written last, and the check that decides whether a folder is resumed,
 refused (another run) or cleared (:func:`clear_run`). :class:`StageWriter` writes
 the frames, contacts and wall states of one stage. :class:`Resumable` runs a
 stage script so that a killed run restarts from its latest checkpoint, bit for
-bit (:func:`run_in_frames`, :func:`as_resumable`). The names are re-exported by
-:mod:`bedstruct.workflows._common`, whose JSON helpers (``write_json_atomic``,
-``plain``) this module uses; it imports them where they are called, since
-``_common`` imports this module.
+bit (:func:`run_in_frames`, :func:`as_resumable`).
 """
 
 from __future__ import annotations
@@ -23,6 +20,7 @@ import weakref
 from pathlib import Path
 
 from .._atomic import atomic_path
+from .._json import plain, write_json_atomic
 from ..errors import ConfigError, RunFolderInUseError
 from .config import config_to_toml
 
@@ -31,7 +29,7 @@ try:
 except ImportError:  # no flock (Windows): runs in one folder are not guarded against each other
     fcntl = None
 
-log = logging.getLogger("bedstruct.workflows._common")  # the logger of _common, as before
+log = logging.getLogger("bedstruct.workflows._common")
 
 __all__ = ["RunLayout", "StageWriter", "Resumable", "clear_run", "run_in_frames", "as_resumable",
            "RUN_MARKER", "RUN_LOCK"]
@@ -118,7 +116,6 @@ def _identity(workflow: str, cfg: dict, inputs) -> dict:
     for sec, key in _RESUME_FREE:
         if isinstance(c.get(sec), dict):
             c[sec].pop(key, None)
-    from ._common import plain
     return plain({"workflow": workflow, "config": c, "inputs": dict(inputs or {})})
 
 
@@ -302,7 +299,6 @@ class RunLayout:
                      "replaced", self.path)
 
     def _mark(self, status: str) -> None:
-        from ._common import write_json_atomic
         write_json_atomic(self.path / RUN_MARKER, {"status": status, **self._identity},
                           keep_nan=True)
 
@@ -331,7 +327,6 @@ class RunLayout:
 
     def write_results(self, data) -> Path:
         """Write ``results.json`` atomically, then mark the run complete."""
-        from ._common import write_json_atomic
         p = write_json_atomic(self.path / "results.json", data)
         if self.cfg is not None:
             self._mark("complete")
@@ -537,7 +532,6 @@ class Resumable:
         i = self._enter()
         if i < self.done:
             return self.values[i]
-        from ._common import plain
         v = plain(fn())
         if self.path is not None:
             self.values[i] = v

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import to_jsonable, write_json_atomic
+from .._json import to_jsonable, write_json_atomic
 from ._rundir import RunLayout
 from .config import validate_config
 from .repose import ReposeResult, run_repose

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import atomic_path
+from .._json import to_jsonable
 from ..errors import ConfigError
 from ._common import contact_model, psd_sampler
 from ._rundir import RunLayout
@@ -69,7 +70,6 @@ class ExternalDecks:
 
     def to_dict(self) -> dict:
         """JSON-ready summary."""
-        from ._common import to_jsonable
         return {"write_only": True, **to_jsonable(self)}
 
 

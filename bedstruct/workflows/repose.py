@@ -23,7 +23,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import check_engine, contact_model, from_plain, psd_sampler, write_json_atomic
+from .._json import to_jsonable, write_json_atomic
+from ._common import check_engine, contact_model, from_plain, psd_sampler
 from ._rundir import RunLayout, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
 
@@ -99,7 +100,6 @@ class ReposeResult:
 
     def to_dict(self) -> dict:
         """JSON-ready summary (``angle_deg``, ``angle_std_deg``, replicates...)."""
-        from ._common import to_jsonable
         return to_jsonable(self)
 
 

@@ -31,8 +31,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import ConfigError
+from .._json import to_jsonable
 from ._common import (check_engine, contact_model, frame_fingerprint, from_plain,
-                      german_fit_values, psd_sampler, to_jsonable, tool_motion)
+                      german_fit_values, psd_sampler, tool_motion)
 from ._rundir import RunLayout, as_resumable, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
 from .spread_measure import (_REGION_NAMES, LayerResult, _subset_contacts, frame_metrics,
