@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..core import FrameList, Trajectory
 from ..errors import DumpFormatError
-from ._source import _open_stream, compression_of
+from ._source import _decompress_errors, _open_stream, compression_of
 from .data_file import read_data
 from .hdf5 import load_hdf5
 from .lammps_dump import expand_paths, read_dump
@@ -41,13 +41,13 @@ def _head(path) -> bytes:
         raw = fh.read(len(_HDF5_MAGIC))
     if raw == _HDF5_MAGIC:
         return raw
+    stream = _open_stream(path, compression_of(path))
     try:
-        with _open_stream(path, compression_of(path)) as stream:
-            return stream.read(_HEAD)
-    except ImportError:
-        raise
-    except Exception as exc:  # a damaged compressed head: say which file, keep the cause
+        return stream.read(_HEAD)
+    except _decompress_errors() as exc:
         raise DumpFormatError(f"{path}: cannot read the start of the file ({exc})") from exc
+    finally:
+        stream.close()
 
 
 def _by_suffix(path) -> str | None:
