@@ -1,76 +1,70 @@
-"""Run a workflow on the embedded DEM engine (or LIGGGHTS/LAMMPS) and write a run directory.
+"""Run a workflow on the embedded DEM engine or LIGGGHTS/LAMMPS and write a run directory.
 
-Workflows:
-  repose     angle of repose: box filled by raindrop insertion, bottom plate
-             slides out, the remaining pile is measured (both flanks,
-             replicates); JSON: angle_deg, angle_std_deg, replicates.
-  spread     multi-layer spreading with a blade (rake), plate or roller; per
-             layer: bed_height_m, packing_fraction per region,
-             mean_dynamic_angle_deg, coordination, fabric, segregation.
-  calibrate  SJKR cohesion energy density reproducing calibrate.target_deg
-             (bracketing search over replicate repose runs).
-
-Configuration: a TOML file and/or --preset tiny|small|seed, then
---set section.key=value overrides (TOML values; bare words are strings),
-e.g. --set spread.speed=0.0508 --set "spread.gaps=[5e-4, 5e-4]".
-
-Engines: --engine embedded (default), or liggghts / lammps (same particles,
-walls, contact model and time step; --np N MPI ranks, --exe PATH for your
-own binary, --write-only to write the deck and inputs into the run directory
-without running). On liggghts/lammps, repose runs in full and spread runs
-all layers in one engine run (later piles wait parked and are moved in
-before their layer, so contact histories carry over; blade, plate or
-roller; --write-only writes that one deck); calibrate runs its repose
-points on the chosen engine.
-
-Run folders: a run writes run.json (status "running", then "complete"),
-config.toml and, last, results.json into --out, and checkpoints as it goes
-(output.checkpoint_every steps; every spreading layer, repose replicate and
-calibration point). Running the same command again resumes a killed run
-from its latest checkpoint (finished stages are reused, a finished run
-gives its results back); a folder holding a run of another configuration
-is refused unless --overwrite replaces it. On liggghts/lammps a resumed run
-reuses finished repose replicates, the spreading pile and a finished
-spreading engine run; an engine run that was killed runs again from its start.
-
-Examples:
   bedstruct run repose --preset tiny --out runs/repose --json
-  bedstruct run repose --preset tiny --engine liggghts --np 2 --out runs/repose-lig
-  bedstruct run spread --preset small --set spread.tool=roller --out runs/roller
+  bedstruct run spread my.toml --set spread.tool=roller --out runs/roller
+  bedstruct run spread --preset small --engine liggghts --np 2 --out runs/lig
+
+Running the same command again resumes a killed run. `bedstruct run WORKFLOW --help`
+lists the workflow's configuration keys; details in docs/workflows.md.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
 
+from ..workflows.schema import config_reference
+
 NAME = "run"
 HELP = "run a workflow (repose, spread, calibrate) on the embedded DEM engine or LIGGGHTS/LAMMPS"
 
+_WORKFLOWS = {
+    "repose": ("angle of repose: a box filled by raindrop insertion, the bottom plate slides out, "
+               "the pile's flanks are measured", ("repose",)),
+    "spread": ("multi-layer spreading with a blade (rake), plate or roller; per layer bed height, "
+               "packing per region, dynamic angle, coordination", ("spread",)),
+    "calibrate": ("SJKR cohesion energy density that reproduces calibrate.target_deg (bracketing "
+                  "search over repose runs)", ("repose", "calibrate")),
+}
+_COMMON_SECTIONS = ("", "material", "contact", "psd", "time")
+_LATE_SECTIONS = ("external", "effects", "output")
 
-def add_arguments(parser) -> None:
-    parser.add_argument("workflow", choices=["repose", "spread", "calibrate"], help="workflow to run")
+
+def _workflow_arguments(parser) -> None:
     parser.add_argument("config", nargs="?", default=None, metavar="CONFIG",
                         help="TOML configuration file (optional with --preset)")
     parser.add_argument("--preset", default=None, help="base preset: tiny, small or seed")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a configuration key (repeatable)")
+                        help="override a configuration key, e.g. spread.speed=0.05 (repeatable)")
     parser.add_argument("--out", required=True, metavar="DIR", help="run directory")
     parser.add_argument("--engine", default=None, choices=["embedded", "liggghts", "lammps"],
-                        help="DEM engine (liggghts/lammps: repose, spread with blade/plate)")
+                        help="DEM engine (default: the configuration's, embedded)")
     parser.add_argument("--np", type=int, default=None, metavar="N",
                         help="MPI ranks for liggghts/lammps (external.np)")
     parser.add_argument("--exe", default=None, metavar="PATH",
                         help="engine binary for liggghts/lammps (external.exe)")
     parser.add_argument("--write-only", action="store_true",
-                        help="liggghts/lammps: write the deck and inputs, do not run (repose, spread)")
+                        help="liggghts/lammps: write the deck and inputs, do not run")
     parser.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
     parser.add_argument("--progress", action="store_true", default=None,
                         help="show a progress bar (default: when stderr is a terminal)")
     parser.add_argument("--overwrite", action="store_true",
-                        help="replace an earlier run in --out (default: resume a run of the "
-                             "same configuration, refuse one of another)")
+                        help="replace an earlier run of another configuration in --out")
+
+
+def add_arguments(parser) -> None:
+    sub = parser.add_subparsers(dest="workflow", metavar="WORKFLOW", required=True)
+    for name, (what, sections) in _WORKFLOWS.items():
+        p = sub.add_parser(
+            name, help=what.split(":")[0].split(";")[0], description=what[0].upper() + what[1:] + ".",
+            epilog="configuration keys ([section] key, default and unit, meaning, allowed values):\n\n"
+                   + config_reference(_COMMON_SECTIONS + sections + _LATE_SECTIONS),
+            formatter_class=argparse.RawDescriptionHelpFormatter)
+        p.add_argument("--traceback", action="store_true", default=argparse.SUPPRESS,
+                       help="show the full Python traceback on errors")
+        _workflow_arguments(p)
 
 
 def _summary(workflow, res) -> dict:

@@ -12,13 +12,14 @@ from .config import (DEFAULTS, PRESETS, apply_override, available_presets, confi
 from .._json import write_json_atomic
 from ._common import CONTACT_KEYWORDS
 from ._rundir import RunLayout
+from .schema import WorkflowConfig, config_reference, typed_config
 from .calibrate import CalibrationPoint, CalibrationResult, calibrate_cohesion, inverse_linear
 from .repose import ReposeReplicate, ReposeResult, repose_replicate, run_repose
 from .spread import LayerResult, SpreadResult, generate_pile, pile_key, run_spread
 from .diagnosis_sim import EngineSimulator, diagnosis_simulator, effects_config
 
-__all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "available_presets",
-           "config_to_toml", "preset_path", "RunLayout", "write_json_atomic", "CONTACT_KEYWORDS",
+__all__ = ["WorkflowConfig", "typed_config", "config_reference", "DEFAULTS", "PRESETS",
+           "load_config", "apply_override", "available_presets", "config_to_toml", "preset_path", "RunLayout", "write_json_atomic", "CONTACT_KEYWORDS",
            "ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate",
            "CalibrationPoint", "CalibrationResult", "calibrate_cohesion", "inverse_linear",
            "LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key",

@@ -19,132 +19,14 @@ import tomllib
 from pathlib import Path
 
 from ..errors import ConfigError
+from .schema import MAX_SAFETY, check_bounds, defaults_dict
 
 __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path", "config_to_toml",
            "available_presets", "validate_config"]
 
-#: Largest ``time.safety``: the engine refuses a step above this fraction of the Rayleigh
-#: time (``Simulation(max_rayleigh_fraction=0.3)``, LIGGGHTS' check/timestep/gran advice).
-MAX_SAFETY = 0.3
-
-#: Default configuration (SI units). Presets and user files override it.
-DEFAULTS: dict = {
-    "preset": "",
-    "description": "",
-    "engine": "embedded",
-    "seed": 1,
-    "n_threads": 1,
-    "material": {
-        "youngs_modulus": 1e7,      # Pa (softened; CoCr is ~2.1e11)
-        "poisson_ratio": 0.3,
-        "density": 8300.0,          # kg/m^3, CoCr
-    },
-    "contact": {
-        "restitution": 0.1,
-        "friction": 0.4,
-        "rolling_friction": 0.05,
-        "cohesion": 0.0,            # SJKR energy density k, J/m^3
-        "rolling_model": "epsd2",
-        "wall_friction": -1.0,      # < 0: same as particle-particle
-        "wall_cohesion": -1.0,      # < 0: same as particle-particle
-    },
-    "psd": {                        # volume-weighted diameters (laser diffraction), m
-        "d10": 29.84e-6,
-        "d50": 52.08e-6,
-        "d90": 86.11e-6,
-        "d_min": 28e-6,
-        "d_max": 100e-6,
-        "scale": 1.0,               # coarse-graining factor applied to every diameter
-    },
-    "time": {
-        "safety": 0.15,             # fraction of the Rayleigh time, (0, 0.3]
-        "v_max": 1.0,               # m/s (> 0), largest impact speed: dt <= Hertz time / 10
-    },
-    "repose": {
-        "box": [6e-3, 3e-3, 1.8e-3],    # L x W x H, m
-        "periodic_width": False,        # y periodic instead of side walls
-        "n_particles": 105000,          # 0: from fill_fraction at packing 0.6
-        "fill_fraction": 0.5,           # raindrop region height / box height
-        "pedestal_fraction": 0.0,       # fixed central ledge (fraction of L); 0: plate slides partly
-        "slide_fraction": 0.5,          # how far the plate slides out (fraction of L)
-        "plate_speed": 0.05,            # m/s, plate slides towards -x
-        "fill_time": 0.02,              # s, settling after insertion
-        "drain_time": 0.05,             # s, after the plate has moved
-        "rest_time": 0.0,               # s, rest before the plate moves (contacts age, with
-                                        #    effects.contact_ageing; a static pile is otherwise unchanged)
-        "reservoir_depth": 10e-3,       # m below the plate; particles leaving it are removed
-        "replicates": 3,
-        "n_frames": 5,                  # frames written per replicate
-    },
-    "spread": {
-        "tool": "blade",                # blade (= rake) | plate | roller
-        "plate_length": 18.9e-3,        # m, build platform along x
-        "chamber": True,                # front wall up to the tool level (platform in a chamber)
-        "width": 3e-3,                  # m, periodic along y
-        "gaps": [508e-6, 508e-6, 102e-6, 127e-6],
-        "speed": 0.0254,                # m/s
-        "pile_particles": 100000,
-        "pile_length": 3e-3,            # m, footprint of the pile along x
-        "pile_time": 0.02,              # s, settling of the pile when generated
-        "lower_speed": 0.02,            # m/s, platform lowering between layers
-        "settle_time": 0.005,           # s, after each layer
-        "return_speed": 0.5,            # m/s, tool return above the bed
-        "blade_thickness": 0.5e-3,
-        "bevel_deg": 10.0,
-        "blade_height": 2e-3,
-        "roller_radius": 0.5e-3,
-        "roller_omega_factor": -1.0,    # spin about +y = factor * speed / radius:
-                                        # -1 counter-rotating, 1 rolling, 0 none
-        "stop_margin": 0.5e-3,          # m, the tool stops this far beyond the platform end
-        "n_frames": 10,                 # frames per layer (dynamic angle, dumps)
-        "regions": 3,
-    },
-    "calibrate": {
-        "target_deg": 33.0,
-        "cohesion_bracket": [3.0e7, 3.6e7],
-        "replicates": 2,
-        "max_iter": 4,
-        "tolerance_deg": 1.0,
-    },
-    "external": {                   # --engine liggghts|lammps (bedstruct.workflows.external)
-        "np": 1,                    # MPI ranks
-        "exe": "",                  # engine binary ("": the one found on this machine)
-        "write_only": False,        # write decks and inputs, do not run
-        "cohesion_model": "dmt",    # LAMMPS stand-in for SJKR: dmt | jkr | none (drop cohesion)
-        "timeout": 0.0,             # s per engine run (0: none)
-    },
-    "effects": {                    # diagnosis extensions (bedstruct.diagnose catalogue
-                                    # engine_map names); the defaults are the base model
-        "capillary": False,         # Willett liquid bridges between particles
-        "capillary_surface_tension": 0.072,     # N/m
-        "capillary_contact_angle": 0.3490658503988659,  # rad (20 deg)
-        "capillary_film_thickness": 0.0,        # m; bridge volume 2 pi R*^2 t
-        "contact_ageing": False,    # bonds at resting contacts
-        "ageing_bond_ratio": 0.0,   # bond / SJKR force after the reference rest time
-        "ageing_time_constant": 10.0,           # s
-        "ageing_reference_rest_time": 60.0,     # s
-        "ageing_break_slip": 1e-6,  # m of tangential slip that breaks a bond
-        "rolling_model": "epsd",    # rolling model carrying shape_rolling_friction (if > 0)
-        "shape_rolling_friction": 0.0,          # added to contact.rolling_friction
-        "rolling_stiffness_factor": 2.25,       # epsd k_r = f k_n mu_r^2 R*^2
-        "fines_mass_fraction": 0.0, # mass fraction of fines below psd.d_min
-        "fines_median_diameter": 20e-6,         # m, volume-weighted median of the fines
-        "fines_sigma_ln": 0.25,
-        "fines_min_diameter": 8e-6, # m
-        "wall_friction_excess": 0.0,            # wall friction = particle friction + excess
-        "blade_ramp_time": 0.0,     # s, tool speed v (1 - exp(-t/tau))
-        "blade_vibration_amplitude": 0.0,       # m, vertical tool vibration
-        "blade_vibration_frequency": 0.0,       # Hz
-    },
-    "output": {
-        "frames": True,
-        "contacts": True,
-        "compress": True,
-        "checkpoint": False,        # keep an engine checkpoint of every finished stage
-        "checkpoint_every": 20000,  # steps between resume checkpoints inside a stage (0: only
-                                    # at stage ends: spreading layers)
-    },
-}
+#: Default configuration (SI units), from the section dataclasses of
+#: :mod:`bedstruct.workflows.schema`. Presets and user files override it.
+DEFAULTS: dict = defaults_dict()
 
 #: Names of the bundled presets.
 PRESETS = ("tiny", "small", "seed")
@@ -371,48 +253,8 @@ def validate_config(cfg: dict) -> None:
 
 
 def _validate(cfg: dict) -> None:
-    def get(key):
-        node = cfg
-        for part in key.split("."):
-            node = node[part]
-        return node
-
-    def positive(key):
-        v = get(key)
-        vals = v if isinstance(v, list) else [v]
-        if not all(x > 0 for x in vals):
-            raise ConfigError(f"config key `{key}` must be positive; got {v!r}")
-
-    def at_least(key, low, what=""):
-        v = get(key)
-        if not v >= low:
-            raise ConfigError(f"config key `{key}` must be >= {low}{what}; got {v!r}")
-
-    for key in ("material.youngs_modulus", "material.density", "psd.d10", "psd.d50", "psd.d90",
-                "psd.d_min", "psd.d_max", "psd.scale", "repose.box",
-                "repose.plate_speed", "repose.replicates", "repose.fill_time",
-                "repose.reservoir_depth", "spread.plate_length", "spread.width",
-                "spread.gaps", "spread.speed", "spread.pile_particles", "spread.pile_length",
-                "spread.pile_time", "spread.lower_speed", "spread.return_speed",
-                "spread.settle_time", "spread.blade_thickness", "spread.blade_height",
-                "spread.roller_radius", "calibrate.replicates", "calibrate.cohesion_bracket",
-                "calibrate.tolerance_deg"):
-        positive(key)
-    at_least("n_threads", 1, " (threads)")
-    at_least("seed", 0)
-    at_least("repose.drain_time", 0.0, " s")
-    at_least("repose.n_frames", 0)
-    at_least("spread.n_frames", 1, " (frames recorded per layer)")
-    at_least("spread.regions", 1, " (regions along the platform)")
-    at_least("spread.stop_margin", 0.0, " m (how far beyond the platform end the tool stops)")
-    at_least("calibrate.max_iter", 0)
-    if "checkpoint_every" in cfg["output"]:  # a configuration built before the key existed
-        at_least("output.checkpoint_every", 0, " steps (0: checkpoints at stage ends only)")
     if not cfg["spread"]["gaps"]:
         raise ConfigError("config key `spread.gaps` must list at least one layer gap (m); got []")
-    if not 0 <= cfg["spread"]["bevel_deg"] < 90:
-        raise ConfigError("config key `spread.bevel_deg` must lie in [0, 90) degrees; "
-                          f"got {cfg['spread']['bevel_deg']!r}")
     t = cfg["time"]
     if not 0 < t["safety"] <= MAX_SAFETY:
         raise ConfigError(f"config key `time.safety` must lie in (0, {MAX_SAFETY}]: the time "
@@ -423,37 +265,13 @@ def _validate(cfg: dict) -> None:
         raise ConfigError("config key `time.v_max` must be a positive speed (m/s): the largest "
                           "expected impact speed, which bounds the time step by the Hertz "
                           f"contact time; got {t['v_max']!r}")
-    r = cfg["repose"]
-    if not 0 < r["slide_fraction"] <= 1:
-        raise ConfigError(f"config key `repose.slide_fraction` must lie in (0, 1]; "
-                          f"got {r['slide_fraction']!r}")
-    if not 0 <= r["pedestal_fraction"] < 1:
-        raise ConfigError(f"config key `repose.pedestal_fraction` must lie in [0, 1); "
-                          f"got {r['pedestal_fraction']!r}")
     p = cfg["psd"]
     if not p["d_min"] < p["d10"] < p["d50"] < p["d90"] < p["d_max"]:
         raise ConfigError("config keys `psd.d_min < psd.d10 < psd.d50 < psd.d90 < psd.d_max` must "
                           f"increase; got {p['d_min']}, {p['d10']}, {p['d50']}, {p['d90']}, {p['d_max']}")
     if len(cfg["repose"]["box"]) != 3:
         raise ConfigError(f"config key `repose.box` must be [L, W, H]; got {cfg['repose']['box']!r}")
-    rest = cfg["repose"]["rest_time"]
-    if not (math.isfinite(rest) and rest >= 0):
-        raise ConfigError(f"config key `repose.rest_time` must be >= 0 s; got {rest!r}")
-    if not 0 < cfg["repose"]["fill_fraction"] <= 1:
-        raise ConfigError("config key `repose.fill_fraction` must lie in (0, 1]")
-    if cfg["spread"]["tool"] not in ("blade", "rake", "plate", "roller"):
-        raise ConfigError(f"config key `spread.tool` must be blade, rake, plate or roller; "
-                          f"got {cfg['spread']['tool']!r}")
-    if cfg["engine"] not in ("embedded", "liggghts", "lammps"):
-        raise ConfigError(f"config key `engine` must be embedded, liggghts or lammps; "
-                          f"got {cfg['engine']!r}")
-    ext = cfg["external"]
-    if ext["np"] < 1:
-        raise ConfigError(f"config key `external.np` must be >= 1; got {ext['np']}")
-    if ext["cohesion_model"] not in ("dmt", "jkr", "none"):
-        raise ConfigError("config key `external.cohesion_model` must be dmt, jkr or none; "
-                          f"got {ext['cohesion_model']!r}")
-    at_least("external.timeout", 0.0, " s (0: none)")
+    check_bounds(cfg)
     _validate_effects(cfg["effects"])
     b = cfg["calibrate"]["cohesion_bracket"]
     if len(b) != 2 or not b[0] < b[1]:
@@ -462,27 +280,9 @@ def _validate(cfg: dict) -> None:
 
 
 def _validate_effects(fx: dict) -> None:
-    for key in ("capillary_surface_tension", "capillary_film_thickness", "ageing_bond_ratio",
-                "ageing_break_slip", "shape_rolling_friction", "fines_mass_fraction",
-                "blade_ramp_time", "blade_vibration_amplitude", "blade_vibration_frequency"):
-        if fx[key] < 0:
-            raise ConfigError(f"config key `effects.{key}` must be >= 0; got {fx[key]!r}")
-    for key in ("ageing_time_constant", "ageing_reference_rest_time", "rolling_stiffness_factor",
-                "fines_median_diameter", "fines_sigma_ln", "fines_min_diameter"):
-        if not fx[key] > 0:
-            raise ConfigError(f"config key `effects.{key}` must be positive; got {fx[key]!r}")
-    if not 0 <= fx["capillary_contact_angle"] < 0.5 * math.pi:
-        raise ConfigError("config key `effects.capillary_contact_angle` must lie in [0, pi/2) rad; "
-                          f"got {fx['capillary_contact_angle']!r}")
-    if fx["fines_mass_fraction"] >= 1:
-        raise ConfigError("config key `effects.fines_mass_fraction` must lie in [0, 1); "
-                          f"got {fx['fines_mass_fraction']!r}")
     if fx["capillary"] and fx["capillary_film_thickness"] <= 0:
         raise ConfigError("config key `effects.capillary_film_thickness` must be positive when "
                           "`effects.capillary` is true")
-    if fx["rolling_model"] not in ("epsd", "epsd2", "cdt"):
-        raise ConfigError("config key `effects.rolling_model` must be epsd, epsd2 or cdt; "
-                          f"got {fx['rolling_model']!r}")
 
 
 def _toml_value(v) -> str:

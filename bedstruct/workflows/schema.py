@@ -1,0 +1,389 @@
+"""The workflow configuration, defined once: sections as frozen dataclasses.
+
+Each section (``material``, ``contact``, ``psd``, ``time``, ``repose``, ``spread``,
+``calibrate``, ``external``, ``effects``, ``output``) is a frozen dataclass whose
+fields carry their default, unit, meaning and bounds in the field metadata.
+From this one definition come the defaults of :func:`~bedstruct.workflows.load_config`
+(:data:`~bedstruct.workflows.DEFAULTS`), the range checks and their messages, the
+configuration reference in ``bedstruct run --help`` and in the docs
+(:func:`config_reference`), and typed, read-only access to a loaded configuration
+(:func:`typed_config`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, dataclass, field, fields
+
+from ..errors import ConfigError
+
+__all__ = ["WorkflowConfig", "MaterialSection", "ContactSection", "PSDSection", "TimeSection",
+           "ReposeSection", "SpreadSection", "CalibrateSection", "ExternalSection",
+           "EffectsSection", "OutputSection", "typed_config", "defaults_dict", "check_bounds",
+           "config_reference", "SECTIONS"]
+
+#: Largest ``time.safety``: the engine refuses a step above this fraction of the Rayleigh
+#: time (``Simulation(max_rayleigh_fraction=0.3)``, LIGGGHTS' check/timestep/gran advice).
+MAX_SAFETY = 0.3
+
+
+def key(default, unit: str = "", doc: str = "", *, gt=None, ge=None, lt=None, le=None,
+        choices: tuple | None = None):
+    """A configuration field: its default, unit, one-line meaning and bounds.
+
+    ``gt``/``ge``/``lt``/``le`` bound a number (every element of a list);
+    ``choices`` lists the allowed strings.
+    """
+    meta = {"unit": unit, "doc": doc, "gt": gt, "ge": ge, "lt": lt, "le": le, "choices": choices}
+    return field(default=default, metadata=meta)
+
+
+@dataclass(frozen=True)
+class MaterialSection:
+    """Particle material."""
+
+    youngs_modulus: float = key(1e7, "Pa", "Young's modulus (softened; CoCr is about 2.1e11)", gt=0)
+    poisson_ratio: float = key(0.3, "", "Poisson's ratio", ge=0, lt=0.5)
+    density: float = key(8300.0, "kg/m^3", "particle density (CoCr)", gt=0)
+
+
+@dataclass(frozen=True)
+class ContactSection:
+    """Contact model between particles (and walls)."""
+
+    restitution: float = key(0.1, "", "normal coefficient of restitution", gt=0, le=1)
+    friction: float = key(0.4, "", "sliding friction coefficient", ge=0)
+    rolling_friction: float = key(0.05, "", "rolling friction coefficient", ge=0)
+    cohesion: float = key(0.0, "J/m^3", "SJKR cohesion energy density", ge=0)
+    rolling_model: str = key("epsd2", "", "rolling resistance model", choices=("epsd", "epsd2", "cdt"))
+    wall_friction: float = key(-1.0, "", "particle-wall friction; negative: the particle value")
+    wall_cohesion: float = key(-1.0, "J/m^3", "particle-wall cohesion; negative: the particle value")
+
+
+@dataclass(frozen=True)
+class PSDSection:
+    """Volume-weighted particle size distribution (laser diffraction percentiles)."""
+
+    d10: float = key(29.84e-6, "m", "D10 diameter", gt=0)
+    d50: float = key(52.08e-6, "m", "D50 diameter", gt=0)
+    d90: float = key(86.11e-6, "m", "D90 diameter", gt=0)
+    d_min: float = key(28e-6, "m", "smallest diameter (truncation)", gt=0)
+    d_max: float = key(100e-6, "m", "largest diameter (truncation)", gt=0)
+    scale: float = key(1.0, "", "coarse-graining factor applied to every diameter", gt=0)
+
+
+@dataclass(frozen=True)
+class TimeSection:
+    """Time step."""
+
+    safety: float = key(0.15, "", "time step as a fraction of the Rayleigh time", gt=0, le=MAX_SAFETY)
+    v_max: float = key(1.0, "m/s", "largest impact speed: the step is at most a tenth of the Hertz time",
+                       gt=0)
+
+
+@dataclass(frozen=True)
+class ReposeSection:
+    """Angle-of-repose test: a box filled by raindrop insertion, a sliding bottom plate."""
+
+    box: tuple = key((6e-3, 3e-3, 1.8e-3), "m", "box length, width and height", gt=0)
+    periodic_width: bool = key(False, "", "periodic along y instead of side walls")
+    n_particles: int = key(105000, "", "particles; 0: from fill_fraction at packing 0.6", ge=0)
+    fill_fraction: float = key(0.5, "", "raindrop region height / box height", gt=0, le=1)
+    pedestal_fraction: float = key(0.0, "", "fixed central ledge (fraction of the length)", ge=0, lt=1)
+    slide_fraction: float = key(0.5, "", "how far the plate slides out (fraction of the length)",
+                                gt=0, le=1)
+    plate_speed: float = key(0.05, "m/s", "plate speed towards -x", gt=0)
+    fill_time: float = key(0.02, "s", "settling after insertion", gt=0)
+    drain_time: float = key(0.05, "s", "time after the plate has moved", ge=0)
+    rest_time: float = key(0.0, "s", "rest before the plate moves (contacts age with effects.contact_ageing)",
+                           ge=0)
+    reservoir_depth: float = key(10e-3, "m", "depth below the plate; particles leaving it are removed",
+                                 gt=0)
+    replicates: int = key(3, "", "independent piles", gt=0)
+    n_frames: int = key(5, "", "frames written per replicate", ge=0)
+
+
+@dataclass(frozen=True)
+class SpreadSection:
+    """Multi-layer spreading with a blade (rake), plate or roller."""
+
+    tool: str = key("blade", "", "spreading tool (rake = blade)", choices=("blade", "rake", "plate", "roller"))
+    plate_length: float = key(18.9e-3, "m", "build platform length along x", gt=0)
+    chamber: bool = key(True, "", "front wall up to the tool level (platform in a chamber)")
+    width: float = key(3e-3, "m", "width, periodic along y", gt=0)
+    gaps: tuple = key((508e-6, 508e-6, 102e-6, 127e-6), "m", "gap between tool and bed, one per layer",
+                      gt=0)
+    speed: float = key(0.0254, "m/s", "tool speed", gt=0)
+    pile_particles: int = key(100000, "", "particles per pile", gt=0)
+    pile_length: float = key(3e-3, "m", "footprint of the pile along x", gt=0)
+    pile_time: float = key(0.02, "s", "settling of a generated pile", gt=0)
+    lower_speed: float = key(0.02, "m/s", "platform lowering speed between layers", gt=0)
+    settle_time: float = key(0.005, "s", "settling after each layer", gt=0)
+    return_speed: float = key(0.5, "m/s", "tool return speed above the bed", gt=0)
+    blade_thickness: float = key(0.5e-3, "m", "blade thickness", gt=0)
+    bevel_deg: float = key(10.0, "deg", "blade bevel angle", ge=0, lt=90)
+    blade_height: float = key(2e-3, "m", "blade height", gt=0)
+    roller_radius: float = key(0.5e-3, "m", "roller radius", gt=0)
+    roller_omega_factor: float = key(-1.0, "", "roller spin = factor * speed / radius: -1 counter-rotating, "
+                                     "1 rolling, 0 none")
+    stop_margin: float = key(0.5e-3, "m", "the tool stops this far beyond the platform end", ge=0)
+    n_frames: int = key(10, "", "frames per layer (dynamic angle, dumps)", ge=1)
+    regions: int = key(3, "", "regions along the platform", ge=1)
+
+
+@dataclass(frozen=True)
+class CalibrateSection:
+    """Calibration of the cohesion energy density against an angle of repose."""
+
+    target_deg: float = key(33.0, "deg", "angle of repose to reproduce")
+    cohesion_bracket: tuple = key((3.0e7, 3.6e7), "J/m^3", "[low, high] cohesion search bracket", gt=0)
+    replicates: int = key(2, "", "repose replicates per point", gt=0)
+    max_iter: int = key(4, "", "largest number of search steps", ge=0)
+    tolerance_deg: float = key(1.0, "deg", "stop within this angle of the target", gt=0)
+
+
+@dataclass(frozen=True)
+class ExternalSection:
+    """LIGGGHTS and LAMMPS runs (``engine = "liggghts"`` or ``"lammps"``)."""
+
+    np: int = key(1, "", "MPI ranks", ge=1)
+    exe: str = key("", "", "engine binary (empty: the one found on this machine)")
+    write_only: bool = key(False, "", "write decks and inputs, do not run")
+    cohesion_model: str = key("dmt", "", "LAMMPS stand-in for SJKR (none drops cohesion)",
+                              choices=("dmt", "jkr", "none"))
+    timeout: float = key(0.0, "s", "limit per engine run (0: none)", ge=0)
+
+
+@dataclass(frozen=True)
+class EffectsSection:
+    """Effects beyond the base model; every default is the base model."""
+
+    capillary: bool = key(False, "", "Willett liquid bridges between particles")
+    capillary_surface_tension: float = key(0.072, "N/m", "liquid surface tension", ge=0)
+    capillary_contact_angle: float = key(0.3490658503988659, "rad", "liquid contact angle", ge=0,
+                                         lt=0.5 * math.pi)
+    capillary_film_thickness: float = key(0.0, "m", "liquid film; bridge volume 2 pi R*^2 t", ge=0)
+    contact_ageing: bool = key(False, "", "bonds grow at resting contacts")
+    ageing_bond_ratio: float = key(0.0, "", "bond / SJKR force after the reference rest time", ge=0)
+    ageing_time_constant: float = key(10.0, "s", "bond growth time constant", gt=0)
+    ageing_reference_rest_time: float = key(60.0, "s", "rest time of ageing_bond_ratio", gt=0)
+    ageing_break_slip: float = key(1e-6, "m", "tangential slip that breaks a bond", ge=0)
+    rolling_model: str = key("epsd", "", "rolling model carrying shape_rolling_friction",
+                             choices=("epsd", "epsd2", "cdt"))
+    shape_rolling_friction: float = key(0.0, "", "added to contact.rolling_friction", ge=0)
+    rolling_stiffness_factor: float = key(2.25, "", "epsd rolling stiffness k_r = f k_n mu_r^2 R*^2", gt=0)
+    fines_mass_fraction: float = key(0.0, "", "mass fraction of fines below psd.d_min", ge=0, lt=1)
+    fines_median_diameter: float = key(20e-6, "m", "volume-weighted median diameter of the fines", gt=0)
+    fines_sigma_ln: float = key(0.25, "", "log-normal width of the fines", gt=0)
+    fines_min_diameter: float = key(8e-6, "m", "smallest fine", gt=0)
+    wall_friction_excess: float = key(0.0, "", "wall friction = particle friction + excess")
+    blade_ramp_time: float = key(0.0, "s", "tool start-up: speed v (1 - exp(-t/tau))", ge=0)
+    blade_vibration_amplitude: float = key(0.0, "m", "vertical tool vibration amplitude", ge=0)
+    blade_vibration_frequency: float = key(0.0, "Hz", "vertical tool vibration frequency", ge=0)
+
+
+@dataclass(frozen=True)
+class OutputSection:
+    """What a run writes."""
+
+    frames: bool = key(True, "", "write particle dumps")
+    contacts: bool = key(True, "", "write contact dumps")
+    compress: bool = key(True, "", "gzip the dumps")
+    checkpoint: bool = key(False, "", "keep an engine checkpoint of every finished stage")
+    checkpoint_every: int = key(20000, "steps", "steps between resume checkpoints inside a stage "
+                                "(0: at stage ends only)", ge=0)
+
+
+@dataclass(frozen=True)
+class WorkflowConfig:
+    """A complete workflow configuration (SI units), read-only."""
+
+    preset: str = key("", "", "base preset: tiny, small or seed")
+    description: str = key("", "", "free text")
+    engine: str = key("embedded", "", "DEM engine", choices=("embedded", "liggghts", "lammps"))
+    seed: int = key(1, "", "random seed", ge=0)
+    n_threads: int = key(1, "", "threads of the embedded engine", ge=1)
+    material: MaterialSection = field(default_factory=MaterialSection)
+    contact: ContactSection = field(default_factory=ContactSection)
+    psd: PSDSection = field(default_factory=PSDSection)
+    time: TimeSection = field(default_factory=TimeSection)
+    repose: ReposeSection = field(default_factory=ReposeSection)
+    spread: SpreadSection = field(default_factory=SpreadSection)
+    calibrate: CalibrateSection = field(default_factory=CalibrateSection)
+    external: ExternalSection = field(default_factory=ExternalSection)
+    effects: EffectsSection = field(default_factory=EffectsSection)
+    output: OutputSection = field(default_factory=OutputSection)
+
+
+#: Section name -> its dataclass, in configuration order.
+SECTIONS = {f.name: f.default_factory for f in fields(WorkflowConfig) if f.default is MISSING}
+
+
+def _plain_default(value):
+    return list(value) if isinstance(value, tuple) else value
+
+
+def defaults_dict() -> dict:
+    """The default configuration as the nested dict :func:`load_config` starts from.
+
+    Examples
+    --------
+    >>> from bedstruct.workflows.schema import defaults_dict
+    >>> d = defaults_dict()
+    >>> d["contact"]["friction"], d["spread"]["gaps"][:2]
+    (0.4, [0.000508, 0.000508])
+    """
+    out = {}
+    for f in fields(WorkflowConfig):
+        if f.name in SECTIONS:
+            out[f.name] = {g.name: _plain_default(g.default) for g in fields(SECTIONS[f.name])}
+        else:
+            out[f.name] = f.default
+    return out
+
+
+def typed_config(cfg: dict) -> WorkflowConfig:
+    """A loaded configuration as a frozen :class:`WorkflowConfig` (lists become tuples).
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config
+    >>> from bedstruct.workflows.schema import typed_config
+    >>> c = typed_config(load_config(preset="tiny"))
+    >>> c.spread.tool, c.psd.scale
+    ('blade', 2.0)
+    """
+    top = {}
+    for f in fields(WorkflowConfig):
+        if f.name not in cfg:
+            continue
+        v = cfg[f.name]
+        if f.name in SECTIONS:
+            v = SECTIONS[f.name](**{k: tuple(x) if isinstance(x, list) else x for k, x in v.items()})
+        top[f.name] = v
+    return WorkflowConfig(**top)
+
+
+def _bound_text(meta) -> str:
+    if meta["choices"]:
+        return "one of " + ", ".join(meta["choices"])
+    lo = ("> " + f"{meta['gt']:g}") if meta["gt"] is not None else (
+        (">= " + f"{meta['ge']:g}") if meta["ge"] is not None else None)
+    hi = ("< " + f"{meta['lt']:g}") if meta["lt"] is not None else (
+        ("<= " + f"{meta['le']:g}") if meta["le"] is not None else None)
+    parts = [p for p in (lo, hi) if p]
+    return " and ".join(parts)
+
+
+def _in_bounds(x, meta) -> bool:
+    return ((meta["gt"] is None or x > meta["gt"]) and (meta["ge"] is None or x >= meta["ge"])
+            and (meta["lt"] is None or x < meta["lt"]) and (meta["le"] is None or x <= meta["le"]))
+
+
+def check_bounds(cfg: dict) -> None:
+    """Check every value of ``cfg`` against the bounds and choices of its field.
+
+    Raises
+    ------
+    ConfigError
+        Naming the first key out of bounds, its bounds with the unit, and the value.
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config
+    >>> from bedstruct.workflows.schema import check_bounds
+    >>> cfg = load_config(preset="tiny")
+    >>> cfg["contact"]["friction"] = -0.1
+    >>> check_bounds(cfg)
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: config key `contact.friction` must be >= 0 (sliding friction coefficient); got -0.1
+    """
+    def check(name, f, value):
+        meta = f.metadata
+        if meta["choices"]:
+            if value not in meta["choices"]:
+                raise ConfigError(f"config key `{name}` must be {_bound_text(meta)}; got {value!r}")
+            return
+        if not any(meta[b] is not None for b in ("gt", "ge", "lt", "le")):
+            return
+        values = value if isinstance(value, (list, tuple)) else [value]
+        if not all(_in_bounds(x, meta) for x in values):
+            unit = f" {meta['unit']}" if meta["unit"] else ""
+            what = "positive" if meta["gt"] == 0 and meta["lt"] is None and meta["le"] is None \
+                else _bound_text(meta) + unit
+            raise ConfigError(f"config key `{name}` must be {what} ({meta['doc']}); got {value!r}")
+
+    for f in fields(WorkflowConfig):
+        if f.name not in cfg:
+            continue
+        if f.name in SECTIONS:
+            for g in fields(SECTIONS[f.name]):
+                if g.name in cfg[f.name]:
+                    check(f"{f.name}.{g.name}", g, cfg[f.name][g.name])
+        else:
+            check(f.name, f, cfg[f.name])
+
+
+def _default_text(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, tuple):
+        return "[" + ", ".join(f"{x:g}" for x in value) + "]"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def config_reference(sections=None, *, markdown: bool = False) -> str:
+    """The configuration keys with their defaults, units, meaning and bounds.
+
+    Parameters
+    ----------
+    sections : sequence of str, optional
+        Section names (``"spread"``, ...; ``""`` for the top-level keys); all by default.
+    markdown : bool, optional
+        A Markdown table per section (the docs' reference) instead of plain text
+        (``bedstruct run --help``).
+
+    Examples
+    --------
+    >>> from bedstruct.workflows.schema import config_reference
+    >>> print(config_reference(["time"]))
+    [time] Time step.
+      safety                      0.15             time step as a fraction of the Rayleigh time (> 0 and <= 0.3)
+      v_max                       1 m/s            largest impact speed: the step is at most a tenth of the Hertz time (> 0)
+    """
+    wanted = list(SECTIONS) if sections is None else list(sections)
+    out = []
+    for name in wanted:
+        if name == "":
+            rows = [f for f in fields(WorkflowConfig) if f.name not in SECTIONS]
+            title = "top-level keys"
+        else:
+            cls = SECTIONS[name]
+            rows = list(fields(cls))
+            title = f"[{name}] {cls.__doc__.strip()}"
+        if markdown:
+            out.append(f"### `{name or 'top level'}`\n")
+            if name:
+                out.append(SECTIONS[name].__doc__.strip() + "\n")
+            out.append("| key | default | unit | meaning | allowed |")
+            out.append("|---|---|---|---|---|")
+            for f in rows:
+                m = f.metadata
+                out.append(f"| `{f.name}` | `{_default_text(f.default)}` | {m['unit']} | "
+                           f"{m['doc']} | {_bound_text(m)} |")
+            out.append("")
+        else:
+            out.append(title)
+            for f in rows:
+                m = f.metadata
+                bounds = _bound_text(m)
+                value = f"{_default_text(f.default)} {m['unit']}".rstrip()
+                line = f"  {f.name:<27} {value:<16} {m['doc']}" + (f" ({bounds})" if bounds else "")
+                out.append(line.rstrip())
+    return "\n".join(out).rstrip() + "\n" if markdown else "\n".join(out)
+
