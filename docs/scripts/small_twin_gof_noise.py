@@ -8,8 +8,7 @@ model's goodness of fit on the calibration observables twice: as the attribution
 it (chi-square and the largest residual, Sidak over the rows, in the experiment's noise),
 and counting the fingerprint's own estimation noise at the fitted magnitudes
 (`Fingerprint.predict_se`, effective variance: z = res / sqrt(sigma^2 + se(a)^2)). The
-second is not what the diagnosis does; it measures what that change would do (docs:
-diagnose-validation.md, "Four more small twins on the topped-up fingerprints"). The largest
+second is not what the diagnosis does; it measures what that change would do. The largest
 residual is taken without the leverage correction in both, so the first p is at or above the
 attribution's own p_fit (which divides each residual by sqrt(1 - leverage)).
 """

@@ -241,7 +241,7 @@ def test_one_tiny_twin_end_to_end(tmp_path):
     from dataclasses import replace
     design = liggghts_twin_design()
     # without the layer-2 dynamic angle: with mu_r = 0.25 the tiny pile is often used up
-    # before layer 2 (no heap to fit; docs/diagnose-liggghts.md)
+    # before layer 2 (no heap to fit)
     design = replace(design, measurements=tuple(m for m in design if m.kind != "dynamic_angle_series"))
     base = {"cohesion_energy_density": 3.6e7, "friction": 0.4, "rolling_friction": 0.05,
             "restitution": 0.1}

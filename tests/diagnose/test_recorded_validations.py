@@ -1,5 +1,5 @@
 """The engine and LIGGGHTS validations whose twin records are committed (docs/records) score
-as docs/validation.md states.
+as docs/records/README.md lists them and docs/diagnose-validation.md quotes the current ones.
 
 Those validations take hours of engine runs; their records are what the documented numbers
 rest on. Scoring them again guards the scoring code and the documents against drifting
@@ -19,30 +19,29 @@ from bedstruct.diagnose.validation_scores import score_twins
 RECORDS = pathlib.Path(__file__).resolve().parents[2] / "docs" / "records"
 
 #: folder -> (number of records, top-1, null false attribution, out-of-catalogue
-#: unexplained, median held-out shrink, interval coverage), as docs/validation.md's rows
+#: unexplained, median held-out shrink, interval coverage), as the rows of
+#: docs/records/README.md's table
 DOCUMENTED = {
-    # "LIGGGHTS 3.8, tiny, validate --simulator liggghts (rerun ... fit rules 9 and 10 alike)":
-    # 2 of 3, 0 of 1, 3 of 3, shrink 0.90 and 1.0, 1 of 1
+    # LIGGGHTS 3.8, tiny (revision fit 10): 2 of 3, 0 of 1, 3 of 3, shrink 0.90 and 1.0, 1 of 1
     "liggghts-tiny-fit10": (7, 2 / 3, 0.0, 1.0, (0.90 + 1.0) / 2, 1.0),
-    # "LIGGGHTS 3.8, tiny, ... fit rule 11 (third session)": 2 of 3, 0 of 1 (the null twin
-    # `unexplained`), 3 of 3, shrink 1.0 and 1.0, 1 of 1
+    # LIGGGHTS 3.8, tiny (fit 11): 2 of 3, 0 of 1 (the null twin `unexplained`), 3 of 3,
+    # shrink 1.0 and 1.0, 1 of 1
     "liggghts-tiny-fit11": (7, 2 / 3, 0.0, 1.0, 1.0, 1.0),
-    # "... the fit-11 rerun rescored from its cache at fit rule 13": the same
+    # the fit-11 run rescored at fit 13 (current LIGGGHTS result): the same
     "liggghts-tiny-fit13": (7, 2 / 3, 0.0, 1.0, 1.0, 1.0),
-    # "DEM engine, tiny, full campaign, twin rule 5 and fit rule 9": 2 of 8, 0 of 2, 5 of 8,
-    # 0.03, 2 of 2
+    # DEM engine, tiny, full campaign (twin 5, fit 9; current tiny result): 2 of 8, 0 of 2,
+    # 5 of 8, 0.03, 2 of 2
     "tiny-engine-rule5-fit9": (18, 2 / 8, 0.0, 5 / 8, 0.03, 1.0),
-    # "DEM engine, tiny, ... fingerprints topped up to four seeds": 3 of 8, 0 of 2, 5 of 8,
-    # 0.53, 3 of 3
+    # DEM engine, tiny, fingerprints topped up to four seeds: 3 of 8, 0 of 2, 5 of 8, 0.53,
+    # 3 of 3
     "tiny-engine-top-up-2": (18, 3 / 8, 0.0, 5 / 8, 0.53, 1.0),
-    # "DEM engine, small, full campaign, 3 repeats, twin rule 6 and fit rule 12": 9 of 10,
-    # 0 of 4, 7 of 10, 0.73 (2 twins with a held-out gap), 5 of 9
+    # DEM engine, small, full campaign, 3 repeats (twin 6, fit 12): 9 of 10, 0 of 4, 7 of 10,
+    # 0.73 (2 twins with a held-out gap), 5 of 9
     "small-engine-fit12": (24, 9 / 10, 0.0, 7 / 10, 0.73, 5 / 9),
-    # "... rescored from its cache at fit rule 13 (profile intervals)": the same but
-    # intervals 7 of 9
+    # ... rescored at fit 13 (profile intervals): the same but intervals 7 of 9
     "small-engine-fit13": (24, 9 / 10, 0.0, 7 / 10, 0.73, 7 / 9),
-    # "... rescored at twin rule 7 and fit rule 14 (trials without a reading weighed; twin
-    # 6's reruns topped up, 12 engine calls)": the same but out of the catalogue 8 of 10
+    # ... rescored at twin 7 / fit 14 (trials without a reading weighed; current small
+    # result): the same but out of the catalogue 8 of 10
     "small-engine-fit14": (24, 9 / 10, 0.0, 8 / 10, 0.73, 7 / 9),
 }
 
@@ -70,3 +69,9 @@ def test_committed_records_score_as_documented(folder):
     # the documents round the shrink to two decimals
     assert s["median_gap_shrink"] == pytest.approx(shrink, abs=0.006)
     assert s["magnitude_coverage"] == pytest.approx(cover)
+
+
+def test_every_record_set_is_listed_in_the_records_index():
+    index = (RECORDS / "README.md").read_text(encoding="utf-8")
+    for folder in DOCUMENTED:
+        assert f"`{folder}`" in index, folder
