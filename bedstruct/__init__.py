@@ -25,7 +25,7 @@ from .errors import ConfigError, DumpFormatError, UnsafeTimestepError
 # stays fast (numba, scipy, matplotlib load only when needed).
 _LAZY = {
     # io
-    "read_dump": "bedstruct.io", "iter_frames": "bedstruct.io",
+    "read": "bedstruct.io", "read_dump": "bedstruct.io", "iter_frames": "bedstruct.io",
     "read_dump_local": "bedstruct.io", "read_data": "bedstruct.io",
     "write_dump": "bedstruct.io", "write_data": "bedstruct.io", "write_dump_local": "bedstruct.io",
     "save_hdf5": "bedstruct.io", "load_hdf5": "bedstruct.io",
@@ -58,14 +58,21 @@ __all__ = ["__version__", "Box", "Frame", "FrameList", "Trajectory", "Units", "P
            *_LAZY]
 
 
+# Subpackages, importable as attributes after a plain ``import bedstruct``.
+_SUBPACKAGES = ("io", "analysis", "plot", "dem", "engines", "workflows", "report", "diagnose")
+
+
 def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'bedstruct' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
+    if name in _SUBPACKAGES:
+        value = importlib.import_module(f"bedstruct.{name}")
+    else:
+        module = _LAZY.get(name)
+        if module is None:
+            raise AttributeError(f"module 'bedstruct' has no attribute {name!r}")
+        value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | set(_SUBPACKAGES))
