@@ -66,20 +66,33 @@ _held_locks: "weakref.WeakValueDictionary[str, _FolderLock]" = weakref.WeakValue
 
 class _FolderLock:
     """An exclusive ``flock`` on ``<folder>/.bedstruct.lock``, released when this object is
-    released or collected, or when its process ends (killed too: the kernel drops it)."""
+    released or collected, or when its process ends (killed too: the kernel drops it).
+
+    The lock file exists only while a run holds it: it is removed, still locked, when the
+    lock is released. A process that opened the file before it was removed and locks it
+    afterwards sees that the path no longer names its file and opens the path anew.
+    """
 
     def __init__(self, folder: Path):
         self.path = folder / RUN_LOCK
-        self._file = open(self.path, "a+")
-        try:
-            fcntl.flock(self._file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            self._file.seek(0)
-            holder = self._file.read().strip() or "another process"
-            self._file.close()
-            raise RunFolderInUseError(
-                f"{folder} is in use: a run is being written there ({holder}). Wait for it to "
-                "end, or choose another --out.") from None
+        while True:
+            self._file = open(self.path, "a+")
+            try:
+                fcntl.flock(self._file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                self._file.seek(0)
+                holder = self._file.read().strip() or "another process"
+                self._file.close()
+                raise RunFolderInUseError(
+                    f"{folder} is in use: a run is being written there ({holder}). Wait for it "
+                    "to end, or choose another --out.") from None
+            try:
+                same = os.stat(self.path).st_ino == os.fstat(self._file.fileno()).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            self._file.close()  # locked a file its holder had just removed: try the path again
         self._file.seek(0)
         self._file.truncate()
         self._file.write(f"pid {os.getpid()}\n")
@@ -87,7 +100,10 @@ class _FolderLock:
 
     def release(self) -> None:
         if not self._file.closed:
-            self._file.truncate(0)  # while still held: no holder is named once it is let go
+            try:
+                os.unlink(self.path)  # while still held, so that no one locks a stale file
+            except FileNotFoundError:
+                pass
             self._file.close()  # closing the file drops the flock
 
     def __del__(self):
@@ -181,6 +197,8 @@ class RunLayout:
         OUT/<stage>/result.json    a finished repose replicate (reused when resuming)
         OUT/<stage>/checkpoint.npz engine checkpoint at the end of the stage
                                    (output.checkpoint = true)
+        OUT/.bedstruct.lock        held by the process writing the run; removed when the
+                                   results are written
 
     ``<stage>`` is ``rep00``, ``rep01``... for repose replicates,
     ``pile`` and ``layer01``... for spreading, ``k<value>/rep00`` for
