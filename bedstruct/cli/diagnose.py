@@ -10,7 +10,7 @@
                              [--json] [--progress]
 
 CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
-workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
+workflows through ``bedstruct.diagnose.engine_simulator.diagnosis_simulator``) or the word ``surrogate``;
 MEASUREMENTS is a measurement TOML (example: data/measurements/seed.toml).
 Writes DIR/report.html, DIR/report.json and DIR/diagnosis.json (or
 validation.json). With --json the last line printed is one JSON object: for a

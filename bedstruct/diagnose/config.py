@@ -29,8 +29,8 @@ parameters recalibration may change, the catalogue and the statistical levels::
     refine = 2                # Gauss-Newton rounds simulating the leading effects at their fits
     confirm_rounds = 2        # refits after a rerun that contradicts the fit
 
-``kind = "engine"`` calls the hook
-``bedstruct.workflows.diagnosis_simulator(design, config) -> simulator``
+``kind = "engine"`` calls
+``bedstruct.diagnose.engine_simulator.diagnosis_simulator(design, config) -> simulator``
 (the ``[engine]`` table is passed through as ``config``).
 
 .. versionadded:: 0.1
@@ -38,7 +38,6 @@ parameters recalibration may change, the catalogue and the statistical levels::
 
 from __future__ import annotations
 
-import importlib
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,7 +50,6 @@ from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 
 __all__ = ["SimConfig", "load_sim_config", "make_simulator"]
 
-_ENGINE_HOOK = "bedstruct.workflows"
 
 
 @dataclass(frozen=True)
@@ -187,25 +185,11 @@ def make_simulator(config: SimConfig, design: MeasurementSet):
     """The simulator callable for a configuration and a design.
 
     ``kind = "surrogate"`` gives :class:`SurrogateSimulator`; ``kind = "engine"``
-    calls ``bedstruct.workflows.diagnosis_simulator(design, config.engine)``.
-
-    Raises
-    ------
-    ConfigError
-        If the engine hook does not exist yet.
+    calls :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator` with the
+    ``[engine]`` table.
     """
     if config.kind == "surrogate":
         return SurrogateSimulator(design, noise=config.noise)
-    try:
-        mod = importlib.import_module(_ENGINE_HOOK)
-        hook = getattr(mod, "diagnosis_simulator")
-    except (ImportError, AttributeError):
-        raise ConfigError(f"simulator kind 'engine': {_ENGINE_HOOK}.diagnosis_simulator(design, config) "
-                          f"is not available yet; use kind = 'surrogate'") from None
-    sim = hook(design, dict(config.engine))
-    if not hasattr(sim, "name"):
-        try:
-            sim.name = "engine"
-        except AttributeError:  # pragma: no cover
-            pass
-    return sim
+    # the engine simulator loads the DEM engine (numba): only when asked for
+    from .engine_simulator import diagnosis_simulator
+    return diagnosis_simulator(design, dict(config.engine))

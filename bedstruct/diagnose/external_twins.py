@@ -19,7 +19,7 @@ twin is made like this:
    (:func:`write_liggghts_wrapper`) that rewrites the deck it is asked to run,
    keeps the original as ``<deck>.base`` and then runs the real LIGGGHTS.
 3. The runs are observed by the engine simulator's own observation operators
-   (:class:`bedstruct.workflows.diagnosis_sim.EngineSimulator` with the
+   (:class:`bedstruct.diagnose.engine_simulator.EngineSimulator` with the
    LIGGGHTS engine; :func:`liggghts_simulator`), on several seeds (an experiment
    repeated ``n`` times), reading noise is drawn from the design's stated
    uncertainties, and the result is written as a measurement TOML file
@@ -132,7 +132,7 @@ def liggghts_simulator(design, effect: TwinEffect, *, preset: str = "tiny",
                        overrides: Sequence[str] = (), workdir=None):
     """A simulator ``sim(base, effects, seed) -> Observations`` running LIGGGHTS with ``effect``.
 
-    It is :class:`~bedstruct.workflows.diagnosis_sim.EngineSimulator` (same
+    It is :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` (same
     configuration, same observation operators) with ``engine = "liggghts"``, one
     MPI rank and ``external.exe`` set to :func:`write_liggghts_wrapper`'s
     executable; pass ``effects = {}`` when calling it (the effect is in the decks).
@@ -157,7 +157,7 @@ def liggghts_simulator(design, effect: TwinEffect, *, preset: str = "tiny",
     """
     import tempfile
 
-    from ..workflows.diagnosis_sim import EngineSimulator
+    from .engine_simulator import EngineSimulator
     root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
     exe = write_liggghts_wrapper(root / "bin", effect)
     ov = [*overrides, "engine=liggghts", "external.np=1", f"external.exe={exe}"]

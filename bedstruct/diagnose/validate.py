@@ -11,7 +11,7 @@ removed from the catalogue: the answer must be "unexplained").
 Validation runs on the analytic
 :class:`~bedstruct.diagnose.surrogate.SurrogateSimulator` (``simulator =
 "surrogate"``, the default: seconds) or on the embedded DEM engine
-(``simulator = "engine"``, :func:`bedstruct.workflows.diagnosis_simulator`, on
+(``simulator = "engine"``, :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator`, on
 :func:`engine_twin_design` with :data:`ENGINE_PRESETS`: minutes to hours), or on
 twins made by LIGGGHTS and diagnosed on the engine (``simulator = "liggghts"``,
 :mod:`bedstruct.diagnose.validate_liggghts`), and every result says which.
@@ -220,7 +220,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         discrimination at a stated detectability, not the arbitrary width of a
         prior range. Weaker gaps are the identifiability report's business.
     simulator : {"surrogate", "engine", "liggghts"}
-        ``"engine"`` runs :func:`bedstruct.workflows.diagnosis_simulator` on
+        ``"engine"`` runs :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator` on
         :func:`engine_twin_design`. Each in-catalogue engine twin is diagnosed a
         second time with its effect removed from the catalogue (the
         out-of-catalogue twin), which reuses its runs. ``"liggghts"`` makes the twins
@@ -360,7 +360,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         design = diagnosis_design(measured, effects)
         sim = SurrogateSimulator(design)
     elif not offline:
-        from ..workflows.diagnosis_sim import diagnosis_simulator
+        from .engine_simulator import diagnosis_simulator
         measured = engine_twin_design(campaign)
         # with the whole catalogue's candidate measurements (one humid repose more per call),
         # so that a diagnosis of any measurement file of this design finds every run cached

@@ -190,7 +190,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if shutil.which("liggghts") is None:
         raise ConfigError("LIGGGHTS twins need the liggghts executable on the PATH "
                           "(Debian/Ubuntu: apt-get install liggghts)")
-    from ..workflows.diagnosis_sim import diagnosis_simulator
+    from .engine_simulator import diagnosis_simulator
     cfg = LIGGGHTS_PRESETS[preset]
     t0 = time.perf_counter()
     effects = _catalogue(cfg["effects"])
@@ -228,7 +228,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if progress:
         from tqdm import tqdm
         steps = tqdm(steps, desc="LIGGGHTS twins")
-    from ..workflows.diagnosis_sim import _DECK_REVISION
+    from .engine_simulator import _DECK_REVISION
     try:
         for i, spec in steps:
             truth = {"true_effect": spec.true_effect, "true_magnitude": spec.true_magnitude,

@@ -92,7 +92,7 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
     records = Path(records)
     workers = max(1, min(int(jobs), len(twins)))
     ctx = multiprocessing.get_context("spawn")
-    from ..workflows.diagnosis_pool import _exit_with_parent
+    from .process_pool import _exit_with_parent
     with tempfile.TemporaryDirectory(prefix="bedstruct-twin-records-",
                                      dir=records.parent) as tmp:
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,

@@ -24,7 +24,7 @@ from bedstruct.diagnose.surrogate import BASE_PARAMETERS
 import importlib
 V = importlib.import_module("bedstruct.diagnose.validate")
 T = importlib.import_module("bedstruct.diagnose.twins")
-from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
+from bedstruct.diagnose.engine_simulator import diagnosis_simulator
 
 cache = sys.argv[1]
 cfg = dict(V.ENGINE_PRESETS["small"])

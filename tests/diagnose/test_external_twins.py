@@ -267,7 +267,7 @@ def test_wall_friction_moves_the_recoater_load_in_liggghts_as_in_the_engine(tmp_
     load ratio of the tiny preset's second x1 layer (measured on 3 seeds each: LIGGGHTS
     0.179 -> 0.118, embedded 0.172 -> 0.127; run scatter about 0.01)."""
     import bedstruct.diagnose as dg
-    from bedstruct.workflows.diagnosis_sim import EngineSimulator
+    from bedstruct.diagnose.engine_simulator import EngineSimulator
     design = dg.MeasurementSet((dg.measurement_from_dict(dict(
         name="tool_force_ratio_x1_layer2", kind="tool_force_ratio", value=0.0, uncertainty=0.005,
         conditions=dict(speed=0.0254, layer=2))),))

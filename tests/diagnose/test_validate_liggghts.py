@@ -11,7 +11,7 @@ import json
 import pytest
 
 import bedstruct.diagnose.external_twins as external_twins
-import bedstruct.workflows.diagnosis_sim as diagnosis_sim
+import bedstruct.diagnose.engine_simulator as diagnosis_sim
 from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator, validate
 from bedstruct.errors import ConfigError
 

@@ -47,8 +47,11 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..errors import ConfigError
-from .config import load_config
-from .diagnosis_observe import CallRuns, _region_index
+from ..workflows.config import load_config
+from .catalogue import effect
+from .engine_runs import CallRuns, _region_index
+from .measurements import Observations
+from .process_pool import run_calls
 
 __all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "PRESET_OVERRIDES"]
 
@@ -124,7 +127,6 @@ def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1
     >>> fx["wall_friction_excess"], fx["blade_ramp_time"], fx["blade_vibration_frequency"]
     (0.1, 0.05, 120.0)
     """
-    from ..diagnose.catalogue import effect
     out: dict[str, Any] = {}
     for name, m in effects.items():
         if float(m) == 0.0:
@@ -366,7 +368,7 @@ class EngineSimulator:
         """Run a batch of calls ``(base, effects, seed)`` ahead, ``jobs`` at a time.
 
         With ``jobs`` > 1 the calls that are neither cached nor already fetched run in
-        worker processes (:func:`bedstruct.workflows.diagnosis_pool.run_calls`); the
+        worker processes (:func:`bedstruct.diagnose.process_pool.run_calls`); the
         later ``sim(base, effects, seed)`` calls return their observations. With
         ``jobs = 1`` nothing is done (the calls run when asked for). ``progress``
         shows a bar over the batch. Returns the number of calls run.
@@ -382,8 +384,8 @@ class EngineSimulator:
             todo.append((dict(b), dict(e), int(s)))
         if len(todo) < 2:
             return 0
-        from .diagnosis_pool import run_calls
-        done = run_calls(self.design, self._config, todo, self.jobs, progress=progress)
+        done = run_calls(engine_call, [(self.design, dict(self._config), b, e, s) for b, e, s in todo],
+                         self.jobs, progress=progress)
         for (b, e, s), (values, n_runs) in zip(todo, done):
             self._memo[self._memo_key(b, e, s)] = values
             self.n_runs += n_runs
@@ -402,7 +404,6 @@ class EngineSimulator:
         return all(json.dumps(self._spec(m), sort_keys=True) in cached for m in self.design)
 
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int):
-        from ..diagnose.measurements import Observations
         fetched = self._memo.get(self._memo_key(base, effects, seed)) if self._memo else None
         if fetched is not None:
             return Observations({m.name: np.asarray(fetched[m.name], float) for m in self.design},
@@ -438,6 +439,13 @@ class EngineSimulator:
                         "toe) for base=%s, effects=%s, seed=%d: NaN", bad, dict(base),
                         dict(effects), seed)
         return Observations(values, source="engine")
+
+
+def engine_call(design, config: Mapping[str, Any], base, effects, seed):
+    """One engine call in a worker process: its observations (lists) and its number of runs."""
+    sim = EngineSimulator(design, dict(config, jobs=1))
+    obs = sim(base, effects, seed)
+    return {k: v.tolist() for k, v in obs.values.items()}, sim.n_runs
 
 
 def diagnosis_simulator(design, config: Mapping[str, Any] | None = None) -> EngineSimulator:
