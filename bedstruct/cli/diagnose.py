@@ -142,7 +142,7 @@ def _misplaced(args, names) -> list[str]:
 
 
 def _run_validate(args) -> int:
-    from ..diagnose import validate
+    from ..diagnose import validate, validation_report
     from ..report._model import _plain
     from ..report._render import write_report
     from . import UsageError, print_json
@@ -154,7 +154,7 @@ def _run_validate(args) -> int:
             setattr(args, name, default)
     engine = None
     if args.simulator in ("engine", "liggghts"):
-        from ..diagnose.validate import engine_scale_model
+        from ..diagnose.validation_design import engine_scale_model
         engine = {"preset": engine_scale_model(args.preset)}
         if args.sim:
             from ..diagnose import load_sim_config
@@ -172,7 +172,7 @@ def _run_validate(args) -> int:
                       refine=args.refine, top_up=args.top_up, twin_jobs=args.twin_jobs)
     out = result.to_json()
     if args.out:
-        write_report(result.report(), args.out)
+        write_report(validation_report(result), args.out)
         _write_json(f"{args.out}/validation.json", out)
     if args.json:
         compact = {k: v for k, v in out.items() if k != "twins"}
@@ -224,8 +224,8 @@ def run(args) -> int:
     misplaced = _misplaced(args, _VALIDATE_ONLY)
     if misplaced:
         raise UsageError(f"{', '.join(misplaced)} apply to 'bedstruct diagnose validate' only")
-    from ..diagnose import diagnose, diagnosis_design, load_measurements, load_sim_config, \
-        make_simulator
+    from ..diagnose import (diagnose, diagnosis_design, diagnosis_report, load_measurements,
+                            load_sim_config, make_simulator)
     from ..report._model import _plain
     from ..report._render import write_report
     from . import print_json
@@ -252,7 +252,7 @@ def run(args) -> int:
                     confirm_rounds=cfg.confirm_rounds, progress=args.progress)
     out = diag.to_json()
     out["sim_config"] = cfg.as_dict()
-    html, js = write_report(diag.report(), args.out)
+    html, js = write_report(diagnosis_report(diag), args.out)
     _write_json(f"{args.out}/diagnosis.json", out)
     if args.json:
         print_json(_plain(out))

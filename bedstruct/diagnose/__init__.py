@@ -12,20 +12,27 @@ from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_m
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
                         kelvin_radius)
 from .config import SimConfig, load_sim_config, make_simulator
-from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose,
-                        diagnosis_design, gap_size, identification)
-from .fingerprints import Fingerprint, FingerprintSet, compute_fingerprints, nuisance_projector
-from .measurements import (KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations,
-                           load_measurements, measurement_from_dict, write_measurements)
-from .observables import (AngleFit, angle_from_image, angle_from_particles, bed_height,
-                          fit_surface_angle, observe, packing_fraction_in_region, psd_percentiles,
-                          psd_percentiles_from_cumulative, read_image, render_side_view, roughness,
-                          surface_profile, windowed_mean)
+from .diagnosis_result import Diagnosis, NextMeasurement, identification
+from .confirm import Shrink, gap_size
+from .diagnosis import candidate_design, diagnose, diagnosis_design
+from .effect_response import Fingerprint
+from .fingerprints import FingerprintSet
+from .fingerprint_runs import compute_fingerprints
+from .identifiability import nuisance_projector
+from .measurements import KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations
+from .measurement_io import load_measurements, measurement_from_dict, write_measurements
+from .observables_image import (
+    AngleFit, angle_from_image, angle_from_particles, fit_surface_angle, read_image,
+    render_side_view, surface_profile)
+from .observables import (
+    bed_height, observe, packing_fraction_in_region, psd_percentiles,
+    psd_percentiles_from_cumulative, roughness, windowed_mean)
 from .replicates import Simulator, simulate_replicates
 from .report import diagnosis_report, validation_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
-from .validate import ENGINE_PRESETS, PRESETS, engine_twin_design, twin_design, validate
+from .validate import ENGINE_PRESETS, PRESETS, validate
+from .validation_design import engine_twin_design, twin_design
 from .validate_liggghts import LIGGGHTS_PRESETS, validate_liggghts
 from .validation_scores import GOALS, ValidationResult, capped_summary, capped_twins, score_twins
 from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table

@@ -18,11 +18,13 @@ from scipy import stats
 from ..errors import ConfigError
 from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
-from .fingerprints import FingerprintSet, assess_fingerprints, compute_fingerprints, \
-    selection_threshold
+from .fingerprints import FingerprintSet, selection_threshold
+from .identifiability import assess_fingerprints
+from .fingerprint_runs import compute_fingerprints
 from .fingerprint_runs import simulate_node
 from .replicates import Simulator, simulate_replicates
-from .measurements import MeasurementSet, measurement_from_dict
+from .measurements import MeasurementSet
+from .measurement_io import measurement_from_dict
 from .separation import not_told_apart
 from .where import standardised_residuals, where
 from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
@@ -30,12 +32,9 @@ from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
 from .trial_counts import TrialCheck, file_trials, trial_check, unread_counts
 from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
 # the result types live in diagnosis_result (re-exported: imports from here keep working)
-from .diagnosis_result import (SCHEMA, Diagnosis, NextMeasurement, _residual,  # noqa: F401
-                               identification, uneven_scatter_note)
+from .diagnosis_result import Diagnosis, NextMeasurement, _residual
 
-__all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
-           "NextMeasurement",
-           "Diagnosis", "diagnose"]
+__all__ = ["candidate_design", "diagnosis_design", "diagnose"]
 
 
 def candidate_design(effects: Sequence[Effect], existing: MeasurementSet | None = None) -> MeasurementSet:

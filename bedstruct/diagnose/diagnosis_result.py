@@ -205,11 +205,6 @@ class Diagnosis:
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])
 
-    def report(self, *, title: str | None = None):
-        """The diagnosis as a :class:`bedstruct.report._model.Report` (HTML/JSON via write_report)."""
-        from .report import diagnosis_report
-        return diagnosis_report(self, title=title)
-
 
 def uneven_scatter_note(component: str, u: dict) -> str:
     """One sentence on a component whose run-to-run scatter differs between parameter points."""

@@ -466,7 +466,7 @@ def diagnosis_simulator(design, config: Mapping[str, Any] | None = None) -> Engi
 
     Examples
     --------
-    >>> from bedstruct.diagnose.measurements import measurement_from_dict, MeasurementSet
+    >>> from bedstruct.diagnose import measurement_from_dict, MeasurementSet
     >>> m = measurement_from_dict({"name": "psd", "kind": "psd", "role": "candidate",
     ...                            "uncertainty": 1e-6, "percentiles": [10, 50, 90],
     ...                            "conditions": {"stage": "before"}})

@@ -22,7 +22,8 @@ from scipy import stats
 
 from ..errors import ConfigError
 from .catalogue import Effect
-from .fingerprints import (Fingerprint, FingerprintSet, _design_sigma, selection_threshold)
+from .effect_response import Fingerprint
+from .fingerprints import FingerprintSet, _design_sigma, selection_threshold
 from .identifiability import _correlated_scatter, _uneven_scatter, assess_fingerprints
 from .measurements import MeasurementSet
 from .replicates import (Simulator, homogeneous_variance, simulate_replicates,

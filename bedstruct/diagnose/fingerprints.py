@@ -9,8 +9,8 @@ parameters (e.g. the cohesion energy density) span the *nuisance* directions: a
 gap along them is closed by recalibrating, not by an effect. Identifiability is
 judged on the calibration observables, whitened by the combined noise, after
 projecting those directions out. The runs and the set built from them are in
-:mod:`bedstruct.diagnose.fingerprint_runs` (:func:`compute_fingerprints`, re-exported
-here), identifiability in :mod:`bedstruct.diagnose.identifiability`.
+:mod:`bedstruct.diagnose.fingerprint_runs` (:func:`~bedstruct.diagnose.fingerprint_runs.compute_fingerprints`),
+identifiability in :mod:`bedstruct.diagnose.identifiability`.
 
 .. versionadded:: 0.1
 """
@@ -24,15 +24,12 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-# one effect's response lives there and is re-exported here
 from .effect_response import Fingerprint
-# identifiability's two public functions live there and are re-exported here
-from .identifiability import assess_fingerprints, nuisance_projector  # noqa: F401
+from .identifiability import assess_fingerprints
 from .measurements import MeasurementSet
 from .where import _nan_mean
 
-__all__ = ["Fingerprint", "FingerprintSet", "compute_fingerprints", "assess_fingerprints",
-           "nuisance_projector"]
+__all__ = ["FingerprintSet", "selection_threshold"]
 
 log = logging.getLogger(__name__)
 
@@ -316,7 +313,8 @@ class FingerprintSet:
         --------
         A linear toy simulator: two calibration observables and a held-out one.
 
-        >>> from bedstruct.diagnose import Effect, MeasurementSet, Observations, measurement_from_dict
+        >>> from bedstruct.diagnose import (Effect, MeasurementSet, Observations, compute_fingerprints,
+        ...                                 measurement_from_dict)
         >>> design = MeasurementSet(tuple(measurement_from_dict(dict(
         ...     name=n, kind="static_angle", value=0.0, uncertainty=1.0, role=r))
         ...     for n, r in [("a", "calibrate"), ("b", "calibrate"), ("c", "validate")]))
@@ -408,7 +406,3 @@ def selection_threshold(alpha: float, n_effects: int) -> float:
 
 def _design_sigma(design: MeasurementSet, names) -> np.ndarray:
     return np.concatenate([design[n].uncertainty for n in names])
-
-
-# the computation lives beside the types it builds and is re-exported here
-from .fingerprint_runs import compute_fingerprints  # noqa: E402

@@ -14,15 +14,11 @@ shows most. Split from :mod:`bedstruct.diagnose.fingerprints`, which re-exports 
 from __future__ import annotations
 
 import warnings
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .measurements import MeasurementSet
 from .where import _nan_var
-
-if TYPE_CHECKING:
-    from .fingerprints import FingerprintSet
 
 __all__ = ["nuisance_projector", "assess_fingerprints"]
 

@@ -8,6 +8,9 @@ from __future__ import annotations
 import math
 
 from .._version import __version__
+from .diagnosis_result import identification, uneven_scatter_note
+from .separation import nearest_imitations
+from .validation_scores import capped_summary
 
 __all__ = ["diagnosis_report", "validation_report"]
 
@@ -21,7 +24,6 @@ def _fmt(v, nd=3):
 def _identified_by(fps, row) -> str:
     if row["identifiable"] or row["identify_with"]:
         return ", ".join(row["identify_with"])
-    from .diagnosis import identification
     return identification(fps, row["effect"])["note"]
 
 
@@ -97,7 +99,6 @@ def diagnosis_report(diag, *, title: str | None = None):
             s.text += (f" {', '.join(thin)}: more than half the signal lies on observables that "
                        "the prior top observed in one run only (the other runs could not observe "
                        "them), so its size rests on that run; more replicate seeds would judge it.")
-        from .separation import nearest_imitations
         s.tables.append(Table(["effect", "closest imitation by", "unique part", "told apart from a gap of (sigma)",
                                "signal at prior top (sigma)"],
                               [[r["effect"], r["other"], _fmt(r["unique_fraction"]),
@@ -231,8 +232,6 @@ def validation_report(result):
     """A report of a :class:`ValidationResult` (goals, confusion matrix, magnitude recovery)."""
     from ..report._model import Report, Table, run_section
     from ..plot import diagnose as pdg
-    from .validation_scores import capped_summary
-    from .diagnosis import uneven_scatter_note
 
     rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
                  inputs={"simulator": result.simulator, "preset": result.preset},

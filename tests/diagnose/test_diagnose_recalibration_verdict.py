@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bedstruct.diagnose import compute_fingerprints, diagnose
+from bedstruct.diagnose import compute_fingerprints, diagnose, diagnosis_report
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
 
 N = 12
@@ -121,7 +121,7 @@ def test_a_rerun_that_contradicts_the_interpolation_becomes_a_node_and_the_refit
     # finite-difference step; linear here, so it changed nothing and A's node was refitted)
     assert d.settings["simulator_runs"] == 12 and "recalibration" not in first
     assert d.to_json()["shrink"]["refits"][0]["model"] == "A"
-    rep = d.report()
+    rep = diagnosis_report(d)
     assert rep.failed == []
     (how_far,) = [s for s in rep.sections if s.key == "shrink"]
     assert any("refitted" in (t.caption or "") for t in how_far.tables)

@@ -11,14 +11,12 @@ import numpy as np
 import pytest
 
 from bedstruct.dem.backends import find_liggghts
-from bedstruct.diagnose.external_twins import (TWIN_MARK, apply_effect, capillary_effect,
-                                               easo_bridge_volume, easo_capillary_force,
-                                               liggghts_simulator, liggghts_twin_design,
-                                               make_liggghts_twin,
-                                               null_effect, rolling_friction_effect,
-                                               wall_friction_effect, willett_capillary_force,
-                                               with_capillary_bridges, with_rolling_friction,
-                                               with_wall_friction, write_liggghts_wrapper)
+from bedstruct.diagnose.liggghts_effects import (
+    TWIN_MARK, apply_effect, capillary_effect, easo_bridge_volume, easo_capillary_force,
+    null_effect, rolling_friction_effect, wall_friction_effect, willett_capillary_force,
+    with_capillary_bridges, with_rolling_friction, with_wall_friction)
+from bedstruct.diagnose.external_twins import (
+    liggghts_simulator, liggghts_twin_design, make_liggghts_twin, write_liggghts_wrapper)
 
 needs_liggghts = pytest.mark.skipif(find_liggghts() is None,
                                     reason="liggghts is not installed (.ci/install-engines.sh)")

@@ -107,7 +107,8 @@ def test_tool_motion_uses_the_ramp_program():
 
 
 def test_engine_simulator_maps_base_and_effects():
-    from bedstruct.diagnose.measurements import MeasurementSet, measurement_from_dict
+    from bedstruct.diagnose.measurements import MeasurementSet
+    from bedstruct.diagnose.measurement_io import measurement_from_dict
     from bedstruct.diagnose.engine_simulator import diagnosis_simulator
     m = measurement_from_dict({"name": "psd", "kind": "psd", "role": "candidate",
                                "uncertainty": 1e-6, "percentiles": [10, 50, 90],
