@@ -249,7 +249,7 @@ def run(args) -> int:
                     seed=cfg.seed if args.seed is None else args.seed,
                     alpha=cfg.alpha, select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
                     max_effects=cfg.max_effects, refine=cfg.refine,
-                    confirm_rounds=cfg.confirm_rounds, progress=args.progress)
+                    confirm_rounds=cfg.confirm_rounds, bounds=cfg.bounds, progress=args.progress)
     out = diag.to_json()
     out["sim_config"] = cfg.as_dict()
     html, js = write_report(diagnosis_report(diag), args.out)

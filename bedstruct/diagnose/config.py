@@ -17,6 +17,7 @@ parameters recalibration may change, the catalogue and the statistical levels::
 
     [recalibrate]
     parameters = ["cohesion_energy_density"]
+    bounds = { cohesion_energy_density = [0.0, 1e9] }   # optional: narrower than physical
 
     [catalogue]
     exclude = []
@@ -46,6 +47,7 @@ from typing import Any
 from ..errors import ConfigError
 from .catalogue import Effect, catalogue
 from .measurements import MeasurementSet
+from .parameters import parameter_bounds
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 
 __all__ = ["SimConfig", "load_sim_config", "make_simulator"]
@@ -59,6 +61,7 @@ class SimConfig:
     kind: str = "surrogate"
     base: dict = field(default_factory=lambda: dict(BASE_PARAMETERS))
     nuisance: tuple[str, ...] = ("cohesion_energy_density",)
+    bounds: dict = field(default_factory=dict)
     effects: tuple[Effect, ...] = field(default_factory=catalogue)
     replicates: int = 4
     top_up: int = 0
@@ -75,6 +78,7 @@ class SimConfig:
 
     def as_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "base": dict(self.base), "recalibrate": list(self.nuisance),
+                "bounds": parameter_bounds(self.nuisance, self.bounds),
                 "effects": [e.name for e in self.effects], "replicates": self.replicates,
                 "top_up": self.top_up, "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
                 "gof_alpha": self.gof_alpha,
@@ -138,6 +142,21 @@ def load_sim_config(path) -> SimConfig:
     for n in nuisance:
         if n not in base:
             raise ConfigError(f"{p} [recalibrate]: key 'parameters': {n!r} is not a base parameter")
+    bounds = rec.get("bounds", {})
+    if not isinstance(bounds, dict):
+        raise ConfigError(f"{p} [recalibrate]: key 'bounds': expected a table of "
+                          f"parameter = [lower, upper]; got {bounds!r}")
+    unknown = set(rec) - {"parameters", "bounds"}
+    if unknown:
+        raise ConfigError(f"{p} [recalibrate]: key {sorted(unknown)[0]!r}: unknown")
+    try:
+        limits = parameter_bounds(nuisance, bounds)
+    except ConfigError as exc:
+        raise ConfigError(f"{p} {exc}") from None
+    for n, (lo, hi) in limits.items():
+        if not lo <= base[n] <= hi:
+            raise ConfigError(f"{p} [base]: key {n!r}: {base[n]:g} is outside its bounds "
+                              f"[{lo:g}, {hi:g}]")
     cat = doc.get("catalogue", {})
     try:
         names = cat.get("effects")
@@ -145,7 +164,7 @@ def load_sim_config(path) -> SimConfig:
     except ConfigError as exc:
         raise ConfigError(f"{p} [catalogue]: {exc}") from None
     dg = doc.get("diagnosis", {})
-    cfg = SimConfig(kind=kind, base=base, nuisance=nuisance, effects=effects,
+    cfg = SimConfig(kind=kind, base=base, nuisance=nuisance, bounds=dict(bounds), effects=effects,
                     replicates=_get(sim, "replicates", int, f"{p} [simulator]", 4),
                     top_up=_get(sim, "top_up", int, f"{p} [simulator]", 0),
                     seed=_get(sim, "seed", int, f"{p} [simulator]", 0),

@@ -174,7 +174,7 @@ def p_fit_z(z, correlation=None) -> float:
 
 
 def _or_zero(values, j: int) -> float:
-    """``values[j]``, or 0 where a fit does not state it (one made before fit rule 12)."""
+    """``values[j]``, or 0 where a fit does not state it (a fit without run noise)."""
     return float(values[j]) if len(values) > j and np.isfinite(values[j]) else 0.0
 
 
@@ -209,8 +209,8 @@ class Confirmation:
         Simulator runs made.
     extra_samples : (R, q) ndarray or None
         The last rerun's components of ``extra_names`` (observables the checks do not
-        fit, such as those a file read in no trial; fit rule 14 counts their runs without a
-        reading).
+        fit, such as those a file read in no trial; the trial check counts their runs
+        without a reading).
     rerun_seeds : tuple of int
         The seeds of the last rerun.
     """
@@ -278,7 +278,7 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
     parameter exceeds its finite-difference step, its linear sensitivities were
     extrapolated: the base is simulated at that shift on the base runs' seeds and each
     sensitivity becomes the least-squares line through the origin and both paired points
-    (this round's refit). Otherwise, for a *single* effect, the interpolated fingerprint
+    (the refit). Otherwise, for a *single* effect, the interpolated fingerprint
     was wrong at the fitted magnitude, and the rerun, corrected to the base nuisance with
     the linear sensitivities the fit uses, is the effect's response there: it becomes a
     node. A pair's rerun cannot be split between its two effects, and a rerun that fails
@@ -331,8 +331,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         # shifts puts on the prediction. On the held-out observables it is the fit's whole
         # uncertainty. On the calibration observables the data's own noise cancels from it
         # (the values were fitted to these data), but the noise of the runs the fit read
-        # them through does not (fit rule 12; before, the calibration check left it out,
-        # and a true model with a noisy prediction failed it beyond its level).
+        # them through does not: without it a true model with a noisy prediction would
+        # fail the check more often than its level.
         pred_var = np.zeros(len(fps.sigma))
         runs_var = np.zeros(len(fps.sigma))
         for j, (e, a_e) in enumerate(zip(model.effects, model.magnitudes)):

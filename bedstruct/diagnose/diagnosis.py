@@ -115,7 +115,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
              top_up: int = 0, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, max_effects: int = 2,
              fingerprints: FingerprintSet | None = None, simulator_name: str | None = None,
-             refine: int = 2, confirm_rounds: int = 2, progress: bool = False) -> Diagnosis:
+             refine: int = 2, confirm_rounds: int = 2, bounds=None,
+             progress: bool = False) -> Diagnosis:
     """Diagnose the gap between a simulator and a measurement set.
 
     Parameters
@@ -132,6 +133,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         Catalogue to consider (default: all of :data:`CATALOGUE`).
     nuisance : sequence of str
         Base parameters that recalibration may change (projected out of the fingerprints).
+    bounds : mapping of str to (float, float), optional
+        Narrower bounds of the recalibrated parameters than their physical ones
+        (:func:`~bedstruct.diagnose.parameters.parameter_bounds`); the recalibration is
+        fitted within them, and a fit that ends on one says so.
     replicates : int
         Replicate seeds per parameter point.
     top_up : int
@@ -187,7 +192,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         fps = fingerprints.subset([e.name for e in effects])
         fps = replace(fps, alpha=select_alpha)
     fps, rows_meas, names, y, sm, data_notes = _measured_vectors(measurements, fps)
-    # the file's trials without a reading (fit rule 14), and the observables the reruns must
+    # the file's trials without a reading (trial_counts), and the observables the reruns must
     # give for them that the fit does not use (read in no trial)
     trials = file_trials(measurements)
     unread_pts = fps.meta.get("unread_runs", {})
@@ -199,7 +204,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     # identifiability in this file's noise and for this catalogue, as fingerprints computed
     # for the file would have it (reused ones were assessed in their design's noise)
     fps = assess_fingerprints(replace(fps, sigma_meas=sigma_meas,
-                                      threshold=selection_threshold(select_alpha, len(effects))))
+                                      threshold=selection_threshold(select_alpha, len(effects)),
+                                      bounds=dict(bounds or {})))
 
     base_meas = fps.base_samples[:, rows_meas]
     # the measured observables in the fingerprints' row order (a file may list them otherwise)
@@ -384,7 +390,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
 
 def _trial_check(simulator, trials, unread_pts, n_comp, names, trial_names, samples, extra,
                  params, mags, seeds) -> tuple[TrialCheck, int]:
-    """Fit rule 14: the file's trials without a reading against the final model's runs.
+    """The file's trials without a reading against the final model's runs.
 
     The runs are the last rerun (``samples`` on ``names``, ``extra`` on ``trial_names``);
     where the file holds an observable read in no trial, ``2 x len(seeds)`` further seeds

@@ -275,8 +275,8 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
     usable = np.isfinite(sim_var) & (np.isfinite(base_s).sum(axis=0) > 0) \
         & np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(D_all), axis=0) \
         & np.all(np.isfinite(SE_all), axis=0)
-    # runs without a reading, per observable and point (fit rule 14 weighs a file's trials
-    # without one against them; see trial_counts)
+    # runs without a reading, per observable and point (the trial check weighs a file's
+    # trials without one against them; see trial_counts)
     point_effects = [{}] * first_effect + [{e.name: float(m)} for e in effects
                                            for m in e.reference_magnitudes]
     unread_runs = {}

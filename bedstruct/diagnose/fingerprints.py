@@ -27,6 +27,7 @@ from ..errors import ConfigError
 from .effect_response import Fingerprint
 from .identifiability import assess_fingerprints
 from .measurements import MeasurementSet
+from .parameters import parameter_bounds
 from .where import _nan_mean
 
 __all__ = ["FingerprintSet", "selection_threshold"]
@@ -76,6 +77,9 @@ class FingerprintSet:
         base.
     top_up_seeds : tuple of int
         The seeds added for them.
+    bounds : dict of str to (float, float)
+        Narrower bounds of recalibrated parameters than their physical ones (the
+        configuration's ``[recalibrate] bounds``; see :meth:`shift_bounds`).
     """
 
     design: MeasurementSet
@@ -99,6 +103,7 @@ class FingerprintSet:
     sim_dof: np.ndarray | None = None
     topped_up: tuple[str, ...] = ()
     top_up_seeds: tuple[int, ...] = ()
+    bounds: dict = field(default_factory=dict)
 
     @property
     def n_replicates(self) -> int:
@@ -298,6 +303,19 @@ class FingerprintSet:
         if name in steps:
             return float(steps[name])
         return 0.05 * abs(self.base[name]) if self.base[name] != 0 else 0.05
+
+    def parameter_bounds(self) -> dict[str, tuple[float, float]]:
+        """Bounds of each recalibrated parameter (its units): physical, narrowed by
+        :attr:`bounds` (:func:`~bedstruct.diagnose.parameters.parameter_bounds`)."""
+        return parameter_bounds(self.nuisance, self.bounds)
+
+    def shift_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the recalibration shifts: the parameters' bounds less
+        their base values, in the order of :attr:`nuisance`."""
+        b = self.parameter_bounds()
+        lo = np.array([b[n][0] - float(self.base[n]) for n in self.nuisance], dtype=float)
+        hi = np.array([b[n][1] - float(self.base[n]) for n in self.nuisance], dtype=float)
+        return lo, hi
 
     @property
     def base_mean(self) -> np.ndarray:
