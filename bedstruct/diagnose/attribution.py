@@ -258,14 +258,22 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     if k == 0:
         x, active = _bounded_linear(S, r, nlo, nhi) if p else (np.zeros(0), np.zeros(0, bool))
     else:
-        best = None
-        starts = [np.clip(np.zeros(k), lo, hi), 0.5 * (lo + hi), hi * 0.9 + lo * 0.1]
-        for a0 in starts:
-            x0 = np.clip(np.concatenate([a0, np.zeros(p)]), blo, bhi)
-            sol = optimize.least_squares(fun, x0, jac=jac, bounds=(blo, bhi), method="trf",
-                                         x_scale="jac")
-            if best is None or sol.cost < best.cost:
-                best = sol
+        def solve(bounds_lo, bounds_hi):
+            best = None
+            starts = [np.clip(np.zeros(k), lo, hi), 0.5 * (lo + hi), hi * 0.9 + lo * 0.1]
+            for a0 in starts:
+                x0 = np.clip(np.concatenate([a0, np.zeros(p)]), bounds_lo, bounds_hi)
+                sol = optimize.least_squares(fun, x0, jac=jac, bounds=(bounds_lo, bounds_hi),
+                                             method="trf", x_scale="jac")
+                if best is None or sol.cost < best.cost:
+                    best = sol
+            return best
+        # the shifts' bounds enter only where the fit would cross them (an inactive bound
+        # changes no optimum, and the solver's path is then the unbounded one)
+        best = solve(np.concatenate([lo, np.full(p, -np.inf)]),
+                     np.concatenate([hi, np.full(p, np.inf)]))
+        if np.any(best.x[k:] < nlo) or np.any(best.x[k:] > nhi):
+            best = solve(blo, bhi)
         x = best.x
         active = best.active_mask != 0
     res = fun(x)
@@ -351,6 +359,9 @@ def _bounded_linear(S, r, lo, hi) -> tuple[np.ndarray, np.ndarray]:
     >>> _bounded_linear(S, np.array([-3.0, -1.0]), np.array([-1.0]), np.array([np.inf]))
     (array([-1.]), array([ True]))
     """
+    x = np.linalg.lstsq(S, r, rcond=None)[0]
+    if np.all((x >= lo) & (x <= hi)):
+        return x, np.zeros(len(x), bool)
     norm = np.linalg.norm(S, axis=0)
     d = np.where(norm > 0, 1.0 / np.where(norm > 0, norm, 1.0), 1.0)
     sol = optimize.lsq_linear(S * d, r, bounds=(lo / d, hi / d), method="bvls")

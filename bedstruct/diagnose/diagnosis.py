@@ -27,7 +27,7 @@ from .measurements import MeasurementSet
 from .measurement_io import measurement_from_dict
 from .separation import not_told_apart
 from .where import standardised_residuals, where
-from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
+from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size, shrink_interval,
                       p_fit_z as _p_fit_z, params_after as _params_after)
 from .trial_counts import TrialCheck, file_trials, trial_check, unread_counts
 from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
@@ -296,6 +296,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     b, r_, a = (gap_size(z_before[held_meas], c), gap_size(z_recal[held_meas], c),
                 gap_size(z_after[held_meas], c))
     frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")
+    frac_interval = shrink_interval(z_before[held_meas], z_after[held_meas], c, seed=seed)
     frac_rms = 1.0 - a[0] / b[0] if b[0] > 0 else float("nan")
     p_cal, p_held = conf.p_calibration, conf.p_heldout
     q, n_held = quadratic_form(z_before[held_meas], c)
@@ -307,7 +308,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     p_trials = chk.p_value if trials else float("nan")
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
                     tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before,
-                    worst, p_trials, chk.rows)
+                    worst, p_trials, chk.rows, frac_interval)
     trials_failed = bool(trials) and chk.p_value < gof_alpha
     refit_note = "; ".join(_refit_text(r) for r in conf.refits)
     if refit_note:

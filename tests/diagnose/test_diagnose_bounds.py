@@ -102,6 +102,11 @@ def test_the_diagnosis_says_when_the_recalibration_ends_on_a_bound(fps):
     js = d.to_json()
     assert js["recalibration"]["cohesion_energy_density"]["at_bound"] is True
     assert js["recalibration"]["cohesion_energy_density"]["value"] >= 0.0
+    # and in words, for the engineer
+    from bedstruct.diagnose.answer import answer, compact_answer
+    assert "cohesion energy density stopped at its physical bound 0 MJ/m³" in \
+        answer(d).recalibration
+    assert compact_answer(d)["at_bound"] == ["cohesion_energy_density"]
 
 
 def test_configured_bounds_narrow_the_physical_ones(tmp_path, fps):

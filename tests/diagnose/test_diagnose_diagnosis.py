@@ -271,7 +271,10 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
                  "--json"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     j = json.loads(last)
-    assert j["simulator"] == "surrogate" and j["where"] and "shrink" in j and "which" in j
+    assert j["simulator"] == "surrogate" and j["verdict"] == "attributed"
+    assert j["effect"] == "missing_fines" and len(j["where"]) == 3
+    assert j["magnitude"]["interval"][0] <= j["magnitude"]["value"] <= j["magnitude"]["interval"][1]
+    assert set(j["shrink"]) >= {"value", "interval"}
     assert (tmp_path / "d" / "report.html").is_file() and (tmp_path / "d" / "diagnosis.json").is_file()
     assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED)]) == 2     # usage
     assert "missing --out" in capsys.readouterr().err
@@ -300,7 +303,8 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["settings"]["refine"] == 0
     assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "r"),
                  "--refine", "0", "--json"]) == 0
-    j = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    capsys.readouterr()
+    j = json.loads((tmp_path / "r" / "diagnosis.json").read_text())
     assert j["sim_config"]["refine"] == 0 and j["settings"]["refine"] == 0
     with pytest.raises(SystemExit) as exc:
         main(["diagnose", "validate", "--refine", "-1"])
@@ -309,7 +313,8 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
     # marginal effects, and is recorded
     assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "t"),
                  "--refine", "0", "--top-up", "3", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["sim_config"]["top_up"] == 3
+    capsys.readouterr()
+    assert json.loads((tmp_path / "t" / "diagnosis.json").read_text())["sim_config"]["top_up"] == 3
     with pytest.raises(SystemExit) as exc:
         main(["diagnose", "validate", "--top-up", "x"])
     assert exc.value.code == 2 and "whole number >= 0" in capsys.readouterr().err

@@ -180,7 +180,8 @@ def test_a_model_that_never_gives_the_trials_without_a_reading_is_unexplained(tm
     assert sh.trial_rows[0]["pools"] == [[0, 3 + 3 + 3 + 9], [0, 3 + 9]]
     # the report shows the check and its table
     secs = [x for x in diagnosis_report(d).sections if "p_rerun_trials" in x.numbers]
-    assert secs and secs[0].numbers["p_rerun_trials"].value == pytest.approx(sh.p_rerun_trials)
+    assert secs and secs[0].numbers["p_rerun_trials"].value == pytest.approx(sh.p_rerun_trials,
+                                                                          rel=5e-3)
     assert any("trials without a reading" in t.columns for t in secs[0].tables)
     # the same readings without the trials stated: B fits them and is named
     plain = type(twin)(tuple(replace(m, trials=None, not_measured=None) for m in twin.measurements),
