@@ -207,8 +207,8 @@ def wild_node_fit(r):
 def test_a_wild_node_widens_the_magnitude_interval_where_its_response_is_noisy(monkeypatch):
     """A refinement node where heaps stand or fall: its response on o0 is the mean of three
     runs scattering by ~30, and the interval of the magnitude fitted through it carries that
-    noise (fit rule 10: Fingerprint.se_nodes); the interpolated standard error of the tame
-    fingerprint points (the rule before) made it about half as wide, covering 0.25 in 12 of
+    noise (Fingerprint.se_nodes); the interpolated standard error of the tame
+    fingerprint points would make it about half as wide, covering 0.25 in 12 of
     40 draws against 22. Still short of 95 %: the wild o0 also pulls the estimate itself,
     which the interval's linearisation at the fitted magnitude does not carry."""
     from bedstruct.diagnose.fingerprints import FingerprintSet

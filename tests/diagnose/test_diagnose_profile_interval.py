@@ -1,4 +1,4 @@
-"""Magnitude intervals from the profile of the chi-square (fit rule 13).
+"""Magnitude intervals from the profile of the chi-square.
 
 The normal approximation reads the local slope of the interpolated response at the fitted
 magnitude; the profile refits the recalibration (and a partner effect) over the whole

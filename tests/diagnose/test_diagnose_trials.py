@@ -143,7 +143,7 @@ def test_the_diagnosis_reports_trials_without_a_reading_and_fits_the_rest(tmp_pa
                      refine=0).to_json()["not_measured"]
 
 
-# ---- fit rule 14: the trials without a reading are weighed against the model's runs
+# ---- the trials without a reading are weighed against the model's runs
 
 def _mimic():
     """A and B change the readings alike; only A makes o3 give no reading (above 0.6), as
