@@ -235,7 +235,7 @@ def diagnosis_report(diag, *, title: str | None = None):
 
     def answer_(s):
         a = answer(diag)
-        s.text = a.headline + (" " + sim_note if diag.simulator == "surrogate" else "")
+        s.text = a.headline
         s.tables.append(Table(["question", "answer"],
                               [["Which effect", a.which], ["How far", a.how_far],
                                ["Recalibration", a.recalibration], ["What next", a.next]]))
