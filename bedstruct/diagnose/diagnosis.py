@@ -31,7 +31,6 @@ from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size, 
                       p_fit_z as _p_fit_z, params_after as _params_after)
 from .trial_counts import TrialCheck, file_trials, trial_check, unread_counts
 from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
-# the result types live in diagnosis_result (re-exported: imports from here keep working)
 from .diagnosis_result import Diagnosis, NextMeasurement, _residual
 
 __all__ = ["candidate_design", "diagnosis_design", "diagnose"]

@@ -1,8 +1,7 @@
 """What a diagnosis found: the :class:`Diagnosis` result, its JSON answer and data notes.
 
 :func:`~bedstruct.diagnose.diagnosis.diagnose` makes it; this module holds the result types
-and the text they give (which measurements would identify an effect, notes on the data),
-split from :mod:`bedstruct.diagnose.diagnosis`, which re-exports them.
+and the text they give (which measurements would identify an effect, notes on the data).
 
 .. versionadded:: 0.1
 """

@@ -6,8 +6,8 @@ same replicate seeds, and builds the :class:`~bedstruct.diagnose.fingerprints.Fi
 from the paired differences. With ``top_up`` it then runs the base and the effects whose
 identifiability is still undecided by their own estimation noise
 (:meth:`FingerprintSet.marginal`) on further seeds, and builds the set again: simulation
-time goes where the judgement is close. Split from
-:mod:`bedstruct.diagnose.fingerprints`, which re-exports :func:`compute_fingerprints`.
+time goes where the judgement is close. The set's type is
+:class:`~bedstruct.diagnose.fingerprints.FingerprintSet`.
 
 .. versionadded:: 0.1
 """

@@ -12,7 +12,7 @@ distribution into d10/d50/d90 (:func:`psd_percentiles`,
 The image-based angle operator (:func:`render_side_view`, :func:`surface_profile`,
 :func:`fit_surface_angle`, :func:`fit_image_angle`, :func:`angle_from_image`,
 :func:`angle_from_particles`, :class:`AngleFit`, :func:`read_image`) lives in
-:mod:`bedstruct.diagnose.observables_image` and is re-exported here.
+:mod:`bedstruct.diagnose.observables_image`.
 
 :func:`observe` dispatches on the kind with a documented dict of arrays, which is
 the contract a simulation workflow fills in.
