@@ -126,8 +126,8 @@ def main(argv=None) -> int:
 def diagnosis_call_timing(preset: str, threads: int) -> int:
     """Time one uncached engine call of the diagnosis (base parameters, seed 1)."""
     from bedstruct.dem import Simulation
-    from bedstruct.diagnose.validate import engine_scale_model, engine_twin_design
-    from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
+    from bedstruct.diagnose.validation_design import engine_scale_model, engine_twin_design
+    from bedstruct.diagnose.engine_simulator import diagnosis_simulator
 
     sim = diagnosis_simulator(engine_twin_design(),
                               {"preset": engine_scale_model(preset), "n_threads": threads})

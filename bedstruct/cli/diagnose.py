@@ -1,44 +1,12 @@
-"""Diagnose the sim-to-real gap, or validate the diagnosis on synthetic twins.
+"""Diagnose the gap between a simulation and measurements, or validate the diagnosis.
 
-  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--seed S] [--cache DIR]
-                     [--jobs N] [--refine N] [--top-up N] [--json] [--progress]
-  bedstruct diagnose validate --preset mini|tiny|small
-                             [--simulator surrogate|engine|liggghts] [--campaign seed|full]
-                             [--sim CONFIG] [--cache DIR] [--jobs N] [--seed S] [--twin-seed S]
-                             [--records FILE [--records-only]] [--shard K/N | --twin-jobs N]
-                             [--twin-repeats R] [--refine N] [--top-up N] [--out DIR]
-                             [--json] [--progress]
+  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR
+      Where the simulation misses the measurements, which effect explains it, how far
+      the gap shrinks with it, and what to measure next (CONFIG: a TOML or "surrogate").
+  bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
+      Score the diagnosis on synthetic twins whose effect is withheld.
 
-CONFIG is a simulation TOML (see docs/diagnose.md; ``kind = "engine"`` runs the DEM
-workflows through ``bedstruct.workflows.diagnosis_simulator``) or the word ``surrogate``;
-MEASUREMENTS is a measurement TOML (example: data/measurements/seed.toml).
-Writes DIR/report.html, DIR/report.json and DIR/diagnosis.json (or
-validation.json). With --json the last line printed is one JSON object: for a
-diagnosis at least ``where``, ``which`` and ``shrink``; for validation at least
-``top1_accuracy``, ``null_false_attribution``, ``out_of_catalogue_unexplained``
-and ``median_gap_shrink``. ``validate`` runs its twins on the analytic surrogate
-by default (seconds); ``--simulator engine`` runs them on the embedded DEM engine
-(the ``[engine]`` table of ``--sim CONFIG``, default the scale model named by
-``--preset``; ``--campaign full`` adds the catalogue's candidate measurements to the
-twins' files); ``--simulator liggghts`` makes the twins with LIGGGHTS and diagnoses
-them on the engine (tiny only). ``--cache DIR`` keeps every engine run on disk for
-reruns; ``--jobs N`` runs engine calls in N processes; ``--preset mini`` is a
-one-effect smoke run; ``--twin-seed`` draws a further batch of twins on the same
-fingerprints; ``--records FILE`` appends each twin's record as it completes and
-resumes from the records already there (with ``--records-only`` it scores them and
-runs no twin: the table of a partial run or of shards merged with ``cat``); ``--shard K/N`` runs every N-th twin from
-the K-th, to split one validation over processes or machines; ``--twin-jobs N`` runs
-the twins in N processes on this machine, one twin each at a time (the fingerprints first,
-here; on the engine it needs ``--cache``; with ``--progress`` the bar names each running
-twin and the engine calls it has run); ``--twin-repeats R``
-makes each twin's file the mean of R repeated experiments. ``--refine N`` sets the
-refinement rounds of each diagnosis (the effects leading the fit simulated at their fitted
-magnitudes and the fit repeated; a diagnosis's default is its config's ``refine``, a
-validation's 2 on the surrogate, 1 on the engine and with LIGGGHTS twins); ``--top-up N``
-the fingerprint seeds added where an effect's identifiability is marginal (a diagnosis's
-default is its config's ``top_up``, a validation's its preset's). Options of one mode given
-to the other are a usage error (exit 2). Every output names its simulator
-(``"simulator": "surrogate"``, ``"engine"`` or ``"liggghts"``).
+Details of every option and of the files: docs/diagnose.md.
 """
 
 from __future__ import annotations
@@ -49,53 +17,39 @@ HELP = "sim-to-real gap diagnosis (where, which effect, how far, what next) and 
 
 def add_arguments(parser) -> None:
     parser.add_argument("action", nargs="?", choices=["validate"], default=None,
-                        help="'validate' runs the synthetic-twin validation instead of a diagnosis")
+                        help="'validate': score the diagnosis on synthetic twins")
     parser.add_argument("--sim", metavar="CONFIG", help="simulation config TOML, or 'surrogate'")
     parser.add_argument("--real", metavar="MEASUREMENTS", help="measurement TOML file")
-    parser.add_argument("--out", metavar="DIR", help="output folder (HTML + JSON)")
+    parser.add_argument("--out", metavar="DIR", help="output folder (HTML report and JSON)")
     parser.add_argument("--preset", choices=["mini", "tiny", "small"], default=None,
-                        help="validation size (default tiny; mini: engine only)")
+                        help="validation size (default tiny)")
     parser.add_argument("--simulator", choices=["surrogate", "engine", "liggghts"],
                         default=None,
-                        help="validate: simulator of the twins (default surrogate; engine = DEM, "
-                             "slow; liggghts = twins made with LIGGGHTS, diagnosed on the DEM "
-                             "engine, tiny only)")
+                        help="validate: simulator of the twins (default surrogate)")
     parser.add_argument("--cache", metavar="DIR",
-                        help="engine: folder caching every run (overrides [engine] cache); "
-                             "validate --simulator liggghts keeps its twins in DIR/liggghts-twins")
-    parser.add_argument("--seed", type=int, default=None, help="override the replicate/twin seed")
+                        help="engine: folder caching every run (overrides [engine] cache)")
+    parser.add_argument("--seed", type=int, default=None, help="override the replicate seed")
     parser.add_argument("--twin-seed", type=int, default=None,
-                        help="validate: seed of the twins only (a further batch on cached fingerprints)")
+                        help="validate: seed of the twins only")
     parser.add_argument("--campaign", choices=["seed", "full"], default=None,
-                        help="validate --simulator engine: twins measure the seed's design, or "
-                             "the full campaign with the catalogue's candidate measurements")
+                        help="validate --simulator engine: the twins' measurement design")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
-                        help="engine: run batches of engine calls in N processes "
-                             "(overrides [engine] jobs; one single-threaded run per core)")
+                        help="engine: run engine calls in N processes")
     parser.add_argument("--records", metavar="FILE",
-                        help="validate: append each twin's record to this JSON-lines file as it "
-                             "completes; twins already recorded there are not rerun")
+                        help="validate: record each twin here and resume from it")
     parser.add_argument("--records-only", action="store_true", default=None,
-                        help="validate: score the twins recorded in --records FILE and run none "
-                             "(a partial or sharded run's table; fingerprints from --cache)")
+                        help="validate: score the recorded twins, run none")
     parser.add_argument("--shard", metavar="K/N", type=_shard,
-                        help="validate: run only twins i with i %% N == K (0 <= K < N)")
+                        help="validate: run only twins i with i %% N == K")
     parser.add_argument("--twin-jobs", type=int, default=None, metavar="N",
-                        help="validate: run the twins in N processes, one twin each at a time "
-                             "(the fingerprints first, in this process; engine: needs --cache)")
+                        help="validate: run the twins in N processes")
     parser.add_argument("--twin-repeats", type=int, default=None, metavar="R",
-                        help="validate: repeated experiments per twin, its file states their mean "
-                             "and standard error (default 1; R simulator calls per twin)")
+                        help="validate: repeated experiments per twin (default 1)")
     parser.add_argument("--refine", type=_rounds, default=None, metavar="N",
-                        help="refinement rounds of each diagnosis: the leading effects simulated "
-                             "at their fitted magnitudes, the fit repeated (default: the config's "
-                             "refine; validate: 2 on the surrogate, 1 on the engine and with "
-                             "LIGGGHTS twins)")
+                        help="rounds simulating the leading effects at their fits (default: config)")
     parser.add_argument("--top-up", type=_rounds, default=None, metavar="N",
-                        help="fingerprint seeds added for the base and every effect whose "
-                             "identifiability is marginal (default: the config's top_up; "
-                             "validate: the preset's, see ENGINE_PRESETS)")
-    parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+                        help="seeds added where an effect's identifiability is marginal")
+    parser.add_argument("--json", action="store_true", help="print the answer as one JSON line last")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
 
@@ -142,7 +96,7 @@ def _misplaced(args, names) -> list[str]:
 
 
 def _run_validate(args) -> int:
-    from ..diagnose import validate
+    from ..diagnose import validate, validation_report
     from ..report._model import _plain
     from ..report._render import write_report
     from . import UsageError, print_json
@@ -154,7 +108,7 @@ def _run_validate(args) -> int:
             setattr(args, name, default)
     engine = None
     if args.simulator in ("engine", "liggghts"):
-        from ..diagnose.validate import engine_scale_model
+        from ..diagnose.validation_design import engine_scale_model
         engine = {"preset": engine_scale_model(args.preset)}
         if args.sim:
             from ..diagnose import load_sim_config
@@ -172,7 +126,7 @@ def _run_validate(args) -> int:
                       refine=args.refine, top_up=args.top_up, twin_jobs=args.twin_jobs)
     out = result.to_json()
     if args.out:
-        write_report(result.report(), args.out)
+        write_report(validation_report(result), args.out)
         _write_json(f"{args.out}/validation.json", out)
     if args.json:
         compact = {k: v for k, v in out.items() if k != "twins"}
@@ -224,8 +178,9 @@ def run(args) -> int:
     misplaced = _misplaced(args, _VALIDATE_ONLY)
     if misplaced:
         raise UsageError(f"{', '.join(misplaced)} apply to 'bedstruct diagnose validate' only")
-    from ..diagnose import diagnose, diagnosis_design, load_measurements, load_sim_config, \
-        make_simulator
+    from ..diagnose import (diagnose, diagnosis_design, diagnosis_report, load_measurements,
+                            load_sim_config, make_simulator)
+    from ..diagnose.answer import answer_lines, compact_answer
     from ..report._model import _plain
     from ..report._render import write_report
     from . import print_json
@@ -249,25 +204,17 @@ def run(args) -> int:
                     seed=cfg.seed if args.seed is None else args.seed,
                     alpha=cfg.alpha, select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
                     max_effects=cfg.max_effects, refine=cfg.refine,
-                    confirm_rounds=cfg.confirm_rounds, progress=args.progress)
+                    confirm_rounds=cfg.confirm_rounds, bounds=cfg.bounds, progress=args.progress)
     out = diag.to_json()
     out["sim_config"] = cfg.as_dict()
-    html, js = write_report(diag.report(), args.out)
+    html, js = write_report(diagnosis_report(diag), args.out)
     _write_json(f"{args.out}/diagnosis.json", out)
     if args.json:
-        print_json(_plain(out))
+        print_json(_plain(dict(compact_answer(diag), simulator=diag.simulator,
+                               report=str(html))))
     else:
-        print(f"simulator: {diag.simulator}; verdict: {diag.verdict}")
-        print(f"  {diag.attribution.reason}")
-        for line in diag.where.summary[:5]:
-            print(f"  where: {line}")
-        if diag.attribution.selected:
-            for e in diag.attribution.selected:
-                print(f"  which: {e.effect} = {e.magnitude:.4g} {e.unit} "
-                      f"[{e.interval[0]:.4g}, {e.interval[1]:.4g}] (confidence {e.confidence:.2f})")
-        if diag.next:
-            print(f"  next: {diag.next[0].observable} ({diag.next[0].conditions})")
-        for note in diag.data_notes():
-            print(f"  note: {note}")
-        print(f"  report: {html}")
+        for line in answer_lines(diag):
+            print(line)
+        print(f"Report: {html} (statistics in its appendix; full answer in "
+              f"{args.out}/diagnosis.json)")
     return 0

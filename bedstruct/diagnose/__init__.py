@@ -2,31 +2,52 @@
 effect explains it, how far adding it closes the gap, and what to measure next.
 
 The diagnosis talks to simulations only through the simulator interface
-``simulator(base, effects, seed) -> Observations``; until the DEM workflows
-exist, :class:`SurrogateSimulator` (analytic, labelled ``"surrogate"``) stands in.
+``simulator(base, effects, seed) -> Observations``: the embedded DEM engine
+(:mod:`bedstruct.diagnose.engine_simulator`, ``kind = "engine"``) or, for tests and
+examples, the analytic :class:`SurrogateSimulator` (labelled ``"surrogate"``).
+
+The modules, by concept: measurements (``measurements``, ``measurement_io``,
+``measurement_parse``, ``observables``, ``observables_image``, ``trial_counts``);
+simulators (``surrogate``, ``engine_simulator``, ``engine_runs``, ``process_pool``,
+``replicates``, ``config``, ``parameters``, ``catalogue``); the model and its fit
+(``effect_response``, ``fingerprints``, ``fingerprint_runs``, ``identifiability``,
+``noise_correlation``, ``where``, ``attribution``, ``profile_interval``, ``separation``,
+``confirm``, ``diagnosis``, ``diagnosis_result``); the answer and report (``answer``,
+``report``); validation (``validation_design``, ``twins``, ``validation_records``,
+``validation_scores``, ``validate``, ``validate_parallel``, ``validate_liggghts``,
+``external_twins``, ``liggghts_effects``). Imports point from the later groups to the
+earlier ones.
 """
 
 from __future__ import annotations
 
+from .answer import answer, compact_answer
 from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_model
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
                         kelvin_radius)
 from .config import SimConfig, load_sim_config, make_simulator
-from .diagnosis import (Diagnosis, NextMeasurement, Shrink, candidate_design, diagnose,
-                        diagnosis_design, gap_size, identification)
-from .fingerprints import Fingerprint, FingerprintSet, compute_fingerprints, nuisance_projector
-from .measurements import (KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations,
-                           load_measurements, measurement_from_dict, write_measurements)
-from .observables import (AngleFit, angle_from_image, angle_from_particles, bed_height,
-                          fit_surface_angle, observe, packing_fraction_in_region, psd_percentiles,
-                          psd_percentiles_from_cumulative, read_image, render_side_view, roughness,
-                          surface_profile, windowed_mean)
+from .confirm import Shrink, gap_size
+from .diagnosis import candidate_design, diagnose, diagnosis_design
+from .diagnosis_result import Diagnosis, NextMeasurement, identification
+from .effect_response import Fingerprint
+from .fingerprint_runs import compute_fingerprints
+from .fingerprints import FingerprintSet
+from .identifiability import nuisance_projector
+from .measurement_io import load_measurements, measurement_from_dict, write_measurements
+from .measurements import KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations
+from .observables import (bed_height, observe, packing_fraction_in_region, psd_percentiles,
+                          psd_percentiles_from_cumulative, roughness, windowed_mean)
+from .observables_image import (AngleFit, angle_from_image, angle_from_particles,
+                                fit_surface_angle, read_image, render_side_view, surface_profile)
+from .parameters import PARAMETER_BOUNDS, parameter_bounds
 from .replicates import Simulator, simulate_replicates
 from .report import diagnosis_report, validation_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
-from .validate import ENGINE_PRESETS, PRESETS, engine_twin_design, twin_design, validate
+from .validate import ENGINE_PRESETS, PRESETS, validate
 from .validate_liggghts import LIGGGHTS_PRESETS, validate_liggghts
+from .validation_design import engine_twin_design, twin_design
+from .validation_records import METHOD_VERSION
 from .validation_scores import GOALS, ValidationResult, capped_summary, capped_twins, score_twins
 from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table
 
@@ -37,18 +58,20 @@ __all__ = [
     "windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative", "render_side_view",
     "surface_profile", "AngleFit", "fit_surface_angle", "angle_from_image", "angle_from_particles",
     "read_image", "bed_height", "packing_fraction_in_region", "roughness", "observe",
-    # catalogue and simulators
+    # catalogue, parameters and simulators
     "CATALOGUE", "Effect", "catalogue", "effect", "engine_hooks", "halsey_film_thickness",
-    "kelvin_radius",
+    "kelvin_radius", "PARAMETER_BOUNDS", "parameter_bounds",
     "BASE_PARAMETERS", "SurrogateSimulator", "SimConfig", "load_sim_config", "make_simulator",
     # statistics
     "standardised_residuals", "Residuals", "GapGroup", "WhereResult", "where", "where_table",
     "Simulator", "simulate_replicates", "Fingerprint", "FingerprintSet", "compute_fingerprints",
     "nuisance_projector", "ModelFit", "EffectEstimate", "Attribution", "fit_model", "attribute",
-    # orchestration
+    # orchestration and the answer
     "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
-    "NextMeasurement", "Diagnosis", "diagnose", "PRESETS", "ENGINE_PRESETS", "GOALS",
-    "ValidationResult", "score_twins", "capped_twins", "capped_summary", "separation", "nearest_imitations", "not_told_apart", "twin_design", "engine_twin_design", "validate",
-    "LIGGGHTS_PRESETS", "validate_liggghts",
+    "NextMeasurement", "Diagnosis", "diagnose", "answer", "compact_answer",
     "diagnosis_report", "validation_report",
+    # validation
+    "PRESETS", "ENGINE_PRESETS", "GOALS", "METHOD_VERSION", "ValidationResult", "score_twins",
+    "capped_twins", "capped_summary", "separation", "nearest_imitations", "not_told_apart",
+    "twin_design", "engine_twin_design", "validate", "LIGGGHTS_PRESETS", "validate_liggghts",
 ]

@@ -4,8 +4,9 @@ The residual on the calibration observables, whitened by the combined noise (and
 correlation of components read from one run, :mod:`bedstruct.diagnose.noise_correlation`), is
 fitted by models ``r = sum_e delta_e(a_e) + S beta``: a subset of effects with
 magnitudes ``a_e`` inside their prior ranges (bounded non-linear least squares on
-the fingerprint responses) plus free recalibration shifts ``beta`` of the
-nuisance parameters. The chosen model is the best subset of its size (lowest BIC),
+the fingerprint responses) plus recalibration shifts ``beta`` of the nuisance
+parameters within their physical bounds (:mod:`bedstruct.diagnose.parameters`); a value
+that ends on a bound is listed in :attr:`ModelFit.at_bound`. The chosen model is the best subset of its size (lowest BIC),
 the size chosen by significance: a single effect when it lowers the chi-square by
 more than its Bonferroni threshold, a pair when it lowers every single's by more
 than the next threshold. It must then fit within noise (combined chi-square and
@@ -75,6 +76,9 @@ class ModelFit:
         BIC weight among all fitted models.
     interval_kind : str
         ``"normal"`` or ``"profile"``: how ``intervals`` were made.
+    at_bound : tuple of str
+        Effects and recalibrated parameters whose fitted value sits on a bound (an effect's
+        prior, a parameter's physical or configured bound): the data would take it further.
     """
 
     effects: tuple[str, ...]
@@ -95,6 +99,7 @@ class ModelFit:
     stderr_runs: np.ndarray = field(default_factory=lambda: np.zeros(0))
     nuisance_stderr_runs: np.ndarray = field(default_factory=lambda: np.zeros(0))
     interval_kind: str = "normal"
+    at_bound: tuple[str, ...] = ()
 
     @property
     def label(self) -> str:
@@ -109,7 +114,8 @@ class ModelFit:
                 "nuisance": self.nuisance.tolist(),
                 "chi2": self.chi2, "dof": self.dof, "p_value": self.p_value,
                 "max_resid": self.max_resid, "p_max": self.p_max, "p_fit": self.p_fit,
-                "aic": self.aic, "bic": self.bic, "weight": self.weight}
+                "aic": self.aic, "bic": self.bic, "weight": self.weight,
+                "at_bound": list(self.at_bound)}
 
 
 @dataclass(frozen=True)
@@ -245,23 +251,31 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
               if k else np.zeros((n, 0)))
         return np.hstack([Ja, -S])
 
-    active = np.zeros(k, bool)
+    # the recalibrated parameters stay within their physical bounds (a cohesion never
+    # negative, a restitution never above one): the shifts are bounded like the magnitudes
+    nlo, nhi = fps.shift_bounds() if p else (np.zeros(0), np.zeros(0))
+    blo, bhi = np.concatenate([lo, nlo]), np.concatenate([hi, nhi])
     if k == 0:
-        x = np.linalg.lstsq(S, r, rcond=None)[0] if p else np.zeros(0)
+        x, active = _bounded_linear(S, r, nlo, nhi) if p else (np.zeros(0), np.zeros(0, bool))
     else:
-        best = None
-        starts = [np.clip(np.zeros(k), lo, hi), 0.5 * (lo + hi), hi * 0.9 + lo * 0.1]
-        for a0 in starts:
-            x0 = np.concatenate([a0, np.zeros(p)])
-            blo = np.concatenate([lo, np.full(p, -np.inf)])
-            bhi = np.concatenate([hi, np.full(p, np.inf)])
-            x0 = np.clip(x0, blo, bhi)
-            sol = optimize.least_squares(fun, x0, jac=jac, bounds=(blo, bhi), method="trf",
-                                         x_scale="jac")
-            if best is None or sol.cost < best.cost:
-                best = sol
+        def solve(bounds_lo, bounds_hi):
+            best = None
+            starts = [np.clip(np.zeros(k), lo, hi), 0.5 * (lo + hi), hi * 0.9 + lo * 0.1]
+            for a0 in starts:
+                x0 = np.clip(np.concatenate([a0, np.zeros(p)]), bounds_lo, bounds_hi)
+                sol = optimize.least_squares(fun, x0, jac=jac, bounds=(bounds_lo, bounds_hi),
+                                             method="trf", x_scale="jac")
+                if best is None or sol.cost < best.cost:
+                    best = sol
+            return best
+        # the shifts' bounds enter only where the fit would cross them (an inactive bound
+        # changes no optimum, and the solver's path is then the unbounded one)
+        best = solve(np.concatenate([lo, np.full(p, -np.inf)]),
+                     np.concatenate([hi, np.full(p, np.inf)]))
+        if np.any(best.x[k:] < nlo) or np.any(best.x[k:] > nhi):
+            best = solve(blo, bhi)
         x = best.x
-        active = best.active_mask[:k] != 0
+        active = best.active_mask != 0
     res = fun(x)
     chi2 = float(res @ res)
     J = jac(x)
@@ -284,7 +298,7 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
         d_pred = [np.nan_to_num(f.predict_se(float(ai))[rows] / sig) for f, ai in zip(fs, x[:k])]
         for d in d_pred:
             var_x = var_x + through_fit(d)
-        # the runs' share alone (fit rule 12): the prediction at the fitted values is
+        # the runs' share alone: the prediction at the fitted values is
         # (1 - k - sum beta) B + sum_e N_e + sum_j beta_j P_j in the means of the base (B),
         # the effects' nodes (N_e, at most one node's scatter where interpolated) and the
         # finite-difference points (P_j, beta_j = shift / step), each over the base seeds
@@ -306,10 +320,10 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     # within the prior: a magnitude at its bound (or near it) has no support beyond it
     intervals = (np.column_stack([np.maximum(a - _Z95 * sea, lo), np.minimum(a + _Z95 * sea, hi)])
                  if k else np.zeros((0, 2)))
-    # A magnitude held at its prior bound is fixed there, not fitted: it neither uses a
+    # A magnitude or shift held at its bound is fixed there, not fitted: it neither uses a
     # degree of freedom nor lends leverage (the slope of a response at its last node can be
     # steep, and counting it would inflate the studentised residuals of the rows it drives).
-    free = np.concatenate([~active, np.ones(p, bool)])
+    free = ~active
     dof = n - int(free.sum())
     pval = float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan")
     # Concentrated misfit: largest studentised residual (leverage-corrected), Sidak over rows.
@@ -326,11 +340,32 @@ def fit_model(residual, fps: FingerprintSet, effects, *, rows=None) -> ModelFit:
     # the information criteria still count a magnitude held at its bound: the data put it
     # there, and counting it keeps a pinned model from winning the comparison for free
     npar = k + p
+    at_bound = tuple(name for name, on in zip((*effects, *fps.nuisance), active) if on)
     return ModelFit(tuple(effects), a, sea, intervals, b, chi2, dof, pval,
                     chi2 + 2 * npar, chi2 + npar * math.log(max(n, 1)), nuisance_stderr=se[k:],
                     max_resid=tmax,
                     p_max=pmax, p_fit=pfit, stderr_runs=se_runs[:k],
-                    nuisance_stderr_runs=se_runs[k:])
+                    nuisance_stderr_runs=se_runs[k:], at_bound=at_bound)
+
+
+def _bounded_linear(S, r, lo, hi) -> tuple[np.ndarray, np.ndarray]:
+    """``argmin |r - S b|`` with ``lo <= b <= hi``, and which ``b`` sit on a bound.
+
+    The columns are scaled to unit norm first (a cohesion in J/m^3 against a friction).
+
+    Examples
+    --------
+    >>> S = np.array([[1.0], [1.0]])
+    >>> _bounded_linear(S, np.array([-3.0, -1.0]), np.array([-1.0]), np.array([np.inf]))
+    (array([-1.]), array([ True]))
+    """
+    x = np.linalg.lstsq(S, r, rcond=None)[0]
+    if np.all((x >= lo) & (x <= hi)):
+        return x, np.zeros(len(x), bool)
+    norm = np.linalg.norm(S, axis=0)
+    d = np.where(norm > 0, 1.0 / np.where(norm > 0, norm, 1.0), 1.0)
+    sol = optimize.lsq_linear(S * d, r, bounds=(lo / d, hi / d), method="bvls")
+    return sol.x * d, sol.active_mask != 0
 
 
 def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_alpha: float = 0.01,
@@ -407,7 +442,7 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
     # similar shape (e.g. the numerics of another code): naming it would be confidently wrong
     weak = [e for e in chosen if not fps[e].identifiable]
     if chosen and gof_ok and not weak:
-        # fit rule 13: the magnitudes of a chosen model that fits (and is named) get intervals
+        # the magnitudes of a chosen model that fits (and is named) get intervals
         # from the profile of the chi-square (the other models keep the normal approximation: a
         # profile costs ~15 ms for one effect and ~0.1 s each with a partner)
         prof = [profile_interval(residual, fps, chosen, e, float(a), rows=rows).interval
@@ -447,4 +482,9 @@ def attribute(residual, fps: FingerprintSet, *, alpha: float | None = None, gof_
         sel = ()
         reason = (f"gap on calibration observables (chi2 = {null.chi2:.1f}, dof {null.dof}, "
                   f"p = {null.p_fit:.2g}) but no effect lowers it significantly")
+    pinned = (current if chosen else null).at_bound
+    if pinned:
+        # a value on its bound is where the data would go past a physical limit: say so
+        reason += (f"; the fit ends on a bound of {', '.join(pinned)} (the data would take "
+                   f"{'it' if len(pinned) == 1 else 'them'} past it)")
     return Attribution(verdict, sel, ranking, models, null, current, threshold, gof_alpha, reason)

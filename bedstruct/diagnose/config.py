@@ -17,6 +17,7 @@ parameters recalibration may change, the catalogue and the statistical levels::
 
     [recalibrate]
     parameters = ["cohesion_energy_density"]
+    bounds = { cohesion_energy_density = [0.0, 1e9] }   # optional: narrower than physical
 
     [catalogue]
     exclude = []
@@ -29,8 +30,8 @@ parameters recalibration may change, the catalogue and the statistical levels::
     refine = 2                # Gauss-Newton rounds simulating the leading effects at their fits
     confirm_rounds = 2        # refits after a rerun that contradicts the fit
 
-``kind = "engine"`` calls the hook
-``bedstruct.workflows.diagnosis_simulator(design, config) -> simulator``
+``kind = "engine"`` calls
+``bedstruct.diagnose.engine_simulator.diagnosis_simulator(design, config) -> simulator``
 (the ``[engine]`` table is passed through as ``config``).
 
 .. versionadded:: 0.1
@@ -38,7 +39,6 @@ parameters recalibration may change, the catalogue and the statistical levels::
 
 from __future__ import annotations
 
-import importlib
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,11 +47,11 @@ from typing import Any
 from ..errors import ConfigError
 from .catalogue import Effect, catalogue
 from .measurements import MeasurementSet
+from .parameters import parameter_bounds
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 
 __all__ = ["SimConfig", "load_sim_config", "make_simulator"]
 
-_ENGINE_HOOK = "bedstruct.workflows"
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,7 @@ class SimConfig:
     kind: str = "surrogate"
     base: dict = field(default_factory=lambda: dict(BASE_PARAMETERS))
     nuisance: tuple[str, ...] = ("cohesion_energy_density",)
+    bounds: dict = field(default_factory=dict)
     effects: tuple[Effect, ...] = field(default_factory=catalogue)
     replicates: int = 4
     top_up: int = 0
@@ -77,6 +78,7 @@ class SimConfig:
 
     def as_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "base": dict(self.base), "recalibrate": list(self.nuisance),
+                "bounds": parameter_bounds(self.nuisance, self.bounds),
                 "effects": [e.name for e in self.effects], "replicates": self.replicates,
                 "top_up": self.top_up, "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
                 "gof_alpha": self.gof_alpha,
@@ -140,6 +142,21 @@ def load_sim_config(path) -> SimConfig:
     for n in nuisance:
         if n not in base:
             raise ConfigError(f"{p} [recalibrate]: key 'parameters': {n!r} is not a base parameter")
+    bounds = rec.get("bounds", {})
+    if not isinstance(bounds, dict):
+        raise ConfigError(f"{p} [recalibrate]: key 'bounds': expected a table of "
+                          f"parameter = [lower, upper]; got {bounds!r}")
+    unknown = set(rec) - {"parameters", "bounds"}
+    if unknown:
+        raise ConfigError(f"{p} [recalibrate]: key {sorted(unknown)[0]!r}: unknown")
+    try:
+        limits = parameter_bounds(nuisance, bounds)
+    except ConfigError as exc:
+        raise ConfigError(f"{p} {exc}") from None
+    for n, (lo, hi) in limits.items():
+        if not lo <= base[n] <= hi:
+            raise ConfigError(f"{p} [base]: key {n!r}: {base[n]:g} is outside its bounds "
+                              f"[{lo:g}, {hi:g}]")
     cat = doc.get("catalogue", {})
     try:
         names = cat.get("effects")
@@ -147,7 +164,7 @@ def load_sim_config(path) -> SimConfig:
     except ConfigError as exc:
         raise ConfigError(f"{p} [catalogue]: {exc}") from None
     dg = doc.get("diagnosis", {})
-    cfg = SimConfig(kind=kind, base=base, nuisance=nuisance, effects=effects,
+    cfg = SimConfig(kind=kind, base=base, nuisance=nuisance, bounds=dict(bounds), effects=effects,
                     replicates=_get(sim, "replicates", int, f"{p} [simulator]", 4),
                     top_up=_get(sim, "top_up", int, f"{p} [simulator]", 0),
                     seed=_get(sim, "seed", int, f"{p} [simulator]", 0),
@@ -187,25 +204,11 @@ def make_simulator(config: SimConfig, design: MeasurementSet):
     """The simulator callable for a configuration and a design.
 
     ``kind = "surrogate"`` gives :class:`SurrogateSimulator`; ``kind = "engine"``
-    calls ``bedstruct.workflows.diagnosis_simulator(design, config.engine)``.
-
-    Raises
-    ------
-    ConfigError
-        If the engine hook does not exist yet.
+    calls :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator` with the
+    ``[engine]`` table.
     """
     if config.kind == "surrogate":
         return SurrogateSimulator(design, noise=config.noise)
-    try:
-        mod = importlib.import_module(_ENGINE_HOOK)
-        hook = getattr(mod, "diagnosis_simulator")
-    except (ImportError, AttributeError):
-        raise ConfigError(f"simulator kind 'engine': {_ENGINE_HOOK}.diagnosis_simulator(design, config) "
-                          f"is not available yet; use kind = 'surrogate'") from None
-    sim = hook(design, dict(config.engine))
-    if not hasattr(sim, "name"):
-        try:
-            sim.name = "engine"
-        except AttributeError:  # pragma: no cover
-            pass
-    return sim
+    # the engine simulator loads the DEM engine (numba): only when asked for
+    from .engine_simulator import diagnosis_simulator
+    return diagnosis_simulator(design, dict(config.engine))

@@ -28,7 +28,7 @@ from .replicates import Simulator, simulate_replicates
 from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
 from .where import _nan_mean, standardised_residuals
 
-__all__ = ["gap_size", "Shrink", "Confirmation", "confirm_attribution", "p_fit_z"]
+__all__ = ["gap_size", "shrink_interval", "Shrink", "Confirmation", "confirm_attribution", "p_fit_z"]
 
 #: Seeds of the k-th rerun are ``seed + RERUN_SEED_STRIDE * (k + 1) + i``: fresh for every
 #: rerun, so a refit through one rerun is checked on runs it has not seen.
@@ -72,6 +72,68 @@ def gap_size(z, correlation=None) -> tuple[float, float]:
     return math.sqrt(ms), math.sqrt(max(ms - 1.0, 0.0))
 
 
+def shrink_interval(z_before, z_after, correlation=None, *, level: float = 0.9,
+                    n_draws: int = 2000, seed: int = 0) -> tuple[float, float]:
+    """Interval of the held-out gap's shrink ``1 - excess after / excess before``.
+
+    A parametric bootstrap: each component's true deviation before and after is taken as
+    its standardised residual scaled to the excess gap (so that the draws' mean excess is
+    the observed one), a noise of unit variance (correlated as ``correlation``) is added,
+    the same draw before and after (the measured values are the same), and the shrink is
+    computed again. The interval holds the central ``level`` of the draws.
+
+    Parameters
+    ----------
+    z_before, z_after : (n,) array_like
+        Standardised residuals of the held-out components before and after (NaN: left out).
+    correlation : (n, n) array_like, optional
+        Correlation of their noise.
+    level : float
+        Coverage of the interval.
+    n_draws : int
+        Bootstrap draws.
+    seed : int
+        Seed of the draws (the interval is reproducible).
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper end (dimensionless fraction; NaN when there is no gap before).
+
+    Examples
+    --------
+    >>> lo, hi = shrink_interval([4.0, -3.0, 5.0], [0.5, -0.2, 1.0])
+    >>> 0.5 < lo < 1.0 and hi == 1.0
+    True
+    >>> shrink_interval([0.5, -0.3], [0.1, 0.2])
+    (nan, nan)
+    """
+    zb, za = np.asarray(z_before, float), np.asarray(z_after, float)
+    ok = np.isfinite(zb) & np.isfinite(za)
+    zb, za = zb[ok], za[ok]
+    R = None if correlation is None else np.asarray(correlation, float)[np.ix_(ok, ok)]
+    rms_b, exc_b = gap_size(zb, R)
+    rms_a, exc_a = gap_size(za, R)
+    if not (zb.size and exc_b > 0):
+        return float("nan"), float("nan")
+    mu_b = zb * (exc_b / rms_b)
+    mu_a = za * (exc_a / rms_a) if rms_a > 0 else np.zeros_like(za)
+    rng = np.random.default_rng(seed)
+    noise = rng.standard_normal((n_draws, zb.size))
+    if R is not None:
+        noise = noise @ np.linalg.cholesky(R).T
+    fracs = []
+    for e in noise:
+        b = gap_size(mu_b + e, R)[1]
+        if b > 0:
+            fracs.append(1.0 - gap_size(mu_a + e, R)[1] / b)
+    if not fracs:
+        return float("nan"), float("nan")
+    q = (1.0 - level) / 2.0
+    lo, hi = np.quantile(fracs, [q, 1.0 - q])
+    return float(lo), float(hi)
+
+
 @dataclass(frozen=True)
 class Shrink:
     """Gap on the held-out observables before and after adding the attributed effect.
@@ -80,7 +142,8 @@ class Shrink:
     parameters refitted on calibration observables only; ``after``: recalibrated
     plus the attributed effect(s) at their fitted magnitudes (calibration-only fit).
     Gaps are RMS standardised residuals; ``*_excess`` is the part beyond noise.
-    ``fraction`` = 1 - after_excess / before_excess (NaN without a gap).
+    ``fraction`` = 1 - after_excess / before_excess (NaN without a gap), and
+    ``fraction_interval`` its 90 % interval (:func:`shrink_interval`).
     ``p_rerun_calibration`` / ``p_rerun_heldout``: goodness of fit (chi-square and
     largest-|z|, Bonferroni) of the rerun of the attributed model to the calibration and
     to the held-out observables (NaN without an attribution): the checks that confirm it.
@@ -117,12 +180,14 @@ class Shrink:
     rerun_worst: tuple[dict, ...] = ()
     p_rerun_trials: float = float("nan")
     trial_rows: tuple[dict, ...] = ()
+    fraction_interval: tuple[float, float] = (float("nan"), float("nan"))
 
     def as_dict(self) -> dict:
         return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
                 "before": self.before, "recalibrated": self.recalibrated, "after": self.after,
                 "before_excess": self.before_excess, "recalibrated_excess": self.recalibrated_excess,
                 "after_excess": self.after_excess, "fraction": self.fraction,
+                "fraction_interval": list(self.fraction_interval),
                 "fraction_rms": self.fraction_rms, "n_heldout": self.n_heldout,
                 "p_rerun_calibration": self.p_rerun_calibration,
                 "p_rerun_heldout": self.p_rerun_heldout, "refits": list(self.refits),
@@ -174,7 +239,7 @@ def p_fit_z(z, correlation=None) -> float:
 
 
 def _or_zero(values, j: int) -> float:
-    """``values[j]``, or 0 where a fit does not state it (one made before fit rule 12)."""
+    """``values[j]``, or 0 where a fit does not state it (a fit without run noise)."""
     return float(values[j]) if len(values) > j and np.isfinite(values[j]) else 0.0
 
 
@@ -209,8 +274,8 @@ class Confirmation:
         Simulator runs made.
     extra_samples : (R, q) ndarray or None
         The last rerun's components of ``extra_names`` (observables the checks do not
-        fit, such as those a file read in no trial; fit rule 14 counts their runs without a
-        reading).
+        fit, such as those a file read in no trial; the trial check counts their runs
+        without a reading).
     rerun_seeds : tuple of int
         The seeds of the last rerun.
     """
@@ -278,7 +343,7 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
     parameter exceeds its finite-difference step, its linear sensitivities were
     extrapolated: the base is simulated at that shift on the base runs' seeds and each
     sensitivity becomes the least-squares line through the origin and both paired points
-    (this round's refit). Otherwise, for a *single* effect, the interpolated fingerprint
+    (the refit). Otherwise, for a *single* effect, the interpolated fingerprint
     was wrong at the fitted magnitude, and the rerun, corrected to the base nuisance with
     the linear sensitivities the fit uses, is the effect's response there: it becomes a
     node. A pair's rerun cannot be split between its two effects, and a rerun that fails
@@ -331,8 +396,8 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         # shifts puts on the prediction. On the held-out observables it is the fit's whole
         # uncertainty. On the calibration observables the data's own noise cancels from it
         # (the values were fitted to these data), but the noise of the runs the fit read
-        # them through does not (fit rule 12; before, the calibration check left it out,
-        # and a true model with a noisy prediction failed it beyond its level).
+        # them through does not: without it a true model with a noisy prediction would
+        # fail the check more often than its level.
         pred_var = np.zeros(len(fps.sigma))
         runs_var = np.zeros(len(fps.sigma))
         for j, (e, a_e) in enumerate(zip(model.effects, model.magnitudes)):

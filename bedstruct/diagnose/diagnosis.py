@@ -18,24 +18,22 @@ from scipy import stats
 from ..errors import ConfigError
 from .attribution import Attribution, attribute
 from .catalogue import Effect, catalogue as _catalogue
-from .fingerprints import FingerprintSet, assess_fingerprints, compute_fingerprints, \
-    selection_threshold
+from .fingerprints import FingerprintSet, selection_threshold
+from .identifiability import assess_fingerprints
+from .fingerprint_runs import compute_fingerprints
 from .fingerprint_runs import simulate_node
 from .replicates import Simulator, simulate_replicates
-from .measurements import MeasurementSet, measurement_from_dict
+from .measurements import MeasurementSet
+from .measurement_io import measurement_from_dict
 from .separation import not_told_apart
 from .where import standardised_residuals, where
-from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size,
+from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size, shrink_interval,
                       p_fit_z as _p_fit_z, params_after as _params_after)
 from .trial_counts import TrialCheck, file_trials, trial_check, unread_counts
 from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
-# the result types live in diagnosis_result (re-exported: imports from here keep working)
-from .diagnosis_result import (SCHEMA, Diagnosis, NextMeasurement, _residual,  # noqa: F401
-                               identification, uneven_scatter_note)
+from .diagnosis_result import Diagnosis, NextMeasurement, _residual
 
-__all__ = ["candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
-           "NextMeasurement",
-           "Diagnosis", "diagnose"]
+__all__ = ["candidate_design", "diagnosis_design", "diagnose"]
 
 
 def candidate_design(effects: Sequence[Effect], existing: MeasurementSet | None = None) -> MeasurementSet:
@@ -116,7 +114,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
              top_up: int = 0, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, max_effects: int = 2,
              fingerprints: FingerprintSet | None = None, simulator_name: str | None = None,
-             refine: int = 2, confirm_rounds: int = 2, progress: bool = False) -> Diagnosis:
+             refine: int = 2, confirm_rounds: int = 2, bounds=None,
+             progress: bool = False) -> Diagnosis:
     """Diagnose the gap between a simulator and a measurement set.
 
     Parameters
@@ -133,6 +132,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         Catalogue to consider (default: all of :data:`CATALOGUE`).
     nuisance : sequence of str
         Base parameters that recalibration may change (projected out of the fingerprints).
+    bounds : mapping of str to (float, float), optional
+        Narrower bounds of the recalibrated parameters than their physical ones
+        (:func:`~bedstruct.diagnose.parameters.parameter_bounds`); the recalibration is
+        fitted within them, and a fit that ends on one says so.
     replicates : int
         Replicate seeds per parameter point.
     top_up : int
@@ -188,7 +191,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         fps = fingerprints.subset([e.name for e in effects])
         fps = replace(fps, alpha=select_alpha)
     fps, rows_meas, names, y, sm, data_notes = _measured_vectors(measurements, fps)
-    # the file's trials without a reading (fit rule 14), and the observables the reruns must
+    # the file's trials without a reading (trial_counts), and the observables the reruns must
     # give for them that the fit does not use (read in no trial)
     trials = file_trials(measurements)
     unread_pts = fps.meta.get("unread_runs", {})
@@ -200,7 +203,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     # identifiability in this file's noise and for this catalogue, as fingerprints computed
     # for the file would have it (reused ones were assessed in their design's noise)
     fps = assess_fingerprints(replace(fps, sigma_meas=sigma_meas,
-                                      threshold=selection_threshold(select_alpha, len(effects))))
+                                      threshold=selection_threshold(select_alpha, len(effects)),
+                                      bounds=dict(bounds or {})))
 
     base_meas = fps.base_samples[:, rows_meas]
     # the measured observables in the fingerprints' row order (a file may list them otherwise)
@@ -291,6 +295,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     b, r_, a = (gap_size(z_before[held_meas], c), gap_size(z_recal[held_meas], c),
                 gap_size(z_after[held_meas], c))
     frac = 1.0 - a[1] / b[1] if b[1] > 0 else float("nan")
+    frac_interval = shrink_interval(z_before[held_meas], z_after[held_meas], c, seed=seed)
     frac_rms = 1.0 - a[0] / b[0] if b[0] > 0 else float("nan")
     p_cal, p_held = conf.p_calibration, conf.p_heldout
     q, n_held = quadratic_form(z_before[held_meas], c)
@@ -302,7 +307,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     p_trials = chk.p_value if trials else float("nan")
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
                     tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before,
-                    worst, p_trials, chk.rows)
+                    worst, p_trials, chk.rows, frac_interval)
     trials_failed = bool(trials) and chk.p_value < gof_alpha
     refit_note = "; ".join(_refit_text(r) for r in conf.refits)
     if refit_note:
@@ -385,7 +390,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
 
 def _trial_check(simulator, trials, unread_pts, n_comp, names, trial_names, samples, extra,
                  params, mags, seeds) -> tuple[TrialCheck, int]:
-    """Fit rule 14: the file's trials without a reading against the final model's runs.
+    """The file's trials without a reading against the final model's runs.
 
     The runs are the last rerun (``samples`` on ``names``, ``extra`` on ``trial_names``);
     where the file holds an observable read in no trial, ``2 x len(seeds)`` further seeds

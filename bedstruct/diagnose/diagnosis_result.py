@@ -1,14 +1,14 @@
 """What a diagnosis found: the :class:`Diagnosis` result, its JSON answer and data notes.
 
 :func:`~bedstruct.diagnose.diagnosis.diagnose` makes it; this module holds the result types
-and the text they give (which measurements would identify an effect, notes on the data),
-split from :mod:`bedstruct.diagnose.diagnosis`, which re-exports them.
+and the text they give (which measurements would identify an effect, notes on the data).
 
 .. versionadded:: 0.1
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,6 +18,7 @@ from .confirm import Shrink
 from .fingerprints import FingerprintSet
 from .measurements import MeasurementSet
 from .noise_correlation import effective_correlation
+from .parameters import PARAMETER_UNITS
 from .separation import nearest_imitations, not_told_apart, separation
 from .where import WhereResult
 
@@ -64,8 +65,6 @@ def identification(fps, name: str) -> dict:
                      + (", ".join(checked) + ", suggested by the catalogue, did not move beyond "
                         "2 sigma in the fingerprint runs either" if checked else
                         "the catalogue suggests none") + "; a new kind of measurement is needed")}
-
-
 
 
 @dataclass(frozen=True)
@@ -127,6 +126,7 @@ class Diagnosis:
             "candidates": [e.as_dict() for e in att.ranking],
             "models": [dict(m.as_dict(), label=m.label) for m in att.models[:12]],
             "shrink": self.shrink.as_dict(),
+            "recalibration": self.recalibration(),
             "next": [n.as_dict() for n in self.next],
             "identifiability": self.fingerprints.table(),
             "separation": nearest_imitations(pairs),
@@ -137,6 +137,31 @@ class Diagnosis:
             "settings": self.settings,
         }
 
+    def recalibration(self) -> dict[str, dict]:
+        """The recalibrated parameters of the answer's model, each within its bounds.
+
+        Per parameter: ``base`` and fitted ``value`` (its SI unit, ``unit``), ``shift``,
+        ``bounds`` (``None`` for an open end) and ``at_bound`` (the fit ended on a bound:
+        the data would take the parameter past a physical or configured limit).
+        """
+        fps = self.fingerprints
+        limits = fps.parameter_bounds()
+        out = {}
+        for name in fps.nuisance:
+            base = float(fps.base[name])
+            shift = float(self.shrink.nuisance.get(name, 0.0))
+            value = base + shift
+            lo, hi = limits[name]
+            tol = 1e-6 * max(abs(base), abs(value), 1e-300)
+            at = bool((math.isfinite(lo) and value <= lo + tol)
+                      or (math.isfinite(hi) and value >= hi - tol))
+            out[name] = {"base": base, "shift": shift, "value": value,
+                         "unit": PARAMETER_UNITS.get(name, ""),
+                         "bounds": [lo if math.isfinite(lo) else None,
+                                    hi if math.isfinite(hi) else None],
+                         "at_bound": at}
+        return out
+
     def trials_without_reading(self) -> list[dict]:
         """The observables whose file states trials that gave no reading.
 
@@ -144,8 +169,8 @@ class Diagnosis:
         (per component), ``in_no_trial`` (no reading at all: it has no value to fit),
         ``simulated`` (the fingerprints' simulator gives it), ``fingerprint_runs`` and
         ``fingerprint_runs_without_reading`` (the simulation's runs behind the
-        fingerprints, and those in which it could not read the observable either). The final model is tested on these counts (fit rule 14,
-        :attr:`Shrink.p_rerun_trials`).
+        fingerprints, and those in which it could not read the observable either). The
+        final model is tested on these counts (:attr:`Shrink.p_rerun_trials`).
         """
         pts = self.fingerprints.meta.get("unread_runs", {})
         out = []
@@ -204,11 +229,6 @@ class Diagnosis:
                            f"model must give such trials as often")
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
         return out + list(self.settings.get("data_notes") or [])
-
-    def report(self, *, title: str | None = None):
-        """The diagnosis as a :class:`bedstruct.report._model.Report` (HTML/JSON via write_report)."""
-        from .report import diagnosis_report
-        return diagnosis_report(self, title=title)
 
 
 def uneven_scatter_note(component: str, u: dict) -> str:

@@ -4,7 +4,7 @@
 between them (a straight line through the origin when the two fingerprint magnitudes agree
 with linearity, else a monotone cubic) and the standard error of that interpolation. The set
 of fingerprints, with the base runs and the recalibration sensitivities, is
-:class:`~bedstruct.diagnose.fingerprints.FingerprintSet`, which re-exports this class.
+:class:`~bedstruct.diagnose.fingerprints.FingerprintSet`.
 
 .. versionadded:: 0.1
 """

@@ -19,7 +19,7 @@ twin is made like this:
    (:func:`write_liggghts_wrapper`) that rewrites the deck it is asked to run,
    keeps the original as ``<deck>.base`` and then runs the real LIGGGHTS.
 3. The runs are observed by the engine simulator's own observation operators
-   (:class:`bedstruct.workflows.diagnosis_sim.EngineSimulator` with the
+   (:class:`bedstruct.diagnose.engine_simulator.EngineSimulator` with the
    LIGGGHTS engine; :func:`liggghts_simulator`), on several seeds (an experiment
    repeated ``n`` times), reading noise is drawn from the design's stated
    uncertainties, and the result is written as a measurement TOML file
@@ -60,18 +60,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .liggghts_effects import (TWIN_MARK, TwinEffect, apply_effect, capillary_effect,  # noqa: F401
-                               easo_bridge_volume, easo_capillary_force,
-                               easo_effective_contact_angle, null_effect, rolling_friction_effect,
-                               wall_friction_effect, willett_capillary_force,
-                               with_capillary_bridges, with_rolling_friction, with_wall_friction)
+from .liggghts_effects import TWIN_MARK, TwinEffect, apply_effect
 
-__all__ = ["TwinEffect", "null_effect", "rolling_friction_effect", "capillary_effect",
-           "wall_friction_effect", "with_rolling_friction", "with_capillary_bridges",
-           "with_wall_friction", "apply_effect",
-           "easo_effective_contact_angle", "easo_bridge_volume", "easo_capillary_force",
-           "willett_capillary_force", "write_liggghts_wrapper", "liggghts_simulator",
-           "liggghts_twin_design", "LiggghtsTwin", "make_liggghts_twin"]
+__all__ = ["write_liggghts_wrapper", "liggghts_simulator", "liggghts_twin_design", "LiggghtsTwin",
+           "make_liggghts_twin"]
 
 log = logging.getLogger(__name__)
 
@@ -132,7 +124,7 @@ def liggghts_simulator(design, effect: TwinEffect, *, preset: str = "tiny",
                        overrides: Sequence[str] = (), workdir=None):
     """A simulator ``sim(base, effects, seed) -> Observations`` running LIGGGHTS with ``effect``.
 
-    It is :class:`~bedstruct.workflows.diagnosis_sim.EngineSimulator` (same
+    It is :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` (same
     configuration, same observation operators) with ``engine = "liggghts"``, one
     MPI rank and ``external.exe`` set to :func:`write_liggghts_wrapper`'s
     executable; pass ``effects = {}`` when calling it (the effect is in the decks).
@@ -157,7 +149,7 @@ def liggghts_simulator(design, effect: TwinEffect, *, preset: str = "tiny",
     """
     import tempfile
 
-    from ..workflows.diagnosis_sim import EngineSimulator
+    from .engine_simulator import EngineSimulator
     root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
     exe = write_liggghts_wrapper(root / "bin", effect)
     ov = [*overrides, "engine=liggghts", "external.np=1", f"external.exe={exe}"]
@@ -185,7 +177,8 @@ def liggghts_twin_design():
     >>> len(d), [m.name for m in d if m.role == "validate"]
     (9, ['bed_height_layer2', 'packing_fraction_x1_center', 'coordination_x1_center'])
     """
-    from .measurements import MeasurementSet, measurement_from_dict
+    from .measurements import MeasurementSet
+    from .measurement_io import measurement_from_dict
     x1 = dict(speed=_SPEED_X1)
     specs = [
         dict(name="static_angle", kind="static_angle", uncertainty=1.0, role="calibrate"),
@@ -317,7 +310,8 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
     -------
     LiggghtsTwin
     """
-    from .measurements import MeasurementSet, Observations, write_measurements
+    from .measurements import MeasurementSet, Observations
+    from .measurement_io import write_measurements
     if not isinstance(effect, TwinEffect):
         raise TypeError(f"effect: expected a TwinEffect; got {type(effect).__name__}")
     if len(seeds) < 1:

@@ -6,8 +6,8 @@ same replicate seeds, and builds the :class:`~bedstruct.diagnose.fingerprints.Fi
 from the paired differences. With ``top_up`` it then runs the base and the effects whose
 identifiability is still undecided by their own estimation noise
 (:meth:`FingerprintSet.marginal`) on further seeds, and builds the set again: simulation
-time goes where the judgement is close. Split from
-:mod:`bedstruct.diagnose.fingerprints`, which re-exports :func:`compute_fingerprints`.
+time goes where the judgement is close. The set's type is
+:class:`~bedstruct.diagnose.fingerprints.FingerprintSet`.
 
 .. versionadded:: 0.1
 """
@@ -22,7 +22,8 @@ from scipy import stats
 
 from ..errors import ConfigError
 from .catalogue import Effect
-from .fingerprints import (Fingerprint, FingerprintSet, _design_sigma, selection_threshold)
+from .effect_response import Fingerprint
+from .fingerprints import FingerprintSet, _design_sigma, selection_threshold
 from .identifiability import _correlated_scatter, _uneven_scatter, assess_fingerprints
 from .measurements import MeasurementSet
 from .replicates import (Simulator, homogeneous_variance, simulate_replicates,
@@ -274,8 +275,8 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
     usable = np.isfinite(sim_var) & (np.isfinite(base_s).sum(axis=0) > 0) \
         & np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(D_all), axis=0) \
         & np.all(np.isfinite(SE_all), axis=0)
-    # runs without a reading, per observable and point (fit rule 14 weighs a file's trials
-    # without one against them; see trial_counts)
+    # runs without a reading, per observable and point (the trial check weighs a file's
+    # trials without one against them; see trial_counts)
     point_effects = [{}] * first_effect + [{e.name: float(m)} for e in effects
                                            for m in e.reference_magnitudes]
     unread_runs = {}

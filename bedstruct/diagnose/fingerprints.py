@@ -9,8 +9,8 @@ parameters (e.g. the cohesion energy density) span the *nuisance* directions: a
 gap along them is closed by recalibrating, not by an effect. Identifiability is
 judged on the calibration observables, whitened by the combined noise, after
 projecting those directions out. The runs and the set built from them are in
-:mod:`bedstruct.diagnose.fingerprint_runs` (:func:`compute_fingerprints`, re-exported
-here), identifiability in :mod:`bedstruct.diagnose.identifiability`.
+:mod:`bedstruct.diagnose.fingerprint_runs` (:func:`~bedstruct.diagnose.fingerprint_runs.compute_fingerprints`),
+identifiability in :mod:`bedstruct.diagnose.identifiability`.
 
 .. versionadded:: 0.1
 """
@@ -24,15 +24,13 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import ConfigError
-# one effect's response lives there and is re-exported here
 from .effect_response import Fingerprint
-# identifiability's two public functions live there and are re-exported here
-from .identifiability import assess_fingerprints, nuisance_projector  # noqa: F401
+from .identifiability import assess_fingerprints
 from .measurements import MeasurementSet
+from .parameters import parameter_bounds
 from .where import _nan_mean
 
-__all__ = ["Fingerprint", "FingerprintSet", "compute_fingerprints", "assess_fingerprints",
-           "nuisance_projector"]
+__all__ = ["FingerprintSet", "selection_threshold"]
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +77,9 @@ class FingerprintSet:
         base.
     top_up_seeds : tuple of int
         The seeds added for them.
+    bounds : dict of str to (float, float)
+        Narrower bounds of recalibrated parameters than their physical ones (the
+        configuration's ``[recalibrate] bounds``; see :meth:`shift_bounds`).
     """
 
     design: MeasurementSet
@@ -102,6 +103,7 @@ class FingerprintSet:
     sim_dof: np.ndarray | None = None
     topped_up: tuple[str, ...] = ()
     top_up_seeds: tuple[int, ...] = ()
+    bounds: dict = field(default_factory=dict)
 
     @property
     def n_replicates(self) -> int:
@@ -302,6 +304,19 @@ class FingerprintSet:
             return float(steps[name])
         return 0.05 * abs(self.base[name]) if self.base[name] != 0 else 0.05
 
+    def parameter_bounds(self) -> dict[str, tuple[float, float]]:
+        """Bounds of each recalibrated parameter (its units): physical, narrowed by
+        :attr:`bounds` (:func:`~bedstruct.diagnose.parameters.parameter_bounds`)."""
+        return parameter_bounds(self.nuisance, self.bounds)
+
+    def shift_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the recalibration shifts: the parameters' bounds less
+        their base values, in the order of :attr:`nuisance`."""
+        b = self.parameter_bounds()
+        lo = np.array([b[n][0] - float(self.base[n]) for n in self.nuisance], dtype=float)
+        hi = np.array([b[n][1] - float(self.base[n]) for n in self.nuisance], dtype=float)
+        return lo, hi
+
     @property
     def base_mean(self) -> np.ndarray:
         """Mean of the base replicates per component (over those that observed it)."""
@@ -316,7 +331,8 @@ class FingerprintSet:
         --------
         A linear toy simulator: two calibration observables and a held-out one.
 
-        >>> from bedstruct.diagnose import Effect, MeasurementSet, Observations, measurement_from_dict
+        >>> from bedstruct.diagnose import (Effect, MeasurementSet, Observations, compute_fingerprints,
+        ...                                 measurement_from_dict)
         >>> design = MeasurementSet(tuple(measurement_from_dict(dict(
         ...     name=n, kind="static_angle", value=0.0, uncertainty=1.0, role=r))
         ...     for n, r in [("a", "calibrate"), ("b", "calibrate"), ("c", "validate")]))
@@ -408,7 +424,3 @@ def selection_threshold(alpha: float, n_effects: int) -> float:
 
 def _design_sigma(design: MeasurementSet, names) -> np.ndarray:
     return np.concatenate([design[n].uncertainty for n in names])
-
-
-# the computation lives beside the types it builds and is re-exported here
-from .fingerprint_runs import compute_fingerprints  # noqa: E402

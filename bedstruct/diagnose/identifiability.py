@@ -6,7 +6,7 @@ is projected out (:func:`nuisance_projector`), and what is left is compared with
 selection threshold and the fingerprint's own estimation noise
 (:func:`assess_fingerprints`); effects whose projected responses are nearly parallel are
 reported as confounded, and a non-identifiable effect is given the measurements where it
-shows most. Split from :mod:`bedstruct.diagnose.fingerprints`, which re-exports both names.
+shows most.
 
 .. versionadded:: 0.1
 """
@@ -14,15 +14,11 @@ shows most. Split from :mod:`bedstruct.diagnose.fingerprints`, which re-exports 
 from __future__ import annotations
 
 import warnings
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .measurements import MeasurementSet
 from .where import _nan_var
-
-if TYPE_CHECKING:
-    from .fingerprints import FingerprintSet
 
 __all__ = ["nuisance_projector", "assess_fingerprints"]
 

@@ -1,7 +1,6 @@
 """The withheld effects of LIGGGHTS-made twins: effect records, deck rewriting and LIGGGHTS' law.
 
-Split from :mod:`bedstruct.diagnose.external_twins` (which re-exports every name here):
-what an effect is (:class:`TwinEffect`), how it is written into a LIGGGHTS deck
+What an effect is (:class:`TwinEffect`), how it is written into a LIGGGHTS deck
 (:func:`apply_effect`: :func:`with_rolling_friction`, :func:`with_capillary_bridges`),
 and the ``cohesion easo/capillary/viscous`` force law as LIGGGHTS 3.8 computes it
 (:func:`easo_capillary_force`; see the facts listed in

@@ -1,8 +1,7 @@
 """Reading and writing measurement files (TOML plus optional CSV/images).
 
 The file format is documented in ``docs/diagnose.md``; the containers are in
-:mod:`bedstruct.diagnose.measurements`, which re-exports the public names of this
-module (``load_measurements``, ``write_measurements``, ``measurement_from_dict``).
+:mod:`bedstruct.diagnose.measurements`.
 
 Every error raised on a bad file is a :class:`~bedstruct.errors.ConfigError` that
 names the file, the observable (its number in the file and its name) and the key,

@@ -217,7 +217,7 @@ _SERIES_NOTE = ("uncertainty: the window means' standard errors by batch means (
 
 
 def _image_angle(path: Path, d, where: str, key: str, powder: str, flanks: str):
-    from .observables import fit_image_angle, read_image
+    from .observables_image import fit_image_angle, read_image
     if not path.is_file():
         raise _err(where, f"key {key!r}: image file not found: {path}")
     try:

@@ -1,4 +1,4 @@
-"""Measurement files (TOML plus optional CSV/images) and the observation containers.
+"""Measurements and the observation containers (the files are read in :mod:`.measurement_io`).
 
 A measurement file lists *observables*: each has a kind, a value (scalar or one
 value per component), an uncertainty (or replicates), the conditions it was taken
@@ -24,8 +24,7 @@ import numpy as np
 from ..errors import ConfigError
 
 __all__ = ["KINDS", "ROLES", "PLAUSIBLE", "normalise_region", "Conditions", "Measurement",
-           "MeasurementSet", "Observations", "load_measurements", "write_measurements",
-           "measurement_from_dict"]
+           "MeasurementSet", "Observations"]
 
 #: Observable kinds and their canonical unit.
 KINDS: dict[str, str] = {
@@ -276,6 +275,7 @@ class MeasurementSet:
 
     Examples
     --------
+    >>> from bedstruct.diagnose import measurement_from_dict
     >>> m = measurement_from_dict({"name": "aor", "kind": "static_angle", "value": 33.0,
     ...                            "uncertainty": 1.0, "unit": "deg"})
     >>> ms = MeasurementSet((m,), title="demo")
@@ -379,6 +379,3 @@ class MeasurementSet:
         extra = tuple(m for m in other.measurements if m.name not in self)
         return replace(self, measurements=self.measurements + extra)
 
-
-# The file reader and writer live in measurement_io (re-exported here).
-from .measurement_io import load_measurements, measurement_from_dict, write_measurements  # noqa: E402

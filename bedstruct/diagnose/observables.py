@@ -12,7 +12,7 @@ distribution into d10/d50/d90 (:func:`psd_percentiles`,
 The image-based angle operator (:func:`render_side_view`, :func:`surface_profile`,
 :func:`fit_surface_angle`, :func:`fit_image_angle`, :func:`angle_from_image`,
 :func:`angle_from_particles`, :class:`AngleFit`, :func:`read_image`) lives in
-:mod:`bedstruct.diagnose.observables_image` and is re-exported here.
+:mod:`bedstruct.diagnose.observables_image`.
 
 :func:`observe` dispatches on the kind with a documented dict of arrays, which is
 the contract a simulation workflow fills in.
@@ -28,12 +28,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import observables_image as _image
-from .observables_image import (AngleFit, angle_from_image, angle_from_particles, fit_image_angle,
-                                fit_surface_angle, read_image, render_side_view, surface_profile)
+from .observables_image import angle_from_image, angle_from_particles
 
-__all__ = ["windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative",
-           "render_side_view", "surface_profile", "AngleFit", "fit_surface_angle",
-           "fit_image_angle", "angle_from_image", "angle_from_particles", "read_image", "bed_height",
+__all__ = ["windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative", "bed_height",
            "packing_fraction_in_region", "roughness", "tool_force_ratio", "observe"]
 
 

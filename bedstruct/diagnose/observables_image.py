@@ -8,7 +8,6 @@ a robust line fit of each flank of the profile (:func:`fit_surface_angle`,
 giving an :class:`AngleFit`), and the same with quality checks that refuse an
 image that is not a side view of a heap (:func:`fit_image_angle`,
 :func:`angle_from_image`); :func:`read_image` reads an image file as greyscale.
-The public names are re-exported by :mod:`bedstruct.diagnose.observables`, whose
 :func:`~bedstruct.diagnose.observables.observe` applies them to the angle kinds.
 
 .. versionadded:: 0.1

@@ -1,4 +1,4 @@
-"""Magnitude intervals from the profile of the chi-square (fit rule 13).
+"""Magnitude intervals from the profile of the chi-square.
 
 The normal approximation at the optimum (``ModelFit.intervals``) reads the local slope of
 the interpolated response as information about the magnitude. Where the response is flat

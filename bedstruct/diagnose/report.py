@@ -8,6 +8,10 @@ from __future__ import annotations
 import math
 
 from .._version import __version__
+from .answer import answer
+from .diagnosis_result import identification, uneven_scatter_note
+from .separation import nearest_imitations
+from .validation_scores import capped_summary
 
 __all__ = ["diagnosis_report", "validation_report"]
 
@@ -18,10 +22,16 @@ def _fmt(v, nd=3):
     return v
 
 
+def _add(section, key, value, unit, definition) -> None:
+    """A number in a section, unless it is not a number (NaN, infinite: said in words)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return
+    section.add_number(key, _fmt(value), unit, definition)
+
+
 def _identified_by(fps, row) -> str:
     if row["identifiable"] or row["identify_with"]:
         return ", ".join(row["identify_with"])
-    from .diagnosis import identification
     return identification(fps, row["effect"])["note"]
 
 
@@ -41,21 +51,21 @@ def diagnosis_report(diag, *, title: str | None = None):
 
     def summary(s):
         s.text = f"{sim_note} Verdict: {j['verdict']}. {j['reason']}."
-        s.add_number("verdict", j["verdict"], "", "attributed / unexplained / none (no gap to explain)")
-        s.add_number("gap_significant", j["gap_significant"], "",
+        _add(s, "verdict", j["verdict"], "", "attributed / unexplained / none (no gap to explain)")
+        _add(s, "gap_significant", j["gap_significant"], "",
                      "whether the chi-square or max-|z| test rejects 'no gap' (all measured observables)")
-        s.add_number("gap_chi2", j["gap_chi2"]["chi2"], "1", "sum of squared standardised residuals")
-        s.add_number("gap_dof", j["gap_chi2"]["dof"], "1", "number of measured components")
-        s.add_number("confidence", j["confidence"], "1",
+        _add(s, "gap_chi2", j["gap_chi2"]["chi2"], "1", "sum of squared standardised residuals")
+        _add(s, "gap_dof", j["gap_chi2"]["dof"], "1", "number of measured components")
+        _add(s, "confidence", j["confidence"], "1",
                      "BIC weight of models containing the top effect (or of the null model)")
         if isinstance(j["which"], list):
             for e in j["which"]:
-                s.add_number(f"magnitude.{e['effect']}", e["magnitude"], e["unit"],
+                _add(s, f"magnitude.{e['effect']}", e["magnitude"], e["unit"],
                              f"fitted magnitude, 95 % CI [{e['interval'][0]:.4g}, {e['interval'][1]:.4g}]")
-        s.add_number("shrink", j["shrink"]["fraction"], "1",
+        _add(s, "shrink", j["shrink"]["fraction"], "1",
                      "1 - excess held-out gap after / before (NaN when there was no held-out gap)")
         if j["next"]:
-            s.add_number("next_measurement", j["next"][0]["observable"], "",
+            _add(s, "next_measurement", j["next"][0]["observable"], "",
                          f"separates {' vs '.join(j['next'][0]['separates'])} by "
                          f"{j['next'][0]['separation_sigma']:.1f} sigma")
 
@@ -97,7 +107,6 @@ def diagnosis_report(diag, *, title: str | None = None):
             s.text += (f" {', '.join(thin)}: more than half the signal lies on observables that "
                        "the prior top observed in one run only (the other runs could not observe "
                        "them), so its size rests on that run; more replicate seeds would judge it.")
-        from .separation import nearest_imitations
         s.tables.append(Table(["effect", "closest imitation by", "unique part", "told apart from a gap of (sigma)",
                                "signal at prior top (sigma)"],
                               [[r["effect"], r["other"], _fmt(r["unique_fraction"]),
@@ -144,26 +153,32 @@ def diagnosis_report(diag, *, title: str | None = None):
         sh = diag.shrink
         if sh.n_heldout == 0:
             skip("no held-out (validate) observables")
+        shifts = ", ".join(f"{k} {v:+.3g}" for k, v in sh.nuisance.items()) or "none"
         s.text = (f"Rerun of {sh.model} at the magnitude fitted on calibration observables only "
-                  f"(recalibration: {sh.nuisance}); gaps on held-out observables.")
+                  f"(recalibration shifts: {shifts}); gaps on held-out observables, in units "
+                  "of the noise.")
         for k in ("before", "recalibrated", "after"):
-            s.add_number(f"gap_{k}", getattr(sh, k), "1", f"RMS z on held-out components, {k}")
-        s.add_number("excess_before", sh.before_excess, "1", "sqrt(max(mean z^2 - 1, 0)), before")
-        s.add_number("excess_after", sh.after_excess, "1", "same, after")
-        s.add_number("shrink", sh.fraction, "1", "1 - excess after / excess before")
-        s.add_number("shrink_rms", sh.fraction_rms, "1", "1 - RMS after / RMS before")
+            _add(s, f"gap_{k}", getattr(sh, k), "1", f"RMS z on held-out components, {k}")
+        _add(s, "excess_before", sh.before_excess, "1", "sqrt(max(mean z^2 - 1, 0)), before")
+        _add(s, "excess_after", sh.after_excess, "1", "same, after")
+        _add(s, "shrink", sh.fraction, "1", "1 - excess after / excess before")
+        lo, hi = sh.fraction_interval
+        if math.isfinite(lo) and math.isfinite(hi):
+            _add(s, "shrink_interval", f"{lo:.2f} to {hi:.2f}", "1",
+                 "90 % interval of the shrink (parametric bootstrap of the held-out residuals)")
+        _add(s, "shrink_rms", sh.fraction_rms, "1", "1 - RMS after / RMS before")
         if math.isfinite(sh.p_before):
-            s.add_number("p_heldout_gap_before", sh.p_before, "1",
+            _add(s, "p_heldout_gap_before", sh.p_before, "1",
                          "chi-square test of the held-out gap before against noise (a shrink "
                          "of a gap within noise measures noise)")
         if math.isfinite(sh.p_rerun_calibration):
-            s.add_number("p_rerun_calibration", sh.p_rerun_calibration, "1",
+            _add(s, "p_rerun_calibration", sh.p_rerun_calibration, "1",
                          "fit of the rerun to the calibration observables (confirms the attribution)")
         if math.isfinite(sh.p_rerun_heldout):
-            s.add_number("p_rerun_heldout", sh.p_rerun_heldout, "1",
+            _add(s, "p_rerun_heldout", sh.p_rerun_heldout, "1",
                          "fit of the rerun to the held-out observables, within the fit's uncertainty")
         if math.isfinite(sh.p_rerun_trials):
-            s.add_number("p_rerun_trials", sh.p_rerun_trials, "1",
+            _add(s, "p_rerun_trials", sh.p_rerun_trials, "1",
                          "the file's trials without a reading against the model's runs "
                          "(Fisher exact per observable, Sidak; 1: nothing to test)")
         if sh.trial_rows:
@@ -218,11 +233,27 @@ def diagnosis_report(diag, *, title: str | None = None):
                                 f.effect.physics, " | ".join(f.effect.sources)]
                                for f in diag.fingerprints.fingerprints]))
 
-    for key, title_, fn in (("summary", "Summary", summary), ("where", "Where is the gap", where_),
-                            ("fingerprints", "Fingerprints and identifiability", fingerprints_),
-                            ("which", "Which effect", which_), ("shrink", "How far", shrink_),
-                            ("next", "What to measure next", next_),
-                            ("catalogue", "Catalogue of effects", catalogue_)):
+    def answer_(s):
+        a = answer(diag)
+        s.text = a.headline
+        s.tables.append(Table(["question", "answer"],
+                              [["Which effect", a.which], ["How far", a.how_far],
+                               ["Recalibration", a.recalibration], ["What next", a.next]]))
+        s.tables.append(Table(["observable", "role", "measured", "simulated", "gap"],
+                              [[r["what"], r["role"], r["measured"], r["simulated"], r["gap"]]
+                               for r in a.where],
+                              caption="where the simulation misses the measurements, largest "
+                                      "gap first (measured ± its uncertainty)"))
+
+    for key, title_, fn in (("answer", "The answer", answer_),
+                            ("summary", "Appendix: summary statistics", summary),
+                            ("where", "Appendix: where (standardised residuals)", where_),
+                            ("fingerprints", "Appendix: fingerprints and identifiability",
+                             fingerprints_),
+                            ("which", "Appendix: which effect (model comparison)", which_),
+                            ("shrink", "Appendix: how far (held-out gaps)", shrink_),
+                            ("next", "Appendix: what to measure next", next_),
+                            ("catalogue", "Appendix: catalogue of effects", catalogue_)):
         rep.sections.append(run_section(key, title_, fn))
     return rep
 
@@ -231,8 +262,6 @@ def validation_report(result):
     """A report of a :class:`ValidationResult` (goals, confusion matrix, magnitude recovery)."""
     from ..report._model import Report, Table, run_section
     from ..plot import diagnose as pdg
-    from .validation_scores import capped_summary
-    from .diagnosis import uneven_scatter_note
 
     rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
                  inputs={"simulator": result.simulator, "preset": result.preset},

@@ -18,7 +18,8 @@ import math
 
 import numpy as np
 
-from .fingerprints import FingerprintSet, nuisance_projector
+from .fingerprints import FingerprintSet
+from .identifiability import nuisance_projector
 
 __all__ = ["nearest_imitations", "not_told_apart", "separation"]
 

@@ -102,7 +102,7 @@ class SurrogateSimulator:
 
     Examples
     --------
-    >>> from bedstruct.diagnose.measurements import measurement_from_dict, MeasurementSet
+    >>> from bedstruct.diagnose import measurement_from_dict, MeasurementSet
     >>> m = measurement_from_dict({"name": "aor", "kind": "static_angle", "role": "candidate",
     ...                            "uncertainty": 0.5})
     >>> sim = SurrogateSimulator(MeasurementSet((m,)), noise=0)

@@ -3,7 +3,7 @@
 A test can fail to give a reading: an aged pile that stands as a block after rest leaves no
 flank to fit, a fast stroke no heap. Such a trial is an outcome of the powder, and a model
 that never produces it where the experiment mostly does is contradicted by it, whatever its
-fit to the readings that were made. Fit rule 14 tests the trials a measurement file states
+fit to the readings that were made. The trial check tests the trials a measurement file states
 (``trials``, ``not_measured``; see :mod:`bedstruct.diagnose.measurement_io`) against the
 simulation's runs of the chosen model, observable by observable:
 

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .measurements import MeasurementSet, Observations, load_measurements, write_measurements
+from .measurements import MeasurementSet, Observations
+from .measurement_io import load_measurements, write_measurements
 
 log = logging.getLogger("bedstruct.diagnose.validate")
 
@@ -128,7 +129,7 @@ def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
     dominates), so twins sized on it carry more than drawn in a noisy fingerprint, where
     those sized on the prediction carry less; a validation errs on the weak side.
     """
-    from .fingerprints import nuisance_projector
+    from .identifiability import nuisance_projector
     from .noise_correlation import correlation_matrix, inverse_cholesky, whiten
     cal = fps.rows_calibrate
     fp = fps[name]

@@ -11,7 +11,7 @@ removed from the catalogue: the answer must be "unexplained").
 Validation runs on the analytic
 :class:`~bedstruct.diagnose.surrogate.SurrogateSimulator` (``simulator =
 "surrogate"``, the default: seconds) or on the embedded DEM engine
-(``simulator = "engine"``, :func:`bedstruct.workflows.diagnosis_simulator`, on
+(``simulator = "engine"``, :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator`, on
 :func:`engine_twin_design` with :data:`ENGINE_PRESETS`: minutes to hours), or on
 twins made by LIGGGHTS and diagnosed on the engine (``simulator = "liggghts"``,
 :mod:`bedstruct.diagnose.validate_liggghts`), and every result says which.
@@ -32,18 +32,18 @@ import numpy as np
 from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
 from .diagnosis import diagnose, diagnosis_design
-from .fingerprints import compute_fingerprints
+from .fingerprint_runs import compute_fingerprints
 from .measurements import MeasurementSet
 from .separation import not_told_apart
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 from .twins import (_intrinsic_sd, _projected_gap, _size_twin, _twin_measurements,
                     _twin_plan, _twin_sigma)
+from .validate_parallel import run_twins_in_processes
 from .validation_design import engine_scale_model, engine_twin_design, twin_design
-from .validation_scores import GOALS, ValidationResult, _records_done, score_twins
+from .validation_records import METHOD_VERSION, records_done, twin_record
+from .validation_scores import ValidationResult, score_twins
 
-__all__ = ["PRESETS", "ENGINE_PRESETS", "twin_design", "engine_twin_design", "engine_scale_model",
-           "ValidationResult",
-           "validate", "score_twins", "GOALS"]
+__all__ = ["PRESETS", "ENGINE_PRESETS", "validate"]
 
 log = logging.getLogger(__name__)
 
@@ -66,121 +66,6 @@ ENGINE_PRESETS = {
                   effects=("wall_friction", "capillary_bridges", "contact_ageing", "blade_startup",
                            "non_sphericity")),
 }
-#: Revision of how twins are made, in every twin record: records of another revision are not
-#: resumed. 5: the one-run scatter a twin's file states, and its sizing noise, take its
-#: sizing node's own replicate scatter where it exceeds the pooled one
-#: (:meth:`FingerprintSet.node_run_var`: at tiny a capillary heap at RH 0.3-0.55 scatters
-#: ~10 deg from seed to seed, the base ~3 deg); 4 stated the pooled scatter there. 4: a twin's magnitude is sized on its effect's response simulated at that
-#: magnitude (one node on the fingerprint's seeds, the magnitude solved again; the first
-#: crossing of the drawn gap, not a bisection that assumed the gap grows with the magnitude;
-#: :func:`~bedstruct.diagnose.twins._size_twin`); 3 sized it on the response interpolated
-#: between the fingerprint's nodes, so a twin between nodes of a curved response carried
-#: less gap than drawn. 3: a twin's file states one run's scatter at its own parameter point
-#: (:meth:`FingerprintSet.run_sd`: the pooled estimate, or where a fingerprint point
-#: scattered unlike the base, interpolated towards that point's own), on top of the reading
-#: noise, and its magnitude is sized in that noise; 2 stated the pooled scatter at every
-#: point. 1 sized it in the design's reading noise and stated the scatter at its upper
-#: bound, so its gap was smaller than stated. 6: sized in the metric of the fit, which
-#: whitens components read from one run by their correlation
-#: (:mod:`~bedstruct.diagnose.noise_correlation`); where the fingerprints list no such pair
-#: it makes the twins of 5. 7: the file states its trials (the repeated experiments) and,
-#: per observable, those that gave no reading, and keeps an observable read in none of them
-#: (``MeasurementSet.unmeasured``) instead of leaving it out; its values are those of 6.
-_TWIN_RULE = 7
-
-#: Revision of the simulation scatter, in every twin record. 2: pooled over the points that
-#: scatter like the base (:func:`~bedstruct.diagnose.replicates.homogeneous_variance`);
-#: 1 (older records, which lack it) pooled over all points.
-_SCATTER_RULE = 2
-
-#: Revision of the attribution's fit test, in every twin record (older records lack it and
-#: count as 1). 2: a magnitude held at a bound of its prior is fixed there, taking no degree
-#: of freedom and no leverage (:func:`~bedstruct.diagnose.fit_model`). 3: an attribution is
-#: confirmed only when its rerun fits the calibration observables too, not only the fit that
-#: interpolates its fingerprint (:attr:`Shrink.p_rerun_calibration`). 4: a single effect's
-#: rerun that fails that check becomes a fingerprint node, and the model is refitted and rerun
-#: (:func:`~bedstruct.diagnose.confirm.confirm_attribution`). 5: the fit's covariance and
-#: leverage are computed on unit-norm columns; before, the recalibration direction (J/m^3,
-#: 1e8 below the magnitudes) was cut as singular, so the intervals ignored it. 6: a rerun
-#: that fails while a recalibration shift exceeds its finite-difference step re-simulates the
-#: base at that shift (paired seeds) and refits with the secant sensitivities. 7: the selected
-#: model is the best subset of its size, the size chosen by significance (a pair must beat
-#: every single), not the end of a forward selection through the best single. 8: a rerun
-#: is checked in the scatter of runs at its magnitudes (refinement nodes and reruns keep their
-#: own replicate scatter where it exceeds the pooled one), not in the pooled scatter. 9: a
-#: magnitude's interval carries the noise of the interpolated response at it
-#: (:meth:`Fingerprint.predict_se`), and a node's own scatter is tested per component.
-#: 10: that noise, at a node simulated after the fingerprints whose runs scattered beyond the
-#: pooled estimate, is the node's own (:attr:`Fingerprint.se_nodes`), not the fingerprint
-#: points' interpolated; a magnitude fitted where heaps stand or fall gets a wider interval.
-#: 11: components whose run-to-run deviations move together (read from one run:
-#: ``FingerprintSet.meta["correlated_scatter"]``) enter the fit, the identifiability, the
-#: gap tests and the held-out shrink by generalised least squares, at the lower end of their
-#: correlation's confidence interval, instead of as independent readings that count one
-#: deviation twice; where no such pair is listed it gives the verdicts of 10. 12: the rerun's
-#: calibration check adds the variance the fitted magnitudes and shifts put on the
-#: prediction through the noise of the runs the fit reads the data through
-#: (:attr:`~bedstruct.diagnose.attribution.ModelFit.stderr_runs`); before, a true model
-#: whose prediction was off by that noise could fail the check (the small twin 9, wall
-#: friction at 0.167: p = 0.00012 under 11, 0.071 under 12). 13: the selected effects'
-#: intervals come from the profile of the chi-square with the interpolated responses' noise
-#: (:mod:`~bedstruct.diagnose.profile_interval`), not the normal approximation at the
-#: optimum; verdicts and magnitudes are those of 12 (the small capillary twin 5, 0.153:
-#: 0.028-0.112 under 12, 0.044-0.194 under 13). 14: the file's trials without a reading
-#: are weighed: the final model's runs (its rerun, with twice its seeds more where the file
-#: holds an observable read in no trial, pooled with the model's fingerprint points on either
-#: side of its magnitude) must give them as often as the trials did (Fisher's exact test per
-#: observable, Sidak over those with a trial or a run without a reading;
-#: :mod:`~bedstruct.diagnose.trial_counts`), or the answer is ``unexplained``; files that
-#: state no trials are diagnosed as under 13.
-_FIT_RULE = 14
-
-
-def _label(diag) -> str:
-    att = diag.attribution
-    if att.verdict == "attributed":
-        return "+".join(e.effect for e in att.selected)
-    return att.verdict
-
-
-def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, records=None,
-                identifiable: dict | None = None) -> dict:
-    """One twin's record (scores, verdict, rerun checks), appended to ``records`` if given.
-
-    ``signature`` holds the settings that make two validations the same (records of
-    another are not resumed); ``truth`` the withheld effect and magnitude;
-    ``identifiable`` the validation's fingerprints' judgement per effect
-    (``fingerprint_identifiable``: records that carry it are scored without them).
-    """
-    att = diag.attribution
-    rec = {"twin": i, "type": kind, **signature, **truth, "predicted": _label(diag),
-           "verdict": att.verdict, "gap_significant": diag.where.significant,
-           "shrink": diag.shrink.fraction, "shrink_rms": diag.shrink.fraction_rms,
-           "gap_before": diag.shrink.before_excess, "gap_after": diag.shrink.after_excess,
-           "p_gap_heldout_before": diag.shrink.p_before,
-           "p_rerun_calibration": diag.shrink.p_rerun_calibration,
-           "p_rerun_heldout": diag.shrink.p_rerun_heldout,
-           "p_rerun_trials": diag.shrink.p_rerun_trials,
-           "refits": len(diag.shrink.refits), "reason": att.reason,
-           "where_top": [(w["observable"], w["component"], round(w["z"], 2))
-                         for w in diag.where.ranked(3)],
-           "rerun_worst": [(w["observable"], w["component"], w["role"], round(w["z"], 2))
-                           for w in diag.shrink.rerun_worst]}
-    if identifiable is not None:
-        rec["fingerprint_identifiable"] = {k: bool(v) for k, v in identifiable.items()}
-    if att.selected:
-        top = att.selected[0]
-        rec.update(fitted_magnitude=top.magnitude, interval=list(top.interval),
-                   confidence=top.confidence,
-                   not_told_apart=[c["effect"] for c in not_told_apart(att, diag.fingerprints)])
-    log.info("twin %d %s %s -> %s", i, kind, truth.get("true_effect"), rec["predicted"])
-    if records is not None:
-        import json
-
-        from ..report._model import _plain
-        with open(records, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps(_plain(rec)) + "\n")
-    return rec
 
 
 def _fingerprint_settings(fps) -> dict:
@@ -220,7 +105,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         discrimination at a stated detectability, not the arbitrary width of a
         prior range. Weaker gaps are the identifiability report's business.
     simulator : {"surrogate", "engine", "liggghts"}
-        ``"engine"`` runs :func:`bedstruct.workflows.diagnosis_simulator` on
+        ``"engine"`` runs :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator` on
         :func:`engine_twin_design`. Each in-catalogue engine twin is diagnosed a
         second time with its effect removed from the catalogue (the
         out-of-catalogue twin), which reuses its runs. ``"liggghts"`` makes the twins
@@ -334,8 +219,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     signature = {"preset": preset, "simulator": simulator, "campaign": campaign, "seed": int(seed),
                  "twin_seed": tseed, "alpha": alpha, "select_alpha": select_alpha,
                  "gof_alpha": gof_alpha, "refine": int(refine),
-                 "snr_range": [float(x) for x in snr_range], "twin_rule": _TWIN_RULE,
-                 "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
+                 "snr_range": [float(x) for x in snr_range], "method_version": METHOD_VERSION,
                  "twin_repeats": twin_repeats, "top_up": top_up}
     if int(twin_jobs) != twin_jobs or twin_jobs < 1:
         raise ConfigError(f"twin_jobs: expected a whole number >= 1; got {twin_jobs!r}")
@@ -350,7 +234,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         if records is None:
             tmp_records = tempfile.TemporaryDirectory(prefix="bedstruct-validate-")
             records = Path(tmp_records.name) / "records.jsonl"
-    done = _records_done(records, signature)
+    done = records_done(records, signature)
     # records that state their fingerprints' identifiability are scored without a simulator
     offline = records_only and all("fingerprint_identifiable" in r for r in done.values())
     base = dict(BASE_PARAMETERS)
@@ -360,7 +244,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         design = diagnosis_design(measured, effects)
         sim = SurrogateSimulator(design)
     elif not offline:
-        from ..workflows.diagnosis_sim import diagnosis_simulator
+        from .engine_simulator import diagnosis_simulator
         measured = engine_twin_design(campaign)
         # with the whole catalogue's candidate measurements (one humid repose more per call),
         # so that a diagnosis of any measurement file of this design finds every run cached
@@ -388,19 +272,18 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     plan = _twin_plan([e.name for e in effects], cfg, in_turn=reuse_ooc)
     n_in_processes, n_resumed = 0, len(done)
     if twin_jobs > 1:
-        from .validate_parallel import run_twins_in_processes
         kinds_of = lambda kind: [kind] + (["out_of_catalogue"]  # noqa: E731
                                           if reuse_ooc and kind == "effect" else [])
         todo = [i for i, (kind, _) in enumerate(plan)
                 if any((i, k) not in done for k in kinds_of(kind))]
         n_in_processes = run_twins_in_processes(
-            dict(preset=preset, seed=seed, alpha=alpha, select_alpha=select_alpha,
+            validate, dict(preset=preset, seed=seed, alpha=alpha, select_alpha=select_alpha,
                  gof_alpha=gof_alpha, snr_range=tuple(snr_range), simulator=simulator,
                  engine=engine, refine=refine, twin_seed=tseed, campaign=campaign,
                  twin_repeats=twin_repeats, top_up=top_up),
             todo, len(plan), records, twin_jobs, progress=progress)
         # every twin is recorded now: the loop below scores them
-        done = _records_done(records, signature)
+        done = records_done(records, signature)
 
     twins, failed, not_run = [], [], []
     iterator = enumerate(plan)

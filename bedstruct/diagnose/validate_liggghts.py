@@ -41,14 +41,14 @@ import numpy as np
 from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
 from .diagnosis import diagnose, diagnosis_design
-from .external_twins import (TwinEffect, capillary_effect, liggghts_twin_design,
-                             make_liggghts_twin, null_effect, rolling_friction_effect,
-                             wall_friction_effect)
-from .fingerprints import compute_fingerprints
-from .measurements import load_measurements
+from .liggghts_effects import (
+    TwinEffect, capillary_effect, null_effect, rolling_friction_effect, wall_friction_effect)
+from .external_twins import liggghts_twin_design, make_liggghts_twin
+from .fingerprint_runs import compute_fingerprints
+from .measurement_io import load_measurements
 from .surrogate import BASE_PARAMETERS
-from .validate import _FIT_RULE, _SCATTER_RULE, twin_record
-from .validation_scores import ValidationResult, _records_done, score_twins
+from .validation_records import METHOD_VERSION, method_version_of, records_done, twin_record
+from .validation_scores import ValidationResult, score_twins
 
 __all__ = ["LIGGGHTS_PRESETS", "LiggghtsTwinSpec", "liggghts_twin_plan", "validate_liggghts"]
 
@@ -62,9 +62,6 @@ LIGGGHTS_PRESETS = {
                  effects=("capillary_bridges", "non_sphericity", "wall_friction")),
 }
 
-#: Revision of the LIGGGHTS twins, in every record and ``truth.json``: twins or records
-#: of another revision are remade. 1: the plan of :func:`liggghts_twin_plan`.
-_LIGGGHTS_TWIN_RULE = 1
 
 
 @dataclass(frozen=True)
@@ -123,6 +120,7 @@ def _twin_folder_matches(folder: Path, want: dict) -> bool:
         have = json.loads(truth.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError):
         return False
+    have = dict(have, method_version=method_version_of(have))
     return all(have.get(k) == v for k, v in want.items())
 
 
@@ -190,7 +188,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if shutil.which("liggghts") is None:
         raise ConfigError("LIGGGHTS twins need the liggghts executable on the PATH "
                           "(Debian/Ubuntu: apt-get install liggghts)")
-    from ..workflows.diagnosis_sim import diagnosis_simulator
+    from .engine_simulator import diagnosis_simulator
     cfg = LIGGGHTS_PRESETS[preset]
     t0 = time.perf_counter()
     effects = _catalogue(cfg["effects"])
@@ -209,9 +207,8 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
                                alpha=select_alpha, simulator_name="engine", progress=progress)
     signature = {"preset": preset, "simulator": "liggghts", "seed": int(seed), "alpha": alpha,
                  "select_alpha": select_alpha, "gof_alpha": gof_alpha, "refine": int(refine),
-                 "fit_rule": _FIT_RULE, "scatter_rule": _SCATTER_RULE,
-                 "liggghts_twin_rule": _LIGGGHTS_TWIN_RULE}
-    done = _records_done(records, signature)
+                 "method_version": METHOD_VERSION}
+    done = records_done(records, signature)
     plan = liggghts_twin_plan(base)
     seeds = tuple(1000 + 10 * int(seed) + k for k in range(cfg["repetitions"]))
     twins, failed, made = [], [], []
@@ -228,7 +225,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if progress:
         from tqdm import tqdm
         steps = tqdm(steps, desc="LIGGGHTS twins")
-    from ..workflows.diagnosis_sim import _DECK_REVISION
+    from .engine_simulator import _DECK_REVISION
     try:
         for i, spec in steps:
             truth = {"true_effect": spec.true_effect, "true_magnitude": spec.true_magnitude,
@@ -241,7 +238,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
             noise_seed = 10 + 100 * int(seed) + i
             want = {"effect": spec.effect.to_dict(), "base": base, "seeds": list(seeds),
                     "noise_seed": noise_seed, "preset": preset, "overrides": overrides,
-                    "deck_revision": _DECK_REVISION, "liggghts_twin_rule": _LIGGGHTS_TWIN_RULE}
+                    "deck_revision": _DECK_REVISION, "method_version": METHOD_VERSION}
             if not todo:  # every diagnosis resumed from the records: list the twin, if kept
                 if _twin_folder_matches(folder, want):
                     made.append(_made_entry(i, spec, folder, keep=tmp is None))
@@ -254,7 +251,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
                                                    replace_failed=2)
                     # the settings a later run checks before reusing this twin
                     doc = json.loads(made_twin.truth_path.read_text(encoding="utf-8"))
-                    doc.update(deck_revision=_DECK_REVISION, liggghts_twin_rule=_LIGGGHTS_TWIN_RULE)
+                    doc.update(deck_revision=_DECK_REVISION, method_version=METHOD_VERSION)
                     made_twin.truth_path.write_text(json.dumps(doc, indent=1), encoding="utf-8")
                 made.append(_made_entry(i, spec, folder, keep=tmp is None))
                 real = load_measurements(folder / "twin.toml")

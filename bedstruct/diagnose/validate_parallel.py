@@ -27,6 +27,9 @@ import os
 import tempfile
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, as_completed, wait
 from pathlib import Path
+from typing import Callable
+
+from .process_pool import _exit_with_parent
 
 log = logging.getLogger(__name__)
 
@@ -38,10 +41,10 @@ _STATUS = ".status"
 _POLL_S = 10.0
 
 
-def _one_twin(kwargs: dict, index: int, n_twins: int, part: str) -> tuple[int, str]:
-    """Worker: run twin ``index`` alone (records appended to ``part``, its status line
-    written to ``part`` + ``.status`` as it changes)."""
-    from .validate import validate
+def _one_twin(validate: Callable, kwargs: dict, index: int, n_twins: int,
+              part: str) -> tuple[int, str]:
+    """Worker: run twin ``index`` alone with ``validate`` (records appended to ``part``, its
+    status line written to ``part`` + ``.status`` as it changes)."""
     kw = dict(kwargs)
     engine = kw.get("engine")
     if engine:
@@ -60,12 +63,15 @@ def _one_twin(kwargs: dict, index: int, n_twins: int, part: str) -> tuple[int, s
     return index, part
 
 
-def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records, jobs: int, *,
-                           progress: bool = False) -> int:
+def run_twins_in_processes(validate: Callable, kwargs: dict, twins: list[int], n_twins: int,
+                           records, jobs: int, *, progress: bool = False) -> int:
     """Run the plan's twins ``twins`` in ``jobs`` worker processes; their records into ``records``.
 
     Parameters
     ----------
+    validate : callable
+        :func:`~bedstruct.diagnose.validate.validate` (passed in: a module-level function, so
+        that the workers unpickle it by name), called with ``kwargs`` and ``shard=(i, n)``.
     kwargs : dict
         The arguments of :func:`~bedstruct.diagnose.validate.validate` that define the
         validation (preset, seeds, statistics settings, simulator and engine table), without
@@ -92,7 +98,6 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
     records = Path(records)
     workers = max(1, min(int(jobs), len(twins)))
     ctx = multiprocessing.get_context("spawn")
-    from ..workflows.diagnosis_pool import _exit_with_parent
     with tempfile.TemporaryDirectory(prefix="bedstruct-twin-records-",
                                      dir=records.parent) as tmp:
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
@@ -101,7 +106,7 @@ def run_twins_in_processes(kwargs: dict, twins: list[int], n_twins: int, records
         try:
             paths = {i: str(Path(tmp) / f"twin{i}.jsonl") for i in twins}
             _seed_parts(paths, records)
-            parts = {pool.submit(_one_twin, kwargs, i, n_twins, p): p for i, p in paths.items()}
+            parts = {pool.submit(_one_twin, validate, kwargs, i, n_twins, p): p for i, p in paths.items()}
             futures = list(parts)
             if progress:
                 _wait_with_bar(parts, workers, records)

@@ -14,7 +14,8 @@ from dataclasses import replace
 
 from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
-from .measurements import MeasurementSet, measurement_from_dict
+from .measurements import MeasurementSet
+from .measurement_io import measurement_from_dict
 from .surrogate import SPEED_X1
 
 __all__ = ["twin_design", "engine_twin_design", "engine_scale_model"]

@@ -105,11 +105,6 @@ class ValidationResult:
         return cls(preset, simulator, *(scores[k] for k in keys), list(twins), scores["goals"],
                    seconds, settings, scores["identifiable"], scores.get("detected", {}))
 
-    def report(self):
-        """The validation as a :class:`bedstruct.report._model.Report`."""
-        from .report import validation_report
-        return validation_report(self)
-
     def to_json(self) -> dict:
         return {"schema": "bedstruct.diagnose.validate/1", "preset": self.preset,
                 "simulator": self.simulator,
@@ -125,41 +120,6 @@ class ValidationResult:
                 "identifiable": self.identifiable, "detected": self.detected,
                 "n_twins": len(self.twins), "twins": self.twins, "seconds": self.seconds,
                 "settings": self.settings}
-
-
-#: Signature keys added after records were first written, with the value older records had.
-_SIGNATURE_DEFAULTS = {"twin_repeats": 1, "fit_rule": 1, "scatter_rule": 1}
-
-
-def _records_done(records, signature: dict) -> dict:
-    """Twin records of the same validation already in ``records``, by (twin, type)."""
-    import json
-    if records is None or not Path(records).exists():
-        return {}
-    done, other, why = {}, 0, ""
-    for n, line in enumerate(Path(records).read_text(encoding="utf-8").splitlines(), 1):
-        if not line.strip():
-            continue
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError as exc:
-            raise ConfigError(f"{records}, line {n}: not a JSON twin record ({exc.msg})") from None
-        if not (isinstance(rec, dict) and isinstance(rec.get("twin"), int)
-                and rec.get("type") in ("effect", "null", "out_of_catalogue")):
-            raise ConfigError(f"{records}, line {n}: not a twin record (expected an object with an "
-                              "integer 'twin' and a 'type' of effect, null or out_of_catalogue)")
-        differ = [k for k, v in signature.items() if rec.get(k, _SIGNATURE_DEFAULTS.get(k)) != v]
-        if not differ:
-            done[(int(rec["twin"]), rec["type"])] = rec
-        else:
-            other += 1
-            why = why or ", ".join(f"{k} {rec.get(k)!r} (this run: {signature[k]!r})" for k in differ[:3])
-    if other:
-        # a resumed long validation that silently reran everything would cost hours: say so
-        log.warning("%s: %d record(s) of another validation ignored, e.g. %s", records, other, why)
-    if done:
-        log.info("%s: %d twin record(s) of this validation taken as done", records, len(done))
-    return done
 
 
 def capped_twins(twins) -> list[dict]:

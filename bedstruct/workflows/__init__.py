@@ -16,11 +16,9 @@ from .schema import WorkflowConfig, config_reference, typed_config
 from .calibrate import CalibrationPoint, CalibrationResult, calibrate_cohesion, inverse_linear
 from .repose import ReposeReplicate, ReposeResult, repose_replicate, run_repose
 from .spread import LayerResult, SpreadResult, generate_pile, pile_key, run_spread
-from .diagnosis_sim import EngineSimulator, diagnosis_simulator, effects_config
 
 __all__ = ["WorkflowConfig", "typed_config", "config_reference", "DEFAULTS", "PRESETS",
            "load_config", "apply_override", "available_presets", "config_to_toml", "preset_path", "RunLayout", "write_json_atomic", "CONTACT_KEYWORDS",
            "ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate",
            "CalibrationPoint", "CalibrationResult", "calibrate_cohesion", "inverse_linear",
-           "LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key",
-           "diagnosis_simulator", "EngineSimulator", "effects_config"]
+           "LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key"]

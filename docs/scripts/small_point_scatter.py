@@ -17,7 +17,7 @@ from scipy import stats
 from bedstruct.diagnose.catalogue import catalogue
 from bedstruct.diagnose.diagnosis import diagnosis_design
 from bedstruct.diagnose.surrogate import BASE_PARAMETERS
-from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
+from bedstruct.diagnose.engine_simulator import diagnosis_simulator
 
 V = importlib.import_module("bedstruct.diagnose.validate")
 

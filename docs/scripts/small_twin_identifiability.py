@@ -18,13 +18,14 @@ import numpy as np
 
 from bedstruct.diagnose.catalogue import catalogue
 from bedstruct.diagnose.diagnosis import diagnosis_design
-from bedstruct.diagnose.fingerprints import assess_fingerprints, compute_fingerprints, \
-    selection_threshold
+from bedstruct.diagnose.identifiability import assess_fingerprints
+from bedstruct.diagnose.fingerprint_runs import compute_fingerprints
+from bedstruct.diagnose.fingerprints import selection_threshold
 from bedstruct.diagnose.surrogate import BASE_PARAMETERS
 import importlib
 V = importlib.import_module("bedstruct.diagnose.validate")
 T = importlib.import_module("bedstruct.diagnose.twins")
-from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
+from bedstruct.diagnose.engine_simulator import diagnosis_simulator
 
 cache = sys.argv[1]
 cfg = dict(V.ENGINE_PRESETS["small"])

@@ -33,7 +33,7 @@ def _vector(fps, obs):
 
 
 def _projector(fps, sigma):
-    from bedstruct.diagnose.fingerprints import nuisance_projector
+    from bedstruct.diagnose.identifiability import nuisance_projector
     cal = fps.rows_calibrate
     P = nuisance_projector(fps.sensitivities[cal] / sigma[cal][:, None])
     return lambda d: P @ (d[cal] / sigma[cal])

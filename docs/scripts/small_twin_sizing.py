@@ -84,7 +84,8 @@ def diagnosis_view(got):
     """The fingerprints as twin ``got``'s diagnosis sees them (its file's uncertainties, the
     catalogue's effects, the selection threshold at 1 %), the measured rows and names, and
     its residual."""
-    from bedstruct.diagnose.fingerprints import assess_fingerprints, selection_threshold
+    from bedstruct.diagnose.identifiability import assess_fingerprints
+    from bedstruct.diagnose.fingerprints import selection_threshold
     effects = V._catalogue(V.ENGINE_PRESETS[RUN["preset"]]["effects"])
     fps = replace(got["fps"].subset([e.name for e in effects]), alpha=0.01)
     fps, rows_meas, names, _, sm, _ = D._measured_vectors(got["real"], fps)

@@ -137,7 +137,7 @@ def test_sim_config_file_and_engine_hook(tmp_path):
     assert (cfg.refine, cfg.confirm_rounds) == (0, 1) and cfg.as_dict()["confirm_rounds"] == 1
     p.write_text('[simulator]\nkind = "engine"\n[engine]\npreset = "tiny"\n')
     sim = make_simulator(load_sim_config(p), _design(dict(name="aor", kind="static_angle")))
-    assert sim.name == "engine"  # bedstruct.workflows.diagnosis_simulator (not run here)
+    assert sim.name == "engine"  # the engine simulator (not run here)
     p.write_text('[simulator]\nkind = "engine"\n[engine]\npresett = "tiny"\n')
     with pytest.raises(ConfigError, match="presett"):
         make_simulator(load_sim_config(p), _design(dict(name="aor", kind="static_angle")))

@@ -10,10 +10,11 @@ import pytest
 
 from bedstruct.cli import main
 from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, compute_fingerprints,
-                                diagnose, diagnosis_design, load_measurements, validate)
+                                diagnose, diagnosis_design, diagnosis_report, load_measurements,
+                                validate, validation_report)
 from bedstruct.diagnose.validation_scores import capped_twins
 from bedstruct.diagnose.twins import _magnitude_for_snr, _twin_measurements, _twin_sigma
-from bedstruct.diagnose.validate import twin_design
+from bedstruct.diagnose.validation_design import twin_design
 
 SEED = pathlib.Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
 
@@ -33,7 +34,7 @@ def _twin(sim, fps, tmp_path, effects, seed):
 
 
 def test_twins_are_sized_in_the_noise_their_diagnosis_sees(twin_setup, tmp_path):
-    from bedstruct.diagnose.fingerprints import nuisance_projector
+    from bedstruct.diagnose.identifiability import nuisance_projector
     eff, sim, fps = twin_setup
     sig = _twin_sigma(fps, sim.noise_sd())
     real = _twin(sim, fps, tmp_path, {}, 3)
@@ -103,18 +104,38 @@ def test_a_repeat_that_could_not_observe_leaves_the_mean_of_the_others(twin_setu
 
 
 def test_records_without_a_newer_key_take_its_old_value(tmp_path):
-    from bedstruct.diagnose.validation_scores import _records_done
-    sig = {"preset": "tiny", "twin_rule": 2}
+    from bedstruct.diagnose.validation_records import METHOD_VERSION, records_done
+    sig = {"preset": "tiny", "method_version": METHOD_VERSION}
     rec = tmp_path / "r.jsonl"
     rec.write_text(json.dumps({"twin": 0, "type": "null", **sig}) + "\n")
-    assert _records_done(rec, dict(sig, twin_repeats=1))
-    assert not _records_done(rec, dict(sig, twin_repeats=3))
-    # made before the fit test fixed magnitudes at a bound: not this code's answers
-    assert _records_done(rec, dict(sig, fit_rule=1))
-    # ... or before the scatter was pooled over the points that scatter like the base
-    assert _records_done(rec, dict(sig, scatter_rule=1))
-    assert not _records_done(rec, dict(sig, scatter_rule=2))
-    assert not _records_done(rec, dict(sig, fit_rule=2))
+    assert records_done(rec, dict(sig, twin_repeats=1))
+    assert not records_done(rec, dict(sig, twin_repeats=3))
+    assert not records_done(rec, dict(sig, method_version=METHOD_VERSION + 1))
+
+
+def test_records_written_before_the_method_version_are_read_by_their_fields(tmp_path):
+    """Records that name their method by the fields used before ``method_version`` (as those
+    in docs/records do) are resumed when those fields are the current method's, not else."""
+    from bedstruct.diagnose.validation_records import method_version_of, records_done
+    sig = {"preset": "tiny", "method_version": 1}
+    current = {"twin_rule": 7, "fit_rule": 14, "scatter_rule": 2}
+    rec = tmp_path / "r.jsonl"
+    rec.write_text(json.dumps({"twin": 0, "type": "null", "preset": "tiny", **current}) + "\n")
+    assert records_done(rec, sig)
+    for older in ({"fit_rule": 13}, {"scatter_rule": 1}, {"twin_rule": 6}):
+        rec.write_text(json.dumps({"twin": 0, "type": "null", "preset": "tiny",
+                                   **dict(current, **older)}) + "\n")
+        assert not records_done(rec, sig)
+    # a record with none of them is older than all of them
+    assert method_version_of({"twin": 0}) is None
+    # the committed records of the current method are version 1, the older ones none
+    records = pathlib.Path(__file__).resolve().parents[2] / "docs" / "records"
+    first = json.loads((records / "small-engine-fit14").glob("*.jsonl").__next__()
+                       .read_text().splitlines()[0])
+    assert method_version_of(first) == 1
+    first = json.loads((records / "small-engine-fit13").glob("*.jsonl").__next__()
+                       .read_text().splitlines()[0])
+    assert method_version_of(first) is None
     from bedstruct.errors import ConfigError
     with pytest.raises(ConfigError, match="twin_repeats"):
         validate("tiny", twin_repeats=0)
@@ -140,7 +161,7 @@ def test_withheld_effect_is_found_with_magnitude(twin_setup, tmp_path):
     # which effects the design tells apart: each effect's closest imitation by another
     assert [r["effect"] for r in j["separation"]] == [e.name for e in eff]
     assert all(r["other"] != r["effect"] and 0 <= r["unique_fraction"] <= 1 for r in j["separation"])
-    fp_section = [s for s in d.report().sections if s.key == "fingerprints"][0]
+    fp_section = [s for s in diagnosis_report(d).sections if s.key == "fingerprints"][0]
     assert any("closest imitation by" in t.columns for t in fp_section.tables)
     json.dumps(j, allow_nan=True)
 
@@ -179,7 +200,7 @@ def test_seed_measurements_end_to_end():
     assert ident["contact_ageing"] is False          # the qualitative spike (4 deg) cannot decide it
     assert "avalanche_angle_rest600" in d.to_json()["not_identifiable"][0]["identify_with"]
     assert d.next and not d.next[0].measured
-    rep = d.report()
+    rep = diagnosis_report(d)
     assert rep.failed == []
 
 
@@ -194,7 +215,7 @@ def test_tiny_validation_meets_the_goals():
     assert r.magnitude_coverage >= 0.7
     m = np.asarray(r.confusion["matrix"])
     assert m.sum() == len(r.twins) == 28
-    assert r.report().failed == []
+    assert validation_report(r).failed == []
     # scores over identifiable effects: every surrogate effect is identifiable on this design
     ident = j["identifiable"]
     assert ident["effects"] == r.settings["effects"] and ident["not_identifiable"] == []
@@ -203,11 +224,11 @@ def test_tiny_validation_meets_the_goals():
     from dataclasses import replace
     holes = replace(r, settings=dict(r.settings, missing_runs={"dynamic_angle_x5_early": 3},
                                      unobservable={"psd_after_x1": "not observed in 4 of 20 runs"}))
-    goals = [s for s in holes.report().sections if s.key == "goals"][0]
+    goals = [s for s in validation_report(holes).sections if s.key == "goals"][0]
     assert "dynamic_angle_x5_early not observed in 3" in goals.text and "psd_after_x1 dropped" in goals.text
     assert "top1_accuracy_identifiable" not in goals.numbers
     blind = replace(r, identifiable=dict(ident, not_identifiable=["wall_friction"]))
-    goals = [s for s in blind.report().sections if s.key == "goals"][0]
+    goals = [s for s in validation_report(blind).sections if s.key == "goals"][0]
     assert "wall_friction" in goals.numbers["top1_accuracy_identifiable"].definition
     # a twin that carries no significant gap is scored apart as well (no method attributes it);
     # the surrogate's twins all carry theirs
@@ -225,7 +246,7 @@ def test_tiny_validation_meets_the_goals():
     assert scored["top1_accuracy"] == pytest.approx((n_hits - 1) / 12)
     assert scored["detected"]["n_effect_twins_undetected"] == 1
     assert scored["detected"]["top1_accuracy"] == pytest.approx((n_hits - 1) / 11)
-    goals = [s for s in replace(r, detected=scored["detected"]).report().sections
+    goals = [s for s in validation_report(replace(r, detected=scored["detected"])).sections
              if s.key == "goals"][0]
     assert "carry none" in goals.numbers["top1_accuracy_detected"].definition
     # every effect twin records the gap drawn for it and the gap it has (the drawn one unless
@@ -238,10 +259,10 @@ def test_tiny_validation_meets_the_goals():
     uncapped = [t for t in eff if t not in capped_twins(r.twins)]
     assert uncapped and all(t["twin_gap_sigma"] == pytest.approx(t["requested_gap_sigma"], rel=1e-6)
                             for t in uncapped)
-    table = [s for s in r.report().sections if s.key == "twins"][0].tables[0]
+    table = [s for s in validation_report(r).sections if s.key == "twins"][0].tables[0]
     assert len(table.rows) == len(r.twins) and "twin gap (σ)" in table.columns
     weak = replace(r, twins=[dict(eff[0], twin_gap_sigma=2.5)] + r.twins[1:])
-    goals = [s for s in weak.report().sections if s.key == "goals"][0]
+    goals = [s for s in validation_report(weak).sections if s.key == "goals"][0]
     assert f"{eff[0]['true_effect']} (1 twin, 2.5σ)" in goals.text
 
 
@@ -250,7 +271,10 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
                  "--json"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     j = json.loads(last)
-    assert j["simulator"] == "surrogate" and j["where"] and "shrink" in j and "which" in j
+    assert j["simulator"] == "surrogate" and j["verdict"] == "attributed"
+    assert j["effect"] == "missing_fines" and len(j["where"]) == 3
+    assert j["magnitude"]["interval"][0] <= j["magnitude"]["value"] <= j["magnitude"]["interval"][1]
+    assert set(j["shrink"]) >= {"value", "interval"}
     assert (tmp_path / "d" / "report.html").is_file() and (tmp_path / "d" / "diagnosis.json").is_file()
     assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED)]) == 2     # usage
     assert "missing --out" in capsys.readouterr().err
@@ -279,7 +303,8 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["settings"]["refine"] == 0
     assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "r"),
                  "--refine", "0", "--json"]) == 0
-    j = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    capsys.readouterr()
+    j = json.loads((tmp_path / "r" / "diagnosis.json").read_text())
     assert j["sim_config"]["refine"] == 0 and j["settings"]["refine"] == 0
     with pytest.raises(SystemExit) as exc:
         main(["diagnose", "validate", "--refine", "-1"])
@@ -288,7 +313,8 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
     # marginal effects, and is recorded
     assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "t"),
                  "--refine", "0", "--top-up", "3", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["sim_config"]["top_up"] == 3
+    capsys.readouterr()
+    assert json.loads((tmp_path / "t" / "diagnosis.json").read_text())["sim_config"]["top_up"] == 3
     with pytest.raises(SystemExit) as exc:
         main(["diagnose", "validate", "--top-up", "x"])
     assert exc.value.code == 2 and "whole number >= 0" in capsys.readouterr().err
@@ -412,10 +438,10 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     assert sorted(t["twin"] for t in scored.settings["not_run"]) == \
         sorted(t["twin"] for t in parts[1].twins)
     assert scored.top1_accuracy == parts[0].top1_accuracy
-    # records of an earlier fit rule (11: the rerun's calibration check without the noise of
-    # the fit's own prediction) are another validation's: not resumed, their twins not run
+    # records of another method version are another validation's: not resumed, their twins
+    # not run
     older = tmp_path / "older.jsonl"
-    older.write_text("".join(json.dumps(dict(json.loads(x), fit_rule=11)) + "\n"
+    older.write_text("".join(json.dumps(dict(json.loads(x), method_version=0)) + "\n"
                              for x in half.read_text().splitlines()))
     stale = validate("tiny", refine=0, records=older, records_only=True)
     assert stale.twins == [] and len(stale.settings["not_run"]) == len(mine) + len(parts[1].twins)
@@ -457,14 +483,15 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     # another validation's records are not taken as done
     other = validate("tiny", refine=0, records=recs, twin_seed=7)
     assert other.settings["resumed_twins"] == 0 and len(calls) == len(whole.twins)
-    # ... nor those of other statistics settings, nor twins made by an earlier rule
+    # ... nor those of other statistics settings, nor twins made by another method version
     assert validate("tiny", refine=0, records=recs, alpha=0.01).settings["resumed_twins"] == 0
     lines = recs.read_text().splitlines()
-    recs.write_text("".join(json.dumps(dict(json.loads(x), twin_rule=1)) + "\n" for x in lines))
+    recs.write_text("".join(json.dumps(dict(json.loads(x), method_version=0)) + "\n"
+                            for x in lines))
     with caplog.at_level("WARNING", logger="bedstruct.diagnose.validate"):
         assert validate("tiny", refine=0, records=recs).settings["resumed_twins"] == 0
     # the user is told why nothing was resumed
-    assert f"twin_rule 1 (this run: {vmod._TWIN_RULE})" in caplog.text
+    assert f"method_version 0 (this run: {vmod.METHOD_VERSION})" in caplog.text
     recs.write_text("{not json\n")
     with pytest.raises(ConfigError, match="line 1"):
         validate("tiny", refine=0, records=recs)
@@ -558,7 +585,7 @@ def test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once(tmp_path):
     records = tmp_path / "records.jsonl"
     records.write_text(given + "\n")
     n_twins = len({json.loads(x)["twin"] for x in lines})
-    run_twins_in_processes(dict(preset="tiny", refine=0), [first, other], n_twins, records, 2)
+    run_twins_in_processes(validate, dict(preset="tiny", refine=0), [first, other], n_twins, records, 2)
     got = records.read_text().splitlines()
     assert got.count(given) == 1
     assert [json.loads(x)["twin"] for x in got].count(first) == 1
@@ -575,7 +602,7 @@ def test_a_status_line_that_cannot_be_written_does_not_stop_the_twin(tmp_path, m
     monkeypatch.setattr(validate_parallel.os, "replace", refuse)
     part = str(tmp_path / "twin0.jsonl")
     # a shard count above the plan's length: twin 0 alone
-    validate_parallel._one_twin(dict(preset="tiny", refine=0), 0, 1000, part)
+    validate_parallel._one_twin(validate, dict(preset="tiny", refine=0), 0, 1000, part)
     assert [json.loads(x)["twin"] for x in pathlib.Path(part).read_text().splitlines()] == [0]
     assert validate_parallel._read_status(part) == ""
 
@@ -590,7 +617,7 @@ def test_running_twins_say_how_far_they_have_come(tmp_path):
     assert statuses == [f"twin {i} ({names[i]})" for i in sorted(names)]
     part = str(tmp_path / "twin3.jsonl")
     assert _read_status(part) == ""
-    _one_twin(dict(preset="tiny", refine=0), 3, len(names), part)
+    _one_twin(validate, dict(preset="tiny", refine=0), 3, len(names), part)
     assert _read_status(part) == f"twin 3 ({names[3]})"
     merged = tmp_path / "records.jsonl"
     _append(pathlib.Path(part), merged)

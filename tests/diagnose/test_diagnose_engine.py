@@ -10,9 +10,10 @@ import pytest
 
 import bedstruct.diagnose as dg
 from bedstruct.diagnose.catalogue import CAPILLARY_ASPERITY
-from bedstruct.diagnose.measurements import MeasurementSet, measurement_from_dict
+from bedstruct.diagnose.measurements import MeasurementSet
+from bedstruct.diagnose.measurement_io import measurement_from_dict
 from bedstruct.errors import ConfigError
-from bedstruct.workflows.diagnosis_sim import EngineSimulator, effects_config
+from bedstruct.diagnose.engine_simulator import EngineSimulator, effects_config
 
 
 def _psd_design():
@@ -46,7 +47,7 @@ def test_cache_returns_the_stored_call_and_keys_on_everything_that_matters(tmp_p
         .cache_key({}, {"missing_fines": 0.1}, 3)
     # LIGGGHTS/LAMMPS calls carry the deck revision (entries of older decks are stale); the
     # embedded calls' keys do not depend on it
-    import bedstruct.workflows.diagnosis_sim as dsim
+    import bedstruct.diagnose.engine_simulator as dsim
     ext = EngineSimulator(_psd_design(), dict(cfg, overrides=["engine=liggghts"]))
     ek = ext.cache_key({}, {"missing_fines": 0.1}, 3)
     assert ek != k
@@ -196,8 +197,8 @@ def test_cli_validate_cache_needs_the_engine(capsys):
 def test_scale_models_read_every_layer_the_design_needs_and_validate_picks_its_own():
     """The diagnosis' scale models: a 6 mm platform (a free toe ahead of x1/x2 heaps), no
     dumps, and (small) three layers: layer 3 is the dynamic angle's, nothing reads a fourth."""
-    from bedstruct.diagnose.validate import engine_scale_model
-    from bedstruct.workflows.diagnosis_sim import PRESET_OVERRIDES
+    from bedstruct.diagnose.validation_design import engine_scale_model
+    from bedstruct.diagnose.engine_simulator import PRESET_OVERRIDES
     d = dg.engine_twin_design()
     needed = max(int(m.conditions.get("layer", 1)) for m in d)
     for preset in ("tiny", "small"):
@@ -258,7 +259,7 @@ def test_an_angle_after_rest_rests_the_pile_on_the_ageing_clock(monkeypatch, tmp
     assert seen == [0.0] and obs["after_rest"][0] == obs["static_angle"][0] == 30.0
     import hashlib
 
-    from bedstruct.workflows.diagnosis_sim import _CACHE_SCHEMA
+    from bedstruct.diagnose.engine_simulator import _CACHE_SCHEMA
     cfg = sim.run_config({}, {}, 0)
     assert cfg["repose"].pop("rest_time") == 0.0
     old_doc = {"schema": _CACHE_SCHEMA, "config": cfg, "wide_box": sim.wide_box,
@@ -340,7 +341,7 @@ def test_a_worker_whose_parent_was_killed_stops(tmp_path):
     script = tmp_path / "parent.py"
     script.write_text(
         "import multiprocessing, os, sys, time\n"
-        "from bedstruct.workflows.diagnosis_pool import _exit_with_parent\n"
+        "from bedstruct.diagnose.process_pool import _exit_with_parent\n"
         "def child(parent):\n"
         "    _exit_with_parent(parent, interval=0.1)\n"
         "    time.sleep(60)\n"

@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bedstruct.diagnose import Observations, compute_fingerprints, diagnose
+from bedstruct.diagnose import Observations, compute_fingerprints, diagnose, diagnosis_report
 from bedstruct.diagnose.fingerprint_runs import simulate_node
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
 
@@ -108,7 +108,7 @@ class _WilderWithMagnitude(ToySimulator):
 
 def test_a_magnitude_interval_carries_the_noise_of_the_interpolated_response(monkeypatch, caplog):
     from bedstruct.diagnose.attribution import fit_model
-    from bedstruct.diagnose.fingerprints import Fingerprint
+    from bedstruct.diagnose.effect_response import Fingerprint
     resp = np.r_[3, -3, 3, -3, 3, -3, 2, -2, 2, 0, 0, 0] * 1.0
 
     def coverage():
@@ -144,7 +144,7 @@ def test_the_diagnosis_says_where_runs_scattered_unlike_the_base():
     assert any(n.startswith("A at ") and "o0 [value]" in n and "more seeds" in n
                for n in d.data_notes())
     # the report carries the note and the rerun's largest departures
-    rep = d.report()
+    rep = diagnosis_report(d)
     assert rep.failed == []
     assert any("more seeds at that magnitude" in s.text for s in rep.sections)
     assert any(t.caption.startswith("where the final rerun departs most")
@@ -207,8 +207,8 @@ def wild_node_fit(r):
 def test_a_wild_node_widens_the_magnitude_interval_where_its_response_is_noisy(monkeypatch):
     """A refinement node where heaps stand or fall: its response on o0 is the mean of three
     runs scattering by ~30, and the interval of the magnitude fitted through it carries that
-    noise (fit rule 10: Fingerprint.se_nodes); the interpolated standard error of the tame
-    fingerprint points (the rule before) made it about half as wide, covering 0.25 in 12 of
+    noise (Fingerprint.se_nodes); the interpolated standard error of the tame
+    fingerprint points would make it about half as wide, covering 0.25 in 12 of
     40 draws against 22. Still short of 95 %: the wild o0 also pulls the estimate itself,
     which the interval's linearisation at the fitted magnitude does not carry."""
     from bedstruct.diagnose.fingerprints import FingerprintSet

@@ -261,7 +261,7 @@ def test_surrogate_region_lookup_is_strict():
 
 
 def test_engine_region_lookup_is_strict():
-    from bedstruct.workflows.diagnosis_observe import _region_index
+    from bedstruct.diagnose.engine_runs import _region_index
     assert [_region_index(_packing(r)) for r in ("start", "Centre", "center", "end", None)] == \
         [0, 1, 1, 2, 1]
     with pytest.raises(ConfigError, match="'pf'.*'middle'"):

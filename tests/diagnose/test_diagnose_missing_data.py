@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from bedstruct.diagnose import (MeasurementSet, Observations, compute_fingerprints, diagnose,
-                                standardised_residuals)
-from bedstruct.diagnose.diagnosis import gap_size
+                                diagnosis_report, standardised_residuals)
+from bedstruct.diagnose.confirm import gap_size
 from bedstruct.diagnose.fingerprints import selection_threshold
 from bedstruct.diagnose.twins import _twin_measurements
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
@@ -93,7 +93,7 @@ def test_an_observable_never_seen_at_one_parameter_point_is_dropped_and_said_so(
     assert d.attribution.selected[0].effect == "A"
     assert any("o8" in n and "not used" in n for n in d.settings["data_notes"])
     assert any("o8" in n and "not used" in n for n in d.data_notes())
-    fp_text = [s for s in d.report().sections if s.key == "fingerprints"][0].text
+    fp_text = [s for s in diagnosis_report(d).sections if s.key == "fingerprints"][0].text
     assert "o8: measured but not used" in fp_text
 
 

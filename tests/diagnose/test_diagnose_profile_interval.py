@@ -1,4 +1,4 @@
-"""Magnitude intervals from the profile of the chi-square (fit rule 13).
+"""Magnitude intervals from the profile of the chi-square.
 
 The normal approximation reads the local slope of the interpolated response at the fitted
 magnitude; the profile refits the recalibration (and a partner effect) over the whole
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bedstruct.diagnose import compute_fingerprints
+from bedstruct.diagnose import compute_fingerprints, diagnosis_report
 from bedstruct.diagnose.attribution import attribute, fit_model
 from bedstruct.diagnose.profile_interval import profile_interval
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
@@ -150,7 +150,7 @@ def test_the_report_draws_the_profile_the_interval_was_read_from():
     x, c = ax.lines[0].get_data()
     inside = (x >= top.interval[0]) & (x <= top.interval[1])
     assert np.all(c[~inside] > 3.84 - 1e-9) and np.all(c[inside] <= 3.84 + 0.5)
-    rep = d.report()
+    rep = diagnosis_report(d)
     assert any("profile of chi-square" in caption for sec in rep.sections
                for caption, _ in sec.figures)
 

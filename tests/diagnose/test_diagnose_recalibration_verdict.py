@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bedstruct.diagnose import compute_fingerprints, diagnose
+from bedstruct.diagnose import compute_fingerprints, diagnose, diagnosis_report
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
 
 N = 12
@@ -121,7 +121,7 @@ def test_a_rerun_that_contradicts_the_interpolation_becomes_a_node_and_the_refit
     # finite-difference step; linear here, so it changed nothing and A's node was refitted)
     assert d.settings["simulator_runs"] == 12 and "recalibration" not in first
     assert d.to_json()["shrink"]["refits"][0]["model"] == "A"
-    rep = d.report()
+    rep = diagnosis_report(d)
     assert rep.failed == []
     (how_far,) = [s for s in rep.sections if s.key == "shrink"]
     assert any("refitted" in (t.caption or "") for t in how_far.tables)
@@ -194,7 +194,7 @@ def test_the_rerun_check_rejects_a_true_model_at_about_its_level():
     assert len(p_cal) > 0.8 * n and np.all(np.isfinite(p_cal))
     assert np.mean(p_cal < 0.01) <= 0.04                 # its level, with room for 150 draws
     # conservative (the stated noise holds one run's scatter at its upper bound, the rerun's
-    # mean adds its own, and since fit rule 12 the noise of the runs the fit reads through
+    # mean adds its own, and so does the noise of the runs the fit reads through
     # too), but its p-values are not stuck at 1
     assert np.mean(p_cal < 0.9) > 0.15
 
@@ -282,7 +282,7 @@ def _calibration_check_p(n_draws: int) -> np.ndarray:
 
 
 def _without_the_fits_error(monkeypatch):
-    """The calibration check as it was before fit rule 12: no variance from the error of the
+    """The calibration check without the variance from the error of the
     fitted magnitudes and shifts."""
     import importlib
     dmod = importlib.import_module("bedstruct.diagnose.diagnosis")
@@ -298,7 +298,7 @@ def test_the_calibration_check_carries_the_fits_own_noise(monkeypatch):
     # The rerun departs from the data by the error of the fitted magnitude and shift. The
     # data's noise cancels from it (they were fitted to these data); the noise of the runs
     # the fit reads them through (base, finite-difference point, A's nodes) does not. With
-    # that variance (fit rule 12) true models seldom fail; without it, as before, more often,
+    # that variance true models seldom fail; without it more often,
     # and never less (same runs, a smaller variance).
     p = _calibration_check_p(40)
     assert len(p) >= 25 and np.mean(p < 0.05) <= 0.1

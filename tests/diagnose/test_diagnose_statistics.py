@@ -414,7 +414,7 @@ def test_an_effect_close_to_another_is_reported_not_told_apart_at_a_small_gap():
 
 def test_twins_sized_by_a_noisy_fingerprint_carry_less_than_requested():
     # A fingerprint's estimation noise adds to its predicted gap, so a twin sized by the
-    # prediction (twin rules 3 and 4) carries less than requested: the validation's twins
+    # prediction carries less than requested: the validation's twins
     # are weaker than stated, never stronger. Less that noise, the squared gap is estimated
     # without bias (the toy's true response is known).
     from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap
@@ -489,7 +489,7 @@ def _exact_gap(fps, response):
 def test_a_twin_is_sized_on_the_response_simulated_at_its_magnitude():
     # Interpolated between the fingerprint's nodes (0, m1, m2), a response that switches on
     # between them is misjudged, and a twin sized on the interpolation alone carries another
-    # gap than drawn (twin rule 3). Rule 4 simulates that first magnitude, adds it as a
+    # gap than drawn. The twin's sizing simulates that first magnitude, adds it as a
     # node and solves again.
     from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap, _size_twin
     design = toy_design(N, n_validate=3)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bedstruct.diagnose import compute_fingerprints, diagnose, nuisance_projector
+from bedstruct.diagnose import compute_fingerprints, diagnose, diagnosis_report, nuisance_projector
 from bedstruct.diagnose.config import load_sim_config
 from bedstruct.diagnose.fingerprints import selection_threshold
 from bedstruct.errors import ConfigError
@@ -118,7 +118,7 @@ def test_a_topped_up_set_diagnoses_and_refines_on_its_seeds():
     assert diag.settings["top_up"] == {"effects": ["M"], "seeds": [3, 4, 5, 6]}
     assert diag.settings["replicates"] == 3
     # the report names the topped-up effect and gives each effect's seeds
-    section = diag.report().section("fingerprints")
+    section = diagnosis_report(diag).section("fingerprints")
     assert "M: identifiability marginal on the 3 shared seeds" in section.text
     seeds = {row[0]: row[5] for row in section.tables[0].rows}
     assert seeds == {"A": 3, "M": 7, "Z": 3}

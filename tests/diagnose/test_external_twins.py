@@ -11,14 +11,12 @@ import numpy as np
 import pytest
 
 from bedstruct.dem.backends import find_liggghts
-from bedstruct.diagnose.external_twins import (TWIN_MARK, apply_effect, capillary_effect,
-                                               easo_bridge_volume, easo_capillary_force,
-                                               liggghts_simulator, liggghts_twin_design,
-                                               make_liggghts_twin,
-                                               null_effect, rolling_friction_effect,
-                                               wall_friction_effect, willett_capillary_force,
-                                               with_capillary_bridges, with_rolling_friction,
-                                               with_wall_friction, write_liggghts_wrapper)
+from bedstruct.diagnose.liggghts_effects import (
+    TWIN_MARK, apply_effect, capillary_effect, easo_bridge_volume, easo_capillary_force,
+    null_effect, rolling_friction_effect, wall_friction_effect, willett_capillary_force,
+    with_capillary_bridges, with_rolling_friction, with_wall_friction)
+from bedstruct.diagnose.external_twins import (
+    liggghts_simulator, liggghts_twin_design, make_liggghts_twin, write_liggghts_wrapper)
 
 needs_liggghts = pytest.mark.skipif(find_liggghts() is None,
                                     reason="liggghts is not installed (.ci/install-engines.sh)")
@@ -267,7 +265,7 @@ def test_wall_friction_moves_the_recoater_load_in_liggghts_as_in_the_engine(tmp_
     load ratio of the tiny preset's second x1 layer (measured on 3 seeds each: LIGGGHTS
     0.179 -> 0.118, embedded 0.172 -> 0.127; run scatter about 0.01)."""
     import bedstruct.diagnose as dg
-    from bedstruct.workflows.diagnosis_sim import EngineSimulator
+    from bedstruct.diagnose.engine_simulator import EngineSimulator
     design = dg.MeasurementSet((dg.measurement_from_dict(dict(
         name="tool_force_ratio_x1_layer2", kind="tool_force_ratio", value=0.0, uncertainty=0.005,
         conditions=dict(speed=0.0254, layer=2))),))

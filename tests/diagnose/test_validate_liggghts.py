@@ -10,9 +10,10 @@ import json
 
 import pytest
 
+import bedstruct.diagnose.engine_simulator as engine_simulator
 import bedstruct.diagnose.external_twins as external_twins
-import bedstruct.workflows.diagnosis_sim as diagnosis_sim
-from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator, validate
+from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator, validate, validation_report
+from bedstruct.diagnose.validation_records import METHOD_VERSION
 from bedstruct.errors import ConfigError
 
 # the package's ``validate_liggghts`` is the function; the tests patch its module
@@ -47,7 +48,7 @@ def stand_ins(monkeypatch):
         return made[-1]
 
     monkeypatch.setattr(vl.shutil, "which", lambda name: "/usr/bin/" + name)
-    monkeypatch.setattr(diagnosis_sim, "diagnosis_simulator", lambda design, cfg: _StandIn(design))
+    monkeypatch.setattr(engine_simulator, "diagnosis_simulator", lambda design, cfg: _StandIn(design))
     monkeypatch.setattr(external_twins, "liggghts_simulator", fake_liggghts)
     return made
 
@@ -82,11 +83,11 @@ def test_validation_scores_resumes_and_reuses_twins(stand_ins, tmp_path):
 
     assert liggghts_runs() == 4 * 3                      # one "LIGGGHTS" run per repetition
     truth = json.loads((tmp_path / "twins" / "twin1" / "truth.json").read_text())
-    assert truth["seeds"] == [1000, 1001, 1002] and truth["liggghts_twin_rule"] == 1
+    assert truth["seeds"] == [1000, 1001, 1002] and truth["method_version"] == METHOD_VERSION
     assert len(records.read_text().splitlines()) == 7
     # the report the CLI writes (--out)
     from bedstruct.report._render import write_report
-    html, _ = write_report(res.report(), tmp_path / "report")
+    html, _ = write_report(validation_report(res), tmp_path / "report")
     assert "liggghts" in html.read_text(encoding="utf-8")
 
     # a second run takes every record as done and remakes no twin

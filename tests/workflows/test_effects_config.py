@@ -7,7 +7,8 @@ import pytest
 
 from bedstruct.diagnose.catalogue import CATALOGUE, effect
 from bedstruct.errors import ConfigError
-from bedstruct.workflows import effects_config, load_config
+from bedstruct.diagnose.engine_simulator import effects_config
+from bedstruct.workflows import load_config
 from bedstruct.workflows._common import contact_model, psd_sampler, tool_motion
 
 
@@ -106,8 +107,9 @@ def test_tool_motion_uses_the_ramp_program():
 
 
 def test_engine_simulator_maps_base_and_effects():
-    from bedstruct.diagnose.measurements import MeasurementSet, measurement_from_dict
-    from bedstruct.workflows import diagnosis_simulator
+    from bedstruct.diagnose.measurements import MeasurementSet
+    from bedstruct.diagnose.measurement_io import measurement_from_dict
+    from bedstruct.diagnose.engine_simulator import diagnosis_simulator
     m = measurement_from_dict({"name": "psd", "kind": "psd", "role": "candidate",
                                "uncertainty": 1e-6, "percentiles": [10, 50, 90],
                                "conditions": {"stage": "before"}})
@@ -132,7 +134,7 @@ def test_engine_simulator_maps_base_and_effects():
 def test_engine_simulator_smoke_tiny():
     """One full call on the tiny preset (about a minute on one core)."""
     import bedstruct.diagnose as dg
-    from bedstruct.workflows import diagnosis_simulator
+    from bedstruct.diagnose.engine_simulator import diagnosis_simulator
     from pathlib import Path
     ms = dg.load_measurements(Path(__file__).parents[2] / "data" / "measurements" / "seed.toml")
     design = dg.diagnosis_design(ms, dg.catalogue(["wall_friction"]))

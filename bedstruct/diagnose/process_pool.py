@@ -2,7 +2,7 @@
 
 A diagnosis or its validation asks for many independent engine calls at once: every
 parameter point times every replicate seed of the fingerprints, the replicate reruns
-of "how far". :meth:`EngineSimulator.prefetch <bedstruct.workflows.EngineSimulator.prefetch>`
+of "how far". :meth:`EngineSimulator.prefetch <bedstruct.diagnose.engine_simulator.EngineSimulator.prefetch>`
 hands the calls it has not got to :func:`run_calls`, which runs them ``jobs`` at a time,
 one engine call per process (each single-threaded engine run then has a core to itself),
 and returns their observations; with a cache each worker also stores its call there, so
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from typing import Any, Mapping, Sequence
+from typing import Callable, Sequence
 
 __all__ = ["run_calls"]
 
@@ -39,25 +39,16 @@ def _exit_with_parent(parent: int, interval: float = 2.0) -> None:
     threading.Thread(target=watch, name="bedstruct-parent-watch", daemon=True).start()
 
 
-def _one_call(design, config: Mapping[str, Any], base, effects, seed):
-    from .diagnosis_sim import EngineSimulator
-    sim = EngineSimulator(design, dict(config, jobs=1))
-    obs = sim(base, effects, seed)
-    return {k: v.tolist() for k, v in obs.values.items()}, sim.n_runs
-
-
-def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: int, *,
-              progress: bool = False):
-    """Run engine calls ``(base, effects, seed)`` in ``jobs`` worker processes.
+def run_calls(worker: Callable, calls: Sequence[tuple], jobs: int, *, progress: bool = False):
+    """Run ``worker(*args)`` for each ``args`` of ``calls`` in ``jobs`` worker processes.
 
     Parameters
     ----------
-    design : MeasurementSet
-        The simulator's design.
-    config : mapping
-        The ``[engine]`` table (``jobs`` is ignored inside the workers).
-    calls : sequence of (dict, dict, int)
-        Base parameters, effects and seed of each call.
+    worker : callable
+        A module-level function (it is pickled into the ``spawn``-ed processes), e.g.
+        :func:`bedstruct.diagnose.engine_simulator.engine_call`.
+    calls : sequence of tuple
+        The arguments of each call.
     jobs : int
         Number of worker processes (at most one per call).
     progress : bool
@@ -65,8 +56,8 @@ def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: i
 
     Returns
     -------
-    list of (dict of str to list of float, int)
-        Observations and the number of workflow runs of each call, in order.
+    list
+        The worker's result of each call, in order.
     """
     if not calls:
         return []
@@ -76,8 +67,7 @@ def run_calls(design, config: Mapping[str, Any], calls: Sequence[tuple], jobs: i
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
                                initializer=_exit_with_parent, initargs=(os.getpid(),))
     try:
-        futures = [pool.submit(_one_call, design, dict(config), dict(b), dict(e), int(s))
-                   for b, e, s in calls]
+        futures = [pool.submit(worker, *args) for args in calls]
         done = as_completed(futures)
         if progress:
             from tqdm import tqdm

@@ -23,11 +23,14 @@ number). Numbers from such runs test the wiring and the method on real contact
 physics; they are not predictions for the seed powder.
 
 With ``cache = DIR`` in the ``[engine]`` table every call's observations are
-stored on disk (``DIR/<hash>.json``, one file per call, keyed by the fully
+stored on disk (``DIR/<hash>.json``, one file per call, named by the fully
 resolved workflow configuration of the call, i.e. preset, overrides, base
 parameters, effects and seed, plus each observable's kind and conditions): a
 rerun, a validation twin or another measurement file with observables of the
-same kinds and conditions reuses them instead of simulating again.
+same kinds and conditions reuses them instead of simulating again. Each entry
+states the code it was made by (:func:`code_versions`: the bedstruct version and
+hashes of the engine's and the observation operators' source); an entry of other
+code is refused with a warning naming what differs, and the call simulated again.
 
 .. versionadded:: 0.1
 """
@@ -46,11 +49,16 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from .._version import __version__
 from ..errors import ConfigError
-from .config import load_config
-from .diagnosis_observe import CallRuns, _region_index
+from ..workflows.config import load_config
+from .catalogue import effect
+from .engine_runs import CallRuns, _region_index
+from .measurements import Observations
+from .process_pool import run_calls
 
-__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "PRESET_OVERRIDES"]
+__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "code_versions",
+           "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
 
@@ -60,23 +68,52 @@ _STROKE_SEED = 18.9e-3 / _SPEED_X1   # s, the seed's x1 stroke over its 18.9 mm 
 _ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_time_scale",
                 "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
                 "seed", "workdir", "cache", "jobs"}
-#: Bump when the simulator's observation semantics change. 4: before reinserting the pile
-#: the spreading workflow waits for powder in flight to land (at the scale models' x5 speed
-#: the piles of layers 2 and 3 used to be dropped from 1-5 mm, at x1 from ~0.1 mm onto a bed
-#: still coming down after the platform was lowered).
+#: Version of the cache entry's layout and key (the hashed document of
+#: :meth:`EngineSimulator.cache_key`).
 _CACHE_SCHEMA = 4
-#: Workflow options added after the cache schema: at their neutral value they change no run
-#: and are left out of the cache key, so that entries written before them stay valid.
+#: Workflow options at whose neutral value no run changes: left out of the cache key.
 _NEUTRAL_OPTIONS = {("repose", "rest_time"): 0.0}
-#: Contact-model revisions after the cache schema: a call with the model switched on carries
-#: its revision in the key (its older entries are stale), the other calls' keys are unchanged.
-#: contact_ageing 2: the bond breaks by sliding (the Coulomb cut of the spring), not by any
-#: tangential motion.
+#: Contact-model versions: a call with the model switched on carries its version in the key.
 _MODEL_REVISIONS = {"contact_ageing": 2}
-#: LIGGGHTS/LAMMPS deck revisions after the cache schema (in the keys of external-engine calls
-#: only). 2: the spreading deck waits for powder in flight to land before placing a pile, as
-#: the embedded workflow does since schema 4.
+#: Version of the LIGGGHTS/LAMMPS decks the external workflows write (in the keys of
+#: external-engine calls, and in a LIGGGHTS twin's ``truth.json``).
 _DECK_REVISION = 2
+#: The code an engine call's observations depend on, hashed into :func:`code_versions`:
+#: the engine (its kernels, workflows, presets and the catalogue's mapping of effects onto
+#: them) and the observation (the operators and the analyses and readers they use).
+_CODE = {"engine": ("dem", "workflows", "_numba.py", "diagnose/catalogue.py",
+                    "diagnose/engine_simulator.py"),
+         "observation": ("analysis", "io", "core", "diagnose/engine_runs.py",
+                         "diagnose/observables.py", "diagnose/observables_image.py",
+                         "diagnose/measurements.py")}
+
+
+def code_versions() -> dict[str, str]:
+    """The versions an engine call's cached observations are valid for.
+
+    ``bedstruct``: the package version; ``engine`` and ``observation``: SHA-256 (16 hex
+    digits) of the source files (``*.py``, ``*.toml``) of the engine and of the observation
+    operators (:data:`_CODE`). A cache entry written under other versions is refused.
+
+    Returns
+    -------
+    dict of str to str
+    """
+    root = Path(__file__).resolve().parents[1]
+    out = {"bedstruct": __version__}
+    for part, paths in _CODE.items():
+        h = hashlib.sha256()
+        for rel in paths:
+            p = root / rel
+            files = sorted(f for f in p.rglob("*") if f.suffix in (".py", ".toml")
+                           and "__pycache__" not in f.parts) if p.is_dir() else [p]
+            for f in files:
+                h.update(f.relative_to(root).as_posix().encode() + b"\0")
+                h.update(f.read_bytes() + b"\0")
+        out[part] = h.hexdigest()[:16]
+    return out
+
+
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
 #: the stroke, leaving most frames without a heap whose angle can be measured; and the
@@ -124,7 +161,6 @@ def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1
     >>> fx["wall_friction_excess"], fx["blade_ramp_time"], fx["blade_vibration_frequency"]
     (0.1, 0.05, 120.0)
     """
-    from ..diagnose.catalogue import effect
     out: dict[str, Any] = {}
     for name, m in effects.items():
         if float(m) == 0.0:
@@ -216,6 +252,8 @@ class EngineSimulator:
         self.seed_offset = int(cfg.get("seed", 0))
         self.workdir = cfg.get("workdir")
         self.cache = Path(cfg["cache"]).expanduser() if cfg.get("cache") else None
+        #: the code versions this simulator's cache entries are written and read under
+        self.versions = code_versions() if self.cache is not None else {}
         self.n_cached = 0
         # calls that ran the engine (here or in a worker), and a hook called after each
         # (``on_call(sim)``: a long validation says how far its twin has come)
@@ -343,10 +381,21 @@ class EngineSimulator:
         if not f.is_file():
             return {}
         try:
-            return json.loads(f.read_text(encoding="utf-8")).get("observables", {})
-        except (OSError, ValueError):
+            doc = json.loads(f.read_text(encoding="utf-8"))
+            have = (doc.get("meta") or {}).get("versions") or {}
+            observables = doc.get("observables", {})
+        except (OSError, ValueError, AttributeError):
             log.warning("engine cache: unreadable entry %s ignored", f)
             return {}
+        differ = [k for k in self.versions if have.get(k) != self.versions[k]]
+        if differ:
+            # observations of other code: never reused, the call is simulated again
+            log.warning("engine cache: entry %s refused: written by other code (%s); the call "
+                        "is simulated again and the entry replaced", f.name,
+                        "; ".join(f"{k} {have.get(k) or 'not stated'}, this code "
+                                  f"{self.versions[k]}" for k in differ))
+            return {}
+        return observables
 
     def _cache_write(self, key: str, entries: dict, meta: dict) -> None:
         if self.cache is None:
@@ -366,7 +415,7 @@ class EngineSimulator:
         """Run a batch of calls ``(base, effects, seed)`` ahead, ``jobs`` at a time.
 
         With ``jobs`` > 1 the calls that are neither cached nor already fetched run in
-        worker processes (:func:`bedstruct.workflows.diagnosis_pool.run_calls`); the
+        worker processes (:func:`bedstruct.diagnose.process_pool.run_calls`); the
         later ``sim(base, effects, seed)`` calls return their observations. With
         ``jobs = 1`` nothing is done (the calls run when asked for). ``progress``
         shows a bar over the batch. Returns the number of calls run.
@@ -382,8 +431,8 @@ class EngineSimulator:
             todo.append((dict(b), dict(e), int(s)))
         if len(todo) < 2:
             return 0
-        from .diagnosis_pool import run_calls
-        done = run_calls(self.design, self._config, todo, self.jobs, progress=progress)
+        done = run_calls(engine_call, [(self.design, dict(self._config), b, e, s) for b, e, s in todo],
+                         self.jobs, progress=progress)
         for (b, e, s), (values, n_runs) in zip(todo, done):
             self._memo[self._memo_key(b, e, s)] = values
             self.n_runs += n_runs
@@ -402,7 +451,6 @@ class EngineSimulator:
         return all(json.dumps(self._spec(m), sort_keys=True) in cached for m in self.design)
 
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int):
-        from ..diagnose.measurements import Observations
         fetched = self._memo.get(self._memo_key(base, effects, seed)) if self._memo else None
         if fetched is not None:
             return Observations({m.name: np.asarray(fetched[m.name], float) for m in self.design},
@@ -426,7 +474,8 @@ class EngineSimulator:
                     entries[specs[m.name]] = {"value": values[m.name].tolist(), "name": m.name}
                 self._cache_write(key, entries, {"base": dict(base), "effects": dict(effects),
                                                  "seed": int(seed), "preset": self.preset,
-                                                 "overrides": self.overrides})
+                                                 "overrides": self.overrides,
+                                                 "versions": self.versions})
             self._called()
         else:
             self.n_cached += 1
@@ -438,6 +487,13 @@ class EngineSimulator:
                         "toe) for base=%s, effects=%s, seed=%d: NaN", bad, dict(base),
                         dict(effects), seed)
         return Observations(values, source="engine")
+
+
+def engine_call(design, config: Mapping[str, Any], base, effects, seed):
+    """One engine call in a worker process: its observations (lists) and its number of runs."""
+    sim = EngineSimulator(design, dict(config, jobs=1))
+    obs = sim(base, effects, seed)
+    return {k: v.tolist() for k, v in obs.values.items()}, sim.n_runs
 
 
 def diagnosis_simulator(design, config: Mapping[str, Any] | None = None) -> EngineSimulator:
@@ -458,7 +514,7 @@ def diagnosis_simulator(design, config: Mapping[str, Any] | None = None) -> Engi
 
     Examples
     --------
-    >>> from bedstruct.diagnose.measurements import measurement_from_dict, MeasurementSet
+    >>> from bedstruct.diagnose import measurement_from_dict, MeasurementSet
     >>> m = measurement_from_dict({"name": "psd", "kind": "psd", "role": "candidate",
     ...                            "uncertainty": 1e-6, "percentiles": [10, 50, 90],
     ...                            "conditions": {"stage": "before"}})

@@ -1,11 +1,11 @@
 """One call of the engine simulator: its workflow runs and the observation operators.
 
 :class:`CallRuns` runs the repose and spreading workflows one call of
-:class:`~bedstruct.workflows.diagnosis_sim.EngineSimulator` needs (each at most once,
+:class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` needs (each at most once,
 shared between the observables that read it) and applies the observation operators of
 :mod:`bedstruct.diagnose.observables` to them: what each observable kind means on the
 scale model (which layer, region, window, box) lives here; the simulator around it
-(configuration, scale mapping, cache, batches) lives in ``diagnosis_sim``.
+(configuration, scale mapping, cache, batches) lives in :mod:`bedstruct.diagnose.engine_simulator`.
 
 .. versionadded:: 0.1
 """
@@ -20,10 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from .measurements import normalise_region
+from .observables import observe
 
 __all__ = ["CallRuns", "REGIONS"]
 
-log = logging.getLogger("bedstruct.workflows.diagnosis_sim")
+log = logging.getLogger("bedstruct.diagnose.engine_simulator")
 
 #: Layer regions of the packing fraction and coordination, as indices of the layer's
 #: start / centre / end windows.
@@ -34,7 +36,6 @@ def _region_index(m) -> int:
     """Index of ``m``'s region in the layer's start / centre / end windows (default centre).
 
     Strict: an unknown region is an error naming the observable, never the centre."""
-    from ..diagnose.measurements import normalise_region
     region = m.conditions.region
     try:
         return REGIONS[normalise_region("center" if region is None else region)]
@@ -61,7 +62,7 @@ class CallRuns:
         rest = float(rest or 0.0) if ageing else 0.0
         key = ("repose", rh, walled, rest)
         if key not in self.cache:
-            from .repose import run_repose
+            from ..workflows.repose import run_repose
             cfg = copy.deepcopy(self.cfg)
             if rh is not None:  # the observable's humidity overrides the capillary magnitude
                 cfg["effects"] = self.owner.effects_section(
@@ -81,7 +82,7 @@ class CallRuns:
             float(speed) * self.owner.speed_scale
         key = ("spread", round(v, 12))
         if key not in self.cache:
-            from .spread import run_spread
+            from ..workflows.spread import run_spread
             cfg = copy.deepcopy(self.cfg)
             cfg["spread"]["speed"] = v
             cfg["time"]["v_max"] = max(float(cfg["time"]["v_max"]), 1.5 * v)
@@ -95,7 +96,7 @@ class CallRuns:
 
     def _pile(self, cfg):
         # the spreading runs of one call differ in speed, which the pile does not depend on
-        from .spread import generate_pile, pile_key
+        from ..workflows.spread import generate_pile, pile_key
         key = ("pile", pile_key(cfg))
         if key not in self.cache:
             self.cache[key] = generate_pile(cfg, seed=int(cfg["seed"]))[0]
@@ -107,7 +108,6 @@ class CallRuns:
         return res.layers[i - 1]
 
     def observe(self, m) -> np.ndarray:
-        from ..diagnose.observables import observe
         from ..io import read_dump
         c = m.conditions
         if m.kind == "static_angle":
@@ -125,7 +125,7 @@ class CallRuns:
                 log.info("static angle %r: no flank fitted (NaN)", m.name)
             return np.array([val])
         if m.kind == "psd" and c.get("stage", "before") == "before":
-            from ._common import psd_sampler
+            from ..workflows._common import psd_sampler
             draw = psd_sampler(self.cfg)
             rng = np.random.default_rng(int(self.cfg["seed"]))
             d = 2.0 * draw(int(self.cfg["spread"]["pile_particles"]), rng) / float(self.cfg["psd"]["scale"])

@@ -1,0 +1,363 @@
+"""The diagnosis in plain words and natural units, for a process engineer.
+
+:func:`answer` turns a :class:`~bedstruct.diagnose.diagnosis_result.Diagnosis` into the
+sentences and rows the CLI prints and the report's first screen shows: where the
+simulation misses the measurements (measured against simulated, in µm, deg or %), which
+effect explains it with its physical magnitude and interval, how far the gap shrinks on
+the held-out observables, the recalibrated parameters, and what to measure next and why.
+:func:`compact_answer` is the one-line JSON of ``bedstruct diagnose --json``. The
+statistics behind them (z, chi-square, model weights) are in the report's appendix.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Answer", "answer", "answer_lines", "compact_answer", "conditions_text", "magnitude_text",
+           "quantity_text"]
+
+#: |z| below which a deviation is within noise (said so instead of a number of sigmas).
+_WITHIN_NOISE = 2.0
+
+#: How each effect magnitude is said: words, factor to the shown unit, shown unit, signed.
+_MAGNITUDE_WORDS = {
+    "relative_humidity": ("relative humidity", 100.0, "% RH", False),
+    "fines_mass_fraction": ("mass fraction of fines missing", 100.0, "%", False),
+    "wall_friction_excess": ("wall friction above particle friction, Δµ", 1.0, "", True),
+    "extra_rolling_friction": ("extra rolling friction, µr", 1.0, "", True),
+    "bond_strength_ratio": ("bond strength after rest, relative to cohesion", 1.0, "×", False),
+    "ramp_time": ("blade start-up ramp time", 1e3, "ms", False),
+}
+#: How each recalibrated parameter is said: words, factor, unit.
+_PARAMETER_WORDS = {
+    "cohesion_energy_density": ("cohesion energy density", 1e-6, "MJ/m³"),
+    "friction": ("sliding friction µ", 1.0, ""),
+    "rolling_friction": ("rolling friction µr", 1.0, ""),
+    "restitution": ("coefficient of restitution", 1.0, ""),
+}
+
+
+def _num(v: float, digits: int = 3, *, signed: bool = False) -> str:
+    """``v`` to ``digits`` significant digits, without float noise or an exponent when avoidable.
+
+    Examples
+    --------
+    >>> _num(29.84), _num(0.08534837), _num(35621.7), _num(-0.5, signed=True)
+    ('29.8', '0.0853', '35600', '-0.5')
+    """
+    if v is None or not math.isfinite(v):
+        return "n/a"
+    if v == 0:
+        return "0"
+    mag = math.floor(math.log10(abs(v)))
+    if -4 <= mag < 6:
+        decimals = max(digits - 1 - mag, 0)
+        text = f"{round(v, digits - 1 - mag):.{decimals}f}"
+        if "." in text:
+            text = text.rstrip("0").rstrip(".")
+    else:
+        text = f"{v:.{digits - 1}e}"
+    if signed and v > 0:
+        text = "+" + text
+    return text
+
+
+def _unit_of(value: float, unit: str, kind: str) -> tuple[float, str]:
+    """The factor and natural unit to show a value of an observable in."""
+    if unit == "m":
+        return (1e6, "µm") if abs(value) < 1e-3 else (1e3, "mm")
+    if unit == "1" and kind == "packing_fraction":
+        return 100.0, "%"
+    if unit == "1":
+        return 1.0, ""
+    return 1.0, unit
+
+
+def quantity_text(value: float, unit: str, kind: str = "", *, sigma: float | None = None) -> str:
+    """A measured or simulated value in natural units (µm, mm, deg, %).
+
+    Parameters
+    ----------
+    value : float
+        In the canonical unit ``unit`` (``"m"``, ``"deg"``, ``"1"``).
+    unit : str
+    kind : str
+        Observable kind (a packing fraction is shown in %).
+    sigma : float, optional
+        Its uncertainty, shown as ``± sigma``.
+
+    Examples
+    --------
+    >>> quantity_text(2.984e-05, "m", "psd")
+    '29.8 µm'
+    >>> quantity_text(33.0, "deg", sigma=4.0)
+    '33 ± 4 deg'
+    >>> quantity_text(0.5123, "1", "packing_fraction")
+    '51.2 %'
+    """
+    f, u = _unit_of(value, unit, kind)
+    text = _num(value * f)
+    if sigma is not None and math.isfinite(sigma):
+        text += f" ± {_num(sigma * f, 2)}"
+    return f"{text} {u}".strip()
+
+
+def magnitude_text(effect, value: float, interval=None) -> str:
+    """An effect's magnitude (and interval) in its physical words and unit.
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import effect
+    >>> magnitude_text(effect("missing_fines"), 0.0853, (0.0678, 0.0971))
+    'mass fraction of fines missing 8.53 % (95 % interval 6.78 to 9.71 %)'
+    """
+    words, f, u, signed = _MAGNITUDE_WORDS.get(effect.magnitude,
+                                               (effect.magnitude.replace("_", " "), 1.0,
+                                                "" if effect.unit == "1" else effect.unit, False))
+    text = f"{words} {_num(value * f, signed=signed)}{(' ' + u) if u else ''}"
+    if interval is not None and all(math.isfinite(v) for v in interval):
+        lo, hi = (_num(v * f, signed=signed) for v in interval)
+        text += f" (95 % interval {lo} to {hi}{(' ' + u) if u else ''})"
+    return text
+
+
+#: Words for the conditions a label states as ``key=value`` (SI value -> text).
+_CONDITION_WORDS = {
+    "rest_time": lambda v: f"after {_num(v)} s at rest",
+    "box_width": lambda v: f"box {_num(v * 1e3)} mm wide",
+    "relative_humidity": lambda v: f"RH {_num(v * 100)} %",
+    "stage": lambda v: f"{v} spreading",
+    "walled": lambda v: "with side walls" if v in ("True", "true") else "without side walls",
+}
+
+
+def conditions_text(label: str) -> str:
+    """A conditions label (:meth:`Conditions.label`) with its ``key=value`` parts in words.
+
+    Examples
+    --------
+    >>> conditions_text("rest_time=600.0, box_width=0.03")
+    'after 600 s at rest, box 30 mm wide'
+    >>> conditions_text("v=2.54 cm/s, layer 3")
+    'v=2.54 cm/s, layer 3'
+    """
+    if label in ("", "-"):
+        return ""
+    out = []
+    for part in label.split(", "):
+        key, eq, value = part.partition("=")
+        fn = _CONDITION_WORDS.get(key) if eq else None
+        if fn is None:
+            out.append(part)
+            continue
+        try:
+            out.append(fn(float(value)) if key != "stage" and key != "walled" else fn(value))
+        except ValueError:
+            out.append(part)
+    return ", ".join(out)
+
+
+def _observable_words(row: dict) -> str:
+    name = row["observable"].replace("_", " ")
+    comp = row["component"]
+    return name if comp in ("value", "") else f"{name}, {comp}"
+
+
+def _gap_words(z: float) -> str:
+    if not math.isfinite(z):
+        return "not observed in the simulation"
+    if abs(z) < _WITHIN_NOISE:
+        return "within noise"
+    return f"{'above' if z > 0 else 'below'} the simulation by {abs(z):.1f}× the uncertainty"
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The diagnosis in plain words.
+
+    Attributes
+    ----------
+    headline : str
+        One sentence: the verdict.
+    where : list of dict
+        Measured against simulated per observable component, largest gap first: ``what``,
+        ``measured``, ``simulated`` (text, natural units), ``gap`` (words), ``z``,
+        ``role`` (``"calibration"`` or ``"held out"``).
+    which : str
+        The effect, its physical magnitude and interval (or why none is named).
+    how_far : str
+        How far the gap on the held-out observables shrinks with the effect added.
+    recalibration : str
+        The recalibrated parameters (and any that ended on a physical bound).
+    next : str
+        What to measure next and why.
+    """
+
+    headline: str
+    where: list
+    which: str
+    how_far: str
+    recalibration: str
+    next: str
+
+
+def _lower_first(title: str) -> str:
+    return title[:1].lower() + title[1:] if title[1:2].islower() else title
+
+
+def _headline(diag) -> str:
+    att = diag.attribution
+    sim = ("the analytic surrogate (a stand-in for tests and examples, not the DEM engine)"
+           if diag.simulator == "surrogate" else f"the {diag.simulator} simulation")
+    if att.verdict == "attributed":
+        names = " together with ".join(_lower_first(diag.fingerprints[e.effect].effect.title)
+                                       for e in att.selected)
+        return f"The gap between the measurements and {sim} is explained by {names}."
+    if att.verdict == "none":
+        return (f"The measurements and {sim} agree within noise once the simulation is "
+                "recalibrated: there is no gap to explain.")
+    return (f"Unexplained: no effect of the catalogue explains the gap between the measurements "
+            f"and {sim} within noise.")
+
+
+def _which(diag) -> str:
+    att = diag.attribution
+    if att.verdict == "attributed":
+        parts = []
+        for e in att.selected:
+            eff = diag.fingerprints[e.effect].effect
+            parts.append(f"{eff.title}: {magnitude_text(eff, e.magnitude, e.interval)}, "
+                         f"confidence {100 * e.confidence:.0f} %")
+        return "; ".join(parts) + "."
+    if att.verdict == "none":
+        return "No effect is needed: recalibration alone fits the calibration observables."
+    best = att.ranking[0] if att.ranking else None
+    text = "No effect is named: " + att.reason + "."
+    if best is not None:
+        eff = diag.fingerprints[best.effect].effect
+        text += (f" The closest candidate was {_lower_first(eff.title)} "
+                 f"({magnitude_text(eff, best.magnitude)}).")
+    return text
+
+
+def _how_far(diag) -> str:
+    sh, att = diag.shrink, diag.attribution
+    if sh.n_heldout == 0:
+        return ("Not checked: the measurement file has no held-out observables (role = "
+                "\"validate\"), so how far the gap shrinks cannot be tested.")
+    n = f"{sh.n_heldout} held-out observable component{'s' if sh.n_heldout != 1 else ''}"
+    added = (" once " + " and ".join(e.effect.replace("_", " ") for e in att.selected)
+             + " is added" if att.verdict == "attributed" else " after recalibration alone")
+    if math.isfinite(sh.fraction):
+        lo, hi = sh.fraction_interval
+        text = f"On the {n}, the gap beyond noise shrinks by {100 * sh.fraction:.0f} %{added}"
+        if math.isfinite(lo) and math.isfinite(hi):
+            text += f" (90 % interval {100 * lo:.0f} to {100 * hi:.0f} %)"
+        return text + "."
+    p = f" (p = {sh.p_before:.2f})" if math.isfinite(sh.p_before) else ""
+    state = ("stay within noise" if sh.after_excess == 0 else
+             f"depart by {sh.after:.1f}× the noise")
+    return (f"The {n} showed no gap beyond noise before{p}, so there is no gap to shrink; "
+            f"they {state}{added}.")
+
+
+def _recalibration(diag) -> str:
+    rec = diag.recalibration()
+    if not rec:
+        return "No parameter was recalibrated."
+    parts, pinned = [], []
+    for name, r in rec.items():
+        words, f, u = _PARAMETER_WORDS.get(name, (name.replace("_", " "), 1.0, r["unit"]))
+        unit = f" {u}" if u else ""
+        parts.append(f"{words} {_num(r['value'] * f)}{unit} (was {_num(r['base'] * f)}{unit})")
+        if r["at_bound"]:
+            lo, hi = r["bounds"]
+            at = lo if lo is not None and abs(r["value"] - lo) <= abs(r["value"] - (hi or math.inf)) \
+                else hi
+            pinned.append(f"{words} stopped at its physical bound {_num(at * f)}{unit}: the "
+                          "data would take it further, so the model misses something "
+                          "recalibration cannot absorb")
+    return "Recalibrated: " + "; ".join(parts) + "." + "".join(f" {p}." for p in pinned)
+
+
+def _next(diag) -> str:
+    if not diag.next:
+        return "No further measurement is needed to tell the candidates apart."
+    n = diag.next[0]
+    a, b = (x.replace("_", " ") for x in n.separates)
+    status = "measure again" if n.measured else "measure"
+    cond = conditions_text(n.conditions)
+    cond = f" ({cond})" if cond else ""
+    return (f"Next, {status} {n.observable.replace('_', ' ')}{cond}: the two leading "
+            f"explanations, {a} and {b}, predict it {n.separation:.1f}× the noise apart, so it "
+            "tells them apart.")
+
+
+def answer(diag) -> Answer:
+    """The diagnosis in plain words and natural units (see :class:`Answer`)."""
+    rows = []
+    for r in diag.where.ranked():
+        f, _ = _unit_of(r["real"], r["unit"], r["kind"])
+        rows.append({"what": _observable_words(r),
+                     "measured": quantity_text(r["real"], r["unit"], r["kind"],
+                                               sigma=r["sigma"]),
+                     "simulated": quantity_text(r["simulated"], r["unit"], r["kind"]),
+                     "gap": _gap_words(r["z"]), "z": r["z"],
+                     "role": "calibration" if r["role"] == "calibrate" else "held out"})
+    return Answer(_headline(diag), rows, _which(diag), _how_far(diag), _recalibration(diag),
+                  _next(diag))
+
+
+def answer_lines(diag, *, n_where: int = 5) -> list[str]:
+    """The CLI's default output: the answer, one statement per line."""
+    a = answer(diag)
+    out = [a.headline, "", "Where the simulation misses the measurements (largest first):"]
+    width = max((len(r["what"]) for r in a.where[:n_where]), default=0)
+    for r in a.where[:n_where]:
+        out.append(f"  {r['what']:<{width}}  measured {r['measured']}, simulated "
+                   f"{r['simulated']}: {r['gap']}")
+    if len(a.where) > n_where:
+        out.append(f"  ... and {len(a.where) - n_where} more in the report")
+    out += ["", "Which effect: " + a.which, "How far: " + a.how_far, a.recalibration,
+            "What next: " + a.next]
+    return out
+
+
+def compact_answer(diag) -> dict:
+    """The one-line JSON answer of ``bedstruct diagnose --json``.
+
+    Keys: ``verdict``; ``effect`` (name, ``None`` unless attributed); ``magnitude``
+    (``value``, ``interval``, ``unit``, ``name``, or ``None``); ``shrink`` (``value`` and its
+    90 % ``interval`` as fractions, ``None`` where there was no held-out gap before, with
+    ``n_heldout`` and the p-value of that gap, ``p_heldout_gap_before``); ``where``
+    (the three largest gaps: ``observable``, ``component``, ``measured``, ``simulated``,
+    ``unit``, ``z``); ``at_bound`` (recalibrated parameters that ended on a bound).
+    """
+    att, sh = diag.attribution, diag.shrink
+
+    def fin(v):
+        """A finite value to six significant digits (no float noise), else ``None``."""
+        return float(f"{v:.6g}") if v is not None and np.isfinite(v) else None
+
+    top = att.selected[0] if att.verdict == "attributed" and att.selected else None
+    mag = None
+    if top is not None:
+        eff = diag.fingerprints[top.effect].effect
+        mag = {"name": eff.magnitude, "value": fin(top.magnitude),
+               "interval": [fin(v) for v in top.interval], "unit": eff.unit}
+    shrink = {"value": fin(sh.fraction), "interval": [fin(v) for v in sh.fraction_interval],
+              "n_heldout": sh.n_heldout, "p_heldout_gap_before": fin(sh.p_before)}
+    where = [{"observable": r["observable"], "component": r["component"],
+              "measured": fin(r["real"]), "simulated": fin(r["simulated"]), "unit": r["unit"],
+              "z": fin(round(r["z"], 2))} for r in diag.where.ranked(3)]
+    if mag is not None:
+        mag["value"] = fin(mag["value"])
+    return {"verdict": att.verdict,
+            "effect": "+".join(e.effect for e in att.selected) if top is not None else None,
+            "magnitude": mag, "shrink": shrink, "where": where,
+            "at_bound": [k for k, r in diag.recalibration().items() if r["at_bound"]]}

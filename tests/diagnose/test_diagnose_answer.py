@@ -1,0 +1,138 @@
+"""The answer a process engineer reads: the CLI's default output, the report's first screen
+and the one-line JSON, in plain words and natural units, the statistics in an appendix."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import re
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from bedstruct.cli import main
+from bedstruct.diagnose import diagnosis_report, load_measurements
+from bedstruct.diagnose.answer import (answer, answer_lines, compact_answer, conditions_text,
+                                       quantity_text)
+from bedstruct.diagnose.confirm import shrink_interval
+
+SEED = pathlib.Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
+_FLOAT_NOISE = re.compile(r"\d\.\d{6,}|e-0\d|\bnan\b", re.IGNORECASE)
+
+
+@pytest.fixture(scope="module")
+def seed_run(tmp_path_factory):
+    """The seed's measurements diagnosed on the surrogate through the CLI (default output)."""
+    import contextlib
+    import io
+    out = tmp_path_factory.mktemp("seed")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED),
+                     "--out", str(out)]) == 0
+    return buf.getvalue(), out
+
+
+def test_cli_default_output_answers_in_plain_words_and_natural_units(seed_run):
+    text, out = seed_run
+    assert text.startswith("The gap between the measurements and the analytic surrogate")
+    assert "explained by fines missing from the simulated PSD" in text
+    # where: measured against simulated, in µm and deg, the gap in words
+    assert "psd before, d10" in text and "measured 29.8 ± 0.6 µm, simulated 35 µm" in text
+    assert "below the simulation by 8.5× the uncertainty" in text
+    assert "measured 33 ± 4 deg" in text and "within noise" in text
+    # which, with its physical magnitude and interval
+    assert "Which effect: Fines missing from the simulated PSD: mass fraction of fines " \
+           "missing 8.53 % (95 % interval 6.78 to 9.71 %)" in text
+    # how far: the seed's held-out observables had no gap beyond noise to shrink
+    assert "How far: The 3 held-out observable components showed no gap beyond noise " \
+           "before (p = 0.96)" in text
+    assert "Recalibrated: cohesion energy density 34 MJ/m³ (was 36 MJ/m³)." in text
+    assert "What next: Next, measure avalanche angle rest600 (after 600 s at rest, box 30 mm " \
+           "wide)" in text
+    assert not _FLOAT_NOISE.search(text), _FLOAT_NOISE.search(text)
+    assert "{" not in text and "sigma" not in text and "chi2" not in text
+
+
+def test_report_first_screen_is_the_answer_and_the_statistics_an_appendix(seed_run):
+    _, out = seed_run
+    html = (out / "report.html").read_text(encoding="utf-8")
+    first = html.index('<section id="answer">')
+    assert first < html.index('<section id="summary">') < html.index('<section id="where">')
+    rep = json.loads((out / "report.json").read_text())
+    sections = rep["sections"]
+    assert list(sections)[0] == "answer"
+    assert all(v["title"].startswith("Appendix") for k, v in sections.items() if k != "answer")
+    answer_html = html[first:html.index("</section>", first)]
+    assert "29.8 ± 0.6 µm" in answer_html and "How far" in answer_html
+    assert not _FLOAT_NOISE.search(answer_html)
+    # no number shown as NaN beside an "ok", no raw dict in any text
+    for key, sec in sections.items():
+        for name, q in sec["numbers"].items():
+            assert q["value"] is not None, (key, name)
+        assert "{'" not in sec.get("text", ""), key
+
+
+def test_help_is_short():
+    import contextlib
+    import io
+    buf = io.StringIO()
+    with pytest.raises(SystemExit), contextlib.redirect_stdout(buf):
+        main(["diagnose", "--help"])
+    text = buf.getvalue()
+    description = text[text.index("Diagnose"):text.index("positional arguments")]
+    assert len(description.strip().splitlines()) <= 10
+    assert "docs/diagnose.md" in description
+    options = text[text.index("options:"):]
+    # one sentence per option: no option's help runs past two printed lines
+    helps = re.split(r"\n  (?=-)", options)[1:]
+    assert helps and all(len(h.strip().splitlines()) <= 3 for h in helps), helps
+
+
+def test_json_answer_is_compact(seed_run):
+    _, out = seed_run
+    full = json.loads((out / "diagnosis.json").read_text())
+    assert full["verdict"] == "attributed"
+
+
+def test_compact_answer_and_how_far_with_a_held_out_gap():
+    from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnose,
+                                    diagnosis_design)
+    ms = load_measurements(SEED)
+    sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
+    d = diagnose(ms, sim, base=BASE_PARAMETERS, refine=0, confirm_rounds=0, replicates=3)
+    j = compact_answer(d)
+    assert set(j) == {"verdict", "effect", "magnitude", "shrink", "where", "at_bound"}
+    assert len(j["where"]) == 3 and j["where"][0]["observable"] == "psd_before"
+    assert j["magnitude"]["name"] == "fines_mass_fraction"
+    assert j["shrink"]["value"] is None and j["shrink"]["n_heldout"] == 3
+    json.dumps(j, allow_nan=False)
+    # a held-out gap that shrinks: the fraction and its interval in words
+    gapped = replace(d, shrink=replace(d.shrink, fraction=0.7, fraction_interval=(0.52, 0.9)))
+    how = answer(gapped).how_far
+    assert "the gap beyond noise shrinks by 70 % once missing fines is added " \
+           "(90 % interval 52 to 90 %)" in how
+    assert compact_answer(gapped)["shrink"]["interval"] == [0.52, 0.9]
+    lines = answer_lines(gapped)
+    assert any(line.startswith("How far: On the 3 held-out") for line in lines)
+
+
+def test_shrink_interval_brackets_the_shrink():
+    zb = np.array([4.0, -3.0, 5.0, 3.5])
+    za = np.array([1.5, -0.5, 1.8, 0.4])
+    lo, hi = shrink_interval(zb, za, seed=1)
+    from bedstruct.diagnose.confirm import gap_size
+    frac = 1 - gap_size(za)[1] / gap_size(zb)[1]
+    assert lo < frac < hi <= 1.0
+    assert shrink_interval(zb, za, seed=1) == (lo, hi)           # reproducible
+    assert np.isnan(shrink_interval([0.3, -0.5], [0.1, 0.1])[0])  # no gap before: none
+
+
+def test_natural_units():
+    assert quantity_text(4.0e-4, "m", "bed_height") == "400 µm"
+    assert quantity_text(2.5e-3, "m", "bed_height") == "2.5 mm"
+    assert quantity_text(0.55, "1", "packing_fraction", sigma=0.012) == "55 ± 1.2 %"
+    assert quantity_text(1.2, "1", "coordination") == "1.2"
+    assert conditions_text("relative_humidity=0.3") == "RH 30 %"
+    assert conditions_text("-") == ""

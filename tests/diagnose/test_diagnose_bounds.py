@@ -1,0 +1,131 @@
+"""Physical bounds of the recalibrated parameters and the effect magnitudes.
+
+The recalibration is fitted within each parameter's physical bounds (a cohesion never
+negative, a restitution within (0, 1]) or a configuration's narrower ones, and a fit that
+ends on a bound says so in the verdict's reason and the JSON.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bedstruct.diagnose import (BASE_PARAMETERS, Effect, MeasurementSet, Observations,
+                                compute_fingerprints, diagnose, fit_model, load_sim_config,
+                                measurement_from_dict)
+from bedstruct.diagnose.parameters import PARAMETER_BOUNDS, parameter_bounds
+from bedstruct.errors import ConfigError
+
+_EFFECT = Effect(name="e", title="e", magnitude="m", unit="1", prior=(0.0, 1.0), physics="",
+                 signature="", sources=(), engine_map=())
+
+
+def _design():
+    return MeasurementSet(tuple(measurement_from_dict(dict(
+        name=n, kind="static_angle", value=0.0, uncertainty=1.0, role=r))
+        for n, r in [("a", "calibrate"), ("b", "calibrate"), ("c", "validate")]))
+
+
+def _simulator(base, effects, seed):
+    """Linear toy: the cohesion raises a, lowers b; the effect moves all three."""
+    m = effects.get("e", 0.0)
+    noise = 0.01 * np.random.default_rng(seed).standard_normal(3)
+    k = base["cohesion_energy_density"] / 1e7
+    return Observations({"a": 10 * k + 30 * m + noise[0], "b": -10 * k + 40 * m + noise[1],
+                         "c": m + noise[2]})
+
+
+@pytest.fixture(scope="module")
+def fps():
+    return compute_fingerprints(_simulator, _design(), {"cohesion_energy_density": 1e7},
+                                [_EFFECT], nuisance=("cohesion_energy_density",), replicates=2)
+
+
+def test_every_base_parameter_has_physical_bounds():
+    assert set(PARAMETER_BOUNDS) >= set(BASE_PARAMETERS)
+    for name, (lo, hi) in PARAMETER_BOUNDS.items():
+        assert lo < hi
+        assert lo <= BASE_PARAMETERS.get(name, lo) <= hi
+    assert PARAMETER_BOUNDS["cohesion_energy_density"][0] == 0.0
+    assert PARAMETER_BOUNDS["friction"][0] == 0.0
+    assert PARAMETER_BOUNDS["restitution"] == (0.0, 1.0)
+
+
+def test_catalogue_magnitudes_are_bounded_by_their_priors():
+    from bedstruct.diagnose import catalogue
+    for e in catalogue():
+        lo, hi = e.prior
+        assert math.isfinite(lo) and math.isfinite(hi) and lo < hi, e.name
+    # relative humidity is a fraction; wall friction never makes mu_w negative
+    cap = [e for e in catalogue() if e.name == "capillary_bridges"][0]
+    assert 0.0 <= cap.prior[0] and cap.prior[1] <= 1.0
+    wall = [e for e in catalogue() if e.name == "wall_friction"][0]
+    assert BASE_PARAMETERS["friction"] + wall.prior[0] >= 0.0
+
+
+def test_a_recalibration_that_would_go_negative_stops_at_zero_and_says_so(fps):
+    base_mean = fps.base_mean
+    # data that the cohesion alone fits at -3e7 J/m^3 (a = -30, b = +30): impossible
+    real = np.array([-30.0, 30.0, 0.0])
+    residual = real - base_mean
+    rows = fps.rows_calibrate
+    free = np.linalg.lstsq(fps.sensitivities[rows] / fps.sigma[rows, None],
+                           residual[rows] / fps.sigma[rows], rcond=None)[0]
+    assert 1e7 + free[0] < -1e7          # unconstrained: a negative cohesion
+    null = fit_model(residual, fps, ())
+    assert null.nuisance[0] == pytest.approx(-1e7, rel=1e-6)     # cohesion 0, not below
+    assert null.at_bound == ("cohesion_energy_density",)
+    assert null.as_dict()["at_bound"] == ["cohesion_energy_density"]
+    # with an effect in the model too
+    one = fit_model(residual, fps, ("e",))
+    assert 1e7 + one.nuisance[0] >= -1e-6 * 1e7
+    assert "cohesion_energy_density" in one.at_bound
+
+
+def test_a_fit_inside_its_bounds_names_no_bound(fps):
+    real = np.array([15.0, -15.0, 0.0])       # cohesion 1.5e7: inside
+    null = fit_model(real - fps.base_mean, fps, ())
+    assert null.nuisance[0] == pytest.approx(0.5e7, rel=0.05) and null.at_bound == ()
+
+
+def test_the_diagnosis_says_when_the_recalibration_ends_on_a_bound(fps):
+    ms = MeasurementSet(tuple(measurement_from_dict(dict(
+        name=n, kind="static_angle", value=v, uncertainty=1.0, role=r))
+        for n, v, r in [("a", -30.0, "calibrate"), ("b", 30.0, "calibrate"),
+                        ("c", 0.0, "validate")]))
+    d = diagnose(ms, _simulator, base={"cohesion_energy_density": 1e7}, effects=[_EFFECT],
+                 nuisance=("cohesion_energy_density",), replicates=2, fingerprints=fps,
+                 refine=0, confirm_rounds=0)
+    assert "bound of cohesion_energy_density" in d.attribution.reason
+    js = d.to_json()
+    assert js["recalibration"]["cohesion_energy_density"]["at_bound"] is True
+    assert js["recalibration"]["cohesion_energy_density"]["value"] >= 0.0
+    # and in words, for the engineer
+    from bedstruct.diagnose.answer import answer, compact_answer
+    assert "cohesion energy density stopped at its physical bound 0 MJ/m³" in \
+        answer(d).recalibration
+    assert compact_answer(d)["at_bound"] == ["cohesion_energy_density"]
+
+
+def test_configured_bounds_narrow_the_physical_ones(tmp_path, fps):
+    from dataclasses import replace
+    narrow = replace(fps, bounds={"cohesion_energy_density": (0.8e7, 2e7)})
+    null = fit_model(np.array([-30.0, 30.0, 0.0]) - fps.base_mean, narrow, ())
+    assert 1e7 + null.nuisance[0] == pytest.approx(0.8e7, rel=1e-6) and null.at_bound
+    p = tmp_path / "sim.toml"
+    p.write_text('[recalibrate]\nparameters = ["cohesion_energy_density"]\n'
+                 'bounds = { cohesion_energy_density = [1e6, 1e8] }\n')
+    assert load_sim_config(p).bounds == {"cohesion_energy_density": [1e6, 1e8]}
+    for text, match in (
+            ('bounds = { cohesion_energy_density = [-1.0, 1e8] }', "physical bounds"),
+            ('bounds = { friction = [0.1, 0.5] }', "not a recalibrated parameter"),
+            ('bounds = { cohesion_energy_density = "wide" }', "lower, upper")):
+        p.write_text(f'[recalibrate]\nparameters = ["cohesion_energy_density"]\n{text}\n')
+        with pytest.raises(ConfigError, match=match):
+            load_sim_config(p)
+    p.write_text('[base]\nrestitution = 1.5\n[recalibrate]\nparameters = ["restitution"]\n')
+    with pytest.raises(ConfigError, match="outside its bounds"):
+        load_sim_config(p)
+    assert parameter_bounds(["k"]) == {"k": (-math.inf, math.inf)}
