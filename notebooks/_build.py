@@ -117,7 +117,7 @@ DIAGNOSE = [
              "for effect in result.attribution.which():\n"
              "    print(effect['effect'], f\"{effect['magnitude']:.3g}\", effect['interval'], effect['unit'])\n"
              "print('rerun fits the calibration observables: p =', round(result.shrink.p_rerun_calibration, 3))"),
-    ("code", "from bedstruct.plot import diagnose as plot_diagnose\n"
+    ("code", "from bedstruct.diagnose import figures as plot_diagnose\n"
              "fig, _ = plot_diagnose.plot_where(result.where)\nfig"),
     ("md", "The attributed effect's response against its magnitude, interpolated through the "
            "magnitudes it was simulated at (circles; diamonds are magnitudes simulated during "

@@ -38,7 +38,7 @@ def _identified_by(fps, row) -> str:
 def diagnosis_report(diag, *, title: str | None = None):
     """A :class:`bedstruct.report._model.Report` of a :class:`Diagnosis`."""
     from ..report._model import Report, Table, run_section, skip
-    from ..plot import diagnose as pdg
+    from . import figures as pdg
 
     j = diag.to_json()
     sim_note = ("Simulations by the analytic SURROGATE (bedstruct.diagnose.surrogate), not the DEM "
@@ -261,7 +261,7 @@ def diagnosis_report(diag, *, title: str | None = None):
 def validation_report(result):
     """A report of a :class:`ValidationResult` (goals, confusion matrix, magnitude recovery)."""
     from ..report._model import Report, Table, run_section
-    from ..plot import diagnose as pdg
+    from . import figures as pdg
 
     rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
                  inputs={"simulator": result.simulator, "preset": result.preset},

@@ -1,5 +1,6 @@
-"""Figures. Every function returns matplotlib ``Figure``/``Axes`` objects and
-never shows or saves them (the caller decides)."""
+"""Figures of the analyses. Every function returns matplotlib ``Figure``/``Axes`` objects and
+never shows or saves them (the caller decides). The diagnosis draws its own figures
+(:mod:`bedstruct.diagnose.figures`)."""
 
 from __future__ import annotations
 
@@ -14,16 +15,11 @@ from .fabric import (
 from .heat import (
     plot_temperature_map, plot_temperature_history,
 )
-from .diagnose import (
-    plot_where, plot_fingerprints, plot_attribution, plot_effect_response,
-    plot_magnitude_profile, plot_shrink, plot_confusion,
-)
 
 __all__ = [
     "plot_german", "plot_psd", "plot_psd_along_bed", "plot_packing_profile",
     "plot_coordination", "plot_height_map", "plot_repose", "plot_repose_series", "plot_rose",
     "plot_rose_grid", "plot_rose_2d", "plot_fabric_difference", "plot_fabric_differences",
     "plot_fabric_evolution", "plot_harmonic_power", "rose_mesh", "plot_temperature_map",
-    "plot_temperature_history", "plot_where", "plot_fingerprints", "plot_attribution",
-    "plot_effect_response", "plot_magnitude_profile", "plot_shrink", "plot_confusion",
+    "plot_temperature_history",
 ]

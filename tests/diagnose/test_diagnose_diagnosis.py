@@ -330,7 +330,7 @@ def test_cli_help(capsys):
 def test_plots_return_axes():
     import matplotlib
     matplotlib.use("Agg")
-    from bedstruct.plot import diagnose as pdg
+    from bedstruct.diagnose import figures as pdg
     ms = load_measurements(SEED)
     sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
     d = diagnose(ms, sim, base=BASE_PARAMETERS, replicates=2, refine=0)

@@ -129,7 +129,7 @@ def test_bad_arguments_are_named():
 
 def test_the_report_draws_the_profile_the_interval_was_read_from():
     from bedstruct.diagnose import Observations, diagnose
-    from bedstruct.plot.diagnose import plot_magnitude_profile
+    from bedstruct.diagnose.figures import plot_magnitude_profile
     design = toy_design(N, n_validate=3, sigma=0.3)
     sim = ToySimulator(design, sens=SENS, effects=LINEAR, noise_sd=0.3)
     fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A"), toy_effect("B")],

@@ -128,7 +128,7 @@ def test_a_rerun_that_contradicts_the_interpolation_becomes_a_node_and_the_refit
     # the response figure marks the rerun's node apart from the fingerprint's magnitudes
     import matplotlib
     matplotlib.use("Agg")
-    from bedstruct.plot.diagnose import plot_effect_response
+    from bedstruct.diagnose.figures import plot_effect_response
     fig, ax = plot_effect_response(d)
     diamonds = [ln for ln in ax.get_lines() if ln.get_marker() == "D"]
     assert diamonds and np.isclose(diamonds[0].get_xdata(), first["magnitudes"]["A"]).all()

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .profile_interval import profile_interval
+
 __all__ = ["plot_where", "plot_fingerprints", "plot_attribution", "plot_effect_response",
            "plot_magnitude_profile", "plot_shrink", "plot_confusion"]
 
@@ -218,7 +220,6 @@ def plot_magnitude_profile(diagnosis, effect=None, *, ax=None):
     >>> ax.get_ylabel()
     'chi2 - min chi2 (calibration)'
     """
-    from ..diagnose.profile_interval import profile_interval
     att, fps = diagnosis.attribution, diagnosis.fingerprints
     effect = _leading_effect(att, effect, "plot_magnitude_profile")
     model = att.best if effect in att.best.effects else next(
