@@ -328,14 +328,16 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
 
 
 def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path, *,
-                      preset: str = "tiny", repeats: int | None = None) -> Path:
+                      preset: str = "tiny", repeats: int | None = None,
+                      title: str | None = None) -> Path:
     """Make twin ``spec`` on ``engine`` and write its measurement file to ``path``.
 
     The file states the mean of ``repeats`` runs (default 1 on the surrogate, 3 on a DEM
     engine) plus reading noise, with uncertainty ``sqrt(reading**2 + run_sd**2 / repeats)``
     where ``run_sd`` is the surrogate's replicate scatter at the base point
     (:meth:`SurrogateSimulator.noise_sd`) or, on a DEM engine, the sample standard
-    deviation of the twin's own repeats. Title and notes say nothing of the truth.
+    deviation of the twin's own repeats. The title (default the twin's id) and the file
+    say nothing of the truth.
     """
     repeats = int(repeats or (1 if engine == "surrogate" else 3))
     engine_cfg = {"preset": preset, "overrides": [f"engine={engine}"] if engine != "surrogate" else []}
@@ -356,7 +358,7 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
         stated[m.name] = np.sqrt(m.uncertainty ** 2 + np.asarray(run_sd[m.name]) ** 2 / repeats)
     bad = [m.name for m in design if not np.all(np.isfinite(values[m.name]))]
     keep = tuple(m for m in design if m.name not in bad)
-    ms = MeasurementSet(keep, title=Path(path).stem, source="blind benchmark twin")
+    ms = MeasurementSet(keep, title=title or spec.twin, source="blind benchmark twin")
     ms = ms.with_values(Observations({k: values[k] for k in ms.names}, source="twin"),
                         uncertainty=Observations({k: stated[k] for k in ms.names}),
                         provenance="blind benchmark twin")
