@@ -184,3 +184,18 @@ def test_cli_command_end_to_end(tmp_path, capsys):
     assert (out / "summary.json").is_file() and (out / "report.html").is_file()
     truth = json.loads((out / "truth.json").read_text())
     assert truth["settings"]["diagnose_settings"] == FAST
+
+
+def test_committed_blind_record_rescores_as_its_summary():
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-surrogate-2026-12-03"
+    truth = json.loads((rec / "truth.json").read_text())
+    seal = json.loads((rec / "seal.json").read_text())
+    assert seal["truth_sha256"] == _sha(rec / "truth.json")
+    results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
+    s = blind.score_benchmark(truth, results)
+    summary = json.loads((rec / "summary.json").read_text())
+    for key in ("top1_count", "null_false_count", "ooc_count", "coverage_count", "shrink_n",
+                "confusion"):
+        assert s[key] == summary[key], key
+    assert s["top1_count"] == [17, 20] and s["null_false_count"] == [0, 10]
+    assert s["ooc_count"] == [6, 10] and s["coverage_count"] == [15, 17]
