@@ -168,15 +168,13 @@ def test_resume_reuses_finished_twins(bench, tmp_path, monkeypatch):
     assert (again / "results" / "twin-002.json").exists()
 
 
-def test_cli_command_end_to_end(tmp_path, capsys):
+def _cli(out: Path, seed: int, capsys) -> dict:
     parser = argparse.ArgumentParser()
     add_benchmark_arguments(parser)
-    out = tmp_path / "cli"
     args = parser.parse_args(["--twins-engine", "surrogate", "--preset", "tiny", "--n", "4",
-                              "--seed", "5", "--out", str(out), "--json", *FAST_ARGS])
+                              "--seed", str(seed), "--out", str(out), "--json", *FAST_ARGS])
     assert run_benchmark_command(args) == 0
-    last = capsys.readouterr().out.strip().splitlines()[-1]
-    doc = json.loads(last)
+    doc = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     for key in ("n", "top1", "top1_ci", "null_false", "null_false_ci", "ooc_unexplained",
                 "ooc_ci", "shrink_median", "shrink_ci", "coverage", "commit"):
         assert key in doc
@@ -184,6 +182,23 @@ def test_cli_command_end_to_end(tmp_path, capsys):
     assert (out / "summary.json").is_file() and (out / "report.html").is_file()
     truth = json.loads((out / "truth.json").read_text())
     assert truth["settings"]["diagnose_settings"] == FAST
+    return doc
+
+
+def test_cli_command_on_the_library_run(bench, tmp_path, capsys):
+    # the library run's folder, its summary and report removed: the command resumes it
+    out, res, _ = bench
+    again = tmp_path / "cli"
+    shutil.copytree(out, again)
+    (again / "summary.json").unlink()
+    (again / "report.html").unlink()
+    doc = _cli(again, 3, capsys)
+    assert doc["top1"] == res.summary["top1"] or doc["top1"] is None
+
+
+@pytest.mark.slow
+def test_cli_command_end_to_end_fresh(tmp_path, capsys):
+    _cli(tmp_path / "cli", 5, capsys)
 
 
 def test_committed_blind_record_rescores_as_its_summary():
