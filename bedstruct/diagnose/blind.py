@@ -45,10 +45,9 @@ from ..errors import ConfigError
 from .blind_report import benchmark_html, confusion_figure
 from .blind_twins import (OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design, draw_twins,
                           split_counts, twin_measurements)
-from .catalogue import CATALOGUE
-from .config import load_sim_config, make_simulator
-from .diagnosis import diagnose, diagnosis_design
-from .measurements import load_measurements
+# public names of the package (its modules are being reorganised)
+from . import (CATALOGUE, diagnose, diagnosis_design, load_measurements, load_sim_config,
+               make_simulator)
 
 __all__ = ["PROTOCOL", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
            "score_benchmark", "proportion_interval", "median_interval", "confusion_figure",

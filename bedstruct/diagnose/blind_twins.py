@@ -33,10 +33,10 @@ from typing import Mapping
 import numpy as np
 
 from ..errors import ConfigError
-from .catalogue import CATALOGUE
-from .measurements import MeasurementSet, Observations, measurement_from_dict, write_measurements
-from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
-from .validation_design import engine_twin_design, twin_design
+# public names of the package (its modules are being reorganised) and the surrogate's speed
+from . import (BASE_PARAMETERS, CATALOGUE, MeasurementSet, Observations, SurrogateSimulator,
+               engine_twin_design, measurement_from_dict, twin_design, write_measurements)
+from .surrogate import SPEED_X1
 
 __all__ = ["TWIN_ENGINES", "OutOfCatalogueChange", "OUT_OF_CATALOGUE", "BENCHMARK_HELDOUT",
            "TwinSpec", "benchmark_design", "draw_twins", "realisation", "split_counts",
@@ -276,15 +276,14 @@ def _change(name: str) -> OutOfCatalogueChange:
     raise ConfigError(f"unknown out-of-catalogue change {name!r}")
 
 
-def _preset_value(engine_cfg: dict, key: str) -> float:
-    from ..workflows.config import load_config
-    cfg = load_config(preset=str(engine_cfg.get("preset", "tiny")),
-                      overrides=list(engine_cfg.get("overrides", [])))
+def _engine_value(engine: str, preset: str, key: str) -> float:
+    """The value of workflow key ``section.key`` in ``engine``'s runs at ``preset``."""
+    sim = twin_simulator(engine, engine_twin_design("seed"), preset=preset)
     section, k = key.split(".", 1)
-    return float(cfg[section][k])
+    return float(sim.base_cfg[section][k])
 
 
-def twin_point(spec: TwinSpec, engine: str, engine_cfg: Mapping | None = None) -> dict:
+def twin_point(spec: TwinSpec, engine: str, *, preset: str = "tiny") -> dict:
     """The twin's base parameters, effects and engine overrides (what its runs are given).
 
     Returns ``{"base": ..., "effects": ..., "overrides": [...]}``; the overrides apply to a
@@ -302,7 +301,7 @@ def twin_point(spec: TwinSpec, engine: str, engine_cfg: Mapping | None = None) -
             base[key] = (base[key] * spec.magnitude if c.quantity == "factor"
                          else float(spec.magnitude))
         else:
-            v = (_preset_value(dict(engine_cfg or {}), key) * spec.magnitude
+            v = (_engine_value(engine, preset, key) * spec.magnitude
                  if c.quantity == "factor" else float(spec.magnitude))
             overrides.append(f"{key}={v!r}")
     return {"base": base, "effects": effects, "overrides": overrides}
@@ -322,7 +321,7 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
             raise ConfigError(f"twins engine 'surrogate' takes no workflow overrides; got "
                               f"{list(overrides)}")
         return SurrogateSimulator(design)
-    from ..workflows.diagnosis_sim import diagnosis_simulator
+    from ..workflows import diagnosis_simulator
     return diagnosis_simulator(design, {"preset": preset,
                                         "overrides": [f"engine={engine}", *overrides]})
 
@@ -340,8 +339,7 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
     say nothing of the truth.
     """
     repeats = int(repeats or (1 if engine == "surrogate" else 3))
-    engine_cfg = {"preset": preset, "overrides": [f"engine={engine}"] if engine != "surrogate" else []}
-    point = twin_point(spec, engine, engine_cfg)
+    point = twin_point(spec, engine, preset=preset)
     sim = twin_simulator(engine, design, preset=preset, overrides=point["overrides"])
     runs = [sim(point["base"], point["effects"], spec.seed + 7919 * k) for k in range(repeats)]
     rng = np.random.default_rng([spec.seed, 99])

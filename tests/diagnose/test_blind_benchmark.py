@@ -17,8 +17,9 @@ from bedstruct.diagnose import CATALOGUE, load_measurements
 from bedstruct.diagnose import blind
 from bedstruct.diagnose.blind import (median_interval, proportion_interval, run_benchmark,
                                       add_benchmark_arguments, run_benchmark_command)
-from bedstruct.diagnose.blind_twins import (OUT_OF_CATALOGUE, draw_twins, realisation,
-                                            split_counts, twin_point)
+from bedstruct.diagnose import engine_twin_design
+from bedstruct.diagnose.blind_twins import (OUT_OF_CATALOGUE, TwinSpec, draw_twins, realisation,
+                                            split_counts, twin_point, twin_simulator)
 from bedstruct.errors import ConfigError
 
 # the smallest settings that still run the real method (the protocol uses the defaults)
@@ -92,6 +93,28 @@ def test_draw_split_and_out_of_catalogue_refused_by_name():
     # a surrogate contact change goes through its base parameter
     s = next(s for s in specs if s.name == "sliding_friction")
     assert twin_point(s, "surrogate")["base"]["friction"] == pytest.approx(0.4 * s.magnitude)
+
+
+@pytest.mark.parametrize("engine", ["embedded", "liggghts", "lammps"])
+def test_engine_twins_realise_changes_in_their_run_config(engine):
+    # no engine run: the workflow configuration the engine's simulator would run
+    design = engine_twin_design("seed")
+    plain = twin_simulator(engine, design).run_config({}, {}, 1)
+    for c in OUT_OF_CATALOGUE:
+        mag = 1.2 if c.quantity == "factor" else 0.5
+        spec = TwinSpec("twin-000", "out_of_catalogue", c.name, mag, 1.0, 1)
+        if engine not in c.realised:
+            with pytest.raises(ConfigError, match=c.name):
+                twin_point(spec, engine)
+            continue
+        point = twin_point(spec, engine)
+        cfg = twin_simulator(engine, design, overrides=point["overrides"]).run_config(
+            point["base"], point["effects"], 1)
+        assert cfg["engine"] == engine
+        how, key = c.realised[engine]
+        section, k = ("contact", key) if how == "base" else key.split(".", 1)
+        want = plain[section][k] * mag if c.quantity == "factor" else mag
+        assert cfg[section][k] == pytest.approx(want), c.name
 
 
 def test_truth_and_seal_before_first_diagnosis(bench):
