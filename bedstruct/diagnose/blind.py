@@ -406,24 +406,36 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
 
 # ---------------------------------------------------------------------------------- CLI
 def add_benchmark_arguments(parser) -> None:
-    """Arguments of ``bedstruct diagnose benchmark`` on an argparse (sub)parser."""
-    parser.add_argument("--twins-engine", choices=TWIN_ENGINES, default="surrogate",
-                        help="what makes the twins' data (default surrogate)")
-    parser.add_argument("--preset", default="tiny",
-                        help="workflow preset of a DEM twins engine (default tiny)")
-    parser.add_argument("--n", type=int, default=40,
-                        help="number of twins (>= 4; default 40: 20 effect, 10 null, 10 "
-                             "out-of-catalogue)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the draw (default 0)")
-    parser.add_argument("--sim", default="surrogate",
-                        help="diagnosing simulator: 'surrogate' or a simulation config TOML")
-    parser.add_argument("--out", required=True, help="benchmark folder (resumed if it holds "
-                                                     "this benchmark; another is refused)")
-    parser.add_argument("--json", action="store_true",
-                        help="print the summary as one line of JSON (last line)")
-    parser.add_argument("--diagnose-setting", action="append", default=[], metavar="KEY=VALUE",
-                        help="replace a diagnosis setting (replicates, refine, ...); for tests "
-                             "only, recorded in truth.json")
+    """Arguments of ``bedstruct diagnose benchmark`` on an argparse (sub)parser.
+
+    On a parser of its own (a subcommand) every option is added. On a parser that already
+    defines some of them (``--sim``, ``--out``, ``--preset``, ``--seed``, ``--json`` of
+    ``bedstruct diagnose``) those are left as they are, and :func:`run_benchmark_command`
+    takes their value, ``None`` meaning this module's default.
+    """
+    import argparse
+
+    def add(*names, **kw):
+        try:
+            parser.add_argument(*names, **kw)
+        except argparse.ArgumentError:  # the parser has it already: shared with its command
+            pass
+
+    add("--twins-engine", choices=TWIN_ENGINES, default="surrogate",
+        help="benchmark: what makes the twins' data (default surrogate)")
+    add("--preset", default="tiny", help="workflow preset of a DEM twins engine (default tiny)")
+    add("--n", type=int, default=40,
+        help="benchmark: number of twins (>= 4; default 40: 20 effect, 10 null, 10 "
+             "out-of-catalogue)")
+    add("--seed", type=int, default=0, help="seed of the draw (default 0)")
+    add("--sim", default="surrogate",
+        help="diagnosing simulator: 'surrogate' or a simulation config TOML")
+    add("--out", required=True,
+        help="benchmark folder (resumed if it holds this benchmark; another is refused)")
+    add("--json", action="store_true", help="print the summary as one line of JSON (last line)")
+    add("--diagnose-setting", action="append", default=[], metavar="KEY=VALUE",
+        help="benchmark: replace a diagnosis setting (replicates, refine, ...); for tests "
+             "only, recorded in truth.json")
 
 
 def _settings(pairs) -> dict:
@@ -439,21 +451,29 @@ def _settings(pairs) -> dict:
 def run_benchmark_command(args) -> int:
     """Run ``bedstruct diagnose benchmark`` from parsed arguments; returns the exit status."""
     from .._json import to_jsonable
-    res = run_benchmark(args.out, n=args.n, seed=args.seed, twins_engine=args.twins_engine,
-                        preset=args.preset, sim=args.sim,
-                        diagnose_settings=_settings(args.diagnose_setting) or None,
-                        progress=None if args.json else print)
+
+    def arg(name, default):
+        v = getattr(args, name, None)
+        return default if v is None else v
+
+    if not getattr(args, "out", None):
+        raise ConfigError("benchmark: --out DIR is required")
+    engine, sim = arg("twins_engine", "surrogate"), arg("sim", "surrogate")
+    res = run_benchmark(args.out, n=arg("n", 40), seed=arg("seed", 0), twins_engine=engine,
+                        preset=arg("preset", "tiny"), sim=sim,
+                        diagnose_settings=_settings(arg("diagnose_setting", [])) or None,
+                        progress=None if arg("json", False) else print)
     s = res.summary
 
     def ci(key):
         lo, hi = s[key]
         return "n/a" if lo is None or not math.isfinite(lo) else f"{lo:.3f}-{hi:.3f}"
 
-    if args.json:
+    if arg("json", False):
         print(json.dumps(to_jsonable(res.json_line())))
     else:
         k, n = s["top1_count"]
-        print(f"blind benchmark: {s['n']} twins on {args.twins_engine}, diagnosed on {args.sim}")
+        print(f"blind benchmark: {s['n']} twins on {engine}, diagnosed on {sim}")
         print(f"  top-1 {k}/{n} ({ci('top1_ci')}); null false {s['null_false_count'][0]}/"
               f"{s['null_false_count'][1]} ({ci('null_false_ci')}); out-of-catalogue "
               f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')})")

@@ -216,7 +216,28 @@ def test_cli_command_on_the_library_run(bench, tmp_path, capsys):
     (again / "summary.json").unlink()
     (again / "report.html").unlink()
     doc = _cli(again, 3, capsys)
-    assert doc["top1"] == res.summary["top1"] or doc["top1"] is None
+    assert doc["top1_ci"] == pytest.approx(res.summary["top1_ci"])
+    # without --json: a short text summary
+    parser = argparse.ArgumentParser()
+    add_benchmark_arguments(parser)
+    assert run_benchmark_command(parser.parse_args(
+        ["--n", "4", "--seed", "3", "--out", str(again), *FAST_ARGS])) == 0
+    assert "top-1" in capsys.readouterr().out
+
+
+def test_benchmark_arguments_share_a_command_s_own_options():
+    # on a parser that already has --sim/--out/--preset/--seed/--json (bedstruct diagnose's)
+    parser = argparse.ArgumentParser()
+    parser.add_argument("action", nargs="?", choices=["validate", "benchmark"])
+    parser.add_argument("--sim")
+    parser.add_argument("--out")
+    parser.add_argument("--preset", choices=["mini", "tiny", "small"], default=None)
+    parser.add_argument("--seed", type=int, default=None)
+    parser.add_argument("--json", action="store_true")
+    add_benchmark_arguments(parser)
+    args = parser.parse_args(["benchmark", "--n", "4", "--out", "x", "--twins-engine", "lammps"])
+    assert (args.n, args.twins_engine, args.sim, args.seed, args.diagnose_setting) == \
+        (4, "lammps", None, None, [])
 
 
 @pytest.mark.slow
