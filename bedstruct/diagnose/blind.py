@@ -1,0 +1,483 @@
+"""Blind benchmark of the diagnosis: truth drawn and sealed first, then diagnosed (issue #48).
+
+The validation (:func:`~bedstruct.diagnose.validate.validate`) is in-sample: its rules were
+tuned on its twins. A blind benchmark draws new twins from a seed, writes their truth and a
+seal before any diagnosis runs, and then diagnoses each twin's measurement file once, with
+the diagnosis' frozen default settings, on a diagnosing simulator separate from the one
+that made the twins:
+
+1. **draw** ``n`` twins (:func:`~bedstruct.diagnose.blind_twins.draw_twins`): at least half
+   effect twins (catalogue effects at magnitudes over their priors), a quarter null twins,
+   a quarter out-of-catalogue twins (:data:`~bedstruct.diagnose.blind_twins.OUT_OF_CATALOGUE`);
+2. **truth first**: ``DIR/truth.json`` (twin id -> kind, effect or change, magnitude; the
+   code commit, the bedstruct version, the settings), each twin's file
+   ``DIR/twins/twin-XXX.toml`` (nothing of the truth), then ``DIR/seal.json`` (SHA-256 of
+   ``truth.json`` and of every twin file, and the time);
+3. **diagnose** each twin file (:func:`diagnose_file`), its result written atomically to
+   ``DIR/results/twin-XXX.json``; a killed run resumes with the finished ones, and a rerun
+   into a folder whose truth or seal differ from this one's is refused;
+4. **score** (:func:`score_benchmark`): top-1 among effect twins, false attribution among
+   null twins, ``unexplained`` among out-of-catalogue twins and magnitude-interval
+   coverage, each with its Clopper-Pearson 95 % interval (:func:`proportion_interval`);
+   the median held-out gap shrink over the effect twins where the held-out gap before is
+   beyond noise, with a distribution-free order-statistic interval
+   (:func:`median_interval`); the confusion matrix; written to ``DIR/summary.json`` and
+   ``DIR/report.html``.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .._json import write_json_atomic
+from ..errors import ConfigError
+from .blind_report import benchmark_html, confusion_figure
+from .blind_twins import (OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design, draw_twins,
+                          split_counts, twin_measurements)
+# public names of the package (its modules are being reorganised)
+from . import (CATALOGUE, diagnose, diagnosis_design, load_measurements, load_sim_config,
+               make_simulator)
+
+__all__ = ["PROTOCOL", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
+           "score_benchmark", "proportion_interval", "median_interval", "confusion_figure",
+           "add_benchmark_arguments", "run_benchmark_command"]
+
+#: Revision of the protocol, in ``truth.json``.
+PROTOCOL = "bedstruct.blind/1"
+#: Level of the held-out gap test before: shrink counts where ``p_before`` is below it.
+SHRINK_ALPHA = 0.05
+
+
+def proportion_interval(k: int, n: int, *, level: float = 0.95) -> tuple[float, float]:
+    """Clopper-Pearson (exact binomial) interval of ``k`` successes in ``n`` trials.
+
+    ``(nan, nan)`` when ``n`` is 0.
+
+    Examples
+    --------
+    >>> [round(x, 3) for x in proportion_interval(9, 10)]
+    [0.555, 0.997]
+    >>> [round(x, 3) for x in proportion_interval(0, 10)]
+    [0.0, 0.308]
+    """
+    if n == 0:
+        return (float("nan"), float("nan"))
+    from scipy.stats import binomtest
+    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="exact")
+    return (float(ci.low), float(ci.high))
+
+
+def median_interval(values, *, level: float = 0.95) -> tuple[float, float, float]:
+    """Distribution-free interval of a median from order statistics.
+
+    The ``j``-th smallest and ``j``-th largest values, ``j`` the largest rank whose
+    interval still covers the median with probability >= ``level`` (the number of values
+    below the median is binomial(m, 1/2)). With too few values for ``level`` (m < 6 at
+    95 %), the smallest and largest value and the coverage they achieve.
+
+    Returns
+    -------
+    (lo, hi, coverage)
+
+    Examples
+    --------
+    >>> lo, hi, cov = median_interval(range(1, 21))
+    >>> lo, hi, round(cov, 3)
+    (6.0, 15.0, 0.959)
+    """
+    x = np.sort(np.asarray([v for v in values if v is not None and np.isfinite(v)], float))
+    m = len(x)
+    if m == 0:
+        return (float("nan"), float("nan"), float("nan"))
+    from scipy.stats import binom
+    best = 1
+    for j in range(1, m // 2 + 1):
+        if 1.0 - 2.0 * binom.cdf(j - 1, m, 0.5) >= level:
+            best = j
+    cov = 1.0 - 2.0 * binom.cdf(best - 1, m, 0.5)
+    return (float(x[best - 1]), float(x[m - best]), float(cov))
+
+
+def _commit() -> str | None:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                             cwd=Path(__file__).resolve().parent, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return (out.stdout.strip() or None) if out.returncode == 0 else None
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _answer(diag) -> str:
+    att = diag.attribution
+    return "+".join(e.effect for e in att.selected) if att.verdict == "attributed" else att.verdict
+
+
+def _finite(x) -> float | None:
+    return float(x) if x is not None and np.isfinite(x) else None
+
+
+def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None) -> dict:
+    """Diagnose one measurement file as ``bedstruct diagnose --sim SIM --real PATH`` does.
+
+    ``sim`` is ``"surrogate"`` or a simulation config path (:func:`load_sim_config`);
+    ``settings`` replaces fields of that config (``replicates``, ``refine``...: for tests
+    only; the protocol uses the config's, i.e. the diagnosis' defaults). The file is read
+    with ``check_range=False`` (a twin's numbers need not lie in a kind's plausible range).
+
+    Returns
+    -------
+    dict
+        The result record: ``answer`` (leading effects joined by ``+``, or the verdict),
+        ``verdict``, ``effects`` (each effect, magnitude, interval, confidence),
+        ``magnitude`` and ``interval`` of the leading effect, ``shrink`` (held-out excess
+        gap shrink), ``p_heldout_before``, ``n_heldout``, ``shrink_measured``, ``reason``,
+        ``seconds``.
+    """
+    t0 = time.perf_counter()
+    cfg = load_sim_config(sim)
+    if settings:
+        cfg = dataclasses.replace(cfg, **settings)
+    ms = load_measurements(path, check_range=False)
+    simulator = make_simulator(cfg, diagnosis_design(ms, cfg.effects))
+    diag = diagnose(ms, simulator, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
+                    replicates=cfg.replicates, top_up=cfg.top_up, seed=cfg.seed, alpha=cfg.alpha,
+                    select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
+                    max_effects=cfg.max_effects, refine=cfg.refine,
+                    confirm_rounds=cfg.confirm_rounds)
+    att, sh = diag.attribution, diag.shrink
+    effects = [{"effect": e.effect, "magnitude": float(e.magnitude),
+                "interval": [float(v) for v in e.interval], "confidence": _finite(e.confidence)}
+               for e in att.selected] if att.verdict == "attributed" else []
+    p_before = _finite(sh.p_before)
+    shrink = _finite(sh.fraction)
+    return {"twin": Path(path).stem, "answer": _answer(diag), "verdict": att.verdict,
+            "effects": effects,
+            "magnitude": effects[0]["magnitude"] if effects else None,
+            "interval": effects[0]["interval"] if effects else None,
+            "shrink": shrink, "p_heldout_before": p_before, "n_heldout": int(sh.n_heldout),
+            "shrink_measured": bool(shrink is not None and p_before is not None
+                                    and p_before < SHRINK_ALPHA),
+            "reason": att.reason, "simulator": diag.simulator,
+            "seconds": round(time.perf_counter() - t0, 2)}
+
+
+@dataclass(frozen=True)
+class BenchmarkResult:
+    """A blind benchmark's scores (:func:`run_benchmark`); ``summary`` is ``summary.json``.
+
+    Proportions are ``(k, n)`` counts with their value and Clopper-Pearson 95 % interval.
+    """
+
+    out: Path
+    n: int
+    counts: dict
+    top1: tuple[int, int]
+    null_false: tuple[int, int]
+    ooc_unexplained: tuple[int, int]
+    coverage: tuple[int, int]
+    shrink_median: float
+    shrink_ci: tuple[float, float]
+    shrink_n: int
+    confusion: dict
+    summary: dict
+
+    def figure(self):
+        """The confusion matrix (truth rows x answer columns) as a matplotlib Figure."""
+        return confusion_figure(self.confusion)
+
+    def json_line(self) -> dict:
+        """The keys the CLI's ``--json`` prints."""
+        s = self.summary
+        return {k: s[k] for k in ("n", "top1", "top1_ci", "null_false", "null_false_ci",
+                                  "ooc_unexplained", "ooc_ci", "shrink_median", "shrink_ci",
+                                  "shrink_ci_method", "shrink_n", "coverage", "coverage_ci",
+                                  "commit", "out")}
+
+
+def _truth_label(t: dict) -> str:
+    if t["kind"] == "effect":
+        return t["effect"]
+    if t["kind"] == "null":
+        return "null"
+    return f"{t['change']} (out of catalogue)"
+
+
+def score_benchmark(truth: dict, results: dict) -> dict:
+    """Scores of a benchmark from its truth (``truth.json``) and results (twin -> record).
+
+    Returns the summary dict (see the module docstring); twins without a result are listed
+    in ``not_diagnosed`` and left out of every score.
+    """
+    twins = truth["twins"]
+    eff = [t for t in twins if twins[t]["kind"] == "effect" and t in results]
+    null = [t for t in twins if twins[t]["kind"] == "null" and t in results]
+    ooc = [t for t in twins if twins[t]["kind"] == "out_of_catalogue" and t in results]
+    lead = {t: results[t]["answer"].split("+")[0] for t in results}
+    k_top1 = sum(lead[t] == twins[t]["effect"] for t in eff)
+    k_null = sum(results[t]["verdict"] == "attributed" for t in null)
+    k_ooc = sum(results[t]["verdict"] == "unexplained" for t in ooc)
+    covered = [t for t in eff if lead[t] == twins[t]["effect"] and results[t]["interval"]]
+    k_cov = sum(results[t]["interval"][0] <= twins[t]["magnitude"] <= results[t]["interval"][1]
+                for t in covered)
+    shrinks = [results[t]["shrink"] for t in eff if results[t]["shrink_measured"]]
+    lo, hi, cov_level = median_interval(shrinks)
+    effects = [e.name for e in CATALOGUE]
+    changes = sorted({twins[t]["change"] for t in twins if twins[t]["kind"] == "out_of_catalogue"})
+    rows = effects + ["null"] + [f"{c} (out of catalogue)" for c in changes]
+    cols = effects + ["none", "unexplained"]
+    mat = np.zeros((len(rows), len(cols)), dtype=int)
+    for t in results:
+        if t not in twins:
+            continue
+        a = lead[t] if lead[t] in cols else "unexplained"
+        mat[rows.index(_truth_label(twins[t])), cols.index(a)] += 1
+
+    def prop(k, n):
+        return (k / n if n else float("nan")), list(proportion_interval(k, n)), [int(k), int(n)]
+
+    top1, top1_ci, top1_count = prop(k_top1, len(eff))
+    nf, nf_ci, nf_count = prop(k_null, len(null))
+    ou, ou_ci, ou_count = prop(k_ooc, len(ooc))
+    cv, cv_ci, cv_count = prop(k_cov, len(covered))
+    per_twin = []
+    for t in sorted(twins):
+        r = results.get(t, {})
+        per_twin.append({"twin": t, "truth_label": _truth_label(twins[t]),
+                         "truth_magnitude": twins[t]["magnitude"], "answer": r.get("answer", "-"),
+                         "magnitude": r.get("magnitude"), "interval": r.get("interval"),
+                         "shrink": r.get("shrink"), "shrink_measured": r.get("shrink_measured")})
+    return {"protocol": truth["protocol"], "n": len(twins),
+            "counts": {k: sum(v["kind"] == k for v in twins.values())
+                       for k in ("effect", "null", "out_of_catalogue")},
+            "top1": top1, "top1_ci": top1_ci, "top1_count": top1_count,
+            "null_false": nf, "null_false_ci": nf_ci, "null_false_count": nf_count,
+            "ooc_unexplained": ou, "ooc_ci": ou_ci, "ooc_count": ou_count,
+            "coverage": cv, "coverage_ci": cv_ci, "coverage_count": cv_count,
+            "shrink_median": float(np.median(shrinks)) if shrinks else float("nan"),
+            "shrink_ci": [lo, hi], "shrink_n": len(shrinks),
+            "shrink_ci_method": (f"order statistics (distribution-free), coverage "
+                                 f"{cov_level:.3f}" if shrinks else "order statistics"),
+            "confusion": {"rows": rows, "columns": cols, "matrix": mat.tolist()},
+            "not_diagnosed": sorted(set(twins) - set(results)),
+            "commit": truth.get("commit"), "version": truth.get("version"),
+            "settings": truth["settings"], "twins": per_twin}
+
+
+def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs) -> dict:
+    import bedstruct
+    n_eff, n_null, n_ooc = split_counts(n)
+    return {"protocol": PROTOCOL, "commit": _commit(), "version": bedstruct.__version__,
+            "settings": {"n": int(n), "seed": int(seed), "twins_engine": twins_engine,
+                         "preset": preset, "sim": str(sim),
+                         "diagnose_settings": dict(settings or {}) or "defaults",
+                         "split": {"effect": n_eff, "null": n_null, "out_of_catalogue": n_ooc},
+                         "effect_magnitudes": "uniform over the prior, the tenth of its range "
+                                              "nearest 0 left out",
+                         "out_of_catalogue_changes": [c.name for c in OUT_OF_CATALOGUE
+                                                      if twins_engine in c.realised],
+                         "cohesion": "calibrated x (1 + U(-0.02, 0.02))",
+                         "design": benchmark_design(twins_engine).names},
+            "twins": {s.twin: s.as_dict() for s in specs}}
+
+
+def _dump(doc) -> bytes:
+    return (json.dumps(doc, indent=1, sort_keys=True) + "\n").encode("utf-8")
+
+
+def _prepare(out: Path, truth: dict, specs, twins_engine, preset) -> dict:
+    """Write truth, twin files and seal (or check those there); returns the seal."""
+    out.mkdir(parents=True, exist_ok=True)
+    tpath, spath = out / "truth.json", out / "seal.json"
+    body = _dump(truth)
+    if tpath.exists():
+        if tpath.read_bytes() != body:
+            raise ConfigError(f"{out}: holds the truth of another benchmark (truth.json differs "
+                              f"from this run's: settings, seed or code commit); refused — use a "
+                              f"new folder")
+    elif spath.exists() or (out / "results").exists():
+        raise ConfigError(f"{out}: has a seal or results but no truth.json; refused")
+    else:
+        tmp = tpath.with_suffix(".json.tmp")
+        tmp.write_bytes(body)
+        tmp.replace(tpath)
+    sealed = json.loads(spath.read_text()) if spath.exists() else None
+    if sealed is not None and sealed.get("truth_sha256") != _sha256(tpath):
+        raise ConfigError(f"{out}: seal.json does not match truth.json; refused")
+    design = benchmark_design(twins_engine)
+    files = {}
+    for s in specs:
+        p = out / "twins" / f"{s.twin}.toml"
+        if sealed is None:
+            tmp = p.with_suffix(".toml.tmp")
+            twin_measurements(s, twins_engine, design, tmp, preset=preset)
+            tmp.replace(p)
+        elif not p.exists() or _sha256(p) != sealed["twins_sha256"].get(s.twin):
+            raise ConfigError(f"{out}: twin file {p.name} is missing or differs from its seal; "
+                              f"refused")
+        files[s.twin] = _sha256(p)
+    if sealed is None:
+        sealed = {"truth_sha256": _sha256(tpath), "twins_sha256": files,
+                  "sealed_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+        write_json_atomic(spath, sealed)
+    return sealed
+
+
+def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surrogate",
+                  preset: str = "tiny", sim: str = "surrogate",
+                  diagnose_settings: dict | None = None, progress=None) -> BenchmarkResult:
+    """Run the blind benchmark into folder ``out`` (see the module docstring).
+
+    Parameters
+    ----------
+    out : path
+        The benchmark's folder; a killed run resumes in it, a different benchmark is refused.
+    n : int
+        Number of twins (>= 4; 40 gives 20 effect, 10 null, 10 out-of-catalogue).
+    seed : int
+        Seed of the draw, the twins' runs and their noise.
+    twins_engine : {"surrogate", "embedded", "liggghts", "lammps"}
+        What makes the twins' data (DEM engines on the workflow ``preset``).
+    preset : str
+        Workflow preset of a DEM twins engine (ignored by the surrogate, recorded).
+    sim : str
+        Diagnosing simulator: ``"surrogate"`` or a simulation config path.
+    diagnose_settings : dict, optional
+        Fields of the simulation config replaced for the diagnosis (tests only: the
+        protocol diagnoses with the defaults); recorded in ``truth.json``.
+    progress : callable, optional
+        Called with a line per twin diagnosed.
+
+    Returns
+    -------
+    BenchmarkResult
+    """
+    if twins_engine not in TWIN_ENGINES:
+        raise ConfigError(f"twins engine: expected one of {', '.join(TWIN_ENGINES)}; "
+                          f"got {twins_engine!r}")
+    out = Path(out)
+    specs = draw_twins(n, seed, twins_engine)
+    truth = _truth_doc(n, seed, twins_engine, preset, sim, diagnose_settings, specs)
+    seal = _prepare(out, truth, specs, twins_engine, preset)
+    rdir = out / "results"
+    rdir.mkdir(exist_ok=True)
+    results = {}
+    for s in specs:
+        rp = rdir / f"{s.twin}.json"
+        if rp.exists():
+            results[s.twin] = json.loads(rp.read_text())
+            continue
+        rec = diagnose_file(out / "twins" / f"{s.twin}.toml", sim, settings=diagnose_settings)
+        rec["twin_sha256"] = seal["twins_sha256"][s.twin]
+        write_json_atomic(rp, rec)
+        results[s.twin] = json.loads(rp.read_text())  # as a resumed run reads it
+        if progress is not None:
+            progress(f"{s.twin}: {rec['answer']} ({rec['seconds']:.0f} s)")
+    summary = score_benchmark(truth, results)
+    summary["truth_sha256"] = seal["truth_sha256"]
+    summary["sealed_at"] = seal["sealed_at"]
+    summary["out"] = str(out)
+    write_json_atomic(out / "summary.json", summary)
+    res = BenchmarkResult(out=out, n=summary["n"], counts=summary["counts"],
+                          top1=tuple(summary["top1_count"]),
+                          null_false=tuple(summary["null_false_count"]),
+                          ooc_unexplained=tuple(summary["ooc_count"]),
+                          coverage=tuple(summary["coverage_count"]),
+                          shrink_median=summary["shrink_median"],
+                          shrink_ci=tuple(summary["shrink_ci"]), shrink_n=summary["shrink_n"],
+                          confusion=summary["confusion"], summary=summary)
+    (out / "report.html").write_text(benchmark_html(summary, res.figure()), encoding="utf-8")
+    return res
+
+
+# ---------------------------------------------------------------------------------- CLI
+def add_benchmark_arguments(parser) -> None:
+    """Arguments of ``bedstruct diagnose benchmark`` on an argparse (sub)parser.
+
+    On a parser of its own (a subcommand) every option is added. On a parser that already
+    defines some of them (``--sim``, ``--out``, ``--preset``, ``--seed``, ``--json`` of
+    ``bedstruct diagnose``) those are left as they are, and :func:`run_benchmark_command`
+    takes their value, ``None`` meaning this module's default.
+    """
+    import argparse
+
+    def add(*names, **kw):
+        try:
+            parser.add_argument(*names, **kw)
+        except argparse.ArgumentError:  # the parser has it already: shared with its command
+            pass
+
+    add("--twins-engine", choices=TWIN_ENGINES, default="surrogate",
+        help="benchmark: what makes the twins' data (default surrogate)")
+    add("--preset", default="tiny", help="workflow preset of a DEM twins engine (default tiny)")
+    add("--n", type=int, default=40,
+        help="benchmark: number of twins (>= 4; default 40: 20 effect, 10 null, 10 "
+             "out-of-catalogue)")
+    add("--seed", type=int, default=0, help="seed of the draw (default 0)")
+    add("--sim", default="surrogate",
+        help="diagnosing simulator: 'surrogate' or a simulation config TOML")
+    add("--out", required=True,
+        help="benchmark folder (resumed if it holds this benchmark; another is refused)")
+    add("--json", action="store_true", help="print the summary as one line of JSON (last line)")
+    add("--diagnose-setting", action="append", default=[], metavar="KEY=VALUE",
+        help="benchmark: replace a diagnosis setting (replicates, refine, ...); for tests "
+             "only, recorded in truth.json")
+
+
+def _settings(pairs) -> dict:
+    out = {}
+    for p in pairs:
+        k, sep, v = p.partition("=")
+        if not sep:
+            raise ConfigError(f"--diagnose-setting: expected KEY=VALUE; got {p!r}")
+        out[k.strip()] = int(v) if v.strip().lstrip("-").isdigit() else float(v)
+    return out
+
+
+def run_benchmark_command(args) -> int:
+    """Run ``bedstruct diagnose benchmark`` from parsed arguments; returns the exit status."""
+    from .._json import to_jsonable
+
+    def arg(name, default):
+        v = getattr(args, name, None)
+        return default if v is None else v
+
+    if not getattr(args, "out", None):
+        raise ConfigError("benchmark: --out DIR is required")
+    engine, sim = arg("twins_engine", "surrogate"), arg("sim", "surrogate")
+    res = run_benchmark(args.out, n=arg("n", 40), seed=arg("seed", 0), twins_engine=engine,
+                        preset=arg("preset", "tiny"), sim=sim,
+                        diagnose_settings=_settings(arg("diagnose_setting", [])) or None,
+                        progress=None if arg("json", False) else print)
+    s = res.summary
+
+    def ci(key):
+        lo, hi = s[key]
+        return "n/a" if lo is None or not math.isfinite(lo) else f"{lo:.3f}-{hi:.3f}"
+
+    if arg("json", False):
+        print(json.dumps(to_jsonable(res.json_line())))
+    else:
+        k, n = s["top1_count"]
+        print(f"blind benchmark: {s['n']} twins on {engine}, diagnosed on {sim}")
+        print(f"  top-1 {k}/{n} ({ci('top1_ci')}); null false {s['null_false_count'][0]}/"
+              f"{s['null_false_count'][1]} ({ci('null_false_ci')}); out-of-catalogue "
+              f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')})")
+        print(f"  shrink median {s['shrink_median']:.3g} over {s['shrink_n']} ({ci('shrink_ci')}); "
+              f"coverage {s['coverage_count'][0]}/{s['coverage_count'][1]} ({ci('coverage_ci')})")
+        print(f"  {Path(args.out) / 'report.html'}")
+    return 0

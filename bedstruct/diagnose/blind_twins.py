@@ -1,0 +1,363 @@
+"""Twins of the blind benchmark: what is drawn, how each twin engine makes it, and its file.
+
+A blind benchmark (:func:`bedstruct.diagnose.blind.run_benchmark`) draws three kinds of
+twins from one seed (:func:`draw_twins`):
+
+- **effect** twins: one catalogue effect at a magnitude drawn uniformly over its prior
+  range, the tenth of the range nearest 0 left out (a twin with no effect is a null twin);
+- **null** twins: the base model with no effect;
+- **out-of-catalogue** twins: a physical change that the catalogue does not hold at all
+  (:data:`OUT_OF_CATALOGUE`), at a magnitude drawn over its stated range.
+
+Every twin also carries the calibrated cohesion off by ``U(-2, 2)`` % (the diagnosis
+recalibrates it), as the validation's twins do. Each change of :data:`OUT_OF_CATALOGUE`
+says how each twin engine realises it (a base parameter the engine's simulator knows, or a
+workflow configuration override); an engine that cannot realise a change refuses it by
+name (:func:`realisation`), and the draw takes only the changes the twin engine realises.
+
+A twin's measurement file (:func:`twin_measurements`) is the mean of ``repeats`` runs of
+the twin engine at the twin's point plus reading noise drawn from the design's stated
+uncertainties; it states the reading noise and one run's scatter, over the repeats, as a
+lab that repeats a test would. It holds nothing of the truth.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import ConfigError
+# public names of the package (its modules are being reorganised) and the surrogate's speed
+from . import (BASE_PARAMETERS, CATALOGUE, MeasurementSet, Observations, SurrogateSimulator,
+               engine_twin_design, measurement_from_dict, twin_design, write_measurements)
+from .surrogate import SPEED_X1
+
+__all__ = ["TWIN_ENGINES", "OutOfCatalogueChange", "OUT_OF_CATALOGUE", "BENCHMARK_HELDOUT",
+           "TwinSpec", "benchmark_design", "draw_twins", "realisation", "split_counts",
+           "twin_simulator", "twin_measurements", "effect_magnitude_range"]
+
+#: Engines that can make the twins' "real" data.
+TWIN_ENGINES = ("surrogate", "embedded", "liggghts", "lammps")
+
+#: Fraction of an effect's prior range, nearest 0, left out of the magnitude draw.
+_NEAR_ZERO = 0.10
+
+
+@dataclass(frozen=True)
+class OutOfCatalogueChange:
+    """A physical change of a real machine or powder that the catalogue does not hold.
+
+    Parameters
+    ----------
+    name : str
+        Identifier in ``truth.json``.
+    title : str
+        In words.
+    quantity : str
+        What the magnitude is: ``"factor"`` (times the calibrated value) or ``"value"``
+        (the parameter's value itself).
+    ranges : tuple of (float, float)
+        Intervals the magnitude is drawn from (uniformly in the log for factors): off the
+        calibrated value on either side.
+    realised : mapping
+        Per twin engine, ``("base", key)`` (a base parameter of that engine's simulator,
+        ``sim(base, effects, seed)``) or ``("override", "section.key")`` (a workflow
+        configuration override of the engine's runs); engines absent here refuse it.
+    refused : str
+        Why the engines that lack it cannot realise it.
+    """
+
+    name: str
+    title: str
+    quantity: str
+    ranges: tuple[tuple[float, float], ...]
+    realised: Mapping[str, tuple[str, str]] = field(default_factory=dict)
+    refused: str = ""
+
+    def draw(self, rng: np.random.Generator) -> float:
+        """One magnitude drawn over :attr:`ranges` (width-weighted; log-uniform for factors)."""
+        tr = (lambda x: math.log(x)) if self.quantity == "factor" else (lambda x: x)
+        widths = np.array([tr(b) - tr(a) for a, b in self.ranges])
+        k = int(rng.choice(len(self.ranges), p=widths / widths.sum()))
+        a, b = self.ranges[k]
+        u = rng.uniform(tr(a), tr(b))
+        return float(math.exp(u) if self.quantity == "factor" else u)
+
+
+def _contact(key: str) -> dict:
+    # the engine simulators write the base parameters into contact.* on every call, so a
+    # contact change is realised through the base parameter (a contact.* override would be
+    # overwritten by the base value); the surrogate knows the same keys
+    return {e: ("base", key) for e in TWIN_ENGINES}
+
+
+def _override(key: str) -> dict:
+    return {e: ("override", key) for e in ("embedded", "liggghts", "lammps")}
+
+
+#: Changes outside the catalogue that out-of-catalogue twins are drawn from.
+OUT_OF_CATALOGUE: tuple[OutOfCatalogueChange, ...] = (
+    OutOfCatalogueChange(
+        "restitution", "coefficient of restitution off the calibrated 0.1", "value",
+        ((0.3, 0.7),), _contact("restitution")),
+    OutOfCatalogueChange(
+        "sliding_friction", "particle-particle sliding friction off the calibrated value",
+        "factor", ((0.5, 0.8), (1.25, 2.0)), _contact("friction")),
+    OutOfCatalogueChange(
+        "rolling_friction", "rolling friction off the calibrated value", "factor",
+        ((0.3, 0.6), (1.7, 3.0)), _contact("rolling_friction")),
+    OutOfCatalogueChange(
+        "particle_density", "particle density error", "factor", ((0.8, 0.92), (1.08, 1.25)),
+        _override("material.density"),
+        refused="the surrogate has no particle density"),
+    OutOfCatalogueChange(
+        "youngs_modulus", "Young's modulus far from the calibrated one", "factor",
+        ((0.1, 0.3), (3.0, 10.0)), _override("material.youngs_modulus"),
+        refused="the surrogate has no Young's modulus"),
+    OutOfCatalogueChange(
+        "blade_bevel", "blade bevel angle off the nominal", "factor", ((0.3, 0.6), (1.7, 3.0)),
+        _override("spread.bevel_deg"),
+        refused="the surrogate has no blade geometry"),
+    OutOfCatalogueChange(
+        "second_psd_mode", "a second (coarse) mode in the particle size distribution",
+        "value", ((0.05, 0.2),), {},
+        refused="no engine's PSD is bimodal (the workflow PSD is one log-normal: d10/d50/d90)"),
+    OutOfCatalogueChange(
+        "rounded_blade_edge", "a rounded blade edge", "value", ((20e-6, 200e-6),), {},
+        refused="no engine's blade has an edge radius"),
+)
+
+#: Held-out observables the benchmark adds to the surrogate's validation design
+#: (:func:`~bedstruct.diagnose.validation_design.twin_design`): wall friction moves none of
+#: its held-out observables beyond noise at half its prior top (0.2), so its held-out
+#: shrink would go unmeasured; the blade's vertical/horizontal load ratio over a powder
+#: layer (layer 2) moves 2.6 sigma there.
+BENCHMARK_HELDOUT = (
+    dict(name="tool_force_ratio_layer2", kind="tool_force_ratio", value=[0.0], uncertainty=0.005,
+         role="validate", conditions=dict(layer=2, speed=SPEED_X1)),
+)
+
+
+@dataclass(frozen=True)
+class TwinSpec:
+    """One drawn twin (the truth): kind, effect or change, magnitude and the twin's point."""
+
+    twin: str
+    kind: str                      # "effect", "null", "out_of_catalogue"
+    name: str | None               # the effect or the change (None for a null twin)
+    magnitude: float | None
+    cohesion_factor: float
+    seed: int
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "effect" if self.kind == "effect" else "change": self.name,
+                "magnitude": self.magnitude, "cohesion_factor": self.cohesion_factor,
+                "seed": self.seed}
+
+
+def benchmark_design(engine: str) -> MeasurementSet:
+    """The observables of a benchmark twin's file for a twin engine.
+
+    The surrogate: :func:`twin_design` plus :data:`BENCHMARK_HELDOUT`; the DEM engines:
+    :func:`engine_twin_design` (``"seed"``), unchanged (not checked per effect here).
+    """
+    _check_engine(engine)
+    if engine == "surrogate":
+        d = twin_design()
+        extra = tuple(measurement_from_dict(dict(s)) for s in BENCHMARK_HELDOUT)
+        return replace(d, measurements=d.measurements + extra, title="blind benchmark twin design",
+                       source="bedstruct.diagnose.blind_twins.benchmark_design")
+    return engine_twin_design("seed")
+
+
+def _check_engine(engine: str) -> None:
+    if engine not in TWIN_ENGINES:
+        raise ConfigError(f"twins engine: expected one of {', '.join(TWIN_ENGINES)}; got {engine!r}")
+
+
+def split_counts(n: int) -> tuple[int, int, int]:
+    """``(effect, null, out_of_catalogue)`` twin counts for ``n`` twins.
+
+    A quarter (rounded down) null, a quarter out-of-catalogue, the rest effect twins.
+
+    Examples
+    --------
+    >>> split_counts(40), split_counts(4), split_counts(10)
+    ((20, 10, 10), (2, 1, 1), (6, 2, 2))
+    """
+    if int(n) != n or n < 4:
+        raise ConfigError(f"n: expected a whole number >= 4 (one twin of each kind at least); "
+                          f"got {n!r}")
+    q = int(n) // 4
+    return int(n) - 2 * q, q, q
+
+
+def effect_magnitude_range(effect) -> tuple[tuple[float, float], ...]:
+    """Intervals an effect twin's magnitude is drawn from: its prior, the tenth nearest 0 left out."""
+    lo, hi = effect.prior
+    cut = _NEAR_ZERO * (hi - lo)
+    out = []
+    if lo < 0:
+        out.append((lo, min(-cut, 0.0)))
+    out.append((max(cut, 0.0), hi))
+    return tuple((a, b) for a, b in out if b > a)
+
+
+def realisation(change: OutOfCatalogueChange, engine: str) -> tuple[str, str]:
+    """How ``engine`` realises ``change``: ``("base", key)`` or ``("override", key)``.
+
+    Raises
+    ------
+    ConfigError
+        Naming the change and the engine, when the engine cannot realise it.
+
+    Examples
+    --------
+    >>> realisation(OUT_OF_CATALOGUE[0], "surrogate")
+    ('base', 'restitution')
+    >>> realisation(OUT_OF_CATALOGUE[3], "surrogate")
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: twins engine 'surrogate' cannot realise the out-of-catalogue change 'particle_density' (the surrogate has no particle density)
+    """
+    _check_engine(engine)
+    if engine not in change.realised:
+        raise ConfigError(f"twins engine {engine!r} cannot realise the out-of-catalogue change "
+                          f"{change.name!r} ({change.refused})")
+    return tuple(change.realised[engine])
+
+
+def draw_twins(n: int, seed: int, engine: str) -> list[TwinSpec]:
+    """The ``n`` twins of a benchmark, drawn from ``seed`` (see the module docstring).
+
+    Effects and changes are taken in turn over a shuffled order (each appears about
+    equally often), the twins' order is shuffled, and ids are ``twin-000``... in that order.
+    """
+    n_eff, n_null, n_ooc = split_counts(n)
+    rng = np.random.default_rng([int(seed), 48])
+    changes = [c for c in OUT_OF_CATALOGUE if engine in c.realised]
+    _check_engine(engine)
+    if not changes:  # pragma: no cover - every engine realises the contact changes
+        raise ConfigError(f"twins engine {engine!r} realises no out-of-catalogue change")
+    effects = list(CATALOGUE)
+    eff_order = rng.permutation(len(effects))
+    ooc_order = rng.permutation(len(changes))
+    drawn = []
+    for i in range(n_eff):
+        e = effects[int(eff_order[i % len(effects)])]
+        ranges = effect_magnitude_range(e)
+        widths = np.array([b - a for a, b in ranges])
+        a, b = ranges[int(rng.choice(len(ranges), p=widths / widths.sum()))]
+        drawn.append(("effect", e.name, float(rng.uniform(a, b))))
+    drawn += [("null", None, None)] * n_null
+    for i in range(n_ooc):
+        c = changes[int(ooc_order[i % len(changes)])]
+        drawn.append(("out_of_catalogue", c.name, c.draw(rng)))
+    order = rng.permutation(len(drawn))
+    out = []
+    for j, k in enumerate(order):
+        kind, name, mag = drawn[int(k)]
+        out.append(TwinSpec(f"twin-{j:03d}", kind, name, mag,
+                            float(1.0 + rng.uniform(-0.02, 0.02)),
+                            int(rng.integers(1_000_000, 2**31 - 1))))
+    return out
+
+
+def _change(name: str) -> OutOfCatalogueChange:
+    for c in OUT_OF_CATALOGUE:
+        if c.name == name:
+            return c
+    raise ConfigError(f"unknown out-of-catalogue change {name!r}")
+
+
+def _engine_value(engine: str, preset: str, key: str) -> float:
+    """The value of workflow key ``section.key`` in ``engine``'s runs at ``preset``."""
+    sim = twin_simulator(engine, engine_twin_design("seed"), preset=preset)
+    section, k = key.split(".", 1)
+    return float(sim.base_cfg[section][k])
+
+
+def twin_point(spec: TwinSpec, engine: str, *, preset: str = "tiny") -> dict:
+    """The twin's base parameters, effects and engine overrides (what its runs are given).
+
+    Returns ``{"base": ..., "effects": ..., "overrides": [...]}``; the overrides apply to a
+    DEM engine's workflow configuration (none on the surrogate).
+    """
+    base = dict(BASE_PARAMETERS)
+    base["cohesion_energy_density"] *= spec.cohesion_factor
+    effects, overrides = {}, []
+    if spec.kind == "effect":
+        effects = {spec.name: float(spec.magnitude)}
+    elif spec.kind == "out_of_catalogue":
+        c = _change(spec.name)
+        how, key = realisation(c, engine)
+        if how == "base":
+            base[key] = (base[key] * spec.magnitude if c.quantity == "factor"
+                         else float(spec.magnitude))
+        else:
+            v = (_engine_value(engine, preset, key) * spec.magnitude
+                 if c.quantity == "factor" else float(spec.magnitude))
+            overrides.append(f"{key}={v!r}")
+    return {"base": base, "effects": effects, "overrides": overrides}
+
+
+def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
+                   overrides=()):
+    """The simulator that makes twins on ``engine`` (``sim(base, effects, seed)``).
+
+    The surrogate: :class:`SurrogateSimulator` (``overrides`` must be empty). The DEM
+    engines: :func:`bedstruct.workflows.diagnosis_simulator` on the workflow ``preset`` with
+    ``engine=<name>`` and ``overrides``.
+    """
+    _check_engine(engine)
+    if engine == "surrogate":
+        if overrides:
+            raise ConfigError(f"twins engine 'surrogate' takes no workflow overrides; got "
+                              f"{list(overrides)}")
+        return SurrogateSimulator(design)
+    from ..workflows import diagnosis_simulator
+    return diagnosis_simulator(design, {"preset": preset,
+                                        "overrides": [f"engine={engine}", *overrides]})
+
+
+def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path, *,
+                      preset: str = "tiny", repeats: int | None = None,
+                      title: str | None = None) -> Path:
+    """Make twin ``spec`` on ``engine`` and write its measurement file to ``path``.
+
+    The file states the mean of ``repeats`` runs (default 1 on the surrogate, 3 on a DEM
+    engine) plus reading noise, with uncertainty ``sqrt(reading**2 + run_sd**2 / repeats)``
+    where ``run_sd`` is the surrogate's replicate scatter at the base point
+    (:meth:`SurrogateSimulator.noise_sd`) or, on a DEM engine, the sample standard
+    deviation of the twin's own repeats. The title (default the twin's id) and the file
+    say nothing of the truth.
+    """
+    repeats = int(repeats or (1 if engine == "surrogate" else 3))
+    point = twin_point(spec, engine, preset=preset)
+    sim = twin_simulator(engine, design, preset=preset, overrides=point["overrides"])
+    runs = [sim(point["base"], point["effects"], spec.seed + 7919 * k) for k in range(repeats)]
+    rng = np.random.default_rng([spec.seed, 99])
+    if engine == "surrogate":
+        run_sd = sim.noise_sd()
+    else:
+        run_sd = {m.name: np.nan_to_num(np.nanstd([r[m.name] for r in runs], axis=0, ddof=1))
+                  for m in design}
+    values, stated = {}, {}
+    for m in design:
+        vals = np.array([np.asarray(r[m.name], float)
+                         + m.uncertainty * rng.standard_normal(m.n_components) for r in runs])
+        values[m.name] = np.nanmean(vals, axis=0)
+        stated[m.name] = np.sqrt(m.uncertainty ** 2 + np.asarray(run_sd[m.name]) ** 2 / repeats)
+    bad = [m.name for m in design if not np.all(np.isfinite(values[m.name]))]
+    keep = tuple(m for m in design if m.name not in bad)
+    ms = MeasurementSet(keep, title=title or spec.twin, source="blind benchmark twin")
+    ms = ms.with_values(Observations({k: values[k] for k in ms.names}, source="twin"),
+                        uncertainty=Observations({k: stated[k] for k in ms.names}),
+                        provenance="blind benchmark twin")
+    return write_measurements(ms, path)

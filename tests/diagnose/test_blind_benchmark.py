@@ -1,0 +1,260 @@
+"""The blind benchmark (issue #48): truth sealed first, files without truth, exact intervals,
+an end-to-end --n 4 run on the surrogate (library and CLI), stale folders refused, resume."""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+from scipy.stats import binomtest
+
+from bedstruct.diagnose import CATALOGUE, load_measurements
+from bedstruct.diagnose import blind
+from bedstruct.diagnose.blind import (median_interval, proportion_interval, run_benchmark,
+                                      add_benchmark_arguments, run_benchmark_command)
+from bedstruct.diagnose import engine_twin_design
+from bedstruct.diagnose.blind_twins import (OUT_OF_CATALOGUE, TwinSpec, draw_twins, realisation,
+                                            split_counts, twin_point, twin_simulator)
+from bedstruct.errors import ConfigError
+
+# the smallest settings that still run the real method (the protocol uses the defaults)
+FAST = {"replicates": 2, "refine": 0, "max_effects": 1, "confirm_rounds": 0}
+FAST_ARGS = ["--diagnose-setting", "replicates=2", "--diagnose-setting", "refine=0",
+             "--diagnose-setting", "max_effects=1", "--diagnose-setting", "confirm_rounds=0"]
+
+
+def _sha(p: Path) -> str:
+    return hashlib.sha256(p.read_bytes()).hexdigest()
+
+
+class _Spy:
+    """Wraps blind.diagnose; at each call records what lies in the benchmark folder."""
+
+    def __init__(self, real, out: Path):
+        self.real, self.out, self.calls = real, out, []
+
+    def __call__(self, ms, *a, **k):
+        truth, seal = self.out / "truth.json", self.out / "seal.json"
+        self.calls.append({
+            "time": time.time(), "file": ms.path,
+            "truth": truth.exists(), "seal": seal.exists(),
+            "truth_mtime": truth.stat().st_mtime if truth.exists() else None,
+            "seal_mtime": seal.stat().st_mtime if seal.exists() else None,
+            "seal_ok": seal.exists() and json.loads(seal.read_text())["truth_sha256"] == _sha(truth),
+            "n_twin_files": len(list((self.out / "twins").glob("*.toml")))})
+        return self.real(ms, *a, **k)
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    out = tmp_path_factory.mktemp("blind") / "run"
+    mp = pytest.MonkeyPatch()
+    spy = _Spy(blind.diagnose, out)
+    mp.setattr(blind, "diagnose", spy)
+    try:
+        res = run_benchmark(out, n=4, seed=3, diagnose_settings=FAST)
+    finally:
+        mp.undo()
+    return out, res, spy
+
+
+def test_intervals_are_scipys_exact_binomial():
+    assert proportion_interval(9, 10) == pytest.approx((0.555, 0.997), abs=5e-4)
+    assert proportion_interval(0, 10) == pytest.approx((0.0, 0.308), abs=5e-4)
+    for k, n in ((9, 10), (0, 10), (17, 20), (3, 7)):
+        ci = binomtest(k, n).proportion_ci(method="exact")
+        assert proportion_interval(k, n) == (ci.low, ci.high)
+    lo, hi, cov = median_interval(range(1, 21))
+    assert (lo, hi) == (6.0, 15.0) and cov >= 0.95
+
+
+def test_draw_split_and_out_of_catalogue_refused_by_name():
+    assert split_counts(40) == (20, 10, 10)
+    specs = draw_twins(40, 0, "surrogate")
+    kinds = [s.kind for s in specs]
+    assert kinds.count("effect") == 20 and kinds.count("null") == 10
+    assert {s.name for s in specs if s.kind == "effect"} == {e.name for e in CATALOGUE}
+    ooc = {s.name for s in specs if s.kind == "out_of_catalogue"}
+    assert ooc == {"restitution", "sliding_friction", "rolling_friction"}
+    assert not ooc & {e.name for e in CATALOGUE}
+    for s in specs:
+        if s.kind == "effect":
+            lo, hi = next(e.prior for e in CATALOGUE if e.name == s.name)
+            assert lo <= s.magnitude <= hi and s.magnitude != 0
+    density = next(c for c in OUT_OF_CATALOGUE if c.name == "particle_density")
+    with pytest.raises(ConfigError, match="particle_density"):
+        realisation(density, "surrogate")
+    assert realisation(density, "embedded") == ("override", "material.density")
+    # a surrogate contact change goes through its base parameter
+    s = next(s for s in specs if s.name == "sliding_friction")
+    assert twin_point(s, "surrogate")["base"]["friction"] == pytest.approx(0.4 * s.magnitude)
+
+
+@pytest.mark.parametrize("engine", ["embedded", "liggghts", "lammps"])
+def test_engine_twins_realise_changes_in_their_run_config(engine):
+    # no engine run: the workflow configuration the engine's simulator would run
+    design = engine_twin_design("seed")
+    plain = twin_simulator(engine, design).run_config({}, {}, 1)
+    for c in OUT_OF_CATALOGUE:
+        mag = 1.2 if c.quantity == "factor" else 0.5
+        spec = TwinSpec("twin-000", "out_of_catalogue", c.name, mag, 1.0, 1)
+        if engine not in c.realised:
+            with pytest.raises(ConfigError, match=c.name):
+                twin_point(spec, engine)
+            continue
+        point = twin_point(spec, engine)
+        cfg = twin_simulator(engine, design, overrides=point["overrides"]).run_config(
+            point["base"], point["effects"], 1)
+        assert cfg["engine"] == engine
+        how, key = c.realised[engine]
+        section, k = ("contact", key) if how == "base" else key.split(".", 1)
+        want = plain[section][k] * mag if c.quantity == "factor" else mag
+        assert cfg[section][k] == pytest.approx(want), c.name
+
+
+def test_truth_and_seal_before_first_diagnosis(bench):
+    out, res, spy = bench
+    assert len(spy.calls) == 4
+    first = spy.calls[0]
+    assert first["truth"] and first["seal"] and first["seal_ok"]
+    assert first["n_twin_files"] == 4
+    assert first["truth_mtime"] <= first["seal_mtime"] <= first["time"]
+    seal = json.loads((out / "seal.json").read_text())
+    assert seal["truth_sha256"] == _sha(out / "truth.json")
+    for twin, h in seal["twins_sha256"].items():
+        assert _sha(out / "twins" / f"{twin}.toml") == h
+    # the diagnosis read only the twin files
+    assert {Path(c["file"]).parent.name for c in spy.calls} == {"twins"}
+
+
+def test_measurement_files_hold_no_truth(bench):
+    out, _, _ = bench
+    truth = json.loads((out / "truth.json").read_text())
+    words = {e.name for e in CATALOGUE} | {c.name for c in OUT_OF_CATALOGUE} | {
+        "effect", "null", "out_of_catalogue", "truth", "magnitude", "cohesion_factor"}
+    for twin, t in truth["twins"].items():
+        text = (out / "twins" / f"{twin}.toml").read_text()
+        for w in words:
+            assert w not in text, (twin, w)
+        if t["magnitude"] is not None:
+            assert repr(t["magnitude"])[:8] not in text
+        assert str(t["seed"]) not in text
+        load_measurements(out / "twins" / f"{twin}.toml", check_range=False)
+
+
+def test_library_run_end_to_end(bench):
+    out, res, _ = bench
+    s = json.loads((out / "summary.json").read_text())
+    assert s["n"] == 4 and s["counts"] == {"effect": 2, "null": 1, "out_of_catalogue": 1}
+    assert res.top1[1] == 2 and res.null_false[1] == 1 and res.ooc_unexplained[1] == 1
+    k, n = s["top1_count"]
+    assert s["top1_ci"] == pytest.approx(list(proportion_interval(k, n)))
+    html = (out / "report.html").read_text()
+    assert "data:image/png;base64," in html and "<script" not in html
+    assert sorted(p.name for p in (out / "results").glob("*.json")) == \
+        [f"twin-00{i}.json" for i in range(4)]
+    fig = res.figure()
+    assert fig.axes[0].get_ylabel() == "truth"
+    assert sum(map(sum, s["confusion"]["matrix"])) == 4
+
+
+def test_stale_folder_refused(bench, tmp_path):
+    out, _, _ = bench
+    with pytest.raises(ConfigError, match="another benchmark"):
+        run_benchmark(out, n=4, seed=4, diagnose_settings=FAST)
+    bad = tmp_path / "tampered"
+    shutil.copytree(out, bad)
+    seal = json.loads((bad / "seal.json").read_text())
+    seal["truth_sha256"] = "0" * 64
+    (bad / "seal.json").write_text(json.dumps(seal))
+    with pytest.raises(ConfigError, match="seal"):
+        run_benchmark(bad, n=4, seed=3, diagnose_settings=FAST)
+
+
+def test_resume_reuses_finished_twins(bench, tmp_path, monkeypatch):
+    out, res, _ = bench
+    again = tmp_path / "resume"
+    shutil.copytree(out, again)
+    (again / "results" / "twin-002.json").unlink()
+    kept = {p.name: p.read_text() for p in (again / "results").glob("*.json")}
+    spy = _Spy(blind.diagnose, again)
+    monkeypatch.setattr(blind, "diagnose", spy)
+    run_benchmark(again, n=4, seed=3, diagnose_settings=FAST)
+    assert [Path(c["file"]).name for c in spy.calls] == ["twin-002.toml"]
+    for name, text in kept.items():
+        assert (again / "results" / name).read_text() == text
+    assert (again / "results" / "twin-002.json").exists()
+
+
+def _cli(out: Path, seed: int, capsys) -> dict:
+    parser = argparse.ArgumentParser()
+    add_benchmark_arguments(parser)
+    args = parser.parse_args(["--twins-engine", "surrogate", "--preset", "tiny", "--n", "4",
+                              "--seed", str(seed), "--out", str(out), "--json", *FAST_ARGS])
+    assert run_benchmark_command(args) == 0
+    doc = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    for key in ("n", "top1", "top1_ci", "null_false", "null_false_ci", "ooc_unexplained",
+                "ooc_ci", "shrink_median", "shrink_ci", "coverage", "commit"):
+        assert key in doc
+    assert doc["n"] == 4
+    assert (out / "summary.json").is_file() and (out / "report.html").is_file()
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["settings"]["diagnose_settings"] == FAST
+    return doc
+
+
+def test_cli_command_on_the_library_run(bench, tmp_path, capsys):
+    # the library run's folder, its summary and report removed: the command resumes it
+    out, res, _ = bench
+    again = tmp_path / "cli"
+    shutil.copytree(out, again)
+    (again / "summary.json").unlink()
+    (again / "report.html").unlink()
+    doc = _cli(again, 3, capsys)
+    assert doc["top1_ci"] == pytest.approx(res.summary["top1_ci"])
+    # without --json: a short text summary
+    parser = argparse.ArgumentParser()
+    add_benchmark_arguments(parser)
+    assert run_benchmark_command(parser.parse_args(
+        ["--n", "4", "--seed", "3", "--out", str(again), *FAST_ARGS])) == 0
+    assert "top-1" in capsys.readouterr().out
+
+
+def test_benchmark_arguments_share_a_command_s_own_options():
+    # on a parser that already has --sim/--out/--preset/--seed/--json (bedstruct diagnose's)
+    parser = argparse.ArgumentParser()
+    parser.add_argument("action", nargs="?", choices=["validate", "benchmark"])
+    parser.add_argument("--sim")
+    parser.add_argument("--out")
+    parser.add_argument("--preset", choices=["mini", "tiny", "small"], default=None)
+    parser.add_argument("--seed", type=int, default=None)
+    parser.add_argument("--json", action="store_true")
+    add_benchmark_arguments(parser)
+    args = parser.parse_args(["benchmark", "--n", "4", "--out", "x", "--twins-engine", "lammps"])
+    assert (args.n, args.twins_engine, args.sim, args.seed, args.diagnose_setting) == \
+        (4, "lammps", None, None, [])
+
+
+@pytest.mark.slow
+def test_cli_command_end_to_end_fresh(tmp_path, capsys):
+    _cli(tmp_path / "cli", 5, capsys)
+
+
+def test_committed_blind_record_rescores_as_its_summary():
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-surrogate-2026-12-03"
+    truth = json.loads((rec / "truth.json").read_text())
+    seal = json.loads((rec / "seal.json").read_text())
+    assert seal["truth_sha256"] == _sha(rec / "truth.json")
+    results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
+    s = blind.score_benchmark(truth, results)
+    summary = json.loads((rec / "summary.json").read_text())
+    for key in ("top1_count", "null_false_count", "ooc_count", "coverage_count", "shrink_n",
+                "confusion"):
+        assert s[key] == summary[key], key
+    assert s["top1_count"] == [17, 20] and s["null_false_count"] == [0, 10]
+    assert s["ooc_count"] == [6, 10] and s["coverage_count"] == [15, 17]
