@@ -5,6 +5,9 @@
       the gap shrinks with it, and what to measure next (CONFIG: a TOML or "surrogate").
   bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
       Score the diagnosis on synthetic twins whose effect is withheld.
+  bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --seed S --out DIR
+      Blind benchmark: truth sealed before any diagnosis, each twin diagnosed once, scored
+      with exact binomial intervals.
 
 Details of every option and of the files: docs/diagnose.md.
 """
@@ -16,8 +19,9 @@ HELP = "sim-to-real gap diagnosis (where, which effect, how far, what next) and 
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("action", nargs="?", choices=["validate"], default=None,
-                        help="'validate': score the diagnosis on synthetic twins")
+    parser.add_argument("action", nargs="?", choices=["validate", "benchmark"], default=None,
+                        help="'validate': score the diagnosis on synthetic twins; 'benchmark': "
+                             "the blind protocol")
     parser.add_argument("--sim", metavar="CONFIG", help="simulation config TOML, or 'surrogate'")
     parser.add_argument("--real", metavar="MEASUREMENTS", help="measurement TOML file")
     parser.add_argument("--out", metavar="DIR", help="output folder (HTML report and JSON)")
@@ -49,6 +53,12 @@ def add_arguments(parser) -> None:
                         help="rounds simulating the leading effects at their fits (default: config)")
     parser.add_argument("--top-up", type=_rounds, default=None, metavar="N",
                         help="seeds added where an effect's identifiability is marginal")
+    parser.add_argument("--twins-engine", choices=["surrogate", "embedded", "liggghts", "lammps"],
+                        default=None, help="benchmark: what makes the twins' data (default surrogate)")
+    parser.add_argument("--n", type=int, default=None,
+                        help="benchmark: number of twins (>= 4; default 40)")
+    parser.add_argument("--diagnose-setting", action="append", default=None, metavar="KEY=VALUE",
+                        help="benchmark: replace a diagnosis setting (tests only; recorded)")
     parser.add_argument("--json", action="store_true", help="print the answer as one JSON line last")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -79,10 +89,10 @@ def _write_json(path, obj) -> None:
     import json
     from pathlib import Path
 
-    from ..report._model import _plain
+    from .._json import to_jsonable
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_plain(obj), indent=1, allow_nan=False), encoding="utf-8")
+    path.write_text(json.dumps(to_jsonable(obj), indent=1, allow_nan=False), encoding="utf-8")
 
 
 #: Options of ``diagnose validate`` alone, with their defaults there.
@@ -97,7 +107,7 @@ def _misplaced(args, names) -> list[str]:
 
 def _run_validate(args) -> int:
     from ..diagnose import validate, validation_report
-    from ..report._model import _plain
+    from .._json import to_jsonable
     from ..report._render import write_report
     from . import UsageError, print_json
 
@@ -130,7 +140,7 @@ def _run_validate(args) -> int:
         _write_json(f"{args.out}/validation.json", out)
     if args.json:
         compact = {k: v for k, v in out.items() if k != "twins"}
-        print_json(_plain(compact))
+        print_json(to_jsonable(compact))
     else:
         failed = result.settings.get("failed") or []
         not_run = result.settings.get("not_run") or []
@@ -167,6 +177,9 @@ def _run_validate(args) -> int:
 def run(args) -> int:
     if args.action == "validate":
         return _run_validate(args)
+    if args.action == "benchmark":
+        from ..diagnose.blind import run_benchmark_command
+        return run_benchmark_command(args)
     import dataclasses
 
     from . import UsageError
@@ -181,7 +194,7 @@ def run(args) -> int:
     from ..diagnose import (diagnose, diagnosis_design, diagnosis_report, load_measurements,
                             load_sim_config, make_simulator)
     from ..diagnose.answer import answer_lines, compact_answer
-    from ..report._model import _plain
+    from .._json import to_jsonable
     from ..report._render import write_report
     from . import print_json
 
@@ -210,7 +223,7 @@ def run(args) -> int:
     html, js = write_report(diagnosis_report(diag), args.out)
     _write_json(f"{args.out}/diagnosis.json", out)
     if args.json:
-        print_json(_plain(dict(compact_answer(diag), simulator=diag.simulator,
+        print_json(to_jsonable(dict(compact_answer(diag), simulator=diag.simulator,
                                report=str(html))))
     else:
         for line in answer_lines(diag):

@@ -40,14 +40,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .._json import write_json_atomic
+from .._json import to_jsonable, write_json_atomic
 from ..errors import ConfigError
 from .blind_report import benchmark_html, confusion_figure
 from .blind_twins import (OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design, draw_twins,
                           split_counts, twin_measurements)
-# public names of the package (its modules are being reorganised)
-from . import (CATALOGUE, diagnose, diagnosis_design, load_measurements, load_sim_config,
-               make_simulator)
+from .catalogue import CATALOGUE
+from .config import load_sim_config, make_simulator
+from .diagnosis import diagnose, diagnosis_design
+from .measurement_io import load_measurements
 
 __all__ = ["PROTOCOL", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
            "score_benchmark", "proportion_interval", "median_interval", "confusion_figure",
@@ -450,7 +451,6 @@ def _settings(pairs) -> dict:
 
 def run_benchmark_command(args) -> int:
     """Run ``bedstruct diagnose benchmark`` from parsed arguments; returns the exit status."""
-    from .._json import to_jsonable
 
     def arg(name, default):
         v = getattr(args, name, None)

@@ -33,10 +33,12 @@ from typing import Mapping
 import numpy as np
 
 from ..errors import ConfigError
-# public names of the package (its modules are being reorganised) and the surrogate's speed
-from . import (BASE_PARAMETERS, CATALOGUE, MeasurementSet, Observations, SurrogateSimulator,
-               engine_twin_design, measurement_from_dict, twin_design, write_measurements)
-from .surrogate import SPEED_X1
+from .catalogue import CATALOGUE
+from .engine_simulator import diagnosis_simulator
+from .measurement_io import measurement_from_dict, write_measurements
+from .measurements import MeasurementSet, Observations
+from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
+from .validation_design import engine_twin_design, twin_design
 
 __all__ = ["TWIN_ENGINES", "OutOfCatalogueChange", "OUT_OF_CATALOGUE", "BENCHMARK_HELDOUT",
            "TwinSpec", "benchmark_design", "draw_twins", "realisation", "split_counts",
@@ -312,7 +314,7 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
     """The simulator that makes twins on ``engine`` (``sim(base, effects, seed)``).
 
     The surrogate: :class:`SurrogateSimulator` (``overrides`` must be empty). The DEM
-    engines: :func:`bedstruct.workflows.diagnosis_simulator` on the workflow ``preset`` with
+    engines: :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator` on the workflow ``preset`` with
     ``engine=<name>`` and ``overrides``.
     """
     _check_engine(engine)
@@ -321,7 +323,6 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
             raise ConfigError(f"twins engine 'surrogate' takes no workflow overrides; got "
                               f"{list(overrides)}")
         return SurrogateSimulator(design)
-    from ..workflows import diagnosis_simulator
     return diagnosis_simulator(design, {"preset": preset,
                                         "overrides": [f"engine={engine}", *overrides]})
 

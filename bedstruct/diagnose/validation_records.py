@@ -14,7 +14,7 @@ import logging
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..report._model import _plain
+from .._json import to_jsonable
 from .separation import not_told_apart
 
 __all__ = ["METHOD_VERSION", "method_version_of", "records_done", "twin_record"]
@@ -138,5 +138,5 @@ def twin_record(diag, i: int, kind: str, signature: dict, truth: dict, *, record
     log.info("twin %d %s %s -> %s", i, kind, truth.get("true_effect"), rec["predicted"])
     if records is not None:
         with open(records, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps(_plain(rec)) + "\n")
+            fh.write(json.dumps(to_jsonable(rec)) + "\n")
     return rec

@@ -258,3 +258,22 @@ def test_committed_blind_record_rescores_as_its_summary():
         assert s[key] == summary[key], key
     assert s["top1_count"] == [17, 20] and s["null_false_count"] == [0, 10]
     assert s["ooc_count"] == [6, 10] and s["coverage_count"] == [15, 17]
+
+
+def test_the_cli_hands_its_options_to_the_protocol(tmp_path, monkeypatch, capsys):
+    from bedstruct.cli import main
+    from bedstruct.diagnose import blind
+
+    seen = {}
+
+    def fake(out, **kw):
+        seen.update(kw, out=out)
+        raise blind.ConfigError("stop here")
+
+    monkeypatch.setattr(blind, "run_benchmark", fake)
+    code = main(["diagnose", "benchmark", "--twins-engine", "surrogate", "--n", "8", "--seed", "3",
+                 "--out", str(tmp_path / "b"), "--diagnose-setting", "replicates=2"])
+    assert code == 1 and "stop here" in capsys.readouterr().err
+    assert seen == dict(out=str(tmp_path / "b"), n=8, seed=3, twins_engine="surrogate",
+                        preset="tiny", sim="surrogate", diagnose_settings={"replicates": 2},
+                        progress=print)
