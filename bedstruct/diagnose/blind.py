@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from .._json import to_jsonable, write_json_atomic
+from .._version import __version__
 from ..errors import ConfigError
 from .blind_report import benchmark_html, confusion_figure
 from .blind_twins import (OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design, draw_twins,
@@ -280,9 +281,8 @@ def score_benchmark(truth: dict, results: dict) -> dict:
 
 
 def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs) -> dict:
-    import bedstruct
     n_eff, n_null, n_ooc = split_counts(n)
-    return {"protocol": PROTOCOL, "commit": _commit(), "version": bedstruct.__version__,
+    return {"protocol": PROTOCOL, "commit": _commit(), "version": __version__,
             "settings": {"n": int(n), "seed": int(seed), "twins_engine": twins_engine,
                          "preset": preset, "sim": str(sim),
                          "diagnose_settings": dict(settings or {}) or "defaults",
