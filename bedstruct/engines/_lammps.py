@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
-from ..errors import BedstructWarning
+from ..errors import BedstructWarning, ConfigError
 from ._dialect import Dialect
 from ._launch import EngineInfo
 from ._params import GranularParams, as_granular_params
@@ -174,7 +174,8 @@ def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
     Raises
     ------
     ValueError
-        Non-zero cohesion without a ``cohesion_model``, or an unknown model.
+        An unknown ``cohesion_model``; non-zero cohesion without one (a
+        :class:`~bedstruct.errors.ConfigError`: LAMMPS has no SJKR).
 
     Examples
     --------
@@ -191,7 +192,7 @@ def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
     E = 2.0 * (1.0 - nu ** 2) * ref["estar"]
     mu, mur, k = pick("friction"), pick("rolling_friction"), pick("cohesion_energy_density")
     if k > 0 and cohesion_model is None:
-        raise ValueError(
+        raise ConfigError(
             "LAMMPS has no SJKR cohesion: pass cohesion_model='dmt' or 'jkr' (an approximate "
             "mapping, see docs/backends.md) or set cohesion_energy_density=0")
     if cohesion_model not in (None, "dmt", "jkr"):

@@ -13,6 +13,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..errors import ConfigError
+
 __all__ = ["GranularParams", "as_granular_params"]
 
 
@@ -118,6 +120,9 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
     ValueError
         For an unknown key, or a multi-type ContactModel (the external decks
         support one particle type).
+    bedstruct.errors.ConfigError
+        For a ContactModel with what no deck writes: a rolling model other than
+        EPSD2, capillary bridges or contact ageing.
     TypeError
         For an object of another kind.
 
@@ -160,7 +165,12 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
                                                         getattr(model, "wall_cohesion", None)))
         rm = getattr(model, "rolling_model", "epsd2")
         if rm not in ("epsd2", "none") and base["rolling_friction"]:
-            raise ValueError(f"external decks implement rolling_model 'epsd2' only; got {rm!r}")
+            raise ConfigError(f"external decks implement rolling_model 'epsd2' only; got {rm!r}")
+        embedded_only = [k for k in ("capillary", "contact_ageing") if getattr(model, k, False)]
+        if embedded_only:
+            raise ConfigError(f"external decks cannot realise the model's {' and '.join(embedded_only)} "
+                              "(extensions of the embedded engine); LIGGGHTS writes its own liquid "
+                              "bridges: bedstruct.engines.LiquidBridges")
         if rm == "none":
             base["rolling_friction"] = 0.0
         wm = getattr(model, "wall_material", None)

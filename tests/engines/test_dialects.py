@@ -259,3 +259,16 @@ def test_an_option_an_engine_lacks_is_refused_by_name(bed):
     by_object = bed_deck(bed, coh, engine=LammpsDialect(cohesion_model="dmt"), steps=1, dt=1e-7)
     by_name = bed_deck(bed, coh, engine="lammps", cohesion_model="dmt", steps=1, dt=1e-7)
     assert by_object == by_name and "dmt" in lines(by_name, "pair_coeff")[0]
+
+
+def test_a_contact_model_with_embedded_only_effects_is_refused():
+    from bedstruct.dem import ContactModel, Material
+    from bedstruct.engines import as_granular_params
+    base = dict(restitution=0.1, friction=0.4, rolling_friction=0.05)
+    mat = Material(1e7, 0.3, 8300.0)
+    assert as_granular_params(ContactModel(mat, **base)).rolling_friction == 0.05
+    wet = ContactModel(mat, capillary=True, capillary_film_thickness=1e-7, **base)
+    with pytest.raises(ConfigError, match="cannot realise the model's capillary"):
+        as_granular_params(wet)
+    with pytest.raises(ConfigError, match="rolling_model 'epsd2' only"):
+        as_granular_params(ContactModel(mat, rolling_model="cdt", **base))
