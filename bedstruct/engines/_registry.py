@@ -34,8 +34,10 @@ def dialect(engine, **options):
         given, else a copy with them).
     **options
         Dialect options, e.g. LAMMPS' ``cohesion_model``, ``reference_radius`` and
-        ``reference_overlap`` (:class:`~bedstruct.engines.LammpsDialect`); options that
-        one engine does not have are ignored by its dialect.
+        ``reference_overlap`` (:class:`~bedstruct.engines.LammpsDialect`) or LIGGGHTS'
+        ``liquid_bridges``; None keeps the dialect's value. LAMMPS' mapping options
+        are ignored by LIGGGHTS; any other option a dialect lacks is refused
+        (:meth:`~bedstruct.engines.Dialect.with_options`).
 
     Returns
     -------
@@ -43,8 +45,8 @@ def dialect(engine, **options):
 
     Raises
     ------
-    ValueError
-        For another name (a :class:`~bedstruct.errors.ConfigError`).
+    bedstruct.errors.ConfigError
+        For another name, or an option the engine cannot realise.
 
     Examples
     --------
