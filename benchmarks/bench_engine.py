@@ -7,7 +7,7 @@ as a checkpoint and a LAMMPS data file, then timed:
 * bedstruct with 1 and 2 threads, with a blade moving over the bed (its
   contacts, neighbour rebuilds and wall forces are counted; compilation and
   I/O are not: a warm-up run precedes the timed run);
-* LIGGGHTS and LAMMPS (``bedstruct.dem.backends.benchmark_external``) with 1
+* LIGGGHTS and LAMMPS (``bedstruct.engines.benchmark_external``) with 1
   and 2 MPI ranks on the same data file and model, when installed (nan
   otherwise).
 
@@ -98,7 +98,7 @@ def pour(n: int, path: Path, *, n_threads: int = 1, log=print) -> Simulation:
 
 def write_data_file(sim: Simulation, path: Path) -> Path:
     """The bed as a LAMMPS/LIGGGHTS data file (atom_style sphere, SI)."""
-    from bedstruct.dem.backends import write_sphere_data
+    from bedstruct.engines import write_sphere_data
     fr = sim.frame()
     top = float((fr.positions[:, 2] + fr.radii).max())
     write_sphere_data(path, fr.positions, fr.radii, box_lo=fr.box.lo,
@@ -176,7 +176,7 @@ def profile_phases(sim: Simulation, *, steps: int) -> dict:
 
 def time_external(engine: str, data: Path, *, np_: int, steps: int, dt: float) -> float:
     try:
-        from bedstruct.dem.backends import benchmark_external
+        from bedstruct.engines import benchmark_external
         res = benchmark_external(data, engine=engine, np=np_, steps=steps, dt=dt,
                                  model_params=seed_model(), warmup_steps=100, timeout=900)
         return float(res["particle_steps_per_s"])
@@ -220,11 +220,11 @@ def main(argv=None) -> int:
     cache = Path(args.cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
     data = cache / f"bedstruct_bed{n}.data"
-    other = cache / f"bed{n}_seed0.data"  # poured by bedstruct.dem.backends.cached_bed
+    other = cache / f"bed{n}_seed0.data"  # poured by bedstruct.engines.cached_bed
     if data.exists():
         origin = "poured by bedstruct"
     elif other.exists():
-        data, origin = other, "poured by LAMMPS/LIGGGHTS (bedstruct.dem.backends.cached_bed)"
+        data, origin = other, "poured by LAMMPS/LIGGGHTS (bedstruct.engines.cached_bed)"
     else:
         sim = pour(n, cache / f"bedstruct_bed{n}.npz")
         write_data_file(sim, data)

@@ -95,7 +95,7 @@ def main(argv=None) -> int:
             out["spread_layers"] = len(spr.layers)
             out["spread_steps"] = spr.extra["steps"]
             out["spread_final_particles"] = spr.extra["n_particles_final"]
-    from bedstruct.dem.backends import find_lammps, find_liggghts
+    from bedstruct.engines import find_lammps, find_liggghts
     found = {"liggghts": find_liggghts(), "lammps": find_lammps()}
     for eng in ("liggghts", "lammps"):
         if found[eng] is None:
@@ -163,7 +163,7 @@ def seed_timing(steps: int) -> int:
 
     from bedstruct.core import Box
     from bedstruct.dem import Plane, Simulation
-    from bedstruct.dem.backends import find_lammps, find_liggghts, run_deck
+    from bedstruct.engines import find_lammps, find_liggghts, run_deck
     from bedstruct.workflows import load_config
     from bedstruct.workflows._common import contact_model
     from bedstruct.workflows.external import repose_inputs, run_repose_external

@@ -1,7 +1,7 @@
 """Settle the same bed with bedstruct, LIGGGHTS and LAMMPS and compare the statistics.
 
 One initial state (a loose polydisperse lattice made by
-:func:`bedstruct.dem.backends.loose_lattice`, periodic in x and y, a plate at
+:func:`bedstruct.engines.loose_lattice`, periodic in x and y, a plate at
 z = 0) is written as a LAMMPS data file and run to rest under gravity by
 
 * the embedded engine (``bedstruct.dem.Simulation``),
@@ -44,8 +44,8 @@ import numpy as np
 
 from bedstruct import Box, Frame, coordination, packing_fraction
 from bedstruct.dem import ContactModel, Material, Plane, Simulation
-from bedstruct.dem.backends import (GranularParams, bed_deck, find_lammps, find_liggghts,
-                                    loose_lattice, run_deck, write_sphere_data)
+from bedstruct.engines import (GranularParams, bed_deck, find_lammps, find_liggghts,
+                               loose_lattice, run_deck, write_sphere_data)
 from bedstruct.io import read_data
 
 log = logging.getLogger("compare_engines")

@@ -78,14 +78,14 @@ def write_liggghts_wrapper(folder, effect: TwinEffect, *, liggghts: str | None =
     The workflows call it as they call LIGGGHTS (``external.exe``;
     ``... -in DECK -log LOG ...``): it rewrites ``DECK`` with :func:`apply_effect`
     (once; the original is kept as ``DECK.base``) and replaces itself with the
-    real binary (``liggghts``, default :func:`bedstruct.dem.backends.find_liggghts`).
+    real binary (``liggghts``, default :func:`bedstruct.engines.find_liggghts`).
 
     Returns
     -------
     Path
         The executable (``folder/liggghts-twin``), beside ``twin-effect.json``.
     """
-    from ..dem.backends import find_liggghts
+    from ..engines import find_liggghts
     folder = Path(folder).resolve()
     folder.mkdir(parents=True, exist_ok=True)
     if liggghts is None:

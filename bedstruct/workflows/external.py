@@ -5,11 +5,11 @@
 places the spheres with the embedded engine's raindrop insertion (same size
 distribution, same seed: the first insertion round of an embedded run places
 exactly these spheres), writes them as a data file, writes the deck
-(:func:`bedstruct.dem.backends.repose_deck`, the same walls, contact model,
+(:func:`bedstruct.engines.repose_deck`, the same walls, contact model,
 gravity and time step as the embedded run), runs it through MPI
 (``external.np`` ranks, ``external.exe`` for a user's binary), reads the
 dumps back with :func:`bedstruct.io.read_dump` and measures the pile with
-:func:`bedstruct.workflows.repose.measure_pile`, the embedded run's code path.
+:func:`bedstruct.workflows.repose_measure.measure_pile`, the embedded run's code path.
 The run directory has the embedded layout (``config.toml``, ``results.json``,
 ``rep00/frames.dump.gz``, ``rep00/contacts.dump.gz``, ``rep00/pile.dump.gz``)
 plus the inputs (``rep00/in.repose``, ``initial.data``, STL meshes) and the
@@ -32,6 +32,7 @@ from __future__ import annotations
 import gzip
 import logging
 import shutil
+import tempfile
 import time as _time
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,9 +41,13 @@ import numpy as np
 
 from .._atomic import atomic_path
 from .._json import to_jsonable
+from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, as_granular_params, dialect,
+                       repose_deck, run_deck, write_sphere_data)
 from ..errors import ConfigError
 from ._common import contact_model, psd_sampler
 from ._rundir import RunLayout
+from .repose_measure import (ReposeReplicate, _finished_replicate, _record_replicate,
+                             combine_replicates, measure_pile, repose_result_from_dict)
 
 __all__ = ["ExternalDecks", "engine_for", "run_repose_external", "repose_inputs"]
 
@@ -74,17 +79,16 @@ class ExternalDecks:
 
 
 def engine_for(cfg: dict, *, required: bool = True):
-    """The :class:`~bedstruct.dem.backends.EngineInfo` of ``cfg["engine"]``.
+    """The :class:`~bedstruct.engines.EngineInfo` of ``cfg["engine"]``.
 
     ``external.exe`` names a user's binary. Raises :class:`ConfigError` when
     the engine is not installed and ``required`` (else returns None).
     """
-    from ..dem.backends import find_lammps, find_liggghts
     name = cfg["engine"]
-    if name not in ("liggghts", "lammps"):
+    if name not in ENGINE_NAMES:
         raise ConfigError(f"engine {name!r} is not an external engine (liggghts or lammps)")
     exe = cfg["external"]["exe"] or None
-    info = find_liggghts(exe) if name == "liggghts" else find_lammps(exe)
+    info = dialect(name).find(exe)
     if info is None and required:
         where = f"`external.exe` = {exe!r} was not found" if exe else (
             f"{name} was not found (install it with .ci/install-engines.sh, or give the binary "
@@ -94,42 +98,18 @@ def engine_for(cfg: dict, *, required: bool = True):
 
 
 def _check_effects(cfg: dict, *, spreading: bool = False) -> None:
-    """Raise ConfigError for a diagnosis extension (``effects``) the decks do not write.
-
-    Wall friction, missing fines and EPSD2 rolling friction are ordinary deck
-    parameters; capillary bridges, contact ageing and the blade's start-up ramp
-    and vibration exist in the embedded engine only, and a deck without them
-    would be the base model under the extension's name.
-    """
-    fx = cfg.get("effects") or {}
-    name = cfg.get("engine", "external")
-    found = [k for k in ("capillary", "contact_ageing") if fx.get(k)]
-    if spreading:
-        found += [k for k in ("blade_ramp_time", "blade_vibration_amplitude")
-                  if float(fx.get(k, 0.0)) > 0.0]
-    if found:
-        raise ConfigError(f"engine {name!r}: config key(s) {', '.join('effects.' + k for k in found)} "
-                          "are extensions of the embedded engine, not written to the "
-                          f"{name} decks; run them with --engine embedded (for LIGGGHTS-made "
-                          "twins with liquid bridges see bedstruct.diagnose.external_twins)")
+    """Raise ConfigError for a diagnosis extension (``effects``) the engine's decks do not
+    write (:meth:`bedstruct.engines.Dialect.check_effects`)."""
+    dialect(cfg["engine"]).check_effects(cfg.get("effects"), spreading=spreading)
 
 
 def _granular_params(cfg: dict, cohesion: float, *, spreading: bool = False):
-    """GranularParams of ``cfg`` and the LAMMPS cohesion model (or None)."""
-    from ..dem.backends import as_granular_params
+    """GranularParams of ``cfg``, the LAMMPS cohesion model (or None) and the ContactModel."""
     _check_effects(cfg, spreading=spreading)
     model = contact_model(cfg, cohesion=cohesion)
-    p = as_granular_params(model)
-    cm = cfg["external"]["cohesion_model"]
-    coh = max(p.cohesion_energy_density, p.wall("cohesion_energy_density"))
-    if cfg["engine"] == "lammps" and coh > 0:
-        if cm == "none":
-            log.warning("lammps: cohesion dropped (external.cohesion_model = none)")
-            p = as_granular_params(p, cohesion_energy_density=0.0, wall_cohesion_energy_density=0.0)
-            return p, None, model
-        log.warning("lammps has no SJKR cohesion; using the %s stand-in (docs/backends.md)", cm)
-        return p, cm, model
-    return p, None, model
+    p, cm = dialect(cfg["engine"]).cohesion_options(as_granular_params(model),
+                                                    cfg["external"]["cohesion_model"])
+    return p, cm, model
 
 
 def repose_inputs(cfg: dict, *, seed: int):
@@ -223,10 +203,7 @@ def _engine_file(stage: Path, name: str):
 
 
 def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only):
-    from ..dem.backends import (ReposeGeometry, ReposeSchedule, repose_deck, run_deck,
-                                write_sphere_data)
-    from ..io import read_dump, write_dump
-    from .repose import ReposeReplicate, measure_pile
+    from ..io import read_dump, write_dump   # numba kernels: imported when a run needs them
 
     rc = cfg["repose"]
     L, W, H = (float(v) for v in rc["box"])
@@ -302,7 +279,7 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
     ------
     ConfigError
         The engine is not installed (unless ``write_only``).
-    bedstruct.dem.backends.EngineRunError
+    bedstruct.engines.EngineRunError
         The engine failed (the message ends with its log).
 
     Examples
@@ -314,11 +291,6 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
     >>> res.engine, len(res.decks)
     ('liggghts', 1)
     """
-    import tempfile
-
-    from .repose import (_finished_replicate, _record_replicate, combine_replicates,
-                         repose_result_from_dict)
-
     n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
     if n < 1:
         raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
@@ -354,7 +326,7 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
                     argv = info.command(["-in", d.name, "-log", "in.log"], np=np_)
                 else:
                     argv = ([] if np_ == 1 else ["mpirun", "-np", str(np_)]) + [
-                        "liggghts" if cfg["engine"] == "liggghts" else "lmp", "-in", d.name]
+                        dialect(cfg["engine"]).executable_name, "-in", d.name]
                 cmds.append(f"cd {d.parent} && " + " ".join(argv))
             res = ExternalDecks(cfg["engine"], "repose", tuple(str(d) for d in reps), tuple(cmds))
             layout.write_results({"workflow": "repose", "engine": cfg["engine"], **res.to_dict()})

@@ -14,93 +14,24 @@ flanks (both fitted), without one a single free flank facing the opening.
 
 from __future__ import annotations
 
-import json
 import logging
-import math
 import time as _time
-from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..errors import ConfigError
-from .._json import to_jsonable, write_json_atomic
-from ._common import check_engine, contact_model, from_plain, psd_sampler
+from ._common import check_engine, contact_model, psd_sampler
 from ._rundir import RunLayout, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
+from .external import run_repose_external
+from .repose_measure import (ReposeReplicate, ReposeResult, _finished_replicate,
+                             _record_replicate, combine_replicates, measure_pile,
+                             repose_result_from_dict)
 
 __all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile",
            "repose_result_from_dict"]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class ReposeReplicate:
-    """One angle-of-repose simulation.
-
-    Attributes
-    ----------
-    seed : int
-    cohesion : float, J/m^3
-    angle_deg, angle_std_deg : float, degrees
-        Mean of the fitted flanks and its uncertainty (from the flank fits).
-    left_deg, right_deg : float, degrees
-        Flank angles (NaN for a flank not fitted).
-    n_inserted, n_remaining, n_fallen : int
-        Particles inserted (all of them, also any lost while the box fills), left in the
-        box, fallen into the reservoir (removed: ``n_inserted = n_remaining + n_fallen +
-        n_lost_nonfinite``).
-    pile_height : float, m
-        Crest height of the pile above the plate.
-    wall_time : float, s
-    stage : str
-        Sub-folder of the run directory (empty when nothing was written).
-    n_lost_nonfinite : int
-        Particles dropped for non-finite positions (a numerical blow-up; 0 unless the
-        engine was told to drop them rather than raise).
-    """
-
-    seed: int
-    cohesion: float
-    angle_deg: float
-    angle_std_deg: float
-    left_deg: float
-    right_deg: float
-    n_inserted: int
-    n_remaining: int
-    n_fallen: int
-    pile_height: float
-    wall_time: float
-    stage: str = ""
-    n_lost_nonfinite: int = 0
-
-
-@dataclass(frozen=True)
-class ReposeResult:
-    """Static angle of repose over replicate simulations.
-
-    Attributes
-    ----------
-    angle_deg : float, degrees
-        Mean over replicates (and flanks).
-    angle_std_deg : float, degrees
-        Standard uncertainty of that mean: the replicate standard error
-        combined with the mean flank-fit uncertainty (root sum of squares).
-    spread_deg : float, degrees
-        Standard deviation of the replicate angles (NaN for one replicate).
-    cohesion : float, J/m^3
-    replicates : tuple of ReposeReplicate
-    """
-
-    angle_deg: float
-    angle_std_deg: float
-    spread_deg: float
-    cohesion: float
-    replicates: tuple = field(default_factory=tuple)
-
-    def to_dict(self) -> dict:
-        """JSON-ready summary (``angle_deg``, ``angle_std_deg``, replicates...)."""
-        return to_jsonable(self)
 
 
 def _record_run(ctl, total_time, writer, n_frames):
@@ -210,101 +141,6 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     return rep
 
 
-def _finished_replicate(layout, stage: str, seed: int, cohesion: float):
-    """The replicate recorded in ``<stage>/result.json`` of a resumed run, or None."""
-    if layout is None or not layout.resumed:
-        return None
-    p = layout.path / stage / "result.json"
-    if not p.is_file():
-        return None
-    try:
-        rep = from_plain(ReposeReplicate, json.loads(p.read_text()))
-    except (ValueError, TypeError) as exc:
-        log.warning("%s: unreadable (%s); the replicate runs again", p, exc)
-        return None
-    if rep.seed != int(seed) or rep.cohesion != float(cohesion):
-        return None
-    return rep
-
-
-def _record_replicate(layout, stage: str, rep: ReposeReplicate) -> None:
-    """Record the finished replicate in ``<stage>/result.json`` (atomically; a resumed run
-    reuses it, :func:`_finished_replicate`) and remove its checkpoint."""
-    write_json_atomic(layout.path / stage / "result.json", rep, keep_nan=True)
-    (layout.path / stage / "progress.npz").unlink(missing_ok=True)
-
-
-def repose_result_from_dict(d: dict) -> ReposeResult:
-    """The :class:`ReposeResult` of ``ReposeResult.to_dict()`` (as read from results.json;
-    other keys are ignored)."""
-    reps = tuple(from_plain(ReposeReplicate, r) for r in d["replicates"])
-    return replace(from_plain(ReposeResult, {**d, "replicates": []}), replicates=reps)
-
-
-def measure_pile(frame, cfg: dict, *, r_max: float):
-    """Angle of the pile left in ``frame`` (SI) by a repose run of ``cfg``.
-
-    The same measurement for every engine: spheres above the plate level,
-    within the ledge (or the part of the floor left after the slide) plus a
-    pad of ``2 r_max``, fitted by :func:`bedstruct.analysis.angle_of_repose`
-    (both flanks with a ledge, else the flank facing the opening).
-
-    Returns
-    -------
-    tuple of float
-        ``(angle_deg, angle_std_deg, left_deg, right_deg, top)``; NaN angles
-        (with a logged warning) when the pile cannot be fitted.
-
-    Raises
-    ------
-    ConfigError
-        Fewer than 10 spheres remain.
-    """
-    from ..analysis import angle_of_repose
-
-    rc = cfg["repose"]
-    L, W, _ = (float(v) for v in rc["box"])
-    ped = float(rc["pedestal_fraction"])
-    slide = L if ped > 0 else float(rc["slide_fraction"]) * L
-    # measure the pile on what stays above the plate level
-    keep = frame.positions[:, 2] > -frame.radii
-    pile = frame.select(keep)
-    if pile.n_particles < 10:
-        raise ConfigError(f"repose: only {pile.n_particles} particles remain; no pile to measure "
-                          "(raise cohesion/friction or use a ledge: repose.pedestal_fraction)")
-    x_lo = (L - ped * L) / 2 if ped > 0 else 0.0
-    x_hi = (L + ped * L) / 2 if ped > 0 else L - slide
-    pad = 2 * r_max
-    bounds = ((x_lo - pad, x_hi + pad), (0.0, W))
-    sel = (pile.positions[:, 0] > x_lo - pad) & (pile.positions[:, 0] < x_hi + pad)
-    pile = pile.select(sel)
-    flanks = "both" if ped > 0 else "right"
-    try:
-        res = angle_of_repose(pile, axis=0, base=0.0, flanks=flanks, bounds=bounds,
-                              statistic="median", spacing=0.5 * float(np.median(pile.radii)))
-        return (float(res.angle_deg), float(res.angle_std_deg), float(res.left_deg),
-                float(res.right_deg), float(res.top))
-    except ValueError as exc:
-        log.warning("repose: pile could not be measured: %s", exc)
-        nan = float("nan")
-        return nan, nan, nan, nan, float(np.max(pile.positions[:, 2] + pile.radii))
-
-
-def combine_replicates(reps, cohesion: float) -> ReposeResult:
-    """Mean angle over replicates with its uncertainty (see :class:`ReposeResult`)."""
-    ang = np.array([r.angle_deg for r in reps], dtype=float)
-    fit = np.array([r.angle_std_deg for r in reps], dtype=float)
-    ok = np.isfinite(ang)
-    if not ok.any():
-        return ReposeResult(float("nan"), float("nan"), float("nan"), float(cohesion), tuple(reps))
-    a = ang[ok]
-    mean = float(a.mean())
-    spread = float(a.std(ddof=1)) if a.size > 1 else float("nan")
-    sem = spread / math.sqrt(a.size) if a.size > 1 else 0.0
-    fit_u = float(np.nanmean(fit[ok])) / math.sqrt(a.size) if np.isfinite(fit[ok]).any() else 0.0
-    return ReposeResult(mean, float(math.hypot(sem, fit_u)), spread, float(cohesion), tuple(reps))
-
-
 def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates: int | None = None,
                progress: bool = False, overwrite: bool = False) -> ReposeResult:
     """Static angle of repose of configuration ``cfg`` over replicate seeds.
@@ -346,7 +182,6 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
     """
     validate_config(cfg)
     if cfg.get("engine", "embedded") != "embedded":
-        from .external import run_repose_external
         if overwrite and out is not None:
             clear_run(out)
         return run_repose_external(cfg, out=out, cohesion=cohesion, replicates=replicates)

@@ -22,11 +22,9 @@ coordination, fabric; the tool returns above the bed for the next layer.
 
 from __future__ import annotations
 
-import copy
 import logging
-import math
 import time as _time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -36,167 +34,16 @@ from ._common import (check_engine, contact_model, frame_fingerprint, from_plain
                       german_fit_values, psd_sampler, tool_motion)
 from ._rundir import RunLayout, as_resumable, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
-from .spread_measure import (_REGION_NAMES, LayerResult, _subset_contacts, frame_metrics,
-                             measure_layer, mid_layer_segregation, particles_in_flight)
+from .external_spread import run_spread_external
+from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, LayerResult, SpreadResult,
+                             _subset_contacts, frame_metrics, measure_layer,
+                             mid_layer_segregation, particles_in_flight, spread_result_from_dict)
+from .spread_pile import _run_pile, generate_pile, pile_key
 
 __all__ = ["LayerResult", "SpreadResult", "run_spread", "generate_pile", "pile_key",
            "spread_result_from_dict"]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class SpreadResult:
-    """Result of a multi-layer spreading run.
-
-    Attributes
-    ----------
-    layers : tuple of LayerResult
-    tool : str
-    speed : float, m/s
-    regions : tuple of str
-    n_pile : int
-        Particles in the generated pile (inserted before every layer).
-    n_inserted_total : int
-    german_a, german_b : float
-        Fit of ``CN = 2a + 11 b f^2`` over all layers and regions (NaN with
-        fewer than 3 points).
-    german_r_squared : float
-    """
-
-    layers: tuple
-    tool: str
-    speed: float
-    regions: tuple
-    n_pile: int
-    n_inserted_total: int
-    german_a: float = float("nan")
-    german_b: float = float("nan")
-    german_r_squared: float = float("nan")
-    extra: dict = field(default_factory=dict)
-
-    @property
-    def bed_height_m(self) -> tuple:
-        """Bed height above the platform after each layer (m)."""
-        return tuple(layer.bed_height_m for layer in self.layers)
-
-    def to_dict(self) -> dict:
-        """JSON-ready summary including ``bed_height_m``, ``packing_fraction`` per layer and region
-        and ``mean_dynamic_angle_deg`` per layer."""
-        d = to_jsonable(self)
-        d["bed_height_m"] = list(self.bed_height_m)
-        d["packing_fraction"] = [list(layer.packing_fraction) for layer in self.layers]
-        d["mean_dynamic_angle_deg"] = [to_jsonable(layer.mean_dynamic_angle_deg)
-                                       for layer in self.layers]
-        return d
-
-
-def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress: bool = False):
-    """Settle ``spread.pile_particles`` by raindrop insertion in a walled box (x from 0, z from 0).
-
-    Returns the settled :class:`~bedstruct.Frame` (SI) and the number of steps run.
-    With ``checkpoint`` (a path, ``progress.npz``) the generation checkpoints there every
-    ``output.checkpoint_every`` steps and, when the file exists, restarts from it (the pile
-    is the uninterrupted run's); the caller removes the file once the pile is saved.
-    ``progress`` shows a bar over the particles inserted, then the settling (stderr): at
-    the seed's scale the pile takes about an hour.
-    """
-    from ..core import Box
-    from ..dem import Plane
-    sc = cfg["spread"]
-    draw = psd_sampler(cfg) if draw is None else draw
-    Lp, W = float(sc["pile_length"]), float(sc["width"])
-    n = int(sc["pile_particles"])
-    r = draw(20000, np.random.default_rng(0))
-    v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
-    h_est = n * v_mean / (0.55 * Lp * W)
-    top = 3.0 * h_est + 20 * draw.r_max
-    box = Box([-draw.r_max, 0.0, -draw.r_max], [Lp + draw.r_max, W, top], boundary="ff pp ff")
-    walls = [Plane((0, 0, 0), (0, 0, 1), name="floor"), Plane((0, 0, 0), (1, 0, 0), name="xlo"),
-             Plane((Lp, 0, 0), (-1, 0, 0), name="xhi")]
-    model = contact_model(cfg)
-    ctl, sim = resumable_simulation(cfg, checkpoint, box, model, walls, min_radius=draw.r_min,
-                                    seed=seed)
-    layer = 8 * draw.r_max          # insert in thin slabs so that nothing falls far
-
-    def insert_slab():
-        need = n - sim.n_particles
-        if need <= 0:
-            return False
-        zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9 if sim.n_particles else 0.0
-        sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (Lp, W, zlo + layer)))
-        return True
-
-    from tqdm.auto import tqdm
-    with tqdm(total=n, desc="pile", unit="particle", disable=not progress, leave=False) as bar:
-        for _ in range(50):
-            if not ctl.value(insert_slab):
-                break
-            ctl.run_time(math.sqrt(2 * layer / 9.81))
-            bar.update(sim.n_particles - bar.n)
-        bar.set_description("pile (settling)")
-        # settle: until the fastest particle is slower than 1 mm/s (at most 4 pile_time)
-        t_end = ctl.value(lambda: sim.time) + 4 * float(sc["pile_time"])
-        ctl.run_time(0.25 * float(sc["pile_time"]))
-        while ctl.value(lambda: sim.time < t_end and
-                        float(np.max(np.linalg.norm(sim.v, axis=1))) > 1e-3):
-            ctl.run_time(0.25 * float(sc["pile_time"]))
-    return sim.frame(), sim.step
-
-
-def _run_pile(cfg: dict, layout, *, seed: int, draw=None, pile=None, progress: bool = False):
-    """The pile of a spreading run in ``layout`` (a :class:`RunLayout`, or None).
-
-    ``pile`` when given; else, in a resumed run, the finished pile of the folder
-    (``pile/pile.dump.gz``); else generated by :func:`generate_pile`, checkpointing into
-    ``pile/progress.npz`` (a killed generation goes on from there). A pile not read from
-    the folder is written there atomically and the checkpoint removed. Shared by the
-    embedded and the external spreading runs.
-    """
-    if layout is None:
-        return pile if pile is not None else generate_pile(cfg, seed=seed, draw=draw,
-                                                           progress=progress)[0]
-    folder = layout.path / "pile"
-    path = folder / ("pile.dump.gz" if cfg["output"]["compress"] else "pile.dump")
-    if layout.resumed and path.is_file():
-        if pile is not None:
-            return pile
-        from ..io import read_dump
-        return read_dump(path, units="si")[0]   # the finished pile of this run
-    if pile is None:
-        folder.mkdir(exist_ok=True)
-        pile, _ = generate_pile(cfg, seed=seed, draw=draw, checkpoint=folder / "progress.npz",
-                                progress=progress)
-    layout.stage("pile").write_frame("pile", pile)
-    (folder / "progress.npz").unlink(missing_ok=True)
-    return pile
-
-
-def pile_key(cfg: dict) -> str:
-    """What :func:`generate_pile` depends on, as a string: runs with equal keys (and seeds)
-    can share one pile.
-
-    The configuration without ``spread.speed``, which the pile does not use, and with
-    ``time.v_max`` replaced by the time step it gives (its only use in the pile).
-
-    Examples
-    --------
-    >>> from bedstruct.workflows import load_config
-    >>> slow = load_config(preset="tiny", overrides=["spread.speed=0.1"])
-    >>> fast = load_config(preset="tiny", overrides=["spread.speed=0.5", "time.v_max=0.75"])
-    >>> pile_key(slow) == pile_key(fast)   # the Rayleigh time sets the step at both
-    True
-    >>> pile_key(slow) == pile_key(load_config(preset="tiny", overrides=["contact.friction=0.6"]))
-    False
-    """
-    import json
-    from ..dem import Simulation
-    rest = copy.deepcopy(cfg)
-    del rest["spread"]["speed"]
-    v_max = rest["time"].pop("v_max")
-    rest["time"]["pile_dt"] = Simulation.default_time_step(
-        contact_model(cfg), psd_sampler(cfg).r_min, float(v_max), float(cfg["time"]["safety"]))
-    return json.dumps(rest, sort_keys=True, default=str)
 
 
 def _tool_walls(cfg, x0, draw):
@@ -271,7 +118,6 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         if pile is not None:
             raise ConfigError("run_spread: a given pile is for the embedded engine; LIGGGHTS and "
                               "LAMMPS decks generate their own")
-        from .external_spread import run_spread_external
         if overwrite and out is not None:
             clear_run(out)
         return run_spread_external(cfg, out=out)
@@ -449,19 +295,6 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         layout.write_results({"workflow": "spread", **res.to_dict()})
         ctl.finish()
     return res
-
-
-def spread_result_from_dict(d: dict) -> SpreadResult:
-    """The :class:`SpreadResult` of ``SpreadResult.to_dict()`` (as read from results.json)."""
-    layers = tuple(from_plain(LayerResult, la) for la in d["layers"])
-    base = {k: v for k, v in d.items() if k != "layers"}
-    res = from_plain(SpreadResult, {**base, "layers": []})
-    extra = d.get("extra") or {}
-    return replace(res, layers=layers, regions=tuple(d["regions"]), extra=dict(extra))
-
-
-#: Settling intervals waited at most for powder in flight to land before a pile is reinserted.
-_MAX_LANDING_WAIT = 20
 
 
 def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) -> float:

@@ -9,12 +9,15 @@ spreading runs (:mod:`bedstruct.workflows.external`), which read the same frames
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["LayerResult", "frame_metrics", "measure_layer", "particles_in_flight",
-           "mid_layer_segregation"]
+from .._json import to_jsonable
+from ._common import from_plain
+
+__all__ = ["LayerResult", "SpreadResult", "frame_metrics", "measure_layer", "particles_in_flight",
+           "mid_layer_segregation", "spread_result_from_dict"]
 
 # the spreading workflow's logger: these messages belong to its run
 log = logging.getLogger("bedstruct.workflows.spread")
@@ -71,14 +74,14 @@ class LayerResult:
         Settling added before the pile was reinserted, while powder thrown up
         by the previous stroke landed (see :func:`particles_in_flight`; 0 when
         nothing was in flight). LIGGGHTS/LAMMPS decks wait by the same rule
-        without its contact test (:func:`bedstruct.dem.backends.spread_layers_deck`).
+        without its contact test (:func:`bedstruct.engines.spread_layers_deck`).
     tool_force : (3,) tuple of float, N
         Force of the powder on the tool averaged over every step of the stroke
         (:meth:`bedstruct.dem.Simulation.wall_load_average`; what a load cell on
         the recoater mount reports). ``-tool_force[0]`` is the drag, ``-tool_force[2]``
         the downward pull (negative: a push up); their ratio is :attr:`tool_force_ratio`.
         LIGGGHTS and LAMMPS runs record it too
-        (:func:`bedstruct.dem.backends.tool_loads`).
+        (:func:`bedstruct.engines.tool_loads`).
     """
 
     index: int
@@ -301,7 +304,6 @@ def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, fro
 
 def _subset_contacts(contacts, mask):
     """Contacts between particles of ``mask`` only, re-indexed to ``frame.select(mask)``."""
-    from dataclasses import replace
     keep = mask[contacts.i] & mask[contacts.j]
     c = contacts.select(keep)
     new = np.cumsum(mask) - 1
@@ -315,3 +317,62 @@ def _windows(lo, hi, n):
     lower[:, 0] = e[:-1]
     upper[:, 0] = e[1:]
     return lower, upper
+
+
+@dataclass(frozen=True)
+class SpreadResult:
+    """Result of a multi-layer spreading run.
+
+    Attributes
+    ----------
+    layers : tuple of LayerResult
+    tool : str
+    speed : float, m/s
+    regions : tuple of str
+    n_pile : int
+        Particles in the generated pile (inserted before every layer).
+    n_inserted_total : int
+    german_a, german_b : float
+        Fit of ``CN = 2a + 11 b f^2`` over all layers and regions (NaN with
+        fewer than 3 points).
+    german_r_squared : float
+    """
+
+    layers: tuple
+    tool: str
+    speed: float
+    regions: tuple
+    n_pile: int
+    n_inserted_total: int
+    german_a: float = float("nan")
+    german_b: float = float("nan")
+    german_r_squared: float = float("nan")
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def bed_height_m(self) -> tuple:
+        """Bed height above the platform after each layer (m)."""
+        return tuple(layer.bed_height_m for layer in self.layers)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary including ``bed_height_m``, ``packing_fraction`` per layer and region
+        and ``mean_dynamic_angle_deg`` per layer."""
+        d = to_jsonable(self)
+        d["bed_height_m"] = list(self.bed_height_m)
+        d["packing_fraction"] = [list(layer.packing_fraction) for layer in self.layers]
+        d["mean_dynamic_angle_deg"] = [to_jsonable(layer.mean_dynamic_angle_deg)
+                                       for layer in self.layers]
+        return d
+
+
+def spread_result_from_dict(d: dict) -> SpreadResult:
+    """The :class:`SpreadResult` of ``SpreadResult.to_dict()`` (as read from results.json)."""
+    layers = tuple(from_plain(LayerResult, la) for la in d["layers"])
+    base = {k: v for k, v in d.items() if k != "layers"}
+    res = from_plain(SpreadResult, {**base, "layers": []})
+    extra = d.get("extra") or {}
+    return replace(res, layers=layers, regions=tuple(d["regions"]), extra=dict(extra))
+
+
+#: Settling intervals waited at most for powder in flight to land before a pile is reinserted.
+_MAX_LANDING_WAIT = 20

@@ -356,7 +356,7 @@ def test_liggghts_written_bed_agrees(tmp_path):
     readers.
     """
     from bedstruct import read_dump, read_dump_local
-    from bedstruct.dem.backends import bed_deck, find_liggghts, run_deck, write_sphere_data
+    from bedstruct.engines import bed_deck, find_liggghts, run_deck, write_sphere_data
     if find_liggghts() is None:
         pytest.skip("LIGGGHTS is not installed (run .ci/install-engines.sh)")
     bed = relaxed_bed(n=500, seed=4)

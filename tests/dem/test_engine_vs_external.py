@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bedstruct.dem.backends import find_lammps, find_liggghts
+from bedstruct.engines import find_lammps, find_liggghts
 
 _SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "compare_engines.py"
 _spec = importlib.util.spec_from_file_location("bedstruct_compare_engines", _SCRIPT)
@@ -142,7 +142,7 @@ def _tilted_sphere(engine, cohesion, tmp_path):
     """x displacement (m) of one sphere resting on the plate, gravity tilted 30 deg, after 6 ms."""
     from bedstruct import Box
     from bedstruct.dem import Plane, Simulation
-    from bedstruct.dem.backends import bed_deck, run_deck, write_sphere_data
+    from bedstruct.engines import bed_deck, run_deck, write_sphere_data
     from bedstruct.io import read_data
     R, th, g, dt, steps = 25e-6, math.radians(30), 9.81, 3e-7, 20000
     p = ce.params(cohesion)
@@ -191,7 +191,7 @@ def _sliding_sphere(engine, tmp_path, steps=200):
     """(vx, omega_y) of a sphere launched at 0.05 m/s without spin along the plate, after ``steps``."""
     from bedstruct import Box
     from bedstruct.dem import Plane, Simulation
-    from bedstruct.dem.backends import bed_deck, run_deck, write_sphere_data
+    from bedstruct.engines import bed_deck, run_deck, write_sphere_data
     from bedstruct.io import read_data
     R, dt = 25e-6, 3e-7
     p = ce.params(0.0)

@@ -199,8 +199,7 @@ def test_sigterm_ends_the_engine_run_too(tmp_path):
     deck.write_text("# bedstruct deck for liggghts\n")
     driver = tmp_path / "driver.py"
     driver.write_text(textwrap.dedent(f"""\
-        from bedstruct.dem.backends import EngineInfo
-        from bedstruct.dem.backends._engine import run_deck
+        from bedstruct.engines import EngineInfo, run_deck
         run_deck({str(deck)!r}, engine=EngineInfo("liggghts", {str(fake)!r}))
         """))
     proc = subprocess.Popen([sys.executable, str(driver)], stdout=subprocess.PIPE,
@@ -222,8 +221,7 @@ def test_sigterm_ends_the_engine_run_too(tmp_path):
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process groups, /proc")
 def test_engine_timeout_ends_the_whole_process_group(tmp_path):
-    from bedstruct.dem.backends import EngineInfo, EngineRunError
-    from bedstruct.dem.backends._engine import run_deck
+    from bedstruct.engines import EngineInfo, EngineRunError, run_deck
     fake = tmp_path / "liggghts"
     pids = tmp_path / "pids"
     fake.write_text(f"#!/bin/sh\nsleep 300 &\necho $! > {pids}\nwait\n")

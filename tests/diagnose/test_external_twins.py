@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from bedstruct.dem.backends import find_liggghts
+from bedstruct.engines import find_liggghts
 from bedstruct.diagnose.liggghts_effects import (
     TWIN_MARK, apply_effect, capillary_effect, easo_bridge_volume, easo_capillary_force,
     null_effect, rolling_friction_effect, wall_friction_effect, willett_capillary_force,
@@ -187,7 +187,7 @@ run 16000
 
 
 def _two_sphere_forces(tmp_path, deck):
-    from bedstruct.dem.backends import run_deck
+    from bedstruct.engines import run_deck
     (tmp_path / "in.two").write_text(deck)
     run_deck(tmp_path / "in.two", engine="liggghts", np=1, timeout=120)
     from bedstruct.io import read_dump

@@ -16,7 +16,7 @@ import re
 import pytest
 
 from bedstruct.cli import main
-from bedstruct.dem.backends import find_lammps, find_liggghts, run_deck
+from bedstruct.engines import find_lammps, find_liggghts, run_deck
 from bedstruct.errors import ConfigError
 from bedstruct.workflows import load_config, run_repose
 
@@ -56,7 +56,7 @@ def test_write_only_deck_is_parsed_by_the_engine(tmp_path, engine):
 
 
 def res_atoms(path):
-    from bedstruct.dem.backends import read_data_header
+    from bedstruct.engines import read_data_header
     return read_data_header(path)["atoms"]
 
 
@@ -112,7 +112,7 @@ def test_killed_external_repose_reuses_finished_replicates(tmp_path, monkeypatch
     the first; the results and files are those of an uninterrupted run (both engines are
     bit-for-bit deterministic at np=1: two runs give the same dumps and results)."""
     _need(engine)
-    import bedstruct.dem.backends as backends
+    import bedstruct.workflows.external as external
     cfg = _cfg(engine, "repose.replicates=2", "repose.fill_time=0.01", "repose.drain_time=0.01")
     ref = run_repose(cfg, out=tmp_path / "ref")
     out = tmp_path / "run"
@@ -126,7 +126,7 @@ def test_killed_external_repose_reuses_finished_replicates(tmp_path, monkeypatch
             raise Killed
         return run_deck(deck, **kw)
     with monkeypatch.context() as m:
-        m.setattr(backends, "run_deck", killed_in_rep01)
+        m.setattr(external, "run_deck", killed_in_rep01)
         with pytest.raises(Killed):
             run_repose(cfg, out=out)
     assert engine_runs == ["rep00", "rep01"]
@@ -138,7 +138,7 @@ def test_killed_external_repose_reuses_finished_replicates(tmp_path, monkeypatch
         engine_runs.append(kw["cwd"].name)
         return run_deck(deck, **kw)
     engine_runs.clear()
-    monkeypatch.setattr(backends, "run_deck", counted)
+    monkeypatch.setattr(external, "run_deck", counted)
     res = run_repose(cfg, out=out)
     assert engine_runs == ["rep01"]                  # the finished replicate is not run again
     assert without_times(res.to_dict()) == without_times(ref.to_dict())
@@ -216,5 +216,5 @@ def test_spread_write_only_deck_is_parsed(tmp_path, engine):
     log = run_deck(zero, np=1, cwd=tmp_path).log
     assert log.last.n_atoms == res_atoms(tmp_path / "initial.data")
     # the deck's last line marks the run finished (a resumed run reuses such an output)
-    from bedstruct.dem.backends import run_finished
+    from bedstruct.engines import run_finished
     assert run_finished(tmp_path / "in.log", 2) and not run_finished(tmp_path / "in.log", 3)

@@ -1,6 +1,6 @@
 """Spreading on LIGGGHTS and LAMMPS: the roller, and contact histories kept across layers.
 
-All layers run in one engine run (``bedstruct.dem.backends.spread_layers_deck``). Each
+All layers run in one engine run (``bedstruct.engines.spread_layers_deck``). Each
 engine's tests skip when it is not installed (``bash .ci/install-engines.sh``).
 """
 
@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pytest
 
-from bedstruct.dem.backends import find_lammps, find_liggghts
+from bedstruct.engines import find_lammps, find_liggghts
 from bedstruct.workflows import load_config, run_spread
 
 from _runfiles import run_files, without_times
@@ -184,21 +184,21 @@ def test_killed_liggghts_spread_reuses_its_pile_and_finished_engine_run(liggghts
     is measured (the finished engine run is reused, not run again). The results and files
     equal the uninterrupted run's (LIGGGHTS at np=1 is bit-for-bit deterministic: two runs
     give the same dumps and results); a complete run then runs nothing at all."""
-    import bedstruct.dem.backends as backends
-    import bedstruct.workflows.spread as spread
-    import bedstruct.workflows.spread_measure as spread_measure
+    import bedstruct.workflows.external_spread as external_spread
+    import bedstruct.workflows.spread_pile as spread_pile
     from bedstruct.dem import Simulation
     cfg, ref, ref_out = liggghts_two_layers
     out = tmp_path / "run"
     calls = {"pile": 0, "engine": 0, "measure": 0}
-    gen, deck, meas = spread.generate_pile, backends.run_deck, spread_measure.measure_layer
+    gen, deck, meas = (spread_pile.generate_pile, external_spread.run_deck,
+                       external_spread.measure_layer)
 
     def count(key, fn):
         def wrapped(*a, **kw):
             calls[key] += 1
             return fn(*a, **kw)
         return wrapped
-    monkeypatch.setattr(spread, "generate_pile", count("pile", gen))
+    monkeypatch.setattr(spread_pile, "generate_pile", count("pile", gen))
 
     def run_killed(**patches):
         for key in calls:
@@ -229,7 +229,7 @@ def test_killed_liggghts_spread_reuses_its_pile_and_finished_engine_run(liggghts
         (root / "in.log").write_text("LIGGGHTS (Version)\nBEDSTRUCT_OFFSET layer=1 steps=0\n")
         (root / "layer01" / "frames.dump").write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF")
         raise Killed
-    run_killed(run_deck=(backends, engine_killed))
+    run_killed(run_deck=(external_spread, engine_killed))
     assert calls["pile"] == 1 and (out / "pile" / "pile.dump.gz").is_file()
     assert not (out / "pile" / "progress.npz").exists()
 
@@ -239,15 +239,15 @@ def test_killed_liggghts_spread_reuses_its_pile_and_finished_engine_run(liggghts
         if kw["index"] == 2:
             raise Killed
         return meas(*a, **kw)
-    run_killed(run_deck=(backends, count("engine", deck)),
-               measure_layer=(spread_measure, measure_killed))
+    run_killed(run_deck=(external_spread, count("engine", deck)),
+               measure_layer=(external_spread, measure_killed))
     assert (calls["pile"], calls["engine"], calls["measure"]) == (0, 1, 2)
 
     # 4. resumed: neither the pile nor the engine run again; only the measurement
     for key in calls:
         calls[key] = 0
-    monkeypatch.setattr(backends, "run_deck", count("engine", deck))
-    monkeypatch.setattr(spread_measure, "measure_layer", count("measure", meas))
+    monkeypatch.setattr(external_spread, "run_deck", count("engine", deck))
+    monkeypatch.setattr(external_spread, "measure_layer", count("measure", meas))
     res = run_spread(cfg, out=out)
     assert (calls["pile"], calls["engine"], calls["measure"]) == (0, 0, 2)
     assert without_times(res.to_dict()) == without_times(ref.to_dict())
@@ -266,7 +266,7 @@ def test_killed_liggghts_spread_reuses_its_pile_and_finished_engine_run(liggghts
 def test_an_engine_run_counts_as_finished_only_with_its_end_marker_and_whole_dumps(tmp_path):
     """No engine needed: the check that lets a resumed run reuse the engine's output."""
     from bedstruct.core import Frame
-    from bedstruct.dem.backends import BladeGeometry, SpreadLayersPlan
+    from bedstruct.engines import BladeGeometry, SpreadLayersPlan
     from bedstruct.io import write_dump
     from bedstruct.workflows.external import _gzip
     from bedstruct.workflows.external_spread import _engine_finished
@@ -371,8 +371,8 @@ def test_liggghts_fast_stroke_waits_for_thrown_powder_to_land(tmp_path):
 
 
 def test_platform_mesh_is_square_strips_covering_the_platform(tmp_path):
-    from bedstruct.dem.backends.stl import read_stl_triangles
-    from bedstruct.dem.backends.workflow_decks import _chamber_meshes
+    from bedstruct.engines import read_stl_triangles
+    from bedstruct.engines._stl import _chamber_meshes
     L, W, z = 6.0e-3, 0.6e-3, -4.5e-4
     tri = read_stl_triangles(_chamber_meshes(tmp_path, L, W, z, 1e-3)["platform"])
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)

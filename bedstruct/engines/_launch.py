@@ -1,9 +1,9 @@
-"""Running the external engines: engine descriptions (:class:`EngineInfo`),
-launching decks under MPI (:func:`run_deck`) and parsing LIGGGHTS/LAMMPS log
-files (:func:`parse_log`).
+"""Running the external engines: how to launch one (:class:`EngineInfo`) and running
+a deck under MPI (:func:`run_deck`), its process group ended whatever stops the wait.
 
-Everything here is plain Python; no engine is needed to import it. Re-exported
-by :mod:`bedstruct.dem.backends` (and, for older imports, by ``_common``).
+Everything here is plain Python; no engine is needed to import it. Which engine a
+deck is for, and where its binary is, the dialects say
+(:func:`~bedstruct.engines.dialect`).
 """
 
 from __future__ import annotations
@@ -16,16 +16,15 @@ import signal
 import subprocess
 import threading
 import time
-from dataclasses import dataclass, field, fields
-from typing import Any, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Mapping
 
-import numpy as np
+from ..errors import BedstructError
+from ._logs import EngineLog, parse_log
+from ._registry import ENGINE_NAMES, dialect
 
-from ...errors import BedstructError
-
-__all__ = ["EngineInfo", "EngineRunError", "RunResult", "ThermoRun", "EngineLog", "parse_log",
-           "run_deck"]
+__all__ = ["EngineInfo", "EngineRunError", "RunResult", "run_deck"]
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +67,7 @@ class EngineInfo:
     version: str = ""
 
     def __post_init__(self):
-        if self.name not in ("liggghts", "lammps"):
+        if self.name not in ENGINE_NAMES:
             raise ValueError(f"`name` must be 'liggghts' or 'lammps'; got {self.name!r}")
 
     def command(self, args, *, np: int = 1) -> list[str]:
@@ -116,212 +115,6 @@ class EngineRunError(BedstructError, RuntimeError):
         super().__init__(full)
 
 
-# --------------------------------------------------------------------------- log parsing
-def _column_index(columns, name: str) -> int | None:
-    if name in columns:
-        return columns.index(name)
-    alt = name[2:] if name[:2] in ("v_", "c_", "f_") else None
-    if alt and alt in columns:
-        return columns.index(alt)
-    for prefix in ("v_", "c_", "f_"):
-        if prefix + name in columns:
-            return columns.index(prefix + name)
-    return None
-
-
-@dataclass(frozen=True)
-class ThermoRun:
-    """One ``run`` command of a log: its thermo table and its 'Loop time' line.
-
-    Parameters
-    ----------
-    columns : tuple of str
-        Thermo column names as printed (``Step``, ``KinEng``, ``v_name`` ...).
-    data : (n_rows, n_columns) ndarray of float
-        Thermo rows (engine units; SI for every deck bedstruct writes).
-    loop_time : float or None
-        Wall-clock seconds of the run loop (excludes setup), None if the run
-        did not finish.
-    n_procs, n_steps, n_atoms : int or None
-        From ``Loop time of X on N procs for S steps with A atoms``.
-    neighbors_per_atom : float or None
-        ``Ave neighs/atom`` printed after the run (half list: contacts + near pairs).
-    """
-
-    columns: tuple[str, ...]
-    data: np.ndarray
-    loop_time: float | None = None
-    n_procs: int | None = None
-    n_steps: int | None = None
-    n_atoms: int | None = None
-    neighbors_per_atom: float | None = None
-
-    def has_column(self, name: str) -> bool:
-        """Whether ``name`` (or its LIGGGHTS/LAMMPS spelling) is a column."""
-        return _column_index(self.columns, name) is not None
-
-    def column(self, name: str) -> np.ndarray:
-        """The values of thermo column ``name`` (KeyError lists the columns).
-
-        LIGGGHTS prints variables and computes without their ``v_``/``c_``
-        prefix (``dist`` for ``v_dist``); either spelling is accepted.
-        """
-        k = _column_index(self.columns, name)
-        if k is None:
-            raise KeyError(f"no thermo column {name!r}; columns are {list(self.columns)}")
-        return self.data[:, k]
-
-
-@dataclass(frozen=True)
-class EngineLog:
-    """A parsed LIGGGHTS or LAMMPS log.
-
-    Parameters
-    ----------
-    engine : str
-        ``"liggghts"``, ``"lammps"`` or ``""`` if the header was not found.
-    version : str
-        Version text from the first line.
-    runs : tuple of ThermoRun
-        One entry per ``run`` in order.
-    errors : tuple of str
-        Lines starting with ``ERROR``.
-    warnings : tuple of str
-        Lines starting with ``WARNING``.
-    """
-
-    engine: str
-    version: str
-    runs: tuple[ThermoRun, ...]
-    errors: tuple[str, ...] = ()
-    warnings: tuple[str, ...] = ()
-
-    @property
-    def last(self) -> ThermoRun:
-        """The last run (IndexError if the log has none)."""
-        if not self.runs:
-            raise IndexError("the log contains no run")
-        return self.runs[-1]
-
-    def column(self, name: str) -> np.ndarray:
-        """Thermo column ``name`` concatenated over all runs that print it."""
-        parts = [r.column(name) for r in self.runs if r.has_column(name)]
-        if not parts:
-            raise KeyError(f"no run prints thermo column {name!r}")
-        return np.concatenate(parts)
-
-
-_LOOP_RE = re.compile(
-    r"^Loop time of\s+(?P<t>[-+0-9.eE]+)\s+on\s+(?P<p>\d+)\s+procs?\s+(?:\(\d+ OpenMP threads\)\s+)?"
-    r"for\s+(?P<s>\d+)\s+steps\s+with\s+(?P<a>\d+)\s+atoms")
-_NEIGH_RE = re.compile(r"^Ave neighs/atom\s*=\s*(?P<n>[-+0-9.eE]+)")
-_NUM_RE = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^[-+]?(nan|inf)$", re.IGNORECASE)
-
-
-def _is_number(tok: str) -> bool:
-    return bool(_NUM_RE.match(tok))
-
-
-def parse_log(source) -> EngineLog:
-    """Parse a LIGGGHTS 3.x or LAMMPS log file (or its text).
-
-    Thermo tables are recognised by their header line starting with ``Step``;
-    rows are the following all-numeric lines with the header's column count
-    (``WARNING``/``INFO`` lines inside a table are skipped). Each table is
-    closed by its ``Loop time of ...`` line.
-
-    Parameters
-    ----------
-    source : str or os.PathLike
-        A path to a log file, or the log text itself (any string containing
-        a newline is taken as text).
-
-    Returns
-    -------
-    EngineLog
-
-    Examples
-    --------
-    >>> text = '''LAMMPS (22 Jul 2025 - Update 4)
-    ...    Step          KinEng
-    ...          0   1.5
-    ...         10   0.5
-    ... Loop time of 0.25 on 2 procs for 10 steps with 100 atoms
-    ... Ave neighs/atom = 6.5
-    ... '''
-    >>> lg = parse_log(text)
-    >>> lg.engine, lg.last.n_steps, lg.last.loop_time, lg.last.column("KinEng").tolist()
-    ('lammps', 10, 0.25, [1.5, 0.5])
-    >>> lg.last.neighbors_per_atom
-    6.5
-    """
-    if isinstance(source, (str, os.PathLike)) and not (isinstance(source, str) and "\n" in source):
-        text = Path(source).read_text(errors="replace")
-    else:
-        text = str(source)
-    engine, version = "", ""
-    runs: list[ThermoRun] = []
-    errors: list[str] = []
-    warnings_: list[str] = []
-    cols: tuple[str, ...] | None = None
-    rows: list[list[float]] = []
-    pending: ThermoRun | None = None
-
-    def close(loop=None):
-        nonlocal cols, rows, pending
-        if cols is None and loop is None:
-            return
-        data = np.array(rows, dtype=np.float64).reshape(len(rows), len(cols or ()))
-        kw = {}
-        if loop is not None:
-            kw = dict(loop_time=float(loop["t"]), n_procs=int(loop["p"]),
-                      n_steps=int(loop["s"]), n_atoms=int(loop["a"]))
-        run = ThermoRun(tuple(cols or ()), data, **kw)
-        runs.append(run)
-        pending = run if loop is not None else None
-        cols, rows = None, []
-
-    for raw in text.splitlines():
-        line = raw.strip()
-        if not line:
-            continue
-        if not engine:
-            if line.startswith("LIGGGHTS"):
-                engine, version = "liggghts", line
-                continue
-            if line.startswith("LAMMPS ("):
-                engine, version = "lammps", line
-                continue
-        if line.startswith("ERROR"):
-            errors.append(line)
-            continue
-        if line.startswith("WARNING"):
-            warnings_.append(line)
-            continue
-        m = _LOOP_RE.match(line)
-        if m:
-            close(m)
-            continue
-        m = _NEIGH_RE.match(line)
-        if m and runs and pending is runs[-1]:
-            runs[-1] = ThermoRun(**{**{f.name: getattr(pending, f.name) for f in fields(pending)},
-                                   "neighbors_per_atom": float(m["n"])})
-            pending = None
-            continue
-        toks = line.split()
-        if toks[0] == "Step" and len(toks) > 1 and not any(_is_number(t) for t in toks[1:]):
-            if cols is not None:  # a table with no Loop line (a crash): keep what was read
-                close()
-            cols, rows = tuple(toks), []
-            continue
-        if cols is not None and len(toks) == len(cols) and all(_is_number(t) for t in toks):
-            rows.append([float(t) for t in toks])
-    if cols is not None:
-        close()
-    return EngineLog(engine, version, tuple(runs), tuple(errors), tuple(warnings_))
-
-
-# --------------------------------------------------------------------------- running
 @dataclass(frozen=True)
 class RunResult:
     """What :func:`run_deck` returns.
@@ -397,9 +190,6 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
         If the engine exits with an error or prints an ``ERROR`` line; the
         message carries the tail of the log.
     """
-    from .lammps import find_lammps
-    from .liggghts import find_liggghts
-
     deck_path = Path(deck_path).resolve()
     if not deck_path.is_file():
         raise FileNotFoundError(f"deck {deck_path} does not exist")
@@ -409,10 +199,10 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
         name = engine or _detect_engine(deck_path.read_text(errors="replace")[:2000])
         if name is None and exe is not None:
             name = "liggghts" if "liggghts" in Path(exe).name.lower() else "lammps"
-        if name not in ("liggghts", "lammps"):
+        if name not in ENGINE_NAMES:
             raise ValueError("`engine` must be 'liggghts' or 'lammps' (or an EngineInfo); the deck "
                              f"does not say which; got {engine!r}")
-        info = find_liggghts() if name == "liggghts" else find_lammps()
+        info = dialect(name).find()
         if info is None:
             raise FileNotFoundError(f"{name} is not installed (run .ci/install-engines.sh)")
     if exe is not None:

@@ -1,4 +1,5 @@
-"""ASCII STL generators for walls: a box, the recoater blade and the roller.
+"""ASCII STL generators for walls: a box, the recoater blade and the roller, and the
+wall meshes of the repose box and the spreading platform.
 
 Coordinates are in the deck's length unit (SI metres for bedstruct's decks).
 Triangles are wound so that normals point out of the solid (or into the box
@@ -14,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["stl_text", "write_stl", "box_triangles", "BladeGeometry", "cylinder_triangles",
-           "RollerGeometry", "read_stl_triangles"]
+           "RollerGeometry", "read_stl_triangles", "repose_wall_stls"]
 
 
 def stl_text(triangles, *, name: str = "bedstruct") -> str:
@@ -318,3 +319,64 @@ class RollerGeometry:
         n_y = max(1, int(math.ceil((y1 - y0) / (4 * arc))))
         return cylinder_triangles((self.x0, self.center_z), self.radius, y0, y1,
                                   n_segments=self.n_segments, n_y=n_y)
+
+
+# --------------------------------------------------------------------------- wall meshes
+def _rect(x0, x1, y0, y1, z0, z1):
+    """Two triangles of an axis-aligned rectangle (one of the extents is zero)."""
+    if z0 == z1:
+        a, b, c, d = [x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0]
+    elif x0 == x1:
+        a, b, c, d = [x0, y0, z0], [x0, y1, z0], [x0, y1, z1], [x0, y0, z1]
+    else:
+        a, b, c, d = [x0, y0, z0], [x1, y0, z0], [x1, y0, z1], [x0, y0, z1]
+    return [[a, b, c], [a, c, d]]
+
+
+def _chamber_meshes(folder, length: float, width: float, z_platform: float,
+                    chamber_depth: float) -> dict[str, Path]:
+    """Spreading platform ``[0, L] x [0, W]`` at ``z_platform`` and, with a chamber, its front
+    wall at ``x = L`` from ``-chamber_depth`` to 0, written as STL files into ``folder``."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    L, W = length, width
+    # square-ish strips: LIGGGHTS 3.8 stops with "assertion failed (region_neighbor_list_I.h)"
+    # on a platform of two long triangles (here from a 6 mm x 0.6 mm platform on)
+    n = max(1, int(math.ceil(L / W - 1e-9)))
+    xs = np.linspace(0.0, L, n + 1)
+    strips = [t for a, b in zip(xs[:-1], xs[1:]) for t in _rect(a, b, 0.0, W, z_platform, z_platform)]
+    meshes = {"platform": write_stl(folder / "platform.stl", strips, name="platform")}
+    if chamber_depth > 0:
+        meshes["front"] = write_stl(folder / "front.stl",
+                                    _rect(L, L, 0.0, W, -chamber_depth, 0.0), name="front")
+    return meshes
+
+
+def repose_wall_stls(geometry, folder) -> dict[str, Path]:
+    """Write the LIGGGHTS wall meshes of ``geometry`` into ``folder``.
+
+    Returns
+    -------
+    dict
+        ``plate``, ``sides`` and (with a ledge) ``ledge`` -> STL path.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from bedstruct.engines import ReposeGeometry
+    >>> g = ReposeGeometry(1e-3, 5e-4, 5e-4, ledge_fraction=0.5, slide=1e-3)
+    >>> sorted(repose_wall_stls(g, tempfile.mkdtemp()))
+    ['ledge', 'plate', 'sides']
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    L, W, H = geometry.length, geometry.width, geometry.height
+    out = {"plate": write_stl(folder / "plate.stl", _rect(0.0, L, 0.0, W, 0.0, 0.0), name="plate")}
+    sides = _rect(0.0, 0.0, 0.0, W, 0.0, H) + _rect(L, L, 0.0, W, 0.0, H)
+    if not geometry.periodic_width:
+        sides += _rect(0.0, L, 0.0, 0.0, 0.0, H) + _rect(0.0, L, W, W, 0.0, H)
+    out["sides"] = write_stl(folder / "sides.stl", sides, name="sides")
+    if geometry.ledge is not None:
+        x0, x1 = geometry.ledge
+        out["ledge"] = write_stl(folder / "ledge.stl", _rect(x0, x1, 0.0, W, 0.0, 0.0), name="ledge")
+    return out

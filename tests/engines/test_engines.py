@@ -15,12 +15,12 @@ import pytest
 
 from bedstruct.errors import BedstructWarning
 
-from bedstruct.dem.backends import (BladeGeometry, EngineRunError, GranularParams, as_granular_params,
-                                    bed_deck, box_triangles, find_lammps, find_liggghts,
-                                    hertz_contact_time, impact_deck, impact_result,
-                                    lammps_granular_coeffs, moving_wall_deck, parse_log,
-                                    read_data_header, read_stl_triangles, run_deck,
-                                    write_sphere_data, write_stl)
+from bedstruct.engines import (BladeGeometry, EngineRunError, GranularParams, as_granular_params,
+                               bed_deck, box_triangles, find_lammps, find_liggghts,
+                               hertz_contact_time, impact_deck, impact_result,
+                               lammps_granular_coeffs, moving_wall_deck, parse_log,
+                               read_data_header, read_stl_triangles, run_deck, write_sphere_data,
+                               write_stl)
 
 ENGINES = {"liggghts": find_liggghts, "lammps": find_lammps}
 
@@ -414,7 +414,7 @@ def test_run_deck_error_carries_log_tail(engine, tmp_path):
 
 @both_engines
 def test_benchmark_external_uses_timed_run(engine, tmp_path):
-    from bedstruct.dem.backends import benchmark_external
+    from bedstruct.engines import benchmark_external
     data = _columns_bed(tmp_path)
     res = benchmark_external(data, engine=engine, np=1, steps=60, dt=1e-8, warmup_steps=10,
                              model_params=GranularParams(youngs_modulus=1e8), workdir=tmp_path)
@@ -427,7 +427,7 @@ def test_benchmark_external_uses_timed_run(engine, tmp_path):
 
 @both_engines
 def test_pour_bed_writes_settling_bed(engine, tmp_path):
-    from bedstruct.dem.backends import pour_bed
+    from bedstruct.engines import pour_bed
     out = pour_bed(tmp_path / "bed.data", n_particles=40, engine=engine, width=(0.3e-3, 0.3e-3),
                    steps=400, workdir=tmp_path)
     head = read_data_header(out)
@@ -436,7 +436,7 @@ def test_pour_bed_writes_settling_bed(engine, tmp_path):
 
 
 def test_cached_bed_returns_existing_file(tmp_path):
-    from bedstruct.dem.backends import cached_bed
+    from bedstruct.engines import cached_bed
     existing = write_sphere_data(tmp_path / "bed10_seed3.data", [[0, 0, 1e-4]] * 1, [5e-5],
                                  box_lo=[-1e-4, -1e-4, 0], box_hi=[1e-4, 1e-4, 1e-3])
     assert cached_bed(10, cache_dir=tmp_path, rng=3) == existing
@@ -444,7 +444,7 @@ def test_cached_bed_returns_existing_file(tmp_path):
 
 # --------------------------------------------------------------------------- multi-layer decks
 def test_cylinder_triangles_are_inscribed_and_outward():
-    from bedstruct.dem.backends import cylinder_triangles
+    from bedstruct.engines import cylinder_triangles
     tri = cylinder_triangles((1.0, 2.0), 0.5, 0.0, 3.0, n_segments=48, n_y=3)
     v = tri.reshape(-1, 3)
     assert np.allclose(np.hypot(v[:, 0] - 1.0, v[:, 2] - 2.0), 0.5)      # vertices on the circle
@@ -458,7 +458,7 @@ def test_cylinder_triangles_are_inscribed_and_outward():
 
 
 def test_spread_plan_steps_align_with_frames():
-    from bedstruct.dem.backends import RollerGeometry, SpreadLayersPlan
+    from bedstruct.engines import RollerGeometry, SpreadLayersPlan
     tool = RollerGeometry(x0=6e-4, z_bottom=0.0, radius=5e-4, speed=0.1, omega=-200.0)
     plan = SpreadLayersPlan(3e-3, 6e-4, (4e-4, 3e-4, 2e-4), tool, ((1, 10), (11, 20), (21, 30)),
                             (0.0, 2e-3, 3e-3), (1e-3, 2e-3), 1e-6, x_end=3.9e-3, n_frames=5,
@@ -482,7 +482,7 @@ def test_roller_spin_drags_a_sphere_on_top(tmp_path, engine):
     omega e_y x (R e_z) = omega R e_x: +x for omega > 0, -x for omega < 0 (the embedded
     engine's convention); without spin it barely moves (the roller translates by 5 um in 2 ms).
     Friction limits the drag to ~mu g t^2 / 2 ~ 10 um in 2 ms."""
-    from bedstruct.dem.backends import (RollerGeometry, SpreadLayersPlan, read_stl_triangles,
+    from bedstruct.engines import (RollerGeometry, SpreadLayersPlan, read_stl_triangles,
                                         spread_layers_deck)
     from bedstruct.io import read_dump
     R, r, W = 5e-4, 5e-5, 4e-4
@@ -514,7 +514,7 @@ def test_roller_spin_drags_a_sphere_on_top(tmp_path, engine):
 
 
 def _landing_plan(intervals, dt=1e-6):
-    from bedstruct.dem.backends import SpreadLayersPlan
+    from bedstruct.engines import SpreadLayersPlan
     blade = BladeGeometry(x0=0.0, z_bottom=0.0, speed=0.1, height=1e-3)
     return SpreadLayersPlan(3e-3, 2e-3, (2e-4, 2e-4), blade, ((1, 1), (2, 2)), (0.0, 5e-3),
                             (5e-4, 1.5e-3), dt, x_end=3.5e-3, n_frames=4, settle_time=5e-3,
@@ -524,7 +524,7 @@ def _landing_plan(intervals, dt=1e-6):
 def test_spread_deck_waits_for_flying_powder_only_when_asked(tmp_path):
     """The landing loop is written before layer 2 only, and only with ``landing_intervals``;
     LAMMPS' walls move on the planned step (the run's step less the steps waited)."""
-    from bedstruct.dem.backends import spread_layers_deck
+    from bedstruct.engines import spread_layers_deck
     data = write_sphere_data(tmp_path / "a.data", [[1e-3, 2e-4, -1.5e-4], [1e-3, 2e-4, 5e-3]],
                              [5e-5, 5e-5], box_lo=[-1e-3, 0, -1e-3], box_hi=[5e-3, 4e-4, 1e-2],
                              n_types=2)
@@ -544,7 +544,7 @@ def test_spread_deck_waits_for_flying_powder_only_when_asked(tmp_path):
 
 
 def test_landing_offsets_shift_the_plan(tmp_path):
-    from bedstruct.dem.backends import landing_offsets
+    from bedstruct.engines import landing_offsets
     plan = _landing_plan(20)
     log = tmp_path / "log"
     log.write_text("Step Atoms\nBEDSTRUCT_OFFSET layer=1 steps=0\n"
@@ -562,7 +562,7 @@ def test_landing_offsets_shift_the_plan(tmp_path):
     with pytest.raises(ValueError, match="non-decreasing"):
         plan.shifted((15000, 0))
     # the stroke-averaged tool loads of the same log: NaN where a layer printed none
-    from bedstruct.dem.backends import tool_loads
+    from bedstruct.engines import tool_loads
     with open(log, "a") as fh:
         fh.write('print "BEDSTRUCT_TOOL_FORCE layer=1 fx=${tfx01} fy=${tfy01} fz=${tfz01}"\n'
                  "BEDSTRUCT_TOOL_FORCE layer=1 fx=-1.5e-05 fy=2e-08 fz=3.25e-06\n")
@@ -578,7 +578,7 @@ def test_spread_deck_waits_for_a_thrown_sphere_to_land(tmp_path, engine):
     wait: the large sphere lies ahead of the blade's front face at every frame, by the
     schedule shifted by the logged offset, and the blade pushes it (LAMMPS moves its walls
     by the planned step, so this fails if the offset were ignored there)."""
-    from bedstruct.dem.backends import landing_offsets, spread_layers_deck
+    from bedstruct.engines import landing_offsets, spread_layers_deck
     from bedstruct.io import read_dump
     p = GranularParams(youngs_modulus=1e7, restitution=0.3, friction=0.5, rolling_friction=0.0,
                        density=8000.0)

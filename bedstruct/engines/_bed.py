@@ -1,138 +1,31 @@
-"""Input-deck generators that take the same SI parameters for LIGGGHTS and LAMMPS.
+"""Decks on a bed or a pair of spheres, in the same SI parameters for every engine:
+a settled bed from a data file (:func:`bed_deck`), the bed with a moving blade
+(:func:`moving_wall_deck`) and a head-on impact (:func:`impact_deck`,
+read back by :func:`impact_result`).
 
-Every generator returns the deck as text whose first line is
-``# bedstruct deck for <engine>`` (so :func:`run_deck` knows the engine).
-Relative output names (dumps, ``write_data``) are relative to the run's working
-directory; input files (data files, STL meshes) are written into the deck with
-absolute paths.
+Every writer takes ``engine`` (a name or a :class:`~bedstruct.engines.Dialect`) and
+returns the deck as text whose first line is ``# bedstruct deck for <engine>`` (so
+:func:`~bedstruct.engines.run_deck` knows the engine). Relative output names (dumps,
+``write_data``) are relative to the run's working directory; input files (data
+files, STL meshes) are written into the deck with absolute paths.
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ...errors import BedstructWarning
-from ._common import EngineLog, GranularParams, as_granular_params, read_data_header
-from .lammps import REFERENCE_OVERLAP, REFERENCE_RADIUS, lammps_granular_coeffs
-from .liggghts import liggghts_model_commands, liggghts_wall_model
-from .stl import BladeGeometry
+from ._datafile import data_file_radii, read_data_header
+from ._dialect import DUMP_COLUMNS, path_word
+from ._logs import EngineLog
+from ._params import GranularParams, as_granular_params
+from ._registry import dialect
+from ._stl import BladeGeometry
 
 __all__ = ["bed_deck", "impact_deck", "moving_wall_deck", "impact_result", "ImpactResult",
-           "hertz_contact_time", "DUMP_COLUMNS", "data_file_radii"]
-
-#: Per-particle dump columns written by every deck.
-DUMP_COLUMNS = "id type x y z vx vy vz fx fy fz omegax omegay omegaz radius"
-#: Contact-dump columns per engine (``dump local``).
-CONTACT_COLUMNS = {
-    # compute pair/gran/local pos id force contactArea delta
-    "liggghts": "x1 y1 z1 x2 y2 z2 id1 id2 periodic fx fy fz contact_area overlap",
-    # compute property/local patom1 patom2 + compute pair/local dist fx fy fz
-    "lammps": "id1 id2 distance fx fy fz",
-}
-
-
-def _check_engine(engine: str) -> str:
-    if engine not in ("liggghts", "lammps"):
-        raise ValueError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
-    return engine
-
-
-def _path_word(path) -> str:
-    s = str(Path(path).resolve())
-    if any(c.isspace() for c in s):
-        raise ValueError(f"LIGGGHTS/LAMMPS cannot read paths with spaces: {s!r}")
-    return s
-
-
-def _setup(engine: str, boundary: str, processors: str | None) -> list[str]:
-    if engine == "liggghts":
-        lines = ["atom_style granular", "atom_modify map array", f"boundary {boundary}",
-                 "newton off", "communicate single vel yes", "units si"]
-    else:
-        lines = ["atom_style sphere", "atom_modify map array", f"boundary {boundary}",
-                 "newton off", "comm_modify vel yes", "units si"]
-    if processors:
-        lines.append(f"processors {processors}")
-    return lines
-
-
-def _contact_computes(engine: str, *, tangential: bool = False) -> list[str]:
-    """Computes behind a contact ``dump local`` (LIGGGHTS wants them before the first run).
-
-    LIGGGHTS ``pair/gran/local pos id force contactArea delta``; LAMMPS
-    ``property/local patom1 patom2`` + ``pair/local dist fx fy fz`` (with
-    ``tangential`` also ``p1 p2 p3``: pair granular's tangential force)."""
-    if engine == "liggghts":
-        return ["compute cpl all pair/gran/local pos id force contactArea delta"]
-    return ["compute cpa all property/local patom1 patom2",
-            "compute cpf all pair/local dist fx fy fz" + (" p1 p2 p3" if tangential else "")]
-
-
-def _contact_cols(engine: str, *, tangential: bool = False) -> str:
-    """Local-dump columns of :func:`_contact_computes`: LIGGGHTS 14 (x1 y1 z1 x2 y2 z2 id1 id2
-    periodic fx fy fz area delta); LAMMPS ``patom1 patom2 dist fx fy fz`` (pair granular:
-    fx fy fz the normal force) and with ``tangential`` ``p1 p2 p3`` (the tangential force)."""
-    if engine == "liggghts":
-        return " ".join(f"c_cpl[{i}]" for i in range(1, 15))
-    return "c_cpa[1] c_cpa[2] " + " ".join(f"c_cpf[{i}]" for i in range(1, 8 if tangential else 5))
-
-
-def data_file_radii(path) -> np.ndarray:
-    """Radii (length) of the ``Atoms`` section of a sphere/granular data file.
-
-    Reads the ``diameter`` column (third) of ``id type diameter density x y z ...``.
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> from bedstruct.dem.backends import write_sphere_data
-    >>> p = write_sphere_data(os.path.join(tempfile.mkdtemp(), "a.data"), [[0, 0, 1]], [0.5],
-    ...                       box_lo=[-1, -1, 0], box_hi=[1, 1, 2])
-    >>> data_file_radii(p).tolist()
-    [0.5]
-    """
-    head = read_data_header(path)
-    n = head["atoms"]
-    with open(path) as fh:
-        for line in fh:
-            if line.split("#")[0].strip() == "Atoms":
-                break
-        rows = []
-        for line in fh:
-            s = line.strip()
-            if not s:
-                if rows:
-                    break
-                continue
-            rows.append(s.split()[2])
-            if len(rows) == n:
-                break
-    return 0.5 * np.array(rows, dtype=np.float64)
-
-
-def _wall_commands(engine: str, p: GranularParams, model_lines_wt: int, *, zlo: float,
-                   cohesion_model, reference_radius, reference_overlap) -> list[str]:
-    if engine == "liggghts":
-        return [f"fix wbottom all wall/gran {liggghts_wall_model(p)} primitive type "
-                f"{model_lines_wt} zplane {zlo:.10g}"]
-    coeffs = lammps_granular_coeffs(p, wall=True, cohesion_model=cohesion_model,
-                                    reference_radius=reference_radius,
-                                    reference_overlap=reference_overlap)
-    return [f"fix wbottom all wall/gran granular {coeffs} zplane {zlo:.10g} NULL"]
-
-
-def _model(engine, p, n_types, cohesion_model, reference_radius, reference_overlap):
-    if engine == "liggghts":
-        return liggghts_model_commands(p, n_types=n_types)
-    coeffs = lammps_granular_coeffs(p, cohesion_model=cohesion_model,
-                                    reference_radius=reference_radius,
-                                    reference_overlap=reference_overlap)
-    return ["pair_style granular", f"pair_coeff * * {coeffs}"], 2
+           "hertz_contact_time"]
 
 
 def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
@@ -140,9 +33,9 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
              contacts: str | None = None, contacts_every: int | None = None,
              warmup_steps: int = 0, skin: float | None = None, write_data: str | None = None,
              boundary: str = "p p f", processors: str | None = "* * 1",
-             cohesion_model: str | None = None, reference_radius: float = REFERENCE_RADIUS,
-             reference_overlap: float = REFERENCE_OVERLAP, fabric: bool = False,
-             thermo_variables=None, _extra=None) -> str:
+             cohesion_model: str | None = None, reference_radius: float | None = None,
+             reference_overlap: float | None = None, fabric: bool = False,
+             thermo_variables=None, _blade=None) -> str:
     """A deck that reads a settled bed, adds a bottom plane, gravity, and runs.
 
     The bed comes from a data file (``atom_style sphere``/``granular`` atoms
@@ -156,7 +49,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
         The bed. If it declares 2 atom types, walls use type 2 in LIGGGHTS.
     params : GranularParams, mapping or ContactModel, optional
         Contact parameters in SI (default :class:`GranularParams()`).
-    engine : {"liggghts", "lammps"}
+    engine : {"liggghts", "lammps"} or Dialect
     steps : int
         Steps of the main run.
     dt : float, s
@@ -168,7 +61,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
         Per-particle dump file name and interval (columns :data:`DUMP_COLUMNS`).
     contacts, contacts_every : str, int
         Contact (``dump local``) file and interval (columns
-        ``CONTACT_COLUMNS[engine]``; LAMMPS lists every pair within the force
+        ``dialect(engine).contact_dump_columns``; LAMMPS lists every pair within the force
         cutoff, including touching-free ones with zero force).
     warmup_steps : int
         Steps of a first, separate ``run`` (its Loop time excludes setup, the
@@ -183,9 +76,10 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
         ``processors`` grid (default ``* * 1``: beds are thin in z).
     cohesion_model : {None, "dmt", "jkr"}
         LAMMPS only: how to represent SJKR cohesion (see docs/backends.md).
-    reference_radius, reference_overlap : float
+    reference_radius, reference_overlap : float, optional
         LAMMPS only: the contact at which overlap-dependent LIGGGHTS
-        coefficients are frozen.
+        coefficients are frozen (None: the dialect's, by default
+        ``REFERENCE_RADIUS`` and ``REFERENCE_OVERLAP``).
     fabric : bool
         LAMMPS only (not with DMT/JKR): add ``compute fabric radius contact
         force/normal`` to the thermo output, columns ``c_fab[1]`` ...
@@ -204,7 +98,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     Examples
     --------
     >>> import tempfile, os
-    >>> from bedstruct.dem.backends import write_sphere_data
+    >>> from bedstruct.engines import write_sphere_data
     >>> p = write_sphere_data(os.path.join(tempfile.mkdtemp(), "b.data"), [[0, 0, 1e-4]], [5e-5],
     ...                       box_lo=[-1e-4, -1e-4, 0], box_hi=[1e-4, 1e-4, 4e-4], n_types=2)
     >>> deck = bed_deck(p, engine="liggghts", steps=10, dt=1e-7)
@@ -213,10 +107,10 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     >>> [l for l in deck.splitlines() if l.startswith("pair_style")]
     ['pair_style gran model hertz tangential history rolling_friction epsd2']
     """
-    engine = _check_engine(engine)
+    d = dialect(engine, cohesion_model=cohesion_model, reference_radius=reference_radius,
+                reference_overlap=reference_overlap)
     p = as_granular_params(params)
-    if fabric and (engine != "lammps" or (cohesion_model and p.cohesion_energy_density > 0)):
-        raise ValueError("`fabric` needs LAMMPS without DMT/JKR cohesion (compute fabric)")
+    fabric_lines = d.fabric_lines(p) if fabric else []
     steps, warmup_steps = int(steps), int(warmup_steps)
     if steps < 0 or warmup_steps < 0:
         raise ValueError("`steps` and `warmup_steps` must be >= 0")
@@ -226,23 +120,21 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     if skin is None:
         skin = 0.2 * float(data_file_radii(data_file).min())
     zlo = float(head["lo"][2])
-    lines = [f"# bedstruct deck for {engine}: bed from data file, bottom plane, gravity",
-             *_setup(engine, boundary, processors),
-             f"read_data {_path_word(data_file)}",
+    lines = [d.header("bed from data file, bottom plane, gravity"),
+             *d.setup_lines(boundary, processors),
+             f"read_data {path_word(data_file)}",
              f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
-    model_lines, wt = _model(engine, p, head["atom types"], cohesion_model, reference_radius,
-                             reference_overlap)
+    model_lines, wt = d.model_lines(p, n_types=head["atom types"])
     lines += model_lines
     lines.append(f"timestep {dt:.10g}")
     if p.gravity > 0:
         lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
-    lines += _wall_commands(engine, p, wt, zlo=zlo, cohesion_model=cohesion_model,
-                            reference_radius=reference_radius, reference_overlap=reference_overlap)
-    if _extra is not None:
-        lines += _extra(engine, p, wt, head)
+    lines += d.plane_wall(p, wt, zlo=zlo)
+    if _blade is not None:
+        lines += d.moving_blade(p, wt, _blade[0], stl_path=_blade[1])
     fab = ""
     if fabric:
-        lines.append("compute fab all fabric radius contact force/normal")
+        lines += fabric_lines
         fab = " " + " ".join(f"c_fab[{i}]" for i in range(1, 13))
     for name, expr in (thermo_variables or {}).items():
         if not str(name).isidentifier() or any(c.isspace() for c in str(expr)):
@@ -258,8 +150,8 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     dumps = []
     if contacts:  # LIGGGHTS wants pair/gran/local defined before the first run
         every = int(contacts_every or dump_every or max(steps, 1))
-        lines += _contact_computes(engine)
-        dumps.append(f"dump dloc all local {every} {contacts} {_contact_cols(engine)}")
+        lines += d.contact_computes()
+        dumps.append(f"dump dloc all local {every} {contacts} {d.contact_columns()}")
     if dump and dump_every:
         dumps.insert(0, f"dump dmp all custom {int(dump_every)} {dump} {DUMP_COLUMNS}")
     if warmup_steps:
@@ -267,7 +159,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     lines += dumps
     lines.append(f"run {steps}")
     if write_data:
-        lines.append(f"write_data {write_data}" + (" nocoeff" if engine == "lammps" else ""))
+        lines.append(d.write_data_line(write_data))
     return "\n".join(lines) + "\n"
 
 
@@ -275,6 +167,7 @@ def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometr
                      stl_path=None, steps: int, dt: float, **bed_kwargs) -> str:
     """:func:`bed_deck` plus a blade (or plate) moving along +x at constant speed.
 
+    The dialect writes the blade (:meth:`Dialect.moving_blade`):
     LIGGGHTS: ``fix mesh/surface`` of the blade STL (write it first with
     ``blade.write_stl(stl_path, ylo, yhi)``) + ``fix move/mesh linear`` +
     ``fix wall/gran ... mesh``. LAMMPS: a block region moved by
@@ -299,45 +192,7 @@ def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometr
     -------
     str
     """
-    engine = _check_engine(engine)
-    if engine == "liggghts" and stl_path is None:
-        raise ValueError("LIGGGHTS needs the blade as an STL file: pass `stl_path` "
-                         "(write it with blade.write_stl(...))")
-    cohesion_model = bed_kwargs.get("cohesion_model")
-    ref_r = bed_kwargs.get("reference_radius", REFERENCE_RADIUS)
-    ref_o = bed_kwargs.get("reference_overlap", REFERENCE_OVERLAP)
-
-    def extra(engine, p, wt, head):
-        if engine == "liggghts":
-            return [f"fix blade all mesh/surface file {_path_word(stl_path)} type {wt} "
-                    "curvature_tolerant yes",
-                    f"fix wblade all wall/gran {liggghts_wall_model(p)} mesh n_meshes 1 meshes blade",
-                    f"fix mvblade all move/mesh mesh blade linear {blade.speed:.10g} 0 0"]
-        coeffs = lammps_granular_coeffs(p, wall=True, cohesion_model=cohesion_model,
-                                        reference_radius=ref_r, reference_overlap=ref_o)
-        x0, x1 = blade.x0, blade.x0 + blade.thickness
-        z0, z1 = blade.z_bottom, blade.z_bottom + blade.height
-        out = [f"variable bx equal {blade.speed:.10g}*time"]
-        if blade.bevel_deg > 0 and blade.speed != 0:
-            warnings.warn(
-                "LAMMPS: a moving bevelled blade would need a moving intersect region, whose "
-                "velocity fix wall/gran/region ignores (measured: wrong rebound speeds); the "
-                "LAMMPS deck uses the unbevelled slab instead", BedstructWarning, stacklevel=3)
-        if blade.bevel_deg > 0 and blade.speed == 0:
-            # the blade is the slab above the bevel plane through the lowest edge (x0, z0)
-            th = math.radians(blade.bevel_deg)
-            # (static only: LAMMPS refuses a moving intersect region, and moving its parts
-            # leaves fix wall/gran/region without the wall velocity)
-            out += [f"region bslab block {x0:.10g} {x1:.10g} INF INF {z0:.10g} {z1:.10g} units box",
-                    f"region bbevel plane {x0:.10g} 0 {z0:.10g} {-math.sin(th):.10g} 0 "
-                    f"{math.cos(th):.10g} units box",
-                    "region blade intersect 2 bslab bbevel side out units box"]
-        else:
-            out.append(f"region blade block {x0:.10g} {x1:.10g} INF INF {z0:.10g} {z1:.10g} "
-                       "side out move v_bx NULL NULL units box")
-        return out + [f"fix wblade all wall/gran/region granular {coeffs} region blade"]
-
-    return bed_deck(data_file, params, engine=engine, steps=steps, dt=dt, _extra=extra,
+    return bed_deck(data_file, params, engine=engine, steps=steps, dt=dt, _blade=(blade, stl_path),
                     **bed_kwargs)
 
 
@@ -411,7 +266,6 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
     -------
     str
     """
-    engine = _check_engine(engine)
     if target not in ("sphere", "wall"):
         raise ValueError(f"`target` must be 'sphere' or 'wall'; got {target!r}")
     p = as_granular_params(params, gravity=0.0, cohesion_energy_density=0.0,
@@ -433,10 +287,10 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
     steps = int(math.ceil((s / speed + 3.0 * tc) / dt))
     half = 20 * (r1 + r2)
     n_types = 2 if wall else 1
-    model_lines, wt = _model(engine, p, n_types, None, r1 if wall else max(r1, r2),
-                             REFERENCE_OVERLAP)
-    lines = [f"# bedstruct deck for {engine}: head-on impact on a {target}",
-             *_setup(engine, "f f f", None),
+    d = dialect(engine, reference_radius=r1 if wall else max(r1, r2))
+    model_lines, wt = d.model_lines(p, n_types=n_types)
+    lines = [d.header(f"head-on impact on a {target}"),
+             *d.setup_lines("f f f", None),
              f"region reg block {-half:.10g} {half:.10g} {-half:.10g} {half:.10g} "
              f"{-half if not wall else -r1:.10g} {half:.10g} units box",
              f"create_box {n_types} reg",
@@ -444,8 +298,7 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
              *model_lines,
              f"timestep {dt:.10g}"]
     if wall:
-        lines += _wall_commands(engine, p, wt, zlo=0.0, cohesion_model=None,
-                                reference_radius=r1, reference_overlap=REFERENCE_OVERLAP)
+        lines += d.plane_wall(p, wt, zlo=0.0)
         lines += [f"create_atoms 1 single 0 0 {r1 + s:.10g} units box",
                   f"set atom 1 diameter {2 * r1:.10g}",
                   f"set atom * density {p.density:.10g}",
@@ -466,8 +319,7 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
     lines += ["fix integr all nve/sphere",
               "thermo_style custom step time v_dist v_vx1 v_vx2 ke",
               f"thermo {int(thermo_every)}",
-              "thermo_modify norm no format float %.12g" if engine == "lammps"
-              else "thermo_modify norm no",
+              d.impact_thermo_modify,
               f"run {steps}"]
     return "\n".join(lines) + "\n"
 
@@ -511,7 +363,7 @@ def impact_result(log: EngineLog, radius1: float, radius2: float | None = None) 
 
     Examples
     --------
-    >>> from bedstruct.dem.backends import parse_log
+    >>> from bedstruct.engines import parse_log
     >>> text = ('LAMMPS (x)\\nStep Time v_dist v_vx1 v_vx2 KinEng\\n'
     ...         '0 0 2.2 1 -1 1\\n1 1 1.8 0 0 0\\n2 2 1.9 0 0 0\\n3 3 2.1 -0.5 0.5 1\\n'
     ...         'Loop time of 1 on 1 procs for 3 steps with 2 atoms\\n')

@@ -9,8 +9,11 @@ from pathlib import Path
 
 import numpy
 
-from ._common import as_granular_params, read_data_header, run_deck, write_sphere_data
-from .decks import bed_deck
+from ._bed import bed_deck
+from ._datafile import read_data_header, write_sphere_data
+from ._launch import run_deck
+from ._params import as_granular_params
+from ._registry import dialect
 
 __all__ = ["benchmark_external", "pour_bed", "loose_lattice", "cached_bed"]
 
@@ -210,7 +213,7 @@ def pour_bed(out_data, *, n_particles: int = 20000, engine: str = "liggghts", np
         # second stage at normal gravity, then write the bed
         deck += (f"unfix gravi\nfix gravi2 all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0\n"
                  f"run {steps - fall}\n"
-                 f"write_data {out_data}" + (" nocoeff" if engine == "lammps" else "") + "\n")
+                 f"{dialect(engine).write_data_line(out_data)}\n")
         deck_path = wd / "pour.in"
         deck_path.write_text(deck)
         res = run_deck(deck_path, engine=engine, np=np, cwd=wd, timeout=timeout)
@@ -253,16 +256,13 @@ def cached_bed(n_particles: int = 20000, *, cache_dir=None, engine: str | None =
     FileNotFoundError
         If the bed is not cached and no engine is installed.
     """
-    from .lammps import find_lammps
-    from .liggghts import find_liggghts
-
     folder = Path(cache_dir) if cache_dir is not None else Path(tempfile.gettempdir()) / "bedstruct-engines"
     path = folder / f"bed{int(n_particles)}_seed{int(rng)}.data"
     if path.is_file():
         return path
     if engine is None:
-        engine = "lammps" if find_lammps() is not None else (
-            "liggghts" if find_liggghts() is not None else None)
+        found = [name for name in ("lammps", "liggghts") if dialect(name).find() is not None]
+        engine = found[0] if found else None
         if engine is None:
             raise FileNotFoundError(f"{path} is not cached and neither LAMMPS nor LIGGGHTS is "
                                     "installed to pour it (run .ci/install-engines.sh)")

@@ -1,0 +1,336 @@
+"""The LIGGGHTS 3.8 dialect (:class:`LiggghtsDialect`): the Debian ``liggghts`` binary
+under OpenMPI (:func:`find_liggghts`), the seed's contact model as ``pair_style gran
+model hertz tangential history`` with SJKR cohesion and EPSD2 rolling friction
+(:func:`liggghts_model_commands`), and walls as STL meshes (``fix mesh/surface``)
+moved by ``fix move/mesh``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+from ._dialect import Dialect, path_word
+from ._launch import EngineInfo
+from ._params import GranularParams
+from ._registry import register
+from ._stl import RollerGeometry, _chamber_meshes, repose_wall_stls, write_stl
+
+__all__ = ["LiggghtsDialect", "LiquidBridges", "find_liggghts", "liggghts_model_commands",
+           "liggghts_wall_model"]
+
+_RUN_AS_ROOT = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+
+
+def _openmpi_launcher() -> str | None:
+    for name in ("mpirun.openmpi", "orterun", "mpiexec.openmpi"):
+        path = shutil.which(name)
+        if path:
+            return path
+    path = shutil.which("mpirun")
+    if path:
+        try:
+            out = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=20,
+                                 env={**os.environ, **_RUN_AS_ROOT}).stdout
+        except (OSError, subprocess.SubprocessError):
+            return None
+        if "Open MPI" in out or "OpenRTE" in out:
+            return path
+    return None
+
+
+def find_liggghts(executable: str | None = None) -> EngineInfo | None:
+    """Locate LIGGGHTS and the OpenMPI launcher it was built against.
+
+    Looks at ``executable``, then ``$BEDSTRUCT_LIGGGHTS``, then ``liggghts`` on
+    ``PATH`` (Debian package ``liggghts``, 3.8.0). The Debian binary links
+    OpenMPI (``libmpi.so.40``), so the launcher is ``mpirun.openmpi`` (or
+    ``orterun``), never an MPICH ``mpirun`` that a virtual environment may put
+    first on ``PATH``. When running as root, OpenMPI's run-as-root switches are
+    added to the environment, and ``--oversubscribe`` to the launcher flags.
+
+    Parameters
+    ----------
+    executable : str, optional
+        Explicit path or name of the LIGGGHTS binary.
+
+    Returns
+    -------
+    EngineInfo or None
+        None when no binary is found.
+
+    Examples
+    --------
+    >>> info = find_liggghts()
+    >>> info is None or info.name == "liggghts"
+    True
+    """
+    exe = executable or os.environ.get("BEDSTRUCT_LIGGGHTS") or "liggghts"
+    path = shutil.which(exe)
+    if path is None:
+        return None
+    env = {"OMPI_MCA_btl_vader_single_copy_mechanism": "none"}
+    if hasattr(os, "geteuid") and os.geteuid() == 0:
+        env.update(_RUN_AS_ROOT)
+    return EngineInfo("liggghts", path, _openmpi_launcher(), ("--oversubscribe",), env)
+
+
+def _fmt(x: float) -> str:
+    return f"{float(x):.10g}"
+
+
+def liggghts_wall_model(params: GranularParams) -> str:
+    """The ``model ...`` words shared by ``pair_style gran`` and ``fix wall/gran``.
+
+    Cohesion (``sjkr``) and rolling friction (``epsd2``) are included only when
+    their coefficients are non-zero for particles or walls.
+
+    Examples
+    --------
+    >>> liggghts_wall_model(GranularParams(cohesion_energy_density=3.2e7))
+    'model hertz tangential history cohesion sjkr rolling_friction epsd2'
+    >>> liggghts_wall_model(GranularParams(rolling_friction=0.0))
+    'model hertz tangential history'
+    """
+    words = "model hertz tangential history"
+    if params.cohesion_energy_density > 0 or params.wall("cohesion_energy_density") > 0:
+        words += " cohesion sjkr"
+    if params.rolling_friction > 0 or params.wall("rolling_friction") > 0:
+        words += " rolling_friction epsd2"
+    return words
+
+
+def liggghts_model_commands(params: GranularParams, *, n_types: int = 2) -> tuple[list[str], int]:
+    """Material fixes and ``pair_style gran`` lines for ``n_types`` atom types.
+
+    Particles are type 1; walls use type 2 when ``n_types >= 2`` (their own
+    coefficients), else type 1 (then the wall values must equal the particle
+    values).
+
+    Returns
+    -------
+    lines : list of str
+    wall_type : int
+
+    Raises
+    ------
+    ValueError
+        If walls need their own coefficients but the box has one atom type.
+
+    Examples
+    --------
+    >>> lines, wt = liggghts_model_commands(GranularParams(youngs_modulus=1e8), n_types=2)
+    >>> lines[0]
+    'fix m1 all property/global youngsModulus peratomtype 100000000 100000000'
+    >>> wt
+    2
+    """
+    p = params
+    if n_types >= 2:
+        wt = 2
+    else:
+        wt = 1
+        for name in ("youngs_modulus", "poisson_ratio", "restitution", "friction",
+                     "rolling_friction", "cohesion_energy_density"):
+            if p.wall(name) != getattr(p, name):
+                raise ValueError(f"wall {name} differs from the particle value but the data file "
+                                 "declares 1 atom type; write it with n_types=2 so that walls "
+                                 "get atom type 2")
+
+    def per_type(name):
+        vals = [p.wall(name) if t == wt else getattr(p, name) for t in range(1, n_types + 1)]
+        return " ".join(_fmt(v) for v in vals)
+
+    def per_pair(name):
+        vals = []
+        for i in range(1, n_types + 1):
+            for j in range(1, n_types + 1):
+                wall = (i == wt) != (j == wt)
+                vals.append(p.wall(name) if wall else getattr(p, name))
+        return f"{n_types} " + " ".join(_fmt(v) for v in vals)
+
+    lines = [
+        f"fix m1 all property/global youngsModulus peratomtype {per_type('youngs_modulus')}",
+        f"fix m2 all property/global poissonsRatio peratomtype {per_type('poisson_ratio')}",
+        f"fix m3 all property/global coefficientRestitution peratomtypepair {per_pair('restitution')}",
+        f"fix m4 all property/global coefficientFriction peratomtypepair {per_pair('friction')}",
+    ]
+    model = liggghts_wall_model(p)
+    if "epsd2" in model:
+        lines.append("fix m5 all property/global coefficientRollingFriction peratomtypepair "
+                     f"{per_pair('rolling_friction')}")
+    if "sjkr" in model:
+        lines.append("fix m6 all property/global cohesionEnergyDensity peratomtypepair "
+                     f"{per_pair('cohesion_energy_density')}")
+    lines += [f"pair_style gran {model}", "pair_coeff * *"]
+    return lines, wt
+
+
+@dataclass(frozen=True)
+class LiquidBridges:
+    """Liquid bridges between particles: LIGGGHTS' ``cohesion easo/capillary/viscous`` (SI).
+
+    LIGGGHTS 3.8 allows one cohesion model, so the bridges replace the particles'
+    SJKR cohesion in ``pair_style gran`` (its coefficients stay declared); the walls
+    keep their model. The bridge law is LIGGGHTS' own (Easo), not the embedded
+    engine's Willett bridges (``effects.capillary``).
+
+    Parameters
+    ----------
+    surface_tension : float, N/m
+    liquid_volume_fraction : float
+        ``surfaceLiquidContentInitial``: liquid volume per particle volume.
+    contact_angle : float, rad
+        Written per atom type in degrees (LIGGGHTS 3.8 reads degrees).
+    fluid_viscosity : float, Pa s
+    min_separation_ratio, max_separation_ratio : float
+        ``minSeparationDistanceRatio`` and ``maxSeparationDistanceRatio``.
+
+    Examples
+    --------
+    >>> LiquidBridges(0.072, 1e-3).lines(2)[3]
+    'fix twc4 all property/global contactAngle peratomtype 20 20'
+    """
+
+    surface_tension: float
+    liquid_volume_fraction: float
+    contact_angle: float = math.radians(20.0)
+    fluid_viscosity: float = 1e-3
+    min_separation_ratio: float = 1.01
+    max_separation_ratio: float = 1.1
+
+    def __post_init__(self):
+        if not (self.surface_tension > 0 and self.liquid_volume_fraction > 0):
+            raise ValueError("liquid bridges: `surface_tension` and `liquid_volume_fraction` "
+                             "must be > 0")
+
+    def lines(self, n_types: int) -> list[str]:
+        """The ``property/global`` lines of the model for ``n_types`` atom types."""
+        return [
+            "fix twc1 all property/global surfaceLiquidContentInitial scalar "
+            f"{_fmt(self.liquid_volume_fraction)}",
+            f"fix twc2 all property/global surfaceTension scalar {_fmt(self.surface_tension)}",
+            f"fix twc3 all property/global fluidViscosity scalar {_fmt(self.fluid_viscosity)}",
+            "fix twc4 all property/global contactAngle peratomtype "
+            + " ".join([_fmt(math.degrees(self.contact_angle))] * n_types),
+            "fix twc5 all property/global minSeparationDistanceRatio scalar "
+            f"{_fmt(self.min_separation_ratio)}",
+            "fix twc6 all property/global maxSeparationDistanceRatio scalar "
+            f"{_fmt(self.max_separation_ratio)}",
+        ]
+
+    def pair_model(self, model: str) -> str:
+        """``model`` words (:func:`liggghts_wall_model`) with the bridges as the cohesion."""
+        if " cohesion sjkr" in model:
+            return model.replace(" cohesion sjkr", " cohesion easo/capillary/viscous")
+        return model.replace("tangential history",
+                             "tangential history cohesion easo/capillary/viscous", 1)
+
+
+def _mesh_walls(meshes: dict, p, wt: int, *, back_plane: bool = False, loaded=(),
+                wall_fix: str = "wmesh") -> list[str]:
+    """One ``fix mesh/surface`` per mesh (name -> STL path), all in one ``fix wall/gran``
+    (LIGGGHTS allows one mesh wall/gran fix); with ``back_plane`` also the primitive plane
+    ``x = 0``. Meshes named in ``loaded`` are ``mesh/surface/stress``: their fix's global
+    vector holds the total force (and torque) of the particles on them."""
+    wm = liggghts_wall_model(p)
+    lines = [f"fix {name} all mesh/surface{'/stress' if name in loaded else ''} file "
+             f"{path_word(path)} type {wt} curvature_tolerant yes"
+             for name, path in meshes.items()]
+    lines.append(f"fix {wall_fix} all wall/gran {wm} mesh n_meshes {len(meshes)} meshes "
+                 + " ".join(meshes))
+    if back_plane:
+        lines.append(f"fix wback all wall/gran {wm} primitive type {wt} xplane 0.0")
+    return lines
+
+
+@register
+@dataclass(frozen=True)
+class LiggghtsDialect(Dialect):
+    """LIGGGHTS 3.8: walls are STL meshes in one ``fix wall/gran`` (``fix move/mesh`` moves
+    them), the particle-wall coefficients those of atom type 2.
+
+    Parameters
+    ----------
+    liquid_bridges : LiquidBridges, optional
+        Liquid bridges between particles (``cohesion easo/capillary/viscous``).
+
+    Examples
+    --------
+    >>> d = LiggghtsDialect()
+    >>> d.moving_run("mvplate", "plate", "-0.5 0 0", 10)
+    ['fix mvplate all move/mesh mesh plate linear -0.5 0 0', 'run 10', 'unfix mvplate']
+    """
+
+    name = "liggghts"
+    executable_name = "liggghts"
+    atom_style = "granular"
+    comm_vel = "communicate single vel yes"
+    # compute pair/gran/local pos id force contactArea delta
+    contact_dump_columns = "x1 y1 z1 x2 y2 z2 id1 id2 periodic fx fy fz contact_area overlap"
+    tool_load = ("f_tool", "")
+
+    liquid_bridges: LiquidBridges | None = None
+
+    def find(self, executable=None):
+        return find_liggghts(executable)
+
+    def model_lines(self, p, *, n_types, soft=False):
+        lines, wt = liggghts_model_commands(p, n_types=n_types)
+        if self.liquid_bridges is not None:
+            *props, pair_style, pair_coeff = lines
+            pair_style = "pair_style gran " + self.liquid_bridges.pair_model(
+                pair_style[len("pair_style gran "):])
+            lines = [*props, *self.liquid_bridges.lines(n_types), pair_style, pair_coeff]
+        if soft and min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
+            # LIGGGHTS refuses E < 5e6 Pa in SI units unless told (softened moduli are deliberate)
+            lines = ["soft_particles yes", *lines]
+        return lines, wt
+
+    def plane_wall(self, p, wall_type, *, zlo):
+        return [f"fix wbottom all wall/gran {liggghts_wall_model(p)} primitive type "
+                f"{wall_type} zplane {zlo:.10g}"]
+
+    def moving_blade(self, p, wall_type, blade, *, stl_path):
+        if stl_path is None:
+            raise ValueError("LIGGGHTS needs the blade as an STL file: pass `stl_path` "
+                             "(write it with blade.write_stl(...))")
+        return [*_mesh_walls({"blade": stl_path}, p, wall_type, wall_fix="wblade"),
+                f"fix mvblade all move/mesh mesh blade linear {blade.speed:.10g} 0 0"]
+
+    def contact_computes(self, *, tangential=False):
+        return ["compute cpl all pair/gran/local pos id force contactArea delta"]
+
+    def contact_columns(self, *, tangential=False):
+        return " ".join(f"c_cpl[{i}]" for i in range(1, 15))
+
+    def moving_run(self, fix, mesh, velocity, steps, *, rotate=None):
+        lines = [f"fix {fix} all move/mesh mesh {mesh} linear {velocity}"]
+        if rotate is None:
+            return lines + [f"run {steps}", f"unfix {fix}"]
+        # superposed on the translation: the rotation axis moves with the mesh
+        rot = f"rot{mesh}"
+        return lines + [f"fix {rot} all move/mesh mesh {mesh} rotate {rotate}",
+                        f"run {steps}", f"unfix {rot}", f"unfix {fix}"]
+
+    def repose_walls(self, geometry, schedule, p, wall_type, *, stl_folder):
+        if stl_folder is None:
+            raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
+        return _mesh_walls(repose_wall_stls(geometry, stl_folder), p, wall_type)
+
+    def spread_walls(self, plan, p, wall_type, *, stl_folder):
+        if stl_folder is None:
+            raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
+        tool, W = plan.tool, plan.width
+        meshes = _chamber_meshes(stl_folder, plan.plate_length, W, -float(plan.gaps[0]),
+                                 plan.chamber_depth)
+        folder = Path(stl_folder)
+        if isinstance(tool, RollerGeometry):
+            meshes["tool"] = write_stl(folder / "tool.stl", tool.triangles(0.0, W), name="roller")
+        else:
+            meshes["tool"] = tool.write_stl(folder / "tool.stl", 0.0, W, caps=False)
+        return _mesh_walls(meshes, p, wall_type, back_plane=True, loaded=("tool",))

@@ -1,0 +1,274 @@
+"""The dialects: each engine's spelling of the same scenarios, and what they refuse.
+
+The expected decks and lines below were written by the deck generators before they were
+organised by engine; a change of any byte of them is a change of behaviour. No engine
+is needed: decks are text.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bedstruct.engines import (BladeGeometry, Dialect, GranularParams, LammpsDialect, LiquidBridges,
+                               LiggghtsDialect, ReposeGeometry, ReposeSchedule, RollerGeometry,
+                               SpreadLayersPlan, bed_deck, dialect, impact_deck, repose_deck,
+                               spread_layers_deck, write_sphere_data)
+from bedstruct.errors import ConfigError
+
+IMPACT_LAMMPS = """\
+# bedstruct deck for lammps: head-on impact on a sphere
+atom_style sphere
+atom_modify map array
+boundary f f f
+newton off
+comm_modify vel yes
+units si
+region reg block -0.0008 0.0008 -0.0008 0.0008 -0.0008 0.0008 units box
+create_box 1 reg
+neighbor 2e-06 bin
+neigh_modify delay 0
+pair_style granular
+pair_coeff * * hertz/material 10000000 0.1 0.3 damping coeff_restitution tangential mindlin NULL 1.0 0.4 rolling sds 2.861789738 0.0 0.05
+timestep 1e-09
+create_atoms 1 single -2.1e-05 0 0 units box
+create_atoms 1 single 2.1e-05 0 0 units box
+set atom 1 diameter 4e-05
+set atom 2 diameter 4e-05
+set atom * density 8300
+velocity all set 0 0 0 units box
+set atom 1 vx 0.5
+set atom 2 vx -0.5
+variable dist equal x[2]-x[1]
+variable vx1 equal vx[1]
+variable vx2 equal vx[2]
+fix integr all nve/sphere
+thermo_style custom step time v_dist v_vx1 v_vx2 ke
+thermo 3
+thermo_modify norm no format float %.12g
+run 21771
+"""
+
+IMPACT_LIGGGHTS_WALL = """\
+# bedstruct deck for liggghts: head-on impact on a wall
+atom_style granular
+atom_modify map array
+boundary f f f
+newton off
+communicate single vel yes
+units si
+region reg block -0.0008 0.0008 -0.0008 0.0008 -2e-05 0.0008 units box
+create_box 2 reg
+neighbor 2e-06 bin
+neigh_modify delay 0
+fix m1 all property/global youngsModulus peratomtype 10000000 200000000
+fix m2 all property/global poissonsRatio peratomtype 0.3 0.3
+fix m3 all property/global coefficientRestitution peratomtypepair 2 0.1 0.5 0.5 0.1
+fix m4 all property/global coefficientFriction peratomtypepair 2 0.4 0.6 0.6 0.4
+fix m5 all property/global coefficientRollingFriction peratomtypepair 2 0.05 0.1 0.1 0.05
+pair_style gran model hertz tangential history rolling_friction epsd2
+pair_coeff * *
+timestep 1e-09
+fix wbottom all wall/gran model hertz tangential history rolling_friction epsd2 primitive type 2 zplane 0
+create_atoms 1 single 0 0 2.1e-05 units box
+set atom 1 diameter 4e-05
+set atom * density 8300
+velocity all set 0 0 0 units box
+set atom 1 vz -1
+variable dist equal z[1]
+variable vx1 equal vz[1]
+variable vx2 equal 0.0
+fix integr all nve/sphere
+thermo_style custom step time v_dist v_vx1 v_vx2 ke
+thermo 3
+thermo_modify norm no
+run 18551
+"""
+
+WALLS = GranularParams(wall_friction=0.6, wall_youngs_modulus=2e8, wall_restitution=0.5,
+                       wall_rolling_friction=0.1, wall_cohesion_energy_density=1e4)
+
+
+def lines(deck, prefix):
+    return [ln for ln in deck.splitlines() if ln.startswith(prefix)]
+
+
+@pytest.fixture
+def bed(tmp_path):
+    rng = np.random.default_rng(1)
+    pos = rng.uniform(0, 4e-4, (30, 3))
+    rad = rng.uniform(1e-5, 3e-5, 30)
+    return write_sphere_data(tmp_path / "bed.data", pos, rad, box_lo=[0, 0, 0],
+                             box_hi=[4e-4, 4e-4, 8e-4], n_types=2)
+
+
+def test_impact_decks_are_those_written_before_the_dialects():
+    assert impact_deck(GranularParams(), engine="lammps", dt=1e-9, gap=0.05,
+                       thermo_every=3) == IMPACT_LAMMPS
+    assert impact_deck(WALLS, engine=LiggghtsDialect(), target="wall", dt=1e-9, gap=0.05,
+                       thermo_every=3) == IMPACT_LIGGGHTS_WALL
+
+
+def test_dialect_by_name_or_object():
+    assert isinstance(dialect("liggghts"), LiggghtsDialect)
+    d = dialect("lammps", cohesion_model="jkr", reference_radius=2e-5)
+    assert (d.cohesion_model, d.reference_radius) == ("jkr", 2e-5)
+    assert dialect(d) is d
+    assert dialect("liggghts", cohesion_model="dmt") == LiggghtsDialect()  # not its option
+    with pytest.raises(ConfigError, match="'liggghts' or 'lammps'"):
+        dialect("embedded")
+    assert issubclass(LammpsDialect, Dialect) and issubclass(LiggghtsDialect, Dialect)
+
+
+def test_bed_deck_key_lines(bed):
+    lig = bed_deck(bed, WALLS, engine="liggghts", steps=10, dt=1e-7, write_data="out.data",
+                   contacts="c.dump")
+    assert lines(lig, "pair_style") == [
+        "pair_style gran model hertz tangential history cohesion sjkr rolling_friction epsd2"]
+    assert lines(lig, "fix wbottom") == [
+        "fix wbottom all wall/gran model hertz tangential history cohesion sjkr rolling_friction "
+        "epsd2 primitive type 2 zplane 0"]
+    assert lines(lig, "fix m6") == [
+        "fix m6 all property/global cohesionEnergyDensity peratomtypepair 2 0 10000 10000 0"]
+    assert lig.endswith("run 10\nwrite_data out.data\n")
+    assert lines(lig, "dump dloc") == ["dump dloc all local 10 c.dump "
+                                       + " ".join(f"c_cpl[{i}]" for i in range(1, 15))]
+    lmp = bed_deck(bed, GranularParams(rolling_friction=0.0), engine="lammps", steps=10, dt=1e-7,
+                   write_data="out.data", fabric=True)
+    assert lines(lmp, "fix wbottom") == [
+        "fix wbottom all wall/gran granular hertz/material 10000000 0.1 0.3 damping "
+        "coeff_restitution tangential mindlin NULL 1.0 0.4 zplane 0 NULL"]
+    assert lines(lmp, "compute fab") == ["compute fab all fabric radius contact force/normal"]
+    assert lmp.endswith("run 10\nwrite_data out.data nocoeff\n")
+
+
+def test_repose_deck_key_lines(bed, tmp_path):
+    g = ReposeGeometry(4e-4, 4e-4, 4e-4, periodic_width=False, ledge_fraction=0.6,
+                       plate_speed=0.5, slide=4e-4, wall_thickness=5e-5)
+    s = ReposeSchedule.from_times(1e-7, fill=1e-5, slide=8e-4, drain=1e-5, n_frames=3)
+    lig = repose_deck(bed, GranularParams(youngs_modulus=1e6), engine="liggghts", geometry=g,
+                      schedule=s, stl_folder=tmp_path)
+    assert lines(lig, "soft_particles") == ["soft_particles yes"]
+    assert lines(lig, "fix wmesh") == [
+        "fix wmesh all wall/gran model hertz tangential history rolling_friction epsd2 mesh "
+        "n_meshes 3 meshes plate sides ledge"]
+    i = lig.splitlines().index("fix mvplate all move/mesh mesh plate linear -0.5 0 0")
+    assert lig.splitlines()[i:i + 4] == ["fix mvplate all move/mesh mesh plate linear -0.5 0 0",
+                                         f"run {s.slide_steps}", "unfix mvplate",
+                                         f"run {s.drain_steps}"]
+    lmp = repose_deck(bed, engine="lammps", geometry=g, schedule=s)
+    assert [ln.split()[1] for ln in lines(lmp, "region")] == [
+        "plate", "wxlo", "wxhi", "wylo", "wyhi", "ledge"]
+    assert lines(lmp, "variable px") == [
+        "variable px equal -5e-08*((step-100)*(step>100)-(step-8100)*(step>8100))"]
+    assert "soft_particles yes" not in lmp and "move/mesh" not in lmp
+
+
+def _plan(tool, n_layers=2):
+    ids = tuple((1 + 10 * k, 10 * (k + 1)) for k in range(n_layers))
+    return SpreadLayersPlan(3e-3, 4e-4, (5e-5,) * n_layers, tool, ids,
+                            tuple([0.0] + [1e-3 * k for k in range(1, n_layers)]), (2e-4, 8e-4),
+                            1e-6, x_end=3.2e-3, n_frames=4, chamber_depth=2e-4,
+                            landing_intervals=4, landing_margin=3e-5, pile_lift=1e-5,
+                            clear=6e-5, wall_thickness=5e-5)
+
+
+def test_spread_deck_same_sequence_on_both_engines(bed, tmp_path):
+    roller = RollerGeometry(x0=1e-4, z_bottom=0.0, radius=8e-5, speed=0.1, omega=50.0)
+    plan = _plan(roller)
+    lig = spread_layers_deck(bed, engine="liggghts", plan=plan, stl_folder=tmp_path)
+    lmp = spread_layers_deck(bed, engine="lammps", plan=plan)
+    # the scenario's sequence is the engine's: the same runs, prints and displacements
+    for prefix in ("run ", "print ", "displace_atoms", "variable off", "group ", "undump"):
+        assert lines(lig, prefix) == lines(lmp, prefix), prefix
+    # the same dumps (files and steps); their contact columns are the engine's
+    assert ([ln.split()[:6] for ln in lines(lig, "dump ")]
+            == [ln.split()[:6] for ln in lines(lmp, "dump ")])
+    assert lines(lig, "fix rottool") == [
+        "fix rottool all move/mesh mesh tool rotate origin 0.0001 0.0002 8e-05 axis 0 1 0 "
+        "period 0.1256637061"] * 2   # one stroke per layer
+    assert lines(lig, "fix tool ") == [
+        f"fix tool all mesh/surface/stress file {(tmp_path / 'tool.stl').resolve()} type 2 "
+        "curvature_tolerant yes"]
+    assert lines(lmp, "region tool") == [
+        "region tool cylinder y 0.0001 8e-05 8e-05 INF INF side out move v_bx NULL v_bz rotate "
+        "v_th 0.0001 0.0002 8e-05 0 1 0 units box"]
+    assert lines(lmp, "fix wtool") and lines(lmp, "fix wtool")[0].endswith("region tool contacts")
+    assert lines(lig, "fix tload01") == [
+        "fix tload01 all ave/time 1 1 1 f_tool[1] f_tool[2] f_tool[3] ave running"]
+    assert lines(lmp, "variable tfx01") == ["variable tfx01 equal -f_tload01[1]"]
+
+
+def test_refusals_name_what_the_engine_cannot_realise(bed):
+    with pytest.raises(ConfigError, match="liggghts cannot realise `fabric`"):
+        bed_deck(bed, engine="liggghts", steps=1, dt=1e-7, fabric=True)
+    with pytest.raises(ConfigError, match="lammps cannot realise `fabric`.*DMT/JKR"):
+        bed_deck(bed, GranularParams(cohesion_energy_density=1e4), engine="lammps", steps=1,
+                 dt=1e-7, fabric=True, cohesion_model="dmt")
+    with pytest.raises(ValueError, match="LAMMPS has no SJKR"):
+        bed_deck(bed, GranularParams(cohesion_energy_density=1e4), engine="lammps", steps=1,
+                 dt=1e-7)
+    for name in ("liggghts", "lammps"):
+        d = dialect(name)
+        d.check_effects({"capillary": False, "blade_ramp_time": 0.0}, spreading=True)
+        with pytest.raises(ConfigError, match=f"engine '{name}'.*effects.capillary"):
+            d.check_effects({"capillary": True})
+        with pytest.raises(ConfigError, match="effects.blade_ramp_time"):
+            d.check_effects({"blade_ramp_time": 1e-3}, spreading=True)
+        d.check_effects({"blade_ramp_time": 1e-3}, spreading=False)  # repose has no blade
+
+
+def test_cohesion_options_per_engine():
+    p = GranularParams(cohesion_energy_density=1e4)
+    assert dialect("liggghts").cohesion_options(p, "none") == (p, None)
+    assert dialect("lammps").cohesion_options(p, "jkr") == (p, "jkr")
+    dropped, cm = dialect("lammps").cohesion_options(p, "none")
+    assert cm is None and dropped.cohesion_energy_density == 0.0
+    blade = BladeGeometry(x0=0.0, z_bottom=0.0, speed=0.1, bevel_deg=10.0)
+    assert dialect("liggghts").approximations(tool=blade) == []
+    assert "unbevelled" in dialect("lammps").approximations(tool=blade)[0]
+
+
+@pytest.mark.parametrize("params", [GranularParams(), GranularParams(cohesion_energy_density=1e4,
+                                                                     rolling_friction=0.0)])
+def test_liquid_bridges_are_a_liggghts_option(bed, tmp_path, params):
+    # the same deck as the diagnosis' rewriting of a finished deck, written directly
+    from bedstruct.diagnose.liggghts_effects import with_capillary_bridges
+    bridges = LiquidBridges(0.072, 2e-3, contact_angle=0.3, fluid_viscosity=2e-3)
+    g = ReposeGeometry(4e-4, 4e-4, 4e-4, slide=4e-4, plate_speed=0.5)
+    s = ReposeSchedule.from_times(1e-7, fill=1e-5, slide=8e-4, drain=1e-5, n_frames=3)
+    plain = repose_deck(bed, params, engine="liggghts", geometry=g, schedule=s,
+                        stl_folder=tmp_path)
+    direct = repose_deck(bed, params, engine=LiggghtsDialect(liquid_bridges=bridges), geometry=g,
+                         schedule=s, stl_folder=tmp_path)
+    assert direct == with_capillary_bridges(plain, surface_tension=0.072,
+                                            liquid_volume_fraction=2e-3, contact_angle=0.3,
+                                            fluid_viscosity=2e-3)
+    assert "cohesion easo/capillary/viscous" in lines(direct, "pair_style")[0]
+    assert "easo" not in " ".join(lines(direct, "fix wmesh"))   # the walls keep their model
+
+
+def test_an_option_an_engine_lacks_is_refused_by_name(bed):
+    bridges = LiquidBridges(0.072, 1e-3)
+    with pytest.raises(ConfigError, match="lammps cannot realise `liquid_bridges`"):
+        dialect("lammps", liquid_bridges=bridges)
+    with pytest.raises(ConfigError, match="lammps cannot realise `liquid_bridges`"):
+        dialect(LammpsDialect(), liquid_bridges=bridges)
+    # a dialect object keeps its options where a writer's are left at None
+    coh = GranularParams(cohesion_energy_density=1e4)
+    by_object = bed_deck(bed, coh, engine=LammpsDialect(cohesion_model="dmt"), steps=1, dt=1e-7)
+    by_name = bed_deck(bed, coh, engine="lammps", cohesion_model="dmt", steps=1, dt=1e-7)
+    assert by_object == by_name and "dmt" in lines(by_name, "pair_coeff")[0]
+
+
+def test_a_contact_model_with_embedded_only_effects_is_refused():
+    from bedstruct.dem import ContactModel, Material
+    from bedstruct.engines import as_granular_params
+    base = dict(restitution=0.1, friction=0.4, rolling_friction=0.05)
+    mat = Material(1e7, 0.3, 8300.0)
+    assert as_granular_params(ContactModel(mat, **base)).rolling_friction == 0.05
+    wet = ContactModel(mat, capillary=True, capillary_film_thickness=1e-7, **base)
+    with pytest.raises(ConfigError, match="cannot realise the model's capillary"):
+        as_granular_params(wet)
+    with pytest.raises(ConfigError, match="rolling_model 'epsd2' only"):
+        as_granular_params(ContactModel(mat, rolling_model="cdt", **base))
