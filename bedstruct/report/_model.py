@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["Quantity", "Table", "Section", "Report", "run_section"]
+__all__ = ["Quantity", "Table", "Section", "Report", "run_section", "not_meaningful_section"]
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,13 @@ class Table:
 
 @dataclass
 class Section:
-    """A report section; ``status`` is ``"ok"``, ``"failed"`` or ``"skipped"``."""
+    """A report section.
+
+    ``status`` is ``"ok"``, ``"failed"``, ``"skipped"`` (the analysis found
+    nothing to measure, e.g. no pile) or ``"not meaningful"`` (the analysis
+    does not apply to this kind of input, e.g. German's law on a dilute flow;
+    ``text`` gives the reason and no numbers are reported).
+    """
 
     key: str
     title: str
@@ -120,6 +126,7 @@ class Report:
     settings: dict[str, Any]
     sections: list[Section] = field(default_factory=list)
     version: str = ""
+    state: dict | None = None
 
     def section(self, key: str) -> Section:
         for s in self.sections:
@@ -136,8 +143,16 @@ class Report:
         """The full, documented JSON document (schema ``bedstruct.report/1``)."""
         return {"schema": SCHEMA, "bedstruct_version": self.version, "title": self.title,
                 "inputs": _plain(self.inputs), "settings": _plain(self.settings),
+                "input_state": self._state_json(),
                 "sections": {s.key: s.to_json() for s in self.sections},
                 "failed_sections": self.failed}
+
+    def _state_json(self) -> dict | None:
+        if self.state is None:
+            return None
+        out = {k: v for k, v in self.state.items() if k != "evidence"}
+        out["evidence"] = {k: q.to_json() for k, q in self.state.get("evidence", {}).items()}
+        return out
 
     def summary(self) -> dict:
         """A compact summary: every number's value by ``section.key``, plus status."""
@@ -145,7 +160,9 @@ class Report:
         for s in self.sections:
             for k, q in s.numbers.items():
                 values[f"{s.key}.{k}"] = _plain(q.value)
-        return {"schema": SCHEMA, "title": self.title, "sections": {s.key: s.status for s in self.sections},
+        return {"schema": SCHEMA, "title": self.title,
+                "input_kind": self.state["kind"] if self.state else None,
+                "sections": {s.key: s.status for s in self.sections},
                 "failed_sections": self.failed, "values": values}
 
 
@@ -164,6 +181,11 @@ def run_section(key: str, title: str, func: Callable[[Section], None]) -> Sectio
         log.debug("section %s failed:\n%s", key, traceback.format_exc())
     section.seconds = time.perf_counter() - t0
     return section
+
+
+def not_meaningful_section(key: str, title: str, reason: str) -> Section:
+    """A section not run because its analysis does not apply to this input."""
+    return Section(key, title, status="not meaningful", text=reason)
 
 
 class _Skip(Exception):

@@ -20,7 +20,9 @@ td,th{border:1px solid #dde3ec;padding:.25em .6em;text-align:left;vertical-align
 th{background:#f3f6fa}td.num{text-align:right;font-variant-numeric:tabular-nums}
 .status{display:inline-block;padding:.05em .5em;border-radius:.6em;font-size:.8em;margin-left:.5em}
 .ok{background:#dff3e4;color:#185c2b}.failed{background:#fde2e1;color:#8a1c17}
-.skipped{background:#eceff3;color:#4a5568}figure{display:inline-block;margin:.6em .6em .6em 0}
+.skipped{background:#eceff3;color:#4a5568}.not-meaningful{background:#fff4d6;color:#7a5200}
+.state{border-left:4px solid #3867d6;background:#f3f6fd;padding:.6em 1em;margin:1em 0}
+.state.warn{border-left-color:#d69e2e;background:#fffaf0}.state b{font-size:1.1em}figure{display:inline-block;margin:.6em .6em .6em 0}
 figure img{max-width:100%;border:1px solid #e5e9f0}figcaption{font-size:.85em;color:#4a5568}
 .def{color:#4a5568;font-size:.88em}.ref{color:#718096;font-style:italic}.error{background:#fff5f5;border-left:4px solid #e53e3e;padding:.5em .8em}
 nav a{margin-right:.8em}
@@ -39,8 +41,9 @@ def _fmt(value) -> str:
 
 
 def _section_html(s: Section) -> str:
+    css = s.status.replace(" ", "-")
     parts = [f'<section id="{html.escape(s.key)}"><h2>{html.escape(s.title)}'
-             f'<span class="status {s.status}">{s.status}</span></h2>']
+             f'<span class="status {css}">{html.escape(s.status)}</span></h2>']
     if s.error:
         parts.append(f'<p class="error">This section failed: {html.escape(s.error)}. '
                      f'The rest of the report is unaffected.</p>')
@@ -68,6 +71,21 @@ def _section_html(s: Section) -> str:
     return "\n".join(parts)
 
 
+def _state_html(report: Report) -> str:
+    """The box at the top: what the input is, the evidence, and what is not reported."""
+    st = report.state
+    if not st:
+        return ""
+    bed = st["kind"] in ("settled bed", "pile")
+    parts = [f'<div class="state{"" if bed else " warn"}" id="input-state"><b>Input: {html.escape(st["kind"])}</b>'
+             f' &mdash; {html.escape(st["reason"])}.']
+    if st.get("not_meaningful"):
+        parts.append(" Not reported for this input: " + ", ".join(html.escape(k) for k in st["not_meaningful"])
+                     + " (each section says why).")
+    parts.append("</div>")
+    return "".join(parts)
+
+
 def render_html(report: Report) -> str:
     """The report as a self-contained HTML document (figures embedded as data URIs)."""
     nav = " ".join(f'<a href="#{html.escape(s.key)}">{html.escape(s.title)}</a>' for s in report.sections)
@@ -79,7 +97,7 @@ def render_html(report: Report) -> str:
             f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
             f"<h1>{html.escape(report.title)}</h1>"
             f"<p class=\"def\">bedstruct {html.escape(report.version)}</p>"
-            f"<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
+            f"{_state_html(report)}<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
 
 
 def _atomic_write(path: Path, text: str) -> None:

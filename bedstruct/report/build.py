@@ -15,7 +15,7 @@ import numpy as np
 
 from .._version import __version__
 from ..core import Contacts, Frame
-from ._model import Report, Section, Table, run_section, skip
+from ._model import Quantity, Report, Section, Table, not_meaningful_section, run_section, skip
 
 __all__ = ["ReportOptions", "build_report", "select_frames"]
 
@@ -155,6 +155,7 @@ class _Context:
         self.frame_indices = frame_indices
         self._contacts = contacts
         self._windows = None
+        self.state = None
 
     @property
     def length_unit(self) -> str:
@@ -465,8 +466,43 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     report = Report(title="bedstruct report", inputs=dict(inputs or {}),
                     settings=dataclasses.asdict(options),   # every option, so a rerun can match
                     version=__version__)
+    report.state = _state(ctx)
     todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
     from tqdm.auto import tqdm
     for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
+        why = ctx.state.not_meaningful.get(key) if ctx.state is not None else None
+        if why is not None:
+            report.sections.append(not_meaningful_section(key, title, f"Not meaningful for a {ctx.state.kind}: {why}."))
+            continue
         report.sections.append(run_section(key, title, lambda sec, f=func: f(ctx, sec)))
     return report
+
+
+def _state(ctx: _Context) -> dict:
+    """What the input is (:func:`bedstruct.analysis.bed_state`), for the top of the report."""
+    from ..analysis import bed_state
+    opt = ctx.options
+    try:
+        st = bed_state(ctx.frame, ctx.contacts, min_contacts=opt.min_contacts, axis=opt.axis_index)
+    except Exception as exc:   # the sections still run and say what they can
+        log.debug("bed_state failed", exc_info=True)
+        ctx.state = None
+        return {"kind": "unknown", "reason": f"could not be judged ({type(exc).__name__}: {exc})",
+                "evidence": {}, "not_meaningful": {}}
+    ctx.state = st
+    speed_unit = f"{ctx.length_unit}/s" if ctx.frame.units.style in ("si", "cgs") else "length/time"
+    evidence = {
+        "packing_fraction": Quantity(st.packing_fraction, "1", "particle volume over the volume of the "
+                                     "box enclosing all particles"),
+        "mean_coordination": Quantity(st.mean_coordination, "1", "mean contacts per particle"),
+        "network_fraction": Quantity(st.network_fraction, "1", f"fraction of particles held by the contact "
+                                     f"network (not rattlers, {st.min_contacts} or more contacts)"),
+        "median_speed": Quantity(st.median_speed, speed_unit, "median particle speed (none without velocities)"),
+        "rms_speed": Quantity(st.rms_speed, speed_unit, "mass-weighted rms speed sqrt(2 KE / M) "
+                              "(none without velocities)"),
+        "moving_fraction": Quantity(st.moving_fraction, "1", "fraction of particles faster than 0.1 sqrt(g d50) "
+                                    "(none without velocities or a known unit system)"),
+        "peak": Quantity(st.peak, "1", "top surface peak above its mean over the height (pile test)"),
+    }
+    return {"kind": st.kind, "reason": st.reason, "evidence": evidence,
+            "not_meaningful": dict(st.not_meaningful), "doc": DOCS + "analysis.md, What the input is"}

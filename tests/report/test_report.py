@@ -161,9 +161,11 @@ def test_repose_section_on_a_pile(tmp_path):
     angle = np.radians(30.0)
     pts = rng.uniform([-10, 0, 0], [10, 4, 6], size=(60000, 3))
     pile = pts[pts[:, 2] <= (10 - np.abs(pts[:, 0])) * np.tan(angle)]
-    frame = bedstruct.Frame(pile, np.full(len(pile), 0.05),
+    # radius 0.15: the spheres overlap into one network (with 0.05 the cloud is dilute, not a pile)
+    frame = bedstruct.Frame(pile, np.full(len(pile), 0.15),
                             box=bedstruct.Box([-12, 0, 0], [12, 4, 8], boundary="ff pp ff"))
     rep = build_report(frame)
+    assert rep.state["kind"] == "pile", rep.state["reason"]
     sec = rep.section("repose")
     assert sec.status == "ok", sec.text
     assert abs(sec.numbers["angle_deg"].value - 30.0) < 1.5
@@ -242,3 +244,59 @@ def test_d50_shift_is_none_when_the_end_region_is_empty():
     sec = build_report(f).section("psd")
     assert [row[1] for row in sec.tables[0].rows] == [3, 1, 0]
     assert sec.numbers["d50_shift_start_to_end"].value is None     # not centre minus start
+
+
+def _falling_gas(n=100, speed=0.5):
+    """100 spheres of 50 um far apart (packing ~0.01, no contacts), falling: a dilute flow."""
+    rng = np.random.default_rng(4)
+    g = np.stack(np.meshgrid(*[np.arange(5)] * 3, indexing="ij"), -1).reshape(-1, 3)[:n]
+    pos = (g + 0.5) * 200e-6 + rng.normal(0, 5e-6, (n, 3))
+    v = np.zeros((n, 3))
+    v[:, 2] = -speed
+    return bedstruct.Frame(pos, np.full(n, 25e-6), box=bedstruct.Box([0, 0, 0], [1e-3] * 3, boundary="pp pp ff"),
+                           velocities=v).with_units("si")
+
+
+def _static_numbers(rep):
+    return [k for k in rep.summary()["values"] if k.startswith(("coordination.german", "surface.", "repose."))]
+
+
+def test_a_dilute_flow_is_not_reported_as_a_bed(tmp_path):
+    rep = build_report(_falling_gas())
+    assert rep.state["kind"] == "dilute flow"
+    assert rep.summary()["input_kind"] == "dilute flow"
+    for key in ("coordination", "surface", "fabric", "harmonics", "repose"):
+        sec = rep.section(key)
+        assert sec.status == "not meaningful" and sec.text.startswith("Not meaningful for a dilute flow")
+        assert not sec.numbers and not sec.figures
+    assert _static_numbers(rep) == []                          # no German a = 0, b = 0
+    assert rep.section("packing").status == "ok" and rep.section("psd").status == "ok"
+    html_path, json_path = write_report(rep, tmp_path)
+    doc = json.loads(json_path.read_text())
+    assert doc["input_state"]["kind"] == "dilute flow"
+    assert doc["input_state"]["evidence"]["mean_coordination"]["value"] == 0.0
+    assert "german" in doc["input_state"]["not_meaningful"]
+    html = html_path.read_text()
+    assert "<b>Input: dilute flow</b>" in html and html.index("Input: dilute flow") < html.index('id="summary"')
+    assert '<span class="status not-meaningful">not meaningful</span>' in html
+
+
+def test_a_bed_still_settling_is_not_reported_as_a_bed():
+    # the slab of `bed_dump`, every particle moving at 0.13 m/s (4 sqrt(g d) for 50 um spheres)
+    rng = np.random.default_rng(1)
+    g = np.stack(np.meshgrid(*[np.arange(k) for k in (24, 6, 4)], indexing="ij"), -1).reshape(-1, 3)
+    pos = ((g + 0.5) * 50.0 + rng.normal(0, 2.0, g.shape)) * 1e-6
+    v = rng.normal(0, 0.03, g.shape) + [0, 0, -0.13]
+    frame = bedstruct.Frame(pos, rng.uniform(23.0, 27.0, len(pos)) * 1e-6, velocities=v,
+                            box=bedstruct.Box([0, 0, 0], [1.2e-3, 0.3e-3, 0.4e-3], boundary="pp pp ff")).with_units("si")
+    rep = build_report(frame, options=ReportOptions(heat=True))
+    assert rep.state["kind"] == "moving bed"
+    assert rep.section("coordination").status == "not meaningful"
+    assert rep.section("heat").status == "not meaningful"
+    assert _static_numbers(rep) == []
+    # the same positions at rest are a settled bed with German's fit
+    still = bedstruct.Frame(frame.positions, frame.radii, box=frame.box, velocities=v * 1e-3).with_units("si")
+    rep = build_report(still)
+    assert rep.state["kind"] == "settled bed"
+    assert rep.section("coordination").status == "ok"
+    assert "german_a" in rep.section("coordination").numbers
