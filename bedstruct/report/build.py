@@ -14,6 +14,7 @@ from typing import Sequence
 import numpy as np
 
 from .._version import __version__
+from ..analysis.german import GERMAN_WINDOWS
 from ..core import Contacts, Frame
 from ._model import Quantity, Report, Section, Table, not_meaningful_section, run_section, skip
 
@@ -55,6 +56,9 @@ class ReportOptions:
     repose_base : float or None
         Height (length) of the plate the pile stands on; particles below it
         are ignored by the angle of repose. Default: found from the profile.
+    german_windows : int
+        Windows along the bed for German's-law fit (default 12, the library
+        default of :func:`bedstruct.analysis.german_law_along`).
     min_contacts : int
         Rattler threshold of the mechanical coordination number (default 2:
         with friction and cohesion a particle needs two contacts to be held
@@ -71,6 +75,7 @@ class ReportOptions:
     l_max: int = 8
     min_contacts: int = 2
     repose_base: float | None = None
+    german_windows: int = GERMAN_WINDOWS
 
     def __post_init__(self):
         if self.axis not in _AXES:
@@ -80,6 +85,8 @@ class ReportOptions:
         if self.l_max < 2 or self.l_max % 2:
             raise ValueError(f"`l_max` must be an even number >= 2; got {self.l_max}")
         _parse_frame_selection(self.frames)
+        if int(self.german_windows) < 3:
+            raise ValueError(f"`german_windows` must be at least 3; got {self.german_windows}")
 
     @property
     def axis_index(self) -> int:
@@ -212,7 +219,7 @@ def _packing(ctx: _Context, s: Section) -> None:
 
 
 def _coordination(ctx: _Context, s: Section) -> None:
-    from ..analysis import coordination, coordination_by_window, fit_german_law, packing_along
+    from ..analysis import coordination, coordination_by_window, german_law_along, packing_along
     f, opt = ctx.frame, ctx.options
     res = coordination(f, ctx.contacts, min_contacts=opt.min_contacts)
     s.add_number("mean", res.mean, "1", "mean number of contacts per particle",
@@ -224,12 +231,6 @@ def _coordination(ctx: _Context, s: Section) -> None:
                  "mechanical coordination number: mean contacts after iterative rattler removal")
     s.add_number("rattler_fraction", res.rattler_fraction, "1", "fraction of particles that are rattlers")
     s.add_number("n_contacts", ctx.contacts.n_contacts, "1", f"particle-particle contacts ({ctx.contacts.source})")
-    # German's law over windows along the bed (and over frames when several are given)
-    n_win = max(8, 3 * opt.regions)
-    prof = packing_along(f, n_win, axis=opt.axis_index)
-    wins = coordination_by_window(f, prof.lower, prof.upper, result=res)
-    ok = (np.asarray(wins.n_particles) >= 5) & np.isfinite(prof.fractions)
-    fs, cns = np.asarray(prof.fractions)[ok], np.asarray(wins.mean)[ok]
     region = packing_along(f, opt.regions, axis=opt.axis_index)
     per_region = coordination_by_window(f, region.lower, region.upper, result=res)
     rows = []
@@ -240,19 +241,28 @@ def _coordination(ctx: _Context, s: Section) -> None:
         s.add_number(f"mean_{name.replace(' ', '_')}", mean_k, "1", f"mean coordination in the {name} region")
     s.tables.append(Table(["region", "packing fraction", "mean CN", "mechanical CN", "particles"], rows,
                           caption="coordination and packing per region"))
-    if len(fs) >= 3:
-        fit = fit_german_law(fs, cns)
-        s.add_number("german_a", fit.a, "1", "fitted a in CN = 2a + 11 b f^2", DOCS + "analysis.md, German's law")
-        s.add_number("german_b", fit.b, "1", "fitted b in CN = 2a + 11 b f^2")
-        s.add_number("german_a_ci", list(fit.a_ci), "1", f"{fit.confidence:.0%} confidence interval of a")
-        s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
-        s.add_number("german_unfitted_deviation", fit.unfitted_deviation, "1",
-                     "mean absolute difference between CN = 2 + 11 f^2 and the measured CN")
-        from ..plot import plot_german
-        fig = _figure_of(plot_german(fit, label="windows"))
-        s.add_figure(fig, "Coordination number against packing fraction with German's law")
-    else:
-        s.text = "Too few populated windows for a German's-law fit (need at least 3)."
+    if ctx.state is not None and not ctx.state.meaningful("german"):
+        s.text = f"No German's-law fit: {ctx.state.not_meaningful['german']}."
+        return
+    # German's law: the library's one definition (german_law_along, its default windows)
+    german = german_law_along(f, n_windows=opt.german_windows, axis=opt.axis_index, coordination_result=res)
+    s.add_number("german_windows", german.n_used, "1", "windows fitted: " + german.definition,
+                 DOCS + "analysis.md, German's law")
+    fit = german.fit
+    if fit is None:
+        s.text = (f"Too few populated windows for a German's-law fit ({german.n_used} of "
+                  f"{german.n_windows} with at least {german.min_particles} particles; need 3).")
+        return
+    where = f"over {german.n_used} windows along {opt.axis}"
+    s.add_number("german_a", fit.a, "1", f"fitted a in CN = 2a + 11 b f^2, {where}", DOCS + "analysis.md, German's law")
+    s.add_number("german_b", fit.b, "1", f"fitted b in CN = 2a + 11 b f^2, {where}")
+    s.add_number("german_a_ci", list(fit.a_ci), "1", f"{fit.confidence:.0%} confidence interval of a")
+    s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
+    s.add_number("german_unfitted_deviation", fit.unfitted_deviation, "1",
+                 "mean absolute difference between CN = 2 + 11 f^2 and the measured CN")
+    from ..plot import plot_german
+    fig = _figure_of(plot_german(fit, label=f"{german.n_used} windows along {opt.axis}"))
+    s.add_figure(fig, f"Coordination number against packing fraction with German's law ({german.definition})")
 
 
 def _psd(ctx: _Context, s: Section) -> None:

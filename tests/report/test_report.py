@@ -300,3 +300,19 @@ def test_a_bed_still_settling_is_not_reported_as_a_bed():
     assert rep.state["kind"] == "settled bed"
     assert rep.section("coordination").status == "ok"
     assert "german_a" in rep.section("coordination").numbers
+
+
+def test_report_german_fit_is_the_library_default_and_says_its_windows(bed_dump):
+    from bedstruct.analysis import GERMAN_WINDOWS, german_law_along
+    frame = bedstruct.read_dump(bed_dump)[-1]
+    sec = build_report(frame).section("coordination")
+    lib = german_law_along(frame)
+    assert lib.n_windows == GERMAN_WINDOWS
+    assert sec.numbers["german_a"].value == lib.fit.a and sec.numbers["german_b"].value == lib.fit.b
+    assert sec.numbers["german_windows"].value == lib.n_used
+    assert lib.definition in sec.numbers["german_windows"].definition
+    assert f"over {lib.n_used} windows along x" in sec.numbers["german_a"].definition
+    # a different number of windows is a stated option, and gives the library's numbers for it
+    sec8 = build_report(frame, options=ReportOptions(german_windows=8)).section("coordination")
+    assert sec8.numbers["german_a"].value == german_law_along(frame, n_windows=8).fit.a
+    assert sec8.numbers["german_a"].value != lib.fit.a
