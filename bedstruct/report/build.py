@@ -344,17 +344,26 @@ def _harmonics(ctx: _Context, s: Section) -> None:
         skip(f"only {c.n_contacts} touching contacts")
     whole = harmonic_expansion(c.normals, opt.l_max)
     degrees = list(range(0, opt.l_max + 1, 2))
+    # P_l / P_0 throughout (numbers, table and figure): 0 for isotropic normals, the 4 pi of the
+    # normalisation of the Y_lm divided out
     for l in degrees[1:]:
-        s.add_number(f"power_l{l}", whole.power[l], "1", f"rotation-invariant power of degree {l}")
-    labels, _ = contact_regions(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
-    names = [n for k, n in enumerate(opt.region_names) if np.any(labels == k)]
-    exps = [harmonic_expansion(c.normals[labels == k], opt.l_max) for k in range(opt.regions)
-            if np.any(labels == k)]
-    rows = [[n] + [float(e.power[l]) for l in degrees[1:]] for n, e in zip(names, exps)]
-    s.tables.append(Table(["region"] + [f"l={l}" for l in degrees[1:]], rows,
-                          caption="rotation-invariant harmonic power per degree and region"))
-    s.add_figure(_figure_of(plot_harmonic_power(exps, xlabel="region")),
-                 "Spherical-harmonic power per degree along the bed")
+        s.add_number(f"power_l{l}", whole.power[l] / whole.power[0], "1",
+                     f"rotation-invariant power of degree {l} over that of degree 0, P_{l}/P_0 "
+                     f"(0 for isotropic contact normals)", DOCS + "fabric.md")
+    labels, edges = contact_regions(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
+    present = [k for k in range(opt.regions) if np.any(labels == k)]
+    names = [opt.region_names[k] for k in present]
+    exps = [harmonic_expansion(c.normals[labels == k], opt.l_max) for k in present]
+    unit = ctx.length_unit
+    rows = [[n, f"{edges[k]:.4g} to {edges[k + 1]:.4g}"] + [float(e.power[l] / e.power[0]) for l in degrees[1:]]
+            for k, n, e in zip(present, names, exps)]
+    s.tables.append(Table(["region", f"{opt.axis} ({unit})"] + [f"P_{l}/P_0" for l in degrees[1:]], rows,
+                          caption=f"rotation-invariant harmonic power per degree over P_0, per region along "
+                                  f"{opt.axis} (contacts by contact point)"))
+    fig = plot_harmonic_power(exps, degrees=degrees[1:], labels=names, relative=True,
+                              xlabel=f"region along {opt.axis} (bounds in the table)")
+    s.add_figure(_figure_of(fig), "Spherical-harmonic power P_l/P_0 per degree, per region along the bed "
+                                  "(the table's numbers)")
 
 
 def _repose(ctx: _Context, s: Section) -> None:

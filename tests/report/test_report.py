@@ -316,3 +316,33 @@ def test_report_german_fit_is_the_library_default_and_says_its_windows(bed_dump)
     sec8 = build_report(frame, options=ReportOptions(german_windows=8)).section("coordination")
     assert sec8.numbers["german_a"].value == german_law_along(frame, n_windows=8).fit.a
     assert sec8.numbers["german_a"].value != lib.fit.a
+
+
+def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, monkeypatch):
+    from bedstruct.report import _model
+    shown = []
+    real = _model.Section.add_figure
+
+    def keep(self, fig, caption):
+        shown.append((self.key, fig))
+        return real(self, fig, caption)
+
+    monkeypatch.setattr(_model.Section, "add_figure", keep)
+    sec = build_report(bedstruct.read_dump(bed_dump)[-1]).section("harmonics")
+    assert sec.status == "ok", sec.text
+    table = sec.tables[0]
+    assert table.columns[:2] == ["region", "x (unknown)"]
+    assert table.columns[2:] == ["P_2/P_0", "P_4/P_0", "P_6/P_0", "P_8/P_0"]
+    (fig,) = [f for key, f in shown if key == "harmonics"]
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == [row[0] for row in table.rows] == ["start", "centre", "end"]
+    lines = {ln.get_label(): ln.get_ydata() for ln in ax.get_lines()}
+    for c, col in enumerate(table.columns[2:], start=2):
+        l = col.split("/")[0][2:]
+        np.testing.assert_array_equal(lines[f"l = {l}"], [row[c] for row in table.rows])
+    # the headline numbers are the same normalisation: P_l/P_0 of all contacts, not P_l
+    from bedstruct.analysis import harmonic_expansion
+    c = build_mod._Context([bedstruct.read_dump(bed_dump)[-1]], None, ReportOptions(), [0]).contacts.touching()
+    e = harmonic_expansion(c.normals, 8)
+    assert sec.numbers["power_l4"].value == pytest.approx(e.power[4] / e.power[0], rel=1e-12)
+    assert sec.numbers["power_l4"].value == pytest.approx(4 * np.pi * e.power[4], rel=1e-12)
