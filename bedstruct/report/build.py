@@ -367,32 +367,17 @@ def _harmonics(ctx: _Context, s: Section) -> None:
 
 
 def _repose(ctx: _Context, s: Section) -> None:
-    from ..analysis import angle_of_repose, largest_cluster
+    from ..analysis import pile_angle
     f, opt = ctx.frame, ctx.options
     try:
-        frame, base, how = f, opt.repose_base, "above the given plate height"
-        if base is None:
-            how = ("above the lowest free-surface level (give --repose-base to set the plate "
-                   "height)")
-            pile = largest_cluster(f) if f.n_particles else np.zeros(0, bool)
-            # the pile is its largest touching cluster (clumps still falling off a ledge form
-            # others), resting on the plate its lowest particle touches; without a touching
-            # network (a synthetic or written-rounded frame) the whole frame is the pile
-            if pile.sum() >= 0.5 * f.n_particles > 0:
-                frame = f.select(pile)
-                base = float(np.min(frame.positions[:, 2] - frame.radii))
-                how = (f"on the largest cluster of touching particles ({frame.n_particles} of "
-                       f"{f.n_particles}; clumps still falling are left out), above the plate its "
-                       f"lowest particle rests on (give --repose-base to set the plate height)")
-        else:
-            frame = f.select(f.positions[:, 2] > base - f.radii)
-        res = angle_of_repose(frame, axis=opt.axis_index, base=base)
+        pa = pile_angle(f, axis=opt.axis_index, base=opt.repose_base)
     except ValueError as exc:
         skip(f"no pile with two flanks found ({exc})")
+    res = pa.repose
     if not (np.isfinite(res.angle_deg) and res.angle_deg > 5.0
             and res.angle_deg > 2.0 * np.nan_to_num(res.angle_std_deg, nan=np.inf)):
         skip(f"no pile found: the free surface has no clear slope "
-             f"({res.angle_deg:.1f} +- {res.angle_std_deg:.1f} deg)")
+             f"({res.angle_deg:.1f} deg, fit uncertainty {res.angle_std_deg:.1f} deg)")
     # A heap has two flanks, or one steep wedge against a wall; a spread layer is long and thin
     # with a sloped end, whose slope is not an angle of repose.
     h = np.asarray(res.profile_h, dtype=float)
@@ -403,14 +388,27 @@ def _repose(ctx: _Context, s: Section) -> None:
     if not (two_flanks or aspect >= 0.2):
         skip(f"no pile found: one sloped flank on a layer {aspect:.2f} times as high as long "
              f"(a spread layer, not a heap)")
-    s.text = f"Measured {how}; flanks fitted robustly between 20 % and 80 % of the pile height."
-    s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
+    unit = ctx.length_unit
+    where = ("above the plate height given (--repose-base)" if not pa.base_found else
+             "on the largest cluster of touching particles, above the plate its bottom layer rests on "
+             "(give --repose-base to set the plate height)")
+    s.text = (f"Measured by analysis.pile_angle {where}: {pa.n_particles} of {f.n_particles} particles "
+              f"({pa.n_left_out} left out: other clusters, below the plate); median free surface across "
+              f"the width, flanks fitted robustly between 20 % and 80 % of the pile height. One pile: "
+              f"the +- is the fit uncertainty of its mean angle, not a scatter between piles "
+              f"(that needs replicates, as bedstruct run repose makes).")
+    s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose: mean of the fitted flank angles",
                  DOCS + "analysis.md, Angle of repose")
-    s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")
-    s.add_number("left_deg", res.left_deg, "deg", "angle of the left flank")
-    s.add_number("right_deg", res.right_deg, "deg", "angle of the right flank")
+    s.add_number("angle_std_deg", res.angle_std_deg, "deg",
+                 "fit uncertainty (1 sigma, Theil-Sen) of this pile's mean angle; not a scatter between piles")
+    s.add_number("left_deg", res.left_deg, "deg", f"angle of the flank at lower {opt.axis}")
+    s.add_number("right_deg", res.right_deg, "deg", f"angle of the flank at higher {opt.axis}")
+    s.add_number("flank_difference_deg", res.flank_difference_deg, "deg",
+                 "difference between the two flank angles, |left - right| (none with one flank)")
+    s.add_number("base", pa.base, unit, "plate level the pile stands on" +
+                 (" (found from the pile)" if pa.base_found else " (given)"))
     from ..plot import plot_repose
-    fig = _figure_of(plot_repose(res, unit=ctx.length_unit))
+    fig = _figure_of(plot_repose(res, unit=unit))
     s.add_figure(fig, "Free-surface profile of the pile")
 
 

@@ -226,6 +226,15 @@ def test_repose_sample_is_measured_on_its_pile_not_on_falling_clumps():
     assert sec.status == "ok", sec.text
     assert sec.numbers["angle_deg"].value == pytest.approx(29.9, abs=2.0)
     assert "largest cluster" in sec.text
+    # one function: the report's angle is pile_angle's, and its +- is named for what it is
+    from bedstruct.analysis import pile_angle
+    p = pile_angle(frame)
+    assert sec.numbers["angle_deg"].value == p.angle_deg
+    assert sec.numbers["angle_std_deg"].value == p.angle_std_deg
+    assert "fit uncertainty" in sec.numbers["angle_std_deg"].definition
+    assert "not a scatter between piles" in sec.numbers["angle_std_deg"].definition
+    assert sec.numbers["flank_difference_deg"].value == pytest.approx(
+        abs(sec.numbers["left_deg"].value - sec.numbers["right_deg"].value))
 
 
 def test_cli_heat_skipped_for_unknown_units_is_said_on_stderr(bed_dump, tmp_path, capsys):
