@@ -65,14 +65,27 @@ class Quantity:
 
 @dataclass
 class Table:
-    """A small table: column names and rows of values."""
+    """A small table: column names, rows of values and, optionally, each column's unit.
+
+    ``units`` holds one unit per column (``"1"`` dimensionless, ``""`` for
+    labels); the JSON keeps the values in these units and the HTML shows
+    them in natural ones (um or mm, %, ms).
+    """
 
     columns: list[str]
     rows: list[list[Any]]
     caption: str = ""
+    units: list[str] | None = None
+
+    def __post_init__(self):
+        if self.units is not None and len(self.units) != len(self.columns):
+            raise ValueError(f"`units` must have one entry per column ({len(self.columns)}); got {len(self.units)}")
 
     def to_json(self) -> dict:
-        return {"caption": self.caption, "columns": list(self.columns), "rows": _plain(self.rows)}
+        out = {"caption": self.caption, "columns": list(self.columns), "rows": _plain(self.rows)}
+        if self.units is not None:
+            out["units"] = list(self.units)
+        return out
 
 
 @dataclass
@@ -179,6 +192,13 @@ def run_section(key: str, title: str, func: Callable[[Section], None]) -> Sectio
         section.status = "failed"
         section.error = f"{type(exc).__name__}: {exc}"
         log.debug("section %s failed:\n%s", key, traceback.format_exc())
+    else:
+        numeric = [q.value for q in section.numbers.values() if not isinstance(q.value, str)]
+        if numeric and not any(_has_finite(v) for v in numeric):
+            # an "ok" beside numbers that are all n/a would say something was measured
+            section.status = "skipped"
+            section.text = " ".join(t for t in ("No number could be computed for this input.", section.text) if t)
+            section.numbers.clear()
     section.seconds = time.perf_counter() - t0
     return section
 
@@ -186,6 +206,18 @@ def run_section(key: str, title: str, func: Callable[[Section], None]) -> Sectio
 def not_meaningful_section(key: str, title: str, reason: str) -> Section:
     """A section not run because its analysis does not apply to this input."""
     return Section(key, title, status="not meaningful", text=reason)
+
+
+def _has_finite(value) -> bool:
+    """True when ``value`` (a number, list or array, possibly nested) holds a finite number."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return any(_has_finite(v) for v in (value.tolist() if isinstance(value, np.ndarray) else value))
+    if isinstance(value, (bool, np.bool_)) or value is None:
+        return False
+    try:
+        return math.isfinite(float(value))
+    except (TypeError, ValueError):
+        return False
 
 
 class _Skip(Exception):

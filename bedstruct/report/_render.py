@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import html
 import json
+import math
 from pathlib import Path
+
+import numpy as np
 
 from .._atomic import atomic_path
 from ._model import Report, Section
@@ -29,13 +32,65 @@ nav a{margin-right:.8em}
 """
 
 
-def _fmt(value) -> str:
+_LENGTH_SI = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "nm": 1e-9}
+_PERCENT_KEYS = ("rattler_fraction", "uncovered_fraction", "network_fraction", "moving_fraction")
+
+
+def _number(v: float, digits: int = 4) -> str:
+    """A float with ``digits`` significant digits, never in e-notation."""
+    if not math.isfinite(v):
+        return "n/a"
+    if v == 0:
+        return "0"
+    if abs(v) >= 10 ** digits:
+        return f"{v:,.0f}"
+    return np.format_float_positional(v, precision=digits, unique=False, fractional=False, trim="-")
+
+
+def _finite_values(value):
+    flat = np.ravel(np.asarray(value, dtype=object)) if isinstance(value, (list, tuple, np.ndarray)) else [value]
+    return [float(v) for v in flat if isinstance(v, (int, float, np.number)) and not isinstance(v, bool)
+            and math.isfinite(float(v))]
+
+
+def _display_unit(value, unit: str, key: str = "") -> tuple[float, str]:
+    """(factor, unit) that shows ``value`` in natural units: um or mm, %, ms, mm/s."""
+    if unit in _LENGTH_SI:
+        vals = _finite_values(value)
+        big = max((abs(v) for v in vals), default=0.0) * _LENGTH_SI[unit]
+        target = "mm" if big >= 1e-3 else "µm"
+        return _LENGTH_SI[unit] / (1e-3 if target == "mm" else 1e-6), target
+    if unit.endswith("/s") and unit[:-2] in _LENGTH_SI:
+        return _LENGTH_SI[unit[:-2]] / 1e-3, "mm/s"
+    if unit == "s":
+        vals = _finite_values(value)
+        if vals and max(abs(v) for v in vals) < 1:
+            return 1e3, "ms"
+    if unit == "1" and key.endswith(_PERCENT_KEYS):
+        return 100.0, "%"
+    if unit == "degC":
+        return 1.0, "°C"
+    if unit == "1":
+        return 1.0, ""
+    return 1.0, unit
+
+
+def _fmt(value, factor: float = 1.0) -> str:
+    """A value for the page: numbers without e-notation, lists as lists, None as n/a."""
     if value is None:
         return "n/a"
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bool):
+        return str(value)
+    if isinstance(value, int):
+        return f"{value * factor:.4g}" if factor != 1.0 else str(value)
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return _number(value * factor)
     if isinstance(value, (list, tuple)):
-        inner = ", ".join(_fmt(v) for v in value[:12])
+        inner = ", ".join(_fmt(v, factor) for v in value[:12])
         return f"[{inner}{', ...' if len(value) > 12 else ''}]"
     return html.escape(str(value))
 
@@ -53,16 +108,23 @@ def _section_html(s: Section) -> str:
         parts.append("<table><tr><th>quantity</th><th>value</th><th>unit</th><th>definition</th></tr>")
         for key, q in s.numbers.items():
             link = (f' <span class="ref">(see {html.escape(q.doc)})</span>' if q.doc else "")
-            parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value)}</td>'
-                         f'<td>{html.escape(q.unit)}</td><td class="def">{html.escape(q.definition)}{link}</td></tr>')
+            factor, unit = _display_unit(q.value, q.unit, key)
+            parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value, factor)}</td>'
+                         f'<td>{html.escape(unit)}</td><td class="def">{html.escape(q.definition)}{link}</td></tr>')
         parts.append("</table>")
     for t in s.tables:
         parts.append("<table>")
         if t.caption:
             parts.append(f"<caption>{html.escape(t.caption)}</caption>")
-        parts.append("<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in t.columns) + "</tr>")
+        units = list(t.units) if t.units else [""] * len(t.columns)
+        shown = [_display_unit([row[c] for row in t.rows], u or "1", t.columns[c]) if u else (1.0, "")
+                 for c, u in enumerate(units)]
+        parts.append("<tr>" + "".join(
+            f"<th>{html.escape(c)}{f' ({html.escape(u)})' if u else ''}</th>"
+            for c, (_, u) in zip(t.columns, shown)) + "</tr>")
         for row in t.rows:
-            parts.append("<tr>" + "".join(f'<td class="num">{_fmt(v)}</td>' for v in row) + "</tr>")
+            parts.append("<tr>" + "".join(f'<td class="num">{_fmt(v, f)}</td>'
+                                          for v, (f, _) in zip(row, shown)) + "</tr>")
         parts.append("</table>")
     for caption, uri in s.figures:
         parts.append(f'<figure><img src="{uri}" alt="{html.escape(caption)}">'

@@ -168,6 +168,13 @@ class _Context:
     def length_unit(self) -> str:
         return self.frame.units.length_unit
 
+    def plot_unit(self, values) -> tuple[float, str]:
+        """(factor, unit) to plot lengths of these magnitudes in um or mm (as the page shows them)."""
+        from ._render import _display_unit
+        if self.length_unit == "unknown":
+            return 1.0, "length unit of the dump"
+        return _display_unit(list(np.ravel(values)), self.length_unit)
+
     @property
     def contacts(self) -> Contacts:
         if self._contacts is None:
@@ -214,7 +221,8 @@ def _packing(ctx: _Context, s: Section) -> None:
                      f"exact sphere-cuboid packing fraction of the {name} region of the bed")
     from ..plot import plot_packing_profile
     fine = packing_along(f, max(12, 4 * opt.regions), axis=opt.axis_index)
-    fig = _figure_of(plot_packing_profile(fine, axis=opt.axis_index, unit=ctx.length_unit))
+    factor, unit = ctx.plot_unit(np.asarray(fine.upper)[:, opt.axis_index])
+    fig = _figure_of(plot_packing_profile(fine, axis=opt.axis_index, unit=unit, scale=factor))
     s.add_figure(fig, f"Packing fraction in {len(fine.fractions)} windows along the bed")
 
 
@@ -240,7 +248,8 @@ def _coordination(ctx: _Context, s: Section) -> None:
                      int(np.asarray(per_region.n_particles)[k])])
         s.add_number(f"mean_{name.replace(' ', '_')}", mean_k, "1", f"mean coordination in the {name} region")
     s.tables.append(Table(["region", "packing fraction", "mean CN", "mechanical CN", "particles"], rows,
-                          caption="coordination and packing per region"))
+                          caption=f"coordination and packing per region ({_regions_text(region, opt, ctx)})",
+                          units=["", "1", "1", "1", "1"]))
     if ctx.state is not None and not ctx.state.meaningful("german"):
         s.text = f"No German's-law fit: {ctx.state.not_meaningful['german']}."
         return
@@ -277,11 +286,13 @@ def _psd(ctx: _Context, s: Section) -> None:
     from ..plot import plot_psd
     rows = [[name, r.n_particles, r.d10, r.d50, r.d90] for name, r in zip(opt.region_names, regions)]
     shown = [(name, r) for name, r in zip(opt.region_names, regions) if r.n_particles]
+    factor, unit = ctx.plot_unit([whole.d90])
     fig = _figure_of(plot_psd([whole] + [r for _, r in shown], labels=["whole bed"] + [n for n, _ in shown],
-                              cumulative=True, unit=ctx.length_unit))
+                              cumulative=True, unit=unit, scale=factor))
     s.add_figure(fig, "Cumulative size distribution per region")
+    L = ctx.length_unit
     s.tables.append(Table(["region", "particles", "D10", "D50", "D90"], rows,
-                          caption=f"volume-weighted percentiles per region ({ctx.length_unit})"))
+                          caption="volume-weighted percentiles per region", units=["", "1", L, L, L]))
     if len(regions) >= 2:
         # the first and last regions themselves: an empty one leaves the shift undefined
         first, last = regions[0], regions[-1]
@@ -307,7 +318,8 @@ def _surface(ctx: _Context, s: Section) -> None:
                  "mean top-surface height above the lowest particle bottom (taken as the plate)")
     s.add_number("uncovered_fraction", surf.uncovered_fraction, "1", "fraction of grid cells with no particle")
     from ..plot import plot_height_map
-    fig = _figure_of(plot_height_map(surf, unit=ctx.length_unit))
+    factor, unit = ctx.plot_unit([np.ptp(surf.x)])
+    fig = _figure_of(plot_height_map(surf, unit=unit, scale=factor))
     s.add_figure(fig, "Top-surface height map (highest particle cap per cell)")
 
 
@@ -325,9 +337,10 @@ def _fabric(ctx: _Context, s: Section) -> None:
     reg = region_fabric(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
     rows = []
     for name, t in zip(opt.region_names, reg.tensors):
-        rows.append([name, t.n_contacts, *np.round(t.eigenvalues, 4), t.anisotropy])
+        rows.append([name, int(t.n_contacts), *(float(v) for v in t.eigenvalues), float(t.anisotropy)])
     s.tables.append(Table(["region", "contacts", "λ1", "λ2", "λ3", "anisotropy"], rows,
-                          caption="moment-tensor eigenvalues per region"))
+                          caption=f"moment-tensor eigenvalues per region: {len(opt.region_names)} equal slabs "
+                                  f"along {opt.axis} by contact point", units=["", "1", "1", "1", "1", "1"]))
     s.add_figure(plot_rose_grid(reg.tensors, names=opt.region_names),
                  "3-D rose diagrams per region: rank 2, rank 4 and their difference")
     if opt.regions >= 2:
@@ -355,11 +368,12 @@ def _harmonics(ctx: _Context, s: Section) -> None:
     names = [opt.region_names[k] for k in present]
     exps = [harmonic_expansion(c.normals[labels == k], opt.l_max) for k in present]
     unit = ctx.length_unit
-    rows = [[n, f"{edges[k]:.4g} to {edges[k + 1]:.4g}"] + [float(e.power[l] / e.power[0]) for l in degrees[1:]]
+    rows = [[n, float(edges[k]), float(edges[k + 1])] + [float(e.power[l] / e.power[0]) for l in degrees[1:]]
             for k, n, e in zip(present, names, exps)]
-    s.tables.append(Table(["region", f"{opt.axis} ({unit})"] + [f"P_{l}/P_0" for l in degrees[1:]], rows,
-                          caption=f"rotation-invariant harmonic power per degree over P_0, per region along "
-                                  f"{opt.axis} (contacts by contact point)"))
+    s.tables.append(Table(["region", f"{opt.axis} from", f"{opt.axis} to"] + [f"P_{l}/P_0" for l in degrees[1:]],
+                          rows, caption=f"rotation-invariant harmonic power per degree over P_0, per region along "
+                                        f"{opt.axis} (contacts by contact point)",
+                          units=["", unit, unit] + ["1"] * len(degrees[1:])))
     fig = plot_harmonic_power(exps, degrees=degrees[1:], labels=names, relative=True,
                               xlabel=f"region along {opt.axis} (bounds in the table)")
     s.add_figure(_figure_of(fig), "Spherical-harmonic power P_l/P_0 per degree, per region along the bed "
@@ -376,8 +390,9 @@ def _repose(ctx: _Context, s: Section) -> None:
     res = pa.repose
     if not (np.isfinite(res.angle_deg) and res.angle_deg > 5.0
             and res.angle_deg > 2.0 * np.nan_to_num(res.angle_std_deg, nan=np.inf)):
-        skip(f"no pile found: the free surface has no clear slope "
-             f"({res.angle_deg:.1f} deg, fit uncertainty {res.angle_std_deg:.1f} deg)")
+        found = (f" ({res.angle_deg:.1f} deg, fit uncertainty {res.angle_std_deg:.1f} deg)"
+                 if np.isfinite(res.angle_deg) and np.isfinite(res.angle_std_deg) else "")
+        skip(f"no pile found: the free surface has no clear slope{found}")
     # A heap has two flanks, or one steep wedge against a wall; a spread layer is long and thin
     # with a sloped end, whose slope is not an angle of repose.
     h = np.asarray(res.profile_h, dtype=float)
@@ -408,7 +423,8 @@ def _repose(ctx: _Context, s: Section) -> None:
     s.add_number("base", pa.base, unit, "plate level the pile stands on" +
                  (" (found from the pile)" if pa.base_found else " (given)"))
     from ..plot import plot_repose
-    fig = _figure_of(plot_repose(res, unit=unit))
+    factor, shown = ctx.plot_unit([np.nanmax(np.abs(res.profile_x))])
+    fig = _figure_of(plot_repose(res, unit=shown, scale=factor))
     s.add_figure(fig, "Free-surface profile of the pile")
 
 
@@ -423,7 +439,9 @@ def _heat(ctx: _Context, s: Section) -> None:
                        n_sources=1, stop_fraction=opt.heat_stop_fraction)
     table = heat_regions_table(res)
     columns = list(table)
-    s.tables.append(Table(columns, [list(row) for row in zip(*table.values())],
+    units = [_HEAT_UNITS.get(c, "1") for c in columns]
+    s.tables.append(Table(columns, [[v.item() if isinstance(v, np.generic) else v for v in row]
+                                    for row in zip(*table.values())], units=units,
                           caption=(f"500 um hemispherical pulse at {res.source_temperature - 273.15:.0f} C on the "
                                    f"bed surface at each region's centre; all regions reported at "
                                    f"t = {res.time * 1e3:.3g} ms, when the hottest particle has cooled to "
@@ -438,6 +456,23 @@ def _heat(ctx: _Context, s: Section) -> None:
         s.add_figure(_figure_of(plot_temperature_map(res.maps[k][0], haz=res.haz[k][0])),
                      f"Top-view temperature at the end, {name} region")
     s.add_number("end_time", res.time, "s", "common end time of the conduction runs")
+
+
+# units of heat_regions_table's columns (bedstruct.analysis.heat_study), SI
+_HEAT_UNITS = {"region": "", "peak_temperature_C": "degC", "peak_temperature_std": "K", "crossing_time": "s",
+               "threshold_C": "degC", "orientation_deg": "deg", "major_axis": "m", "minor_axis": "m",
+               "k_max": "W/(m K)", "k_min": "W/(m K)", "k_orientation_deg": "deg",
+               "fabric_orientation_deg": "deg"}
+
+
+def _regions_text(profile, opt: ReportOptions, ctx: _Context) -> str:
+    """'3 equal regions along x: start 0-1.2, ... (mm)' from a packing profile's windows."""
+    lo, hi = np.asarray(profile.lower)[:, opt.axis_index], np.asarray(profile.upper)[:, opt.axis_index]
+    from ._render import _display_unit, _number
+    factor, unit = _display_unit(list(hi), ctx.length_unit)
+    spans = ", ".join(f"{n} {_number(a * factor)} to {_number(b * factor)}"
+                      for n, a, b in zip(opt.region_names, lo, hi))
+    return f"{len(lo)} equal regions along {opt.axis}: {spans}{f' {unit}' if unit else ''}"
 
 
 SECTIONS = [

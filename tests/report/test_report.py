@@ -185,6 +185,13 @@ def test_heat_section_needs_units_and_reports_each_region(bed_dump):
         assert 20.0 < heat.numbers[f"peak_temperature_{name}"].value < 1300.0
         assert 0.8 < heat.numbers[f"roundness_{name}"].value <= 1.0   # isotropic lattice: round
     assert len(heat.figures) == 3
+    # every heat column says its unit: in the JSON (SI) and in the page's headers (natural)
+    table = heat.tables[0]
+    unit = dict(zip(table.columns, table.units))
+    assert (unit["peak_temperature_C"], unit["crossing_time"], unit["major_axis"], unit["k_max"]) == (
+        "degC", "s", "m", "W/(m K)")
+    page = render_html(rep)
+    assert "peak_temperature_C (°C)" in page and "k_max (W/(m K))" in page and "major_axis (µm)" in page
 
 
 def test_cli_missing_optional_dependency_is_one_line(tmp_path, capsys, monkeypatch):
@@ -340,13 +347,14 @@ def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, monkeypatch
     sec = build_report(bedstruct.read_dump(bed_dump)[-1]).section("harmonics")
     assert sec.status == "ok", sec.text
     table = sec.tables[0]
-    assert table.columns[:2] == ["region", "x (unknown)"]
-    assert table.columns[2:] == ["P_2/P_0", "P_4/P_0", "P_6/P_0", "P_8/P_0"]
+    assert table.columns[:3] == ["region", "x from", "x to"] and table.units[1:3] == ["unknown", "unknown"]
+    assert table.columns[3:] == ["P_2/P_0", "P_4/P_0", "P_6/P_0", "P_8/P_0"]
+    assert [row[1] for row in table.rows][1:] == [row[2] for row in table.rows][:-1]     # adjoining regions
     (fig,) = [f for key, f in shown if key == "harmonics"]
     ax = fig.axes[0]
     assert [t.get_text() for t in ax.get_xticklabels()] == [row[0] for row in table.rows] == ["start", "centre", "end"]
     lines = {ln.get_label(): ln.get_ydata() for ln in ax.get_lines()}
-    for c, col in enumerate(table.columns[2:], start=2):
+    for c, col in enumerate(table.columns[3:], start=3):
         l = col.split("/")[0][2:]
         np.testing.assert_array_equal(lines[f"l = {l}"], [row[c] for row in table.rows])
     # the headline numbers are the same normalisation: P_l/P_0 of all contacts, not P_l
@@ -355,3 +363,60 @@ def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, monkeypatch
     e = harmonic_expansion(c.normals, 8)
     assert sec.numbers["power_l4"].value == pytest.approx(e.power[4] / e.power[0], rel=1e-12)
     assert sec.numbers["power_l4"].value == pytest.approx(4 * np.pi * e.power[4], rel=1e-12)
+
+
+def test_html_shows_natural_units_and_json_keeps_si(tmp_path):
+    # 100 um spheres in metres: the page says um and mm, never 1e-04 or a numpy array
+    lattice = cubic_lattice((24, 6, 4), spacing=100e-6, radius=51e-6, boundary=("ff", "pp", "ff"))
+    rep = build_report(lattice.with_units("si"))
+    html_path, json_path = write_report(rep, tmp_path)
+    page = html_path.read_text()
+    import re
+    cells = re.findall(r'<td class="num">([^<]*)</td>', page)
+    assert cells and not [c for c in cells if re.search(r"\de[-+]\d", c)], "e-notation in a table cell"
+    assert not [c for c in cells if re.search(r"\d \d|\[\s*-?\d+\.\s", c)], "numpy array printing"
+    text = re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", page)
+    assert not re.search(r"\bnan\b", text, flags=re.I)        # no nan, nor nan +- nan
+    assert '<td class="num">[51, 51]</td><td>µm</td>' in page                    # radius_range
+    assert "D50 (µm)" in page
+    assert '<td class="num">2.4</td><td>mm</td>' in page or "[2.4, 0.6, 0.4]" in page   # box_hi
+    doc = json.loads(json_path.read_text())
+    summary = doc["sections"]["summary"]["numbers"]
+    assert summary["radius_range"] == {"value": [51e-6, 51e-6], "unit": "m",
+                                       "definition": "smallest and largest sphere radius"}
+    psd_table = doc["sections"]["psd"]["tables"][0]
+    assert psd_table["units"] == ["", "1", "m", "m", "m"]
+    assert psd_table["rows"][0][3] == pytest.approx(102e-6)
+
+
+def test_a_section_whose_numbers_are_all_nan_is_not_ok(monkeypatch):
+    from bedstruct.report._model import run_section
+
+    def only_nan(sec):
+        sec.add_number("x", float("nan"), "m", "a length")
+        sec.add_number("y", [float("nan"), None], "1", "two ratios")
+        sec.add_number("label", "text", "-", "a label")
+
+    sec = run_section("k", "K", only_nan)
+    assert sec.status == "skipped" and not sec.numbers and sec.text.startswith("No number could be computed")
+    sec = run_section("k", "K", lambda s: s.add_number("x", 1.0, "m", "a length"))
+    assert sec.status == "ok"
+
+
+def test_repose_skip_text_has_no_nan():
+    # a flat slab: the slope test fails; its reason must not read "nan +- nan"
+    lattice = cubic_lattice((24, 6, 4), spacing=1.0, radius=0.51, boundary=("ff", "pp", "ff"))
+    sec = build_report(lattice).section("repose")
+    assert sec.status == "skipped" and "nan" not in sec.text.lower()
+
+
+def test_height_map_has_axes_units_and_true_aspect():
+    from bedstruct.analysis import surface_height_map
+    from bedstruct.plot import plot_height_map
+    lattice = cubic_lattice((24, 6, 4), spacing=100e-6, radius=51e-6, boundary=("ff", "pp", "ff"))
+    fig, ax = plot_height_map(surface_height_map(lattice), unit="mm", scale=1e3)
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (mm)", "y (mm)")
+    assert ax.get_aspect() == 1.0
+    x0, x1, y0, y1 = ax.images[0].get_extent()
+    assert (x1 - x0, y1 - y0) == pytest.approx((2.4, 0.6), rel=0.05)
+    assert "mm" in fig.axes[1].get_xlabel() + fig.axes[1].get_ylabel()       # the colour bar
