@@ -4,8 +4,10 @@ Sections: data summary, packing fraction along the bed, coordination and
 German's law, size distribution and segregation, surface roughness, fabric
 tensors with rose diagrams, harmonic spectrum, angle of repose (when a pile is
 present) and, with --heat, heat-affected-zone roundness. A section that fails
-is reported as failed; the rest still renders. Exit status 0 when the report
-was written (even with failed sections), 1 on bad input.
+is reported as failed; the rest still renders. Prints where it wrote the
+report and what the input is (settled bed, pile, moving bed, dilute flow).
+Exit status 0 when the report was written (even with failed sections), 1 on
+bad input.
 """
 
 from __future__ import annotations
@@ -60,6 +62,10 @@ def run(args) -> int:
     report, html_path, json_path = report_on_files(
         args.paths, args.out, contacts=args.contacts, contact_keywords=kw, options=options,
         radius=args.radius, units=args.units, progress=progress)
+    state = report.state or {}
+    kind = f" (input: {state['kind']}" + (f"; not meaningful for it: {', '.join(state['not_meaningful'])}"
+                                        if state.get("not_meaningful") else "") + ")" if state else ""
+    print(f"bedstruct report: wrote {html_path} and {json_path}{kind}")
     if args.json:
         summary = report.summary()
         summary.update(html=str(html_path), json=str(json_path))

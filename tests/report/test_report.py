@@ -420,3 +420,11 @@ def test_height_map_has_axes_units_and_true_aspect():
     x0, x1, y0, y1 = ax.images[0].get_extent()
     assert (x1 - x0, y1 - y0) == pytest.approx((2.4, 0.6), rel=0.05)
     assert "mm" in fig.axes[1].get_xlabel() + fig.axes[1].get_ylabel()       # the colour bar
+
+
+def test_cli_report_says_where_it_wrote_and_what_the_input_is(bed_dump, tmp_path, capsys):
+    out = tmp_path / "rep"
+    assert main(["report", str(bed_dump), "--out", str(out)]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines == [f"bedstruct report: wrote {out / 'report.html'} and {out / 'report.json'} "
+                     f"(input: settled bed)"]
