@@ -13,7 +13,7 @@ import numpy as np
 from ._mpl import figure_class
 
 __all__ = ["plot_german", "plot_psd", "plot_psd_along_bed", "plot_packing_profile",
-           "plot_coordination", "plot_height_map", "plot_repose", "plot_repose_series"]
+           "plot_coordination", "plot_height_map", "plot_repose", "plot_repose_series", "plot_rdf"]
 
 
 def _figure(ax, nrows=1, **kw):
@@ -343,4 +343,43 @@ def plot_repose_series(series, *, time=None, ax=None, label: str = "simulation")
     ax.set_xlabel("timestep" if time is None else "time")
     ax.set_ylabel("dynamic angle of repose (°)")
     ax.legend(fontsize="small")
+    return _ret(fig, ax)
+
+
+def plot_rdf(result, *, diameter: float | None = None, ax=None, unit: str = "", scale: float = 1.0):
+    """Radial distribution function g(r), against r or against r over a diameter.
+
+    Parameters
+    ----------
+    result : RDFResult
+        From :func:`bedstruct.analysis.radial_distribution`.
+    diameter : float, length, optional
+        Plot against ``r / diameter`` (e.g. the median diameter).
+    ax : Axes, optional
+    unit : str, optional
+        Length unit of the x axis when ``diameter`` is not given (after ``scale``).
+    scale : float, optional
+        Factor applied to r when ``diameter`` is not given.
+
+    Returns
+    -------
+    Axes or (Figure, Axes)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> from bedstruct.analysis import radial_distribution
+    >>> f = Frame(np.random.default_rng(0).uniform(0, 6, (300, 3)), np.full(300, 0.2), box=[6, 6, 6])
+    >>> fig, ax = plot_rdf(radial_distribution(f, cutoff=2.0, n_bins=20), diameter=0.4)
+    >>> ax.get_xlabel(), len(ax.lines)
+    ('r / d', 2)
+    """
+    fig, ax = _figure(ax)
+    x = result.r / diameter if diameter else result.r * scale
+    ax.plot(x, result.g, "-", color="C0", lw=1.5, label="g(r)")
+    ax.axhline(1.0, color="0.6", lw=0.8, ls="--")
+    ax.set_xlabel("r / d" if diameter else f"r{f' ({unit})' if unit else ''}")
+    ax.set_ylabel("g(r)")
+    ax.set_xlim(0, float(x[-1] + (x[1] - x[0]) / 2) if len(x) > 1 else None)
     return _ret(fig, ax)

@@ -274,6 +274,32 @@ def _coordination(ctx: _Context, s: Section) -> None:
     s.add_figure(fig, f"Coordination number against packing fraction with German's law ({german.definition})")
 
 
+def _rdf(ctx: _Context, s: Section) -> None:
+    from ..analysis import radial_distribution
+    from ..plot import plot_rdf
+    f = ctx.frame
+    if f.n_particles < 2:
+        skip(f"{f.n_particles} particles: no pairs")
+    if np.any(np.asarray(f.box.tilt) != 0):
+        skip("the box is tilted: g(r) is computed for orthogonal boxes only")
+    d50 = float(np.median(2 * f.radii))
+    res = radial_distribution(f)
+    r_peak, g_peak = res.first_peak
+    unit = ctx.length_unit
+    s.text = ("Pairs of particle centres by distance, over those of an ideal gas of the same density in the "
+              "same region (the box along periodic axes, the extent of the particle centres along bounded "
+              "ones), so walls and the free surface do not pull g(r) below 1.")
+    s.add_number("peak_r", r_peak, unit, "distance of the highest g(r) bin (the first neighbour shell)",
+                 DOCS + "analysis.md, Radial distribution function")
+    s.add_number("peak_r_over_d50", r_peak / d50, "1", "that distance over the median diameter")
+    s.add_number("peak_g", g_peak, "1", "g(r) at the highest bin")
+    s.add_number("cutoff", res.cutoff, unit, f"largest distance ({len(res.r)} bins)")
+    s.add_number("density", res.density, f"1/{unit}^3" if unit != "unknown" else "1/length^3",
+                 "number density of the region")
+    s.add_figure(_figure_of(plot_rdf(res, diameter=d50)),
+                 "Radial distribution function against distance over the median diameter d50")
+
+
 def _psd(ctx: _Context, s: Section) -> None:
     from ..analysis import particle_size_distribution, psd_by_region, segregation_index
     f, opt = ctx.frame, ctx.options
@@ -479,6 +505,7 @@ SECTIONS = [
     ("summary", "Data summary", _summary),
     ("packing", "Packing fraction", _packing),
     ("coordination", "Coordination number and German's law", _coordination),
+    ("rdf", "Radial distribution function", _rdf),
     ("psd", "Particle size distribution and segregation", _psd),
     ("surface", "Surface height and roughness", _surface),
     ("fabric", "Fabric tensors and rose diagrams", _fabric),

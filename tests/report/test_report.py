@@ -428,3 +428,13 @@ def test_cli_report_says_where_it_wrote_and_what_the_input_is(bed_dump, tmp_path
     lines = capsys.readouterr().out.strip().splitlines()
     assert lines == [f"bedstruct report: wrote {out / 'report.html'} and {out / 'report.json'} "
                      f"(input: settled bed)"]
+
+
+def test_rdf_section_of_a_lattice_bed_has_its_first_shell_at_one_diameter():
+    from bedstruct.analysis import radial_distribution
+    lattice = cubic_lattice((24, 6, 4), spacing=100e-6, radius=50e-6, boundary=("ff", "pp", "ff"))
+    sec = build_report(lattice.with_units("si")).section("rdf")
+    assert sec.status == "ok", sec.text
+    assert sec.numbers["peak_r_over_d50"].value == pytest.approx(1.0, abs=0.05)
+    assert sec.numbers["peak_r"].value == radial_distribution(lattice).first_peak[0]
+    assert sec.numbers["peak_r"].unit == "m" and len(sec.figures) == 1
