@@ -8,5 +8,5 @@ from .._lazy import collect as _collect
 
 __all__ = _collect(__name__, [
     "contacts", "coordination", "packing", "german", "psd", "segregation", "surface", "repose",
-    "fabric", "harmonics", "heat", "heat_study", "timeseries", "bed_state", "rdf",
+    "fabric", "harmonics", "heat", "heat_study", "timeseries", "bed_state", "rdf", "voronoi",
 ], globals())

@@ -13,7 +13,8 @@ import numpy as np
 from ._mpl import figure_class
 
 __all__ = ["plot_german", "plot_psd", "plot_psd_along_bed", "plot_packing_profile",
-           "plot_coordination", "plot_height_map", "plot_repose", "plot_repose_series", "plot_rdf"]
+           "plot_coordination", "plot_height_map", "plot_repose", "plot_repose_series", "plot_rdf",
+           "plot_local_packing"]
 
 
 def _figure(ax, nrows=1, **kw):
@@ -383,3 +384,64 @@ def plot_rdf(result, *, diameter: float | None = None, ax=None, unit: str = "", 
     ax.set_ylabel("g(r)")
     ax.set_xlim(0, float(x[-1] + (x[1] - x[0]) / 2) if len(x) > 1 else None)
     return _ret(fig, ax)
+
+
+def plot_local_packing(result, positions, *, axis: int = 0, unit: str = "", scale: float = 1.0,
+                       n_windows: int = 24):
+    """Histogram of local packing fractions and their map along the bed.
+
+    Parameters
+    ----------
+    result : LocalPacking
+        From :func:`bedstruct.analysis.local_packing`.
+    positions : (N, 3) array_like of float, length
+        Particle positions (rows as in ``result``).
+    axis : int, optional
+        Direction along the bed (default 0).
+    unit : str, optional
+        Length unit of the map's x axis (after ``scale``).
+    scale : float, optional
+        Factor applied to positions.
+    n_windows : int, optional
+        Windows of the packing-fraction line along the bed (default 24).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: histogram (cells inside, cells at a wall or the free surface).
+        Right: each particle's fraction against its position, and the
+        fraction of each window (particle volume over cell volume).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.analysis import LocalPacking
+    >>> lp = LocalPacking(np.full(4, 0.5), np.ones(4), np.array([0, 0, 0, 1], bool), np.zeros(3), np.ones(3))
+    >>> fig = plot_local_packing(lp, np.random.default_rng(0).uniform(0, 1, (4, 3)))
+    >>> len(fig.axes)
+    2
+    """
+    Figure = figure_class()
+    fig = Figure(figsize=(10.0, 3.8), layout="constrained")
+    ax_h, ax_m = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 2]})
+    frac, wall = np.asarray(result.fractions), np.asarray(result.at_wall, dtype=bool)
+    bins = np.linspace(0.0, max(0.8, float(np.nanmax(frac)) if frac.size else 0.8), 41)
+    ax_h.hist([frac[~wall], frac[wall]], bins=bins, stacked=True, color=["C0", "0.7"],
+              label=["inside", "at a wall / surface"])
+    ax_h.set_xlabel("local packing fraction")
+    ax_h.set_ylabel("particles")
+    ax_h.legend(fontsize="small")
+    x = np.asarray(positions, dtype=np.float64)[:, axis] * scale
+    ax_m.scatter(x[~wall], frac[~wall], s=3, color="C0", alpha=0.4, lw=0)
+    ax_m.scatter(x[wall], frac[wall], s=3, color="0.7", alpha=0.4, lw=0)
+    if x.size:
+        edges = np.linspace(x.min(), x.max(), n_windows + 1)
+        k = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, n_windows - 1)
+        vol = np.asarray(result.cell_volumes)
+        mean = np.array([np.sum(frac[k == b] * vol[k == b]) / np.sum(vol[k == b]) if np.any(k == b) else np.nan
+                         for b in range(n_windows)])
+        ax_m.plot(0.5 * (edges[1:] + edges[:-1]), mean, "-", color="C3", lw=2, label="window (all cells)")
+        ax_m.legend(fontsize="small")
+    ax_m.set_xlabel(f"{'xyz'[axis]}{f' ({unit})' if unit else ''}")
+    ax_m.set_ylabel("local packing fraction")
+    return fig

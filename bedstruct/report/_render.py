@@ -33,7 +33,8 @@ nav a{margin-right:.8em}
 
 
 _LENGTH_SI = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "nm": 1e-9}
-_PERCENT_KEYS = ("rattler_fraction", "uncovered_fraction", "network_fraction", "moving_fraction")
+_PERCENT_KEYS = ("rattler_fraction", "uncovered_fraction", "network_fraction", "moving_fraction",
+                 "wall_cell_fraction")
 
 
 def _number(v: float, digits: int = 4) -> str:

@@ -300,6 +300,36 @@ def _rdf(ctx: _Context, s: Section) -> None:
                  "Radial distribution function against distance over the median diameter d50")
 
 
+def _voronoi(ctx: _Context, s: Section) -> None:
+    from ..analysis import local_packing
+    from ..plot import plot_local_packing
+    f, opt = ctx.frame, ctx.options
+    if np.any(np.asarray(f.box.tilt) != 0):
+        skip("the box is tilted: the tessellation is computed for orthogonal boxes only")
+    try:
+        lp = local_packing(f)
+    except ImportError as exc:
+        skip(str(exc))
+    inside = ~lp.at_wall
+    s.text = ("Each particle's volume over that of its radical (Laguerre) Voronoi cell, from voro++ "
+              "(pyvoro2), periodic along periodic axes; along bounded ones the region ends at the "
+              "particles' extent, and cells closed by it (at a wall or the free surface) are shown apart.")
+    s.add_number("mean_inside", lp.mean(), "1", "particle volume over cell volume of the cells not at a wall "
+                 "or the free surface", DOCS + "analysis.md, Local packing (radical Voronoi)")
+    s.add_number("mean_all", lp.mean(np.ones(lp.n_particles, bool)), "1",
+                 "particle volume over cell volume of all cells (the region's packing fraction)")
+    s.add_number("median_inside", float(np.median(lp.fractions[inside])) if inside.any() else None, "1",
+                 "median local packing fraction of the cells inside")
+    s.add_number("std_inside", float(np.std(lp.fractions[inside])) if inside.any() else None, "1",
+                 "standard deviation of the local packing fraction of the cells inside")
+    s.add_number("wall_cell_fraction", float(lp.at_wall.mean()), "1",
+                 "fraction of cells at a wall or the free surface")
+    factor, unit = ctx.plot_unit(f.positions[:, opt.axis_index])
+    s.add_figure(plot_local_packing(lp, f.positions, axis=opt.axis_index, unit=unit, scale=factor),
+                 f"Local packing fraction per particle: histogram, and along {opt.axis} with the value "
+                 f"of 24 windows")
+
+
 def _psd(ctx: _Context, s: Section) -> None:
     from ..analysis import particle_size_distribution, psd_by_region, segregation_index
     f, opt = ctx.frame, ctx.options
@@ -506,6 +536,7 @@ SECTIONS = [
     ("packing", "Packing fraction", _packing),
     ("coordination", "Coordination number and German's law", _coordination),
     ("rdf", "Radial distribution function", _rdf),
+    ("voronoi", "Local packing (radical Voronoi)", _voronoi),
     ("psd", "Particle size distribution and segregation", _psd),
     ("surface", "Surface height and roughness", _surface),
     ("fabric", "Fabric tensors and rose diagrams", _fabric),

@@ -438,3 +438,29 @@ def test_rdf_section_of_a_lattice_bed_has_its_first_shell_at_one_diameter():
     assert sec.numbers["peak_r_over_d50"].value == pytest.approx(1.0, abs=0.05)
     assert sec.numbers["peak_r"].value == radial_distribution(lattice).first_peak[0]
     assert sec.numbers["peak_r"].unit == "m" and len(sec.figures) == 1
+
+
+def test_voronoi_section_of_a_lattice_bed_is_pi_over_6_inside(monkeypatch):
+    pytest.importorskip("pyvoro2", reason="optional extra bedstruct[voronoi] (pyvoro2) not installed")
+    lattice = cubic_lattice((12, 4, 4), spacing=100e-6, radius=50e-6, boundary=("pp", "pp", "ff"))
+    sec = build_report(lattice.with_units("si")).section("voronoi")
+    assert sec.status == "ok", sec.text
+    assert sec.numbers["mean_inside"].value == pytest.approx(np.pi / 6, rel=1e-9)
+    assert sec.numbers["mean_all"].value == pytest.approx(np.pi / 6, rel=1e-9)   # the region ends at the caps
+    assert sec.numbers["wall_cell_fraction"].value == pytest.approx(0.5)          # top and bottom layers
+    assert len(sec.figures) == 1
+
+
+def test_voronoi_section_without_pyvoro2_is_skipped_with_the_install_hint(monkeypatch):
+    import builtins
+    real = builtins.__import__
+
+    def no_pyvoro2(name, *args, **kwargs):
+        if name == "pyvoro2":
+            raise ImportError("No module named 'pyvoro2'")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_pyvoro2)
+    lattice = cubic_lattice((6, 4, 4), spacing=1.0, radius=0.5, boundary=("pp", "pp", "ff"))
+    sec = build_report(lattice).section("voronoi")
+    assert sec.status == "skipped" and "bedstruct[voronoi]" in sec.text
