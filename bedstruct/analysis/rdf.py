@@ -90,8 +90,19 @@ def _ideal_pairs(edges, lengths, periodic, n: int) -> np.ndarray:
     return out
 
 
-def radial_distribution(frame, *, cutoff: float | None = None, n_bins: int = 100,
-                        chunk: int = 512) -> RDFResult:
+def _pair_counts(pos, lo, lengths, periodic, edges) -> np.ndarray:
+    """Unordered pairs with ``edges[b] < d <= edges[b + 1]`` (minimum image on periodic axes)."""
+    from scipy.spatial import cKDTree
+    cutoff = float(edges[-1])
+    # periodic axes wrap at their length; bounded ones at a length no pair can reach across
+    boxsize = np.where(periodic, lengths, 2.0 * lengths + 4.0 * cutoff)
+    shifted = np.mod(pos - lo, boxsize)
+    tree = cKDTree(shifted, boxsize=boxsize)
+    cumulative = tree.count_neighbors(tree, edges).astype(np.int64)    # ordered, with i == j
+    return np.diff((cumulative - pos.shape[0]) // 2)
+
+
+def radial_distribution(frame, *, cutoff: float | None = None, n_bins: int = 100) -> RDFResult:
     """Radial distribution function g(r) of particle centres, for periodic and bounded boxes.
 
     Parameters
@@ -103,8 +114,6 @@ def radial_distribution(frame, *, cutoff: float | None = None, n_bins: int = 100
         region allows). At most half the box along a periodic axis.
     n_bins : int, optional
         Equal bins from 0 to ``cutoff`` (default 100).
-    chunk : int, optional
-        Rows of the pair-distance computation held at once (memory only).
 
     Returns
     -------
@@ -118,7 +127,8 @@ def radial_distribution(frame, *, cutoff: float | None = None, n_bins: int = 100
 
     Notes
     -----
-    Pairs are counted with the minimum image along periodic axes. Along
+    Pairs are counted with a k-d tree (:class:`scipy.spatial.cKDTree`,
+    minimum image along periodic axes), in O(N) for a fixed cutoff. Along
     bounded axes the reference region is the extent of the particle centres,
     and the count is divided by that of an ideal gas of the same density in
     the same region,
@@ -175,19 +185,7 @@ def radial_distribution(frame, *, cutoff: float | None = None, n_bins: int = 100
     if cutoff > half * (1 + 1e-12):
         raise ValueError(f"`cutoff` ({cutoff:.6g}) must be at most half the periodic box length ({half:.6g})")
     edges = np.linspace(0.0, cutoff, int(n_bins) + 1)
-    counts = np.zeros(int(n_bins), dtype=np.int64)
-    L = np.where(periodic, lengths, 0.0)
-    for start in range(0, n - 1, chunk):
-        stop = min(start + chunk, n - 1)
-        d = pos[start + 1:, None, :] - pos[None, start:stop, :]          # (n - start - 1, rows, 3)
-        if periodic.any():
-            d -= L * np.round(d / np.where(periodic, lengths, 1.0))
-        r = np.sqrt(np.einsum("ijk,ijk->ij", d, d))
-        # keep pairs (i, j) with j > i only: row i = start + c pairs with start + 1 + m when m >= c
-        m = np.arange(d.shape[0])[:, None]
-        c = np.arange(stop - start)[None, :]
-        r = r[(m >= c) & (r < cutoff)]
-        counts += np.histogram(r, bins=edges)[0]
+    counts = _pair_counts(pos, lo, lengths, periodic, edges)
     ideal = _ideal_pairs(edges, lengths, periodic, n)
     with np.errstate(invalid="ignore", divide="ignore"):
         g = np.where(ideal > 0, counts / ideal, np.nan)

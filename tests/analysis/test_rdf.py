@@ -24,7 +24,7 @@ def test_pair_counts_match_brute_force_with_minimum_image():
     rng = np.random.default_rng(3)
     pos = rng.uniform(0, [5, 4, 3], (300, 3))
     f = Frame(pos, np.full(300, 0.1), box=Box([0, 0, 0], [5, 4, 3], boundary="pp ff pp"))
-    res = radial_distribution(f, cutoff=1.4, n_bins=7, chunk=37)
+    res = radial_distribution(f, cutoff=1.4, n_bins=7)
     d = pos[:, None] - pos[None]
     L = np.array([5.0, 0.0, 3.0])
     d -= L * np.round(d / np.array([5.0, 1.0, 3.0]))
