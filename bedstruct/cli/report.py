@@ -35,6 +35,9 @@ def add_arguments(parser) -> None:
                         help="LAMMPS unit style of the dump when it does not say")
     parser.add_argument("--repose-base", type=float, default=None, metavar="Z",
                         help="height of the plate a pile stands on (length unit of the dump)")
+    parser.add_argument("--german-windows", type=int, default=None, metavar="N",
+                        help="windows along the bed for the German's-law fit (default 12, the library's "
+                             "analysis.german_law_along)")
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
     parser.add_argument("--heat-length-unit", type=float, default=None, metavar="M",
                         help="metres per dump length unit (heat needs SI when the unit is unknown)")
@@ -54,7 +57,8 @@ def run(args) -> int:
         options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames,
                                 heat=args.heat, heat_length_unit=args.heat_length_unit,
                                 heat_stop_fraction=args.heat_stop_fraction,
-                                repose_base=args.repose_base)
+                                repose_base=args.repose_base,
+                                **({} if args.german_windows is None else {"german_windows": args.german_windows}))
     except ValueError as exc:   # an option's value out of range: a usage error, like argparse's
         raise UsageError(str(exc)) from None
     progress = sys.stderr.isatty() if args.progress is None else args.progress

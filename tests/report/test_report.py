@@ -41,7 +41,7 @@ def test_select_frames_errors():
 
 
 def test_cli_option_values_out_of_range_are_usage_errors(bed_dump, tmp_path, capsys):
-    for bad in (["--regions", "0"], ["--frames", "last"]):
+    for bad in (["--regions", "0"], ["--frames", "last"], ["--german-windows", "2"]):
         assert main(["report", str(bed_dump), "--out", str(tmp_path / "r"), *bad]) == 2
         assert capsys.readouterr().err.startswith("bedstruct report: error:")
     assert not (tmp_path / "r").exists()
@@ -102,9 +102,11 @@ def test_failing_section_does_not_break_report(bed_dump, monkeypatch):
 
 def test_cli_report_json_last_line(bed_dump, tmp_path, capsys):
     out = tmp_path / "rep"
-    assert main(["report", str(bed_dump), "--out", str(out), "--json", "--frames", "all"]) == 0
+    assert main(["report", str(bed_dump), "--out", str(out), "--json", "--frames", "all",
+                 "--german-windows", "8"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     summary = json.loads(last)
+    assert summary["values"]["coordination.german_windows"] == 8
     assert summary["sections"]["summary"] == "ok"
     assert summary["values"]["summary.n_frames_analysed"] == 2
     assert (out / "report.html").exists() and (out / "report.json").exists()
