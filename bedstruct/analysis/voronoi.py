@@ -9,6 +9,11 @@ radii nor walls, so it would misplace every face between unequal spheres.
 
 from __future__ import annotations
 
+import contextlib
+import logging
+import os
+import sys
+import tempfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,6 +21,8 @@ import numpy as np
 from ..core.frame import _as_frame
 
 __all__ = ["LocalPacking", "local_packing"]
+
+log = logging.getLogger(__name__)
 
 _HINT = "local_packing needs the optional package pyvoro2: pip install 'bedstruct[voronoi]' (or pyvoro2)"
 
@@ -58,6 +65,29 @@ class LocalPacking:
             return float("nan")
         particle = self.fractions[m] * self.cell_volumes[m]
         return float(particle.sum() / self.cell_volumes[m].sum())
+
+
+@contextlib.contextmanager
+def _native_stderr_to_log():
+    """voro++ prints notes ("vertex memory scaled up") on the C stderr: send them to the log."""
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):     # no real stderr (captured, embedded)
+        yield
+        return
+    sys.stderr.flush()
+    saved = os.dup(fd)
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        os.dup2(tmp.fileno(), fd)
+        try:
+            yield
+        finally:
+            os.dup2(saved, fd)
+            os.close(saved)
+            tmp.seek(0)
+            text = tmp.read().decode(errors="replace").strip()
+            if text:
+                log.debug("voro++: %s", text)
 
 
 def local_packing(frame, *, region=None) -> LocalPacking:
@@ -140,8 +170,9 @@ def local_packing(frame, *, region=None) -> LocalPacking:
         if periodic[a]:
             wrapped[:, a] = lo[a] + np.mod(pos[:, a] - lo[a], hi[a] - lo[a])
     domain = pyvoro2.OrthorhombicCell(tuple((float(a), float(b)) for a, b in zip(lo, hi)), periodic=periodic)
-    cells = pyvoro2.compute(wrapped, domain=domain, mode="power", radii=radii, return_vertices=False,
-                            return_adjacency=False, return_faces=True, output="cells")
+    with _native_stderr_to_log():
+        cells = pyvoro2.compute(wrapped, domain=domain, mode="power", radii=radii, return_vertices=False,
+                                return_adjacency=False, return_faces=True, output="cells")
     volumes = np.full(n, np.nan)
     at_wall = np.zeros(n, dtype=bool)
     for c in cells:
