@@ -6,7 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["german_cn", "GermanFit", "fit_german_law"]
+__all__ = ["german_cn", "GermanFit", "fit_german_law", "GermanAlongBed", "german_law_along",
+           "GERMAN_WINDOWS", "GERMAN_MIN_PARTICLES"]
+
+#: Default number of equal windows along the bed for German's-law fits.
+GERMAN_WINDOWS = 12
+#: Windows with fewer particles (by centre) are left out of the fit.
+GERMAN_MIN_PARTICLES = 5
 
 
 def german_cn(f, *, a: float = 1.0, b: float = 1.0) -> np.ndarray:
@@ -172,7 +178,7 @@ def fit_german_law(f, cn, *, confidence: float = 0.95, weights=None) -> GermanFi
         s2 = float(np.sum(w * res ** 2) / dof)   # weights are relative: scale from residuals
         cov = s2 * np.linalg.inv((X * w[:, None]).T @ X)
         t = float(stats.t.ppf(0.5 + confidence / 2, dof))
-        se = np.sqrt(np.diag(cov))
+        se = np.sqrt(np.clip(np.diag(cov), 0.0, None))   # an exact fit can round to -0
         a_ci = (a - t * se[0], a + t * se[0])
         b_ci = (b - t * se[1], b + t * se[1])
     else:
@@ -185,3 +191,136 @@ def fit_german_law(f, cn, *, confidence: float = 0.95, weights=None) -> GermanFi
                      unfitted_residuals=unfit, unfitted_deviation=float(np.mean(np.abs(unfit))),
                      fitted_deviation=float(np.mean(np.abs(res))), r_squared=r2,
                      confidence=float(confidence))
+
+
+_AXIS_NAMES = "xyz"
+
+
+@dataclass(frozen=True)
+class GermanAlongBed:
+    """German's law fitted over windows along a bed, and the windows it used.
+
+    Attributes
+    ----------
+    fit : GermanFit or None
+        The fit over the windows used (None with fewer than 3 of them).
+    n_windows : int
+        Equal windows the bed region was split into along ``axis``.
+    axis : int
+        Direction along the bed (0, 1, 2).
+    min_particles : int
+        Windows with fewer particles (by centre) were left out.
+    lower, upper : (n_windows, 3) ndarray of float, length
+        Window corners.
+    fractions : (n_windows,) ndarray of float
+        Exact sphere-cuboid packing fraction of each window.
+    cn : (n_windows,) ndarray of float
+        Mean coordination number of the particles centred in each window
+        (all their contacts counted; NaN when empty).
+    n_particles : (n_windows,) ndarray of int
+        Particles centred in each window.
+    used : (n_windows,) ndarray of bool
+        Windows that entered the fit.
+    """
+
+    fit: GermanFit | None
+    n_windows: int
+    axis: int
+    min_particles: int
+    lower: np.ndarray
+    upper: np.ndarray
+    fractions: np.ndarray
+    cn: np.ndarray
+    n_particles: np.ndarray
+    used: np.ndarray
+
+    @property
+    def n_used(self) -> int:
+        """Number of windows in the fit."""
+        return int(np.count_nonzero(self.used))
+
+    @property
+    def definition(self) -> str:
+        """One sentence saying which points were fitted."""
+        return (f"{self.n_used} of {self.n_windows} equal windows along {_AXIS_NAMES[self.axis]} "
+                f"over the bed region (windows with at least {self.min_particles} particles): exact "
+                f"sphere-cuboid packing fraction and mean coordination of the particles centred there")
+
+
+def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, axis: int = 0,
+                     min_particles: int = GERMAN_MIN_PARTICLES, coordination_result=None,
+                     confidence: float = 0.95) -> GermanAlongBed:
+    """Fit German's law to the packing and coordination of windows along a bed.
+
+    The one definition of a bed's German fit: the bed region
+    (:func:`bedstruct.analysis.bed_windows`) is split into ``n_windows``
+    equal windows along ``axis``; each gives its exact sphere-cuboid packing
+    fraction (:func:`bedstruct.analysis.packing_along`) and the mean
+    coordination number of the particles centred in it
+    (:func:`bedstruct.analysis.coordination_by_window`); windows with at
+    least ``min_particles`` particles are fitted by :func:`fit_german_law`.
+    ``bedstruct report`` uses it with the defaults.
+
+    Parameters
+    ----------
+    frame : Frame
+    contacts : Contacts, optional
+        Contacts of the frame (detected geometrically when omitted and no
+        ``coordination_result`` is given).
+    n_windows : int, optional
+        Windows along the bed (default :data:`GERMAN_WINDOWS`, 12).
+    axis : int, optional
+        Direction along the bed (default 0, x).
+    min_particles : int, optional
+        Smallest particle count of a window in the fit (default 5).
+    coordination_result : CoordinationResult, optional
+        Per-particle coordination already computed for ``frame``.
+    confidence : float, optional
+        Level of the fit's confidence intervals (default 0.95).
+
+    Returns
+    -------
+    GermanAlongBed
+        ``fit`` is None when fewer than 3 windows qualify or their packing
+        fractions are all equal.
+
+    Raises
+    ------
+    ValueError
+        If ``n_windows`` < 3, ``axis`` is not 0, 1 or 2, or ``min_particles`` < 1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Box, Frame
+    >>> g = np.stack(np.meshgrid(*[np.arange(k) + 0.5 for k in (24, 4, 4)], indexing="ij"), -1)
+    >>> pos = g.reshape(-1, 3)
+    >>> keep = (pos[:, 0] < 12) | (pos[:, 2] < 3)       # the second half is one layer thinner
+    >>> bed = Frame(pos[keep], np.full(keep.sum(), 0.51), box=Box([0, 0, 0], [24, 4, 4], boundary="pp pp ff"))
+    >>> g = german_law_along(bed, n_windows=6)
+    >>> g.n_used, g.definition.split(":")[0]
+    (6, '6 of 6 equal windows along x over the bed region (windows with at least 5 particles)')
+    """
+    from .coordination import coordination, coordination_by_window
+    from .packing import packing_along
+
+    if int(n_windows) < 3:
+        raise ValueError(f"`n_windows` must be at least 3 for a two-coefficient fit; got {n_windows}")
+    if axis not in (0, 1, 2):
+        raise ValueError(f"`axis` must be 0, 1 or 2; got {axis!r}")
+    if int(min_particles) < 1:
+        raise ValueError(f"`min_particles` must be at least 1; got {min_particles}")
+    if coordination_result is None:
+        coordination_result = coordination(frame, contacts)
+    prof = packing_along(frame, int(n_windows), axis=axis)
+    wins = coordination_by_window(frame, prof.lower, prof.upper, result=coordination_result)
+    f = np.asarray(prof.fractions, dtype=np.float64)
+    cn = np.asarray(wins.mean, dtype=np.float64)
+    n = np.asarray(wins.n_particles, dtype=np.int64)
+    used = (n >= int(min_particles)) & np.isfinite(f) & np.isfinite(cn)
+    fit = None
+    if used.sum() >= 3 and np.ptp(f[used]) > 0:
+        fit = fit_german_law(f[used], cn[used], confidence=confidence)
+    return GermanAlongBed(fit=fit, n_windows=int(n_windows), axis=int(axis), min_particles=int(min_particles),
+                          lower=np.asarray(prof.lower), upper=np.asarray(prof.upper), fractions=f, cn=cn,
+                          n_particles=n, used=used)

@@ -16,7 +16,7 @@ import numpy as np
 from ..core.frame import _as_frame
 from .surface import height_profile, surface_height_map
 
-__all__ = ["FlankFit", "ReposeResult", "angle_of_repose", "dynamic_angle_of_repose",
+__all__ = ["FlankFit", "ReposeResult", "angle_of_repose", "PileAngle", "pile_angle", "dynamic_angle_of_repose",
            "ReposeSeries", "dynamic_repose_series", "free_surface_profile"]
 
 
@@ -66,6 +66,12 @@ class ReposeResult:
         The free-surface profile.
     base, top : float, length
         Heights taken as the toe level and the crest of the pile.
+
+    Notes
+    -----
+    ``angle_std_deg`` is the fit uncertainty of one pile's mean angle, not
+    a scatter between piles: a spread needs replicates. How much the two
+    flanks of this pile differ is :attr:`flank_difference_deg`.
     """
 
     angle_deg: float
@@ -80,6 +86,11 @@ class ReposeResult:
     profile_h: np.ndarray
     base: float
     top: float
+
+    @property
+    def flank_difference_deg(self) -> float:
+        """``|left_deg - right_deg|`` (degrees; NaN unless both flanks were fitted)."""
+        return abs(self.left_deg - self.right_deg)
 
 
 def free_surface_profile(frame, *, axis: int = 0, vertical: int = 2, spacing: float | None = None,
@@ -239,6 +250,137 @@ def angle_of_repose(frame, *, axis: int = 0, vertical: int = 2, spacing: float |
     left = _fit_flank(x, h, peak, -1, q, lo, hi, min_points) if flanks in ("both", "left") else None
     right = _fit_flank(x, h, peak, 1, q, lo, hi, min_points) if flanks in ("both", "right") else None
     return _combine(left, right, x, h, b, top)
+
+
+@dataclass(frozen=True)
+class PileAngle:
+    """The angle of repose of a pile, and which particles and base it was measured on.
+
+    Attributes
+    ----------
+    repose : ReposeResult
+        The fit: ``angle_deg`` (mean of the flanks), ``angle_std_deg`` (its
+        fit uncertainty, 1 sigma), ``left_deg``, ``right_deg``,
+        ``flank_difference_deg``, the profile.
+    base : float, length
+        Plate level the pile stands on.
+    base_found : bool
+        True when ``base`` was found from the pile, False when given.
+    n_particles : int
+        Particles the profile was taken from.
+    n_left_out : int
+        Particles left out (other clusters, below the plate, outside ``bounds``).
+    """
+
+    repose: ReposeResult
+    base: float
+    base_found: bool
+    n_particles: int
+    n_left_out: int
+
+    @property
+    def angle_deg(self) -> float:
+        """Mean angle of the fitted flanks (degrees)."""
+        return self.repose.angle_deg
+
+    @property
+    def angle_std_deg(self) -> float:
+        """Fit uncertainty (1 sigma) of :attr:`angle_deg` (degrees); not a scatter between piles."""
+        return self.repose.angle_std_deg
+
+
+def pile_angle(frame, *, axis: int = 0, base: float | None = None, bounds=None,
+               flanks: str = "both") -> PileAngle:
+    """Static angle of repose of a settled pile: the one measurement of a pile.
+
+    ``bedstruct report`` uses it, and a repose run measures its piles the
+    same way (plate level and ledge given from its configuration).
+
+    Parameters
+    ----------
+    frame : Frame
+        The settled pile (length unit of the dump).
+    axis : int, optional
+        Horizontal axis along which the flanks descend (default 0, x).
+    base : float, length, optional
+        Plate level (height of the plate the pile stands on). Default: found
+        as the 5th percentile of the particle bottoms ``z - r`` of the
+        largest cluster of touching particles (the layer resting on the
+        plate); clumps still falling, in other clusters, are left out.
+    bounds : ((lo0, hi0), (lo1, hi1)), optional
+        Lateral extent (x, y) of the pile (e.g. a ledge plus a pad):
+        particles centred outside it along ``axis`` are left out, and the
+        height map spans it (:func:`bedstruct.analysis.surface_height_map`).
+        Default: the pile's particle centres plus the largest radius, and
+        the box across ``axis`` when that direction is periodic.
+    flanks : {"both", "left", "right"}, optional
+        Flanks to fit (one for a wedge against a wall).
+
+    Returns
+    -------
+    PileAngle
+
+    Raises
+    ------
+    ValueError
+        Fewer than 10 particles stand on the plate, or no pile (a flat profile).
+
+    Notes
+    -----
+    Particles centred above ``base - r`` form the pile; its free surface is
+    the median height across the other horizontal axis of the top-surface
+    map on a grid of half the median radius, and each flank is fitted
+    between 20 % and 80 % of the pile height (:func:`angle_of_repose`,
+    ``statistic="median"``). The ``±`` of one pile is the fit uncertainty of
+    the mean of its flanks; a scatter between piles needs replicates.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> g = np.stack(np.meshgrid(np.arange(80) * 0.5 + 0.25, [0.25], np.arange(24) * 0.5 + 0.25,
+    ...                          indexing="ij"), -1).reshape(-1, 3)
+    >>> heap = g[g[:, 2] <= 12 - np.tan(np.radians(30)) * abs(g[:, 0] - 20)]
+    >>> p = pile_angle(Frame(heap, np.full(len(heap), 0.26), box=([0, 0, 0], [40, 0.5, 14])))
+    >>> round(p.angle_deg), round(p.base, 2), p.base_found
+    (30, 0.0, True)
+    """
+    from .surface import largest_cluster
+
+    frame = _as_frame(frame)
+    if axis not in (0, 1):
+        raise ValueError(f"`axis` must be a horizontal axis, 0 or 1; got {axis!r}")
+    n0 = frame.n_particles
+    pile = frame
+    found = base is None
+    if found:
+        if n0 == 0:
+            raise ValueError("the frame has no particles: no pile to measure")
+        cluster = largest_cluster(frame)
+        if cluster.sum() >= 0.5 * n0:
+            pile = frame.select(cluster)
+        base = float(np.percentile(pile.positions[:, 2] - pile.radii, 5))
+    pile = pile.select(pile.positions[:, 2] > float(base) - pile.radii)
+    if bounds is not None:
+        lo, hi = (float(v) for v in bounds[axis])
+        along = pile.positions[:, axis]
+        pile = pile.select((along > lo) & (along < hi))
+    if pile.n_particles < 10:
+        raise ValueError(f"only {pile.n_particles} particles stand on the plate at {base:.6g}: no pile to measure")
+    if bounds is None:
+        # the pile's own extent (not the box's empty ends); across it, the box when periodic
+        pad = float(pile.radii.max())
+        ext = []
+        for a in (0, 1):
+            c = pile.positions[:, a]
+            if a != axis and pile.box.periodic[a]:
+                ext.append((float(pile.box.lo[a]), float(pile.box.hi[a])))
+            else:
+                ext.append((float(c.min()) - pad, float(c.max()) + pad))
+        bounds = tuple(ext)
+    res = angle_of_repose(pile, axis=axis, base=float(base), flanks=flanks, bounds=bounds,
+                          statistic="median", spacing=0.5 * float(np.median(pile.radii)))
+    return PileAngle(res, float(base), found, pile.n_particles, n0 - pile.n_particles)
 
 
 def dynamic_angle_of_repose(frame, blade_position: float, *, direction: int = 1, axis: int = 0,

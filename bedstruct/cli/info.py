@@ -4,10 +4,13 @@ Accepts dump files (text, .gz, .bz2, binary), globs and data files: dumps of
 one kind matched by a glob are summarised as one trajectory, every data file
 on its own. Every frame's atom count is checked against its rows; the values
 of the first non-empty frame are parsed. Quiet and one block per summary by
-default; ``--json`` prints one JSON object per call as the last line.
+default; ``--json`` prints one JSON object per call as the last line. Exit
+status 1 when a file cannot be read or holds no frame (an empty file).
 """
 
 from __future__ import annotations
+
+import sys
 
 NAME = "info"
 HELP = "summarise dump and data files (frames, N, box, columns)"
@@ -31,7 +34,13 @@ def run(args) -> int:
                  for s in io.summarise_all(p, radius=args.radius, columns=args.columns)]
     if args.json:
         print_json({"files": summaries})
-        return 0
-    for s in summaries:
-        print(io.format_summary(s))
+    else:
+        for s in summaries:
+            print(io.format_summary(s))
+    # a file with nothing in it is not a dump: say so and fail, as for any unreadable file
+    empty = [s["path"] for s in summaries if s.get("format") == "empty" or not s.get("n_frames")]
+    if empty:
+        print(f"bedstruct info: error: {', '.join(map(str, empty))}: no frames (the file is empty)",
+              file=sys.stderr)
+        return 1
     return 0

@@ -4,8 +4,10 @@ Sections: data summary, packing fraction along the bed, coordination and
 German's law, size distribution and segregation, surface roughness, fabric
 tensors with rose diagrams, harmonic spectrum, angle of repose (when a pile is
 present) and, with --heat, heat-affected-zone roundness. A section that fails
-is reported as failed; the rest still renders. Exit status 0 when the report
-was written (even with failed sections), 1 on bad input.
+is reported as failed; the rest still renders. Prints where it wrote the
+report and what the input is (settled bed, pile, moving bed, dilute flow).
+Exit status 0 when the report was written (even with failed sections), 1 on
+bad input.
 """
 
 from __future__ import annotations
@@ -33,6 +35,9 @@ def add_arguments(parser) -> None:
                         help="LAMMPS unit style of the dump when it does not say")
     parser.add_argument("--repose-base", type=float, default=None, metavar="Z",
                         help="height of the plate a pile stands on (length unit of the dump)")
+    parser.add_argument("--german-windows", type=int, default=None, metavar="N",
+                        help="windows along the bed for the German's-law fit (default 12, the library's "
+                             "analysis.german_law_along)")
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
     parser.add_argument("--heat-length-unit", type=float, default=None, metavar="M",
                         help="metres per dump length unit (heat needs SI when the unit is unknown)")
@@ -52,7 +57,8 @@ def run(args) -> int:
         options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames,
                                 heat=args.heat, heat_length_unit=args.heat_length_unit,
                                 heat_stop_fraction=args.heat_stop_fraction,
-                                repose_base=args.repose_base)
+                                repose_base=args.repose_base,
+                                **({} if args.german_windows is None else {"german_windows": args.german_windows}))
     except ValueError as exc:   # an option's value out of range: a usage error, like argparse's
         raise UsageError(str(exc)) from None
     progress = sys.stderr.isatty() if args.progress is None else args.progress
@@ -60,6 +66,10 @@ def run(args) -> int:
     report, html_path, json_path = report_on_files(
         args.paths, args.out, contacts=args.contacts, contact_keywords=kw, options=options,
         radius=args.radius, units=args.units, progress=progress)
+    state = report.state or {}
+    kind = f" (input: {state['kind']}" + (f"; not meaningful for it: {', '.join(state['not_meaningful'])}"
+                                        if state.get("not_meaningful") else "") + ")" if state else ""
+    print(f"bedstruct report: wrote {html_path} and {json_path}{kind}")
     if args.json:
         summary = report.summary()
         summary.update(html=str(html_path), json=str(json_path))

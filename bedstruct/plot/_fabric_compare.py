@@ -222,7 +222,8 @@ def plot_fabric_evolution(results, *, x=None, xlabel=None, axes=None):
     return fig
 
 
-def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlabel=None, ax=None):
+def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlabel=None, labels=None,
+                        ax=None):
     """Rotation-invariant harmonic power per degree, for one or several expansions.
 
     One expansion: bars of :math:`P_l` against :math:`l`. Several (regions
@@ -240,6 +241,9 @@ def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlab
     relative : bool
         Plot :math:`P_l / P_0` (default) instead of :math:`P_l`.
     xlabel : str, optional
+    labels : sequence of str, optional
+        Tick labels of the expansions (e.g. ``["start", "centre", "end"]``),
+        one per expansion, placed at ``x``.
     ax : Axes, optional
 
     Returns
@@ -250,9 +254,11 @@ def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlab
     --------
     >>> from bedstruct.analysis.harmonics import harmonic_expansion
     >>> e = harmonic_expansion([[1, 0, 0], [0, 1, 0], [0, 0, 1]], 6)
-    >>> fig = plot_harmonic_power([e, e, e])
+    >>> fig = plot_harmonic_power([e, e, e], labels=["start", "centre", "end"])
     >>> len(fig.axes[0].get_lines())   # l = 4 and l = 6 (l = 2 is zero for cubic data)
     2
+    >>> [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    ['start', 'centre', 'end']
     """
     Figure = figure_class(three_d=True)
     if isinstance(expansions, RegionFabric):
@@ -290,6 +296,11 @@ def plot_harmonic_power(expansions, *, x=None, degrees=None, relative=True, xlab
             raise ValueError(f"`x` must have one value per expansion ({len(items)}); got {x.shape}")
         for l in degrees:
             ax.plot(x, p[:, l], marker="o", label=f"l = {l}")
+        if labels is not None:
+            labels = [str(v) for v in labels]
+            if len(labels) != len(items):
+                raise ValueError(f"`labels` must have one entry per expansion ({len(items)}); got {len(labels)}")
+            ax.set_xticks(list(x), labels)
         ax.legend(fontsize="small")
         ax.set_xlabel(xlabel or "region / frame")
     ax.set_ylabel(label)

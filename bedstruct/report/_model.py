@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["Quantity", "Table", "Section", "Report", "run_section"]
+__all__ = ["Quantity", "Table", "Section", "Report", "run_section", "not_meaningful_section"]
 
 log = logging.getLogger(__name__)
 
@@ -65,19 +65,38 @@ class Quantity:
 
 @dataclass
 class Table:
-    """A small table: column names and rows of values."""
+    """A small table: column names, rows of values and, optionally, each column's unit.
+
+    ``units`` holds one unit per column (``"1"`` dimensionless, ``""`` for
+    labels); the JSON keeps the values in these units and the HTML shows
+    them in natural ones (um or mm, %, ms).
+    """
 
     columns: list[str]
     rows: list[list[Any]]
     caption: str = ""
+    units: list[str] | None = None
+
+    def __post_init__(self):
+        if self.units is not None and len(self.units) != len(self.columns):
+            raise ValueError(f"`units` must have one entry per column ({len(self.columns)}); got {len(self.units)}")
 
     def to_json(self) -> dict:
-        return {"caption": self.caption, "columns": list(self.columns), "rows": _plain(self.rows)}
+        out = {"caption": self.caption, "columns": list(self.columns), "rows": _plain(self.rows)}
+        if self.units is not None:
+            out["units"] = list(self.units)
+        return out
 
 
 @dataclass
 class Section:
-    """A report section; ``status`` is ``"ok"``, ``"failed"`` or ``"skipped"``."""
+    """A report section.
+
+    ``status`` is ``"ok"``, ``"failed"``, ``"skipped"`` (the analysis found
+    nothing to measure, e.g. no pile) or ``"not meaningful"`` (the analysis
+    does not apply to this kind of input, e.g. German's law on a dilute flow;
+    ``text`` gives the reason and no numbers are reported).
+    """
 
     key: str
     title: str
@@ -120,6 +139,7 @@ class Report:
     settings: dict[str, Any]
     sections: list[Section] = field(default_factory=list)
     version: str = ""
+    state: dict | None = None
 
     def section(self, key: str) -> Section:
         for s in self.sections:
@@ -136,8 +156,16 @@ class Report:
         """The full, documented JSON document (schema ``bedstruct.report/1``)."""
         return {"schema": SCHEMA, "bedstruct_version": self.version, "title": self.title,
                 "inputs": _plain(self.inputs), "settings": _plain(self.settings),
+                "input_state": self._state_json(),
                 "sections": {s.key: s.to_json() for s in self.sections},
                 "failed_sections": self.failed}
+
+    def _state_json(self) -> dict | None:
+        if self.state is None:
+            return None
+        out = {k: v for k, v in self.state.items() if k != "evidence"}
+        out["evidence"] = {k: q.to_json() for k, q in self.state.get("evidence", {}).items()}
+        return out
 
     def summary(self) -> dict:
         """A compact summary: every number's value by ``section.key``, plus status."""
@@ -145,7 +173,9 @@ class Report:
         for s in self.sections:
             for k, q in s.numbers.items():
                 values[f"{s.key}.{k}"] = _plain(q.value)
-        return {"schema": SCHEMA, "title": self.title, "sections": {s.key: s.status for s in self.sections},
+        return {"schema": SCHEMA, "title": self.title,
+                "input_kind": self.state["kind"] if self.state else None,
+                "sections": {s.key: s.status for s in self.sections},
                 "failed_sections": self.failed, "values": values}
 
 
@@ -162,8 +192,32 @@ def run_section(key: str, title: str, func: Callable[[Section], None]) -> Sectio
         section.status = "failed"
         section.error = f"{type(exc).__name__}: {exc}"
         log.debug("section %s failed:\n%s", key, traceback.format_exc())
+    else:
+        numeric = [q.value for q in section.numbers.values() if not isinstance(q.value, str)]
+        if numeric and not any(_has_finite(v) for v in numeric):
+            # an "ok" beside numbers that are all n/a would say something was measured
+            section.status = "skipped"
+            section.text = " ".join(t for t in ("No number could be computed for this input.", section.text) if t)
+            section.numbers.clear()
     section.seconds = time.perf_counter() - t0
     return section
+
+
+def not_meaningful_section(key: str, title: str, reason: str) -> Section:
+    """A section not run because its analysis does not apply to this input."""
+    return Section(key, title, status="not meaningful", text=reason)
+
+
+def _has_finite(value) -> bool:
+    """True when ``value`` (a number, list or array, possibly nested) holds a finite number."""
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return any(_has_finite(v) for v in (value.tolist() if isinstance(value, np.ndarray) else value))
+    if isinstance(value, (bool, np.bool_)) or value is None:
+        return False
+    try:
+        return math.isfinite(float(value))
+    except (TypeError, ValueError):
+        return False
 
 
 class _Skip(Exception):

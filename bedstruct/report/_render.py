@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import html
 import json
+import math
 from pathlib import Path
+
+import numpy as np
 
 from .._atomic import atomic_path
 from ._model import Report, Section
@@ -20,27 +23,83 @@ td,th{border:1px solid #dde3ec;padding:.25em .6em;text-align:left;vertical-align
 th{background:#f3f6fa}td.num{text-align:right;font-variant-numeric:tabular-nums}
 .status{display:inline-block;padding:.05em .5em;border-radius:.6em;font-size:.8em;margin-left:.5em}
 .ok{background:#dff3e4;color:#185c2b}.failed{background:#fde2e1;color:#8a1c17}
-.skipped{background:#eceff3;color:#4a5568}figure{display:inline-block;margin:.6em .6em .6em 0}
+.skipped{background:#eceff3;color:#4a5568}.not-meaningful{background:#fff4d6;color:#7a5200}
+.state{border-left:4px solid #3867d6;background:#f3f6fd;padding:.6em 1em;margin:1em 0}
+.state.warn{border-left-color:#d69e2e;background:#fffaf0}.state b{font-size:1.1em}figure{display:inline-block;margin:.6em .6em .6em 0}
 figure img{max-width:100%;border:1px solid #e5e9f0}figcaption{font-size:.85em;color:#4a5568}
 .def{color:#4a5568;font-size:.88em}.ref{color:#718096;font-style:italic}.error{background:#fff5f5;border-left:4px solid #e53e3e;padding:.5em .8em}
 nav a{margin-right:.8em}
 """
 
 
-def _fmt(value) -> str:
+_LENGTH_SI = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "nm": 1e-9}
+_PERCENT_KEYS = ("rattler_fraction", "uncovered_fraction", "network_fraction", "moving_fraction",
+                 "wall_cell_fraction")
+
+
+def _number(v: float, digits: int = 4) -> str:
+    """A float with ``digits`` significant digits, never in e-notation."""
+    if not math.isfinite(v):
+        return "n/a"
+    if v == 0:
+        return "0"
+    if abs(v) >= 10 ** digits:
+        return f"{v:,.0f}"
+    return np.format_float_positional(v, precision=digits, unique=False, fractional=False, trim="-")
+
+
+def _finite_values(value):
+    flat = np.ravel(np.asarray(value, dtype=object)) if isinstance(value, (list, tuple, np.ndarray)) else [value]
+    return [float(v) for v in flat if isinstance(v, (int, float, np.number)) and not isinstance(v, bool)
+            and math.isfinite(float(v))]
+
+
+def _display_unit(value, unit: str, key: str = "") -> tuple[float, str]:
+    """(factor, unit) that shows ``value`` in natural units: um or mm, %, ms, mm/s."""
+    if unit in _LENGTH_SI:
+        vals = _finite_values(value)
+        big = max((abs(v) for v in vals), default=0.0) * _LENGTH_SI[unit]
+        target = "mm" if big >= 1e-3 else "µm"
+        return _LENGTH_SI[unit] / (1e-3 if target == "mm" else 1e-6), target
+    if unit.endswith("/s") and unit[:-2] in _LENGTH_SI:
+        return _LENGTH_SI[unit[:-2]] / 1e-3, "mm/s"
+    if unit == "s":
+        vals = _finite_values(value)
+        if vals and max(abs(v) for v in vals) < 1:
+            return 1e3, "ms"
+    if unit == "1" and key.endswith(_PERCENT_KEYS):
+        return 100.0, "%"
+    if unit == "degC":
+        return 1.0, "°C"
+    if unit == "1":
+        return 1.0, ""
+    return 1.0, unit
+
+
+def _fmt(value, factor: float = 1.0) -> str:
+    """A value for the page: numbers without e-notation, lists as lists, None as n/a."""
     if value is None:
         return "n/a"
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bool):
+        return str(value)
+    if isinstance(value, int):
+        return f"{value * factor:.4g}" if factor != 1.0 else str(value)
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return _number(value * factor)
     if isinstance(value, (list, tuple)):
-        inner = ", ".join(_fmt(v) for v in value[:12])
+        inner = ", ".join(_fmt(v, factor) for v in value[:12])
         return f"[{inner}{', ...' if len(value) > 12 else ''}]"
     return html.escape(str(value))
 
 
 def _section_html(s: Section) -> str:
+    css = s.status.replace(" ", "-")
     parts = [f'<section id="{html.escape(s.key)}"><h2>{html.escape(s.title)}'
-             f'<span class="status {s.status}">{s.status}</span></h2>']
+             f'<span class="status {css}">{html.escape(s.status)}</span></h2>']
     if s.error:
         parts.append(f'<p class="error">This section failed: {html.escape(s.error)}. '
                      f'The rest of the report is unaffected.</p>')
@@ -50,22 +109,44 @@ def _section_html(s: Section) -> str:
         parts.append("<table><tr><th>quantity</th><th>value</th><th>unit</th><th>definition</th></tr>")
         for key, q in s.numbers.items():
             link = (f' <span class="ref">(see {html.escape(q.doc)})</span>' if q.doc else "")
-            parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value)}</td>'
-                         f'<td>{html.escape(q.unit)}</td><td class="def">{html.escape(q.definition)}{link}</td></tr>')
+            factor, unit = _display_unit(q.value, q.unit, key)
+            parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value, factor)}</td>'
+                         f'<td>{html.escape(unit)}</td><td class="def">{html.escape(q.definition)}{link}</td></tr>')
         parts.append("</table>")
     for t in s.tables:
         parts.append("<table>")
         if t.caption:
             parts.append(f"<caption>{html.escape(t.caption)}</caption>")
-        parts.append("<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in t.columns) + "</tr>")
+        units = list(t.units) if t.units else [""] * len(t.columns)
+        shown = [_display_unit([row[c] for row in t.rows], u or "1", t.columns[c]) if u else (1.0, "")
+                 for c, u in enumerate(units)]
+        parts.append("<tr>" + "".join(
+            f"<th>{html.escape(c)}{f' ({html.escape(u)})' if u else ''}</th>"
+            for c, (_, u) in zip(t.columns, shown)) + "</tr>")
         for row in t.rows:
-            parts.append("<tr>" + "".join(f'<td class="num">{_fmt(v)}</td>' for v in row) + "</tr>")
+            parts.append("<tr>" + "".join(f'<td class="num">{_fmt(v, f)}</td>'
+                                          for v, (f, _) in zip(row, shown)) + "</tr>")
         parts.append("</table>")
     for caption, uri in s.figures:
         parts.append(f'<figure><img src="{uri}" alt="{html.escape(caption)}">'
                      f"<figcaption>{html.escape(caption)}</figcaption></figure>")
     parts.append("</section>")
     return "\n".join(parts)
+
+
+def _state_html(report: Report) -> str:
+    """The box at the top: what the input is, the evidence, and what is not reported."""
+    st = report.state
+    if not st:
+        return ""
+    bed = st["kind"] in ("settled bed", "pile")
+    parts = [f'<div class="state{"" if bed else " warn"}" id="input-state"><b>Input: {html.escape(st["kind"])}</b>'
+             f' &mdash; {html.escape(st["reason"])}.']
+    if st.get("not_meaningful"):
+        parts.append(" Not reported for this input: " + ", ".join(html.escape(k) for k in st["not_meaningful"])
+                     + " (each section says why).")
+    parts.append("</div>")
+    return "".join(parts)
 
 
 def render_html(report: Report) -> str:
@@ -79,7 +160,7 @@ def render_html(report: Report) -> str:
             f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
             f"<h1>{html.escape(report.title)}</h1>"
             f"<p class=\"def\">bedstruct {html.escape(report.version)}</p>"
-            f"<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
+            f"{_state_html(report)}<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
 
 
 def _atomic_write(path: Path, text: str) -> None:

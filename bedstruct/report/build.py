@@ -14,8 +14,9 @@ from typing import Sequence
 import numpy as np
 
 from .._version import __version__
+from ..analysis.german import GERMAN_WINDOWS
 from ..core import Contacts, Frame
-from ._model import Report, Section, Table, run_section, skip
+from ._model import Quantity, Report, Section, Table, not_meaningful_section, run_section, skip
 
 __all__ = ["ReportOptions", "build_report", "select_frames"]
 
@@ -55,6 +56,9 @@ class ReportOptions:
     repose_base : float or None
         Height (length) of the plate the pile stands on; particles below it
         are ignored by the angle of repose. Default: found from the profile.
+    german_windows : int
+        Windows along the bed for German's-law fit (default 12, the library
+        default of :func:`bedstruct.analysis.german_law_along`).
     min_contacts : int
         Rattler threshold of the mechanical coordination number (default 2:
         with friction and cohesion a particle needs two contacts to be held
@@ -71,6 +75,7 @@ class ReportOptions:
     l_max: int = 8
     min_contacts: int = 2
     repose_base: float | None = None
+    german_windows: int = GERMAN_WINDOWS
 
     def __post_init__(self):
         if self.axis not in _AXES:
@@ -80,6 +85,8 @@ class ReportOptions:
         if self.l_max < 2 or self.l_max % 2:
             raise ValueError(f"`l_max` must be an even number >= 2; got {self.l_max}")
         _parse_frame_selection(self.frames)
+        if int(self.german_windows) < 3:
+            raise ValueError(f"`german_windows` must be at least 3; got {self.german_windows}")
 
     @property
     def axis_index(self) -> int:
@@ -155,10 +162,18 @@ class _Context:
         self.frame_indices = frame_indices
         self._contacts = contacts
         self._windows = None
+        self.state = None
 
     @property
     def length_unit(self) -> str:
         return self.frame.units.length_unit
+
+    def plot_unit(self, values) -> tuple[float, str]:
+        """(factor, unit) to plot lengths of these magnitudes in um or mm (as the page shows them)."""
+        from ._render import _display_unit
+        if self.length_unit == "unknown":
+            return 1.0, "length unit of the dump"
+        return _display_unit(list(np.ravel(values)), self.length_unit)
 
     @property
     def contacts(self) -> Contacts:
@@ -206,12 +221,13 @@ def _packing(ctx: _Context, s: Section) -> None:
                      f"exact sphere-cuboid packing fraction of the {name} region of the bed")
     from ..plot import plot_packing_profile
     fine = packing_along(f, max(12, 4 * opt.regions), axis=opt.axis_index)
-    fig = _figure_of(plot_packing_profile(fine, axis=opt.axis_index, unit=ctx.length_unit))
+    factor, unit = ctx.plot_unit(np.asarray(fine.upper)[:, opt.axis_index])
+    fig = _figure_of(plot_packing_profile(fine, axis=opt.axis_index, unit=unit, scale=factor))
     s.add_figure(fig, f"Packing fraction in {len(fine.fractions)} windows along the bed")
 
 
 def _coordination(ctx: _Context, s: Section) -> None:
-    from ..analysis import coordination, coordination_by_window, fit_german_law, packing_along
+    from ..analysis import coordination, coordination_by_window, german_law_along, packing_along
     f, opt = ctx.frame, ctx.options
     res = coordination(f, ctx.contacts, min_contacts=opt.min_contacts)
     s.add_number("mean", res.mean, "1", "mean number of contacts per particle",
@@ -223,12 +239,6 @@ def _coordination(ctx: _Context, s: Section) -> None:
                  "mechanical coordination number: mean contacts after iterative rattler removal")
     s.add_number("rattler_fraction", res.rattler_fraction, "1", "fraction of particles that are rattlers")
     s.add_number("n_contacts", ctx.contacts.n_contacts, "1", f"particle-particle contacts ({ctx.contacts.source})")
-    # German's law over windows along the bed (and over frames when several are given)
-    n_win = max(8, 3 * opt.regions)
-    prof = packing_along(f, n_win, axis=opt.axis_index)
-    wins = coordination_by_window(f, prof.lower, prof.upper, result=res)
-    ok = (np.asarray(wins.n_particles) >= 5) & np.isfinite(prof.fractions)
-    fs, cns = np.asarray(prof.fractions)[ok], np.asarray(wins.mean)[ok]
     region = packing_along(f, opt.regions, axis=opt.axis_index)
     per_region = coordination_by_window(f, region.lower, region.upper, result=res)
     rows = []
@@ -238,20 +248,86 @@ def _coordination(ctx: _Context, s: Section) -> None:
                      int(np.asarray(per_region.n_particles)[k])])
         s.add_number(f"mean_{name.replace(' ', '_')}", mean_k, "1", f"mean coordination in the {name} region")
     s.tables.append(Table(["region", "packing fraction", "mean CN", "mechanical CN", "particles"], rows,
-                          caption="coordination and packing per region"))
-    if len(fs) >= 3:
-        fit = fit_german_law(fs, cns)
-        s.add_number("german_a", fit.a, "1", "fitted a in CN = 2a + 11 b f^2", DOCS + "analysis.md, German's law")
-        s.add_number("german_b", fit.b, "1", "fitted b in CN = 2a + 11 b f^2")
-        s.add_number("german_a_ci", list(fit.a_ci), "1", f"{fit.confidence:.0%} confidence interval of a")
-        s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
-        s.add_number("german_unfitted_deviation", fit.unfitted_deviation, "1",
-                     "mean absolute difference between CN = 2 + 11 f^2 and the measured CN")
-        from ..plot import plot_german
-        fig = _figure_of(plot_german(fit, label="windows"))
-        s.add_figure(fig, "Coordination number against packing fraction with German's law")
-    else:
-        s.text = "Too few populated windows for a German's-law fit (need at least 3)."
+                          caption=f"coordination and packing per region ({_regions_text(region, opt, ctx)})",
+                          units=["", "1", "1", "1", "1"]))
+    if ctx.state is not None and not ctx.state.meaningful("german"):
+        s.text = f"No German's-law fit: {ctx.state.not_meaningful['german']}."
+        return
+    # German's law: the library's one definition (german_law_along, its default windows)
+    german = german_law_along(f, n_windows=opt.german_windows, axis=opt.axis_index, coordination_result=res)
+    s.add_number("german_windows", german.n_used, "1", "windows fitted: " + german.definition,
+                 DOCS + "analysis.md, German's law")
+    fit = german.fit
+    if fit is None:
+        s.text = (f"Too few populated windows for a German's-law fit ({german.n_used} of "
+                  f"{german.n_windows} with at least {german.min_particles} particles; need 3).")
+        return
+    where = f"over {german.n_used} windows along {opt.axis}"
+    s.add_number("german_a", fit.a, "1", f"fitted a in CN = 2a + 11 b f^2, {where}", DOCS + "analysis.md, German's law")
+    s.add_number("german_b", fit.b, "1", f"fitted b in CN = 2a + 11 b f^2, {where}")
+    s.add_number("german_a_ci", list(fit.a_ci), "1", f"{fit.confidence:.0%} confidence interval of a")
+    s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
+    s.add_number("german_unfitted_deviation", fit.unfitted_deviation, "1",
+                 "mean absolute difference between CN = 2 + 11 f^2 and the measured CN")
+    from ..plot import plot_german
+    fig = _figure_of(plot_german(fit, label=f"{german.n_used} windows along {opt.axis}"))
+    s.add_figure(fig, f"Coordination number against packing fraction with German's law ({german.definition})")
+
+
+def _rdf(ctx: _Context, s: Section) -> None:
+    from ..analysis import radial_distribution
+    from ..plot import plot_rdf
+    f = ctx.frame
+    if f.n_particles < 2:
+        skip(f"{f.n_particles} particles: no pairs")
+    if np.any(np.asarray(f.box.tilt) != 0):
+        skip("the box is tilted: g(r) is computed for orthogonal boxes only")
+    d50 = float(np.median(2 * f.radii))
+    res = radial_distribution(f)
+    r_peak, g_peak = res.first_peak
+    unit = ctx.length_unit
+    s.text = ("Pairs of particle centres by distance, over those of an ideal gas of the same density in the "
+              "same region (the box along periodic axes, the extent of the particle centres along bounded "
+              "ones), so walls and the free surface do not pull g(r) below 1.")
+    s.add_number("peak_r", r_peak, unit, "distance of the highest g(r) bin (the first neighbour shell)",
+                 DOCS + "analysis.md, Radial distribution function")
+    s.add_number("peak_r_over_d50", r_peak / d50, "1", "that distance over the median diameter")
+    s.add_number("peak_g", g_peak, "1", "g(r) at the highest bin")
+    s.add_number("cutoff", res.cutoff, unit, f"largest distance ({len(res.r)} bins)")
+    s.add_number("density", res.density, f"1/{unit}^3" if unit != "unknown" else "1/length^3",
+                 "number density of the region")
+    s.add_figure(_figure_of(plot_rdf(res, diameter=d50)),
+                 "Radial distribution function against distance over the median diameter d50")
+
+
+def _voronoi(ctx: _Context, s: Section) -> None:
+    from ..analysis import local_packing
+    from ..plot import plot_local_packing
+    f, opt = ctx.frame, ctx.options
+    if np.any(np.asarray(f.box.tilt) != 0):
+        skip("the box is tilted: the tessellation is computed for orthogonal boxes only")
+    try:
+        lp = local_packing(f)
+    except ImportError as exc:
+        skip(str(exc))
+    inside = ~lp.at_wall
+    s.text = ("Each particle's volume over that of its radical (Laguerre) Voronoi cell, from voro++ "
+              "(pyvoro2), periodic along periodic axes; along bounded ones the region ends at the "
+              "particles' extent, and cells closed by it (at a wall or the free surface) are shown apart.")
+    s.add_number("mean_inside", lp.mean(), "1", "particle volume over cell volume of the cells not at a wall "
+                 "or the free surface", DOCS + "analysis.md, Local packing (radical Voronoi)")
+    s.add_number("mean_all", lp.mean(np.ones(lp.n_particles, bool)), "1",
+                 "particle volume over cell volume of all cells (the region's packing fraction)")
+    s.add_number("median_inside", float(np.median(lp.fractions[inside])) if inside.any() else None, "1",
+                 "median local packing fraction of the cells inside")
+    s.add_number("std_inside", float(np.std(lp.fractions[inside])) if inside.any() else None, "1",
+                 "standard deviation of the local packing fraction of the cells inside")
+    s.add_number("wall_cell_fraction", float(lp.at_wall.mean()), "1",
+                 "fraction of cells at a wall or the free surface")
+    factor, unit = ctx.plot_unit(f.positions[:, opt.axis_index])
+    s.add_figure(plot_local_packing(lp, f.positions, axis=opt.axis_index, unit=unit, scale=factor),
+                 f"Local packing fraction per particle: histogram, and along {opt.axis} with the value "
+                 f"of 24 windows")
 
 
 def _psd(ctx: _Context, s: Section) -> None:
@@ -266,11 +342,13 @@ def _psd(ctx: _Context, s: Section) -> None:
     from ..plot import plot_psd
     rows = [[name, r.n_particles, r.d10, r.d50, r.d90] for name, r in zip(opt.region_names, regions)]
     shown = [(name, r) for name, r in zip(opt.region_names, regions) if r.n_particles]
+    factor, unit = ctx.plot_unit([whole.d90])
     fig = _figure_of(plot_psd([whole] + [r for _, r in shown], labels=["whole bed"] + [n for n, _ in shown],
-                              cumulative=True, unit=ctx.length_unit))
+                              cumulative=True, unit=unit, scale=factor))
     s.add_figure(fig, "Cumulative size distribution per region")
+    L = ctx.length_unit
     s.tables.append(Table(["region", "particles", "D10", "D50", "D90"], rows,
-                          caption=f"volume-weighted percentiles per region ({ctx.length_unit})"))
+                          caption="volume-weighted percentiles per region", units=["", "1", L, L, L]))
     if len(regions) >= 2:
         # the first and last regions themselves: an empty one leaves the shift undefined
         first, last = regions[0], regions[-1]
@@ -296,7 +374,8 @@ def _surface(ctx: _Context, s: Section) -> None:
                  "mean top-surface height above the lowest particle bottom (taken as the plate)")
     s.add_number("uncovered_fraction", surf.uncovered_fraction, "1", "fraction of grid cells with no particle")
     from ..plot import plot_height_map
-    fig = _figure_of(plot_height_map(surf, unit=ctx.length_unit))
+    factor, unit = ctx.plot_unit([np.ptp(surf.x)])
+    fig = _figure_of(plot_height_map(surf, unit=unit, scale=factor))
     s.add_figure(fig, "Top-surface height map (highest particle cap per cell)")
 
 
@@ -314,9 +393,10 @@ def _fabric(ctx: _Context, s: Section) -> None:
     reg = region_fabric(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
     rows = []
     for name, t in zip(opt.region_names, reg.tensors):
-        rows.append([name, t.n_contacts, *np.round(t.eigenvalues, 4), t.anisotropy])
+        rows.append([name, int(t.n_contacts), *(float(v) for v in t.eigenvalues), float(t.anisotropy)])
     s.tables.append(Table(["region", "contacts", "λ1", "λ2", "λ3", "anisotropy"], rows,
-                          caption="moment-tensor eigenvalues per region"))
+                          caption=f"moment-tensor eigenvalues per region: {len(opt.region_names)} equal slabs "
+                                  f"along {opt.axis} by contact point", units=["", "1", "1", "1", "1", "1"]))
     s.add_figure(plot_rose_grid(reg.tensors, names=opt.region_names),
                  "3-D rose diagrams per region: rank 2, rank 4 and their difference")
     if opt.regions >= 2:
@@ -333,46 +413,42 @@ def _harmonics(ctx: _Context, s: Section) -> None:
         skip(f"only {c.n_contacts} touching contacts")
     whole = harmonic_expansion(c.normals, opt.l_max)
     degrees = list(range(0, opt.l_max + 1, 2))
+    # P_l / P_0 throughout (numbers, table and figure): 0 for isotropic normals, the 4 pi of the
+    # normalisation of the Y_lm divided out
     for l in degrees[1:]:
-        s.add_number(f"power_l{l}", whole.power[l], "1", f"rotation-invariant power of degree {l}")
-    labels, _ = contact_regions(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
-    names = [n for k, n in enumerate(opt.region_names) if np.any(labels == k)]
-    exps = [harmonic_expansion(c.normals[labels == k], opt.l_max) for k in range(opt.regions)
-            if np.any(labels == k)]
-    rows = [[n] + [float(e.power[l]) for l in degrees[1:]] for n, e in zip(names, exps)]
-    s.tables.append(Table(["region"] + [f"l={l}" for l in degrees[1:]], rows,
-                          caption="rotation-invariant harmonic power per degree and region"))
-    s.add_figure(_figure_of(plot_harmonic_power(exps, xlabel="region")),
-                 "Spherical-harmonic power per degree along the bed")
+        s.add_number(f"power_l{l}", whole.power[l] / whole.power[0], "1",
+                     f"rotation-invariant power of degree {l} over that of degree 0, P_{l}/P_0 "
+                     f"(0 for isotropic contact normals)", DOCS + "fabric.md")
+    labels, edges = contact_regions(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
+    present = [k for k in range(opt.regions) if np.any(labels == k)]
+    names = [opt.region_names[k] for k in present]
+    exps = [harmonic_expansion(c.normals[labels == k], opt.l_max) for k in present]
+    unit = ctx.length_unit
+    rows = [[n, float(edges[k]), float(edges[k + 1])] + [float(e.power[l] / e.power[0]) for l in degrees[1:]]
+            for k, n, e in zip(present, names, exps)]
+    s.tables.append(Table(["region", f"{opt.axis} from", f"{opt.axis} to"] + [f"P_{l}/P_0" for l in degrees[1:]],
+                          rows, caption=f"rotation-invariant harmonic power per degree over P_0, per region along "
+                                        f"{opt.axis} (contacts by contact point)",
+                          units=["", unit, unit] + ["1"] * len(degrees[1:])))
+    fig = plot_harmonic_power(exps, degrees=degrees[1:], labels=names, relative=True,
+                              xlabel=f"region along {opt.axis} (bounds in the table)")
+    s.add_figure(_figure_of(fig), "Spherical-harmonic power P_l/P_0 per degree, per region along the bed "
+                                  "(the table's numbers)")
 
 
 def _repose(ctx: _Context, s: Section) -> None:
-    from ..analysis import angle_of_repose, largest_cluster
+    from ..analysis import pile_angle
     f, opt = ctx.frame, ctx.options
     try:
-        frame, base, how = f, opt.repose_base, "above the given plate height"
-        if base is None:
-            how = ("above the lowest free-surface level (give --repose-base to set the plate "
-                   "height)")
-            pile = largest_cluster(f) if f.n_particles else np.zeros(0, bool)
-            # the pile is its largest touching cluster (clumps still falling off a ledge form
-            # others), resting on the plate its lowest particle touches; without a touching
-            # network (a synthetic or written-rounded frame) the whole frame is the pile
-            if pile.sum() >= 0.5 * f.n_particles > 0:
-                frame = f.select(pile)
-                base = float(np.min(frame.positions[:, 2] - frame.radii))
-                how = (f"on the largest cluster of touching particles ({frame.n_particles} of "
-                       f"{f.n_particles}; clumps still falling are left out), above the plate its "
-                       f"lowest particle rests on (give --repose-base to set the plate height)")
-        else:
-            frame = f.select(f.positions[:, 2] > base - f.radii)
-        res = angle_of_repose(frame, axis=opt.axis_index, base=base)
+        pa = pile_angle(f, axis=opt.axis_index, base=opt.repose_base)
     except ValueError as exc:
         skip(f"no pile with two flanks found ({exc})")
+    res = pa.repose
     if not (np.isfinite(res.angle_deg) and res.angle_deg > 5.0
             and res.angle_deg > 2.0 * np.nan_to_num(res.angle_std_deg, nan=np.inf)):
-        skip(f"no pile found: the free surface has no clear slope "
-             f"({res.angle_deg:.1f} +- {res.angle_std_deg:.1f} deg)")
+        found = (f" ({res.angle_deg:.1f} deg, fit uncertainty {res.angle_std_deg:.1f} deg)"
+                 if np.isfinite(res.angle_deg) and np.isfinite(res.angle_std_deg) else "")
+        skip(f"no pile found: the free surface has no clear slope{found}")
     # A heap has two flanks, or one steep wedge against a wall; a spread layer is long and thin
     # with a sloped end, whose slope is not an angle of repose.
     h = np.asarray(res.profile_h, dtype=float)
@@ -383,14 +459,28 @@ def _repose(ctx: _Context, s: Section) -> None:
     if not (two_flanks or aspect >= 0.2):
         skip(f"no pile found: one sloped flank on a layer {aspect:.2f} times as high as long "
              f"(a spread layer, not a heap)")
-    s.text = f"Measured {how}; flanks fitted robustly between 20 % and 80 % of the pile height."
-    s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose (mean of both flanks)",
+    unit = ctx.length_unit
+    where = ("above the plate height given (--repose-base)" if not pa.base_found else
+             "on the largest cluster of touching particles, above the plate its bottom layer rests on "
+             "(give --repose-base to set the plate height)")
+    s.text = (f"Measured by analysis.pile_angle {where}: {pa.n_particles} of {f.n_particles} particles "
+              f"({pa.n_left_out} left out: other clusters, below the plate); median free surface across "
+              f"the width, flanks fitted robustly between 20 % and 80 % of the pile height. One pile: "
+              f"the +- is the fit uncertainty of its mean angle, not a scatter between piles "
+              f"(that needs replicates, as bedstruct run repose makes).")
+    s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose: mean of the fitted flank angles",
                  DOCS + "analysis.md, Angle of repose")
-    s.add_number("angle_std_deg", res.angle_std_deg, "deg", "uncertainty of the angle (1 sigma)")
-    s.add_number("left_deg", res.left_deg, "deg", "angle of the left flank")
-    s.add_number("right_deg", res.right_deg, "deg", "angle of the right flank")
+    s.add_number("angle_std_deg", res.angle_std_deg, "deg",
+                 "fit uncertainty (1 sigma, Theil-Sen) of this pile's mean angle; not a scatter between piles")
+    s.add_number("left_deg", res.left_deg, "deg", f"angle of the flank at lower {opt.axis}")
+    s.add_number("right_deg", res.right_deg, "deg", f"angle of the flank at higher {opt.axis}")
+    s.add_number("flank_difference_deg", res.flank_difference_deg, "deg",
+                 "difference between the two flank angles, |left - right| (none with one flank)")
+    s.add_number("base", pa.base, unit, "plate level the pile stands on" +
+                 (" (found from the pile)" if pa.base_found else " (given)"))
     from ..plot import plot_repose
-    fig = _figure_of(plot_repose(res, unit=ctx.length_unit))
+    factor, shown = ctx.plot_unit([np.nanmax(np.abs(res.profile_x))])
+    fig = _figure_of(plot_repose(res, unit=shown, scale=factor))
     s.add_figure(fig, "Free-surface profile of the pile")
 
 
@@ -405,7 +495,9 @@ def _heat(ctx: _Context, s: Section) -> None:
                        n_sources=1, stop_fraction=opt.heat_stop_fraction)
     table = heat_regions_table(res)
     columns = list(table)
-    s.tables.append(Table(columns, [list(row) for row in zip(*table.values())],
+    units = [_HEAT_UNITS.get(c, "1") for c in columns]
+    s.tables.append(Table(columns, [[v.item() if isinstance(v, np.generic) else v for v in row]
+                                    for row in zip(*table.values())], units=units,
                           caption=(f"500 um hemispherical pulse at {res.source_temperature - 273.15:.0f} C on the "
                                    f"bed surface at each region's centre; all regions reported at "
                                    f"t = {res.time * 1e3:.3g} ms, when the hottest particle has cooled to "
@@ -422,10 +514,29 @@ def _heat(ctx: _Context, s: Section) -> None:
     s.add_number("end_time", res.time, "s", "common end time of the conduction runs")
 
 
+# units of heat_regions_table's columns (bedstruct.analysis.heat_study), SI
+_HEAT_UNITS = {"region": "", "peak_temperature_C": "degC", "peak_temperature_std": "K", "crossing_time": "s",
+               "threshold_C": "degC", "orientation_deg": "deg", "major_axis": "m", "minor_axis": "m",
+               "k_max": "W/(m K)", "k_min": "W/(m K)", "k_orientation_deg": "deg",
+               "fabric_orientation_deg": "deg"}
+
+
+def _regions_text(profile, opt: ReportOptions, ctx: _Context) -> str:
+    """'3 equal regions along x: start 0-1.2, ... (mm)' from a packing profile's windows."""
+    lo, hi = np.asarray(profile.lower)[:, opt.axis_index], np.asarray(profile.upper)[:, opt.axis_index]
+    from ._render import _display_unit, _number
+    factor, unit = _display_unit(list(hi), ctx.length_unit)
+    spans = ", ".join(f"{n} {_number(a * factor)} to {_number(b * factor)}"
+                      for n, a, b in zip(opt.region_names, lo, hi))
+    return f"{len(lo)} equal regions along {opt.axis}: {spans}{f' {unit}' if unit else ''}"
+
+
 SECTIONS = [
     ("summary", "Data summary", _summary),
     ("packing", "Packing fraction", _packing),
     ("coordination", "Coordination number and German's law", _coordination),
+    ("rdf", "Radial distribution function", _rdf),
+    ("voronoi", "Local packing (radical Voronoi)", _voronoi),
     ("psd", "Particle size distribution and segregation", _psd),
     ("surface", "Surface height and roughness", _surface),
     ("fabric", "Fabric tensors and rose diagrams", _fabric),
@@ -465,8 +576,43 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     report = Report(title="bedstruct report", inputs=dict(inputs or {}),
                     settings=dataclasses.asdict(options),   # every option, so a rerun can match
                     version=__version__)
+    report.state = _state(ctx)
     todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
     from tqdm.auto import tqdm
     for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
+        why = ctx.state.not_meaningful.get(key) if ctx.state is not None else None
+        if why is not None:
+            report.sections.append(not_meaningful_section(key, title, f"Not meaningful for a {ctx.state.kind}: {why}."))
+            continue
         report.sections.append(run_section(key, title, lambda sec, f=func: f(ctx, sec)))
     return report
+
+
+def _state(ctx: _Context) -> dict:
+    """What the input is (:func:`bedstruct.analysis.bed_state`), for the top of the report."""
+    from ..analysis import bed_state
+    opt = ctx.options
+    try:
+        st = bed_state(ctx.frame, ctx.contacts, min_contacts=opt.min_contacts, axis=opt.axis_index)
+    except Exception as exc:   # the sections still run and say what they can
+        log.debug("bed_state failed", exc_info=True)
+        ctx.state = None
+        return {"kind": "unknown", "reason": f"could not be judged ({type(exc).__name__}: {exc})",
+                "evidence": {}, "not_meaningful": {}}
+    ctx.state = st
+    speed_unit = f"{ctx.length_unit}/s" if ctx.frame.units.style in ("si", "cgs") else "length/time"
+    evidence = {
+        "packing_fraction": Quantity(st.packing_fraction, "1", "particle volume over the volume of the "
+                                     "box enclosing all particles"),
+        "mean_coordination": Quantity(st.mean_coordination, "1", "mean contacts per particle"),
+        "network_fraction": Quantity(st.network_fraction, "1", f"fraction of particles held by the contact "
+                                     f"network (not rattlers, {st.min_contacts} or more contacts)"),
+        "median_speed": Quantity(st.median_speed, speed_unit, "median particle speed (none without velocities)"),
+        "rms_speed": Quantity(st.rms_speed, speed_unit, "mass-weighted rms speed sqrt(2 KE / M) "
+                              "(none without velocities)"),
+        "moving_fraction": Quantity(st.moving_fraction, "1", "fraction of particles faster than 0.1 sqrt(g d50) "
+                                    "(none without velocities or a known unit system)"),
+        "peak": Quantity(st.peak, "1", "top surface peak above its mean over the height (pile test)"),
+    }
+    return {"kind": st.kind, "reason": st.reason, "evidence": evidence,
+            "not_meaningful": dict(st.not_meaningful), "doc": DOCS + "analysis.md, What the input is"}

@@ -103,3 +103,45 @@ def test_plot_on_given_axes():
     assert len(ax.lines) == 3 and len(rax.lines) == 3            # zero line + two residual sets
     np.testing.assert_allclose(rax.lines[1].get_ydata(), fit.residuals)
     assert "a = 1.9" in ax.get_legend().get_texts()[2].get_text()
+
+
+def _stepped_bed():
+    """SC spheres (r = 0.51, spacing 1), 4 layers deep, thinning to 1 layer along x: CN and f vary."""
+    from bedstruct import Box, Frame
+    g = np.stack(np.meshgrid(*[np.arange(k) + 0.5 for k in (24, 4, 4)], indexing="ij"), -1).reshape(-1, 3)
+    layers = 4 - (g[:, 0] // 6)                      # 4, 3, 2, 1 layers in x quarters
+    keep = g[:, 2] < layers
+    return Frame(g[keep], np.full(keep.sum(), 0.51), box=Box([0, 0, 0], [24, 4, 4], boundary="pp pp ff"))
+
+
+def test_german_law_along_fits_the_windows_it_states():
+    from bedstruct.analysis import (GERMAN_WINDOWS, coordination, coordination_by_window, german_law_along,
+                                    packing_along)
+    bed = _stepped_bed()
+    g = german_law_along(bed)
+    assert g.n_windows == GERMAN_WINDOWS == 12 and g.n_used == 12 and g.axis == 0
+    assert g.definition.startswith("12 of 12 equal windows along x")
+    # the same fit by hand from the documented pieces
+    cn = coordination(bed)
+    prof = packing_along(bed, 12)
+    by_hand = fit_german_law(prof.fractions, coordination_by_window(bed, prof.lower, prof.upper, result=cn).mean)
+    assert (g.fit.a, g.fit.b) == (by_hand.a, by_hand.b)
+    # the windows away from a step (x in 2-4, 8-10, 14-16, 20-22) hold k = 4, 3, 2, 1 layers:
+    # 8 k spheres of r = 0.51 in 2 x 4 x 4.02, and CN 4 in-plane + 2 (k - 1) / k vertical
+    for w, k in zip((1, 4, 7, 10), (4, 3, 2, 1)):
+        assert g.n_particles[w] == 8 * k
+        assert g.fractions[w] == pytest.approx(8 * k * 4 / 3 * np.pi * 0.51 ** 3 / (2 * 4 * 4.02), rel=1e-3)
+        assert g.cn[w] == pytest.approx(4 + 2 * (k - 1) / k, abs=1e-12)
+
+
+def test_german_law_along_leaves_out_sparse_windows_and_needs_three():
+    from bedstruct.analysis import german_law_along
+    bed = _stepped_bed()
+    few = german_law_along(bed, min_particles=20)       # windows of k layers hold 8 k particles
+    assert few.n_used == 6 and few.used[:6].all() and not few.used[6:].any()
+    assert few.fit.n_points == 6
+    assert german_law_along(bed, min_particles=40).fit is None     # only 4-layer windows: too few
+    with pytest.raises(ValueError, match="`n_windows` must be at least 3"):
+        german_law_along(bed, n_windows=2)
+    with pytest.raises(ValueError, match="`axis`"):
+        german_law_along(bed, axis=5)

@@ -123,3 +123,48 @@ def test_plots():
     s = dynamic_repose_series([heap_frame(30.0, 20.0, 1)], [20.0], spacing=0.25)
     fig, ax = plot_repose_series(s, time=[0.5])
     assert ax.get_xlabel() == "time"
+
+
+def _sample_pile():
+    import tomllib
+    from pathlib import Path
+    root = Path(__file__).parents[2] / "data" / "samples" / "repose"
+    frame = bedstruct.read_dump(root / "pile.dump.gz", units="si")[-1]
+    with open(root / "config.toml", "rb") as fh:
+        return frame, tomllib.load(fh)
+
+
+def test_pile_angle_is_the_repose_runs_measurement():
+    # given the run's plate level and ledge, pile_angle gives the run's numbers to the bit
+    from bedstruct.analysis import pile_angle
+    from bedstruct.workflows.repose import measure_pile
+    frame, cfg = _sample_pile()
+    r_max = float(frame.radii.max())
+    run = measure_pile(frame, cfg, r_max=r_max)
+    L, W, _ = cfg["repose"]["box"]
+    ped = cfg["repose"]["pedestal_fraction"]
+    ledge = (((L - ped * L) / 2 - 2 * r_max, (L + ped * L) / 2 + 2 * r_max), (0.0, W))
+    p = pile_angle(frame, base=0.0, bounds=ledge)
+    assert (p.angle_deg, p.angle_std_deg, p.repose.left_deg, p.repose.right_deg) == run[:4]
+    assert not p.base_found and p.n_left_out > 0                 # falling clumps left out
+    # found from the pile alone: its plate (z = 0) and an angle within the replicates' 29.9 +- 1.0
+    auto = pile_angle(frame)
+    assert auto.base_found and abs(auto.base) < 1e-6
+    assert auto.angle_deg == pytest.approx(29.9, abs=1.5)
+    assert auto.repose.flank_difference_deg == pytest.approx(abs(auto.repose.left_deg - auto.repose.right_deg))
+
+
+def test_pile_angle_of_a_lattice_heap_and_errors():
+    from bedstruct.analysis import pile_angle
+    g = np.stack(np.meshgrid(np.arange(80) * 0.5 + 0.25, [0.25, 0.75], np.arange(24) * 0.5 + 0.25,
+                             indexing="ij"), -1).reshape(-1, 3)
+    for deg in (25.0, 35.0):
+        heap = g[g[:, 2] <= 12 - np.tan(np.radians(deg)) * np.abs(g[:, 0] - 20)]
+        p = pile_angle(bedstruct.Frame(heap, np.full(len(heap), 0.26), box=([0, 0, 0], [40, 1, 14])))
+        assert p.angle_deg == pytest.approx(deg, abs=1.5)
+        assert p.base == pytest.approx(0.0, abs=0.02) and p.n_left_out == 0
+    few = bedstruct.Frame(g[:5], np.full(5, 0.26), box=([0, 0, 0], [40, 1, 14]))
+    with pytest.raises(ValueError, match="only 5 particles"):
+        pile_angle(few)
+    with pytest.raises(ValueError, match="`axis`"):
+        pile_angle(few, axis=2)

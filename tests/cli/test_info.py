@@ -133,10 +133,23 @@ def test_info_says_what_was_checked(tmp_path, capsys):
 def test_info_empty_file(tmp_path, capsys, content):
     path = tmp_path / "e.dump"
     path.write_text(content)
-    assert main(["info", str(path), "--json"]) == 0
-    s = _json(capsys)["files"][0]
+    assert main(["info", str(path), "--json"]) == 1       # the summary, then an error
+    out = capsys.readouterr()
+    s = json.loads(out.out.strip().splitlines()[-1])["files"][0]
     assert s["format"] == "empty" and s["n_frames"] == 0
     assert any("empty" in n for n in s["notes"])
+    err = out.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bedstruct info: error:") and "e.dump" in err[0]
+    assert "no frames" in err[0]
+    assert main(["info", str(path)]) == 1
+    assert "no frames (the file is empty)" in capsys.readouterr().err
+    # an empty file among good ones still fails, naming only the empty one
+    good = tmp_path / "g.dump"
+    write_dump(good, [_frame(0)])
+    assert main(["info", str(good), str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "e.dump" in err and "g.dump" not in err
+    assert main(["info", str(good)]) == 0
 
 
 def test_info_unrecognisable_file(tmp_path, capsys):

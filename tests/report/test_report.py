@@ -41,7 +41,7 @@ def test_select_frames_errors():
 
 
 def test_cli_option_values_out_of_range_are_usage_errors(bed_dump, tmp_path, capsys):
-    for bad in (["--regions", "0"], ["--frames", "last"]):
+    for bad in (["--regions", "0"], ["--frames", "last"], ["--german-windows", "2"]):
         assert main(["report", str(bed_dump), "--out", str(tmp_path / "r"), *bad]) == 2
         assert capsys.readouterr().err.startswith("bedstruct report: error:")
     assert not (tmp_path / "r").exists()
@@ -102,9 +102,11 @@ def test_failing_section_does_not_break_report(bed_dump, monkeypatch):
 
 def test_cli_report_json_last_line(bed_dump, tmp_path, capsys):
     out = tmp_path / "rep"
-    assert main(["report", str(bed_dump), "--out", str(out), "--json", "--frames", "all"]) == 0
+    assert main(["report", str(bed_dump), "--out", str(out), "--json", "--frames", "all",
+                 "--german-windows", "8"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     summary = json.loads(last)
+    assert summary["values"]["coordination.german_windows"] == 8
     assert summary["sections"]["summary"] == "ok"
     assert summary["values"]["summary.n_frames_analysed"] == 2
     assert (out / "report.html").exists() and (out / "report.json").exists()
@@ -161,9 +163,11 @@ def test_repose_section_on_a_pile(tmp_path):
     angle = np.radians(30.0)
     pts = rng.uniform([-10, 0, 0], [10, 4, 6], size=(60000, 3))
     pile = pts[pts[:, 2] <= (10 - np.abs(pts[:, 0])) * np.tan(angle)]
-    frame = bedstruct.Frame(pile, np.full(len(pile), 0.05),
+    # radius 0.15: the spheres overlap into one network (with 0.05 the cloud is dilute, not a pile)
+    frame = bedstruct.Frame(pile, np.full(len(pile), 0.15),
                             box=bedstruct.Box([-12, 0, 0], [12, 4, 8], boundary="ff pp ff"))
     rep = build_report(frame)
+    assert rep.state["kind"] == "pile", rep.state["reason"]
     sec = rep.section("repose")
     assert sec.status == "ok", sec.text
     assert abs(sec.numbers["angle_deg"].value - 30.0) < 1.5
@@ -183,6 +187,13 @@ def test_heat_section_needs_units_and_reports_each_region(bed_dump):
         assert 20.0 < heat.numbers[f"peak_temperature_{name}"].value < 1300.0
         assert 0.8 < heat.numbers[f"roundness_{name}"].value <= 1.0   # isotropic lattice: round
     assert len(heat.figures) == 3
+    # every heat column says its unit: in the JSON (SI) and in the page's headers (natural)
+    table = heat.tables[0]
+    unit = dict(zip(table.columns, table.units))
+    assert (unit["peak_temperature_C"], unit["crossing_time"], unit["major_axis"], unit["k_max"]) == (
+        "degC", "s", "m", "W/(m K)")
+    page = render_html(rep)
+    assert "peak_temperature_C (°C)" in page and "k_max (W/(m K))" in page and "major_axis (µm)" in page
 
 
 def test_cli_missing_optional_dependency_is_one_line(tmp_path, capsys, monkeypatch):
@@ -224,6 +235,15 @@ def test_repose_sample_is_measured_on_its_pile_not_on_falling_clumps():
     assert sec.status == "ok", sec.text
     assert sec.numbers["angle_deg"].value == pytest.approx(29.9, abs=2.0)
     assert "largest cluster" in sec.text
+    # one function: the report's angle is pile_angle's, and its +- is named for what it is
+    from bedstruct.analysis import pile_angle
+    p = pile_angle(frame)
+    assert sec.numbers["angle_deg"].value == p.angle_deg
+    assert sec.numbers["angle_std_deg"].value == p.angle_std_deg
+    assert "fit uncertainty" in sec.numbers["angle_std_deg"].definition
+    assert "not a scatter between piles" in sec.numbers["angle_std_deg"].definition
+    assert sec.numbers["flank_difference_deg"].value == pytest.approx(
+        abs(sec.numbers["left_deg"].value - sec.numbers["right_deg"].value))
 
 
 def test_cli_heat_skipped_for_unknown_units_is_said_on_stderr(bed_dump, tmp_path, capsys):
@@ -242,3 +262,207 @@ def test_d50_shift_is_none_when_the_end_region_is_empty():
     sec = build_report(f).section("psd")
     assert [row[1] for row in sec.tables[0].rows] == [3, 1, 0]
     assert sec.numbers["d50_shift_start_to_end"].value is None     # not centre minus start
+
+
+def _falling_gas(n=100, speed=0.5):
+    """100 spheres of 50 um far apart (packing ~0.01, no contacts), falling: a dilute flow."""
+    rng = np.random.default_rng(4)
+    g = np.stack(np.meshgrid(*[np.arange(5)] * 3, indexing="ij"), -1).reshape(-1, 3)[:n]
+    pos = (g + 0.5) * 200e-6 + rng.normal(0, 5e-6, (n, 3))
+    v = np.zeros((n, 3))
+    v[:, 2] = -speed
+    return bedstruct.Frame(pos, np.full(n, 25e-6), box=bedstruct.Box([0, 0, 0], [1e-3] * 3, boundary="pp pp ff"),
+                           velocities=v).with_units("si")
+
+
+def _static_numbers(rep):
+    return [k for k in rep.summary()["values"] if k.startswith(("coordination.german", "surface.", "repose."))]
+
+
+def test_a_dilute_flow_is_not_reported_as_a_bed(tmp_path):
+    rep = build_report(_falling_gas())
+    assert rep.state["kind"] == "dilute flow"
+    assert rep.summary()["input_kind"] == "dilute flow"
+    for key in ("coordination", "surface", "fabric", "harmonics", "repose"):
+        sec = rep.section(key)
+        assert sec.status == "not meaningful" and sec.text.startswith("Not meaningful for a dilute flow")
+        assert not sec.numbers and not sec.figures
+    assert _static_numbers(rep) == []                          # no German a = 0, b = 0
+    assert rep.section("packing").status == "ok" and rep.section("psd").status == "ok"
+    html_path, json_path = write_report(rep, tmp_path)
+    doc = json.loads(json_path.read_text())
+    assert doc["input_state"]["kind"] == "dilute flow"
+    assert doc["input_state"]["evidence"]["mean_coordination"]["value"] == 0.0
+    assert "german" in doc["input_state"]["not_meaningful"]
+    html = html_path.read_text()
+    assert "<b>Input: dilute flow</b>" in html and html.index("Input: dilute flow") < html.index('id="summary"')
+    assert '<span class="status not-meaningful">not meaningful</span>' in html
+
+
+def test_a_bed_still_settling_is_not_reported_as_a_bed():
+    # the slab of `bed_dump`, every particle moving at 0.13 m/s (4 sqrt(g d) for 50 um spheres)
+    rng = np.random.default_rng(1)
+    g = np.stack(np.meshgrid(*[np.arange(k) for k in (24, 6, 4)], indexing="ij"), -1).reshape(-1, 3)
+    pos = ((g + 0.5) * 50.0 + rng.normal(0, 2.0, g.shape)) * 1e-6
+    v = rng.normal(0, 0.03, g.shape) + [0, 0, -0.13]
+    frame = bedstruct.Frame(pos, rng.uniform(23.0, 27.0, len(pos)) * 1e-6, velocities=v,
+                            box=bedstruct.Box([0, 0, 0], [1.2e-3, 0.3e-3, 0.4e-3], boundary="pp pp ff")).with_units("si")
+    rep = build_report(frame, options=ReportOptions(heat=True))
+    assert rep.state["kind"] == "moving bed"
+    assert rep.section("coordination").status == "not meaningful"
+    assert rep.section("heat").status == "not meaningful"
+    assert _static_numbers(rep) == []
+    # the same positions at rest are a settled bed with German's fit
+    still = bedstruct.Frame(frame.positions, frame.radii, box=frame.box, velocities=v * 1e-3).with_units("si")
+    rep = build_report(still)
+    assert rep.state["kind"] == "settled bed"
+    assert rep.section("coordination").status == "ok"
+    assert "german_a" in rep.section("coordination").numbers
+
+
+def test_report_german_fit_is_the_library_default_and_says_its_windows(bed_dump):
+    from bedstruct.analysis import GERMAN_WINDOWS, german_law_along
+    frame = bedstruct.read_dump(bed_dump)[-1]
+    sec = build_report(frame).section("coordination")
+    lib = german_law_along(frame)
+    assert lib.n_windows == GERMAN_WINDOWS
+    assert sec.numbers["german_a"].value == lib.fit.a and sec.numbers["german_b"].value == lib.fit.b
+    assert sec.numbers["german_windows"].value == lib.n_used
+    assert lib.definition in sec.numbers["german_windows"].definition
+    assert f"over {lib.n_used} windows along x" in sec.numbers["german_a"].definition
+    # a different number of windows is a stated option, and gives the library's numbers for it
+    sec8 = build_report(frame, options=ReportOptions(german_windows=8)).section("coordination")
+    assert sec8.numbers["german_a"].value == german_law_along(frame, n_windows=8).fit.a
+    assert sec8.numbers["german_a"].value != lib.fit.a
+
+
+def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, monkeypatch):
+    from bedstruct.report import _model
+    shown = []
+    real = _model.Section.add_figure
+
+    def keep(self, fig, caption):
+        shown.append((self.key, fig))
+        return real(self, fig, caption)
+
+    monkeypatch.setattr(_model.Section, "add_figure", keep)
+    sec = build_report(bedstruct.read_dump(bed_dump)[-1]).section("harmonics")
+    assert sec.status == "ok", sec.text
+    table = sec.tables[0]
+    assert table.columns[:3] == ["region", "x from", "x to"] and table.units[1:3] == ["unknown", "unknown"]
+    assert table.columns[3:] == ["P_2/P_0", "P_4/P_0", "P_6/P_0", "P_8/P_0"]
+    assert [row[1] for row in table.rows][1:] == [row[2] for row in table.rows][:-1]     # adjoining regions
+    (fig,) = [f for key, f in shown if key == "harmonics"]
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == [row[0] for row in table.rows] == ["start", "centre", "end"]
+    lines = {ln.get_label(): ln.get_ydata() for ln in ax.get_lines()}
+    for c, col in enumerate(table.columns[3:], start=3):
+        l = col.split("/")[0][2:]
+        np.testing.assert_array_equal(lines[f"l = {l}"], [row[c] for row in table.rows])
+    # the headline numbers are the same normalisation: P_l/P_0 of all contacts, not P_l
+    from bedstruct.analysis import harmonic_expansion
+    c = build_mod._Context([bedstruct.read_dump(bed_dump)[-1]], None, ReportOptions(), [0]).contacts.touching()
+    e = harmonic_expansion(c.normals, 8)
+    assert sec.numbers["power_l4"].value == pytest.approx(e.power[4] / e.power[0], rel=1e-12)
+    assert sec.numbers["power_l4"].value == pytest.approx(4 * np.pi * e.power[4], rel=1e-12)
+
+
+def test_html_shows_natural_units_and_json_keeps_si(tmp_path):
+    # 100 um spheres in metres: the page says um and mm, never 1e-04 or a numpy array
+    lattice = cubic_lattice((24, 6, 4), spacing=100e-6, radius=51e-6, boundary=("ff", "pp", "ff"))
+    rep = build_report(lattice.with_units("si"))
+    html_path, json_path = write_report(rep, tmp_path)
+    page = html_path.read_text()
+    import re
+    cells = re.findall(r'<td class="num">([^<]*)</td>', page)
+    assert cells and not [c for c in cells if re.search(r"\de[-+]\d", c)], "e-notation in a table cell"
+    assert not [c for c in cells if re.search(r"\d \d|\[\s*-?\d+\.\s", c)], "numpy array printing"
+    text = re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", page)
+    assert not re.search(r"\bnan\b", text, flags=re.I)        # no nan, nor nan +- nan
+    assert '<td class="num">[51, 51]</td><td>µm</td>' in page                    # radius_range
+    assert "D50 (µm)" in page
+    assert '<td class="num">2.4</td><td>mm</td>' in page or "[2.4, 0.6, 0.4]" in page   # box_hi
+    doc = json.loads(json_path.read_text())
+    summary = doc["sections"]["summary"]["numbers"]
+    assert summary["radius_range"] == {"value": [51e-6, 51e-6], "unit": "m",
+                                       "definition": "smallest and largest sphere radius"}
+    psd_table = doc["sections"]["psd"]["tables"][0]
+    assert psd_table["units"] == ["", "1", "m", "m", "m"]
+    assert psd_table["rows"][0][3] == pytest.approx(102e-6)
+
+
+def test_a_section_whose_numbers_are_all_nan_is_not_ok(monkeypatch):
+    from bedstruct.report._model import run_section
+
+    def only_nan(sec):
+        sec.add_number("x", float("nan"), "m", "a length")
+        sec.add_number("y", [float("nan"), None], "1", "two ratios")
+        sec.add_number("label", "text", "-", "a label")
+
+    sec = run_section("k", "K", only_nan)
+    assert sec.status == "skipped" and not sec.numbers and sec.text.startswith("No number could be computed")
+    sec = run_section("k", "K", lambda s: s.add_number("x", 1.0, "m", "a length"))
+    assert sec.status == "ok"
+
+
+def test_repose_skip_text_has_no_nan():
+    # a flat slab: the slope test fails; its reason must not read "nan +- nan"
+    lattice = cubic_lattice((24, 6, 4), spacing=1.0, radius=0.51, boundary=("ff", "pp", "ff"))
+    sec = build_report(lattice).section("repose")
+    assert sec.status == "skipped" and "nan" not in sec.text.lower()
+
+
+def test_height_map_has_axes_units_and_true_aspect():
+    from bedstruct.analysis import surface_height_map
+    from bedstruct.plot import plot_height_map
+    lattice = cubic_lattice((24, 6, 4), spacing=100e-6, radius=51e-6, boundary=("ff", "pp", "ff"))
+    fig, ax = plot_height_map(surface_height_map(lattice), unit="mm", scale=1e3)
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (mm)", "y (mm)")
+    assert ax.get_aspect() == 1.0
+    x0, x1, y0, y1 = ax.images[0].get_extent()
+    assert (x1 - x0, y1 - y0) == pytest.approx((2.4, 0.6), rel=0.05)
+    assert "mm" in fig.axes[1].get_xlabel() + fig.axes[1].get_ylabel()       # the colour bar
+
+
+def test_cli_report_says_where_it_wrote_and_what_the_input_is(bed_dump, tmp_path, capsys):
+    out = tmp_path / "rep"
+    assert main(["report", str(bed_dump), "--out", str(out)]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines == [f"bedstruct report: wrote {out / 'report.html'} and {out / 'report.json'} "
+                     f"(input: settled bed)"]
+
+
+def test_rdf_section_of_a_lattice_bed_has_its_first_shell_at_one_diameter():
+    from bedstruct.analysis import radial_distribution
+    lattice = cubic_lattice((24, 6, 4), spacing=100e-6, radius=50e-6, boundary=("ff", "pp", "ff"))
+    sec = build_report(lattice.with_units("si")).section("rdf")
+    assert sec.status == "ok", sec.text
+    assert sec.numbers["peak_r_over_d50"].value == pytest.approx(1.0, abs=0.05)
+    assert sec.numbers["peak_r"].value == radial_distribution(lattice).first_peak[0]
+    assert sec.numbers["peak_r"].unit == "m" and len(sec.figures) == 1
+
+
+def test_voronoi_section_of_a_lattice_bed_is_pi_over_6_inside(monkeypatch):
+    pytest.importorskip("pyvoro2", reason="optional extra bedstruct[voronoi] (pyvoro2) not installed")
+    lattice = cubic_lattice((12, 4, 4), spacing=100e-6, radius=50e-6, boundary=("pp", "pp", "ff"))
+    sec = build_report(lattice.with_units("si")).section("voronoi")
+    assert sec.status == "ok", sec.text
+    assert sec.numbers["mean_inside"].value == pytest.approx(np.pi / 6, rel=1e-9)
+    assert sec.numbers["mean_all"].value == pytest.approx(np.pi / 6, rel=1e-9)   # the region ends at the caps
+    assert sec.numbers["wall_cell_fraction"].value == pytest.approx(0.5)          # top and bottom layers
+    assert len(sec.figures) == 1
+
+
+def test_voronoi_section_without_pyvoro2_is_skipped_with_the_install_hint(monkeypatch):
+    import builtins
+    real = builtins.__import__
+
+    def no_pyvoro2(name, *args, **kwargs):
+        if name == "pyvoro2":
+            raise ImportError("No module named 'pyvoro2'")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_pyvoro2)
+    lattice = cubic_lattice((6, 4, 4), spacing=1.0, radius=0.5, boundary=("pp", "pp", "ff"))
+    sec = build_report(lattice).section("voronoi")
+    assert sec.status == "skipped" and "bedstruct[voronoi]" in sec.text
