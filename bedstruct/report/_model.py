@@ -13,26 +13,13 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .._json import to_jsonable
+
 __all__ = ["Quantity", "Table", "Section", "Report", "run_section", "not_meaningful_section"]
 
 log = logging.getLogger(__name__)
 
 SCHEMA = "bedstruct.report/1"
-
-
-def _plain(value):
-    """Convert numpy scalars/arrays and non-finite floats into JSON-safe values."""
-    if isinstance(value, np.ndarray):
-        return [_plain(v) for v in value.tolist()]
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 @dataclass(frozen=True)
@@ -57,7 +44,7 @@ class Quantity:
     doc: str | None = None
 
     def to_json(self) -> dict:
-        out = {"value": _plain(self.value), "unit": self.unit, "definition": self.definition}
+        out = {"value": to_jsonable(self.value), "unit": self.unit, "definition": self.definition}
         if self.doc:
             out["doc"] = self.doc
         return out
@@ -82,7 +69,7 @@ class Table:
             raise ValueError(f"`units` must have one entry per column ({len(self.columns)}); got {len(self.units)}")
 
     def to_json(self) -> dict:
-        out = {"caption": self.caption, "columns": list(self.columns), "rows": _plain(self.rows)}
+        out = {"caption": self.caption, "columns": list(self.columns), "rows": to_jsonable(self.rows)}
         if self.units is not None:
             out["units"] = list(self.units)
         return out
@@ -155,7 +142,7 @@ class Report:
     def to_json(self) -> dict:
         """The full, documented JSON document (schema ``bedstruct.report/1``)."""
         return {"schema": SCHEMA, "bedstruct_version": self.version, "title": self.title,
-                "inputs": _plain(self.inputs), "settings": _plain(self.settings),
+                "inputs": to_jsonable(self.inputs), "settings": to_jsonable(self.settings),
                 "input_state": self._state_json(),
                 "sections": {s.key: s.to_json() for s in self.sections},
                 "failed_sections": self.failed}
@@ -172,7 +159,7 @@ class Report:
         values = {}
         for s in self.sections:
             for k, q in s.numbers.items():
-                values[f"{s.key}.{k}"] = _plain(q.value)
+                values[f"{s.key}.{k}"] = to_jsonable(q.value)
         return {"schema": SCHEMA, "title": self.title,
                 "input_kind": self.state["kind"] if self.state else None,
                 "sections": {s.key: s.status for s in self.sections},
