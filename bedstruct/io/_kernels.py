@@ -657,4 +657,5 @@ def permute_rows(flat, b, w, order, tmp):
             src = b + order[r] * w
             for c in range(w):
                 tmp[np.uint64(r * w + c)] = flat[np.uint64(src + c)]
-    flat[b:b + n * w] = tmp[:n * w]
+    for i in range(n * w):
+        flat[np.uint64(b + i)] = tmp[np.uint64(i)]

@@ -37,16 +37,10 @@ class _Planned:
             return
         from ._kernels import permute_rows
         n = self.n
-        tmp = None
-        for key, v in self.slots.items():
-            if isinstance(key, tuple):
-                b, w = v, 3
-            elif v[1] == 1:
-                b, w = v[0], 1
-            else:
-                continue
-            if tmp is None or tmp.size < w * n:
-                tmp = np.empty(w * n, dtype=np.float64)  # one block-sized temporary
+        blocks = [(v, 3) if isinstance(key, tuple) else (v[0], 1)
+                  for key, v in self.slots.items() if isinstance(key, tuple) or v[1] == 1]
+        tmp = np.empty(max(w for _, w in blocks) * n, dtype=np.float64)  # one block's size
+        for b, w in blocks:
             permute_rows(self.flat, b, w, self.order, tmp)
         self.in_order = True
 
@@ -206,6 +200,7 @@ class _Pieces:
             self._finish()
         if self.pool is not None:
             self.pool.shutdown(wait=True)
+        self.free.clear()
         return not self.failed
 
 
@@ -262,6 +257,7 @@ def _stream_columns(source, pos: int, end: int, first: bytes, raw: RawFrame, sor
                 break
     finally:
         exact = pieces.close()
+        buf = carry = None  # the text is parsed: free it before the ids are sorted
     row = pieces.row
     if not exact:
         return None
