@@ -11,19 +11,26 @@ omegax omegay omegaz radius``) with a few frames in a temporary folder, three wa
   (Clinger) fast path; they take its Eisel-Lemire path (docs/formats.md);
 
 then reads each with bedstruct and OVITO (the anchor: ``pip install -e .[bench]``), and the
-two text files with MDAnalysis (a second anchor), in the same run. Prints seconds per frame
-(first frame including the scan, later frames), bedstruct's peak memory against the size of
-the arrays it returns, and a final ``RESULT`` line with bedstruct's time over OVITO's
-(``ratio_text``, ``ratio_gz``, ``ratio_text17``; nan when OVITO is not installed) and over
-MDAnalysis's (``ratio_mda_text``, ``ratio_mda_text17``). A ratio below 1 means bedstruct is
-faster.
+two text files with MDAnalysis (a second anchor), in the same run. Later frames are read in
+rounds: each round reads every later frame with both readers in turn (which one goes first
+alternates), so both see the same machine load. Prints seconds per frame (first frame
+including the scan; later frames: the median over rounds of each round's mean), bedstruct's
+peak memory against the size of the arrays it returns, and a final ``RESULT`` line with
+bedstruct's time over OVITO's (``ratio_text``, ``ratio_gz``, ``ratio_text17``: the median
+over rounds of the per-round ratio; nan when OVITO is not installed) and over MDAnalysis's
+(``ratio_mda_text``, ``ratio_mda_text17``), the number of threads bedstruct parsed with
+(``threads=``) and the machine's 1-minute load average at the start and the end
+(``load=``). A ratio below 1 means bedstruct is faster.
 
 Usage::
 
-    python benchmarks/bench_read.py [--n 200000] [--frames 4] [--no-mdanalysis]
+    python benchmarks/bench_read.py [--n 200000] [--frames 4] [--threads T] [--repeats 5]
+                                    [--dir DIR] [--no-mdanalysis]
 
 ``--frames`` is 1 (first-frame times only) or at least 3: later frames are read in turn so
-that no reader can answer from a cache of the last frame (OVITO keeps one).
+that no reader can answer from a cache of the last frame (OVITO keeps one). ``--threads``
+sets numba's thread count (bedstruct's parser threads); ``--dir`` keeps the generated files
+there and reuses them in later runs.
 
 Numbers depend on the machine and its load; compare runs taken side by side.
 """

@@ -20,6 +20,14 @@ Tokens neither path decides (more than 19 significant digits, results that
 would be subnormal or overflow, ``nan``, ``inf``, malformed text) are flagged
 so that the caller re-parses their line with an exact general parser; the
 kernel never guesses.
+
+Two readers of lines share those paths. :func:`parse_lines` walks a span of
+text line by line and reads the short numbers of ``%g`` output (runs of up to
+seven digits) eight characters at a time (:func:`_short_number`); it is serial
+and releases the GIL, so the orchestrators run it on several threads over
+separate spans or pieces of a frame, and it refuses a span with any irregular
+line. :func:`parse_rows` takes lines by their bounds and reports, row by row,
+which are irregular (the exact error messages are built from that).
 """
 
 from __future__ import annotations
