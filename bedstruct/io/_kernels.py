@@ -37,8 +37,8 @@ from numba.cpython.unsafe.numbers import trailing_zeros as _trailing_zeros
 
 from .._numba import njit, njit_parallel, prange
 
-__all__ = ["parse_rows", "parse_lines", "count_lines", "gather_rows", "integer_column", "consecutive_order",
-           "permute_rows", "POW10_INT", "POW10", "POW10_HI", "POW10_LO", "POW5", "POW2",
+__all__ = ["parse_rows", "parse_lines", "count_lines", "gather_rows", "integer_column",
+           "consecutive_order", "permute_rows", "POW10_INT", "POW10", "POW10_HI", "POW10_LO", "POW5", "POW2",
            "EL_MIN_EXP10", "EL_MAX_EXP10"]
 
 #: Exactly representable powers of ten, 1e0 .. 1e22.
@@ -394,7 +394,8 @@ def _load8(buf, i):
     return (np.uint64(_b(buf, i)) | (np.uint64(_b(buf, i + 1)) << _U8)
             | (np.uint64(_b(buf, i + 2)) << _U16) | (np.uint64(_b(buf, i + 3)) << np.uint64(24))
             | (np.uint64(_b(buf, i + 4)) << _U32) | (np.uint64(_b(buf, i + 5)) << np.uint64(40))
-            | (np.uint64(_b(buf, i + 6)) << np.uint64(48)) | (np.uint64(_b(buf, i + 7)) << np.uint64(56)))
+            | (np.uint64(_b(buf, i + 6)) << np.uint64(48))
+            | (np.uint64(_b(buf, i + 7)) << np.uint64(56)))
 
 
 @njit(inline="always")

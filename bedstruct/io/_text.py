@@ -19,7 +19,8 @@ from ..errors import BedstructWarning, DumpFormatError
 from ._kernels import parse_rows
 
 __all__ = ["RawFrame", "TruncatedFrame", "parse_text_frame", "parse_block", "line_bounds",
-           "many_slow_rows", "general_block", "parse_lines_threaded", "parse_token", "truncated", "starts_frame",
+           "many_slow_rows", "general_block", "parse_lines_threaded", "parse_token", "truncated",
+           "starts_frame",
            "tail_truncation", "skip_or_raise",
            "check_unit_style", "LAMMPS_UNIT_STYLES", "normalise_columns"]
 
