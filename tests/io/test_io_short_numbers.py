@@ -265,3 +265,29 @@ def test_realdata_blocks_take_the_short_path(realdata):
                     else np.arange(raw.n)
                 xyz = want[order][:, [raw.names.index(c) for c in "xyz"]]
                 assert f.positions.view(np.int64).tolist() == xyz.view(np.int64).tolist()
+
+
+def test_dump_local_large_block_equals_float(tmp_path):
+    """A contact block large enough to be parsed in one span per thread reads bit for bit
+    as float() reads its text."""
+    from bedstruct import Frame, read_dump_local
+    rng = np.random.default_rng(4)
+    n, m = 2000, 20000
+    frame = Frame(rng.uniform(0, 10, (n, 3)), np.full(n, 0.1), box=[10, 10, 10],
+                  ids=np.arange(1, n + 1))
+    i = rng.integers(1, n + 1, m)
+    j = i % n + 1
+    area = rng.uniform(1e-6, 1e-4, m)
+    area[5] = 1e-05
+    lines = ["%d %d %g" % row for row in zip(i.tolist(), j.tolist(), area.tolist())]
+    p = tmp_path / "contacts.dump"
+    p.write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ENTRIES\n%d\nITEM: BOX BOUNDS pp pp pp\n"
+                 "0 10\n0 10\n0 10\nITEM: ENTRIES c_1[1] c_1[2] c_2[1]\n" % m
+                 + "\n".join(lines) + "\n")
+    assert p.stat().st_size > 2 * 65536  # one span per thread
+    c = read_dump_local(p, columns={"c_1[1]": "id1", "c_1[2]": "id2", "c_2[1]": "area"},
+                        frames=frame)[0]
+    want = np.array([float(ln.split()[2]) for ln in lines])
+    assert c.n_contacts == m
+    assert np.asarray(c.area).view(np.int64).tolist() == want.view(np.int64).tolist()
+    assert c.i.tolist() == (i - 1).tolist() and c.j.tolist() == (j - 1).tolist()
