@@ -11,19 +11,26 @@ omegax omegay omegaz radius``) with a few frames in a temporary folder, three wa
   (Clinger) fast path; they take its Eisel-Lemire path (docs/formats.md);
 
 then reads each with bedstruct and OVITO (the anchor: ``pip install -e .[bench]``), and the
-two text files with MDAnalysis (a second anchor), in the same run. Prints seconds per frame
-(first frame including the scan, later frames), bedstruct's peak memory against the size of
-the arrays it returns, and a final ``RESULT`` line with bedstruct's time over OVITO's
-(``ratio_text``, ``ratio_gz``, ``ratio_text17``; nan when OVITO is not installed) and over
-MDAnalysis's (``ratio_mda_text``, ``ratio_mda_text17``). A ratio below 1 means bedstruct is
-faster.
+two text files with MDAnalysis (a second anchor), in the same run. Later frames are read in
+rounds: each round reads every later frame with both readers in turn (which one goes first
+alternates), so both see the same machine load. Prints seconds per frame (first frame
+including the scan; later frames: the median over rounds of each round's mean), bedstruct's
+peak memory against the size of the arrays it returns, and a final ``RESULT`` line with
+bedstruct's time over OVITO's (``ratio_text``, ``ratio_gz``, ``ratio_text17``: the median
+over rounds of the per-round ratio; nan when OVITO is not installed) and over MDAnalysis's
+(``ratio_mda_text``, ``ratio_mda_text17``), the number of threads bedstruct parsed with
+(``threads=``) and the machine's 1-minute load average at the start and the end
+(``load=``). A ratio below 1 means bedstruct is faster.
 
 Usage::
 
-    python benchmarks/bench_read.py [--n 200000] [--frames 4] [--no-mdanalysis]
+    python benchmarks/bench_read.py [--n 200000] [--frames 4] [--threads T] [--repeats 5]
+                                    [--dir DIR] [--no-mdanalysis]
 
 ``--frames`` is 1 (first-frame times only) or at least 3: later frames are read in turn so
-that no reader can answer from a cache of the last frame (OVITO keeps one).
+that no reader can answer from a cache of the last frame (OVITO keeps one). ``--threads``
+sets numba's thread count (bedstruct's parser threads); ``--dir`` keeps the generated files
+there and reuses them in later runs.
 
 Numbers depend on the machine and its load; compare runs taken side by side.
 """
@@ -81,7 +88,7 @@ def generate_engine(path, n, frames, seed=0):
         write_dump(path, frame, append=k > 0)
 
 
-REPEATS = 3  # later frames are read this many times and the fastest read counts
+REPEATS = 5  # rounds of later-frame reads; the ratios are medians over rounds
 OVITO_HINT = "pip install -e .[bench]  (or: pip install 'ovito>=3.10')"
 
 
@@ -112,24 +119,34 @@ def open_readers(path):
     return traj, b_first, pipe, o_first
 
 
-def later_frames(traj, pipe, n_frames):
-    """Mean over frames 1.. of the fastest of REPEATS reads for bedstruct and OVITO.
+def later_frames(traj, pipe, n_frames, repeats=REPEATS):
+    """Seconds per later frame (1..) for bedstruct and OVITO, and their ratio.
 
-    Reads alternate between the two readers and cycle through the frames, so
-    both see the same machine load and neither can answer from a one-frame cache.
+    Each round reads every later frame with both readers in turn (which reader goes
+    first alternates), so both see the same machine load and neither can answer
+    from a one-frame cache. Per round, a reader's time is its mean over the frames;
+    the results are the medians over rounds of those means and of the per-round
+    ratio (bedstruct / OVITO), which a burst of load in one round does not move.
     """
-    best_b, best_o = {}, {}
-    for _ in range(REPEATS):
+    b_rounds, o_rounds, ratios = [], [], []
+    for rnd in range(repeats):
+        tb, to = [], []
         for k in range(1, n_frames):
-            t0 = time.perf_counter()
-            traj[k]
-            best_b[k] = min(best_b.get(k, math.inf), time.perf_counter() - t0)
-            if pipe is not None:
-                t0 = time.perf_counter()
-                pipe.compute(k)
-                best_o[k] = min(best_o.get(k, math.inf), time.perf_counter() - t0)
-    mean = (lambda d: float(np.mean(list(d.values()))) if d else math.nan)
-    return mean(best_b), mean(best_o)
+            for who in ((0, 1) if (rnd + k) % 2 else (1, 0)):
+                if who == 0:
+                    t0 = time.perf_counter()
+                    traj[k]
+                    tb.append(time.perf_counter() - t0)
+                elif pipe is not None:
+                    t0 = time.perf_counter()
+                    pipe.compute(k)
+                    to.append(time.perf_counter() - t0)
+        b_rounds.append(float(np.mean(tb)))
+        if to:
+            o_rounds.append(float(np.mean(to)))
+            ratios.append(b_rounds[-1] / o_rounds[-1])
+    med = (lambda v: float(np.median(v)) if v else math.nan)
+    return med(b_rounds), med(o_rounds), med(ratios)
 
 
 def frame_nbytes(f):
@@ -161,13 +178,13 @@ def bench_mdanalysis(path, n_frames):
         u = mda.Universe(path, topology_format="LAMMPSDUMP", format="LAMMPSDUMP")
         u.trajectory[0]
         first = time.perf_counter() - t0
-        best = {}
+        rounds = []
         for _ in range(REPEATS):
+            t0 = time.perf_counter()
             for k in range(1, n_frames):
-                t0 = time.perf_counter()
                 u.trajectory[k]
-                best[k] = min(best.get(k, math.inf), time.perf_counter() - t0)
-    return first, (float(np.mean(list(best.values()))) if best else math.nan)
+            rounds.append((time.perf_counter() - t0) / max(1, n_frames - 1))
+    return first, (float(np.median(rounds)) if n_frames > 1 else math.nan)
 
 
 def _threads():
@@ -180,7 +197,18 @@ def main():
     ap.add_argument("--n", type=int, default=200_000, help="particles per frame (200,000)")
     ap.add_argument("--frames", type=int, default=4, help="frames per file (4)")
     ap.add_argument("--no-mdanalysis", action="store_true", help="skip the MDAnalysis anchor")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="threads bedstruct parses with (default: numba's default, the cores)")
+    ap.add_argument("--repeats", type=int, default=REPEATS,
+                    help=f"rounds of later-frame reads ({REPEATS}); ratios are medians")
+    ap.add_argument("--dir", default=None,
+                    help="folder for the generated files, kept and reused when present "
+                         "(default: a temporary folder, removed)")
     args = ap.parse_args()
+    if args.threads is not None:
+        from bedstruct._numba import set_num_threads
+        set_num_threads(args.threads)
+    load0 = os.getloadavg()[0]
     if args.frames == 2:  # reads of frame 1 alone would be answered from OVITO's frame cache
         ap.error("--frames 2 is not supported: later-frame timings cycle through at least two "
                  "frames (OVITO keeps the last frame it read); use --frames 1 or >= 3")
@@ -190,16 +218,19 @@ def main():
               f"benchmark) are nan. Install it with: {OVITO_HINT}")
     else:
         print(f"OVITO {ovito_version}")
-    tmp = tempfile.mkdtemp(prefix="bedstruct-bench-")
+    tmp = args.dir or tempfile.mkdtemp(prefix="bedstruct-bench-")
+    os.makedirs(tmp, exist_ok=True)
     try:
-        text = os.path.join(tmp, "dump.liggghts")
+        tag = f"{args.n}x{args.frames}"
+        text = os.path.join(tmp, f"dump{tag}.liggghts")
         gz = text + ".gz"
-        text17 = os.path.join(tmp, "dump17.liggghts")
+        text17 = os.path.join(tmp, f"dump17_{tag}.liggghts")
         t0 = time.perf_counter()
-        generate(text, args.n, args.frames)
-        with open(text, "rb") as src, gzip.open(gz, "wb", compresslevel=6) as dst:
-            shutil.copyfileobj(src, dst, 1 << 24)
-        generate_engine(text17, args.n, args.frames)
+        if not (args.dir and all(os.path.exists(p) for p in (text, gz, text17))):
+            generate(text, args.n, args.frames)
+            with open(text, "rb") as src, gzip.open(gz, "wb", compresslevel=6) as dst:
+                shutil.copyfileobj(src, dst, 1 << 24)
+            generate_engine(text17, args.n, args.frames)
         sizes = {label: os.path.getsize(p) / 1e6 for label, p in
                  (("text", text), ("gz", gz), ("text17", text17))}
         print(f"generated {args.frames} frames x {args.n} particles x 15 columns: "
@@ -224,7 +255,7 @@ def main():
         res = {}
         for label, path in (("text", text), ("gz", gz), ("text17", text17)):
             traj, b_first, pipe, o_first = open_readers(path)
-            b_later, o_later = later_frames(traj, pipe, args.frames)
+            b_later, o_later, r_later = later_frames(traj, pipe, args.frames, args.repeats)
             assert traj[len(traj) - 1].n_particles == args.n
             traj.close()
             print(f"[{label}] bedstruct: first frame {b_first:.3f} s (incl. scan), later "
@@ -233,6 +264,7 @@ def main():
                   f"{o_later:.3f} s/frame")
             res[f"bedstruct_{label}_s"] = b_later if args.frames > 1 else b_first
             res[f"ovito_{label}_s"] = o_later if args.frames > 1 else o_first
+            res[f"ratio_{label}"] = r_later if args.frames > 1 else _ratio(b_first, o_first)
         for label, path in (("text", text), ("text17", text17)):
             m_first, m_later = (math.nan, math.nan) if args.no_mdanalysis else \
                 bench_mdanalysis(path, args.frames)
@@ -242,8 +274,7 @@ def main():
         peak, nbytes = bench_memory(text)
         print(f"bedstruct peak traced memory while reading one frame: {peak / 1e6:.1f} MB for "
               f"{nbytes / 1e6:.1f} MB of returned arrays")
-        ratio = {label: _ratio(res[f"bedstruct_{label}_s"], res[f"ovito_{label}_s"])
-                 for label in ("text", "gz", "text17")}
+        ratio = {label: res[f"ratio_{label}"] for label in ("text", "gz", "text17")}
         mda = {label: _ratio(res[f"bedstruct_{label}_s"], res[f"mdanalysis_{label}_s"])
                for label in ("text", "text17")}
         slow_b = _ratio(res["bedstruct_text17_s"], res["bedstruct_text_s"])
@@ -270,9 +301,12 @@ def main():
             f"peak_mem_ratio={peak / nbytes:.3f}",
             f"n={args.n}", f"frames={args.frames}",
             f"ovito={ovito_version or 'missing'}",
+            f"threads={_threads()}",
+            f"load={load0:.1f}-{os.getloadavg()[0]:.1f}",
         ]))
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if not args.dir:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def _ratio(a, b):

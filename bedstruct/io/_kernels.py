@@ -20,15 +20,25 @@ Tokens neither path decides (more than 19 significant digits, results that
 would be subnormal or overflow, ``nan``, ``inf``, malformed text) are flagged
 so that the caller re-parses their line with an exact general parser; the
 kernel never guesses.
+
+Two readers of lines share those paths. :func:`parse_lines` walks a span of
+text line by line and reads the short numbers of ``%g`` output (runs of up to
+seven digits) eight characters at a time (:func:`_short_number`); it is serial
+and releases the GIL, so the orchestrators run it on several threads over
+separate spans or pieces of a frame, and it refuses a span with any irregular
+line. :func:`parse_rows` takes lines by their bounds and reports, row by row,
+which are irregular (the exact error messages are built from that).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba.cpython.unsafe.numbers import trailing_zeros as _trailing_zeros
 
 from .._numba import njit, njit_parallel, prange
 
-__all__ = ["parse_rows", "gather_rows", "POW10", "POW10_HI", "POW10_LO", "POW5", "POW2",
+__all__ = ["parse_rows", "parse_lines", "count_lines", "gather_rows", "integer_column",
+           "consecutive_order", "permute_rows", "POW10_INT", "POW10", "POW10_HI", "POW10_LO", "POW5", "POW2",
            "EL_MIN_EXP10", "EL_MAX_EXP10"]
 
 #: Exactly representable powers of ten, 1e0 .. 1e22.
@@ -93,11 +103,18 @@ OK, BAD_COUNT, SLOW = 0, 1, 2
 
 
 @njit(inline="always")
+def _b(buf, i):
+    """``buf[i]`` for ``0 <= i < len(buf)``, indexed as unsigned: no negative-index
+    wraparound test, so neighbouring loads can merge into one."""
+    return buf[np.uint64(i)]
+
+
+@njit(inline="always")
 def _digits(buf, i, e, m):
-    """Append the decimal digits starting at ``buf[i]`` to the uint64 ``m``: (m, index after
+    """Append the decimal digits starting at ``_b(buf, i)`` to the uint64 ``m``: (m, index after
     them). Exact while ``m`` has at most 19 digits."""
     while i < e:
-        d = np.int64(buf[i]) - 48
+        d = np.int64(_b(buf, i)) - 48
         if d < 0 or d > 9:
             break
         m = m * _U10 + np.uint64(d)
@@ -107,8 +124,8 @@ def _digits(buf, i, e, m):
 
 @njit(inline="always")
 def _zeros(buf, i, e):
-    """Index after the '0' characters starting at ``buf[i]``."""
-    while i < e and buf[i] == 48:
+    """Index after the '0' characters starting at ``_b(buf, i)``."""
+    while i < e and _b(buf, i) == 48:
         i += 1
     return i
 
@@ -227,9 +244,9 @@ def _eisel_lemire(w, q, pow10_hi, pow10_lo, pow5, pow2):
 
 @njit(inline="always")
 def _number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
-    """Parse the token starting at ``buf[i]``: returns (value, index after it, exact)."""
+    """Parse the token starting at ``_b(buf, i)``: returns (value, index after it, exact)."""
     neg = False
-    c = buf[i]
+    c = _b(buf, i)
     if c == 45:
         neg = True
         i += 1
@@ -244,7 +261,7 @@ def _number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
     nsig = i - t1
     nd = i - t0
     exp10 = 0
-    if i < e and buf[i] == 46:
+    if i < e and _b(buf, i) == 46:
         i += 1
         t2 = i
         if nsig == 0:
@@ -256,18 +273,18 @@ def _number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
         exp10 = t2 - i
     # more than 19 significant digits could overflow: general parser
     ok = nd > 0 and nsig <= 19
-    if i < e and (buf[i] == 101 or buf[i] == 69):
+    if i < e and (_b(buf, i) == 101 or _b(buf, i) == 69):
         i += 1
         eneg = False
-        if i < e and buf[i] == 45:
+        if i < e and _b(buf, i) == 45:
             eneg = True
             i += 1
-        elif i < e and buf[i] == 43:
+        elif i < e and _b(buf, i) == 43:
             i += 1
         ex = 0
         t4 = i
         while i < e:
-            d = np.int64(buf[i]) - 48
+            d = np.int64(_b(buf, i)) - 48
             if d < 0 or d > 9:
                 break
             if ex < 100000:
@@ -276,9 +293,9 @@ def _number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
         if i == t4:
             ok = False
         exp10 += -ex if eneg else ex
-    if i < e and buf[i] > 32:  # junk glued to the number: the general parser decides
+    if i < e and _b(buf, i) > 32:  # junk glued to the number: the general parser decides
         ok = False
-        while i < e and buf[i] > 32:
+        while i < e and _b(buf, i) > 32:
             i += 1
     v = np.nan
     if ok:
@@ -301,7 +318,7 @@ def _parse_line(buf, s, e, ncols, out, base, stride, drow, pow10, pow10_hi, pow1
     slow = False
     i = s
     while True:
-        while i < e and buf[i] <= 32:
+        while i < e and _b(buf, i) <= 32:
             i += 1
         if i >= e:
             break
@@ -310,7 +327,7 @@ def _parse_line(buf, s, e, ncols, out, base, stride, drow, pow10, pow10_hi, pow1
         v, i, ok = _number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2)
         if not ok:
             slow = True
-        out[base[col] + drow * stride[col]] = v
+        out[np.uint64(base[col] + drow * stride[col])] = v
         col += 1
     if col != ncols:
         return 1
@@ -342,3 +359,312 @@ def gather_rows(data, order, cols, out):
         for k in range(m):
             out[r, k] = data[src, cols[k]]
 
+
+
+# --- short numbers: eight characters at a time ----------------------------------------------
+#
+# The ``%g`` numbers LAMMPS and LIGGGHTS write (``36236``, ``-0.0405453``, ``-4.41813e-05``)
+# have runs of at most seven digits. :func:`_short_number` reads each run of digits as one
+# 8-byte word: a mask finds how many of its characters are digits and three multiplications
+# give their value (the SWAR method of fast_float), so a number costs a few branches that do
+# not depend on its length. Anything it does not take (a run reaching the end of the text, more
+# than 19 digits, exponents of more than three digits, nan, inf, junk) goes to :func:`_number`.
+
+#: Powers of ten 10**0 .. 10**8 as integers.
+POW10_INT = np.array([10 ** k for k in range(9)], dtype=np.uint64)
+
+_U8 = np.uint64(8)
+_U16 = np.uint64(16)
+_B64_0F = np.uint64(0x0F0F0F0F0F0F0F0F)
+_B64_F0 = np.uint64(0xF0F0F0F0F0F0F0F0)
+_B64_06 = np.uint64(0x0606060606060606)
+_B64_33 = np.uint64(0x3333333333333333)
+_B64_7F = np.uint64(0x7F7F7F7F7F7F7F7F)
+_B64_80 = np.uint64(0x8080808080808080)
+_B64_FF00 = np.uint64(0x00FF00FF00FF00FF)
+_B64_FFFF = np.uint64(0x0000FFFF0000FFFF)
+_MUL1 = np.uint64(2561)             # 10 * 2**8 + 1
+_MUL2 = np.uint64(6553601)          # 100 * 2**16 + 1
+_MUL3 = np.uint64(42949672960001)   # 10000 * 2**32 + 1
+
+
+@njit(inline="always")
+def _load8(buf, i):
+    """The 8 bytes ``buf[i:i + 8]`` as one little-endian uint64 (first byte lowest)."""
+    return (np.uint64(_b(buf, i)) | (np.uint64(_b(buf, i + 1)) << _U8)
+            | (np.uint64(_b(buf, i + 2)) << _U16) | (np.uint64(_b(buf, i + 3)) << np.uint64(24))
+            | (np.uint64(_b(buf, i + 4)) << _U32) | (np.uint64(_b(buf, i + 5)) << np.uint64(40))
+            | (np.uint64(_b(buf, i + 6)) << np.uint64(48))
+            | (np.uint64(_b(buf, i + 7)) << np.uint64(56)))
+
+
+@njit(inline="always")
+def _digit_run(w):
+    """(k, value): the number of leading ASCII digits of the 8 characters ``w`` (first
+    character in the lowest byte) and the value of those ``k`` digits."""
+    # a byte is a digit when its high nibble is 3 and adding 6 keeps it 3 (0x30-0x39); a carry
+    # out of a byte >= 0xFA only reaches the bytes after that non-digit
+    t = (w & _B64_F0) | (((w + _B64_06) & _B64_F0) >> np.uint64(4))
+    y = t ^ _B64_33                                  # zero bytes: digits
+    nz = (((y & _B64_7F) + _B64_7F) | y) & _B64_80   # 0x80 in every non-digit byte
+    k = 8
+    if nz != _U0:
+        k = np.int64(_trailing_zeros(nz)) >> 3
+    # the k digits moved to the top bytes (zeros, read as leading zero digits, below them)
+    v = (w << np.uint64((64 - 8 * k) & 63)) if k > 0 else _U0
+    v = ((v & _B64_0F) * _MUL1) >> _U8
+    v = ((v & _B64_FF00) * _MUL2) >> _U16
+    v = ((v & _B64_FFFF) * _MUL3) >> _U32
+    return k, v
+
+
+@njit(inline="always")
+def _mantissa_run(buf, i, e, m, nd):
+    """Append the digits starting at ``_b(buf, i)`` to ``m`` eight at a time: (m, digits so far,
+    index after them, ok). ``ok`` is False when a word would reach past ``e``."""
+    while True:
+        if i + 8 > e:
+            return m, nd, i, False
+        k, v = _digit_run(_load8(buf, i))
+        m = m * POW10_INT[k] + v
+        nd += k
+        i += k
+        if k < 8:
+            return m, nd, i, True
+
+
+@njit(inline="always")
+def _short_number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
+    """Parse the token starting at ``_b(buf, i)`` (``i < e``) when it is a short decimal
+    number: (value, index after it, ok); ``ok`` False leaves the token to :func:`_number`.
+
+    Exact like :func:`_number`: Clinger's one-operation path for a mantissa of at most
+    2**53 and a power of ten within 1e22, the Eisel-Lemire path otherwise.
+    """
+    c = _b(buf, i)
+    neg = c == 45
+    if c == 45 or c == 43:
+        i += 1
+    m, nd, i, ok = _mantissa_run(buf, i, e, _U0, 0)
+    if not ok:
+        return 0.0, i, False
+    exp10 = 0
+    if i < e and _b(buf, i) == 46:
+        i += 1
+        m, nd, j, ok = _mantissa_run(buf, i, e, m, nd)
+        if not ok:
+            return 0.0, i, False
+        exp10 = i - j
+        i = j
+    if nd == 0 or nd > 19:
+        return 0.0, i, False
+    if i < e and (_b(buf, i) == 101 or _b(buf, i) == 69):
+        i += 1
+        eneg = False
+        if i < e and (_b(buf, i) == 45 or _b(buf, i) == 43):
+            eneg = _b(buf, i) == 45
+            i += 1
+        ex = 0
+        t = i
+        while i < e and i - t < 4:
+            d = np.int64(_b(buf, i)) - 48
+            if d < 0 or d > 9:
+                break
+            ex = ex * 10 + d
+            i += 1
+        if i == t or i - t == 4:
+            return 0.0, i, False
+        exp10 += -ex if eneg else ex
+    if i < e and _b(buf, i) > 32:
+        return 0.0, i, False
+    if m == _U0:
+        v = 0.0
+    elif m <= _MAX_EXACT and exp10 >= -22 and exp10 <= 22:
+        if exp10 < 0:
+            v = float(m) / pow10[-exp10]
+        else:
+            v = float(m) * pow10[exp10]
+    else:
+        v, ok = _eisel_lemire(m, exp10, pow10_hi, pow10_lo, pow5, pow2)
+        if not ok:
+            return 0.0, i, False
+    return (-v if neg else v), i, True
+
+
+@njit(inline="always")
+def _count_lines(buf, a, b):
+    """Number of newline characters in ``buf[a:b]``."""
+    n = 0
+    for i in range(a, b):
+        n += _b(buf, i) == 10
+    return n
+
+
+@njit(inline="always")
+def _parse_part(buf, a, b, ncols, out, base, stride, row, pow10, pow10_hi, pow10_lo, pow5,
+                pow2):
+    """Parse the whole lines of ``buf[a:b]`` as rows ``row, row + 1, ...``: the row after
+    the last one, or -1 when any line is not ``ncols`` numbers the kernel reads exactly."""
+    i = a
+    while i < b:
+        col = 0
+        while True:
+            while i < b and _b(buf, i) <= 32 and _b(buf, i) != 10:
+                i += 1
+            if i >= b or _b(buf, i) == 10:
+                break
+            if col >= ncols:
+                return -1
+            v, j, ok = _short_number(buf, i, b, pow10, pow10_hi, pow10_lo, pow5, pow2)
+            if not ok:
+                v, j, ok = _number(buf, i, b, pow10, pow10_hi, pow10_lo, pow5, pow2)
+                if not ok:
+                    return -1
+            out[np.uint64(base[col] + row * stride[col])] = v
+            col += 1
+            i = j
+        if col != ncols:
+            return -1
+        row += 1
+        i += 1
+    return row
+
+
+@njit
+def count_lines(buf, start, stop):
+    """The number of lines of ``buf[start:stop]``: its newlines, plus one for a last
+    line without a newline.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> count_lines(np.frombuffer(b"1 2\\n3 4\\n5 6", dtype=np.uint8), 0, 11)
+    3
+    """
+    n = _count_lines(buf, start, stop)
+    if stop > start and _b(buf, stop - 1) != 10:
+        n += 1
+    return n
+
+
+@njit
+def parse_lines(buf, start, stop, ncols, out, base, stride, row0):
+    """Parse the lines of ``buf[start:stop]`` (``ncols`` numbers each) as rows ``row0...``.
+
+    Value ``c`` of row ``r`` goes to ``out[base[c] + r * stride[c]]`` (the layout of
+    :func:`parse_rows`). Every line but the last ends with a newline; the text
+    should not end with blank lines, and ``out`` must hold as many rows as the
+    text has lines (:func:`count_lines`). The kernel releases the GIL, so that
+    threads can parse separate spans of one text at once.
+
+    Returns the row after the last one parsed, or -1 when a line is not ``ncols``
+    numbers that the kernel reads exactly (a wrong count, a blank line, ``nan``,
+    more than 19 significant digits, ...): the caller then parses the text row by
+    row with :func:`parse_rows` to learn which.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> text = np.frombuffer(b"1 2.5 -3e-2\\n4 5 6\\n", dtype=np.uint8)
+    >>> out = np.zeros(6)
+    >>> parse_lines(text, 0, text.size, 3, out, np.arange(3), np.full(3, 3), 0)
+    2
+    >>> out.tolist()
+    [1.0, 2.5, -0.03, 4.0, 5.0, 6.0]
+    """
+    return _parse_part(buf, start, stop, ncols, out, base, stride, row0, POW10, POW10_HI,
+                       POW10_LO, POW5, POW2)
+
+
+# --- ids and row order ------------------------------------------------------------------------
+
+@njit
+def integer_column(flat, b, st, ints):
+    """``ints[r] = flat[b + r * st]`` as int64 for a column of whole numbers.
+
+    Returns ``(exact, increasing, lo, hi)``: whether every value is a whole number
+    below 2**63 in magnitude (else ``ints`` is incomplete), whether they strictly
+    increase, and their least and greatest value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ints = np.empty(3, dtype=np.int64)
+    >>> integer_column(np.array([3.0, 0.5, 1.0, 0.5, 2.0, 0.5]), 0, 2, ints)
+    (True, False, 1, 3)
+    >>> ints.tolist()
+    [3, 1, 2]
+    """
+    n = ints.shape[0]
+    increasing = True
+    lo = hi = 0
+    for r in range(n):
+        x = flat[b + r * st]
+        if not abs(x) < 9.2e18:
+            return False, False, 0, 0
+        v = np.int64(x)
+        if float(v) != x:
+            return False, False, 0, 0
+        ints[r] = v
+        if r == 0:
+            lo = hi = v
+        else:
+            if v <= ints[r - 1]:
+                increasing = False
+            lo = min(lo, v)
+            hi = max(hi, v)
+    return True, increasing, lo, hi
+
+
+@njit
+def consecutive_order(ids, lo, order):
+    """``order[ids[r] - lo] = r`` for ids that are a permutation of ``lo, lo + 1, ...``
+    (``max(ids) - lo + 1 == len(ids)``): the row order that sorts them. Returns False
+    when an id repeats (some position is then left unset).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> order = np.empty(3, dtype=np.int64)
+    >>> consecutive_order(np.array([12, 10, 11]), 10, order), order.tolist()
+    (True, [1, 2, 0])
+    """
+    n = ids.shape[0]
+    for k in range(n):
+        order[k] = -1
+    for r in range(n):
+        order[ids[r] - lo] = r
+    for k in range(n):
+        if order[k] < 0:
+            return False
+    return True
+
+
+@njit
+def permute_rows(flat, b, w, order, tmp):
+    """Reorder the (n, w) row-major block ``flat[b:b + n * w]`` in place so that its row
+    ``r`` becomes its former row ``order[r]``; ``tmp`` holds at least ``n * w`` values.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> flat = np.array([9.0, 1, 2, 3, 4, 5, 6])
+    >>> permute_rows(flat, 1, 2, np.array([2, 0, 1]), np.empty(6))
+    >>> flat.tolist()
+    [9.0, 5.0, 6.0, 1.0, 2.0, 3.0, 4.0]
+    """
+    n = order.shape[0]
+    if w == 3:
+        for r in range(n):
+            src = np.uint64(b + order[r] * 3)
+            dst = np.uint64(r * 3)
+            tmp[dst] = flat[src]
+            tmp[dst + _U1] = flat[src + _U1]
+            tmp[dst + np.uint64(2)] = flat[src + np.uint64(2)]
+    else:
+        for r in range(n):
+            src = b + order[r] * w
+            for c in range(w):
+                tmp[np.uint64(r * w + c)] = flat[np.uint64(src + c)]
+    for i in range(n * w):
+        flat[np.uint64(b + i)] = tmp[np.uint64(i)]

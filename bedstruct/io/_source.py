@@ -178,6 +178,27 @@ class Source:
             raise DumpFormatError(f"cannot decompress ({self.compression}): {exc}",
                                   path=self.path) from None
 
+    def read_into(self, start: int, view) -> int:
+        """Fill the writable buffer ``view`` with the decompressed stream from ``start``:
+        the number of bytes read (fewer at the end). Plain files are read straight into
+        ``view``, without an intermediate copy."""
+        view = memoryview(view).cast("B")
+        if self.compression is not None:
+            data = self.read_range(start, len(view))
+            view[:len(data)] = data
+            return len(data)
+        if self._fh is None:
+            self._reopen()
+        self._fh.seek(start)
+        got = 0
+        while got < len(view):
+            k = self._fh.readinto(view[got:])
+            if not k:
+                break
+            got += k
+        self._pos = start + got
+        return got
+
     def _read_range(self, start: int, length: int) -> bytes:
         if self._fh is None:
             self._reopen()

@@ -9,9 +9,12 @@ Implementation module of :mod:`bedstruct.io.lammps_dump` (import from there).
 
 from __future__ import annotations
 
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
-from ._columns import _POSITION_SETS, _VECTORS, _id_order
+from ._columns import _POSITION_SETS, _VECTORS
 from ._text import RawFrame, general_block, many_slow_rows, parse_token
 
 __all__: list[str] = []
@@ -32,16 +35,13 @@ class _Planned:
         """Reorder every slot by ``order`` (rows were parsed in file order)."""
         if self.in_order:
             return
+        from ._kernels import permute_rows
         n = self.n
-        for key, v in self.slots.items():
-            if isinstance(key, tuple):
-                b, w = v, 3
-            elif v[1] == 1:
-                b, w = v[0], 1
-            else:
-                continue
-            block = self.flat[b:b + w * n].reshape(n, w)
-            np.copyto(block, np.take(block, self.order, axis=0))  # one block-sized temporary
+        blocks = [(v, 3) if isinstance(key, tuple) else (v[0], 1)
+                  for key, v in self.slots.items() if isinstance(key, tuple) or v[1] == 1]
+        tmp = np.empty(max(w for _, w in blocks) * n, dtype=np.float64)  # one block's size
+        for b, w in blocks:
+            permute_rows(self.flat, b, w, self.order, tmp)
         self.in_order = True
 
     def take(self, ks) -> np.ndarray:
@@ -143,56 +143,137 @@ def _parse_piece(piece: bytes, final: bool, row0: int, n: int, ncols: int, flat,
     return k
 
 
+class _Pieces:
+    """The lines of a data block read in pieces into a few reused buffers, each piece
+    parsed by one worker thread while the next is read (``threads == 1``: in turn).
+
+    A piece is parsed by :func:`~bedstruct.io._kernels.parse_lines`; one it refuses
+    is read again row by row (:func:`_parse_piece`), which takes rare tokens to the
+    general number parser. The result is ``None`` when anything is irregular.
+    """
+
+    def __init__(self, n, ncols, flat, base, stride, threads):
+        self.n, self.ncols, self.flat, self.base, self.stride = n, ncols, flat, base, stride
+        self.threads = threads
+        self.pool = ThreadPoolExecutor(threads) if threads > 1 else None
+        self.jobs = deque()   # (result or future, buffer, stop, final, first row, rows)
+        self.free = []        # buffers of finished pieces
+        self.row = 0          # rows handed out so far
+        self.failed = False
+
+    def buffer(self, size):
+        buf = self.free.pop() if self.free else None
+        return buf if buf is not None and len(buf) >= size else bytearray(size)
+
+    def submit(self, buf, stop: int, final: bool) -> bool:
+        """Parse ``buf[:stop]``; False when its lines would pass the frame's rows."""
+        from ._kernels import count_lines, parse_lines
+
+        end = stop
+        if final:
+            while end > 0 and buf[end - 1] <= 32:
+                end -= 1
+        arr = np.frombuffer(buf, dtype=np.uint8)
+        k = count_lines(arr, 0, end)
+        if self.row + k > self.n:
+            return False
+        args = (arr, 0, end, self.ncols, self.flat, self.base, self.stride, self.row)
+        job = parse_lines(*args) if self.pool is None else self.pool.submit(parse_lines, *args)
+        self.jobs.append((job, buf, stop, final, self.row, k))
+        self.row += k
+        while len(self.jobs) > self.threads:
+            self._finish()
+        return not self.failed
+
+    def _finish(self):
+        job, buf, stop, final, row0, k = self.jobs.popleft()
+        got = job if self.pool is None else job.result()
+        if got != row0 + k and not self.failed:
+            redo = _parse_piece(bytes(buf[:stop]), final, row0, self.n, self.ncols, self.flat,
+                                self.base, self.stride)
+            self.failed = redo != k
+        self.free.append(buf)
+
+    def close(self) -> bool:
+        """Wait for every piece: True when all were read exactly."""
+        while self.jobs:
+            self._finish()
+        if self.pool is not None:
+            self.pool.shutdown(wait=True)
+        self.free.clear()
+        return not self.failed
+
+
 def _stream_columns(source, pos: int, end: int, first: bytes, raw: RawFrame, sort_by_id: bool):
     """Parse a frame's data block into final arrays, reading it in small pieces.
 
     ``first`` holds the start of the block (read with the header) and ``pos`` is
-    the stream offset right after it. Returns a :class:`_Planned` provider, or
-    None when anything is irregular (wrong counts, bad tokens, non-integer ids);
-    the caller then takes the general path, which reports problems precisely.
+    the stream offset right after it. Pieces are parsed on numba's number of
+    threads (:func:`bedstruct._numba.set_num_threads`) while the next is read
+    or decompressed. Returns a :class:`_Planned` provider, or None when anything
+    is irregular (wrong counts, bad tokens, non-integer ids); the caller then
+    takes the general path, which reports problems precisely.
     """
+    from .._numba import get_num_threads
+    from ._kernels import consecutive_order, integer_column
+
     n, names = raw.n, raw.names
     ncols = len(names)
     base, stride, slots, size = _plan(names, n)
     flat = np.empty(size, dtype=np.float64)
-    row = 0
+    pieces = _Pieces(n, ncols, flat, base, stride, max(1, get_num_threads()))
     carry = first
-    while True:
-        final = pos >= end
-        if not final:
-            chunk = source.read_range(pos, min(_STREAM_CHUNK, end - pos))
-            if not chunk:
+    try:
+        while True:
+            buf = pieces.buffer(max(_STREAM_CHUNK, 2 * len(carry)))
+            fill = len(carry)
+            buf[:fill] = carry
+            while True:
+                final = pos >= end
+                if final:
+                    cut = fill
+                    break
+                if fill == len(buf):  # a line longer than the buffer
+                    grown = bytearray(2 * len(buf))
+                    grown[:fill] = buf
+                    buf = grown
+                got = source.read_into(pos, memoryview(buf)[fill:fill + min(len(buf) - fill,
+                                                                             end - pos)])
+                if not got:
+                    return None
+                pos += got
+                fill += got
+                if pos >= end:
+                    cut = fill
+                    final = True
+                    break
+                cut = buf.rfind(b"\n", 0, fill) + 1
+                if cut:
+                    break
+            carry = bytes(buf[cut:fill])
+            if not pieces.submit(buf, cut, final):
                 return None
-            pos += len(chunk)
-            carry = carry + chunk if carry else chunk
-            del chunk
-            final = pos >= end
-        if final:
-            piece, carry = carry, b""
-        else:
-            cut = carry.rfind(b"\n") + 1
-            if cut == 0:
-                continue
-            piece, carry = carry[:cut], carry[cut:]
-        k = _parse_piece(piece, final, row, n, ncols, flat, base, stride)
-        if k < 0:
-            return None
-        row += k
-        if final:
-            break
+            if final:
+                break
+    finally:
+        exact = pieces.close()
+        buf = carry = None  # the text is parsed: free it before the ids are sorted
+    row = pieces.row
+    if not exact:
+        return None
     if row != n:
         return None
     order = None
     ids = None
     if "id" in names:
         b, st = slots[names.index("id")]
-        idf = flat[b:b + st * n:st]
-        with np.errstate(invalid="ignore"):
-            ids = idf.astype(np.int64)
-        if not np.array_equal(ids, idf):
+        ids = np.empty(n, dtype=np.int64)
+        exact, increasing, lo, hi = integer_column(flat, b, st, ids)
+        if not exact:
             return None
-        if sort_by_id:
-            order = _id_order(ids)
-            if order is not None:
-                ids = ids[order]
+        if sort_by_id and not increasing:
+            order = np.empty(n, dtype=np.int64)
+            if not (hi - lo + 1 == n and consecutive_order(ids, lo, order)):
+                order = np.argsort(ids, kind="stable").astype(np.int64)
+            ids = ids[order]
     return _Planned(flat, slots, n, order, ids)

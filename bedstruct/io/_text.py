@@ -19,7 +19,8 @@ from ..errors import BedstructWarning, DumpFormatError
 from ._kernels import parse_rows
 
 __all__ = ["RawFrame", "TruncatedFrame", "parse_text_frame", "parse_block", "line_bounds",
-           "many_slow_rows", "general_block", "parse_token", "truncated", "starts_frame",
+           "many_slow_rows", "general_block", "parse_lines_threaded", "parse_token", "truncated",
+           "starts_frame",
            "tail_truncation", "skip_or_raise",
            "check_unit_style", "LAMMPS_UNIT_STYLES", "normalise_columns"]
 
@@ -447,6 +448,39 @@ def general_block(text: bytes, n: int, ncols: int):
     return flat.reshape(n, ncols) if flat.size == n * ncols else None
 
 
+def parse_lines_threaded(arr, start: int, stop: int, ncols: int, out, base, stride, *,
+                         threads: int) -> bool:
+    """Parse the lines of ``arr[start:stop]`` as rows 0, 1, ... with
+    :func:`~bedstruct.io._kernels.parse_lines`, cut at line starts into ``threads``
+    spans parsed at once (each on its own thread).
+
+    ``arr`` is a uint8 array whose text ends without blank lines; ``out`` holds as
+    many rows as it has lines. Returns True when every line was read exactly; False
+    leaves the rows in an unknown state (parse them with :func:`parse_rows` then).
+    """
+    from ._kernels import count_lines, parse_lines
+
+    size = stop - start
+    threads = max(1, min(threads, size >> 16))  # below 64 KiB a span is not worth a thread
+    if threads == 1:
+        return parse_lines(arr, start, stop, ncols, out, base, stride, 0) == \
+            count_lines(arr, start, stop)
+    cuts = [start]
+    for k in range(1, threads):
+        x = start + size * k // threads
+        nl = np.flatnonzero(arr[x:min(stop, x + (1 << 16))] == 10)
+        cuts.append(max(cuts[-1], x + int(nl[0]) + 1) if nl.size else cuts[-1])
+    cuts.append(stop)
+    rows = [0]
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        rows.append(rows[-1] + count_lines(arr, a, b))
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(threads) as pool:
+        done = list(pool.map(lambda k: parse_lines(arr, cuts[k], cuts[k + 1], ncols, out, base,
+                                                   stride, rows[k]), range(threads)))
+    return done == rows[1:]
+
+
 def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line: int,
                 at_eof: bool, parse_values: bool = True, names=None):
     """Parse ``n`` lines of ``ncols`` numbers from ``buf[p:]``.
@@ -455,20 +489,35 @@ def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line:
     cut-off frame header found after the data at the end of the file (else
     None).
     """
-    body, starts, ends, end = line_bounds(buf, p)
-    m = starts.size
+    from .._numba import get_num_threads
+    from ._kernels import count_lines
+
+    end = len(buf)
+    while end > p and _is_space(buf[end - 1]):
+        end -= 1
+    arr = np.frombuffer(buf, dtype=np.uint8)
+    m = count_lines(arr, p, end)
     names = [f"column {c + 1}" for c in range(ncols)] if names is None else list(names)
     what = f"({' '.join(names)})"
+    bounds = []  # line starts and ends, found only when needed
+
+    def lines():
+        if not bounds:
+            bounds.extend(line_bounds(buf, p)[1:3])
+        return bounds
 
     def row_text(r):
+        starts, ends = lines()
         return buf[p + starts[r]:p + ends[r]].decode("latin-1").rstrip("\r")
 
     tail = None
+    stop = end
     if m > n:
         extra = row_text(n)
         if at_eof and starts_frame(extra.encode("latin-1")):
+            starts, ends = lines()
             tail = (data_line + n, p + int(starts[n]))
-            starts, ends = starts[:n], ends[:n]
+            stop = p + int(ends[n - 1]) if n else p
             m = n
         else:
             raise DumpFormatError(f"atom count mismatch: the header says {n} rows but more "
@@ -484,9 +533,15 @@ def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line:
     out = np.empty((n, ncols), dtype=np.float64)
     if n == 0:
         return out, tail, row_text
+    if parse_lines_threaded(arr, p, stop, ncols, out.reshape(-1), np.arange(ncols, dtype=np.int64),
+                            np.full(ncols, ncols, dtype=np.int64), threads=get_num_threads()):
+        return out, tail, row_text
+    starts, ends = lines()
+    body = arr[p:end]
     status = np.empty(n, dtype=np.int8)
-    parse_rows(body, starts, ends, ncols, out.reshape(-1), np.arange(ncols, dtype=np.int64),
-               np.full(ncols, ncols, dtype=np.int64), np.arange(n, dtype=np.int64), status)
+    parse_rows(body, starts[:n], ends[:n], ncols, out.reshape(-1),
+               np.arange(ncols, dtype=np.int64), np.full(ncols, ncols, dtype=np.int64),
+               np.arange(n, dtype=np.int64), status)
     bad = np.flatnonzero(status == 1)
     if bad.size:
         r = int(bad[0])
