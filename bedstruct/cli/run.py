@@ -134,8 +134,12 @@ def run(args) -> int:
     if cfg["engine"] != "embedded":
         summary["engine"] = cfg["engine"]
     if args.workflow == "repose":
-        print(f"angle of repose: {res.angle_deg:.2f} +- {res.angle_std_deg:.2f} deg "
-              f"({len(res.replicates)} replicate(s), cohesion {res.cohesion:.4g} J/m^3)")
+        n = len(res.replicates)
+        what = ("one pile; +- is the flank-fit uncertainty, not a scatter between piles"
+                if n == 1 else f"mean of {n} piles; +- its standard uncertainty, scatter "
+                f"between piles {res.spread_deg:.2f} deg")
+        print(f"angle of repose: {res.angle_deg:.2f} +- {res.angle_std_deg:.2f} deg ({what}; "
+              f"cohesion {res.cohesion:.4g} J/m^3)")
     elif args.workflow == "calibrate":
         print(f"calibrated cohesion: {res.cohesion:.4g} +- {res.cohesion_std:.2g} J/m^3 for "
               f"{res.target_deg:.1f} deg (bracketed: {res.bracketed}, converged: {res.converged})")

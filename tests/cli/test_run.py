@@ -42,9 +42,11 @@ def test_repose_json(tmp_path, capsys):
     rc = main(["run", "repose", "--preset", "tiny", "--set", "repose.drain_time=0.02",
                "--out", str(tmp_path), "--json"])
     assert rc == 0
-    last = capsys.readouterr().out.strip().splitlines()[-1]
-    d = json.loads(last)
+    out = capsys.readouterr().out.strip().splitlines()
+    d = json.loads(out[-1])
     assert 5 < d["angle_deg"] < 60 and d["angle_std_deg"] > 0
+    # the +- says what it is: with one pile (tiny) the flank fit's uncertainty, not a scatter
+    assert len(d["replicates"]) == 1 and "one pile" in out[0] and "not a scatter" in out[0]
     assert json.loads((tmp_path / "results.json").read_text())["angle_deg"] == pytest.approx(d["angle_deg"])
 
 
