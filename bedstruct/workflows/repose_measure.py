@@ -129,10 +129,10 @@ def repose_result_from_dict(d: dict) -> ReposeResult:
 def measure_pile(frame, cfg: dict, *, r_max: float):
     """Angle of the pile left in ``frame`` (SI) by a repose run of ``cfg``.
 
-    The same measurement for every engine: spheres above the plate level,
+    The same measurement for every engine and for ``bedstruct report``:
+    :func:`bedstruct.analysis.pile_angle` on the spheres above the plate level,
     within the ledge (or the part of the floor left after the slide) plus a
-    pad of ``2 r_max``, fitted by :func:`bedstruct.analysis.angle_of_repose`
-    (both flanks with a ledge, else the flank facing the opening).
+    pad of ``2 r_max`` (both flanks with a ledge, else the flank facing the opening).
 
     Returns
     -------
@@ -145,34 +145,32 @@ def measure_pile(frame, cfg: dict, *, r_max: float):
     ConfigError
         Fewer than 10 spheres remain.
     """
-    from ..analysis import angle_of_repose   # numba kernels: imported when a pile is measured
+    from ..analysis import pile_angle   # numba kernels: imported when a pile is measured
 
     rc = cfg["repose"]
     L, W, _ = (float(v) for v in rc["box"])
     ped = float(rc["pedestal_fraction"])
     slide = L if ped > 0 else float(rc["slide_fraction"]) * L
-    # measure the pile on what stays above the plate level
-    keep = frame.positions[:, 2] > -frame.radii
-    pile = frame.select(keep)
-    if pile.n_particles < 10:
-        raise ConfigError(f"repose: only {pile.n_particles} particles remain; no pile to measure "
+    on_plate = int(np.count_nonzero(frame.positions[:, 2] > -frame.radii))
+    if on_plate < 10:
+        raise ConfigError(f"repose: only {on_plate} particles remain; no pile to measure "
                           "(raise cohesion/friction or use a ledge: repose.pedestal_fraction)")
     x_lo = (L - ped * L) / 2 if ped > 0 else 0.0
     x_hi = (L + ped * L) / 2 if ped > 0 else L - slide
     pad = 2 * r_max
     bounds = ((x_lo - pad, x_hi + pad), (0.0, W))
-    sel = (pile.positions[:, 0] > x_lo - pad) & (pile.positions[:, 0] < x_hi + pad)
-    pile = pile.select(sel)
     flanks = "both" if ped > 0 else "right"
     try:
-        res = angle_of_repose(pile, axis=0, base=0.0, flanks=flanks, bounds=bounds,
-                              statistic="median", spacing=0.5 * float(np.median(pile.radii)))
+        res = pile_angle(frame, axis=0, base=0.0, bounds=bounds, flanks=flanks).repose
         return (float(res.angle_deg), float(res.angle_std_deg), float(res.left_deg),
                 float(res.right_deg), float(res.top))
     except ValueError as exc:
         log.warning("repose: pile could not be measured: %s", exc)
         nan = float("nan")
-        return nan, nan, nan, nan, float(np.max(pile.positions[:, 2] + pile.radii))
+        x = frame.positions[:, 0]
+        keep = (frame.positions[:, 2] > -frame.radii) & (x > x_lo - pad) & (x < x_hi + pad)
+        top = float(np.max(frame.positions[keep, 2] + frame.radii[keep])) if keep.any() else nan
+        return nan, nan, nan, nan, top
 
 
 def combine_replicates(reps, cohesion: float) -> ReposeResult:
