@@ -9,9 +9,10 @@ extension. :func:`run_case` returns the state after the run, the contact forces
 the output path computes and the wall contacts (all arrays).
 
 Run this module as a script to record the digests of this machine's results into
-``data/reference_trajectories.json`` (and, with ``--npz DIR``, the arrays):
+``data/reference_trajectories.json`` (and, with ``--npz DIR``, the arrays); ``--cases``
+re-records only the cases named:
 
-    PYTHONPATH=. python tests/dem/reference_trajectories.py [--npz /tmp/bedstruct_ref]
+    PYTHONPATH=. python tests/dem/reference_trajectories.py [--npz DIR] [--cases NAME ...]
 """
 
 from __future__ import annotations
@@ -136,7 +137,11 @@ def main(argv=None) -> int:
         print(name, digests[name][:16], int(arrays["n_rebuilds"][0]), len(arrays["pi"]),
               int((arrays["fn"] != 0).sum()), int((arrays["wfn"] != 0).sum()), flush=True)
     JSON.parent.mkdir(exist_ok=True)
-    JSON.write_text(json.dumps(dict(machine=machine(), digests=digests), indent=1) + "\n")
+    old = json.loads(JSON.read_text()) if JSON.exists() else {}
+    if old.get("machine") == machine():  # re-recording some cases keeps the others
+        digests = {**old.get("digests", {}), **digests}
+    JSON.write_text(json.dumps(dict(machine=machine(), digests=dict(sorted(digests.items()))),
+                               indent=1) + "\n")
     return 0
 
 
