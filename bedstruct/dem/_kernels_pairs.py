@@ -83,6 +83,13 @@ def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_
     x, v, om, rad, mass, inv_i, ptype = P
     pi, pj, psh = PL
     ht, hr = hist
+    Y = TAB[TAB_YOUNGS]
+    G = TAB[TAB_SHEAR]
+    B = TAB[TAB_DAMPING]
+    GTR = TAB[TAB_DAMPING_RATIO]
+    MU = TAB[TAB_FRICTION]
+    MUR = TAB[TAB_ROLLING_FRICTION]
+    COH = TAB[TAB_COHESION]
     if kr_fac is None:
         krf = EPSD_STIFFNESS_FACTOR
     else:
@@ -177,8 +184,8 @@ def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_
             mj = mass[j]
             meff = mi * mj / (mi + mj)
             sq = math.sqrt(reff * delta)
-            kn, kt = hertz_stiffness(sq, TAB[0, ti, tj], TAB[1, ti, tj])
-            gn, gt = pair_damping(sq, meff, TAB[2, ti, tj], TAB[3, ti, tj])
+            kn, kt = hertz_stiffness(sq, Y[ti, tj], G[ti, tj])
+            gn, gt = pair_damping(sq, meff, B[ti, tj], GTR[ti, tj])
             vr1 = v[i, 0] - v[j, 0]
             vr2 = v[i, 1] - v[j, 1]
             vr3 = v[i, 2] - v[j, 2]
@@ -187,7 +194,7 @@ def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_
             # Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
             # (`tangential_reduce off`) adds cohesion to the force, not to the caps.
             fn_cap = fn
-            k_coh = TAB[6, ti, tj]
+            k_coh = COH[ti, tj]
             if k_coh != 0.0:
                 fn -= k_coh * sjkr_area_pair(r, ri, rj)
             if cap is not None:
@@ -209,7 +216,7 @@ def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_
                 un = u1 * e1 + u2 * e2 + u3 * e3
                 trial = math.sqrt((u1 - un * e1) ** 2 + (u2 - un * e2) ** 2 + (u3 - un * e3) ** 2)
             s1, s2, s3, f1, f2, f3 = tangential_history(ht[k, 0], ht[k, 1], ht[k, 2], vt1, vt2, vt3,
-                                                        e1, e2, e3, kt, gt, TAB[4, ti, tj], fn_cap,
+                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn_cap,
                                                         dt)
             ht[k, 0] = s1
             ht[k, 1] = s2
@@ -225,7 +232,7 @@ def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_
                         hx[k, 2] = 1.0
             ti1, ti2, ti3, tj1, tj2, tj3 = shear_torques(e1, e2, e3, f1, f2, f3, cri, crj)
             if rolling != ROLL_NONE:
-                mur = TAB[5, ti, tj]
+                mur = MUR[ti, tj]
                 if mur > 0.0:
                     ieff = 0.0
                     if rolling == ROLL_EPSD:

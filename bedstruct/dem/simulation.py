@@ -178,6 +178,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
                            (tabs.youngs, tabs.shear, tabs.beta, tabs.friction,
                             tabs.rolling_friction, tabs.cohesion))
         self._pair_tab = K.pair_table(*self._tabs, model.tangential_damping)
+        self._wall_tab = np.ascontiguousarray(np.stack(self._tabs))
         self._cap, self._age = model.extension_arrays()
         # the EPSD stiffness factor is compiled in unless it differs from the standard one
         self._kr_fac = (float(model.rolling_stiffness_factor)
@@ -348,13 +349,13 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
 
     def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm,
                      kick_next=False):
-        Y, G, B, MU, MUR, COH = self._tabs
         m = self.model
-        K.finish_step(self.x, v, om, f, tq, fbuf, tbuf, self.mass, self.inv_m, self.inv_i,
-                      self.rad, self.ptype, self.gravity, self._fbounds, self._W, self._tri,
-                      self.time, self._wstart, self._wcand, wslot, whist, self._wbuf, Y, G, B, MU, MUR, COH, m.rolling_code,
-                      m.tangential_damping, m.limit_force, float(m.rolling_damping), dt, store,
-                      wfn, wdel, wnrm, self._overflow, kick_next, self.x_ref, self._disp,
+        K.finish_step((self.x, v, om, f, tq, self.mass, self.inv_m, self.inv_i, self.rad,
+                       self.ptype), fbuf, tbuf, self.gravity, self._fbounds,
+                      (self._W, self._tri, self.time, self._wstart, self._wcand, wslot, whist,
+                       self._wbuf), self._wall_tab, m.rolling_code, m.tangential_damping,
+                      m.limit_force, float(m.rolling_damping), dt, store, (wfn, wdel, wnrm),
+                      self._overflow, kick_next, self.x_ref, self._disp,
                       float(m.rolling_stiffness_factor))
 
     def _setup(self):
