@@ -2,23 +2,39 @@
 
 A dense polydisperse bed (radii 14-50 um, the seed's soft CoCr model) is
 poured and settled by bedstruct once, cached in ``<tempdir>/bedstruct-engines``
-as a checkpoint and a LAMMPS data file, then timed:
+as a checkpoint and a LAMMPS data file, then timed with the same problem in
+every engine: the seed's contact model with SJKR cohesion on
+(:data:`BENCH_COHESION`), the bed's floor as the only wall, gravity, and the
+same neighbour skin (0.1 d_min, the decks' default):
 
-* bedstruct with 1 and 2 threads, with a blade moving over the bed (its
-  contacts, neighbour rebuilds and wall forces are counted; compilation and
-  I/O are not: a warm-up run precedes the timed run);
-* LIGGGHTS and LAMMPS (``bedstruct.engines.benchmark_external``) with 1
-  and 2 MPI ranks on the same data file and model, when installed (nan
-  otherwise).
+* bedstruct with 1 and 2 threads (compilation and I/O excluded: a warm-up run
+  precedes the timed runs);
+* LIGGGHTS with the seed's rolling model ``epsd2`` (which Debian's LIGGGHTS runs
+  on its unoptimised, non-whitelisted path) and with ``cdt`` (whitelisted), 1 and
+  2 MPI ranks; LAMMPS (``pair granular``, DMT cohesion: it has no SJKR) on 1 and 2
+  ranks; nan where an engine is missing or fails (the reason is printed).
+
+The machine is shared: the runs are interleaved, repeat by repeat, and every
+ratio is the median of the per-repeat ratios (never each side's best). The
+external engines' times are their ``Loop time`` (wall clock of the timed run),
+so bedstruct's ratios use its wall-clock time of the same repeat; its CPU time
+is printed too.
+
+Memory: ``bytes_per_particle`` is the steady state (arrays held); the peak adds
+what a neighbour rebuild touches on top, measured as the rise of the process's
+resident-set high-water mark over one rebuild (``/proc/self/clear_refs``; Linux).
 
 Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N] [--profile]
-[--threading-layer omp|tbb|workqueue|default]``.
+[--repeat N] [--no-external] [--threading-layer omp|tbb|workqueue|default]``.
 The last line is ``RESULT bedstruct_steps_per_s=... liggghts_steps_per_s=...
-lammps_steps_per_s=... ratio_1core=... speedup_2threads=... ...`` (particle-steps
-per second; bedstruct_steps_per_s is the 2-thread figure; ratio_1core is
-bedstruct over LIGGGHTS on one core). Where numba may use only one thread
-(``NUMBA_NUM_THREADS=1``, or one CPU) the "2-thread" run executes its two chunks on one
-thread: the bench prints a warning, reports ``speedup_2threads=nan`` and records
+lammps_steps_per_s=... ratio_1core=... ratio_1core_cdt=... ratio_1core_180k=...
+speedup_2threads=... bytes_per_particle_peak=... ...`` (particle-steps per
+second, medians over repeats; bedstruct_steps_per_s is the 2-thread figure;
+ratio_1core is bedstruct over LIGGGHTS epsd2 on one core, ratio_1core_cdt over
+LIGGGHTS cdt; ratio_1core_180k is measured only with ``--particles 180000``,
+nan otherwise). Where numba may use only one thread (``NUMBA_NUM_THREADS=1``,
+or one CPU) the "2-thread" run executes its two chunks on one thread: the bench
+prints a warning, reports ``speedup_2threads=nan`` and records
 ``numba_max_threads=1``.
 
 Threading layer: importing bedstruct asks numba for OpenMP first, then workqueue, TBB last
@@ -40,16 +56,20 @@ from pathlib import Path
 import numpy as np
 
 from bedstruct import Box
-from bedstruct.dem import Blade, ContactModel, Material, Plane, Simulation
+from bedstruct.dem import ContactModel, Material, Plane, Simulation
 
 R_MIN, R_MAX = 14e-6, 50e-6
 WIDTH = 2e-3
+#: SJKR cohesion energy density of the timed runs (J/m^3). Its cost per contact does not
+#: depend on the value; a modest one leaves the settled bed at rest at the soft modulus.
+BENCH_COHESION = 1e5
 
 
-def seed_model() -> ContactModel:
-    """The seed's contact model (soft CoCr; hertz, history, epsd2; no cohesion)."""
+def seed_model(*, cohesion: float = 0.0) -> ContactModel:
+    """The seed's contact model (soft CoCr; hertz, history, epsd2), SJKR ``cohesion`` (J/m^3)."""
     return ContactModel(Material(1e7, 0.3, 8300.0, name="CoCr (soft)"), restitution=0.1,
-                        friction=0.4, rolling_friction=0.05, rolling_model="epsd2")
+                        friction=0.4, rolling_friction=0.05, rolling_model="epsd2",
+                        cohesion=cohesion)
 
 
 def pour(n: int, path: Path, *, n_threads: int = 1, log=print) -> Simulation:
@@ -113,26 +133,58 @@ def load_bed(data: Path):
     return read_data(data, boundary="pp pp ff")
 
 
+def bench_skin(fr) -> float:
+    """The neighbour skin of every engine: 0.1 x the smallest diameter (the decks' default)."""
+    return 0.2 * float(fr.radii.min())
+
+
 def make_bedstruct(fr, *, n_threads: int, warmup: int, dt: float | None = None) -> Simulation:
-    """The bed with the floor and the moving blade, warmed up (compiled, histories formed)."""
-    top = float((fr.positions[:, 2] + fr.radii).max())
-    # the blade enters the bed from x < 0 at 0.05 m/s and skims its top layer
-    blade = Blade(gap=top - 1.5 * R_MAX, surface_z=0.0, speed=0.05, x0=-0.25e-3 - 0.5 * R_MIN)
-    sim = Simulation(fr.box, seed_model(), walls=[Plane((0, 0, 0), (0, 0, 1), name="floor"), blade],
-                     n_threads=n_threads, dt=dt, force=dt is not None)
+    """The bed on its floor with the benchmark's model and skin, warmed up (compiled,
+    histories formed)."""
+    sim = Simulation(fr.box, seed_model(cohesion=BENCH_COHESION),
+                     walls=[Plane((0, 0, 0), (0, 0, 1), name="floor")], n_threads=n_threads,
+                     dt=dt, force=dt is not None, skin=bench_skin(fr))
     sim.serial_below = 0  # use the threads even for the --quick bed
     sim.add_particles(fr.positions, fr.radii, velocities=fr.velocities, omegas=fr.omegas)
     sim.run(warmup)
     return sim
 
 
+def _rss_kib(field: str) -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1])
+    raise KeyError(field)
+
+
+def rebuild_peak_bytes(sim: Simulation) -> float:
+    """Bytes a neighbour rebuild touches on top of the resident set (nan off Linux).
+
+    The resident-set high-water mark is reset (``/proc/self/clear_refs``), one rebuild
+    runs, and the rise of the mark over the resident set before it is returned.
+    Memory the allocator had already mapped and freed is not seen, so this is a lower
+    bound of the allocation.
+    """
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+        before = _rss_kib("VmRSS")
+        sim._rebuild()
+        return 1024.0 * max(_rss_kib("VmHWM") - before, 0)
+    except (OSError, KeyError):
+        return math.nan
+
+
 def time_bedstruct(sim: Simulation, *, steps: int) -> dict:
     reb0 = sim.n_rebuilds
+    c0 = time.process_time()
     stats = sim.run(steps)
+    cpu = time.process_time() - c0
     c = sim.contacts()
     per_p, per_pair = sim.memory_bytes()
     n_contacts = c.n_contacts + c.walls.n_contacts
-    return {"pss": stats.particle_steps_per_s, "n": sim.n_particles, "rebuilds": sim.n_rebuilds - reb0,
+    return {"pss": stats.particle_steps_per_s, "n": sim.n_particles,
+            "pss_cpu": sim.n_particles * steps / max(cpu, 1e-12),
+            "rebuilds": sim.n_rebuilds - reb0,
             "contacts_per_particle": 2 * c.n_contacts / sim.n_particles,
             "pairs_per_particle": sim.n_pairs / sim.n_particles,
             "bytes_per_particle": per_p,
@@ -174,15 +226,47 @@ def profile_phases(sim: Simulation, *, steps: int) -> dict:
     return {key: val / steps * 1e3 for key, val in ph.items()}
 
 
-def time_external(engine: str, data: Path, *, np_: int, steps: int, dt: float) -> float:
+def time_liggghts(data: Path, *, np_: int, steps: int, dt: float, skin: float,
+                  rolling: str = "epsd2") -> float:
+    """LIGGGHTS particle-steps/s of the timed run (its Loop time), or nan (reason printed)."""
+    import tempfile as _tf
+
+    from dataclasses import replace
+
+    from bedstruct.engines import as_granular_params, bed_deck, run_deck
+    try:
+        with _tf.TemporaryDirectory(prefix="bedstruct-bench-liggghts-") as wd:
+            params = replace(as_granular_params(seed_model(cohesion=BENCH_COHESION)),
+                             rolling_model=rolling)
+            deck = bed_deck(data, params, engine="liggghts", steps=steps, dt=dt,
+                            thermo_every=0, warmup_steps=100, skin=skin)
+            path = Path(wd) / "bench_liggghts.in"
+            path.write_text(deck)
+            run = run_deck(path, engine="liggghts", np=np_, cwd=wd, timeout=900).log.last
+            if run.loop_time is None or run.n_steps != steps:
+                raise RuntimeError(f"no Loop time line for the timed run of {steps} steps")
+            return run.n_atoms * steps / max(run.loop_time, 1e-12)
+    except Exception as exc:  # engine missing or failed: report nan, say why
+        print(f"# liggghts {rolling} np={np_}: not timed ({type(exc).__name__}: {str(exc)[:160]})")
+        return math.nan
+
+
+def time_lammps(data: Path, *, np_: int, steps: int, dt: float) -> float:
+    """LAMMPS particle-steps/s (``pair granular``, DMT cohesion), or nan (reason printed)."""
     try:
         from bedstruct.engines import benchmark_external
-        res = benchmark_external(data, engine=engine, np=np_, steps=steps, dt=dt,
-                                 model_params=seed_model(), warmup_steps=100, timeout=900)
+        res = benchmark_external(data, engine="lammps", np=np_, steps=steps, dt=dt,
+                                 model_params=seed_model(cohesion=BENCH_COHESION),
+                                 cohesion_model="dmt", warmup_steps=100, timeout=900)
         return float(res["particle_steps_per_s"])
-    except Exception as exc:  # engine missing or failed: report nan, say why
-        print(f"# {engine} np={np_}: not timed ({type(exc).__name__}: {str(exc)[:160]})")
+    except Exception as exc:
+        print(f"# lammps np={np_}: not timed ({type(exc).__name__}: {str(exc)[:160]})")
         return math.nan
+
+
+def _median(values) -> float:
+    vals = [v for v in values if not math.isnan(v)]
+    return float(np.median(vals)) if vals else math.nan
 
 
 def main(argv=None) -> int:
@@ -191,7 +275,8 @@ def main(argv=None) -> int:
     ap.add_argument("--particles", type=int, default=None)
     ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--no-external", action="store_true", help="skip LIGGGHTS/LAMMPS")
-    ap.add_argument("--repeat", type=int, default=None, help="best of N interleaved runs (3; 1 quick)")
+    ap.add_argument("--repeat", type=int, default=None,
+                    help="interleaved repeats; ratios are medians of per-repeat ratios (3)")
     ap.add_argument("--profile", action="store_true",
                     help="also print ms per step in each engine pass (1 thread, 200 steps)")
     ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
@@ -216,7 +301,7 @@ def main(argv=None) -> int:
     n = args.particles or (4000 if args.quick else 20000)
     steps = args.steps or (300 if args.quick else 1000)
     warmup = 100
-    args.repeat = args.repeat or (1 if args.quick else 3)
+    args.repeat = args.repeat or 3
     cache = Path(args.cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
     data = cache / f"bedstruct_bed{n}.data"
@@ -238,27 +323,38 @@ def main(argv=None) -> int:
               "'2 threads' run executes its 2 chunks on one thread, so speedup_2threads is "
               "reported as nan and bedstruct_steps_per_s is a 1-thread figure", flush=True)
     fr = load_bed(data)
+    skin = bench_skin(fr)
     print(f"# bed: {data} ({fr.n_particles} spheres, {origin}); {steps} timed steps after {warmup}; "
-          "timings on a shared, loaded 2-core machine")
+          f"cohesion {BENCH_COHESION:g} J/m^3, floor only, skin {skin:.3g} m in every engine; "
+          f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} "
+          f"on {os.cpu_count()} CPUs at the start")
     s1 = make_bedstruct(fr, n_threads=1, warmup=warmup)
     s2 = make_bedstruct(fr, n_threads=2, warmup=warmup)
     dt = s1.dt
-    b1 = b2 = None
-    ext = {key: math.nan for key in (("liggghts", 1), ("liggghts", 2), ("lammps", 1), ("lammps", 2))}
-    for rep in range(args.repeat):  # interleaved, best of `repeat` (the machine is shared)
+    runs = {key: [] for key in ("b1", "b2", "b1_cpu", "lig1", "lig2", "cdt1", "cdt2", "lmp1",
+                                "lmp2")}
+    first = None
+    for rep in range(args.repeat):  # interleaved: every engine once per repeat
         r1 = time_bedstruct(s1, steps=steps)
         r2 = time_bedstruct(s2, steps=steps)
-        b1 = r1 if b1 is None or r1["pss"] > b1["pss"] else b1
-        b2 = r2 if b2 is None or r2["pss"] > b2["pss"] else b2
-        print(f"# repeat {rep + 1}: bedstruct 1 thread {r1['pss']:.4g}, 2 threads {r2['pss']:.4g} "
-              f"particle-steps/s")
-        for engine, np_ in list(ext):
-            if args.no_external:
-                continue
-            val = time_external(engine, data, np_=np_, steps=steps, dt=dt)
-            print(f"# repeat {rep + 1}: {engine} np={np_}: {val:.4g} particle-steps/s")
-            if not math.isnan(val) and not (val <= ext[engine, np_]):
-                ext[engine, np_] = val
+        first = first or r1
+        runs["b1"].append(r1["pss"])
+        runs["b1_cpu"].append(r1["pss_cpu"])
+        runs["b2"].append(r2["pss"])
+        print(f"# repeat {rep + 1}: bedstruct 1 thread {r1['pss']:.4g} (CPU time {r1['pss_cpu']:.4g}), "
+              f"2 threads {r2['pss']:.4g} particle-steps/s", flush=True)
+        if args.no_external:
+            continue
+        for key, rolling, np_ in (("lig1", "epsd2", 1), ("cdt1", "cdt", 1), ("lig2", "epsd2", 2),
+                                  ("cdt2", "cdt", 2)):
+            runs[key].append(time_liggghts(data, np_=np_, steps=steps, dt=dt, skin=skin,
+                                           rolling=rolling))
+            print(f"# repeat {rep + 1}: liggghts {rolling} np={np_}: {runs[key][-1]:.4g} "
+                  "particle-steps/s", flush=True)
+        for key, np_ in (("lmp1", 1), ("lmp2", 2)):
+            runs[key].append(time_lammps(data, np_=np_, steps=steps, dt=dt))
+            print(f"# repeat {rep + 1}: lammps np={np_}: {runs[key][-1]:.4g} particle-steps/s",
+                  flush=True)
     if args.profile:
         from bedstruct import _numba
         _numba.set_num_threads(1)
@@ -266,24 +362,41 @@ def main(argv=None) -> int:
         print("# bedstruct 1 thread, ms per step by pass: "
               + " ".join(f"{k}={v:.3f}" for k, v in prof.items())
               + f" (sum {sum(prof.values()):.3f})")
-    for k, v in b1.items():
-        print(f"# bedstruct 1 thread (best): {k} = {v:.4g}")
-    print(f"# bedstruct 2 threads (best): particle-steps/s = {b2['pss']:.4g}, rebuilds = {b2['rebuilds']}")
-    ratio = b1["pss"] / ext["liggghts", 1] if ext["liggghts", 1] > 0 else math.nan
-    speedup = math.nan if one_thread_only else b2["pss"] / b1["pss"]
+    for k, v in first.items():
+        print(f"# bedstruct 1 thread (first repeat): {k} = {v:.4g}")
+
+    def ratio(a, b):  # median over repeats of the per-repeat ratio
+        return _median([x / y if y > 0 else math.nan for x, y in zip(runs[a], runs[b])])
+
+    n_rep = len(runs["b1"])
+    ratio_lig = ratio("b1", "lig1") if runs["lig1"] else math.nan
+    ratio_cdt = ratio("b1", "cdt1") if runs["cdt1"] else math.nan
+    speedup = math.nan if one_thread_only else ratio("b2", "b1")
     if one_thread_only:
         print(f"# WARNING: speedup_2threads = nan: both bedstruct runs used one thread "
-              f"(NUMBA_NUM_THREADS={max_threads}); measured 2-chunk/1-chunk = "
-              f"{b2['pss'] / b1['pss']:.3g}")
-    print(f"RESULT bedstruct_steps_per_s={b2['pss']:.4g} liggghts_steps_per_s={ext['liggghts', 1]:.4g} "
-          f"lammps_steps_per_s={ext['lammps', 1]:.4g} ratio_1core={ratio:.3g} "
-          f"speedup_2threads={speedup:.3g} bedstruct_1thread_steps_per_s={b1['pss']:.4g} "
-          f"liggghts_2rank_steps_per_s={ext['liggghts', 2]:.4g} "
-          f"lammps_2rank_steps_per_s={ext['lammps', 2]:.4g} n_particles={b1['n']} steps={steps} "
-          f"rebuilds={b1['rebuilds']} bytes_per_particle={b1['bytes_per_particle']:.0f} "
-          f"bytes_per_contact={b1['bytes_per_contact']:.0f} bytes_per_pair={b1['bytes_per_pair']:.0f} "
-          f"bytes_per_particle_2threads={b2['bytes_per_particle']:.0f} threading_layer={_layer_used()} "
-          f"numba_max_threads={max_threads}")
+              f"(NUMBA_NUM_THREADS={max_threads}); measured 2-chunk/1-chunk = {ratio('b2', 'b1'):.3g}")
+    peak = rebuild_peak_bytes(s1)
+    steady = first["bytes_per_particle"] * s1.n_particles + first["bytes_per_pair"] * s1.n_pairs
+    per_peak = (steady + peak) / s1.n_particles
+    big = s1.n_particles >= 150000
+    med = {key: _median(vals) if vals else math.nan for key, vals in runs.items()}
+    print(f"# medians over {n_rep} interleaved repeats; load average at the end "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(f"RESULT bedstruct_steps_per_s={med['b2']:.4g} liggghts_steps_per_s={med['lig1']:.4g} "
+          f"lammps_steps_per_s={med['lmp1']:.4g} ratio_1core={ratio_lig:.3g} "
+          f"ratio_1core_cdt={ratio_cdt:.3g} "
+          f"ratio_1core_180k={ratio_lig if big else math.nan:.3g} "
+          f"speedup_2threads={speedup:.3g} bedstruct_1thread_steps_per_s={med['b1']:.4g} "
+          f"bedstruct_1thread_cpu_steps_per_s={med['b1_cpu']:.4g} "
+          f"liggghts_cdt_steps_per_s={med['cdt1']:.4g} "
+          f"liggghts_2rank_steps_per_s={med['lig2']:.4g} "
+          f"liggghts_cdt_2rank_steps_per_s={med['cdt2']:.4g} "
+          f"lammps_2rank_steps_per_s={med['lmp2']:.4g} n_particles={first['n']} steps={steps} "
+          f"repeats={n_rep} rebuilds={first['rebuilds']} "
+          f"bytes_per_particle={first['bytes_per_particle']:.0f} "
+          f"bytes_per_particle_peak={per_peak:.0f} "
+          f"bytes_per_contact={first['bytes_per_contact']:.0f} bytes_per_pair={first['bytes_per_pair']:.0f} "
+          f"threading_layer={_layer_used()} numba_max_threads={max_threads}")
     return 0
 
 

@@ -1,9 +1,22 @@
 """numba contact laws of the DEM engine (scalars in, scalars out; SI units).
 
-Hertz normal stiffness and damping, the Mindlin tangential spring with
-history and Coulomb cap, SJKR lens areas, rolling resistance (CDT, EPSD,
-EPSD2) and the complete particle-wall contact built from them. The pair
-kernels (:mod:`bedstruct.dem._kernels_pairs`) inline the same arithmetic.
+Each piece of contact physics is written once here as a small jitted function:
+Hertz stiffness and damping, the normal force, SJKR lens areas, the relative
+tangential velocity, the Mindlin tangential spring with history and Coulomb
+cap, the torques of the tangential force, rolling resistance (CDT, EPSD,
+EPSD2), the Willett capillary bridge and the ageing bond. The pair kernel
+(:mod:`bedstruct.dem._kernels_pairs`) and the particle-wall contact
+(:func:`wall_contact`) are built from them. Each can be tested in pure Python
+through ``.py_func``.
+
+Two kinds: the one-line pieces are inlined into the caller by numba
+(``inline="always"``); the ones with branches (:func:`tangential_history`,
+:func:`rolling_torque`, :func:`hertz_coefficients`, the SJKR areas,
+:func:`capillary_force`) are compiled as functions of their own. Their
+rounding therefore does not depend on the caller: fast-math reassociation in
+a kernel does not reach into them, so the pair and the wall contact round the
+spring, the cap and the rolling torque alike, and a change to a kernel's loop
+leaves their results bit for bit.
 
 Conventions (as LIGGGHTS): ``en`` points from the partner (j or the wall)
 to i; ``Fn > 0`` is repulsive; the force on i is ``Fn en + Ft``.
@@ -15,9 +28,11 @@ import math
 
 from .._numba import njit
 
-__all__ = ["hertz_coefficients", "sjkr_area_pair", "sjkr_area_wall", "tangential_history",
-           "rolling_torque", "wall_contact", "ROLL_NONE", "ROLL_CDT", "ROLL_EPSD", "ROLL_EPSD2",
-           "SQRT_5_6"]
+__all__ = ["hertz_stiffness", "hertz_coefficients", "pair_damping", "normal_force",
+           "sjkr_area_pair", "sjkr_area_wall", "tangential_velocity", "tangential_history",
+           "shear_torques", "rolling_torque", "capillary_force", "ageing_bond",
+           "wall_contact", "ROLL_NONE", "ROLL_CDT", "ROLL_EPSD", "ROLL_EPSD2", "SQRT_5_6",
+           "EPSD_STIFFNESS_FACTOR"]
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
 
@@ -26,16 +41,51 @@ ROLL_CDT = 1
 ROLL_EPSD = 2
 ROLL_EPSD2 = 3
 
+#: Prefactor of the EPSD rolling stiffness ``k_r = f k_n mu_r^2 R*^2`` (Ai et al. 2011).
+EPSD_STIFFNESS_FACTOR = 2.25
+
 _FM = dict(fastmath=True)
+_INLINE = dict(inline="always", fastmath=True)
+
+
+@njit(**_INLINE)
+def hertz_stiffness(sq, ystar, gstar):
+    """Hertz normal and Mindlin tangential stiffness ``(k_n, k_t)`` from ``sq = sqrt(R* delta)``."""
+    return 4.0 / 3.0 * ystar * sq, 8.0 * gstar * sq
+
+
+@njit(**_INLINE)
+def pair_damping(sq, meff, bcoef, gtr):
+    """Normal and tangential damping ``(gamma_n, gamma_t)`` from per-type-pair constants.
+
+    ``bcoef = -2 sqrt(5/6) beta sqrt(2 Y*)`` and ``gtr = sqrt(4 G*/Y*)`` (0
+    without tangential damping): the damping of :func:`hertz_coefficients`
+    with one square root less.
+    """
+    gn = bcoef * math.sqrt(sq * meff)
+    return gn, gn * gtr
+
+
+@njit(**_INLINE)
+def normal_force(kn, delta, gn, vn, limit):
+    """Hertz + damping normal force (> 0 repulsive), clipped at 0 with ``limit``."""
+    fn = kn * delta - gn * vn
+    if limit and fn < 0.0:
+        fn = 0.0
+    return fn
 
 
 @njit(**_FM)
 def hertz_coefficients(delta, reff, meff, ystar, gstar, beta):
-    """LIGGGHTS Hertz: returns (kn, kt, gamma_n, gamma_t) for overlap ``delta``."""
+    """LIGGGHTS Hertz: returns (kn, kt, gamma_n, gamma_t) for overlap ``delta``.
+
+    The damping is computed from the restitution's ``beta`` directly (the
+    particle-wall contact); :func:`pair_damping` gives the same quantity from
+    precomputed per-type-pair constants.
+    """
     sq = math.sqrt(reff * delta)
     sn = 2.0 * ystar * sq
-    st = 8.0 * gstar * sq
-    kn = 4.0 / 3.0 * ystar * sq
+    kn, st = hertz_stiffness(sq, ystar, gstar)
     gn = -2.0 * SQRT_5_6 * beta * math.sqrt(sn * meff)
     gt = -2.0 * SQRT_5_6 * beta * math.sqrt(st * meff)
     return kn, st, gn, gt
@@ -52,6 +102,19 @@ def sjkr_area_wall(dist, ri):
     """Area of the circle cut from a sphere by a plane at distance ``dist``."""
     a = (ri * ri - dist * dist) * math.pi
     return a if a > 0.0 else 0.0
+
+
+@njit(**_INLINE)
+def tangential_velocity(vr1, vr2, vr3, vn, e1, e2, e3, w1, w2, w3):
+    """Tangential relative velocity at the contact: ``v_r - v_n en - w x en``.
+
+    ``w`` is the lever-weighted angular velocity (``cr_i om_i + cr_j om_j`` for
+    a pair, ``cr om`` for a wall).
+    """
+    vt1 = vr1 - vn * e1 - (w2 * e3 - w3 * e2)
+    vt2 = vr2 - vn * e2 - (w3 * e1 - w1 * e3)
+    vt3 = vr3 - vn * e3 - (w1 * e2 - w2 * e1)
+    return vt1, vt2, vt3
 
 
 @njit(**_FM)
@@ -93,9 +156,18 @@ def tangential_history(s1, s2, s3, vt1, vt2, vt3, e1, e2, e3, kt, gt, mu, fn, dt
     return s1, s2, s3, f1, f2, f3
 
 
+@njit(**_INLINE)
+def shear_torques(e1, e2, e3, f1, f2, f3, cri, crj):
+    """Torques of the tangential force about the two centres: ``-cr (en x Ft)`` each."""
+    c1 = e2 * f3 - e3 * f2
+    c2 = e3 * f1 - e1 * f3
+    c3 = e1 * f2 - e2 * f1
+    return -cri * c1, -cri * c2, -cri * c3, -crj * c1, -crj * c2, -crj * c3
+
+
 @njit(**_FM)
 def rolling_torque(model, h1, h2, h3, w1, w2, w3, e1, e2, e3, kn, kt, delta, reff, fn, mur,
-                   dt, inertia_eff, eta_r, kr_fac=2.25):
+                   dt, inertia_eff, eta_r, kr_fac=EPSD_STIFFNESS_FACTOR):
     """Rolling-resistance torque ``M`` (subtracted from i, added to j) and new history.
 
     ``w`` is the relative angular velocity omega_i - omega_j; only its part
@@ -142,9 +214,45 @@ def rolling_torque(model, h1, h2, h3, w1, w2, w3, e1, e2, e3, kn, kt, delta, ref
 
 
 @njit(**_FM)
+def capillary_force(gap, reff, CAP):
+    """Willett et al. (2000) liquid-bridge force (N, attractive, >= 0) at separation ``gap``.
+
+    ``R = 2 R*`` (the sphere radius for equal spheres, Derjaguin mean radius
+    otherwise), bridge volume ``V = 2 pi R*^2 t`` (or the fixed ``CAP[3]``),
+    ``F = 2 pi R gamma cos(theta) / (1 + 2.1 S + 10 S^2)`` with
+    ``S = (gap/2) sqrt(R/V)``; zero beyond the rupture distance
+    ``s_c = (1 + theta/2) V^(1/3)``; at contact (gap <= 0) ``2 pi R gamma cos(theta)``.
+    ``CAP = (gamma cos theta, theta, film thickness, fixed volume or -1)``.
+    """
+    vol = CAP[3]
+    if vol < 0.0:
+        vol = 2.0 * math.pi * reff * reff * CAP[2]
+    if vol <= 0.0:
+        return 0.0
+    if gap > (1.0 + 0.5 * CAP[1]) * vol ** (1.0 / 3.0):
+        return 0.0
+    rw = 2.0 * reff
+    f0 = 2.0 * math.pi * rw * CAP[0]
+    if gap <= 0.0:
+        return f0
+    sh = 0.5 * gap * math.sqrt(rw / vol)
+    return f0 / (1.0 + 2.1 * sh + 10.0 * sh * sh)
+
+
+@njit(**_INLINE)
+def ageing_bond(k_coh, area, age, AGE):
+    """Bond of a resting contact of age ``age`` (N, attractive, >= 0).
+
+    ``r F_sjkr ln(1 + t_w/tau) / ln(1 + t_ref/tau)`` with ``F_sjkr = k_coh area`` and
+    ``AGE = (bond ratio r, tau, 1/ln(1 + t_ref/tau), break slip, ...)``.
+    """
+    return AGE[0] * k_coh * area * math.log1p(age / AGE[1]) * AGE[2]
+
+
+@njit(**_FM)
 def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v2, v3, w1, w2, w3,
                  ystar, gstar, beta, mu, mur, kc, rolling, tdamp, limit, eta_r, dt,
-                 h1, h2, h3, r1, r2, r3, kr_fac=2.25):
+                 h1, h2, h3, r1, r2, r3, kr_fac=EPSD_STIFFNESS_FACTOR):
     """One particle-wall contact (scalars only): force and torque on the particle,
     normal force, overlap and the updated tangential (h) and rolling (r) history."""
     delta = ri - dist
@@ -155,26 +263,17 @@ def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v
     vr2 = v2 - u2
     vr3 = v3 - u3
     vn = vr1 * n1 + vr2 * n2 + vr3 * n3
-    fn = kn * delta - gn * vn
-    if limit and fn < 0.0:
-        fn = 0.0
+    fn = normal_force(kn, delta, gn, vn, limit)
     # Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
     # (`tangential_reduce off`) adds cohesion to the force, not to the caps.
     fn_cap = fn
     if kc != 0.0:
         fn -= kc * sjkr_area_wall(dist, ri)
     cr = ri - 0.5 * delta
-    c1 = cr * w1
-    c2 = cr * w2
-    c3 = cr * w3
-    vt1 = vr1 - vn * n1 - (c2 * n3 - c3 * n2)
-    vt2 = vr2 - vn * n2 - (c3 * n1 - c1 * n3)
-    vt3 = vr3 - vn * n3 - (c1 * n2 - c2 * n1)
+    vt1, vt2, vt3 = tangential_velocity(vr1, vr2, vr3, vn, n1, n2, n3, cr * w1, cr * w2, cr * w3)
     h1, h2, h3, f1, f2, f3 = tangential_history(h1, h2, h3, vt1, vt2, vt3, n1, n2, n3, kt, gt,
                                                 mu, fn_cap, dt)
-    t1 = -cr * (n2 * f3 - n3 * f2)
-    t2 = -cr * (n3 * f1 - n1 * f3)
-    t3 = -cr * (n1 * f2 - n2 * f1)
+    t1, t2, t3, _, _, _ = shear_torques(n1, n2, n3, f1, f2, f3, cr, 0.0)
     if rolling != ROLL_NONE and mur > 0.0:
         ieff = 1.0 / inv_ii + mi * ri * ri
         r1, r2, r3, m1, m2, m3 = rolling_torque(rolling, r1, r2, r3, w1 - o1, w2 - o2, w3 - o3,

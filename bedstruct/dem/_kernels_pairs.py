@@ -1,14 +1,22 @@
-"""numba pair-force kernel of the DEM engine (the base contact model).
+"""numba pair-force kernel of the DEM engine.
 
 One ``prange`` pass over the compacted pair list: Hertz + damping, SJKR,
-Mindlin history and rolling resistance. Work is split into ``T`` contiguous
-chunks (``bounds``, length T+1); forces go to per-chunk buffers ``fbuf[t]``
-that the integrator reduces in a fixed order, so results are deterministic
-for a given number of chunks and free of races. The diagnosis extensions
-(capillary bridges, contact ageing) live in :mod:`bedstruct.dem._kernels_ext`.
+Mindlin history and rolling resistance, with the diagnosis extensions
+(capillary bridges, contact ageing, an EPSD rolling stiffness factor other
+than 2.25) compiled in only when they are on. The contact arithmetic comes
+from the inline functions of :mod:`bedstruct.dem._kernels_contact`.
 
-Positions of the periodic image of j are ``x_j + s L`` with the integer
-image ``s`` stored per pair.
+Work is split into ``T`` contiguous chunks (``bounds``, length T+1); forces go
+to per-chunk buffers ``fbuf[t]`` that the integrator reduces in a fixed order,
+so results are deterministic for a given number of chunks and free of races.
+Positions of the periodic image of j are ``x_j + s L`` with the integer image
+``s`` stored per pair.
+
+Compile-time selection: the rolling model is a literal (one compiled kernel
+per model, the others' code is not in the loop); each extension is an
+argument that is either its parameters or ``None``, and numba compiles the
+``None`` case without the extension's code (a type, so the choice costs no
+dispatch time per call).
 """
 
 from __future__ import annotations
@@ -19,21 +27,74 @@ import numpy as np
 from numba import literally
 
 from .._numba import njit, prange
-from ._kernels_contact import (ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE, rolling_torque,
-                               sjkr_area_pair, tangential_history)
+from ._kernels_contact import (EPSD_STIFFNESS_FACTOR, ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE,
+                               ageing_bond, capillary_force, hertz_stiffness, normal_force,
+                               pair_damping, rolling_torque, shear_torques, sjkr_area_pair,
+                               tangential_history, tangential_velocity)
 
-__all__ = ["pair_forces"]
+__all__ = ["pair_forces", "pair_table", "TAB_YOUNGS", "TAB_SHEAR", "TAB_DAMPING",
+           "TAB_DAMPING_RATIO", "TAB_FRICTION", "TAB_ROLLING_FRICTION", "TAB_COHESION"]
 
 _FM = dict(fastmath=True)
 _BLOCK = 64  # pairs per block of the two-pass loop
 
+#: Rows of the per-type-pair table ``TAB`` (see :func:`pair_table`).
+TAB_YOUNGS, TAB_SHEAR, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION, TAB_ROLLING_FRICTION, \
+    TAB_COHESION = range(7)
+
+
+def pair_table(youngs, shear, beta, friction, rolling_friction, cohesion, tangential_damping):
+    """The per-type-pair constants of the pair kernel as one ``(7, T+1, T+1)`` array.
+
+    Rows: ``Y*``, ``G*``, ``B = -2 sqrt(5/6) beta sqrt(2 Y*)``,
+    ``GTR = sqrt(4 G*/Y*)`` (0 without tangential damping), ``mu``, ``mu_r`` and
+    the SJKR cohesion energy density, so that ``gamma_n = B sqrt(sqrt(R* delta) m*)``
+    and ``gamma_t = GTR gamma_n`` equal :func:`hertz_coefficients`.
+    """
+    gn_coef = -2.0 * math.sqrt(5.0 / 6.0) * beta * np.sqrt(2.0 * youngs)
+    gt_ratio = np.sqrt(4.0 * shear / youngs) if tangential_damping else np.zeros_like(youngs)
+    return np.ascontiguousarray(np.stack([youngs, shear, gn_coef, gt_ratio, friction,
+                                          rolling_friction, cohesion]), dtype=np.float64)
+
+
+@njit(inline="always", **_FM)
+def _open_pair(k, ht, hr, store, fn_out, ft_out):
+    """A pair apart: its history is cleared (written only when set) and no force stored."""
+    if ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0:
+        ht[k, 0] = 0.0
+        ht[k, 1] = 0.0
+        ht[k, 2] = 0.0
+    if hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0:
+        hr[k, 0] = 0.0
+        hr[k, 1] = 0.0
+        hr[k, 2] = 0.0
+    if store:
+        ft_out[k, 0] = 0.0
+        ft_out[k, 1] = 0.0
+        ft_out[k, 2] = 0.0
+
 
 @njit(**_FM)
-def _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf, tbuf,
-                Y, G, B, GTR, MU, MUR, COH, rolling, limit, eta_r, dt, store, fn_out, ft_out):
-    """Chunk ``t`` of :func:`pair_forces`, compiled for a constant rolling model."""
+def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt, store,
+                fn_out, ft_out, cap, age, kr_fac):
+    """Chunk ``t`` of :func:`pair_forces`, compiled for a constant rolling model and
+    for the extensions passed (``cap``, ``age``, ``kr_fac`` not None)."""
     literally(rolling)  # one specialisation per model: the others' code is not in the loop
-    # scratch of one block: touching pairs (tk, with their separation) and the others (tn)
+    x, v, om, rad, mass, inv_i, ptype = P
+    pi, pj, psh = PL
+    ht, hr = hist
+    Y = TAB[TAB_YOUNGS]
+    G = TAB[TAB_SHEAR]
+    B = TAB[TAB_DAMPING]
+    GTR = TAB[TAB_DAMPING_RATIO]
+    MU = TAB[TAB_FRICTION]
+    MUR = TAB[TAB_ROLLING_FRICTION]
+    COH = TAB[TAB_COHESION]
+    if kr_fac is None:
+        krf = EPSD_STIFFNESS_FACTOR
+    else:
+        krf = kr_fac
+    # scratch of one block: active pairs (tk, with their separation) and the others (tn)
     tk = np.empty(_BLOCK, dtype=np.int64)
     tn = np.empty(_BLOCK, dtype=np.int64)
     sep = np.empty((_BLOCK, 4))
@@ -41,8 +102,9 @@ def _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bo
     tb = tbuf[t]
     for b0 in range(bounds[t], bounds[t + 1], _BLOCK):
         b1 = min(b0 + _BLOCK, bounds[t + 1])
-        # pass 1: separations and the split touching / not touching, without a
-        # data-dependent branch (the overlap test is a coin flip for ~30 % of the list)
+        # pass 1: separations and the split active / not, without a data-dependent
+        # branch (the overlap test is a coin flip for ~30 % of the list). Active are
+        # the touching pairs, and every pair when liquid bridges act across gaps.
         nb = 0
         nn = 0
         for k in range(b0, b1):
@@ -59,26 +121,23 @@ def _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bo
             sep[nb, 3] = r2
             tk[nb] = k
             tn[nn] = k
-            touch = r2 < rs * rs
+            if cap is None:
+                touch = r2 < rs * rs
+            else:
+                touch = True
             nb += 1 if touch else 0
             nn += 0 if touch else 1
         # pairs not touching lose their history
         for q in range(nn):
             k = tn[q]
-            if ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0:
-                ht[k, 0] = 0.0
-                ht[k, 1] = 0.0
-                ht[k, 2] = 0.0
-            if hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0:
-                hr[k, 0] = 0.0
-                hr[k, 1] = 0.0
-                hr[k, 2] = 0.0
+            _open_pair(k, ht, hr, store, fn_out, ft_out)
             if store:
                 fn_out[k] = 0.0
-                ft_out[k, 0] = 0.0
-                ft_out[k, 1] = 0.0
-                ft_out[k, 2] = 0.0
-        # pass 2: contact forces of the touching pairs
+            if age is not None:
+                age[0][k, 0] = 0.0
+                age[0][k, 1] = 0.0
+                age[0][k, 2] = 0.0
+        # pass 2: contact forces of the active pairs
         for q in range(nb):
             # unsigned indices: no negative-index wraparound in the address arithmetic
             k = np.uint64(tk[q])
@@ -91,6 +150,27 @@ def _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bo
             ri = rad[i]
             rj = rad[j]
             rs = ri + rj
+            if cap is not None:
+                if r2 >= rs * rs:  # a pair apart, held by a liquid bridge up to its rupture
+                    if age is not None:
+                        age[0][k, 0] = 0.0
+                        age[0][k, 1] = 0.0
+                        age[0][k, 2] = 0.0
+                    r = math.sqrt(r2)
+                    fcap = capillary_force(r - rs, ri * rj / rs, cap)
+                    if fcap != 0.0:
+                        # attractive: pulls i towards j along -n
+                        c = -fcap / r
+                        fb[i, 0] += c * dx
+                        fb[i, 1] += c * dy
+                        fb[i, 2] += c * dz
+                        fb[j, 0] -= c * dx
+                        fb[j, 1] -= c * dy
+                        fb[j, 2] -= c * dz
+                    _open_pair(k, ht, hr, store, fn_out, ft_out)
+                    if store:
+                        fn_out[k] = -fcap
+                    continue
             r = math.sqrt(r2)
             rinv = 1.0 / r
             e1 = dx * rinv
@@ -103,49 +183,54 @@ def _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bo
             mi = mass[i]
             mj = mass[j]
             meff = mi * mj / (mi + mj)
-            # hertz_coefficients with one square root less: B holds
-            # -2 sqrt(5/6) beta sqrt(2 Y*) and GTR sqrt(4 G*/Y*) (0: no tangential damping)
             sq = math.sqrt(reff * delta)
-            kn = 4.0 / 3.0 * Y[ti, tj] * sq
-            kt = 8.0 * G[ti, tj] * sq
-            gn = B[ti, tj] * math.sqrt(sq * meff)
-            gt = gn * GTR[ti, tj]
+            kn, kt = hertz_stiffness(sq, Y[ti, tj], G[ti, tj])
+            gn, gt = pair_damping(sq, meff, B[ti, tj], GTR[ti, tj])
             vr1 = v[i, 0] - v[j, 0]
             vr2 = v[i, 1] - v[j, 1]
             vr3 = v[i, 2] - v[j, 2]
             vn = vr1 * e1 + vr2 * e2 + vr3 * e3
-            fn = kn * delta - gn * vn
-            if limit and fn < 0.0:
-                fn = 0.0
+            fn = normal_force(kn, delta, gn, vn, limit)
             # Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
             # (`tangential_reduce off`) adds cohesion to the force, not to the caps.
             fn_cap = fn
             k_coh = COH[ti, tj]
             if k_coh != 0.0:
                 fn -= k_coh * sjkr_area_pair(r, ri, rj)
+            if cap is not None:
+                fn -= capillary_force(0.0, reff, cap)
+            if age is not None:
+                if age[0][k, 2] == 0.0 and age[1][0] != 0.0:
+                    fn -= ageing_bond(k_coh, sjkr_area_pair(r, ri, rj), age[0][k, 0], age[1])
             cri = ri - 0.5 * delta
             crj = rj - 0.5 * delta
-            w1 = cri * om[i, 0] + crj * om[j, 0]
-            w2 = cri * om[i, 1] + crj * om[j, 1]
-            w3 = cri * om[i, 2] + crj * om[j, 2]
-            vt1 = vr1 - vn * e1 - (w2 * e3 - w3 * e2)
-            vt2 = vr2 - vn * e2 - (w3 * e1 - w1 * e3)
-            vt3 = vr3 - vn * e3 - (w1 * e2 - w2 * e1)
+            vt1, vt2, vt3 = tangential_velocity(vr1, vr2, vr3, vn, e1, e2, e3,
+                                                cri * om[i, 0] + crj * om[j, 0],
+                                                cri * om[i, 1] + crj * om[j, 1],
+                                                cri * om[i, 2] + crj * om[j, 2])
+            if age is not None:
+                # the spring the step would reach without the Coulomb cap (as tangential_history)
+                u1 = ht[k, 0] + vt1 * dt
+                u2 = ht[k, 1] + vt2 * dt
+                u3 = ht[k, 2] + vt3 * dt
+                un = u1 * e1 + u2 * e2 + u3 * e3
+                trial = math.sqrt((u1 - un * e1) ** 2 + (u2 - un * e2) ** 2 + (u3 - un * e3) ** 2)
             s1, s2, s3, f1, f2, f3 = tangential_history(ht[k, 0], ht[k, 1], ht[k, 2], vt1, vt2, vt3,
-                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn_cap, dt)
+                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn_cap,
+                                                        dt)
             ht[k, 0] = s1
             ht[k, 1] = s2
             ht[k, 2] = s3
-            # torque of Ft about each centre: -cr (en x Ft)
-            c1 = e2 * f3 - e3 * f2
-            c2 = e3 * f1 - e1 * f3
-            c3 = e1 * f2 - e2 * f1
-            ti1 = -cri * c1
-            ti2 = -cri * c2
-            ti3 = -cri * c3
-            tj1 = -crj * c1
-            tj2 = -crj * c2
-            tj3 = -crj * c3
+            if age is not None:
+                hx = age[0]
+                if hx[k, 2] == 0.0:
+                    hx[k, 0] += dt
+                    # sliding, not elastic shear: what the Coulomb cap cut off the spring (an
+                    # elastic tangential displacement is recovered; only sliding breaks the bond)
+                    hx[k, 1] += max(trial - math.sqrt(s1 * s1 + s2 * s2 + s3 * s3), 0.0)
+                    if hx[k, 1] > age[1][3]:
+                        hx[k, 2] = 1.0
+            ti1, ti2, ti3, tj1, tj2, tj3 = shear_torques(e1, e2, e3, f1, f2, f3, cri, crj)
             if rolling != ROLL_NONE:
                 mur = MUR[ti, tj]
                 if mur > 0.0:
@@ -157,7 +242,7 @@ def _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bo
                     h1, h2, h3, m1, m2, m3 = rolling_torque(
                         rolling, hr[k, 0], hr[k, 1], hr[k, 2], om[i, 0] - om[j, 0],
                         om[i, 1] - om[j, 1], om[i, 2] - om[j, 2], e1, e2, e3, kn, kt, delta,
-                        reff, fn_cap, mur, dt, ieff, eta_r)
+                        reff, fn_cap, mur, dt, ieff, eta_r, krf)
                     hr[k, 0] = h1
                     hr[k, 1] = h2
                     hr[k, 2] = h3
@@ -190,35 +275,35 @@ def _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bo
 
 
 @njit(parallel=True, **_FM)
-def _pair_forces_0(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf, tbuf,
-                   Y, G, B, GTR, MU, MUR, COH, limit, eta_r, dt, store, fn_out, ft_out):
+def _pair_forces_0(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store, fn_out,
+                   ft_out, cap, age, kr_fac):
     for t in prange(bounds.shape[0] - 1):
-        _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf,
-                    tbuf, Y, G, B, GTR, MU, MUR, COH, ROLL_NONE, limit, eta_r, dt, store, fn_out, ft_out)
+        _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_NONE, limit, eta_r, dt,
+                    store, fn_out, ft_out, cap, age, kr_fac)
 
 
 @njit(parallel=True, **_FM)
-def _pair_forces_1(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf, tbuf,
-                   Y, G, B, GTR, MU, MUR, COH, limit, eta_r, dt, store, fn_out, ft_out):
+def _pair_forces_1(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store, fn_out,
+                   ft_out, cap, age, kr_fac):
     for t in prange(bounds.shape[0] - 1):
-        _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf,
-                    tbuf, Y, G, B, GTR, MU, MUR, COH, ROLL_CDT, limit, eta_r, dt, store, fn_out, ft_out)
+        _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_CDT, limit, eta_r, dt,
+                    store, fn_out, ft_out, cap, age, kr_fac)
 
 
 @njit(parallel=True, **_FM)
-def _pair_forces_2(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf, tbuf,
-                   Y, G, B, GTR, MU, MUR, COH, limit, eta_r, dt, store, fn_out, ft_out):
+def _pair_forces_2(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store, fn_out,
+                   ft_out, cap, age, kr_fac):
     for t in prange(bounds.shape[0] - 1):
-        _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf,
-                    tbuf, Y, G, B, GTR, MU, MUR, COH, ROLL_EPSD, limit, eta_r, dt, store, fn_out, ft_out)
+        _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_EPSD, limit, eta_r, dt,
+                    store, fn_out, ft_out, cap, age, kr_fac)
 
 
 @njit(parallel=True, **_FM)
-def _pair_forces_3(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf, tbuf,
-                   Y, G, B, GTR, MU, MUR, COH, limit, eta_r, dt, store, fn_out, ft_out):
+def _pair_forces_3(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store, fn_out,
+                   ft_out, cap, age, kr_fac):
     for t in prange(bounds.shape[0] - 1):
-        _pair_chunk(t, x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf,
-                    tbuf, Y, G, B, GTR, MU, MUR, COH, ROLL_EPSD2, limit, eta_r, dt, store, fn_out, ft_out)
+        _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_EPSD2, limit, eta_r, dt,
+                    store, fn_out, ft_out, cap, age, kr_fac)
 
 
 # one compiled kernel per rolling model: the model is a compile-time constant there, so
@@ -226,19 +311,40 @@ def _pair_forces_3(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bo
 _BY_ROLLING = (_pair_forces_0, _pair_forces_1, _pair_forces_2, _pair_forces_3)
 
 
-def pair_forces(x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf, tbuf,
-                Y, G, B, GTR, MU, MUR, COH, rolling, limit, eta_r, dt, store, fn_out, ft_out):
+def pair_forces(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt, store,
+                fn_out, ft_out, cap=None, age=None, kr_fac=None):
     """Contact forces of the pair list into per-chunk buffers (history updated in place).
 
-    ``B = -2 sqrt(5/6) beta sqrt(2 Y*)`` and ``GTR = sqrt(4 G*/Y*)`` (0 without
-    tangential damping) per type pair, so that ``gamma_n = B sqrt(sqrt(R* delta) m*)``
-    and ``gamma_t = GTR gamma_n`` equal :func:`hertz_coefficients`.
+    Parameters
+    ----------
+    P : tuple
+        Particles ``(x, v, om, rad, mass, inv_i, ptype)``.
+    PL : tuple
+        Pair list ``(pi, pj, psh)`` (psh: integer periodic image of j).
+    L : (3,) box lengths; hist : ``(ht, hr)`` tangential and rolling history (M, 3).
+    bounds : (T+1,) chunk bounds over the pairs; fbuf, tbuf : (T, N, 3) per-chunk buffers.
+    TAB : (7, T+1, T+1) per-type-pair constants (:func:`pair_table`).
+    rolling : int
+        Rolling model code (``ROLL_*``); a compile-time constant.
+    limit, eta_r, dt, store, fn_out, ft_out
+        Clip of the normal force at 0, EPSD rolling damping ratio, time step (s),
+        whether to write the pair normal force and tangential force.
+    cap : (4,) array or None
+        Capillary bridges on: ``(gamma cos theta, theta, film thickness, fixed
+        volume or -1)`` (:func:`capillary_force`).
+    age : tuple ``(hx, AGE)`` or None
+        Contact ageing on: ``hx[k] = (contact age, accumulated sliding, broken)``
+        and ``AGE = (bond ratio, tau, 1/ln(1 + t_ref/tau), break slip)``.
+    kr_fac : float or None
+        EPSD rolling stiffness factor; None compiles the standard 2.25 in.
 
+    Notes
+    -----
     The list is processed in blocks of ``_BLOCK`` pairs: a short first pass
-    computes separations and splits the block into touching and other pairs
-    without branching on the overlap test; the second pass computes the
-    contacts. Per pair the arithmetic, and the order in which forces are
-    added, are those of a single loop over the list (bit for bit).
+    computes separations and splits the block into active (touching) and
+    other pairs without branching on the overlap test; the second pass
+    computes the contacts. Per pair the arithmetic, and the order in which
+    forces are added, are those of a single loop over the list (bit for bit).
     """
-    _BY_ROLLING[rolling](x, v, om, rad, mass, inv_i, ptype, pi, pj, psh, L, ht, hr, bounds, fbuf,
-                         tbuf, Y, G, B, GTR, MU, MUR, COH, limit, eta_r, dt, store, fn_out, ft_out)
+    _BY_ROLLING[rolling](P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store, fn_out,
+                         ft_out, cap, age, kr_fac)

@@ -42,12 +42,15 @@ def kick_drift(x, v, om, f, tq, inv_m, inv_i, x_ref, dt, bounds, disp_out):
 
 
 @njit(parallel=True, **_FM)
-def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gravity, bounds,
-                W, tri, time, wstart, wcand, wslot, whist, wbuf, Y, G, B, MU, MUR, COH, rolling, tdamp, limit,
-                eta_r, dt, store, wfn_out, wdelta_out, wnorm_out, overflow, kick_next, x_ref,
-                disp_out, kr_fac=2.25):
+def finish_step(P, fbuf, tbuf, gravity, bounds, WS, WTAB, rolling, tdamp, limit, eta_r, dt,
+                store, wout, overflow, kick_next, x_ref, disp_out, kr_fac):
     """Reduce per-chunk forces, add gravity and wall forces, second half kick.
 
+    ``P = (x, v, om, f, tq, mass, inv_m, inv_i, rad, ptype)`` are the particles;
+    ``WS = (W, tri, time, wstart, wcand, wslot, whist, wbuf)`` the walls and their
+    contacts; ``WTAB`` the ``(6, T+1, T+1)`` table of ``Y*``, ``G*``, ``beta``,
+    ``mu``, ``mu_r`` and the SJKR energy density (row/column T: the walls);
+    ``wout = (wfn, wdelta, wnorm)`` the wall-contact outputs written with ``store``.
     Only the walls listed for particle i in ``wcand[wstart[i]:wstart[i+1]]``
     (see :func:`wall_candidates`) are evaluated.
     With ``kick_next`` the pass goes on with the next step's :func:`kick_drift`
@@ -59,6 +62,15 @@ def finish_step(x, v, om, f, tq, fbuf, tbuf, mass, inv_m, inv_i, rad, ptype, gra
     about the wall origin is not needed: 3:6 hold the sum of normal force
     magnitudes and contact counts).
     """
+    x, v, om, f, tq, mass, inv_m, inv_i, rad, ptype = P
+    W, tri, time, wstart, wcand, wslot, whist, wbuf = WS
+    wfn_out, wdelta_out, wnorm_out = wout
+    Y = WTAB[0]
+    G = WTAB[1]
+    B = WTAB[2]
+    MU = WTAB[3]
+    MUR = WTAB[4]
+    COH = WTAB[5]
     nt = bounds.shape[0] - 1
     nb = fbuf.shape[0]
     nw = W.shape[0]

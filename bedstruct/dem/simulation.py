@@ -177,14 +177,16 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         self._tabs = tuple(np.ascontiguousarray(a) for a in
                            (tabs.youngs, tabs.shear, tabs.beta, tabs.friction,
                             tabs.rolling_friction, tabs.cohesion))
-        Y, G, B = self._tabs[:3]
+        self._pair_tab = K.pair_table(*self._tabs, model.tangential_damping)
+        self._wall_tab = np.ascontiguousarray(np.stack(self._tabs))
         self._cap, self._age = model.extension_arrays()
+        # the EPSD stiffness factor is compiled in unless it differs from the standard one
+        self._kr_fac = (float(model.rolling_stiffness_factor)
+                        if model.rolling_model == "epsd"
+                        and model.rolling_stiffness_factor != K.EPSD_STIFFNESS_FACTOR else None)
         self._programs = {}
         self._wload = None    # (n_walls, 3) running sum of wall loads, or None (not averaging)
         self._wload_steps = 0
-        self._gn_coef = np.ascontiguousarray(-2.0 * math.sqrt(5.0 / 6.0) * B * np.sqrt(2.0 * Y))
-        self._gt_ratio = np.ascontiguousarray(np.sqrt(4.0 * G / Y) if model.tangential_damping
-                                              else np.zeros_like(Y))
         self._L = np.ascontiguousarray(self.box.lengths, dtype=np.float64)
         self._lo = np.ascontiguousarray(self.box.lo, dtype=np.float64)
         self._hi = np.ascontiguousarray(self.box.hi, dtype=np.float64)
@@ -336,31 +338,24 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
 
     # ------------------------------------------------------------- stepping
     def _pair_pass(self, dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out, hx=None):
-        Y, G, B, MU, MUR, COH = self._tabs
         m = self.model
-        ext = m.extension_code
-        if ext == 0 and m.rolling_stiffness_factor == 2.25:
-            K.pair_forces(self.x, self.v, self.om, self.rad, self.mass, self.inv_i, self.ptype,
-                          self.pi, self.pj, self.psh, self._L, ht, hr, self._qbounds, fbuf, tbuf,
-                          Y, G, self._gn_coef, self._gt_ratio, MU, MUR, COH, m.rolling_code,
-                          m.limit_force, float(m.rolling_damping), dt, store, fn_out, ft_out)
-        else:
-            K.pair_forces_ext(self.x, self.v, self.om, self.rad, self.mass, self.inv_i,
-                              self.ptype, self.pi, self.pj, self.psh, self._L, ht, hr,
-                              self._qbounds, fbuf, tbuf, Y, G, self._gn_coef, self._gt_ratio, MU,
-                              MUR, COH, m.rolling_code, m.limit_force, float(m.rolling_damping),
-                              dt, store, fn_out, ft_out, ext, self.hx if hx is None else hx,
-                              self._cap, self._age)
+        # an extension that is off is passed as None and compiled out of the kernel
+        K.pair_forces((self.x, self.v, self.om, self.rad, self.mass, self.inv_i, self.ptype),
+                      (self.pi, self.pj, self.psh), self._L, (ht, hr), self._qbounds, fbuf, tbuf,
+                      self._pair_tab, m.rolling_code, m.limit_force, float(m.rolling_damping), dt,
+                      store, fn_out, ft_out, self._cap if m.capillary else None,
+                      (self.hx if hx is None else hx, self._age) if m.contact_ageing else None,
+                      self._kr_fac)
 
     def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm,
                      kick_next=False):
-        Y, G, B, MU, MUR, COH = self._tabs
         m = self.model
-        K.finish_step(self.x, v, om, f, tq, fbuf, tbuf, self.mass, self.inv_m, self.inv_i,
-                      self.rad, self.ptype, self.gravity, self._fbounds, self._W, self._tri,
-                      self.time, self._wstart, self._wcand, wslot, whist, self._wbuf, Y, G, B, MU, MUR, COH, m.rolling_code,
-                      m.tangential_damping, m.limit_force, float(m.rolling_damping), dt, store,
-                      wfn, wdel, wnrm, self._overflow, kick_next, self.x_ref, self._disp,
+        K.finish_step((self.x, v, om, f, tq, self.mass, self.inv_m, self.inv_i, self.rad,
+                       self.ptype), fbuf, tbuf, self.gravity, self._fbounds,
+                      (self._W, self._tri, self.time, self._wstart, self._wcand, wslot, whist,
+                       self._wbuf), self._wall_tab, m.rolling_code, m.tangential_damping,
+                      m.limit_force, float(m.rolling_damping), dt, store, (wfn, wdel, wnrm),
+                      self._overflow, kick_next, self.x_ref, self._disp,
                       float(m.rolling_stiffness_factor))
 
     def _setup(self):

@@ -211,6 +211,9 @@ def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
         normal = (f"{cohesion_model} {_fmt(E)} {_fmt(eta0)} {_fmt(nu)} {_fmt(gamma)} "
                   "damping viscoelastic")
     words = f"{normal} tangential mindlin NULL 1.0 {_fmt(mu)}"
+    if mur > 0 and params.rolling_model != "epsd2":
+        raise ConfigError(f"LAMMPS realises the rolling model epsd2 only (as `rolling sds`); "
+                          f"got rolling_model {params.rolling_model!r}")
     if mur > 0:
         k_roll = ref["kt"]  # EPSD2: k_r = k_t R*^2 per radian = R* k_roll R*
         words += f" rolling sds {_fmt(k_roll)} 0.0 {_fmt(mur)}"

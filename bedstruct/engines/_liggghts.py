@@ -86,8 +86,8 @@ def _fmt(x: float) -> str:
 def liggghts_wall_model(params: GranularParams) -> str:
     """The ``model ...`` words shared by ``pair_style gran`` and ``fix wall/gran``.
 
-    Cohesion (``sjkr``) and rolling friction (``epsd2``) are included only when
-    their coefficients are non-zero for particles or walls.
+    Cohesion (``sjkr``) and rolling friction (``params.rolling_model``, ``epsd2`` by
+    default) are included only when their coefficients are non-zero for particles or walls.
 
     Examples
     --------
@@ -95,12 +95,14 @@ def liggghts_wall_model(params: GranularParams) -> str:
     'model hertz tangential history cohesion sjkr rolling_friction epsd2'
     >>> liggghts_wall_model(GranularParams(rolling_friction=0.0))
     'model hertz tangential history'
+    >>> liggghts_wall_model(GranularParams(rolling_model="cdt"))
+    'model hertz tangential history rolling_friction cdt'
     """
     words = "model hertz tangential history"
     if params.cohesion_energy_density > 0 or params.wall("cohesion_energy_density") > 0:
         words += " cohesion sjkr"
     if params.rolling_friction > 0 or params.wall("rolling_friction") > 0:
-        words += " rolling_friction epsd2"
+        words += f" rolling_friction {params.rolling_model}"
     return words
 
 
@@ -160,7 +162,7 @@ def liggghts_model_commands(params: GranularParams, *, n_types: int = 2) -> tupl
         f"fix m4 all property/global coefficientFriction peratomtypepair {per_pair('friction')}",
     ]
     model = liggghts_wall_model(p)
-    if "epsd2" in model:
+    if "rolling_friction" in model:
         lines.append("fix m5 all property/global coefficientRollingFriction peratomtypepair "
                      f"{per_pair('rolling_friction')}")
     if "sjkr" in model:

@@ -15,10 +15,14 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["GranularParams", "as_granular_params"]
+__all__ = ["GranularParams", "as_granular_params", "ROLLING_MODELS"]
 
 
 # --------------------------------------------------------------------------- parameters
+#: Rolling resistance models an external deck can state.
+ROLLING_MODELS = ("epsd2", "epsd", "cdt")
+
+
 @dataclass(frozen=True)
 class GranularParams:
     """The seed's contact model in SI units, as every deck generator takes it.
@@ -38,7 +42,10 @@ class GranularParams:
     friction : float, dimensionless
         Coulomb sliding friction mu.
     rolling_friction : float, dimensionless
-        Rolling friction mu_r (LIGGGHTS ``epsd2``; 0 disables it).
+        Rolling friction mu_r (0 disables it).
+    rolling_model : {"epsd2", "epsd", "cdt"}
+        Rolling resistance model: LIGGGHTS ``rolling_friction epsd2|epsd|cdt``; LAMMPS
+        realises ``epsd2`` (as ``rolling sds``) only and refuses the others.
     cohesion_energy_density : float, J/m^3
         SJKR cohesion energy density k (0 disables cohesion).
     gravity : float, m/s^2
@@ -68,8 +75,12 @@ class GranularParams:
     wall_friction: float | None = None
     wall_rolling_friction: float | None = None
     wall_cohesion_energy_density: float | None = None
+    rolling_model: str = "epsd2"
 
     def __post_init__(self):
+        if self.rolling_model not in ROLLING_MODELS:
+            raise ValueError(f"`rolling_model` must be one of {', '.join(ROLLING_MODELS)}; "
+                             f"got {self.rolling_model!r}")
         def check(name, lo, hi, lo_open=False):
             v = getattr(self, name)
             if v is None:
@@ -164,8 +175,11 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
                     wall_cohesion_energy_density=scalar("wall_cohesion",
                                                         getattr(model, "wall_cohesion", None)))
         rm = getattr(model, "rolling_model", "epsd2")
-        if rm not in ("epsd2", "none") and base["rolling_friction"]:
-            raise ConfigError(f"external decks implement rolling_model 'epsd2' only; got {rm!r}")
+        if rm not in ("none", *ROLLING_MODELS) and base["rolling_friction"]:
+            raise ConfigError(f"external decks state rolling models {', '.join(ROLLING_MODELS)}; "
+                              f"got {rm!r}")
+        if rm in ROLLING_MODELS:
+            base["rolling_model"] = rm
         embedded_only = [k for k in ("capillary", "contact_ageing") if getattr(model, k, False)]
         if embedded_only:
             raise ConfigError(f"external decks cannot realise the model's {' and '.join(embedded_only)} "

@@ -176,3 +176,31 @@ def test_contact_law_helpers_pure_python():
     s1, s2, s3, *_ = K.tangential_history.py_func(0.0, 0, 1e-9, 0, 0, 0, 0, 0, 1, 10.0, 0.0, 0.5,
                                                   2.0, 1e-6)
     assert s3 == 0.0
+
+
+def test_pair_damping_equals_hertz_coefficients_damping():
+    # the pair kernel's damping from the per-type-pair table equals the direct formula
+    # the wall contact uses (to round-off), with and without tangential damping
+    from bedstruct.dem import ContactModel, Material
+    for tdamp in (True, False):
+        model = ContactModel(Material(E, NU, RHO), restitution=0.4, tangential_damping=tdamp)
+        t = model.tables()
+        tab = K.pair_table(t.youngs, t.shear, t.beta, t.friction, t.rolling_friction,
+                           t.cohesion, tdamp)
+        delta, reff, meff = 2e-7, 5e-5, 3e-9
+        kn, kt, gn, gt = K.hertz_coefficients.py_func(delta, reff, meff, t.youngs[0, 0],
+                                                      t.shear[0, 0], t.beta[0, 0])
+        sq = math.sqrt(reff * delta)
+        assert K.hertz_stiffness.py_func(sq, t.youngs[0, 0], t.shear[0, 0]) == (
+            pytest.approx(kn, rel=1e-15), pytest.approx(kt, rel=1e-15))
+        gn2, gt2 = K.pair_damping.py_func(sq, meff, tab[2, 0, 0], tab[3, 0, 0])
+        assert gn2 == pytest.approx(gn, rel=1e-14)
+        assert gt2 == (pytest.approx(gt, rel=1e-14) if tdamp else 0.0)
+
+
+def test_normal_force_and_shear_torques_pure_python():
+    assert K.normal_force.py_func(10.0, 1e-3, 2.0, 0.1, False) == pytest.approx(-0.19)
+    assert K.normal_force.py_func(10.0, 1e-3, 2.0, 0.1, True) == 0.0
+    # Ft along x on a contact normal along z: torque -r (z x x) = -r y on both spheres
+    t = K.shear_torques.py_func(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 2.0, 3.0)
+    assert t == (-0.0, -2.0, -0.0, -0.0, -3.0, -0.0)

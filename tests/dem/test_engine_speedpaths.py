@@ -33,11 +33,10 @@ def test_fused_steps_equal_plain_steps():
 
 
 def _pair_call(sim, pi, pj, psh, ht, hr, bounds, fb, tb, fn, ft):
-    Y, G, B, MU, MUR, COH = sim._tabs
     m = sim.model
-    K.pair_forces(sim.x, sim.v, sim.om, sim.rad, sim.mass, sim.inv_i, sim.ptype, pi, pj, psh,
-                  sim._L, ht, hr, bounds, fb, tb, Y, G, sim._gn_coef, sim._gt_ratio, MU, MUR, COH,
-                  m.rolling_code, m.limit_force, float(m.rolling_damping), sim.dt, True, fn, ft)
+    K.pair_forces((sim.x, sim.v, sim.om, sim.rad, sim.mass, sim.inv_i, sim.ptype), (pi, pj, psh),
+                  sim._L, (ht, hr), bounds, fb, tb, sim._pair_tab, m.rolling_code, m.limit_force,
+                  float(m.rolling_damping), sim.dt, True, fn, ft)
 
 
 def test_pair_kernel_blocks_equal_pair_by_pair():

@@ -270,5 +270,29 @@ def test_a_contact_model_with_embedded_only_effects_is_refused():
     wet = ContactModel(mat, capillary=True, capillary_film_thickness=1e-7, **base)
     with pytest.raises(ConfigError, match="cannot realise the model's capillary"):
         as_granular_params(wet)
-    with pytest.raises(ConfigError, match="rolling_model 'epsd2' only"):
-        as_granular_params(ContactModel(mat, rolling_model="cdt", **base))
+    assert as_granular_params(ContactModel(mat, rolling_model="cdt", **base)).rolling_model == "cdt"
+
+
+def test_the_rolling_model_is_an_option_of_the_contact_model():
+    from dataclasses import replace
+
+    from bedstruct.dem import ContactModel, Material
+    from bedstruct.engines import (GranularParams, as_granular_params, lammps_granular_coeffs,
+                                   liggghts_model_commands)
+    from bedstruct.errors import ConfigError
+
+    model = ContactModel(Material(1e7, 0.3, 8300.0), restitution=0.1, friction=0.4,
+                         rolling_friction=0.05, rolling_model="epsd")
+    p = as_granular_params(model)
+    assert p.rolling_model == "epsd"
+    lines, _ = liggghts_model_commands(replace(p, rolling_model="cdt"))
+    assert "pair_style gran model hertz tangential history rolling_friction cdt" in lines
+    assert any(line.startswith("fix m5 all property/global coefficientRollingFriction")
+               for line in lines)
+    # epsd2 stays the default, and LAMMPS states no other model
+    assert "rolling_friction epsd2" in liggghts_model_commands(GranularParams())[0][-2]
+    assert "rolling sds" in lammps_granular_coeffs(GranularParams())
+    with pytest.raises(ConfigError, match="epsd2 only.*'cdt'"):
+        lammps_granular_coeffs(replace(p, rolling_model="cdt"))
+    with pytest.raises(ValueError, match="rolling_model"):
+        GranularParams(rolling_model="spinning")
