@@ -4,17 +4,27 @@ Kernels import ``njit``, ``njit_parallel`` and ``prange`` from here so that
 compilation options are uniform: ``cache=True`` (compiled once per machine),
 ``fastmath`` off by default for reproducible reductions, ``error_model='numpy'``
 so that divisions never raise inside hot loops.
+
+numba keys a cached kernel on the file that defines it, not on the files whose
+functions it compiles in (the contact pieces of ``dem/_kernels_contact.py`` are
+compiled into the pair and integrator kernels). So that a cache is never reused
+stale, the compiled kernels go to a folder named by a hash of every bedstruct
+source file that uses numba and of the numba version
+(``$XDG_CACHE_HOME/bedstruct/numba/<hash>``, :data:`CACHE_DIR`), unless
+``NUMBA_CACHE_DIR`` says where.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+from pathlib import Path
 
 import numba
 from numba import prange
 
 __all__ = ["njit", "njit_parallel", "prange", "set_num_threads", "get_num_threads",
-           "THREADING_LAYER_PRIORITY"]
+           "THREADING_LAYER_PRIORITY", "CACHE_DIR", "kernel_source_hash"]
 
 #: Numba threading layers in bedstruct's order of preference. TBB comes last: with the TBB
 #: layer a process that ran a parallel kernel from a thread other than the main one can hang
@@ -25,6 +35,37 @@ THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
 if not (os.environ.get("NUMBA_THREADING_LAYER", "default") != "default"
         or "NUMBA_THREADING_LAYER_PRIORITY" in os.environ):
     numba.config.THREADING_LAYER_PRIORITY = list(THREADING_LAYER_PRIORITY)
+
+def kernel_source_hash(root=None) -> str:
+    """Hash of the numba version and of every source file under ``root`` that uses numba.
+
+    ``root`` defaults to the bedstruct package.
+    """
+    root = Path(__file__).resolve().parent if root is None else Path(root)
+    h = hashlib.sha256(numba.__version__.encode())
+    for path in sorted(root.rglob("*.py")):
+        data = path.read_bytes()
+        if b"numba" in data or b"njit" in data:
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(data)
+    return h.hexdigest()[:16]
+
+
+def _cache_dir() -> str | None:
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return os.environ["NUMBA_CACHE_DIR"]
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "bedstruct" / "numba"
+    folder = base / kernel_source_hash()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:  # no writable cache home: numba's own place beside the sources
+        return None
+    numba.config.CACHE_DIR = str(folder)
+    return str(folder)
+
+
+#: Where compiled kernels are cached (None: numba's ``__pycache__`` beside the sources).
+CACHE_DIR = _cache_dir()
 
 _BASE = dict(cache=True, error_model="numpy", boundscheck=False, nogil=True)
 

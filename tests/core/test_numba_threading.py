@@ -1,8 +1,9 @@
-"""bedstruct's numba kernels avoid the TBB threading layer (a process could hang at exit)."""
+"""bedstruct's numba kernels: no TBB threading layer (a process could hang at exit), no stale cache."""
 
 from __future__ import annotations
 
 import os
+import pathlib
 import subprocess
 import sys
 
@@ -46,3 +47,20 @@ def test_parallel_kernels_do_not_use_tbb_and_the_process_exits():
 
 def test_a_users_threading_layer_choice_is_kept():
     assert _run({"NUMBA_THREADING_LAYER_PRIORITY": "workqueue omp tbb"}) == "workqueue"
+
+
+def test_the_kernel_cache_is_keyed_by_every_kernel_source(tmp_path):
+    # numba keys a kernel on its own file only; bedstruct's cache folder changes with any
+    # file that uses numba (a contact piece compiled into another file's kernel), not others
+    from bedstruct import _numba
+
+    (tmp_path / "contact.py").write_text("from numba import njit\n@njit\ndef f(x):\n    return x\n")
+    (tmp_path / "pairs.py").write_text("from .._numba import njit\n")
+    (tmp_path / "docs.py").write_text("X = 1\n")
+    first = _numba.kernel_source_hash(tmp_path)
+    (tmp_path / "docs.py").write_text("X = 2\n")
+    assert _numba.kernel_source_hash(tmp_path) == first
+    (tmp_path / "contact.py").write_text("from numba import njit\n@njit\ndef f(x):\n    return 2 * x\n")
+    assert _numba.kernel_source_hash(tmp_path) != first
+    if not os.environ.get("NUMBA_CACHE_DIR") and _numba.CACHE_DIR is not None:
+        assert pathlib.Path(_numba.CACHE_DIR).name == _numba.kernel_source_hash()
