@@ -61,6 +61,8 @@ def main(argv=None) -> int:
     p.add_argument("--replicates", type=int, default=None)
     p.add_argument("--vary", type=float, default=0.25,
                    help="relative half-width of the cohesion energy density range")
+    p.add_argument("--effects", default=None,
+                   help="comma-separated catalogue effects (default: all; fewer for a reduced library)")
     p.add_argument("--confirm-seeds", type=int, default=None)
     p.add_argument("--progress", action="store_true")
     a = p.parse_args(argv)
@@ -78,7 +80,7 @@ def main(argv=None) -> int:
     n_confirm = a.confirm_seeds if a.confirm_seeds is not None else (2 if engine else 4)
 
     ms = load_measurements(a.measurements)
-    effects = catalogue()
+    effects = catalogue(a.effects.split(",") if a.effects else None)
     design = diagnosis_design(ms, effects)
     if engine:
         from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
@@ -100,7 +102,7 @@ def main(argv=None) -> int:
     lib = load_library(lib_dir, sim)
     emu = fit_emulator(lib)
     esim = EmulatedSimulator(emu)
-    d = diagnose(ms, esim, base=base, progress=a.progress)
+    d = diagnose(ms, esim, base=base, effects=effects, progress=a.progress)
     warm_s = time.perf_counter() - t0
 
     sh = d.shrink
