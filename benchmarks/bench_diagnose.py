@@ -117,12 +117,13 @@ def main(argv=None) -> int:
 
     import numpy as np
     per_run = float(np.nanmean(lib.run_wall_s)) if lib.n_runs else float("nan")
+    per_run_cpu = float(np.nanmean(lib.run_cpu_s)) if np.isfinite(lib.run_cpu_s).any() else float("nan")
     print(f"answer: verdict={d.attribution.verdict} model={sh.model or 'none'} "
           f"magnitudes={mags} recalibration={ {k: float(v) for k, v in sh.nuisance.items()} } "
           f"gap_fraction_closed={sh.fraction:.3g}")
     print(f"sim={a.sim} preset={a.preset if engine else '-'} workers={a.workers} "
           f"lib_dir={lib_dir} "
-          f"run_wall_s_mean={per_run:.3g} loo_within_2sigma={emu.loo.loo_within_2sigma:.3f} "
+          f"run_wall_s_mean={per_run:.3g} run_cpu_s_mean={per_run_cpu:.3g} loo_within_2sigma={emu.loo.loo_within_2sigma:.3f} "
           f"confirm_rmse_sigma={chk.rmse_sigma:.3g} confirm_within_2sigma={chk.within_2sigma:.3f} "
           f"seed_correlation={emu.seed_correlation:.2f} load={os.getloadavg()[0]:.1f}")
     print(f"RESULT warm_s={warm_s:.3g} confirm_s={confirm_s:.3g} cold_s={cold_s:.3g} "

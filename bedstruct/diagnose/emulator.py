@@ -69,7 +69,7 @@ __all__ = ["Emulator", "LeaveOneOut", "Prediction", "EmulatorCheck", "fit_emulat
 log = logging.getLogger(__name__)
 
 _EMULATOR_FILE = "emulator.json"
-_FIT_VERSION = 1
+_FIT_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -417,7 +417,7 @@ class Emulator:
 
 
 def fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
-                 reuse: bool = True, progress: bool = False) -> Emulator:
+                 reuse: bool = True, progress: bool = False, max_fit_runs: int = 240) -> Emulator:
     """Fit the emulator of a run library (one GP per observable component).
 
     Parameters
@@ -435,6 +435,10 @@ def fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
         store them after a fit.
     progress : bool
         Progress bar over the components.
+    max_fit_runs : int
+        The hyperparameters are optimised on the runs of a seeded random subset of whole
+        design points, at most this many runs (the optimiser factorises the kernel matrix
+        at every step); the GP is then conditioned on every run.
 
     Returns
     -------
@@ -467,11 +471,28 @@ def fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
     # the kernel matrices are small (10^2-10^3): one BLAS thread is fastest, and threads
     # contend badly on a shared machine (a Cholesky of 375 runs took 0.6 s on two)
     with threadpool_limits(1):
-        return _fit_emulator(library, nu=nu, restarts=restarts, reuse=reuse, progress=progress)
+        return _fit_emulator(library, nu=nu, restarts=restarts, reuse=reuse, progress=progress,
+                             max_fit_runs=max_fit_runs)
+
+
+def _hyper_subset(points: np.ndarray, max_runs: int) -> np.ndarray:
+    """Runs of a seeded random subset of whole design points, at most ``max_runs`` of them."""
+    if len(points) <= max_runs:
+        return np.arange(len(points))
+    order = np.random.default_rng(0).permutation(np.unique(points))
+    keep, n = [], 0
+    for p in order:
+        k = int(np.sum(points == p))
+        if n + k > max_runs:
+            continue
+        keep.append(p)
+        n += k
+    return np.flatnonzero(np.isin(points, keep))
 
 
 def _fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
-                  reuse: bool = True, progress: bool = False) -> Emulator:
+                  reuse: bool = True, progress: bool = False,
+                  max_fit_runs: int = 240) -> Emulator:
     try:
         from sklearn.gaussian_process import GaussianProcessRegressor
     except ImportError as exc:  # pragma: no cover - optional dependency
@@ -489,7 +510,8 @@ def _fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
     if reuse and cache.is_file():
         try:
             doc = json.loads(cache.read_text())
-            if doc.get("runs") == rh and doc.get("nu") == nu and doc.get("version") == _FIT_VERSION:
+            if (doc.get("runs") == rh and doc.get("nu") == nu and doc.get("version") == _FIT_VERSION
+                    and doc.get("max_fit_runs") == max_fit_runs):
                 stored = {int(k): np.asarray(v, float) for k, v in doc["theta"].items()}
         except (OSError, ValueError, KeyError):
             stored = {}
@@ -516,14 +538,16 @@ def _fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
         scale_all[j] = sc
         u, ys = u_all[ok], (y[ok] - mu) / sc
         kern = _kernel(d, nu)
-        if j in stored and len(stored[j]) == len(kern.theta):
-            gp = GaussianProcessRegressor(kern.clone_with_theta(stored[j]), optimizer=None,
-                                          alpha=1e-10)
-        else:
-            gp = GaussianProcessRegressor(kern, alpha=1e-10, n_restarts_optimizer=int(restarts),
-                                          random_state=0)
+        theta = stored.get(j)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")   # hyperparameters at their bounds: noted by LOO
+            if theta is None or len(theta) != len(kern.theta):
+                sub = _hyper_subset(lib.point_index[ok], max_fit_runs)
+                opt = GaussianProcessRegressor(kern, alpha=1e-10,
+                                               n_restarts_optimizer=int(restarts), random_state=0)
+                opt.fit(u[sub], ys[sub])
+                theta = opt.kernel_.theta
+            gp = GaussianProcessRegressor(kern.clone_with_theta(theta), optimizer=None, alpha=1e-10)
             gp.fit(u, ys)
         thetas[j] = gp.kernel_.theta.tolist()
         noise_var = float(gp.kernel_.k2.noise_level)
@@ -541,6 +565,7 @@ def _fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
     if reuse and thetas and set(thetas) != set(stored):
         try:
             write_json_atomic(cache, {"version": _FIT_VERSION, "key": lib.key, "runs": rh, "nu": nu,
+                                      "max_fit_runs": max_fit_runs,
                                       "theta": {str(k): v for k, v in thetas.items()}})
         except OSError:   # a read-only library is still usable
             log.info("emulator: could not store hyperparameters in %s", cache)

@@ -470,6 +470,8 @@ class RunLibrary:
         Runs made by the call that returned this library (0 when loaded).
     wall_s : float
         Wall time of that call, s.
+    run_wall_s, run_cpu_s : (N,) ndarray
+        Wall and CPU time of each run in its process, s (NaN where not recorded).
     """
 
     path: Path
@@ -487,6 +489,7 @@ class RunLibrary:
     n_new: int = 0
     wall_s: float = 0.0
     run_wall_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    run_cpu_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def n_runs(self) -> int:
@@ -503,12 +506,13 @@ def _run_name(key: str, point: DesignPoint, seed: int) -> str:
 
 
 def _run_one(simulator, point: DesignPoint, seed: int) -> dict:
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     obs = simulator(dict(point.base), dict(point.effects), int(seed))
     if not isinstance(obs, Observations):
         raise TypeError(f"the simulator must return an Observations object; got {type(obs).__name__}")
     return {"observations": {k: np.asarray(v, float).tolist() for k, v in obs.values.items()},
-            "source": obs.source, "wall_s": time.perf_counter() - t0}
+            "source": obs.source, "wall_s": time.perf_counter() - t0,
+            "cpu_s": time.process_time() - c0}
 
 
 _WORKER_SIMULATOR = None   # set once per worker process by _init_worker (never in the parent)
@@ -714,7 +718,7 @@ def load_library(path, simulator=None, *, design=None, key: str | None = None) -
     points = design_points(spec)
     names = list(meta["key_document"]["observables"])
     ncomp = {n: int(v["n_components"]) for n, v in meta["key_document"]["observables"].items()}
-    rows, pidx, seeds, ys, walls = [], [], [], [], []
+    rows, pidx, seeds, ys, walls, cpus = [], [], [], [], [], []
     inputs = spec.input_names
     for f in sorted((path / "runs").glob("*.json")):
         rec = json.loads(f.read_text())
@@ -733,6 +737,7 @@ def load_library(path, simulator=None, *, design=None, key: str | None = None) -
             y += [np.nan] * ncomp[n] if v is None else [np.nan if a is None else float(a) for a in v]
         ys.append(y)
         walls.append(float(rec.get("wall_s", np.nan)))
+        cpus.append(float(rec.get("cpu_s", np.nan)))
     order = np.lexsort((np.asarray(seeds), np.asarray(pidx))) if pidx else np.zeros(0, int)
     ncol = sum(ncomp.values())
     return RunLibrary(path=path, key=lib_key, key_document=meta["key_document"], spec=spec,
@@ -741,4 +746,5 @@ def load_library(path, simulator=None, *, design=None, key: str | None = None) -
                       point_index=np.asarray(pidx, int)[order], seeds=np.asarray(seeds, int)[order],
                       outputs=np.asarray(ys, float).reshape(-1, ncol)[order],
                       source=str(meta.get("source", "")),
-                      run_wall_s=np.asarray(walls, float)[order])
+                      run_wall_s=np.asarray(walls, float)[order],
+                      run_cpu_s=np.asarray(cpus, float)[order])
