@@ -515,18 +515,6 @@ def _run_one(simulator, point: DesignPoint, seed: int) -> dict:
             "cpu_s": time.process_time() - c0}
 
 
-_WORKER_SIMULATOR = None   # set once per worker process by _init_worker (never in the parent)
-
-
-def _init_worker(simulator) -> None:
-    global _WORKER_SIMULATOR
-    _WORKER_SIMULATOR = simulator
-
-
-def _run_in_worker(point: DesignPoint, seed: int) -> dict:
-    return _run_one(_WORKER_SIMULATOR, point, seed)
-
-
 def _check_key(path: Path, key: str, doc: Mapping, spec: DesignSpec) -> None:
     meta = json.loads((path / "library.json").read_text())
     if meta.get("key") != key:
@@ -632,16 +620,17 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
             _build_dask(simulator, todo, scheduler, save)
         elif int(workers) > 1 and len(todo) > 1:
             from concurrent.futures import ProcessPoolExecutor, as_completed
-            with ProcessPoolExecutor(int(workers), initializer=_init_worker,
-                                     initargs=(simulator,)) as pool:
-                futs = {pool.submit(_run_in_worker, p, s): (i, p, s) for i, p, s in todo}
-                try:
-                    for f in as_completed(futs):
-                        save(*futs[f], f.result())
-                except BaseException:
-                    for f in futs:
-                        f.cancel()
-                    raise
+            pool = ProcessPoolExecutor(int(workers))
+            try:
+                # the simulator travels with each run (small: its configuration, not its state)
+                futs = {pool.submit(_run_one, simulator, p, s): (i, p, s) for i, p, s in todo}
+                for f in as_completed(futs):
+                    save(*futs[f], f.result())
+            except BaseException:
+                # interrupted: drop the runs not started, do not wait for those in flight
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+            pool.shutdown()
         else:
             for i, p, s in todo:
                 save(i, p, s, _run_one(simulator, p, s))
