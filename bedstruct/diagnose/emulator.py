@@ -218,20 +218,30 @@ def _seed_correlation(devs, replicates: int) -> float:
 
 
 def _within_run_correlation(devs, n: int) -> np.ndarray:
-    """Correlation of the components within a run, from complete replicate deviations."""
-    rows = [d[np.all(np.isfinite(d), axis=1)] for _, d in devs]
-    rows = [r for r in rows if len(r)]
-    if not rows:
+    """Correlation of the components within a run, from the replicate deviations.
+
+    Components that a tenth or more of the runs could not observe are left uncorrelated;
+    runs missing any of the others are left out.
+    """
+    if not devs:
         return np.eye(n)
-    d = np.vstack(rows)
-    dof = sum(len(r) - 1 for r in rows)
-    if dof < n + 2:
-        return np.eye(n)
+    d = np.vstack([x for _, x in devs])
+    dof_pts = len(devs)
+    cols = np.flatnonzero(np.mean(np.isfinite(d), axis=0) >= 0.9)
+    corr = np.eye(n)
+    if cols.size < 2:
+        return corr
+    keep = np.all(np.isfinite(d[:, cols]), axis=1)
+    d = d[np.ix_(keep, cols)]
+    dof = len(d) - dof_pts
+    if dof < cols.size + 2:
+        return corr
     cov = d.T @ d / dof
     sd = np.sqrt(np.diag(cov))
     ok = sd > 0
-    corr = np.eye(n)
-    corr[np.ix_(ok, ok)] = cov[np.ix_(ok, ok)] / np.outer(sd[ok], sd[ok])
+    sub = np.eye(cols.size)
+    sub[np.ix_(ok, ok)] = cov[np.ix_(ok, ok)] / np.outer(sd[ok], sd[ok])
+    corr[np.ix_(cols, cols)] = sub
     w, v = np.linalg.eigh(corr)
     corr = (v * np.maximum(w, 1e-6)) @ v.T
     s = np.sqrt(np.diag(corr))
