@@ -1,0 +1,739 @@
+"""A run library: the simulator runs of a diagnosis, run once into a folder on disk.
+
+A diagnosis asks its simulator for the same kind of runs every time: the base point,
+finite-difference steps of the recalibrated base parameters, each catalogue effect at a
+few magnitudes, all at a few replicate seeds. Here those runs form a *design* run once
+per simulator configuration, catalogue, observable design and code version, and an
+emulator (:mod:`bedstruct.diagnose.emulator`) then serves every diagnosis from it.
+
+The design (:func:`design_spec`, :func:`design_points`) is space-filling: a Latin
+hypercube optimised for centred discrepancy (:class:`scipy.stats.qmc.LatinHypercube`)
+over the box of the varied base parameters (the base sub-design, every effect off),
+and one such hypercube per catalogue effect over the base box times the effect's prior
+range (one effect on at a time), plus anchor points the diagnosis always asks for (the
+base point and each effect at half and full top of its prior, at the base parameters).
+Every point is run at the same replicate seeds (common random numbers, as the
+diagnosis runs them), whose scatter is the run-to-run noise.
+
+:func:`build_library` runs the design into a folder: ``library.json`` holds the
+library key and the design; ``runs/<hash>.json`` one file per run (inputs, seed,
+observations), written atomically as each run finishes, so a build that is killed
+resumes where it stopped without redoing a finished run. The library key hashes what
+the runs depend on (:func:`library_key_document`): the simulator's identity and
+configuration, the catalogue's effects, the observables' kinds and conditions, the
+bedstruct version and a hash of the source code of the engine and the observation
+operators. A library whose key differs from the current one is refused with a message
+naming what differs (:class:`StaleLibraryError`), never reused.
+
+Runs execute in local worker processes (:class:`concurrent.futures.ProcessPoolExecutor`)
+or, with ``scheduler="tcp://host:port"`` (or a :class:`distributed.Client`), on a Dask
+distributed cluster.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+from scipy.stats import qmc
+
+from .._json import to_jsonable, write_json_atomic
+from .._version import __version__
+from ..errors import ConfigError
+from .catalogue import Effect, catalogue as _catalogue
+from .measurements import Observations
+
+__all__ = ["DesignSpec", "DesignPoint", "RunLibrary", "StaleLibraryError", "design_spec",
+           "design_points", "build_library", "load_library", "library_key_document",
+           "library_key", "PHYSICAL_BOUNDS"]
+
+log = logging.getLogger(__name__)
+
+#: Physical bounds of the base parameters a design may vary (SI): cohesion energy density
+#: (J/m^3), sliding and rolling friction coefficients (1) and restitution (1).
+PHYSICAL_BOUNDS: dict[str, tuple[float, float]] = {
+    "cohesion_energy_density": (0.0, math.inf),
+    "friction": (0.0, math.inf),
+    "rolling_friction": (0.0, math.inf),
+    "restitution": (0.0, 1.0),
+}
+#: Version of the library's file layout (``library.json`` and the run files).
+LIBRARY_SCHEMA = 1
+_ROOT = Path(__file__).resolve().parents[1]   # the bedstruct package
+#: Source the runs of each simulator kind depend on, relative to the package: the engine
+#: and its workflows, the analyses the observation operators call, the operators, the
+#: catalogue. A change to any of it makes a library stale.
+_CODE = {
+    "engine": ("dem", "workflows", "analysis", "core", "diagnose/observables.py",
+               "diagnose/observables_image.py", "diagnose/catalogue.py",
+               "diagnose/measurements.py"),
+    "surrogate": ("diagnose/surrogate.py", "diagnose/catalogue.py", "diagnose/measurements.py"),
+}
+
+
+class StaleLibraryError(ConfigError):
+    """A run library whose key differs from the current one (its message names what differs)."""
+
+
+# ----------------------------------------------------------------------------- design
+@dataclass(frozen=True)
+class DesignSpec:
+    """What a run library holds: the box of the varied parameters, the effects, the sizes.
+
+    Parameters
+    ----------
+    base : dict of str to float
+        Base parameters of the model (SI); those not in ``ranges`` are held at these values.
+    ranges : dict of str to (float, float)
+        Range ``(lo, hi)`` of each varied base parameter (SI), inside its physical bounds
+        (:data:`PHYSICAL_BOUNDS`) and containing the base value.
+    effects : tuple of str
+        Catalogue effects, each varied over its prior range with the others off.
+    priors : dict of str to (float, float)
+        Magnitude range of each effect (its catalogue prior).
+    n_base : int
+        Space-filling points of the base sub-design (every effect off).
+    n_per_effect : int
+        Space-filling points of each effect's sub-design.
+    replicates : int
+        Seeds per point (``seed, seed + 1, ...``).
+    seed : int
+        First replicate seed, and the seed of the hypercubes.
+    anchors : bool
+        Add the base point and each effect at half and full top of its prior (the points
+        a diagnosis always simulates).
+    """
+
+    base: dict
+    ranges: dict
+    effects: tuple
+    priors: dict
+    n_base: int = 16
+    n_per_effect: int = 16
+    replicates: int = 3
+    seed: int = 0
+    anchors: bool = True
+
+    @property
+    def varied(self) -> tuple[str, ...]:
+        """Names of the varied base parameters, in input order."""
+        return tuple(self.ranges)
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        """Emulator inputs: the varied base parameters, then the effect magnitudes."""
+        return self.varied + tuple(self.effects)
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corner of the design box over :attr:`input_names`."""
+        lo = [self.ranges[k][0] for k in self.varied] + [self.priors[e][0] for e in self.effects]
+        hi = [self.ranges[k][1] for k in self.varied] + [self.priors[e][1] for e in self.effects]
+        return np.asarray(lo, float), np.asarray(hi, float)
+
+    @property
+    def seeds(self) -> tuple[int, ...]:
+        return tuple(int(self.seed) + r for r in range(int(self.replicates)))
+
+    def to_json(self) -> dict:
+        return {"base": dict(self.base), "ranges": {k: list(v) for k, v in self.ranges.items()},
+                "effects": list(self.effects), "priors": {k: list(v) for k, v in self.priors.items()},
+                "n_base": self.n_base, "n_per_effect": self.n_per_effect,
+                "replicates": self.replicates, "seed": self.seed, "anchors": self.anchors}
+
+    @classmethod
+    def from_json(cls, d: Mapping) -> "DesignSpec":
+        return cls(base={k: float(v) for k, v in d["base"].items()},
+                   ranges={k: (float(v[0]), float(v[1])) for k, v in d["ranges"].items()},
+                   effects=tuple(d["effects"]),
+                   priors={k: (float(v[0]), float(v[1])) for k, v in d["priors"].items()},
+                   n_base=int(d["n_base"]), n_per_effect=int(d["n_per_effect"]),
+                   replicates=int(d["replicates"]), seed=int(d["seed"]), anchors=bool(d["anchors"]))
+
+
+def design_spec(base: Mapping[str, float], *, vary: Mapping[str, Any] | None = None,
+                effects: Sequence[Effect | str] | None = None, n_base: int = 16,
+                n_per_effect: int = 16, replicates: int = 3, seed: int = 0,
+                anchors: bool = True) -> DesignSpec:
+    """The design of a run library around ``base``.
+
+    Parameters
+    ----------
+    base : mapping of str to float
+        Base parameters of the calibrated model (SI), e.g.
+        :data:`~bedstruct.diagnose.BASE_PARAMETERS`.
+    vary : mapping, optional
+        Base parameters the design varies (those a diagnosis recalibrates), each to a
+        range ``(lo, hi)`` in SI units or to a relative half-width ``r`` (the range
+        ``base * (1 - r), base * (1 + r)``). Default: the cohesion energy density by
+        +-25 % (the diagnosis' default recalibration).
+    effects : sequence of Effect or str, optional
+        Catalogue effects (default: all), each varied over its prior range.
+    n_base, n_per_effect : int
+        Space-filling points of the base sub-design and of each effect's sub-design.
+    replicates : int
+        Seeds per point (>= 2: their scatter is the run-to-run noise).
+    seed : int
+        First replicate seed and seed of the hypercubes.
+    anchors : bool
+        Add the base point and each effect at half and full top of its prior.
+
+    Returns
+    -------
+    DesignSpec
+
+    Raises
+    ------
+    ConfigError
+        A range outside a parameter's physical bounds, not containing its base value, or
+        of an unknown parameter; fewer than two replicates.
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import BASE_PARAMETERS
+    >>> spec = design_spec(BASE_PARAMETERS, vary={"cohesion_energy_density": 0.25,
+    ...                                           "friction": (0.3, 0.5)},
+    ...                    effects=["wall_friction"], n_base=8, n_per_effect=8)
+    >>> spec.input_names
+    ('cohesion_energy_density', 'friction', 'wall_friction')
+    >>> [float(x) for x in spec.box[0]]
+    [27000000.0, 0.3, -0.2]
+    """
+    base = {k: float(v) for k, v in base.items()}
+    vary = {"cohesion_energy_density": 0.25} if vary is None else dict(vary)
+    ranges = {}
+    for k, r in vary.items():
+        if k not in base:
+            raise ConfigError(f"vary: parameter {k!r} is not among the base parameters {sorted(base)}")
+        if np.ndim(r) == 0:
+            r = float(r)
+            if not 0 < r:
+                raise ConfigError(f"vary: relative half-width of {k!r} must be > 0; got {r}")
+            lo, hi = base[k] - r * abs(base[k]), base[k] + r * abs(base[k])
+        else:
+            lo, hi = (float(x) for x in r)
+        plo, phi = PHYSICAL_BOUNDS.get(k, (-math.inf, math.inf))
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError(f"vary: range of {k!r} must be finite with lo < hi; got ({lo}, {hi})")
+        if lo < plo or hi > phi:
+            raise ConfigError(f"vary: range of {k!r} ({lo:.6g}, {hi:.6g}) leaves its physical "
+                              f"bounds ({plo}, {phi})")
+        if not lo <= base[k] <= hi:
+            raise ConfigError(f"vary: range of {k!r} ({lo:.6g}, {hi:.6g}) does not contain the "
+                              f"base value {base[k]:.6g}")
+        ranges[k] = (lo, hi)
+    effs = tuple(_catalogue() if effects is None else
+                 (_catalogue([e])[0] if isinstance(e, str) else e for e in effects))
+    if int(replicates) < 2:
+        raise ConfigError(f"replicates: need >= 2 seeds per point (their scatter is the run-to-run "
+                          f"noise); got {replicates}")
+    if int(n_base) < 0 or int(n_per_effect) < 0:
+        raise ConfigError("n_base, n_per_effect: expected whole numbers >= 0")
+    return DesignSpec(base=base, ranges=ranges, effects=tuple(e.name for e in effs),
+                      priors={e.name: (float(e.prior[0]), float(e.prior[1])) for e in effs},
+                      n_base=int(n_base), n_per_effect=int(n_per_effect),
+                      replicates=int(replicates), seed=int(seed), anchors=bool(anchors))
+
+
+@dataclass(frozen=True)
+class DesignPoint:
+    """One parameter point of a design (run at every replicate seed).
+
+    Attributes
+    ----------
+    base : dict
+        Base parameters of the run (SI; all of the spec's base, varied ones set).
+    effects : dict
+        The one effect switched on and its magnitude (empty: the base model).
+    group : str
+        ``"anchor"``, ``"base"`` or the effect's name (its sub-design).
+    """
+
+    base: dict
+    effects: dict
+    group: str
+
+
+def _hypercube(d: int, n: int, seed: int) -> np.ndarray:
+    if n == 0:
+        return np.zeros((0, d))
+    lhs = qmc.LatinHypercube(d, optimization="random-cd", rng=np.random.default_rng(seed))
+    return lhs.random(n)
+
+
+def design_points(spec: DesignSpec) -> tuple[DesignPoint, ...]:
+    """The parameter points of a design, in a fixed order.
+
+    Returns
+    -------
+    tuple of DesignPoint
+        Anchors first (if any), then the base sub-design, then each effect's.
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import BASE_PARAMETERS
+    >>> spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=4, n_per_effect=4)
+    >>> pts = design_points(spec)
+    >>> len(pts), [p.group for p in pts][:4]
+    (11, ['anchor', 'anchor', 'anchor', 'base'])
+    >>> all(-0.2 <= p.effects.get("wall_friction", 0.0) <= 0.4 for p in pts)
+    True
+    """
+    varied = spec.varied
+    lo = np.asarray([spec.ranges[k][0] for k in varied], float)
+    hi = np.asarray([spec.ranges[k][1] for k in varied], float)
+    out: list[DesignPoint] = []
+    if spec.anchors:
+        out.append(DesignPoint(dict(spec.base), {}, "anchor"))
+        for e in spec.effects:
+            top = spec.priors[e][1]
+            for m in (0.5 * top, top):
+                out.append(DesignPoint(dict(spec.base), {e: float(m)}, "anchor"))
+
+    def at(u):
+        b = dict(spec.base)
+        b.update({k: float(v) for k, v in zip(varied, lo + u * (hi - lo))})
+        return b
+
+    if varied:
+        for u in _hypercube(len(varied), spec.n_base, spec.seed):
+            out.append(DesignPoint(at(u), {}, "base"))
+    for j, e in enumerate(spec.effects):
+        elo, ehi = spec.priors[e]
+        for u in _hypercube(len(varied) + 1, spec.n_per_effect, spec.seed + 1 + j):
+            out.append(DesignPoint(at(u[:-1]), {e: float(elo + u[-1] * (ehi - elo))}, e))
+    return tuple(out)
+
+
+# ----------------------------------------------------------------------------- keys
+def _hash(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+def _code_hash(rel: str) -> str:
+    p = _ROOT / rel
+    files = sorted(p.rglob("*.py")) + sorted(p.rglob("*.toml")) if p.is_dir() else [p]
+    h = hashlib.sha256()
+    for f in files:
+        if "__pycache__" in f.parts:
+            continue
+        h.update(str(f.relative_to(_ROOT)).encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:20]
+
+
+def _simulator_identity(simulator) -> tuple[dict, tuple[str, ...]]:
+    """The simulator's identity document and the source it depends on (package-relative)."""
+    cls = type(simulator)
+    ident: dict[str, Any] = {"name": getattr(simulator, "name", cls.__name__),
+                             "class": f"{cls.__module__}.{cls.__qualname__}"}
+    own = getattr(simulator, "library_identity", None)
+    if own is not None:   # a simulator that states its own identity
+        ident["config"] = to_jsonable(own())
+        code = tuple(getattr(simulator, "library_code", ()))
+        return ident, code
+    if cls.__name__ == "SurrogateSimulator":
+        ident["config"] = {"noise": simulator.noise, "correlation": simulator.correlation}
+        return ident, _CODE["surrogate"]
+    if cls.__name__ == "EngineSimulator":
+        from ..workflows import diagnosis_sim as ds
+        ident["config"] = {
+            "preset": simulator.preset, "overrides": list(simulator.overrides),
+            "resolved_config": to_jsonable(simulator.base_cfg, keep_nonfinite=False),
+            "scales": {k: getattr(simulator, k) for k in (
+                "cohesion_scale", "speed_scale", "ageing_time_scale", "blade_time_scale",
+                "capillary_scale", "fines_scale", "wide_box", "seed_offset")},
+            "cache_schema": ds._CACHE_SCHEMA, "model_revisions": dict(ds._MODEL_REVISIONS),
+            "deck_revision": ds._DECK_REVISION}
+        return ident, _CODE["engine"]
+    # any other callable: its own source file stands for its code
+    try:
+        src = inspect.getsource(cls if not inspect.isfunction(simulator) else simulator)
+        ident["source"] = hashlib.sha256(src.encode()).hexdigest()[:20]
+    except (OSError, TypeError):
+        ident["source"] = None
+    return ident, ("diagnose/catalogue.py",)
+
+
+def _observables_document(design) -> dict:
+    out = {}
+    for m in design:
+        d: dict[str, Any] = {"kind": m.kind, "conditions": to_jsonable(m.conditions.as_dict()),
+                             "n_components": int(m.n_components)}
+        if m.windows is not None:
+            d["windows"] = np.asarray(m.windows, float).round(12).tolist()
+        if m.percentiles is not None:
+            d["percentiles"] = np.asarray(m.percentiles, float).tolist()
+        out[m.name] = d
+    return out
+
+
+def library_key_document(simulator, spec: DesignSpec, *, design=None) -> dict:
+    """What a run library's runs depend on, section by section.
+
+    Parameters
+    ----------
+    simulator : callable
+        The simulator (``sim(base, effects, seed) -> Observations``); its ``design``
+        attribute, if any, gives the observables.
+    spec : DesignSpec
+        The design (its effects name the catalogue entries the key covers).
+    design : MeasurementSet, optional
+        The observables, when the simulator has no ``design`` attribute.
+
+    Returns
+    -------
+    dict
+        ``simulator`` (name, class, configuration), ``catalogue`` (each effect's
+        magnitude, unit, prior and engine map), ``observables`` (kind, conditions,
+        windows, percentiles of each), ``bedstruct_version``, ``code`` (a hash of each
+        source file or folder the runs depend on), ``schema``.
+    """
+    design = design if design is not None else getattr(simulator, "design", None)
+    if design is None:
+        raise ConfigError("library key: the simulator has no `design` attribute; pass design=")
+    ident, code = _simulator_identity(simulator)
+    cat = {}
+    for e in _catalogue(spec.effects):
+        cat[e.name] = {"magnitude": e.magnitude, "unit": e.unit, "prior": list(e.prior),
+                       "signed": e.signed, "engine_map": to_jsonable(e.engine_map)}
+    return {"schema": LIBRARY_SCHEMA, "simulator": ident, "catalogue": cat,
+            "observables": _observables_document(design), "bedstruct_version": __version__,
+            "code": {rel: _code_hash(rel) for rel in code}}
+
+
+def library_key(document: Mapping) -> str:
+    """The library key: a hash of :func:`library_key_document`."""
+    return _hash(document)
+
+
+def _differences(old: Mapping, new: Mapping, prefix: str = "", limit: int = 6) -> list[str]:
+    out: list[str] = []
+    for k in sorted(set(old) | set(new), key=str):
+        path = f"{prefix}{k}"
+        if k not in old:
+            out.append(f"{path} (new)")
+        elif k not in new:
+            out.append(f"{path} (gone)")
+        elif isinstance(old[k], Mapping) and isinstance(new[k], Mapping):
+            out += _differences(old[k], new[k], path + ".", limit)
+        elif json.dumps(old[k], sort_keys=True, default=str) != json.dumps(new[k], sort_keys=True,
+                                                                          default=str):
+            a, b = (json.dumps(x, default=str) for x in (old[k], new[k]))
+            out.append(f"{path}: {a[:40]} -> {b[:40]}" if len(a) + len(b) < 90 else path)
+        if len(out) >= limit:
+            return out[:limit] + ["..."]
+    return out
+
+
+# ----------------------------------------------------------------------------- library
+@dataclass(frozen=True)
+class RunLibrary:
+    """The runs of a library folder.
+
+    Attributes
+    ----------
+    path : Path
+        The library folder.
+    key : str
+        Library key (see :func:`library_key_document`).
+    key_document : dict
+        What the key hashes.
+    spec : DesignSpec
+    points : tuple of DesignPoint
+        The design's points.
+    names : tuple of str
+        Observable names, in component order.
+    n_components : dict of str to int
+    inputs : (N, d) ndarray
+        Each run's inputs over :attr:`DesignSpec.input_names` (SI; effect magnitudes in
+        their catalogue units).
+    point_index : (N,) ndarray of int
+        Each run's design point.
+    seeds : (N,) ndarray of int
+    outputs : (N, n) ndarray
+        Each run's observations, components of :attr:`names` concatenated (NaN where a run
+        could not observe a component).
+    source : str
+        The simulator's name.
+    n_new : int
+        Runs made by the call that returned this library (0 when loaded).
+    wall_s : float
+        Wall time of that call, s.
+    run_wall_s, run_cpu_s : (N,) ndarray
+        Wall and CPU time of each run in its process, s (NaN where not recorded).
+    """
+
+    path: Path
+    key: str
+    key_document: dict
+    spec: DesignSpec
+    points: tuple
+    names: tuple
+    n_components: dict
+    inputs: np.ndarray
+    point_index: np.ndarray
+    seeds: np.ndarray
+    outputs: np.ndarray
+    source: str = ""
+    n_new: int = 0
+    wall_s: float = 0.0
+    run_wall_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    run_cpu_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def n_runs(self) -> int:
+        return int(len(self.seeds))
+
+    @property
+    def complete(self) -> bool:
+        """Whether every run of the design is in the folder."""
+        return self.n_runs == len(self.points) * self.spec.replicates
+
+
+def _run_name(key: str, point: DesignPoint, seed: int) -> str:
+    return _hash([key, point.base, point.effects, int(seed)]) + ".json"
+
+
+def _run_one(simulator, point: DesignPoint, seed: int) -> dict:
+    t0, c0 = time.perf_counter(), time.process_time()
+    obs = simulator(dict(point.base), dict(point.effects), int(seed))
+    if not isinstance(obs, Observations):
+        raise TypeError(f"the simulator must return an Observations object; got {type(obs).__name__}")
+    return {"observations": {k: np.asarray(v, float).tolist() for k, v in obs.values.items()},
+            "source": obs.source, "wall_s": time.perf_counter() - t0,
+            "cpu_s": time.process_time() - c0}
+
+
+def _check_key(path: Path, key: str, doc: Mapping, spec: DesignSpec) -> None:
+    meta = json.loads((path / "library.json").read_text())
+    if meta.get("key") != key:
+        diff = _differences(meta.get("key_document", {}), doc)
+        raise StaleLibraryError(
+            f"run library {path}: key {meta.get('key')} differs from the current key {key} in "
+            f"{'; '.join(diff) or 'its key document'}; it is stale and not reused (build a new "
+            f"library in another folder, or remove this one)")
+    old = DesignSpec.from_json(meta["spec"])
+    if old != spec:
+        diff = _differences(old.to_json(), spec.to_json())
+        raise ConfigError(f"run library {path}: its design differs from the one asked for in "
+                          f"{'; '.join(diff)}; build the new design in another folder")
+
+
+def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int = 1,
+                  scheduler=None, progress: bool = True, design=None) -> RunLibrary:
+    """Run a design into a library folder (resuming a build that was cut short).
+
+    Parameters
+    ----------
+    simulator : callable
+        ``simulator(base, effects, seed) -> Observations`` with a ``design`` attribute
+        (the observables), e.g. :class:`~bedstruct.diagnose.SurrogateSimulator` or
+        :class:`~bedstruct.workflows.diagnosis_sim.EngineSimulator`. Must be picklable
+        for ``workers > 1`` or a ``scheduler``.
+    design_spec : DesignSpec
+        The design (:func:`design_spec`).
+    out_dir : path-like
+        The library folder (created if absent).
+    workers : int
+        Local worker processes (1: run in this process).
+    scheduler : str or distributed.Client, optional
+        Address of a Dask distributed scheduler (``"tcp://host:port"``) or a client:
+        the runs go to its workers instead of local processes (requires
+        ``dask[distributed]``).
+    progress : bool
+        Show a progress bar over the runs still to do (tqdm).
+    design : MeasurementSet, optional
+        The observables, when the simulator has no ``design`` attribute.
+
+    Returns
+    -------
+    RunLibrary
+        Every run of the folder; ``n_new`` says how many this call made.
+
+    Raises
+    ------
+    StaleLibraryError
+        The folder holds a library of another key (the message names what differs).
+    ConfigError
+        The folder holds another design.
+
+    Notes
+    -----
+    Each run is written to ``runs/<hash>.json`` as soon as it returns (atomically: a
+    file is complete or absent), so a build that is interrupted loses only the runs in
+    flight; called again it runs only the missing ones.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator
+    >>> from bedstruct.diagnose.measurements import measurement_from_dict, MeasurementSet
+    >>> m = measurement_from_dict({"name": "aor", "kind": "static_angle", "role": "calibrate",
+    ...                            "uncertainty": 0.5, "value": 33.0})
+    >>> sim = SurrogateSimulator(MeasurementSet((m,)))
+    >>> spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=4, n_per_effect=4,
+    ...                    replicates=2)
+    >>> lib = build_library(sim, spec, tempfile.mkdtemp(), progress=False)
+    >>> lib.n_runs, lib.n_new, lib.complete
+    (22, 22, True)
+    """
+    t0 = time.perf_counter()
+    out = Path(out_dir)
+    spec = design_spec
+    doc = library_key_document(simulator, spec, design=design)
+    key = library_key(doc)
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    if (out / "library.json").is_file():
+        _check_key(out, key, doc, spec)
+    else:
+        write_json_atomic(out / "library.json", {"schema": LIBRARY_SCHEMA, "key": key,
+                                                 "key_document": doc, "spec": spec.to_json(),
+                                                 "source": getattr(simulator, "name", "")})
+    points = design_points(spec)
+    todo = [(i, p, s) for i, p in enumerate(points) for s in spec.seeds
+            if not (out / "runs" / _run_name(key, p, s)).is_file()]
+    bar = None
+    if progress and todo:
+        from tqdm import tqdm
+        bar = tqdm(total=len(todo), desc="run library", unit="run")
+
+    def save(i, p, s, rec):
+        write_json_atomic(out / "runs" / _run_name(key, p, s),
+                          {"key": key, "point": i, "group": p.group, "base": p.base,
+                           "effects": p.effects, "seed": int(s), **rec}, keep_nan=True)
+        if bar is not None:
+            bar.update()
+
+    try:
+        if scheduler is not None:
+            _build_dask(simulator, todo, scheduler, save)
+        elif int(workers) > 1 and len(todo) > 1:
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+            pool = ProcessPoolExecutor(int(workers))
+            try:
+                # the simulator travels with each run (small: its configuration, not its state)
+                futs = {pool.submit(_run_one, simulator, p, s): (i, p, s) for i, p, s in todo}
+                for f in as_completed(futs):
+                    save(*futs[f], f.result())
+            except BaseException:
+                # interrupted: drop the runs not started, do not wait for those in flight
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+            pool.shutdown()
+        else:
+            for i, p, s in todo:
+                save(i, p, s, _run_one(simulator, p, s))
+    finally:
+        if bar is not None:
+            bar.close()
+    lib = load_library(out, simulator, design=design)
+    return _replace_stats(lib, n_new=len(todo), wall_s=time.perf_counter() - t0)
+
+
+def _replace_stats(lib: RunLibrary, **kw) -> RunLibrary:
+    from dataclasses import replace
+    return replace(lib, **kw)
+
+
+def _build_dask(simulator, todo, scheduler, save) -> None:
+    try:
+        from distributed import Client, as_completed
+    except ImportError as exc:  # pragma: no cover - optional dependency
+        raise ImportError("scheduler=: running a library on Dask needs dask[distributed] "
+                          "(pip install 'bedstruct[dask]')") from exc
+    own = not hasattr(scheduler, "submit")
+    client = Client(scheduler) if own else scheduler
+    try:
+        sim = client.scatter(simulator, broadcast=True)
+        futs = {client.submit(_run_one, sim, p, s, pure=False): (i, p, s) for i, p, s in todo}
+        try:
+            for f in as_completed(list(futs)):
+                save(*futs[f], f.result())
+        except BaseException:
+            client.cancel(list(futs))
+            raise
+    finally:
+        if own:
+            client.close()
+
+
+def load_library(path, simulator=None, *, design=None, key: str | None = None) -> RunLibrary:
+    """Read a library folder, refusing it if its key differs from the current one.
+
+    Parameters
+    ----------
+    path : path-like
+        The library folder.
+    simulator : callable, optional
+        The current simulator: the library's key must match the key its configuration,
+        the catalogue, the observables and the code give now.
+    design : MeasurementSet, optional
+        Observables, when the simulator has no ``design`` attribute.
+    key : str, optional
+        An expected key (checked when no simulator is given).
+
+    Returns
+    -------
+    RunLibrary
+
+    Raises
+    ------
+    StaleLibraryError
+        Library key differs from the current one (the message names what differs), or
+        a run file of another key is found.
+    """
+    path = Path(path)
+    if not (path / "library.json").is_file():
+        raise ConfigError(f"run library {path}: no library.json (not a run library)")
+    meta = json.loads((path / "library.json").read_text())
+    spec = DesignSpec.from_json(meta["spec"])
+    if simulator is not None:
+        doc = library_key_document(simulator, spec, design=design)
+        _check_key(path, library_key(doc), doc, spec)
+    elif key is not None and meta["key"] != key:
+        raise StaleLibraryError(f"run library {path}: key {meta['key']} differs from {key}")
+    lib_key = meta["key"]
+    points = design_points(spec)
+    names = list(meta["key_document"]["observables"])
+    ncomp = {n: int(v["n_components"]) for n, v in meta["key_document"]["observables"].items()}
+    rows, pidx, seeds, ys, walls, cpus = [], [], [], [], [], []
+    inputs = spec.input_names
+    for f in sorted((path / "runs").glob("*.json")):
+        rec = json.loads(f.read_text())
+        if rec.get("key") != lib_key:
+            raise StaleLibraryError(f"run library {path}: run file {f.name} has key "
+                                    f"{rec.get('key')}, the library {lib_key}; not reused")
+        x = [float(rec["base"].get(k, spec.base.get(k, 0.0))) for k in spec.varied]
+        x += [float(rec["effects"].get(e, 0.0)) for e in spec.effects]
+        rows.append(x)
+        pidx.append(int(rec["point"]))
+        seeds.append(int(rec["seed"]))
+        obs = rec["observations"]
+        y = []
+        for n in names:
+            v = obs.get(n)
+            y += [np.nan] * ncomp[n] if v is None else [np.nan if a is None else float(a) for a in v]
+        ys.append(y)
+        walls.append(float(rec.get("wall_s", np.nan)))
+        cpus.append(float(rec.get("cpu_s", np.nan)))
+    order = np.lexsort((np.asarray(seeds), np.asarray(pidx))) if pidx else np.zeros(0, int)
+    ncol = sum(ncomp.values())
+    return RunLibrary(path=path, key=lib_key, key_document=meta["key_document"], spec=spec,
+                      points=points, names=tuple(names), n_components=ncomp,
+                      inputs=np.asarray(rows, float).reshape(-1, len(inputs))[order],
+                      point_index=np.asarray(pidx, int)[order], seeds=np.asarray(seeds, int)[order],
+                      outputs=np.asarray(ys, float).reshape(-1, ncol)[order],
+                      source=str(meta.get("source", "")),
+                      run_wall_s=np.asarray(walls, float)[order],
+                      run_cpu_s=np.asarray(cpus, float)[order])

@@ -1,0 +1,257 @@
+"""Run library and emulator: design, resumable build, stale keys, LOO error, emulated diagnosis."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import qmc
+
+pytest.importorskip("sklearn")
+
+from bedstruct.diagnose import (BASE_PARAMETERS, MeasurementSet, Observations, SurrogateSimulator,
+                                catalogue, diagnose, diagnosis_design, load_measurements,
+                                measurement_from_dict)
+from bedstruct.diagnose.emulator import EmulatedSimulator, fit_emulator
+from bedstruct.diagnose.run_library import (StaleLibraryError, build_library, design_points,
+                                            design_spec, load_library)
+from bedstruct.errors import ConfigError
+
+from diagnose_helpers import small_design
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _one_angle():
+    return MeasurementSet((measurement_from_dict({"name": "aor", "kind": "static_angle",
+                                                  "role": "calibrate", "uncertainty": 0.5,
+                                                  "value": 33.0}),))
+
+
+class Flaky:
+    """The surrogate, counting its calls and failing after ``fail_after`` of them."""
+
+    name = "flaky-surrogate"
+
+    def __init__(self, design, fail_after=None):
+        self.sim = SurrogateSimulator(design)
+        self.design = design
+        self.fail_after = fail_after
+        self.calls = []
+
+    def library_identity(self):  # the same runs whether or not it fails
+        return {"wraps": "surrogate", "noise": 1.0}
+
+    def __call__(self, base, effects, seed):
+        if self.fail_after is not None and len(self.calls) >= self.fail_after:
+            raise KeyboardInterrupt("cut short")
+        self.calls.append((dict(base), dict(effects), int(seed)))
+        return self.sim(base, effects, seed)
+
+
+class Smooth:
+    """A known smooth function of cohesion and wall friction with known Gaussian noise."""
+
+    name = "smooth"
+    noise = 0.2
+
+    def __init__(self):
+        self.design = _one_angle()
+
+    def library_identity(self):
+        return {"noise": self.noise}
+
+    @staticmethod
+    def mean(base, effects):
+        c = base.get("cohesion_energy_density", 3.6e7) / 3.6e7 - 1.0
+        w = effects.get("wall_friction", 0.0)
+        return 30.0 + 8.0 * c + 6.0 * w + 2.0 * np.sin(8.0 * w)
+
+    def __call__(self, base, effects, seed):
+        rng = np.random.default_rng([int(seed), int(1e6 * (1 + base["cohesion_energy_density"] / 1e8)),
+                                     int(1e6 * (1 + effects.get("wall_friction", 0.0)))])
+        return Observations({"aor": [self.mean(base, effects) + self.noise * rng.standard_normal()]})
+
+
+# ----------------------------------------------------------------------------- design
+def test_design_is_space_filling_and_inside_physical_bounds():
+    spec = design_spec(BASE_PARAMETERS, vary={"cohesion_energy_density": 0.25,
+                                              "friction": (0.3, 0.5)},
+                       effects=["wall_friction", "capillary_bridges"], n_base=16, n_per_effect=16)
+    pts = design_points(spec)
+    lo, hi = spec.box
+    assert len(pts) == 1 + 2 * 2 + 16 + 2 * 16
+    for p in pts:
+        x = np.array([p.base[k] for k in spec.varied]
+                     + [p.effects.get(e, 0.0) for e in spec.effects])
+        assert np.all(x >= lo) and np.all(x <= hi)
+        assert len(p.effects) <= 1                       # one effect on at a time
+        assert p.base["restitution"] == BASE_PARAMETERS["restitution"]   # not varied: held
+    # each effect's sub-design: a Latin hypercube (one point per stratum of every input) with
+    # a centred discrepancy below that of independent uniform draws
+    sub = np.array([[(p.base[k] - spec.ranges[k][0]) / np.ptp(spec.ranges[k]) for k in spec.varied]
+                    + [(p.effects["wall_friction"] + 0.2) / 0.6]
+                    for p in pts if p.group == "wall_friction"])
+    for j in range(sub.shape[1]):
+        assert sorted(np.floor(sub[:, j] * 16).astype(int)) == list(range(16))
+    rng = np.random.default_rng(0)
+    random = [qmc.discrepancy(rng.uniform(size=sub.shape)) for _ in range(50)]
+    assert qmc.discrepancy(sub) < np.percentile(random, 10)
+
+
+def test_design_ranges_must_respect_physical_bounds():
+    with pytest.raises(ConfigError, match="friction.*physical bounds"):
+        design_spec(BASE_PARAMETERS, vary={"friction": (-0.1, 0.5)})
+    with pytest.raises(ConfigError, match="does not contain the base value"):
+        design_spec(BASE_PARAMETERS, vary={"friction": (0.5, 0.6)})
+    with pytest.raises(ConfigError, match="restitution.*physical bounds"):
+        design_spec(BASE_PARAMETERS, vary={"restitution": (0.05, 1.2)})
+    with pytest.raises(ConfigError, match="replicates"):
+        design_spec(BASE_PARAMETERS, replicates=1)
+
+
+# ----------------------------------------------------------------------------- build
+def test_a_build_cut_short_resumes_without_redoing_a_finished_run(tmp_path):
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=4, n_per_effect=4,
+                       replicates=2)
+    total = len(design_points(spec)) * 2
+    first = Flaky(_one_angle(), fail_after=5)
+    with pytest.raises(KeyboardInterrupt):
+        build_library(first, spec, tmp_path, progress=False)
+    files = sorted((tmp_path / "runs").glob("*.json"))
+    assert len(files) == 5
+    stamps = {f.name: f.stat().st_mtime_ns for f in files}
+    again = Flaky(_one_angle())
+    lib = build_library(again, spec, tmp_path, progress=False)
+    assert len(again.calls) == total - 5 and lib.n_new == total - 5
+    assert lib.complete and lib.n_runs == total
+    done = {(json.dumps(r["base"], sort_keys=True), json.dumps(r["effects"], sort_keys=True), r["seed"])
+            for r in (json.loads(f.read_text()) for f in files)}
+    redone = {(json.dumps(b, sort_keys=True), json.dumps(e, sort_keys=True), s) for b, e, s in again.calls}
+    assert not done & redone
+    assert all((tmp_path / "runs" / n).stat().st_mtime_ns == t for n, t in stamps.items())
+    # the same runs as one uninterrupted build
+    whole = build_library(Flaky(_one_angle()), spec, tmp_path / "whole", progress=False)
+    np.testing.assert_array_equal(whole.outputs, lib.outputs)
+
+
+def test_parallel_builds_give_the_runs_of_a_serial_one(tmp_path):
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=3, n_per_effect=3,
+                       replicates=2)
+    sim = SurrogateSimulator(_one_angle())
+    serial = build_library(sim, spec, tmp_path / "serial", progress=False)
+    pooled = build_library(sim, spec, tmp_path / "pool", workers=2, progress=False)
+    np.testing.assert_array_equal(serial.outputs, pooled.outputs)
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        on_dask = build_library(sim, spec, tmp_path / "dask", scheduler=client, progress=False)
+    np.testing.assert_array_equal(serial.outputs, on_dask.outputs)
+
+
+def test_a_stale_library_is_refused_naming_what_differs(tmp_path):
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    build_library(SurrogateSimulator(_one_angle()), spec, tmp_path, progress=False)
+    with pytest.raises(StaleLibraryError, match=r"simulator\.config\.noise: 1\.0 -> 0\.5"):
+        load_library(tmp_path, SurrogateSimulator(_one_angle(), noise=0.5))
+    with pytest.raises(StaleLibraryError, match=r"observables\.pf \(new\)"):
+        build_library(SurrogateSimulator(small_design()), spec, tmp_path, progress=False)
+    # a library written by other code (another surrogate source) is stale too
+    meta = json.loads((tmp_path / "library.json").read_text())
+    meta["key_document"]["code"]["diagnose/surrogate.py"] = "0" * 20
+    meta["key"] = "older"
+    (tmp_path / "library.json").write_text(json.dumps(meta))
+    with pytest.raises(StaleLibraryError, match=r"code\.diagnose/surrogate\.py"):
+        build_library(SurrogateSimulator(_one_angle()), spec, tmp_path, progress=False)
+    # another design in the same folder is refused too (not mixed in)
+    other = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=3, n_per_effect=2,
+                        replicates=2)
+    fresh = tmp_path / "fresh"
+    build_library(SurrogateSimulator(_one_angle()), spec, fresh, progress=False)
+    with pytest.raises(ConfigError, match="n_base"):
+        build_library(SurrogateSimulator(_one_angle()), other, fresh, progress=False)
+
+
+# ----------------------------------------------------------------------------- emulator
+@pytest.fixture(scope="module")
+def surrogate_emulator(tmp_path_factory):
+    sim = SurrogateSimulator(small_design())
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction", "capillary_bridges"],
+                       n_base=8, n_per_effect=10, replicates=3)
+    lib = build_library(sim, spec, tmp_path_factory.mktemp("lib"), progress=False)
+    return sim, lib, fit_emulator(lib)
+
+
+def test_emulator_loo_error_is_reported_and_bounded_on_a_surrogate_library(surrogate_emulator):
+    sim, lib, emu = surrogate_emulator
+    loo = emu.loo
+    assert 0.5 <= loo.loo_rmse_sigma <= 2.0
+    assert loo.loo_within_2sigma >= 0.85
+    assert loo.z.shape == lib.outputs.shape and loo.rmse_sigma.shape == (lib.outputs.shape[1],)
+    # the fitted white noise is the surrogate's run-to-run scatter (static angle: 0.35 deg)
+    assert emu.predict({}, {}).noise_sd[0] == pytest.approx(0.35, rel=0.3)
+    # the hyperparameters are stored: a second fit of the same runs gives the same emulator
+    again = fit_emulator(load_library(lib.path, sim))
+    assert again.loo.loo_rmse_sigma == pytest.approx(loo.loo_rmse_sigma, rel=1e-6)
+
+
+def test_emulator_recovers_a_known_smooth_function_and_its_noise(tmp_path):
+    sim = Smooth()
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=6, n_per_effect=24,
+                       replicates=3)
+    emu = fit_emulator(build_library(sim, spec, tmp_path, progress=False))
+    assert emu.predict({}, {}).noise_sd[0] == pytest.approx(sim.noise, rel=0.3)
+    errs, sds = [], []
+    for c in np.linspace(2.8e7, 4.4e7, 5):
+        for w in np.linspace(-0.18, 0.38, 7):
+            p = emu.predict({"cohesion_energy_density": c}, {"wall_friction": w})
+            errs.append(p.mean[0] - sim.mean({"cohesion_energy_density": c}, {"wall_friction": w}))
+            sds.append(p.sd[0])
+    errs, sds = np.abs(errs), np.asarray(sds)
+    assert errs.max() < 0.25                       # the function spans ~6 deg; noise 0.2
+    assert np.mean(errs <= 2.5 * sds) >= 0.85      # the emulator's own uncertainty covers it
+
+
+def test_emulated_simulator_refuses_points_outside_the_design_box(surrogate_emulator):
+    sim, lib, emu = surrogate_emulator
+    esim = EmulatedSimulator(emu)
+    obs = esim({}, {"wall_friction": 0.3}, 4)
+    assert obs.source == "emulator" and set(obs.names) == {"aor", "dyn", "pf"}
+    np.testing.assert_array_equal(obs.vector(["aor"]), esim({}, {"wall_friction": 0.3}, 4).vector(["aor"]))
+    assert esim({}, {}, 1)["aor"][0] != esim({}, {}, 2)["aor"][0]
+    with pytest.raises(ConfigError, match=r"cohesion_energy_density = 2e\+07 lies outside"):
+        esim({"cohesion_energy_density": 2.0e7}, {}, 0)
+    with pytest.raises(ConfigError, match=r"wall_friction = 0\.5 lies outside"):
+        esim({}, {"wall_friction": 0.5}, 0)
+    with pytest.raises(ConfigError, match="friction = 0.5 differs"):
+        esim({"friction": 0.5}, {}, 0)
+    with pytest.raises(ConfigError, match="'missing_fines' is not in the run library"):
+        esim({}, {"missing_fines": 0.05}, 0)
+    # two effects at once: composed additively around the base point
+    both = emu.predict({}, {"wall_friction": 0.2, "capillary_bridges": 0.4}).mean
+    parts = (emu.predict({}, {"wall_friction": 0.2}).mean + emu.predict({}, {"capillary_bridges": 0.4}).mean
+             - emu.predict({}, {}).mean)
+    np.testing.assert_allclose(both, parts)
+    # how well it predicts real runs at a point
+    chk = emu.check([sim({}, {"wall_friction": 0.3}, s) for s in range(100, 104)], {},
+                    {"wall_friction": 0.3})
+    assert chk.z.shape == (4, 4) and chk.rmse_sigma < 3.0
+
+
+def test_a_diagnosis_on_the_emulated_surrogate_names_the_surrogates_effect(tmp_path):
+    ms = load_measurements(ROOT / "data/measurements/seed.toml")
+    effects = catalogue(["missing_fines", "wall_friction"])
+    sim = SurrogateSimulator(diagnosis_design(ms, effects))
+    spec = design_spec(BASE_PARAMETERS, effects=effects, n_base=6, n_per_effect=8, replicates=3)
+    emu = fit_emulator(build_library(sim, spec, tmp_path, progress=False))
+    on_sim = diagnose(ms, sim, base=BASE_PARAMETERS, effects=effects)
+    on_emu = diagnose(ms, EmulatedSimulator(emu), base=BASE_PARAMETERS, effects=effects)
+    assert on_sim.attribution.verdict == "attributed"
+    assert on_emu.attribution.verdict == on_sim.attribution.verdict
+    assert on_emu.attribution.best.effects == on_sim.attribution.best.effects
+    a, b = on_sim.shrink.magnitudes, on_emu.shrink.magnitudes
+    assert set(a) == set(b) and all(abs(a[k] - b[k]) < 0.3 * abs(a[k]) for k in a)
