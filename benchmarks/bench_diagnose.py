@@ -83,7 +83,7 @@ def main(argv=None) -> int:
     effects = catalogue(a.effects.split(",") if a.effects else None)
     design = diagnosis_design(ms, effects)
     if engine:
-        from bedstruct.workflows.diagnosis_sim import diagnosis_simulator
+        from bedstruct.diagnose.engine_simulator import diagnosis_simulator
         sim = diagnosis_simulator(design, {"preset": a.preset, "n_threads": 1})
     else:
         sim = SurrogateSimulator(design)

@@ -1,8 +1,9 @@
 """Diagnose the gap between a simulation and measurements, or validate the diagnosis.
 
-  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR
+  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--library LIB]
       Where the simulation misses the measurements, which effect explains it, how far
-      the gap shrinks with it, and what to measure next (CONFIG: a TOML or "surrogate").
+      the gap shrinks with it, and what to measure next (CONFIG: a TOML or "surrogate");
+      with --library, answered by the emulator of a run library built once in LIB.
   bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
       Score the diagnosis on synthetic twins whose effect is withheld.
   bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --seed S --out DIR
@@ -53,6 +54,13 @@ def add_arguments(parser) -> None:
                         help="rounds simulating the leading effects at their fits (default: config)")
     parser.add_argument("--top-up", type=_rounds, default=None, metavar="N",
                         help="seeds added where an effect's identifiability is marginal")
+    parser.add_argument("--library", metavar="DIR",
+                        help="answer on the emulator of a run library in DIR (built once), "
+                             "confirmed by one rerun of the simulator")
+    parser.add_argument("--workers", type=int, default=None, metavar="N",
+                        help="--library: local processes for the library's runs")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="--library: Dask distributed scheduler for the library's runs")
     parser.add_argument("--twins-engine", choices=["surrogate", "embedded", "liggghts", "lammps"],
                         default=None, help="benchmark: what makes the twins' data (default surrogate)")
     parser.add_argument("--n", type=int, default=None,
@@ -113,6 +121,8 @@ def _run_validate(args) -> int:
 
     if args.real:
         raise UsageError("--real is for a diagnosis; validate makes its own measurement files")
+    if args.library or args.workers is not None or args.scheduler:
+        raise UsageError("--library/--workers/--scheduler are for a diagnosis, not validate")
     for name, default in _VALIDATE_ONLY.items():
         if getattr(args, name) is None:
             setattr(args, name, default)
@@ -212,22 +222,46 @@ def run(args) -> int:
     ms = load_measurements(args.real)
     design = diagnosis_design(ms, cfg.effects)
     sim = make_simulator(cfg, design)
-    diag = diagnose(ms, sim, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
-                    replicates=cfg.replicates, top_up=cfg.top_up,
+    settings = dict(replicates=cfg.replicates, top_up=cfg.top_up,
                     seed=cfg.seed if args.seed is None else args.seed,
                     alpha=cfg.alpha, select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
                     max_effects=cfg.max_effects, refine=cfg.refine,
-                    confirm_rounds=cfg.confirm_rounds, bounds=cfg.bounds, progress=args.progress)
+                    confirm_rounds=cfg.confirm_rounds, bounds=cfg.bounds)
+    amortised = None
+    if args.library:
+        from ..diagnose.amortised import diagnose_with_library
+        lib = dict(cfg.library)
+        vary = lib.pop("vary", 0.25)
+        if "replicates" in lib:
+            lib["library_replicates"] = lib.pop("replicates")
+        amortised = diagnose_with_library(
+            ms, sim, base=cfg.base, library=args.library, effects=cfg.effects,
+            nuisance=cfg.nuisance, vary={n: vary for n in cfg.nuisance},
+            workers=args.workers or 1, scheduler=args.scheduler, progress=args.progress,
+            **lib, **settings)
+        diag = amortised.diagnosis
+    elif args.workers is not None or args.scheduler:
+        raise UsageError("--workers/--scheduler build a run library: give --library DIR")
+    else:
+        diag = diagnose(ms, sim, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
+                        progress=args.progress, **settings)
     out = diag.to_json()
     out["sim_config"] = cfg.as_dict()
+    if amortised is not None:
+        out["emulator"] = amortised.to_json()
     html, js = write_report(diagnosis_report(diag), args.out)
     _write_json(f"{args.out}/diagnosis.json", out)
     if args.json:
+        extra = {} if amortised is None else {
+            "emulator_confirm_rmse_sigma": amortised.check.rmse_sigma,
+            "library_runs": amortised.library_runs}
         print_json(to_jsonable(dict(compact_answer(diag), simulator=diag.simulator,
-                               report=str(html))))
+                               report=str(html), **extra)))
     else:
         for line in answer_lines(diag):
             print(line)
+        if amortised is not None:
+            print(amortised.summary_line())
         print(f"Report: {html} (statistics in its appendix; full answer in "
               f"{args.out}/diagnosis.json)")
     return 0

@@ -12,17 +12,21 @@ simulators (``surrogate``, ``engine_simulator``, ``engine_runs``, ``process_pool
 ``replicates``, ``config``, ``parameters``, ``catalogue``); the model and its fit
 (``effect_response``, ``fingerprints``, ``fingerprint_runs``, ``identifiability``,
 ``noise_correlation``, ``where``, ``attribution``, ``profile_interval``, ``separation``,
-``confirm``, ``diagnosis``, ``diagnosis_result``); the answer and report (``answer``,
-``report``); validation (``validation_design``, ``twins``, ``validation_records``,
+``confirm``, ``diagnosis``, ``diagnosis_result``); the run library and its emulator
+(``run_library``, ``emulator``, ``amortised``); the answer, report and figures (``answer``,
+``report``, ``figures``); validation (``validation_design``, ``twins``, ``validation_records``,
 ``validation_scores``, ``validate``, ``validate_parallel``, ``validate_liggghts``,
-``external_twins``, ``liggghts_effects``). Imports point from the later groups to the
-earlier ones.
+``external_twins``, ``liggghts_effects``, and the blind protocol ``blind``, ``blind_twins``,
+``blind_report``). Imports point from the later groups to the earlier ones.
 """
 
 from __future__ import annotations
 
+from .amortised import AmortisedDiagnosis, diagnose_with_library
 from .answer import answer, compact_answer
 from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_model
+from .blind import BenchmarkResult, run_benchmark
+from .blind_twins import OUT_OF_CATALOGUE
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
                         kelvin_radius)
 from .config import SimConfig, load_sim_config, make_simulator
@@ -30,6 +34,7 @@ from .confirm import Shrink, gap_size
 from .diagnosis import candidate_design, diagnose, diagnosis_design
 from .diagnosis_result import Diagnosis, NextMeasurement, identification
 from .effect_response import Fingerprint
+from .emulator import EmulatedSimulator, Emulator, fit_emulator
 from .fingerprint_runs import compute_fingerprints
 from .fingerprints import FingerprintSet
 from .identifiability import nuisance_projector
@@ -41,6 +46,8 @@ from .observables_image import (AngleFit, angle_from_image, angle_from_particles
                                 fit_surface_angle, read_image, render_side_view, surface_profile)
 from .parameters import PARAMETER_BOUNDS, parameter_bounds
 from .replicates import Simulator, simulate_replicates
+from .run_library import (RunLibrary, StaleLibraryError, build_library, design_spec,
+                          load_library)
 from .report import diagnosis_report, validation_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
@@ -70,8 +77,13 @@ __all__ = [
     "candidate_design", "identification", "diagnosis_design", "gap_size", "Shrink",
     "NextMeasurement", "Diagnosis", "diagnose", "answer", "compact_answer",
     "diagnosis_report", "validation_report",
+    # run library and emulator
+    "design_spec", "build_library", "load_library", "RunLibrary", "StaleLibraryError",
+    "fit_emulator", "Emulator", "EmulatedSimulator", "diagnose_with_library",
+    "AmortisedDiagnosis",
     # validation
     "PRESETS", "ENGINE_PRESETS", "GOALS", "METHOD_VERSION", "ValidationResult", "score_twins",
     "capped_twins", "capped_summary", "separation", "nearest_imitations", "not_told_apart",
     "twin_design", "engine_twin_design", "validate", "LIGGGHTS_PRESETS", "validate_liggghts",
+    "run_benchmark", "BenchmarkResult", "OUT_OF_CATALOGUE",
 ]

@@ -74,6 +74,7 @@ class SimConfig:
     confirm_rounds: int = 2
     noise: float = 1.0
     engine: dict = field(default_factory=dict)
+    library: dict = field(default_factory=dict)
     path: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
@@ -83,7 +84,30 @@ class SimConfig:
                 "top_up": self.top_up, "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
                 "gof_alpha": self.gof_alpha,
                 "max_effects": self.max_effects, "refine": self.refine,
-                "confirm_rounds": self.confirm_rounds, "path": self.path}
+                "confirm_rounds": self.confirm_rounds, "library": dict(self.library),
+                "path": self.path}
+
+
+#: Keys of the ``[library]`` table: the size of a run library's design
+#: (:func:`bedstruct.diagnose.run_library.design_spec`) and the varied base parameters'
+#: relative half-width.
+LIBRARY_KEYS = {"n_base": int, "n_per_effect": int, "replicates": int, "vary": float}
+
+
+def _library_table(doc, p) -> dict:
+    lib = doc.get("library", {})
+    if not isinstance(lib, dict):
+        raise ConfigError(f"{p}: key 'library': expected a table; got {lib!r}")
+    out = {}
+    for key, v in lib.items():
+        if key not in LIBRARY_KEYS:
+            raise ConfigError(f"{p} [library]: key {key!r}: unknown (expected "
+                              f"{', '.join(LIBRARY_KEYS)})")
+        out[key] = _get(lib, key, LIBRARY_KEYS[key], f"{p} [library]", None)
+        if not out[key] > 0:
+            raise ConfigError(f"{p} [library]: key {key!r}: expected a positive number; "
+                              f"got {out[key]!r}")
+    return out
 
 
 def _get(table, key, typ, where, default):
@@ -120,7 +144,8 @@ def load_sim_config(path) -> SimConfig:
         doc = tomllib.loads(p.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{p}: not valid TOML ({exc})") from None
-    unknown = set(doc) - {"simulator", "base", "recalibrate", "catalogue", "diagnosis", "engine"}
+    unknown = set(doc) - {"simulator", "base", "recalibrate", "catalogue", "diagnosis", "engine",
+                          "library"}
     if unknown:
         raise ConfigError(f"{p}: key {sorted(unknown)[0]!r}: unknown table")
     sim = doc.get("simulator", {})
@@ -175,7 +200,8 @@ def load_sim_config(path) -> SimConfig:
                     max_effects=_get(dg, "max_effects", int, f"{p} [diagnosis]", 2),
                     refine=_get(dg, "refine", int, f"{p} [diagnosis]", 2),
                     confirm_rounds=_get(dg, "confirm_rounds", int, f"{p} [diagnosis]", 2),
-                    engine=dict(doc.get("engine", {})), path=str(p))
+                    engine=dict(doc.get("engine", {})), library=_library_table(doc, p),
+                    path=str(p))
     if cfg.replicates < 2:
         raise ConfigError(f"{p} [simulator]: key 'replicates': need >= 2; got {cfg.replicates}")
     if cfg.top_up < 0:

@@ -1,0 +1,172 @@
+"""A diagnosis served by a run library: the emulator answers, the simulator confirms.
+
+:func:`diagnose_with_library` builds (or resumes, or reuses) the run library of a
+simulator and a catalogue (:func:`~bedstruct.diagnose.run_library.build_library`), fits
+its emulator (:func:`~bedstruct.diagnose.emulator.fit_emulator`), runs
+:func:`~bedstruct.diagnose.diagnose` on the emulated simulator, then reruns the real
+simulator at the chosen point (recalibrated base parameters plus the attributed
+magnitudes) and says how well the emulator predicted that rerun. The library is paid
+for once per simulator configuration, catalogue, measurement design and code version;
+every later diagnosis on it costs the emulator's time and one confirming rerun.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping, Sequence
+
+from ..errors import ConfigError
+from .confirm import RERUN_SEED_STRIDE
+from .diagnosis import diagnose
+from .diagnosis_result import Diagnosis
+from .emulator import EmulatedSimulator, EmulatorCheck, fit_emulator
+from .run_library import build_library, design_spec
+
+__all__ = ["AmortisedDiagnosis", "diagnose_with_library"]
+
+
+@dataclass(frozen=True)
+class AmortisedDiagnosis:
+    """A diagnosis made on an emulator, with the real simulator's confirming rerun.
+
+    Attributes
+    ----------
+    diagnosis : Diagnosis
+        The answer (its simulator is the emulator).
+    check : EmulatorCheck
+        How well the emulator predicted the real simulator's rerun at the chosen point
+        (``rmse_sigma``: RMS of the standardised errors, 1 when calibrated;
+        ``within_2sigma``).
+    point : dict
+        The base parameters of the rerun (recalibrated).
+    magnitudes : dict
+        The effect magnitudes of the rerun (empty when no effect was attributed).
+    library : Path
+        The run library's folder.
+    library_runs : int
+        Runs in the library.
+    loo_rmse_sigma, loo_within_2sigma : float
+        The emulator's leave-one-point-out error in units of its predictive sigma, and
+        the fraction of left-out runs within 2 sigma.
+    """
+
+    diagnosis: Diagnosis
+    check: EmulatorCheck
+    point: dict
+    magnitudes: dict
+    library: Path
+    library_runs: int
+    loo_rmse_sigma: float
+    loo_within_2sigma: float
+
+    def to_json(self) -> dict:
+        """The emulator's part of a diagnosis' JSON (the ``emulator`` block)."""
+        return {"library": str(self.library), "library_runs": int(self.library_runs),
+                "loo_rmse_sigma": float(self.loo_rmse_sigma),
+                "loo_within_2sigma": float(self.loo_within_2sigma),
+                "confirm_point": dict(self.point), "confirm_magnitudes": dict(self.magnitudes),
+                "confirm_rmse_sigma": float(self.check.rmse_sigma),
+                "confirm_within_2sigma": float(self.check.within_2sigma)}
+
+    def summary_line(self) -> str:
+        """One sentence on the emulator and how well it predicted the confirming rerun."""
+        return (f"Emulator: {self.library_runs} library runs (leave-one-out error "
+                f"{self.loo_rmse_sigma:.2f} sigma); it predicted the simulator's rerun at the "
+                f"answer within {self.check.rmse_sigma:.2f} sigma RMS "
+                f"({100 * self.check.within_2sigma:.0f} % of components within 2 sigma).")
+
+
+def _runs(simulator, base, effects, seeds, workers):
+    if workers > 1 and len(seeds) > 1:
+        with ProcessPoolExecutor(min(workers, len(seeds))) as pool:
+            return list(pool.map(simulator, [base] * len(seeds), [effects] * len(seeds), seeds))
+    return [simulator(base, effects, s) for s in seeds]
+
+
+def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float], library,
+                          effects: Sequence | None = None,
+                          nuisance: Sequence[str] = ("cohesion_energy_density",),
+                          vary: Mapping | None = None, n_base: int = 16, n_per_effect: int = 16,
+                          library_replicates: int = 3, workers: int = 1, scheduler=None,
+                          confirm_seeds: int = 2, progress: bool = False,
+                          **diagnose_kwargs) -> AmortisedDiagnosis:
+    """Diagnose on the emulator of a run library, then confirm with the real simulator.
+
+    Parameters
+    ----------
+    measurements : MeasurementSet
+    simulator : callable
+        The real simulator, ``simulator(base, effects, seed) -> Observations``.
+    base : mapping
+        Calibrated base parameters (SI).
+    library : path-like
+        Folder of the run library: built there when absent, resumed when cut short,
+        reused when its key matches, refused (:class:`~bedstruct.diagnose.run_library.StaleLibraryError`)
+        when it was made for another simulator, catalogue, design or code.
+    effects : sequence of Effect, optional
+        Catalogue (default: all).
+    nuisance : sequence of str
+        Base parameters the recalibration may change; each is varied in the library.
+    vary : mapping, optional
+        Ranges of the varied base parameters, ``(lo, hi)`` or a relative half-width
+        (default: each nuisance parameter +-25 %).
+    n_base, n_per_effect, library_replicates : int
+        Size of the library's design (see :func:`~bedstruct.diagnose.run_library.design_spec`).
+    workers : int
+        Local processes for the library's runs and the confirming rerun.
+    scheduler : str, optional
+        Address of a Dask distributed scheduler (``tcp://...``) for the library's runs.
+    confirm_seeds : int
+        Seeds of the confirming rerun.
+    **diagnose_kwargs
+        Passed on to :func:`~bedstruct.diagnose.diagnose` (``replicates``, ``alpha``...).
+
+    Returns
+    -------
+    AmortisedDiagnosis
+
+    Raises
+    ------
+    ConfigError
+        When the diagnosis leaves the library's design box (the message names the
+        parameter or magnitude): widen ``vary`` and build again.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import bedstruct.diagnose as dg
+    >>> from bedstruct.diagnose.amortised import diagnose_with_library
+    >>> ms = dg.load_measurements(pathlib.Path(dg.__file__).parents[2] / "data/measurements/seed.toml")
+    >>> effects = dg.catalogue(["missing_fines", "wall_friction"])
+    >>> sim = dg.SurrogateSimulator(dg.diagnosis_design(ms, effects))
+    >>> res = diagnose_with_library(ms, sim, base=dg.BASE_PARAMETERS, effects=effects,
+    ...                             library=tempfile.mkdtemp(), n_base=6, n_per_effect=6,
+    ...                             replicates=2, refine=0)
+    >>> res.diagnosis.shrink.model, res.library_runs > 0
+    ('missing_fines', True)
+    """
+    if confirm_seeds < 1:
+        raise ConfigError(f"confirm_seeds must be >= 1; got {confirm_seeds}")
+    effects = tuple(effects) if effects is not None else None
+    if vary is None:
+        vary = {name: 0.25 for name in nuisance}
+    spec = design_spec(dict(base), vary=vary, effects=effects, n_base=n_base,
+                       n_per_effect=n_per_effect, replicates=library_replicates)
+    lib = build_library(simulator, spec, Path(library), workers=workers, scheduler=scheduler,
+                        progress=progress)
+    emulator = fit_emulator(lib, progress=progress)
+    emulated = EmulatedSimulator(emulator)
+    diag = diagnose(measurements, emulated, base=base, effects=effects, nuisance=nuisance,
+                    progress=progress, **diagnose_kwargs)
+    sh = diag.shrink
+    point = dict(base)
+    point.update({k: float(base[k]) + float(v) for k, v in sh.nuisance.items()})
+    magnitudes = {k: float(v) for k, v in sh.magnitudes.items()}
+    seeds = [RERUN_SEED_STRIDE + i for i in range(int(confirm_seeds))]
+    runs = _runs(simulator, point, magnitudes, seeds, workers)
+    check = emulator.check(runs, point, magnitudes)
+    return AmortisedDiagnosis(diag, check, point, magnitudes, Path(library), lib.n_runs,
+                              float(emulator.loo.loo_rmse_sigma),
+                              float(emulator.loo.loo_within_2sigma))
