@@ -1,14 +1,10 @@
 """Diagnose the gap between a simulation and measurements, or validate the diagnosis.
 
   bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--library LIB]
-      Where the simulation misses the measurements, which effect explains it, how far
-      the gap shrinks with it, and what to measure next (CONFIG: a TOML or "surrogate");
-      with --library, answered by the emulator of a run library built once in LIB.
+      Where the simulation misses the data, which effect explains it, how far the gap
+      shrinks, what to measure next (with --library: on a run library's emulator).
   bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
-      Score the diagnosis on synthetic twins whose effect is withheld.
-  bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --seed S --out DIR
-      Blind benchmark: truth sealed before any diagnosis, each twin diagnosed once, scored
-      with exact binomial intervals.
+  bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --out DIR
 
 Details of every option and of the files: docs/diagnose.md.
 """

@@ -578,7 +578,7 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     --------
     >>> import tempfile
     >>> from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator
-    >>> from bedstruct.diagnose.measurements import measurement_from_dict, MeasurementSet
+    >>> from bedstruct.diagnose import measurement_from_dict, MeasurementSet
     >>> m = measurement_from_dict({"name": "aor", "kind": "static_angle", "role": "calibrate",
     ...                            "uncertainty": 0.5, "value": 33.0})
     >>> sim = SurrogateSimulator(MeasurementSet((m,)))
