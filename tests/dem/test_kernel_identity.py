@@ -37,7 +37,14 @@ def _differences(name, arrays):
     return "; ".join(out) or "arrays equal (digest inputs differ otherwise)"
 
 
-@pytest.mark.parametrize("name", sorted(rt.CASES))
+#: Run by default: the seed's model in each scene, the model without rolling or cohesion,
+#: and each extension once; the other cases are ``slow``.
+DEFAULT_CASES = {"bed-epsd2-coh1", "spread-epsd2-coh1", "repose-epsd2-coh1", "bed-none-coh0",
+                 "spread-cdt-coh0", "bed-epsd2-cap", "bed-epsd2-age", "bed-epsd-krf3"}
+
+
+@pytest.mark.parametrize("name", [n if n in DEFAULT_CASES else pytest.param(n, marks=pytest.mark.slow)
+                                  for n in sorted(rt.CASES)])
 def test_trajectory_bit_identical(name):
     if rt.machine() != _REF["machine"]:
         pytest.skip(f"digests recorded on {_REF['machine']}; this is {rt.machine()}")

@@ -382,6 +382,7 @@ def test_the_median_shrink_is_taken_over_twins_with_a_held_out_gap():
     assert s["goals"]["median_gap_shrink"]["n_no_heldout_gap"] == 0
 
 
+@pytest.mark.slow  # resuming in workers: test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once
 def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, capsys, caplog):
     """Shards run disjoint twins of one plan; their merged records score as the whole run."""
     from bedstruct.diagnose import PRESETS
