@@ -71,7 +71,8 @@ def main(argv=None) -> int:
                                     diagnosis_design, load_measurements)
     from bedstruct.diagnose.confirm import RERUN_SEED_STRIDE
     from bedstruct.diagnose.emulator import EmulatedSimulator, fit_emulator
-    from bedstruct.diagnose.run_library import build_library, design_spec, load_library
+    from bedstruct.diagnose.run_design import design_spec
+    from bedstruct.diagnose.run_library import build_library, load_library
 
     engine = a.sim == "engine"
     n_base = a.n_base if a.n_base is not None else (0 if engine else 16)

@@ -13,7 +13,7 @@ simulators (``surrogate``, ``engine_simulator``, ``engine_runs``, ``process_pool
 (``effect_response``, ``fingerprints``, ``fingerprint_runs``, ``identifiability``,
 ``noise_correlation``, ``where``, ``attribution``, ``profile_interval``, ``separation``,
 ``confirm``, ``diagnosis``, ``diagnosis_result``); the run library and its emulator
-(``run_library``, ``emulator``, ``amortised``); the answer, report and figures (``answer``,
+(``run_design``, ``run_library``, ``emulator``, ``amortised``); the answer, report and figures (``answer``,
 ``report``, ``figures``); validation (``validation_design``, ``twins``, ``validation_records``,
 ``validation_scores``, ``validate``, ``validate_parallel``, ``validate_liggghts``,
 ``external_twins``, ``liggghts_effects``, and the blind protocol ``blind``, ``blind_twins``,
@@ -46,8 +46,8 @@ from .observables_image import (AngleFit, angle_from_image, angle_from_particles
                                 fit_surface_angle, read_image, render_side_view, surface_profile)
 from .parameters import PARAMETER_BOUNDS, parameter_bounds
 from .replicates import Simulator, simulate_replicates
-from .run_library import (RunLibrary, StaleLibraryError, build_library, design_spec,
-                          load_library)
+from .run_design import design_spec
+from .run_library import RunLibrary, StaleLibraryError, build_library, load_library
 from .report import diagnosis_report, validation_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator

@@ -22,7 +22,8 @@ from .confirm import RERUN_SEED_STRIDE
 from .diagnosis import diagnose
 from .diagnosis_result import Diagnosis
 from .emulator import EmulatedSimulator, EmulatorCheck, fit_emulator
-from .run_library import build_library, design_spec
+from .run_design import design_spec
+from .run_library import build_library
 
 __all__ = ["AmortisedDiagnosis", "diagnose_with_library"]
 
@@ -113,7 +114,7 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
         Ranges of the varied base parameters, ``(lo, hi)`` or a relative half-width
         (default: each nuisance parameter +-25 %).
     n_base, n_per_effect, library_replicates : int
-        Size of the library's design (see :func:`~bedstruct.diagnose.run_library.design_spec`).
+        Size of the library's design (see :func:`~bedstruct.diagnose.run_design.design_spec`).
     workers : int
         Local processes for the library's runs and the confirming rerun.
     scheduler : str, optional

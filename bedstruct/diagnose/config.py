@@ -89,7 +89,7 @@ class SimConfig:
 
 
 #: Keys of the ``[library]`` table: the size of a run library's design
-#: (:func:`bedstruct.diagnose.run_library.design_spec`) and the varied base parameters'
+#: (:func:`bedstruct.diagnose.run_design.design_spec`) and the varied base parameters'
 #: relative half-width.
 LIBRARY_KEYS = {"n_base": int, "n_per_effect": int, "replicates": int, "vary": float}
 

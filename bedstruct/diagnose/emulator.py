@@ -466,7 +466,7 @@ def fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
     >>> import tempfile
     >>> from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator
     >>> from bedstruct.diagnose import measurement_from_dict, MeasurementSet
-    >>> from bedstruct.diagnose.run_library import build_library, design_spec
+    >>> from bedstruct.diagnose import build_library, design_spec
     >>> m = measurement_from_dict({"name": "aor", "kind": "static_angle", "role": "calibrate",
     ...                            "uncertainty": 0.5, "value": 33.0})
     >>> sim = SurrogateSimulator(MeasurementSet((m,)))

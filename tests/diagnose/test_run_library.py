@@ -15,8 +15,8 @@ from bedstruct.diagnose import (BASE_PARAMETERS, MeasurementSet, Observations, S
                                 catalogue, diagnose, diagnosis_design, load_measurements,
                                 measurement_from_dict)
 from bedstruct.diagnose.emulator import EmulatedSimulator, fit_emulator
-from bedstruct.diagnose.run_library import (StaleLibraryError, build_library, design_points,
-                                            design_spec, load_library)
+from bedstruct.diagnose.run_design import design_points, design_spec
+from bedstruct.diagnose.run_library import StaleLibraryError, build_library, load_library
 from bedstruct.errors import ConfigError
 
 from diagnose_helpers import small_design
