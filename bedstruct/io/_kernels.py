@@ -243,6 +243,21 @@ def _eisel_lemire(w, q, pow10_hi, pow10_lo, pow5, pow2):
 
 
 @njit(inline="always")
+def _decimal_value(m, exp10, pow10, pow10_hi, pow10_lo, pow5, pow2):
+    """The double nearest ``m * 10**exp10`` (``m`` an unsigned decimal mantissa), and whether
+    it was found: exactly by Clinger's fast path (``m`` below 2**53, ``|exp10| <= 22``: one
+    correctly rounded multiplication or division), else by Eisel-Lemire, which declines
+    (``ok`` False) the rare cases it cannot round with certainty."""
+    if m == _U0:
+        return 0.0, True
+    if m <= _MAX_EXACT and exp10 >= -22 and exp10 <= 22:
+        if exp10 < 0:
+            return float(m) / pow10[-exp10], True
+        return float(m) * pow10[exp10], True
+    return _eisel_lemire(m, exp10, pow10_hi, pow10_lo, pow5, pow2)
+
+
+@njit(inline="always")
 def _number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
     """Parse the token starting at ``_b(buf, i)``: returns (value, index after it, exact)."""
     neg = False
@@ -299,15 +314,7 @@ def _number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
             i += 1
     v = np.nan
     if ok:
-        if m == _U0:
-            v = 0.0
-        elif m <= _MAX_EXACT and exp10 >= -22 and exp10 <= 22:
-            if exp10 < 0:
-                v = float(m) / pow10[-exp10]
-            else:
-                v = float(m) * pow10[exp10]
-        else:
-            v, ok = _eisel_lemire(m, exp10, pow10_hi, pow10_lo, pow5, pow2)
+        v, ok = _decimal_value(m, exp10, pow10, pow10_hi, pow10_lo, pow5, pow2)
     return (-v if neg else v), i, ok
 
 
@@ -477,17 +484,9 @@ def _short_number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
         exp10 += -ex if eneg else ex
     if i < e and _b(buf, i) > 32:
         return 0.0, i, False
-    if m == _U0:
-        v = 0.0
-    elif m <= _MAX_EXACT and exp10 >= -22 and exp10 <= 22:
-        if exp10 < 0:
-            v = float(m) / pow10[-exp10]
-        else:
-            v = float(m) * pow10[exp10]
-    else:
-        v, ok = _eisel_lemire(m, exp10, pow10_hi, pow10_lo, pow5, pow2)
-        if not ok:
-            return 0.0, i, False
+    v, ok = _decimal_value(m, exp10, pow10, pow10_hi, pow10_lo, pow5, pow2)
+    if not ok:
+        return 0.0, i, False
     return (-v if neg else v), i, True
 
 
