@@ -43,7 +43,7 @@ class MaterialSection:
     """Particle material."""
 
     youngs_modulus: float = key(1e7, "Pa", "Young's modulus (softened; CoCr is about 2.1e11)", gt=0)
-    poisson_ratio: float = key(0.3, "", "Poisson's ratio", ge=0, lt=0.5)
+    poisson_ratio: float = key(0.3, "", "Poisson's ratio (isotropic solids: -1 to 0.5)", gt=-1, lt=0.5)
     density: float = key(8300.0, "kg/m^3", "particle density (CoCr)", gt=0)
 
 
