@@ -40,14 +40,6 @@ from pathlib import Path
 _ROOT = Path(__file__).resolve().parents[1]
 
 
-def _confirm_runs(sim, base, effects, seeds, workers):
-    if workers > 1 and len(seeds) > 1:
-        from concurrent.futures import ProcessPoolExecutor
-        with ProcessPoolExecutor(min(workers, len(seeds))) as pool:
-            return list(pool.map(sim, [base] * len(seeds), [effects] * len(seeds), seeds))
-    return [sim(base, effects, s) for s in seeds]
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sim", choices=("surrogate", "engine"), default="surrogate")
@@ -69,6 +61,7 @@ def main(argv=None) -> int:
 
     from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnose,
                                     diagnosis_design, load_measurements)
+    from bedstruct.diagnose.amortised import confirming_runs
     from bedstruct.diagnose.confirm import RERUN_SEED_STRIDE
     from bedstruct.diagnose.emulator import EmulatedSimulator, fit_emulator
     from bedstruct.diagnose.run_design import design_spec
@@ -112,7 +105,7 @@ def main(argv=None) -> int:
     mags = {k: float(v) for k, v in sh.magnitudes.items()}
     seeds = [RERUN_SEED_STRIDE + i for i in range(n_confirm)]
     t0 = time.perf_counter()
-    runs = _confirm_runs(sim, point, mags, seeds, a.workers)
+    runs = confirming_runs(sim, point, mags, seeds, a.workers)
     confirm_s = time.perf_counter() - t0
     chk = emu.check(runs, point, mags)
 

@@ -25,7 +25,7 @@ from .emulator import EmulatedSimulator, EmulatorCheck, fit_emulator
 from .run_design import design_spec
 from .run_library import build_library
 
-__all__ = ["AmortisedDiagnosis", "diagnose_with_library"]
+__all__ = ["AmortisedDiagnosis", "diagnose_with_library", "confirming_runs"]
 
 
 @dataclass(frozen=True)
@@ -79,7 +79,8 @@ class AmortisedDiagnosis:
                 f"({100 * self.check.within_2sigma:.0f} % of components within 2 sigma).")
 
 
-def _runs(simulator, base, effects, seeds, workers):
+def confirming_runs(simulator, base, effects, seeds, workers: int = 1) -> list:
+    """The simulator's runs at one point, one per seed (in ``workers`` local processes)."""
     if workers > 1 and len(seeds) > 1:
         with ProcessPoolExecutor(min(workers, len(seeds))) as pool:
             return list(pool.map(simulator, [base] * len(seeds), [effects] * len(seeds), seeds))
@@ -166,7 +167,7 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
     point.update({k: float(base[k]) + float(v) for k, v in sh.nuisance.items()})
     magnitudes = {k: float(v) for k, v in sh.magnitudes.items()}
     seeds = [RERUN_SEED_STRIDE + i for i in range(int(confirm_seeds))]
-    runs = _runs(simulator, point, magnitudes, seeds, workers)
+    runs = confirming_runs(simulator, point, magnitudes, seeds, workers)
     check = emulator.check(runs, point, magnitudes)
     return AmortisedDiagnosis(diag, check, point, magnitudes, Path(library), lib.n_runs,
                               float(emulator.loo.loo_rmse_sigma),
