@@ -17,7 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
 
+import numpy as np
+
 from ..errors import ConfigError
+from .answer import quantity_text
 from .confirm import RERUN_SEED_STRIDE
 from .diagnosis import diagnose
 from .diagnosis_result import Diagnosis
@@ -37,9 +40,10 @@ class AmortisedDiagnosis:
     diagnosis : Diagnosis
         The answer (its simulator is the emulator).
     check : EmulatorCheck
-        How well the emulator predicted the real simulator's rerun at the chosen point
-        (``rmse_sigma``: RMS of the standardised errors, 1 when calibrated;
-        ``within_2sigma``).
+        How well the emulator predicted the real simulator's rerun at the chosen point,
+        per component (:meth:`confirm_rows`) and in summary (``rmse_sigma``: RMS of the
+        standardised errors, 1 when calibrated; ``within_2sigma``: the fraction within
+        2 standard deviations, 0.95 when calibrated).
     point : dict
         The base parameters of the rerun (recalibrated).
     magnitudes : dict
@@ -51,6 +55,9 @@ class AmortisedDiagnosis:
     loo_rmse_sigma, loo_within_2sigma : float
         The emulator's leave-one-point-out error in units of its predictive sigma, and
         the fraction of left-out runs within 2 sigma.
+    names, n_components : tuple of str, dict
+        The emulator's observables and their numbers of components (the order of the
+        check's components, :meth:`confirm_rows`).
     """
 
     diagnosis: Diagnosis
@@ -61,6 +68,37 @@ class AmortisedDiagnosis:
     library_runs: int
     loo_rmse_sigma: float
     loo_within_2sigma: float
+    names: tuple = ()
+    n_components: dict = None
+
+    def confirm_rows(self) -> list[dict]:
+        """Per observable component: the emulator's prediction against the confirming rerun.
+
+        Each row: ``observable``, ``component``, ``kind``, ``role`` (the measurement file's,
+        or ``"candidate"``), ``unit`` (SI), ``predicted`` and ``predicted_sd`` (the
+        emulator's prediction of the rerun's mean, made before the rerun, and its
+        predictive standard deviation), ``rerun`` (the mean of the simulator's runs) and
+        ``z`` (standardised error, ``(rerun - predicted) / predicted_sd``), in the
+        emulator's component order.
+        """
+        design = self.diagnosis.fingerprints.design
+        meta = {m.name: m for m in tuple(design.measurements) + tuple(design.unmeasured)}
+        meas = {m.name: m for m in self.diagnosis.measurements}
+        c = self.check
+        rows, i = [], 0
+        for name in self.names:
+            m = meas.get(name) or meta.get(name)
+            for j in range(self.n_components[name]):
+                label = str(m.labels[j]) if m is not None and j < len(m.labels) else str(j)
+                rows.append({"observable": name, "component": label,
+                             "kind": m.kind if m is not None else "",
+                             "role": m.role if name in meas else "candidate",
+                             "unit": m.unit if m is not None else "",
+                             "predicted": float(c.predicted[i]),
+                             "predicted_sd": float(c.predicted_sd[i]),
+                             "rerun": float(c.observed[i]), "z": float(c.z_mean[i])})
+                i += 1
+        return rows
 
     def to_json(self) -> dict:
         """The emulator's part of a diagnosis' JSON (the ``emulator`` block)."""
@@ -68,15 +106,31 @@ class AmortisedDiagnosis:
                 "loo_rmse_sigma": float(self.loo_rmse_sigma),
                 "loo_within_2sigma": float(self.loo_within_2sigma),
                 "confirm_point": dict(self.point), "confirm_magnitudes": dict(self.magnitudes),
+                "confirm_runs": int(self.check.n_runs),
                 "confirm_rmse_sigma": float(self.check.rmse_sigma),
-                "confirm_within_2sigma": float(self.check.within_2sigma)}
+                "confirm_within_2sigma": float(self.check.within_2sigma),
+                "confirm": self.confirm_rows()}
 
     def summary_line(self) -> str:
-        """One sentence on the emulator and how well it predicted the confirming rerun."""
-        return (f"Emulator: {self.library_runs} library runs (leave-one-out error "
-                f"{self.loo_rmse_sigma:.2f} sigma); it predicted the simulator's rerun at the "
-                f"answer within {self.check.rmse_sigma:.2f} sigma RMS "
-                f"({100 * self.check.within_2sigma:.0f} % of components within 2 sigma).")
+        """One plain sentence: how well the emulator predicted the simulator's rerun."""
+        c = self.check
+        n = int(np.sum(np.isfinite(c.z_mean)))
+        if n == 0:
+            return (f"Check: the simulator was rerun at the answer ({c.n_runs} runs), but no "
+                    "observable could be compared with the emulator's prediction.")
+        inside = int(np.sum(np.abs(c.z_mean[np.isfinite(c.z_mean)]) <= 2.0))
+        text = (f"Check: the simulator, rerun at the answer ({c.n_runs} runs), gave {inside} of "
+                f"{n} observable values within 2 standard deviations of what the emulator "
+                f"({self.library_runs} library runs) predicted before the rerun")
+        k = int(np.nanargmax(np.abs(c.z_mean)))
+        row = self.confirm_rows()[k]
+        if abs(row["z"]) > 2.0:
+            what = row["observable"].replace("_", " ")
+            what += "" if row["component"] in ("value", "") else f", {row['component']}"
+            text += (f"; furthest off: {what}, predicted "
+                     f"{quantity_text(row['predicted'], row['unit'], row['kind'], sigma=row['predicted_sd'])}"
+                     f", rerun {quantity_text(row['rerun'], row['unit'], row['kind'])}")
+        return text + "."
 
 
 def confirming_runs(simulator, base, effects, seeds, workers: int = 1) -> list:
@@ -166,9 +220,12 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
     point = dict(base)
     point.update({k: float(base[k]) + float(v) for k, v in sh.nuisance.items()})
     magnitudes = {k: float(v) for k, v in sh.magnitudes.items()}
+    # the emulator's prediction at the answer is made first; the rerun then tests it
+    emulator.predict(point, magnitudes)
     seeds = [RERUN_SEED_STRIDE + i for i in range(int(confirm_seeds))]
     runs = confirming_runs(simulator, point, magnitudes, seeds, workers)
     check = emulator.check(runs, point, magnitudes)
     return AmortisedDiagnosis(diag, check, point, magnitudes, Path(library), lib.n_runs,
                               float(emulator.loo.loo_rmse_sigma),
-                              float(emulator.loo.loo_within_2sigma))
+                              float(emulator.loo.loo_within_2sigma), tuple(emulator.names),
+                              dict(emulator.n_components))

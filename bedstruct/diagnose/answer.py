@@ -14,12 +14,13 @@ statistics behind them (z, chi-square, model weights) are in the report's append
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Answer", "answer", "answer_lines", "compact_answer", "conditions_text", "magnitude_text",
-           "quantity_text"]
+__all__ = ["Answer", "answer", "answer_lines", "compact_answer", "conditions_text", "gap_rows",
+           "magnitude_text", "quantity_text"]
 
 #: |z| below which a deviation is within noise (said so instead of a number of sigmas).
 _WITHIN_NOISE = 2.0
@@ -162,18 +163,78 @@ def conditions_text(label: str) -> str:
     return ", ".join(out)
 
 
+_WINDOW = re.compile(r"^t=([-+0-9.eE]+)-([-+0-9.eE]+)$")
+
+
+def _component_words(label: str) -> str:
+    """A component label in words (a time window ``t=0-0.1`` as ``0 to 0.1 s``).
+
+    Examples
+    --------
+    >>> _component_words("t=0.1-1"), _component_words("d10")
+    ('0.1 to 1 s', 'd10')
+    """
+    m = _WINDOW.match(label)
+    if m is None:
+        return label
+    try:
+        lo, hi = float(m.group(1)), float(m.group(2))
+    except ValueError:
+        return label
+    return f"{_num(lo)} to {_num(hi)} s"
+
+
 def _observable_words(row: dict) -> str:
     name = row["observable"].replace("_", " ")
     comp = row["component"]
-    return name if comp in ("value", "") else f"{name}, {comp}"
+    return name if comp in ("value", "") else f"{name}, {_component_words(comp)}"
 
 
-def _gap_words(z: float) -> str:
+def _gap_words(row: dict) -> str:
+    """Where the measurement lies against the simulation, in its natural unit and in words."""
+    z = row["z"]
     if not math.isfinite(z):
         return "not observed in the simulation"
     if abs(z) < _WITHIN_NOISE:
         return "within noise"
-    return f"{'above' if z > 0 else 'below'} the simulation by {abs(z):.1f}× the uncertainty"
+    f, u = _unit_of(row["real"], row["unit"], row["kind"])
+    diff = abs(row["real"] - row["simulated"]) * f
+    return (f"{_num(diff, 2)}{(' ' + u) if u else ''} {'above' if z > 0 else 'below'} the "
+            f"simulation, {abs(z):.1f}× the uncertainty")
+
+
+def gap_rows(diag) -> list[dict]:
+    """Measured against simulated per measured component, before and after, in natural units.
+
+    ``before`` is the recalibrated base model's rerun, ``after`` the rerun with the chosen
+    effect(s) added (:attr:`~bedstruct.diagnose.confirm.Shrink.components`); rows follow
+    the ranking of the gaps (largest first, as :attr:`Answer.where`).
+
+    Returns
+    -------
+    list of dict
+        ``what`` (words), ``role``, ``unit`` (the natural unit shown: µm, mm, deg, %),
+        ``measured``, ``sigma`` (measurement uncertainty), ``base`` (the base model before
+        recalibration), ``before``, ``before_sd``, ``after``, ``after_sd`` (simulated mean
+        and its standard deviation from run scatter; NaN without a rerun with an effect),
+        all in that unit, and ``gap_before``, ``gap_after``: simulated minus measured in
+        units of the measurement's uncertainty.
+    """
+    comps = {(c["observable"], c["component"]): c for c in diag.shrink.components}
+    out = []
+    for r in diag.where.ranked():
+        c = comps.get((r["observable"], r["component"]))
+        if c is None:
+            continue
+        f, u = _unit_of(c["measured"], c["unit"], c["kind"])
+        row = {"what": _observable_words(r),
+               "role": "calibration" if c["role"] == "calibrate" else "held out", "unit": u}
+        for k in ("measured", "sigma", "base", "before", "before_sd", "after", "after_sd"):
+            row[k] = c[k] * f
+        for k in ("before", "after"):
+            row[f"gap_{k}"] = (row[k] - row["measured"]) / row["sigma"]
+        out.append(row)
+    return out
 
 
 @dataclass(frozen=True)
@@ -196,6 +257,9 @@ class Answer:
         The recalibrated parameters (and any that ended on a physical bound).
     next : str
         What to measure next and why.
+    gaps : list of dict
+        Measured against simulated, before and after adding the effect, per component in
+        natural units (:func:`gap_rows`): the numbers of the first figure.
     """
 
     headline: str
@@ -204,6 +268,7 @@ class Answer:
     how_far: str
     recalibration: str
     next: str
+    gaps: list = ()
 
 
 def _lower_first(title: str) -> str:
@@ -231,8 +296,7 @@ def _which(diag) -> str:
         parts = []
         for e in att.selected:
             eff = diag.fingerprints[e.effect].effect
-            parts.append(f"{eff.title}: {magnitude_text(eff, e.magnitude, e.interval)}, "
-                         f"confidence {100 * e.confidence:.0f} %")
+            parts.append(f"{eff.title}: {magnitude_text(eff, e.magnitude, e.interval)}")
         return "; ".join(parts) + "."
     if att.verdict == "none":
         return "No effect is needed: recalibration alone fits the calibration observables."
@@ -259,10 +323,9 @@ def _how_far(diag) -> str:
         if math.isfinite(lo) and math.isfinite(hi):
             text += f" (90 % interval {100 * lo:.0f} to {100 * hi:.0f} %)"
         return text + "."
-    p = f" (p = {sh.p_before:.2f})" if math.isfinite(sh.p_before) else ""
     state = ("stay within noise" if sh.after_excess == 0 else
              f"depart by {sh.after:.1f}× the noise")
-    return (f"The {n} showed no gap beyond noise before{p}, so there is no gap to shrink; "
+    return (f"The {n} showed no gap beyond noise before, so there is no gap to shrink; "
             f"they {state}{added}.")
 
 
@@ -290,27 +353,28 @@ def _next(diag) -> str:
         return "No further measurement is needed to tell the candidates apart."
     n = diag.next[0]
     a, b = (x.replace("_", " ") for x in n.separates)
-    status = "measure again" if n.measured else "measure"
+    status = "Measure again" if n.measured else "Measure"
     cond = conditions_text(n.conditions)
     cond = f" ({cond})" if cond else ""
-    return (f"Next, {status} {n.observable.replace('_', ' ')}{cond}: the two leading "
+    return (f"{status} {n.observable.replace('_', ' ')}{cond}: the two leading "
             f"explanations, {a} and {b}, predict it {n.separation:.1f}× the noise apart, so it "
             "tells them apart.")
 
 
 def answer(diag) -> Answer:
     """The diagnosis in plain words and natural units (see :class:`Answer`)."""
+    # the measurement's own uncertainty (the where rows' sigma adds the simulation's)
+    sigma = {(c["observable"], c["component"]): c["sigma"] for c in diag.shrink.components}
     rows = []
     for r in diag.where.ranked():
-        f, _ = _unit_of(r["real"], r["unit"], r["kind"])
         rows.append({"what": _observable_words(r),
-                     "measured": quantity_text(r["real"], r["unit"], r["kind"],
-                                               sigma=r["sigma"]),
+                     "measured": quantity_text(r["real"], r["unit"], r["kind"], sigma=sigma.get(
+                         (r["observable"], r["component"]), r["sigma"])),
                      "simulated": quantity_text(r["simulated"], r["unit"], r["kind"]),
-                     "gap": _gap_words(r["z"]), "z": r["z"],
+                     "gap": _gap_words(r), "z": r["z"],
                      "role": "calibration" if r["role"] == "calibrate" else "held out"})
     return Answer(_headline(diag), rows, _which(diag), _how_far(diag), _recalibration(diag),
-                  _next(diag))
+                  _next(diag), gap_rows(diag))
 
 
 def answer_lines(diag, *, n_where: int = 5) -> list[str]:
@@ -324,7 +388,7 @@ def answer_lines(diag, *, n_where: int = 5) -> list[str]:
     if len(a.where) > n_where:
         out.append(f"  ... and {len(a.where) - n_where} more in the report")
     out += ["", "Which effect: " + a.which, "How far: " + a.how_far, a.recalibration,
-            "What next: " + a.next]
+            "What next: " + a.next[:1].lower() + a.next[1:]]
     return out
 
 

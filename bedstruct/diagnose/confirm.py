@@ -28,7 +28,8 @@ from .replicates import Simulator, simulate_replicates
 from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
 from .where import _nan_mean, standardised_residuals
 
-__all__ = ["gap_size", "shrink_interval", "Shrink", "Confirmation", "confirm_attribution", "p_fit_z"]
+__all__ = ["gap_size", "shrink_interval", "Shrink", "Confirmation", "confirm_attribution", "p_fit_z",
+           "component_gaps"]
 
 #: Seeds of the k-th rerun are ``seed + RERUN_SEED_STRIDE * (k + 1) + i``: fresh for every
 #: rerun, so a refit through one rerun is checked on runs it has not seen.
@@ -158,6 +159,8 @@ class Shrink:
     ``p_rerun_trials``: the file's trials without a reading against the final model's runs
     (:func:`~bedstruct.diagnose.trial_counts.trial_check`; 1 when nothing could be tested,
     NaN when the file states no trials); ``trial_rows``: its observables, smallest p first.
+    ``components``: measured against simulated per measured component, before and after
+    (:func:`component_gaps`).
     """
 
     model: str
@@ -181,6 +184,7 @@ class Shrink:
     p_rerun_trials: float = float("nan")
     trial_rows: tuple[dict, ...] = ()
     fraction_interval: tuple[float, float] = (float("nan"), float("nan"))
+    components: tuple[dict, ...] = ()
 
     def as_dict(self) -> dict:
         return {"model": self.model, "magnitudes": self.magnitudes, "nuisance": self.nuisance,
@@ -194,7 +198,72 @@ class Shrink:
                 "p_before": self.p_before,
                 "p_rerun_trials": self.p_rerun_trials, "trial_rows": list(self.trial_rows),
                 "per_observable": list(self.per_observable),
-                "rerun_worst": list(self.rerun_worst)}
+                "rerun_worst": list(self.rerun_worst), "components": list(self.components)}
+
+
+def _mean_and_sd(samples, run_var) -> tuple[np.ndarray, np.ndarray]:
+    """Mean of replicate runs per component and its standard deviation (run scatter / sqrt R)."""
+    s = np.atleast_2d(np.asarray(samples, float))
+    n = np.sum(np.isfinite(s), axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(n > 0, np.nansum(np.where(np.isfinite(s), s, 0.0), axis=0) / np.maximum(n, 1),
+                        np.nan)
+        sd = np.where(n > 0, np.sqrt(np.asarray(run_var, float) / np.maximum(n, 1)), np.nan)
+    return mean, sd
+
+
+def component_gaps(residuals, sigma_meas, before, after=None, *, run_var) -> tuple[dict, ...]:
+    """Measured against simulated per component, before and after adding the effect.
+
+    Parameters
+    ----------
+    residuals : Residuals
+        The measured components (:attr:`~bedstruct.diagnose.where.WhereResult.residuals`):
+        names, labels, kinds, roles, units, measured values and the base model's mean.
+    sigma_meas : (n,) array_like
+        Measurement uncertainty per component (its unit).
+    before : (R, n) array_like
+        Runs of the recalibrated base model.
+    after : (R, n) array_like, optional
+        Runs of the recalibrated model with the effect(s) added (None: none was rerun).
+    run_var : (n,) array_like
+        Run-to-run variance of one run per component (pooled).
+
+    Returns
+    -------
+    tuple of dict
+        One per component, in row order: ``observable``, ``component``, ``kind``, ``role``,
+        ``unit``, ``measured``, ``sigma`` (measurement), ``base`` (mean of the base runs),
+        ``before`` and ``before_sd`` (mean of the recalibrated runs and its standard
+        deviation from run scatter), ``after`` and ``after_sd`` (NaN without ``after``);
+        values in the component's SI unit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.diagnose import MeasurementSet, measurement_from_dict, where
+    >>> m = measurement_from_dict({"name": "aor", "kind": "static_angle", "value": 33.0,
+    ...                            "uncertainty": 0.5})
+    >>> w = where(MeasurementSet((m,)), np.array([[30.0], [30.4]]))
+    >>> row, = component_gaps(w.residuals, [0.5], [[31.0], [31.2]], [[32.9], [33.1]],
+    ...                       run_var=[0.04])
+    >>> row["before"], row["after"], round(row["after_sd"], 3)
+    (31.1, 33.0, 0.141)
+    """
+    r = residuals
+    b_mean, b_sd = _mean_and_sd(before, run_var)
+    if after is None:
+        a_mean = a_sd = np.full(len(b_mean), np.nan)
+    else:
+        a_mean, a_sd = _mean_and_sd(after, run_var)
+    sm = np.asarray(sigma_meas, float)
+    return tuple({"observable": str(r.names[i]), "component": str(r.labels[i]),
+                  "kind": str(r.kinds[i]), "role": str(r.roles[i]), "unit": str(r.units[i]),
+                  "measured": float(r.real[i]), "sigma": float(sm[i]),
+                  "base": float(r.sim_mean[i]),
+                  "before": float(b_mean[i]), "before_sd": float(b_sd[i]),
+                  "after": float(a_mean[i]), "after_sd": float(a_sd[i])}
+                 for i in range(len(sm)))
 
 
 

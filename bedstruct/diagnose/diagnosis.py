@@ -27,7 +27,8 @@ from .measurements import MeasurementSet
 from .measurement_io import measurement_from_dict
 from .separation import not_told_apart
 from .where import standardised_residuals, where
-from .confirm import (RERUN_SEED_STRIDE, Shrink, confirm_attribution, gap_size, shrink_interval,
+from .confirm import (RERUN_SEED_STRIDE, Shrink, component_gaps, confirm_attribution, gap_size,
+                      shrink_interval,
                       p_fit_z as _p_fit_z, params_after as _params_after)
 from .trial_counts import TrialCheck, file_trials, trial_check, unread_counts
 from .noise_correlation import correlation_among, correlation_matrix, quadratic_form
@@ -305,9 +306,10 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     z_worst = conf.z_check if conf.samples is not None else z_after
     worst = _worst_components(z_worst, comp_names, comp_labels, held_meas)
     p_trials = chk.p_value if trials else float("nan")
+    gaps = component_gaps(wh.residuals, sm, s_recal, conf.samples, run_var=fps.sim_var[rows_meas])
     shrink = Shrink(label, mags, nuis, b[0], r_[0], a[0], b[1], r_[1], a[1], frac, frac_rms,
                     tuple(per_obs), int(held_meas.sum()), p_cal, p_held, conf.refits, p_before,
-                    worst, p_trials, chk.rows, frac_interval)
+                    worst, p_trials, chk.rows, frac_interval, gaps)
     trials_failed = bool(trials) and chk.p_value < gof_alpha
     refit_note = "; ".join(_refit_text(r) for r in conf.refits)
     if refit_note:

@@ -124,22 +124,42 @@ class Prediction:
 class EmulatorCheck:
     """How well the emulator predicted runs of the real simulator at one point.
 
+    The emulator predicts each component before the runs are made; each run's value is
+    then compared with that prediction, and so is the mean of the runs, whose predictive
+    standard deviation is ``sqrt(sd**2 + noise_sd**2 / R)`` over ``R`` runs.
+
     Attributes
     ----------
     z : (R, n) ndarray
         ``(run - mean) / total_sd`` per run and component.
     rmse_sigma : float
-        Root mean square of ``z`` (about 1 when the emulator predicted the runs).
+        Root mean square of ``z_mean`` over the components (about 1 when the emulator
+        predicted the runs; NaN when no component was observed).
     within_2sigma : float
-        Fraction of ``|z| <= 2``.
+        Fraction of the components with ``|z_mean| <= 2`` (about 0.95 when calibrated).
     mean_z : (n,) ndarray
-        Mean of ``z`` over the runs (a bias of the emulator shows here).
+        Mean of ``z`` over the runs.
+    predicted : (n,) ndarray
+        The emulator's predicted mean of the runs (each component's unit).
+    predicted_sd : (n,) ndarray
+        Its predictive standard deviation for the mean of the runs that gave a value.
+    observed : (n,) ndarray
+        Mean of the runs (NaN where no run gave a value).
+    z_mean : (n,) ndarray
+        ``(observed - predicted) / predicted_sd``: the standardised error per component.
+    n_runs : int
+        Runs compared.
     """
 
     z: np.ndarray
     rmse_sigma: float
     within_2sigma: float
     mean_z: np.ndarray
+    predicted: np.ndarray = None
+    predicted_sd: np.ndarray = None
+    observed: np.ndarray = None
+    z_mean: np.ndarray = None
+    n_runs: int = 0
 
 
 def _kernel(d: int, nu: float):
@@ -414,16 +434,27 @@ class Emulator:
         -------
         EmulatorCheck
         """
+        p = self.predict(base, effects)   # the prediction, made before the runs are read
         rows = [r.vector(self.names) if isinstance(r, Observations) else np.asarray(r, float)
                 for r in runs]
         y = np.atleast_2d(np.asarray(rows, float))
-        p = self.predict(base, effects)
+        if y.shape[1] != len(p.mean):
+            raise ValueError(f"check: runs have {y.shape[1]} components; the emulator predicts "
+                             f"{len(p.mean)} ({', '.join(self.names)})")
+        ok = np.isfinite(y)
+        n = ok.sum(axis=0)
         with np.errstate(invalid="ignore", divide="ignore"):
             z = (y - p.mean) / p.total_sd
-        f = z[np.isfinite(z)]
+            observed = np.where(n > 0, np.where(ok, y, 0.0).sum(axis=0) / np.maximum(n, 1), np.nan)
+            pred_sd = np.sqrt(p.sd ** 2 + p.noise_sd ** 2 / np.maximum(n, 1))
+            z_mean = (observed - p.mean) / pred_sd
+        f = z_mean[np.isfinite(z_mean)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)   # a component no run observed
+            mean_z = np.nanmean(z, axis=0) if len(z) else np.zeros(0)
         return EmulatorCheck(z, float(np.sqrt(np.mean(f ** 2))) if f.size else float("nan"),
                              float(np.mean(np.abs(f) <= 2.0)) if f.size else float("nan"),
-                             np.nanmean(z, axis=0) if len(z) else np.zeros(0))
+                             mean_z, p.mean, pred_sd, observed, z_mean, int(len(y)))
 
 
 def fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
