@@ -89,6 +89,12 @@ def _rounds(text: str) -> int:
     return n
 
 
+def _short(v):
+    """A finite number to three significant digits (no float noise), else None."""
+    import math
+    return float(f"{v:.3g}") if v is not None and math.isfinite(v) else None
+
+
 def _write_json(path, obj) -> None:
     import json
     from pathlib import Path
@@ -245,11 +251,12 @@ def run(args) -> int:
     out["sim_config"] = cfg.as_dict()
     if amortised is not None:
         out["emulator"] = amortised.to_json()
-    html, js = write_report(diagnosis_report(diag), args.out)
+    html, js = write_report(diagnosis_report(diag, amortised=amortised), args.out)
     _write_json(f"{args.out}/diagnosis.json", out)
     if args.json:
         extra = {} if amortised is None else {
-            "emulator_confirm_rmse_sigma": amortised.check.rmse_sigma,
+            "emulator_confirm_rmse_sigma": _short(amortised.check.rmse_sigma),
+            "emulator_confirm_within_2sigma": _short(amortised.check.within_2sigma),
             "library_runs": amortised.library_runs}
         print_json(to_jsonable(dict(compact_answer(diag), simulator=diag.simulator,
                                report=str(html), **extra)))

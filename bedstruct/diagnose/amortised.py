@@ -20,7 +20,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..errors import ConfigError
-from .answer import quantity_text
+from .answer import _observable_words, quantity_text
 from .confirm import RERUN_SEED_STRIDE
 from .diagnosis import diagnose
 from .diagnosis_result import Diagnosis
@@ -125,8 +125,7 @@ class AmortisedDiagnosis:
         k = int(np.nanargmax(np.abs(c.z_mean)))
         row = self.confirm_rows()[k]
         if abs(row["z"]) > 2.0:
-            what = row["observable"].replace("_", " ")
-            what += "" if row["component"] in ("value", "") else f", {row['component']}"
+            what = _observable_words(row)
             text += (f"; furthest off: {what}, predicted "
                      f"{quantity_text(row['predicted'], row['unit'], row['kind'], sigma=row['predicted_sd'])}"
                      f", rerun {quantity_text(row['rerun'], row['unit'], row['kind'])}")

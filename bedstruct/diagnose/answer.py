@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Answer", "answer", "answer_lines", "compact_answer", "conditions_text", "gap_rows",
+__all__ = ["Answer", "answer", "answer_lines", "compact_answer", "conditions_text", "difference_text",
+           "gap_rows",
            "magnitude_text", "quantity_text"]
 
 #: |z| below which a deviation is within noise (said so instead of a number of sigmas).
@@ -106,6 +107,22 @@ def quantity_text(value: float, unit: str, kind: str = "", *, sigma: float | Non
     if sigma is not None and math.isfinite(sigma):
         text += f" ± {_num(sigma * f, 2)}"
     return f"{text} {u}".strip()
+
+
+def difference_text(diff: float, value: float, unit: str, kind: str = "") -> str:
+    """A signed difference of two values of an observable, in the unit ``value`` is shown in.
+
+    Examples
+    --------
+    >>> difference_text(-2.6e-6, 1.01e-3, "m", "bed_height")
+    '-0.0026 mm'
+    >>> difference_text(0.46, 30.0, "deg")
+    '+0.46 deg'
+    """
+    if not math.isfinite(diff):
+        return "n/a"
+    f, u = _unit_of(value, unit, kind)
+    return f"{_num(diff * f, 2, signed=True)} {u}".strip()
 
 
 def magnitude_text(effect, value: float, interval=None) -> str:

@@ -10,7 +10,7 @@ import numpy as np
 
 from .profile_interval import profile_interval
 
-__all__ = ["plot_where", "plot_fingerprints", "plot_attribution", "plot_effect_response",
+__all__ = ["plot_gaps", "plot_where", "plot_fingerprints", "plot_attribution", "plot_effect_response",
            "plot_magnitude_profile", "plot_shrink", "plot_confusion"]
 
 
@@ -38,6 +38,98 @@ def _leading_effect(attribution, effect, caller: str) -> str:
     if attribution.ranking:
         return attribution.ranking[0].effect
     raise ValueError(f"{caller}: the diagnosis has no effect to show")
+
+
+def _after_label(diagnosis) -> str | None:
+    """The legend of the rerun with the effect(s) added (None: there was none)."""
+    sh = diagnosis.shrink
+    if not sh.magnitudes:
+        return None
+    names = " + ".join(e.replace("_", " ") for e in sh.magnitudes)
+    if diagnosis.verdict == "attributed":
+        return f"after: recalibrated + {names}"
+    return f"recalibrated + {names} (rejected by its rerun)"
+
+
+def plot_gaps(diagnosis, *, ax=None):
+    """Measured against simulated for every measured observable, before and after the effect.
+
+    One row per observable component, largest gap first. The horizontal axis is the
+    simulated minus the measured value in units of the measurement's uncertainty, so that
+    observables in µm, deg and % share it; each row's label gives the measured value and
+    the simulated ones in their natural unit. Black: the measurement, its bar ±1
+    uncertainty; grey: the recalibrated base model ("before"); red: the recalibrated model
+    with the chosen effect added ("after"), each with a bar of ±1 standard deviation of its
+    mean from the run scatter. Orange labels are held-out observables. The numbers are
+    those of :func:`~bedstruct.diagnose.answer.gap_rows`.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+
+    Returns
+    -------
+    (Figure, Axes), or the Axes when ``ax`` is given
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> import bedstruct.diagnose as dg
+    >>> ms = dg.load_measurements(pathlib.Path(dg.__file__).parents[2] / "data/measurements/seed.toml")
+    >>> sim = dg.SurrogateSimulator(dg.diagnosis_design(ms, dg.catalogue(["missing_fines"])))
+    >>> d = dg.diagnose(ms, sim, base=dg.BASE_PARAMETERS, effects=dg.catalogue(["missing_fines"]),
+    ...                 replicates=2, refine=0)
+    >>> fig, ax = plot_gaps(d)
+    >>> [c.get_label() for c in ax.containers]
+    ['measured', 'before: recalibrated', 'after: recalibrated + missing fines']
+    """
+    from .answer import _num, gap_rows
+    rows = gap_rows(diagnosis)
+    fig, ax = _axes(ax, (7.2, 0.38 * max(len(rows), 1) + 1.6))
+    if not rows:
+        ax.text(0.5, 0.5, "no measured observable", ha="center", transform=ax.transAxes)
+        return _ret(fig, ax)
+    y = np.arange(len(rows))[::-1].astype(float)
+    zeros = np.zeros(len(rows))
+    ax.errorbar(zeros, y, xerr=np.ones(len(rows)), fmt="s", color="k", ms=4, capsize=2,
+                label="measured")
+    after = _after_label(diagnosis)
+    has_after = after is not None and any(np.isfinite(r["after"]) for r in rows)
+    dy = 0.15 if has_after else 0.0
+    ax.errorbar([r["gap_before"] for r in rows], y + dy,
+                xerr=[r["before_sd"] / r["sigma"] for r in rows], fmt="o", color="0.55", ms=4,
+                capsize=2, label="before: recalibrated")
+    if has_after:
+        ax.errorbar([r["gap_after"] for r in rows], y - dy,
+                    xerr=[r["after_sd"] / r["sigma"] for r in rows], fmt="o", color="#c53030",
+                    ms=4, capsize=2, label=after)
+
+    def unit(r):
+        return f" {r['unit']}" if r["unit"] else ""
+
+    labels = []
+    for r in rows:
+        sim = _num(r["before"])
+        if has_after and np.isfinite(r["after"]):
+            sim += f" → {_num(r['after'])}"
+        labels.append(f"{r['what']}: measured {_num(r['measured'])} ± {_num(r['sigma'], 2)}"
+                      f"{unit(r)}, simulated {sim}{unit(r)}")
+    ax.set_yticks(y)
+    ax.set_yticklabels(labels, fontsize=7)
+    for tick, r in zip(ax.get_yticklabels(), rows):
+        if r["role"] == "held out":
+            tick.set_color("#dd6b20")
+    for v in (-2, 2):
+        ax.axvline(v, color="0.7", ls="--", lw=0.8)
+    ax.axvline(0, color="k", lw=0.6)
+    ax.set_xlabel("simulated − measured, in units of the measurement's uncertainty")
+    head = {"attributed": "gap before and after adding the effect",
+            "none": "no effect added: recalibration alone closes the gap",
+            "unexplained": "unexplained: no effect of the catalogue closes the gap"}
+    ax.set_title(f"Measured against simulated ({head.get(diagnosis.verdict, diagnosis.verdict)}); "
+                 "orange: held out", fontsize=8)
+    ax.legend(fontsize=7, loc="best")
+    return _ret(fig, ax)
 
 
 def plot_where(result, *, ax=None, n=15):

@@ -8,12 +8,15 @@ from __future__ import annotations
 import math
 
 from .._version import __version__
-from .answer import answer
+from .answer import _observable_words, answer, difference_text, quantity_text
 from .diagnosis_result import identification, uneven_scatter_note
 from .separation import nearest_imitations
 from .validation_scores import capped_summary
 
 __all__ = ["diagnosis_report", "validation_report"]
+
+
+_ROLE_WORDS = {"calibrate": "calibration", "validate": "held out", "candidate": "not measured"}
 
 
 def _fmt(v, nd=3):
@@ -35,8 +38,15 @@ def _identified_by(fps, row) -> str:
     return identification(fps, row["effect"])["note"]
 
 
-def diagnosis_report(diag, *, title: str | None = None):
-    """A :class:`bedstruct.report._model.Report` of a :class:`Diagnosis`."""
+def diagnosis_report(diag, *, title: str | None = None, amortised=None):
+    """A :class:`bedstruct.report._model.Report` of a :class:`Diagnosis`.
+
+    The first section is the answer in plain words with the figure of measured against
+    simulated values (:func:`~bedstruct.diagnose.figures.plot_gaps`); the statistics follow
+    in appendices. With ``amortised`` (an
+    :class:`~bedstruct.diagnose.amortised.AmortisedDiagnosis` whose diagnosis is ``diag``),
+    an appendix compares the emulator's prediction with the simulator's confirming rerun.
+    """
     from ..report._model import Report, Table, run_section, skip
     from . import figures as pdg
 
@@ -244,6 +254,37 @@ def diagnosis_report(diag, *, title: str | None = None):
                                for r in a.where],
                               caption="where the simulation misses the measurements, largest "
                                       "gap first (measured ± its uncertainty)"))
+        fig, _ = pdg.plot_gaps(diag)
+        s.add_figure(fig, "measured against simulated for every measured observable: the "
+                          "recalibrated model before and after adding the effect, in units of "
+                          "the measurement's uncertainty (values in their units on the left)")
+        if amortised is not None:
+            s.text += " " + amortised.summary_line()
+
+    def emulator_(s):
+        c = amortised.check
+        s.text = (f"The diagnosis ran on the emulator of a run library ({amortised.library_runs} "
+                  f"runs; leave-one-out error {amortised.loo_rmse_sigma:.2f} sigma). Before the "
+                  f"simulator was rerun at the answer ({c.n_runs} runs), the emulator predicted "
+                  "each observable there; the table compares the prediction with the rerun's "
+                  "mean, the standardised error z = (rerun - predicted) / sd.")
+        _add(s, "confirm_rmse_sigma", float(c.rmse_sigma), "1",
+             "RMS of the standardised errors of the rerun (1 when the emulator is calibrated)")
+        _add(s, "confirm_within_2sigma", float(c.within_2sigma), "1",
+             "fraction of components within 2 sd of the prediction (0.95 when calibrated)")
+        _add(s, "loo_rmse_sigma", float(amortised.loo_rmse_sigma), "1",
+             "the emulator's leave-one-point-out error on the library, in sigma")
+        rows = amortised.confirm_rows()
+        s.tables.append(Table(
+            ["observable", "role", "emulator prediction", "simulator rerun",
+             "rerun - prediction", "z"],
+            [[_observable_words(r), _ROLE_WORDS.get(r["role"], r["role"]),
+              quantity_text(r["predicted"], r["unit"], r["kind"], sigma=r["predicted_sd"]),
+              quantity_text(r["rerun"], r["unit"], r["kind"]),
+              difference_text(r["rerun"] - r["predicted"], r["predicted"], r["unit"], r["kind"]),
+              f"{r['z']:+.2f}" if math.isfinite(r["z"]) else "not observed"] for r in rows],
+            caption="the emulator's prediction (± its predictive sd for the rerun's mean) "
+                    "against the simulator's confirming rerun at the answer"))
 
     for key, title_, fn in (("answer", "The answer", answer_),
                             ("summary", "Appendix: summary statistics", summary),
@@ -253,7 +294,9 @@ def diagnosis_report(diag, *, title: str | None = None):
                             ("which", "Appendix: which effect (model comparison)", which_),
                             ("shrink", "Appendix: how far (held-out gaps)", shrink_),
                             ("next", "Appendix: what to measure next", next_),
-                            ("catalogue", "Appendix: catalogue of effects", catalogue_)):
+                            ("catalogue", "Appendix: catalogue of effects", catalogue_),
+                            *((("emulator", "Appendix: the emulator against the confirming rerun",
+                                emulator_),) if amortised is not None else ())):
         rep.sections.append(run_section(key, title_, fn))
     return rep
 
