@@ -40,19 +40,22 @@ def test_cli_default_output_answers_in_plain_words_and_natural_units(seed_run):
     assert "explained by fines missing from the simulated PSD" in text
     # where: measured against simulated, in µm and deg, the gap in words
     assert "psd before, d10" in text and "measured 29.8 ± 0.6 µm, simulated 35 µm" in text
-    assert "below the simulation by 8.5× the uncertainty" in text
+    assert "5.1 µm below the simulation, 8.5× the uncertainty" in text
+    assert "dynamic angle x1 early, 0 to 0.1 s" in text
     assert "measured 33 ± 4 deg" in text and "within noise" in text
     # which, with its physical magnitude and interval
     assert "Which effect: Fines missing from the simulated PSD: mass fraction of fines " \
-           "missing 8.53 % (95 % interval 6.78 to 9.71 %)" in text
+           "missing 8.53 % (95 % interval 6.78 to 9.71 %)." in text
     # how far: the seed's held-out observables had no gap beyond noise to shrink
     assert "How far: The 3 held-out observable components showed no gap beyond noise " \
-           "before (p = 0.96)" in text
+           "before, so there is no gap to shrink" in text
     assert "Recalibrated: cohesion energy density 34 MJ/m³ (was 36 MJ/m³)." in text
-    assert "What next: Next, measure avalanche angle rest600 (after 600 s at rest, box 30 mm " \
+    assert "What next: measure avalanche angle rest600 (after 600 s at rest, box 30 mm " \
            "wide)" in text
     assert not _FLOAT_NOISE.search(text), _FLOAT_NOISE.search(text)
+    # the statistics are in the appendix: no z, chi-square, p-value or model weight here
     assert "{" not in text and "sigma" not in text and "chi2" not in text
+    assert "p = " not in text and "confidence" not in text and "weight" not in text
 
 
 def test_report_first_screen_is_the_answer_and_the_statistics_an_appendix(seed_run):
@@ -65,7 +68,10 @@ def test_report_first_screen_is_the_answer_and_the_statistics_an_appendix(seed_r
     assert list(sections)[0] == "answer"
     assert all(v["title"].startswith("Appendix") for k, v in sections.items() if k != "answer")
     answer_html = html[first:html.index("</section>", first)]
+    answer_html = re.sub(r'src="data:[^"]*"', 'src=""', answer_html)   # the figure's bytes
     assert "29.8 ± 0.6 µm" in answer_html and "How far" in answer_html
+    assert "<img" in answer_html or "<svg" in answer_html     # the figure of the gaps
+    assert "p = " not in answer_html and "confidence" not in answer_html
     assert not _FLOAT_NOISE.search(answer_html)
     # no number shown as NaN beside an "ok", no raw dict in any text
     for key, sec in sections.items():
