@@ -317,13 +317,35 @@ def _which(diag) -> str:
         return "; ".join(parts) + "."
     if att.verdict == "none":
         return "No effect is needed: recalibration alone fits the calibration observables."
+    return "No effect is named: " + _unexplained_words(diag) + "."
+
+
+def _effect_words(diag, name: str, magnitude: float | None = None) -> str:
+    eff = diag.fingerprints[name].effect
+    text = _lower_first(eff.title)
+    return text if magnitude is None else f"{text} ({magnitude_text(eff, magnitude)})"
+
+
+def _unexplained_words(diag) -> str:
+    """Why nothing is named, in words (the statistics are in the report's appendix)."""
+    att, sh = diag.attribution, diag.shrink
+    if sh.magnitudes:
+        names = " together with ".join(_effect_words(diag, e, a) for e, a in sh.magnitudes.items())
+        worst = sh.rerun_worst[0] if sh.rerun_worst else None
+        where_ = (f", furthest on {_observable_words(worst)}" if worst is not None else "")
+        return (f"the best candidate, {names}, fits the calibration observables, but the "
+                f"simulation rerun with it does not reproduce the measurements{where_}")
     best = att.ranking[0] if att.ranking else None
-    text = "No effect is named: " + att.reason + "."
-    if best is not None:
-        eff = diag.fingerprints[best.effect].effect
-        text += (f" The closest candidate was {_lower_first(eff.title)} "
-                 f"({magnitude_text(eff, best.magnitude)}).")
-    return text
+    closest = (f"; the closest candidate was {_effect_words(diag, best.effect, best.magnitude)}"
+               if best is not None else "")
+    if "not identifiable" in att.reason:
+        return ("the best candidate would fit, but these measurements cannot tell its effect "
+                "from noise (see what to measure next and the report's appendix)" + closest)
+    if getattr(att.best, "effects", ()):
+        return ("even the best candidate leaves a gap beyond noise: the simulation misses "
+                "something the catalogue of effects does not hold" + closest)
+    return ("after recalibration a gap beyond noise remains that no effect of the catalogue "
+            "narrows: the simulation misses something the catalogue does not hold" + closest)
 
 
 def _how_far(diag) -> str:
@@ -373,6 +395,13 @@ def _next(diag) -> str:
     status = "Measure again" if n.measured else "Measure"
     cond = conditions_text(n.conditions)
     cond = f" ({cond})" if cond else ""
+    if not n.separation >= _WITHIN_NOISE and diag.attribution.verdict == "none":
+        return ("Nothing further is needed: recalibration alone closes the gap, and no "
+                "measurement of the design would tell an effect apart from it.")
+    if not n.separation >= _WITHIN_NOISE:
+        return (f"No measurement of the design tells the two leading explanations, {a} and "
+                f"{b}, apart: the best, {n.observable.replace('_', ' ')}{cond}, puts them only "
+                f"{n.separation:.1f}× the noise apart; a measurement of another kind is needed.")
     return (f"{status} {n.observable.replace('_', ' ')}{cond}: the two leading "
             f"explanations, {a} and {b}, predict it {n.separation:.1f}× the noise apart, so it "
             "tells them apart.")

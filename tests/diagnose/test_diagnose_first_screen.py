@@ -1,9 +1,12 @@
-"""The first figure of the report: measured against simulated, before and after the effect.
+"""The report's first screen for each verdict: the figure and the answer's words.
+
+The first figure is measured against simulated, before and after the effect.
 
 A noiseless linear toy simulator gives the simulated values in closed form (the base
 response plus the recalibration shift times the sensitivity, plus the effect's response
 times its magnitude), so the figure's plotted points are checked against that, and against
-the result's own numbers, for each verdict: attributed, none and unexplained.
+the result's own numbers, for each verdict: attributed, none and unexplained. The answer's
+words carry no statistics (p-values, chi-square) and claim no separation the design lacks.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ import pytest
 pytest.importorskip("matplotlib")
 
 from bedstruct.diagnose import Observations, compute_fingerprints, diagnose, diagnosis_report
-from bedstruct.diagnose.answer import answer, gap_rows
+from bedstruct.diagnose.answer import answer, answer_lines, gap_rows
 from bedstruct.diagnose.figures import plot_gaps
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
 
@@ -48,6 +51,14 @@ def _series(ax) -> dict:
         half = np.array([abs(seg[1, 0] - seg[0, 0]) / 2 for seg in bars.get_segments()])
         out[c.get_label()] = (x, np.asarray(line.get_ydata(), float), half)
     return out
+
+
+def _plain(text):
+    """No statistics and no float noise in the answer's words."""
+    import re
+    for word in ("p = ", "chi2", "sigma", "dof", "weight", "confidence"):
+        assert word not in text, word
+    assert not re.search(r"\d\.\d{6,}|e-0\d|\bnan\b", text, re.IGNORECASE)
 
 
 def _check_against_rows(d, ax):
@@ -98,6 +109,9 @@ def test_null_answer_figure_has_no_after(toy):
     fig, ax = plot_gaps(d)
     _, s = _check_against_rows(d, ax)
     assert set(s) == {"measured", "before: recalibrated"}
+    text = "\n".join(answer_lines(d))
+    _plain(text)
+    assert "What next: nothing further is needed: recalibration alone closes the gap" in text
     assert "no effect added" in ax.get_title()
     assert np.allclose(s["before: recalibrated"][0],
                        [SENS["k"][int(r["what"][1:])] * d.shrink.nuisance["k"]
@@ -114,6 +128,11 @@ def test_unexplained_figure_renders(toy):
     _, s = _check_against_rows(d, ax)
     assert ax.get_title().startswith("Measured against simulated (unexplained")
     assert all(lab == "measured" or lab.startswith("before") or "rejected" in lab for lab in s)
+    text = "\n".join(answer_lines(d))
+    _plain(text)
+    assert "Which effect: No effect is named: after recalibration a gap beyond noise remains" in text
+    # the design cannot separate the two leading explanations: said so, not "it tells them apart"
+    assert "a measurement of another kind is needed" in text and "tells them apart" not in text
     import io
     fig.savefig(io.BytesIO(), format="png")             # it renders
 
