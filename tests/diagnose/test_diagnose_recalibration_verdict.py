@@ -215,6 +215,16 @@ def test_a_pair_whose_rerun_contradicts_it_is_not_refitted():
     assert d.shrink.p_rerun_calibration < 0.01 and d.shrink.refits == ()
     assert d.verdict == "unexplained" and "not confirmed" in d.attribution.reason
     assert d.settings["simulator_runs"] == 9         # with the base at the fitted shift of k
+    # the answer says so in words, and the first figure shows the rejected rerun as such
+    from bedstruct.diagnose.answer import answer
+    from bedstruct.diagnose.figures import plot_gaps
+    which = answer(d).which
+    assert which.startswith("No effect is named: the best candidate, A (A magnitude 0.")
+    assert ") together with B (B magnitude 0." in which
+    assert "the simulation rerun with it does not reproduce the measurements" in which
+    assert "p = " not in which
+    _, ax = plot_gaps(d)
+    assert [c.get_label() for c in ax.containers][-1] == "recalibrated + A + B (rejected by its rerun)"
 
 
 class _CurvedNuisanceSimulator(ToySimulator):
