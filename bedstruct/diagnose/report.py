@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 from .._version import __version__
-from .answer import _observable_words, answer, difference_text, quantity_text
+from .answer import _num, _observable_words, answer, difference_text, quantity_text
 from .diagnosis_result import identification, uneven_scatter_note
 from .separation import nearest_imitations
 from .validation_scores import capped_summary
@@ -249,11 +249,26 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
         s.tables.append(Table(["question", "answer"],
                               [["Which effect", a.which], ["How far", a.how_far],
                                ["Recalibration", a.recalibration], ["What next", a.next]]))
-        s.tables.append(Table(["observable", "role", "measured", "simulated", "gap"],
-                              [[r["what"], r["role"], r["measured"], r["simulated"], r["gap"]]
+        gaps = {g["what"]: g for g in a.gaps}
+        after = any(math.isfinite(g["after"]) for g in a.gaps)
+
+        def sim_text(r, key):
+            g = gaps.get(r["what"])
+            if g is None or not math.isfinite(g[key]):
+                return "n/a"
+            return f"{_num(g[key])} {g['unit']}".strip()
+
+        cols = ["observable", "role", "measured", "simulated", "recalibrated"]
+        cols += ["with the effect"] if after else []
+        s.tables.append(Table(cols + ["gap"],
+                              [[r["what"], r["role"], r["measured"], r["simulated"],
+                                sim_text(r, "before")]
+                               + ([sim_text(r, "after")] if after else []) + [r["gap"]]
                                for r in a.where],
                               caption="where the simulation misses the measurements, largest "
-                                      "gap first (measured ± its uncertainty)"))
+                                      "gap first (measured ± its uncertainty; simulated: the "
+                                      "base model; recalibrated, and with the effect added: "
+                                      "the reruns; the gap is the base model's)"))
         fig, _ = pdg.plot_gaps(diag)
         s.add_figure(fig, "measured against simulated for every measured observable: the "
                           "recalibrated model before and after adding the effect, in units of "
