@@ -1,4 +1,4 @@
-"""Figures of the sim-to-real gap diagnosis (where, fingerprints, which, shrink, validation).
+"""Figures of the sim-to-real gap diagnosis (gaps, where, fingerprints, which, shrink, validation).
 
 Every function takes a result object, ``ax=None`` and returns the Axes (or
 ``(fig, ax)`` when it created the figure); nothing is shown or saved.
