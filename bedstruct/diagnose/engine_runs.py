@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .measurements import normalise_region
-from .observables import observe
+from .observables_registry import observe
 
 __all__ = ["CallRuns", "REGIONS"]
 

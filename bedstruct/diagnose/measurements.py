@@ -26,11 +26,13 @@ from ..errors import ConfigError
 __all__ = ["KINDS", "ROLES", "PLAUSIBLE", "normalise_region", "Conditions", "Measurement",
            "MeasurementSet", "Observations"]
 
-#: Observable kinds and their canonical unit.
+#: Observable kinds and their canonical unit (the built-in ones, and those added by
+#: :func:`bedstruct.diagnose.register_observable`; how each is computed:
+#: :func:`bedstruct.diagnose.observable_kinds`).
 KINDS: dict[str, str] = {
     "static_angle": "deg", "dynamic_angle_series": "deg", "bed_height": "m",
     "packing_fraction": "1", "psd": "m", "roughness": "m", "coordination": "1",
-    "tool_force_ratio": "1",
+    "segregation_index": "1", "tool_force_ratio": "1",
 }
 #: Roles of an observable; ``candidate`` marks a design-only (not yet measured) one.
 ROLES = ("calibrate", "validate", "candidate")
@@ -48,7 +50,8 @@ _KNOWN_CONDITIONS = {"speed", "layer", "region", "time_window", "stage", "relati
 
 #: Plausible values per kind, canonical units: ``lo < value < hi`` (checked when a
 #: measurement file is read; a value outside is almost always a unit mistake).
-#: ``tool_force_ratio`` (a signed ratio) is not range-checked.
+#: ``tool_force_ratio`` (a signed ratio) and ``segregation_index`` (0 for a mixed bed)
+#: are not range-checked.
 PLAUSIBLE: dict[str, tuple[float, float]] = {
     "static_angle": (5.0, 90.0), "dynamic_angle_series": (5.0, 90.0),   # deg
     "packing_fraction": (0.0, 1.0), "coordination": (0.0, 20.0),
