@@ -55,6 +55,7 @@ from ..workflows.config import load_config
 from .catalogue import effect
 from .engine_runs import CallRuns, _region_index
 from .measurements import Observations
+from .observables_registry import observable_kind
 from .process_pool import run_calls
 
 __all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "code_versions",
@@ -85,6 +86,7 @@ _CODE = {"engine": ("dem", "workflows", "_numba.py", "diagnose/catalogue.py",
                     "diagnose/engine_simulator.py"),
          "observation": ("analysis", "io", "core", "diagnose/engine_runs.py",
                          "diagnose/observables.py", "diagnose/observables_image.py",
+                         "diagnose/observables_registry.py",
                          "diagnose/measurements.py")}
 
 
@@ -260,10 +262,11 @@ class EngineSimulator:
         self.n_calls = 0
         self.on_call = None
         for m in design:
-            if m.kind not in ("static_angle", "dynamic_angle_series", "bed_height",
-                              "packing_fraction", "psd", "roughness", "coordination",
-                              "tool_force_ratio"):
-                raise ConfigError(f"observable {m.name!r}: kind {m.kind!r} not produced by the engine")
+            try:
+                observable_kind(m.kind)
+            except ValueError as exc:
+                raise ConfigError(f"observable {m.name!r}: kind {m.kind!r} not produced by the "
+                                  f"engine ({exc})") from None
         self.n_runs = 0
 
     # ------------------------------------------------------------------ config
@@ -352,6 +355,9 @@ class EngineSimulator:
                 spec["region"] = _region_index(m)   # the index keeps the cache keys
         if m.kind == "psd":
             spec["stage"] = c.get("stage", "before")
+        kind = observable_kind(m.kind)
+        if kind.user:   # the function's module, name and source hash
+            spec["function"] = kind.source
         if m.windows is not None:
             spec["windows"] = np.asarray(m.windows, float).round(12).tolist()
         if m.percentiles is not None:

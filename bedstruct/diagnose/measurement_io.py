@@ -38,7 +38,29 @@ __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
 _ALLOWED = {"name", "kind", "unit", "value", "uncertainty", "replicates", "conditions", "role",
             "windows", "percentiles", "labels", "csv", "columns", "stroke_duration", "image",
             "images", "pixel_size", "powder", "flanks", "note", "provenance", "trials",
-            "not_measured"}
+            "not_measured", "callable"}
+
+
+def _register_user_kind(d: Mapping[str, Any], kind, where: str) -> None:
+    """Register the ``callable`` of a user observable under its ``kind`` (unit: the
+    canonical unit of the stated ``unit``'s dimension)."""
+    from .observables_registry import _REGISTRY, canonical_unit, load_callable, register_observable
+    spec = _string(d["callable"], where, "callable")
+    if not isinstance(kind, str) or not kind.isidentifier():
+        raise _err(where, f"key 'kind': a user observable ('callable') needs a kind name of its own "
+                          f"(letters, digits, _); got {kind!r}")
+    if kind in _REGISTRY and not _REGISTRY[kind].user:
+        raise _err(where, f"key 'callable': {kind!r} is a built-in kind, computed by "
+                          f"{_REGISTRY[kind].analysis or 'bedstruct'}; give a user observable a "
+                          f"kind name of its own")
+    if "unit" not in d:
+        raise _err(where, "key 'unit': a user observable needs the unit of its values "
+                          f"(one of {sorted(_UNIT)}; its function returns the SI unit)")
+    try:
+        func = load_callable(spec)
+        register_observable(kind, func, unit=canonical_unit(_string(d["unit"], where, "unit")))
+    except (ConfigError, ValueError, TypeError) as exc:
+        raise _err(where, f"key 'callable': {exc}") from None
 
 
 def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None = None,
@@ -76,6 +98,8 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if unknown:
         raise _err(where, f"key {sorted(unknown)[0]!r}: unknown key; allowed: {sorted(_ALLOWED)}")
     kind = d.get("kind")
+    if "callable" in d:
+        _register_user_kind(d, kind, where)
     if kind not in KINDS:
         raise _err(where, f"key 'kind': expected one of {sorted(KINDS)}; got {kind!r}")
     role = d.get("role", "calibrate")

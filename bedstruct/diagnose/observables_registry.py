@@ -107,6 +107,11 @@ def _frame(data: Mapping[str, Any]):
     return Frame(p, r, box=Box.from_box((lo, hi), boundary=("ff", "ff", "ff")))
 
 
+def _map_options(data):
+    """The height-map options in ``data`` (``bounds``, ``spacing``)."""
+    return {k: data[k] for k in ("bounds", "spacing") if k in data}
+
+
 def _region(data, frame):
     if "region_lo" in data or "region_hi" in data:
         return (np.asarray(data["region_lo"], float).reshape(1, 3),
@@ -148,8 +153,7 @@ def _bed_height(data, **_):
     frame = _frame(data)
     plate = data.get("plate_z")
     plate = float(np.min(frame.positions[:, 2] - frame.radii)) if plate is None else float(plate)
-    kw = {"bounds": data["bounds"]} if "bounds" in data else {}
-    return np.array([bed_height(frame, plate, **kw)])
+    return np.array([bed_height(frame, plate, **_map_options(data))])
 
 
 def _packing_fraction(data, **_):
@@ -173,8 +177,7 @@ def _roughness(data, **_):
     from ..analysis import surface_height_map, surface_roughness
     if "surface_heights" in data:
         return np.array([surface_roughness(data["surface_heights"]).sa])
-    kw = {"bounds": data["bounds"]} if "bounds" in data else {}
-    return np.array([surface_height_map(_frame(data), **kw).sa])
+    return np.array([surface_height_map(_frame(data), **_map_options(data)).sa])
 
 
 def _coordination(data, **_):
@@ -205,8 +208,8 @@ _BUILTIN = (
                    "blade_positions; windows", "bedstruct.analysis.dynamic_angle_of_repose",
                    _dynamic_angle_series, "mean dynamic angle of the heap ahead of the tool in "
                    "each time window of the stroke"),
-    ObservableKind("bed_height", "m", "spread", "frame / positions + radii (+ plate_z, bounds), "
-                   "or surface_heights", "bedstruct.analysis.bed_height", _bed_height,
+    ObservableKind("bed_height", "m", "spread", "frame / positions + radii (+ plate_z, bounds, "
+                   "spacing), or surface_heights", "bedstruct.analysis.bed_height", _bed_height,
                    "mean top-surface height of the bed above the platform after a layer"),
     ObservableKind("packing_fraction", "1", "spread", "frame / positions + radii (+ region_lo, "
                    "region_hi)", "bedstruct.analysis.packing_fractions", _packing_fraction,
@@ -215,7 +218,7 @@ _BUILTIN = (
                    "cumulative; percentiles", "bedstruct.analysis.percentile_diameter", _psd,
                    "volume-weighted percentile diameters, before or after spreading"),
     ObservableKind("roughness", "m", "spread", "surface_heights, or frame / positions + radii "
-                   "(+ bounds)", "bedstruct.analysis.surface_roughness", _roughness,
+                   "(+ bounds, spacing)", "bedstruct.analysis.surface_roughness", _roughness,
                    "arithmetic mean height deviation Sa of the top surface"),
     ObservableKind("coordination", "1", "spread", "coordination (per-particle counts), or frame "
                    "(+ contacts)", "bedstruct.analysis.coordination", _coordination,
