@@ -58,8 +58,8 @@ from .measurements import Observations
 from .observables_registry import observable_kind
 from .process_pool import run_calls
 
-__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "code_versions",
-           "PRESET_OVERRIDES"]
+__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "setup_config",
+           "code_versions", "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
 
@@ -181,6 +181,97 @@ def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1
     return out
 
 
+def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float = 1.0) -> dict:
+    """The workflow configuration ``cfg`` with the experiment's set-up applied.
+
+    The conditions of a measurement file's ``[conditions]`` table
+    (:class:`~bedstruct.diagnose.measurements.Setup`, SI) map onto the workflow
+    configuration (:mod:`bedstruct.workflows.schema`):
+
+    ==================  ====================================================================
+    condition           configuration
+    ==================  ====================================================================
+    ``psd``             ``psd.d10``, ``d50``, ``d90``, ``d_min``, ``d_max`` (the preset's
+                        coarse-graining ``psd.scale`` still multiplies every diameter)
+    ``layer_thickness`` ``spread.gaps`` (one per layer; ``layers`` is their number)
+    ``blade_speed``     ``spread.speed`` = blade speed x ``speed_scale`` (the scale
+                        model's speed; 1 on the ``seed`` preset)
+    ``platform_length`` ``spread.plate_length``
+    ``platform_width``  ``spread.width`` (the strip is periodic across the stroke)
+    ``side_walls``      the repose box: ``repose.periodic_width = not side_walls``; with
+                        ``wall_distance`` its width ``repose.box[1]``
+    ==================  ====================================================================
+
+    Parameters
+    ----------
+    cfg : mapping
+        A complete workflow configuration (:func:`bedstruct.workflows.load_config`).
+    setup : Setup
+    design : iterable of Measurement
+        The observables to simulate (side walls are refused when one needs a spreading run).
+    speed_scale : float
+        Simulated speed per real speed.
+
+    Returns
+    -------
+    dict
+        The validated configuration.
+
+    Raises
+    ------
+    ConfigError
+        A condition the engine cannot honour, naming the file, the key and what is
+        expected: side walls for spreading observables (the spreading workflow
+        simulates a strip periodic across the platform).
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose.measurements import Setup
+    >>> from bedstruct.workflows.config import load_config
+    >>> s = Setup(layer_thickness=(100e-6, 100e-6, 50e-6), blade_speed=0.05, platform_length=10e-3)
+    >>> c = setup_config(load_config(preset="seed"), s)
+    >>> c["spread"]["gaps"], c["spread"]["speed"], c["spread"]["plate_length"]
+    ([0.0001, 0.0001, 5e-05], 0.05, 0.01)
+    """
+    out = copy.deepcopy(dict(cfg))
+    sp, rp = out["spread"], out["repose"]
+    if setup.psd is not None:
+        out["psd"].update(zip(("d10", "d50", "d90", "d_min", "d_max"), (float(x) for x in setup.psd)))
+    if setup.layer_thickness is not None:
+        sp["gaps"] = [float(x) for x in setup.layer_thickness]
+    if setup.blade_speed is not None:
+        sp["speed"] = float(setup.blade_speed) * float(speed_scale)
+        out["time"]["v_max"] = max(float(out["time"]["v_max"]), 1.5 * sp["speed"])
+    if setup.platform_length is not None:
+        sp["plate_length"] = float(setup.platform_length)
+    if setup.platform_width is not None:
+        sp["width"] = float(setup.platform_width)
+    if setup.side_walls is not None:
+        if setup.side_walls:
+            spreading = [m.name for m in design
+                         if m.kind != "static_angle"
+                         and not (m.kind == "psd" and m.conditions.get("stage", "before") == "before")]
+            if spreading:
+                raise ConfigError(f"{setup.where('side_walls')}: the engine's spreading workflow "
+                                  f"simulates a strip periodic across the platform, without side "
+                                  f"walls, and observable(s) {spreading} need a spreading run; "
+                                  f"expected side_walls = false (with platform_width), or side "
+                                  f"walls for repose observables only")
+            rp["periodic_width"] = False
+            if setup.wall_distance is not None:
+                box = list(rp["box"])
+                box[1] = float(setup.wall_distance)
+                rp["box"] = box
+        else:
+            rp["periodic_width"] = True
+    try:
+        return load_config(out)
+    except ConfigError as exc:
+        raise ConfigError(f"{setup.path or 'measurement set'}: key 'conditions': the set-up "
+                          f"{list(setup.given())} gives an invalid engine configuration: "
+                          f"{exc}") from None
+
+
 class EngineSimulator:
     """Simulator of a diagnosis design on the embedded DEM engine (see the module docstring).
 
@@ -246,6 +337,11 @@ class EngineSimulator:
             v = getattr(self, key)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(f"[engine]: key {key!r} must be positive and finite; got {v!r}")
+        # the experiment's set-up (the file's [conditions]): psd, layers, speed, platform, walls
+        self.setup = getattr(design, "setup", None)
+        if self.setup is not None and not self.setup.is_empty:
+            self.base_cfg = setup_config(self.base_cfg, self.setup, design,
+                                         speed_scale=self.speed_scale)
         self.jobs = int(cfg.get("jobs", 1))
         if self.jobs < 1:
             raise ConfigError(f"[engine]: key 'jobs' must be >= 1; got {self.jobs}")

@@ -25,8 +25,8 @@ import numpy as np
 
 from ..errors import ConfigError
 from .measurement_parse import (_SERIES_NOTE, _check_plausible, _conditions, _convert, _err,
-                                _float_array, _image_angle, _number, _read_csv, _string, _table,
-                                _trials, _windowed)
+                                _float_array, _image_angle, _number, _read_csv, _setup, _string,
+                                _table, _trials, _windowed)
 from .measurements import _UNIT, KINDS, ROLES, Measurement, MeasurementSet
 from .replicates import variance_upper_bound
 
@@ -461,19 +461,28 @@ def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
     obs = doc.get("observable")
     if not isinstance(obs, list) or not obs:
         raise ConfigError(f"{path}: key 'observable': expected one or more [[observable]] tables")
-    unknown = set(doc) - {"meta", "observable"}
+    unknown = set(doc) - {"meta", "observable", "conditions"}
     if unknown:
         raise ConfigError(f"{path}: key {sorted(unknown)[0]!r}: unknown top-level key; "
-                          f"expected 'meta' and [[observable]]")
+                          f"expected 'meta', 'conditions' and [[observable]]")
+    setup = _setup(doc.get("conditions"), str(path), path.parent)
     ms = tuple(measurement_from_dict(o, base_dir=path.parent, where=f"{path}: observable #{i + 1}",
                                      check_range=check_range)
                for i, o in enumerate(obs))
+    if setup.n_layers is not None:
+        for i, m in enumerate(ms):
+            if m.conditions.layer is not None and m.conditions.layer > setup.n_layers:
+                raise ConfigError(f"{path}: observable #{i + 1} {m.name!r}: key "
+                                  f"'conditions.layer': layer {m.conditions.layer}, but the "
+                                  f"file's conditions give {setup.n_layers} layer(s); expected "
+                                  f"1 to {setup.n_layers}")
     try:
         return MeasurementSet(tuple(m for m in ms if not m.measured_in_no_trial),
                               title=str(meta.get("title", path.stem)),
                               source=str(meta.get("source", "")), path=str(path),
                               notes=str(meta.get("notes", "")),
-                              unmeasured=tuple(m for m in ms if m.measured_in_no_trial))
+                              unmeasured=tuple(m for m in ms if m.measured_in_no_trial),
+                              setup=setup)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
 
@@ -496,6 +505,29 @@ def _toml_value(v) -> str:
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
+def _setup_lines(setup) -> list[str]:
+    """The ``[conditions]`` table of a set-up (SI values with their units)."""
+    if setup.is_empty:
+        return []
+    lines = ["", "[conditions]"]
+    if setup.psd is not None:
+        d10, d50, d90, lo, hi = (f'"{x!r} m"' for x in setup.psd)
+        lines.append(f"psd = {{d10 = {d10}, d50 = {d50}, d90 = {d90}, d_min = {lo}, "
+                     f"d_max = {hi}}}")
+    if setup.layer_thickness is not None:
+        lines.append("layer_thickness = [" + ", ".join(f'"{x!r} m"' for x in setup.layer_thickness)
+                     + "]")
+    if setup.blade_speed is not None:
+        lines.append(f'blade_speed = "{setup.blade_speed!r} m/s"')
+    for key in ("platform_length", "platform_width", "wall_distance"):
+        v = getattr(setup, key)
+        if v is not None:
+            lines.append(f'{key} = "{v!r} m"')
+    if setup.side_walls is not None:
+        lines.append(f"side_walls = {_toml_value(setup.side_walls)}")
+    return lines
+
+
 def write_measurements(mset: MeasurementSet, path) -> Path:
     """Write a :class:`MeasurementSet` as a measurement TOML file (canonical units).
 
@@ -508,6 +540,7 @@ def write_measurements(mset: MeasurementSet, path) -> Path:
     lines = ["[meta]", f"title = {_toml_value(mset.title)}", f"source = {_toml_value(mset.source)}"]
     if mset.notes:
         lines.append(f"notes = {_toml_value(mset.notes)}")
+    lines += _setup_lines(mset.setup)
     for m in mset.measurements + tuple(mset.unmeasured):
         lines += ["", "[[observable]]", f"name = {_toml_value(m.name)}", f"kind = {_toml_value(m.kind)}",
                   f"unit = {_toml_value(m.unit)}", f"role = {_toml_value(m.role)}"]

@@ -122,6 +122,11 @@ class SurrogateSimulator:
         self.design = design
         self.noise = float(noise)
         self.correlation = float(correlation)
+        setup = getattr(design, "setup", None)
+        if setup is not None and not setup.is_empty:
+            raise ConfigError(f"{setup.where(setup.given()[0])}: the surrogate simulator models "
+                              f"the seed's set-up only; expected no [conditions] table, or the "
+                              f"engine simulator ([simulator] kind = \"engine\")")
         for m in design:
             self._check(m)
 
