@@ -153,3 +153,44 @@ def test_user_observable_from_a_measurement_file(tmp_path, monkeypatch):
     wrong.write_text(f.read_text().replace('kind = "bed_top"', 'kind = "bed_height"'))
     with pytest.raises(ConfigError, match=r"wrong\.toml.*'callable'.*built-in"):
         load_measurements(wrong)
+
+
+def test_user_observable_and_segregation_through_the_engine_simulator(monkeypatch):
+    """The engine simulator hands a user kind the beds after layers 1 .. its layer (read back
+    from the run's dumps) and reads the segregation index of the layer's measurement."""
+    import types
+
+    import bedstruct.workflows.spread as spread
+    from bedstruct.diagnose import MeasurementSet, measurement_from_dict
+    from bedstruct.diagnose.engine_simulator import EngineSimulator
+    from bedstruct.io import write_dump
+
+    def layers_seen(frames):
+        return [len(frames), float(np.max(frames[-1].positions[:, 2]))]
+
+    register_observable("layers_seen", layers_seen, unit="1")
+    try:
+        design = MeasurementSet(tuple(measurement_from_dict(d) for d in (
+            {"name": "mine", "kind": "layers_seen", "value": [0.0, 0.0], "uncertainty": [1, 1],
+             "conditions": {"layer": 2}},
+            {"name": "seg", "kind": "segregation_index", "value": 0.1, "uncertainty": 0.01,
+             "conditions": {"layer": 1}})))
+        sim = EngineSimulator(design, {"preset": "tiny"})
+        layers = [types.SimpleNamespace(index=k, segregation_index=0.1 * k) for k in (1, 2)]
+
+        def fake_run_spread(cfg, *, out=None, pile=None, progress=False):
+            for k in (1, 2):
+                (out / f"layer{k:02d}").mkdir(parents=True)
+                write_dump(out / f"layer{k:02d}" / "bed.dump",
+                           Frame([[1e-4, 1e-4, 1e-4 * k]], [2e-5], box=[1e-3, 1e-3, 1e-3]))
+            return types.SimpleNamespace(layers=layers)
+
+        monkeypatch.setattr(spread, "run_spread", fake_run_spread)
+        monkeypatch.setattr(spread, "generate_pile", lambda cfg, **kw: ("the pile", 0))
+        obs = sim({}, {}, 0)
+        np.testing.assert_allclose(obs["mine"], [2.0, 2e-4])
+        assert obs["seg"][0] == pytest.approx(0.1)
+        # the user function's source is part of the call's cache entry
+        assert "layers_seen" in sim._spec(design["mine"])["function"]
+    finally:
+        unregister_observable("layers_seen")
