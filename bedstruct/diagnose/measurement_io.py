@@ -110,8 +110,15 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if unit not in _UNIT:
         _convert([], unit, kind, where)   # the unknown-unit error
     file_unit = unit
-    cond = _conditions(d.get("conditions"), where)
     conversions: list[str] = []
+    cond = _conditions(d.get("conditions"), where, conversions)
+    for key, kinds in (("time_window", ("dynamic_angle_series",)), ("stage", ("psd",))):
+        if cond.get(key) is not None and kind not in kinds:
+            raise _err(where, f"key 'conditions.{key}': only a {' or '.join(kinds)} has a "
+                              f"{key.replace('_', ' ')}; this is a {kind}")
+    for key in ("note", "provenance"):
+        if key in d and not isinstance(d[key], str):
+            raise _err(where, f"key {key!r}: expected a string; got {d[key]!r}")
     windows = percentiles = replicates = None
     sem = None
     for key, kinds in (("windows", ("dynamic_angle_series",)), ("percentiles", ("psd",))):
@@ -403,7 +410,7 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             labels = ["value"]
         else:
             labels = [f"c{i}" for i in range(n)]
-    elif not isinstance(labels, (list, tuple)):
+    elif not isinstance(labels, (list, tuple)) or not all(isinstance(x, str) for x in labels):
         raise _err(where, f"key 'labels': expected a list of strings; got {labels!r}")
     labels = tuple(str(x) for x in labels)
     if len(labels) != n:
@@ -458,6 +465,11 @@ def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
     meta = doc.get("meta", {})
     if not isinstance(meta, Mapping):
         raise ConfigError(f"{path}: key 'meta': expected a table")
+    for key, v in meta.items():
+        if key not in ("title", "source", "notes"):
+            raise ConfigError(f"{path}: key 'meta.{key}': unknown; expected title, source, notes")
+        if not isinstance(v, str):
+            raise ConfigError(f"{path}: key 'meta.{key}': expected a string; got {v!r}")
     obs = doc.get("observable")
     if not isinstance(obs, list) or not obs:
         raise ConfigError(f"{path}: key 'observable': expected one or more [[observable]] tables")
@@ -476,6 +488,12 @@ def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
                                   f"'conditions.layer': layer {m.conditions.layer}, but the "
                                   f"file's conditions give {setup.n_layers} layer(s); expected "
                                   f"1 to {setup.n_layers}")
+    first: dict[str, int] = {}
+    for i, m in enumerate(ms):
+        if m.name in first:
+            raise ConfigError(f"{path}: observable #{i + 1} {m.name!r}: key 'name': already the "
+                              f"name of observable #{first[m.name] + 1}; expected a unique name")
+        first[m.name] = i
     try:
         return MeasurementSet(tuple(m for m in ms if not m.measured_in_no_trial),
                               title=str(meta.get("title", path.stem)),

@@ -157,7 +157,11 @@ def _read_csv(path: Path, where: str, key: str = "csv") -> tuple[list[str], np.n
     return names, data
 
 
-def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
+def _conditions(d: Mapping[str, Any] | None, where: str, conversions: list | None = None
+                ) -> Conditions:
+    """An observable's ``conditions`` table (speeds and the box width may carry a unit,
+    e.g. ``"2.54 cm/s"``; a plain number is m/s or m); unit conversions are appended to
+    ``conversions``."""
     if d is None:
         return Conditions()
     if not isinstance(d, Mapping):
@@ -167,8 +171,12 @@ def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
         raise _err(where, f"key 'conditions.{sorted(unknown)[0]}': unknown condition; known: "
                           f"{sorted(_KNOWN_CONDITIONS)}")
     speed = d.get("speed")
+    conv: list[str] = conversions if conversions is not None else []
     if speed is not None:
-        speed = _number(speed, where, "conditions.speed", positive=True, unit="(m/s)")
+        speed = _number(speed, where, "conditions.speed", positive=True, unit="(m/s)") \
+            if _is_number(speed) else \
+            _scalar_quantity(speed, where, "conditions.speed", _SPEED_UNITS, what="speed",
+                             conversions=conv)
     layer = d.get("layer")
     if layer is not None and (isinstance(layer, bool) or not isinstance(layer, int) or layer < 1):
         raise _err(where, f"key 'conditions.layer': expected a positive integer (1-based); got {layer!r}")
@@ -193,7 +201,9 @@ def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
                 if v not in ("before", "after"):
                     raise _err(where, f"key 'conditions.stage': expected 'before' or 'after'; got {v!r}")
             else:
-                v = _number(v, where, f"conditions.{k}")
+                v = _scalar_quantity(v, where, f"conditions.{k}", _LENGTH_UNITS, what="length",
+                                     conversions=conv) \
+                    if k == "box_width" and not _is_number(v) else _number(v, where, f"conditions.{k}")
                 if k == "relative_humidity" and not 0 <= v <= 1:
                     raise _err(where, f"key 'conditions.relative_humidity': expected 0..1 (a "
                                       f"fraction, not %); got {v}")
