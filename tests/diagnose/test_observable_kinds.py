@@ -194,3 +194,19 @@ def test_user_observable_and_segregation_through_the_engine_simulator(monkeypatc
         assert "layers_seen" in sim._spec(design["mine"])["function"]
     finally:
         unregister_observable("layers_seen")
+
+
+def test_the_docs_examples_of_observables_run():
+    """docs/diagnose.md's Python examples (observe, a user observable) run as written."""
+    import doctest
+    import pathlib
+    import re
+    page = pathlib.Path(__file__).resolve().parents[2] / "docs" / "diagnose.md"
+    blocks = [b for b in re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+              if ">>>" in b]
+    assert len(blocks) >= 2
+    for text in blocks:
+        test = doctest.DocTestParser().get_doctest(text, {}, "diagnose.md", str(page), 0)
+        runner = doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE)
+        runner.run(test)
+        assert runner.summarize(verbose=False).failed == 0
