@@ -44,14 +44,16 @@ _ALLOWED = {"name", "kind", "unit", "value", "uncertainty", "replicates", "condi
 def _register_user_kind(d: Mapping[str, Any], kind, where: str) -> None:
     """Register the ``callable`` of a user observable under its ``kind`` (unit: the
     canonical unit of the stated ``unit``'s dimension)."""
-    from .observables_registry import _REGISTRY, canonical_unit, load_callable, register_observable
+    from .observables_registry import (canonical_unit, load_callable, observable_kinds,
+                                       register_observable)
     spec = _string(d["callable"], where, "callable")
     if not isinstance(kind, str) or not kind.isidentifier():
         raise _err(where, f"key 'kind': a user observable ('callable') needs a kind name of its own "
                           f"(letters, digits, _); got {kind!r}")
-    if kind in _REGISTRY and not _REGISTRY[kind].user:
+    builtin = {k.name: k for k in observable_kinds() if not k.user}
+    if kind in builtin:
         raise _err(where, f"key 'callable': {kind!r} is a built-in kind, computed by "
-                          f"{_REGISTRY[kind].analysis or 'bedstruct'}; give a user observable a "
+                          f"{builtin[kind].analysis or 'bedstruct'}; give a user observable a "
                           f"kind name of its own")
     if "unit" not in d:
         raise _err(where, "key 'unit': a user observable needs the unit of its values "

@@ -46,7 +46,7 @@ from .observables import psd_percentiles, psd_percentiles_from_cumulative, tool_
     windowed_mean
 
 __all__ = ["ObservableKind", "observable_kinds", "observable_kind", "register_observable",
-           "unregister_observable", "load_callable", "observe"]
+           "unregister_observable", "load_callable", "canonical_unit", "observe"]
 
 
 @dataclass(frozen=True)
