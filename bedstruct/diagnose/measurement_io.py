@@ -525,6 +525,17 @@ def _toml_value(v) -> str:
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
+def _user_callable(kind: str) -> str | None:
+    """``"module:function"`` of a user kind whose function a file can name (importable by
+    name: not defined in ``__main__`` or inside another function), else None."""
+    from .observables_registry import observable_kinds
+    k = {x.name: x for x in observable_kinds()}.get(kind)
+    if k is None or not k.user:
+        return None
+    where = k.source.split("#")[0]
+    return None if where.startswith("__main__:") or "<locals>" in where else where
+
+
 def _setup_lines(setup) -> list[str]:
     """The ``[conditions]`` table of a set-up (SI values with their units)."""
     if setup.is_empty:
@@ -564,6 +575,9 @@ def write_measurements(mset: MeasurementSet, path) -> Path:
     for m in mset.measurements + tuple(mset.unmeasured):
         lines += ["", "[[observable]]", f"name = {_toml_value(m.name)}", f"kind = {_toml_value(m.kind)}",
                   f"unit = {_toml_value(m.unit)}", f"role = {_toml_value(m.role)}"]
+        func = _user_callable(m.kind)
+        if func:
+            lines.append(f"callable = {_toml_value(func)}")
         if m.role != "candidate" and not m.measured_in_no_trial:
             lines.append(f"value = {_toml_value(m.values)}")
         if np.all(np.isfinite(m.uncertainty)):

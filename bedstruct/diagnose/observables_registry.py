@@ -177,7 +177,10 @@ def _roughness(data, **_):
     from ..analysis import surface_height_map, surface_roughness
     if "surface_heights" in data:
         return np.array([surface_roughness(data["surface_heights"]).sa])
-    return np.array([surface_height_map(_frame(data), **_map_options(data)).sa])
+    kw = _map_options(data)
+    if data.get("plate_z") is not None:   # bare platform counts as height zero, as in bed_height
+        kw["base"] = float(data["plate_z"])
+    return np.array([surface_height_map(_frame(data), **kw).sa])
 
 
 def _coordination(data, **_):
@@ -218,7 +221,7 @@ _BUILTIN = (
                    "cumulative; percentiles", "bedstruct.analysis.percentile_diameter", _psd,
                    "volume-weighted percentile diameters, before or after spreading"),
     ObservableKind("roughness", "m", "spread", "surface_heights, or frame / positions + radii "
-                   "(+ bounds, spacing)", "bedstruct.analysis.surface_roughness", _roughness,
+                   "(+ plate_z, bounds, spacing)", "bedstruct.analysis.surface_roughness", _roughness,
                    "arithmetic mean height deviation Sa of the top surface"),
     ObservableKind("coordination", "1", "spread", "coordination (per-particle counts), or frame "
                    "(+ contacts)", "bedstruct.analysis.coordination", _coordination,

@@ -94,6 +94,15 @@ def test_setup_changes_the_engine_runs_config(tmp_path):
     assert sp["gaps"] == pytest.approx([500e-6, 400e-6, 200e-6])
     assert sp["speed"] == pytest.approx(0.0254 * sim.speed_scale) == pytest.approx(0.1)
     assert (sp["plate_length"], sp["width"]) == pytest.approx((8e-3, 0.8e-3))
+    # twenty layers
+    f20 = _file(tmp_path, '''
+        [conditions]
+        layers = 20
+        layer_thickness = "300 um"
+    ''', _HEIGHT, "twenty.toml")
+    gaps = EngineSimulator(load_measurements(f20), {"preset": "tiny"}).run_config({}, {}, 0)[
+        "spread"]["gaps"]
+    assert gaps == pytest.approx([300e-6] * 20)
     # without the set-up: the preset's
     plain = EngineSimulator(load_measurements(_file(tmp_path, "", _HEIGHT, "p.toml")),
                             {"preset": "tiny"}).run_config({}, {}, 0)

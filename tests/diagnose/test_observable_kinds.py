@@ -11,7 +11,7 @@ import pytest
 from bedstruct import Frame
 from bedstruct import analysis as an
 from bedstruct.diagnose import (load_measurements, observable_kind, observable_kinds, observe,
-                                register_observable, unregister_observable)
+                                register_observable, unregister_observable, write_measurements)
 from bedstruct.errors import ConfigError
 
 
@@ -143,6 +143,10 @@ def test_user_observable_from_a_measurement_file(tmp_path, monkeypatch):
         assert m.values[0] == pytest.approx(210e-6) and m.uncertainty[0] == pytest.approx(5e-6)
         fr = Frame([[0.5e-3, 0.5e-3, 100e-6]], [20e-6], box=[1e-3, 1e-3, 1e-3])
         assert observe(m.kind, [fr])[0] == pytest.approx(120e-6)
+        # written back with its callable, read back the same
+        w = write_measurements(ms, tmp_path / "w.toml")
+        assert 'callable = "my_observables:bed_top"' in w.read_text()
+        assert load_measurements(w)["top"].values[0] == pytest.approx(210e-6)
     finally:
         unregister_observable("bed_top")
     bad = tmp_path / "bad.toml"
