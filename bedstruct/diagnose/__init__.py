@@ -40,7 +40,8 @@ from .fingerprint_runs import compute_fingerprints
 from .fingerprints import FingerprintSet
 from .identifiability import nuisance_projector
 from .measurement_io import load_measurements, measurement_from_dict, write_measurements
-from .measurements import KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations
+from .measurements import (KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations,
+                           Setup)
 from .observables import psd_percentiles, psd_percentiles_from_cumulative, windowed_mean
 from .observables_registry import (ObservableKind, observable_kind, observable_kinds, observe,
                                    register_observable, unregister_observable)
@@ -62,7 +63,7 @@ from .where import GapGroup, Residuals, WhereResult, standardised_residuals, whe
 
 __all__ = [
     # measurements and observation operators
-    "KINDS", "ROLES", "Conditions", "Measurement", "MeasurementSet", "Observations",
+    "KINDS", "ROLES", "Conditions", "Setup", "Measurement", "MeasurementSet", "Observations",
     "load_measurements", "write_measurements", "measurement_from_dict",
     "windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative", "render_side_view",
     "surface_profile", "AngleFit", "fit_surface_angle", "angle_from_image", "angle_from_particles",
