@@ -533,8 +533,9 @@ class EngineSimulator:
             todo.append((dict(b), dict(e), int(s)))
         if len(todo) < 2:
             return 0
-        done = run_calls(engine_call, [(self.design, dict(self._config), b, e, s) for b, e, s in todo],
-                         self.jobs, progress=progress)
+        users = _user_kinds(self.design)
+        done = run_calls(engine_call, [(self.design, dict(self._config), b, e, s, users)
+                                       for b, e, s in todo], self.jobs, progress=progress)
         for (b, e, s), (values, n_runs) in zip(todo, done):
             self._memo[self._memo_key(b, e, s)] = values
             self.n_runs += n_runs
@@ -591,8 +592,27 @@ class EngineSimulator:
         return Observations(values, source="engine")
 
 
-def engine_call(design, config: Mapping[str, Any], base, effects, seed):
+def _user_kinds(design) -> tuple:
+    """``(name, "module:function", unit)`` of the design's user kinds, for worker processes
+    (started afresh: they register them again from the function's module)."""
+    out = []
+    for name in dict.fromkeys(m.kind for m in design):
+        k = observable_kind(name)
+        if k.user:
+            where = k.source.split("#")[0]
+            if where.startswith("__main__:") or "<locals>" in where:
+                raise ConfigError(f"observable kind {name!r}: its function {where} cannot be "
+                                  f"imported by worker processes; define it in a module, or "
+                                  f"run with jobs = 1")
+            out.append((name, where, k.unit))
+    return tuple(out)
+
+
+def engine_call(design, config: Mapping[str, Any], base, effects, seed, user_kinds=()):
     """One engine call in a worker process: its observations (lists) and its number of runs."""
+    from .observables_registry import load_callable, register_observable
+    for name, where, unit in user_kinds:
+        register_observable(name, load_callable(where), unit=unit)
     sim = EngineSimulator(design, dict(config, jobs=1))
     obs = sim(base, effects, seed)
     return {k: v.tolist() for k, v in obs.values.items()}, sim.n_runs

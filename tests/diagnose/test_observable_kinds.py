@@ -143,6 +143,9 @@ def test_user_observable_from_a_measurement_file(tmp_path, monkeypatch):
         assert m.values[0] == pytest.approx(210e-6) and m.uncertainty[0] == pytest.approx(5e-6)
         fr = Frame([[0.5e-3, 0.5e-3, 100e-6]], [20e-6], box=[1e-3, 1e-3, 1e-3])
         assert observe(m.kind, [fr])[0] == pytest.approx(120e-6)
+        # worker processes register it again from its module
+        from bedstruct.diagnose.engine_simulator import _user_kinds
+        assert _user_kinds(ms) == (("bed_top", "my_observables:bed_top", "m"),)
         # written back with its callable, read back the same
         w = write_measurements(ms, tmp_path / "w.toml")
         assert 'callable = "my_observables:bed_top"' in w.read_text()
@@ -196,6 +199,10 @@ def test_user_observable_and_segregation_through_the_engine_simulator(monkeypatc
         assert obs["seg"][0] == pytest.approx(0.1)
         # the user function's source is part of the call's cache entry
         assert "layers_seen" in sim._spec(design["mine"])["function"]
+        # a function defined inside another cannot reach worker processes
+        from bedstruct.diagnose.engine_simulator import _user_kinds
+        with pytest.raises(ConfigError, match="cannot be imported by worker processes"):
+            _user_kinds(design)
     finally:
         unregister_observable("layers_seen")
 
