@@ -7,7 +7,8 @@ The diagnosis talks to simulations only through the simulator interface
 examples, the analytic :class:`SurrogateSimulator` (labelled ``"surrogate"``).
 
 The modules, by concept: measurements (``measurements``, ``measurement_io``,
-``measurement_parse``, ``observables``, ``observables_image``, ``trial_counts``);
+``measurement_parse``, ``observables``, ``observables_image``, ``observables_registry``,
+``trial_counts``);
 simulators (``surrogate``, ``engine_simulator``, ``engine_runs``, ``process_pool``,
 ``replicates``, ``config``, ``parameters``, ``catalogue``); the model and its fit
 (``effect_response``, ``fingerprints``, ``fingerprint_runs``, ``identifiability``,
@@ -39,9 +40,11 @@ from .fingerprint_runs import compute_fingerprints
 from .fingerprints import FingerprintSet
 from .identifiability import nuisance_projector
 from .measurement_io import load_measurements, measurement_from_dict, write_measurements
-from .measurements import KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations
-from .observables import (bed_height, observe, packing_fraction_in_region, psd_percentiles,
-                          psd_percentiles_from_cumulative, roughness, windowed_mean)
+from .measurements import (KINDS, ROLES, Conditions, Measurement, MeasurementSet, Observations,
+                           Setup)
+from .observables import psd_percentiles, psd_percentiles_from_cumulative, windowed_mean
+from .observables_registry import (ObservableKind, observable_kind, observable_kinds, observe,
+                                   register_observable, unregister_observable)
 from .observables_image import (AngleFit, angle_from_image, angle_from_particles,
                                 fit_surface_angle, read_image, render_side_view, surface_profile)
 from .parameters import PARAMETER_BOUNDS, parameter_bounds
@@ -60,11 +63,12 @@ from .where import GapGroup, Residuals, WhereResult, standardised_residuals, whe
 
 __all__ = [
     # measurements and observation operators
-    "KINDS", "ROLES", "Conditions", "Measurement", "MeasurementSet", "Observations",
+    "KINDS", "ROLES", "Conditions", "Setup", "Measurement", "MeasurementSet", "Observations",
     "load_measurements", "write_measurements", "measurement_from_dict",
     "windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative", "render_side_view",
     "surface_profile", "AngleFit", "fit_surface_angle", "angle_from_image", "angle_from_particles",
-    "read_image", "bed_height", "packing_fraction_in_region", "roughness", "observe",
+    "read_image", "observe", "ObservableKind", "observable_kinds", "observable_kind",
+    "register_observable", "unregister_observable",
     # catalogue, parameters and simulators
     "CATALOGUE", "Effect", "catalogue", "effect", "engine_hooks", "halsey_film_thickness",
     "kelvin_radius", "PARAMETER_BOUNDS", "parameter_bounds",

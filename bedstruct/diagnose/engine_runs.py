@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .measurements import normalise_region
-from .observables import observe
+from .observables_registry import observable_kind, observe
 
 __all__ = ["CallRuns", "REGIONS"]
 
@@ -166,6 +166,17 @@ class CallRuns:
             return np.array([float(arr[min(r, len(arr) - 1)])])
         if m.kind == "roughness":
             return np.array([float(lay.roughness_sa_m)])
+        if m.kind == "segregation_index":
+            # analysis.segregation_index of the bed deposited by mid-layer (the spreading
+            # workflow's measurement, bedstruct.workflows.spread_measure.mid_layer_segregation)
+            return np.array([float(lay.segregation_index)])
+        kind = observable_kind(m.kind)
+        if kind.user:
+            # a user kind: its function of the beds after layers 1 .. the observable's layer
+            n = res.layers.index(lay) + 1
+            frames = [_last_frame(read_dump, _dump(out / f"layer{i:02d}", "bed"))
+                      for i in range(1, n + 1)]
+            return observe(m.kind, {"frames": frames})
         if m.kind == "tool_force_ratio":
             # the time-averaged load of the stroke; a ratio, the same on the scale model as
             # at the seed's scale

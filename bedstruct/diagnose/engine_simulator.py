@@ -55,10 +55,11 @@ from ..workflows.config import load_config
 from .catalogue import effect
 from .engine_runs import CallRuns, _region_index
 from .measurements import Observations
+from .observables_registry import observable_kind
 from .process_pool import run_calls
 
-__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "code_versions",
-           "PRESET_OVERRIDES"]
+__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "setup_config",
+           "code_versions", "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +86,7 @@ _CODE = {"engine": ("dem", "workflows", "_numba.py", "diagnose/catalogue.py",
                     "diagnose/engine_simulator.py"),
          "observation": ("analysis", "io", "core", "diagnose/engine_runs.py",
                          "diagnose/observables.py", "diagnose/observables_image.py",
+                         "diagnose/observables_registry.py",
                          "diagnose/measurements.py")}
 
 
@@ -179,6 +181,97 @@ def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1
     return out
 
 
+def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float = 1.0) -> dict:
+    """The workflow configuration ``cfg`` with the experiment's set-up applied.
+
+    The conditions of a measurement file's ``[conditions]`` table
+    (:class:`~bedstruct.diagnose.measurements.Setup`, SI) map onto the workflow
+    configuration (:mod:`bedstruct.workflows.schema`):
+
+    ==================  ====================================================================
+    condition           configuration
+    ==================  ====================================================================
+    ``psd``             ``psd.d10``, ``d50``, ``d90``, ``d_min``, ``d_max`` (the preset's
+                        coarse-graining ``psd.scale`` still multiplies every diameter)
+    ``layer_thickness`` ``spread.gaps`` (one per layer; ``layers`` is their number)
+    ``blade_speed``     ``spread.speed`` = blade speed x ``speed_scale`` (the scale
+                        model's speed; 1 on the ``seed`` preset)
+    ``platform_length`` ``spread.plate_length``
+    ``platform_width``  ``spread.width`` (the strip is periodic across the stroke)
+    ``side_walls``      the repose box: ``repose.periodic_width = not side_walls``; with
+                        ``wall_distance`` its width ``repose.box[1]``
+    ==================  ====================================================================
+
+    Parameters
+    ----------
+    cfg : mapping
+        A complete workflow configuration (:func:`bedstruct.workflows.load_config`).
+    setup : Setup
+    design : iterable of Measurement
+        The observables to simulate (side walls are refused when one needs a spreading run).
+    speed_scale : float
+        Simulated speed per real speed.
+
+    Returns
+    -------
+    dict
+        The validated configuration.
+
+    Raises
+    ------
+    ConfigError
+        A condition the engine cannot honour, naming the file, the key and what is
+        expected: side walls for spreading observables (the spreading workflow
+        simulates a strip periodic across the platform).
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose.measurements import Setup
+    >>> from bedstruct.workflows.config import load_config
+    >>> s = Setup(layer_thickness=(100e-6, 100e-6, 50e-6), blade_speed=0.05, platform_length=10e-3)
+    >>> c = setup_config(load_config(preset="seed"), s)
+    >>> c["spread"]["gaps"], c["spread"]["speed"], c["spread"]["plate_length"]
+    ([0.0001, 0.0001, 5e-05], 0.05, 0.01)
+    """
+    out = copy.deepcopy(dict(cfg))
+    sp, rp = out["spread"], out["repose"]
+    if setup.psd is not None:
+        out["psd"].update(zip(("d10", "d50", "d90", "d_min", "d_max"), (float(x) for x in setup.psd)))
+    if setup.layer_thickness is not None:
+        sp["gaps"] = [float(x) for x in setup.layer_thickness]
+    if setup.blade_speed is not None:
+        sp["speed"] = float(setup.blade_speed) * float(speed_scale)
+        out["time"]["v_max"] = max(float(out["time"]["v_max"]), 1.5 * sp["speed"])
+    if setup.platform_length is not None:
+        sp["plate_length"] = float(setup.platform_length)
+    if setup.platform_width is not None:
+        sp["width"] = float(setup.platform_width)
+    if setup.side_walls is not None:
+        if setup.side_walls:
+            spreading = [m.name for m in design
+                         if m.kind != "static_angle"
+                         and not (m.kind == "psd" and m.conditions.get("stage", "before") == "before")]
+            if spreading:
+                raise ConfigError(f"{setup.where('side_walls')}: the engine's spreading workflow "
+                                  f"simulates a strip periodic across the platform, without side "
+                                  f"walls, and observable(s) {spreading} need a spreading run; "
+                                  f"expected side_walls = false (with platform_width), or side "
+                                  f"walls for repose observables only")
+            rp["periodic_width"] = False
+            if setup.wall_distance is not None:
+                box = list(rp["box"])
+                box[1] = float(setup.wall_distance)
+                rp["box"] = box
+        else:
+            rp["periodic_width"] = True
+    try:
+        return load_config(out)
+    except ConfigError as exc:
+        raise ConfigError(f"{setup.path or 'measurement set'}: key 'conditions': the set-up "
+                          f"{list(setup.given())} gives an invalid engine configuration: "
+                          f"{exc}") from None
+
+
 class EngineSimulator:
     """Simulator of a diagnosis design on the embedded DEM engine (see the module docstring).
 
@@ -244,6 +337,11 @@ class EngineSimulator:
             v = getattr(self, key)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(f"[engine]: key {key!r} must be positive and finite; got {v!r}")
+        # the experiment's set-up (the file's [conditions]): psd, layers, speed, platform, walls
+        self.setup = getattr(design, "setup", None)
+        if self.setup is not None and not self.setup.is_empty:
+            self.base_cfg = setup_config(self.base_cfg, self.setup, design,
+                                         speed_scale=self.speed_scale)
         self.jobs = int(cfg.get("jobs", 1))
         if self.jobs < 1:
             raise ConfigError(f"[engine]: key 'jobs' must be >= 1; got {self.jobs}")
@@ -260,10 +358,11 @@ class EngineSimulator:
         self.n_calls = 0
         self.on_call = None
         for m in design:
-            if m.kind not in ("static_angle", "dynamic_angle_series", "bed_height",
-                              "packing_fraction", "psd", "roughness", "coordination",
-                              "tool_force_ratio"):
-                raise ConfigError(f"observable {m.name!r}: kind {m.kind!r} not produced by the engine")
+            try:
+                observable_kind(m.kind)
+            except ValueError as exc:
+                raise ConfigError(f"observable {m.name!r}: kind {m.kind!r} not produced by the "
+                                  f"engine ({exc})") from None
         self.n_runs = 0
 
     # ------------------------------------------------------------------ config
@@ -352,6 +451,9 @@ class EngineSimulator:
                 spec["region"] = _region_index(m)   # the index keeps the cache keys
         if m.kind == "psd":
             spec["stage"] = c.get("stage", "before")
+        kind = observable_kind(m.kind)
+        if kind.user:   # the function's module, name and source hash
+            spec["function"] = kind.source
         if m.windows is not None:
             spec["windows"] = np.asarray(m.windows, float).round(12).tolist()
         if m.percentiles is not None:
@@ -431,8 +533,9 @@ class EngineSimulator:
             todo.append((dict(b), dict(e), int(s)))
         if len(todo) < 2:
             return 0
-        done = run_calls(engine_call, [(self.design, dict(self._config), b, e, s) for b, e, s in todo],
-                         self.jobs, progress=progress)
+        users = _user_kinds(self.design)
+        done = run_calls(engine_call, [(self.design, dict(self._config), b, e, s, users)
+                                       for b, e, s in todo], self.jobs, progress=progress)
         for (b, e, s), (values, n_runs) in zip(todo, done):
             self._memo[self._memo_key(b, e, s)] = values
             self.n_runs += n_runs
@@ -489,8 +592,27 @@ class EngineSimulator:
         return Observations(values, source="engine")
 
 
-def engine_call(design, config: Mapping[str, Any], base, effects, seed):
+def _user_kinds(design) -> tuple:
+    """``(name, "module:function", unit)`` of the design's user kinds, for worker processes
+    (started afresh: they register them again from the function's module)."""
+    out = []
+    for name in dict.fromkeys(m.kind for m in design):
+        k = observable_kind(name)
+        if k.user:
+            where = k.source.split("#")[0]
+            if where.startswith("__main__:") or "<locals>" in where:
+                raise ConfigError(f"observable kind {name!r}: its function {where} cannot be "
+                                  f"imported by worker processes; define it in a module, or "
+                                  f"run with jobs = 1")
+            out.append((name, where, k.unit))
+    return tuple(out)
+
+
+def engine_call(design, config: Mapping[str, Any], base, effects, seed, user_kinds=()):
     """One engine call in a worker process: its observations (lists) and its number of runs."""
+    from .observables_registry import load_callable, register_observable
+    for name, where, unit in user_kinds:
+        register_observable(name, load_callable(where), unit=unit)
     sim = EngineSimulator(design, dict(config, jobs=1))
     obs = sim(base, effects, seed)
     return {k: v.tolist() for k, v in obs.values.items()}, sim.n_runs

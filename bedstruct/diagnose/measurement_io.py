@@ -25,8 +25,8 @@ import numpy as np
 
 from ..errors import ConfigError
 from .measurement_parse import (_SERIES_NOTE, _check_plausible, _conditions, _convert, _err,
-                                _float_array, _image_angle, _number, _read_csv, _string, _table,
-                                _trials, _windowed)
+                                _float_array, _image_angle, _number, _read_csv, _setup, _string,
+                                _table, _trials, _windowed)
 from .measurements import _UNIT, KINDS, ROLES, Measurement, MeasurementSet
 from .replicates import variance_upper_bound
 
@@ -38,7 +38,31 @@ __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
 _ALLOWED = {"name", "kind", "unit", "value", "uncertainty", "replicates", "conditions", "role",
             "windows", "percentiles", "labels", "csv", "columns", "stroke_duration", "image",
             "images", "pixel_size", "powder", "flanks", "note", "provenance", "trials",
-            "not_measured"}
+            "not_measured", "callable"}
+
+
+def _register_user_kind(d: Mapping[str, Any], kind, where: str) -> None:
+    """Register the ``callable`` of a user observable under its ``kind`` (unit: the
+    canonical unit of the stated ``unit``'s dimension)."""
+    from .observables_registry import (canonical_unit, load_callable, observable_kinds,
+                                       register_observable)
+    spec = _string(d["callable"], where, "callable")
+    if not isinstance(kind, str) or not kind.isidentifier():
+        raise _err(where, f"key 'kind': a user observable ('callable') needs a kind name of its own "
+                          f"(letters, digits, _); got {kind!r}")
+    builtin = {k.name: k for k in observable_kinds() if not k.user}
+    if kind in builtin:
+        raise _err(where, f"key 'callable': {kind!r} is a built-in kind, computed by "
+                          f"{builtin[kind].analysis or 'bedstruct'}; give a user observable a "
+                          f"kind name of its own")
+    if "unit" not in d:
+        raise _err(where, "key 'unit': a user observable needs the unit of its values "
+                          f"(one of {sorted(_UNIT)}; its function returns the SI unit)")
+    try:
+        func = load_callable(spec)
+        register_observable(kind, func, unit=canonical_unit(_string(d["unit"], where, "unit")))
+    except (ConfigError, ValueError, TypeError) as exc:
+        raise _err(where, f"key 'callable': {exc}") from None
 
 
 def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None = None,
@@ -76,6 +100,8 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if unknown:
         raise _err(where, f"key {sorted(unknown)[0]!r}: unknown key; allowed: {sorted(_ALLOWED)}")
     kind = d.get("kind")
+    if "callable" in d:
+        _register_user_kind(d, kind, where)
     if kind not in KINDS:
         raise _err(where, f"key 'kind': expected one of {sorted(KINDS)}; got {kind!r}")
     role = d.get("role", "calibrate")
@@ -86,8 +112,15 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if unit not in _UNIT:
         _convert([], unit, kind, where)   # the unknown-unit error
     file_unit = unit
-    cond = _conditions(d.get("conditions"), where)
     conversions: list[str] = []
+    cond = _conditions(d.get("conditions"), where, conversions)
+    for key, kinds in (("time_window", ("dynamic_angle_series",)), ("stage", ("psd",))):
+        if cond.get(key) is not None and kind not in kinds:
+            raise _err(where, f"key 'conditions.{key}': only a {' or '.join(kinds)} has a "
+                              f"{key.replace('_', ' ')}; this is a {kind}")
+    for key in ("note", "provenance"):
+        if key in d and not isinstance(d[key], str):
+            raise _err(where, f"key {key!r}: expected a string; got {d[key]!r}")
     windows = percentiles = replicates = None
     sem = None
     for key, kinds in (("windows", ("dynamic_angle_series",)), ("percentiles", ("psd",))):
@@ -379,7 +412,7 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             labels = ["value"]
         else:
             labels = [f"c{i}" for i in range(n)]
-    elif not isinstance(labels, (list, tuple)):
+    elif not isinstance(labels, (list, tuple)) or not all(isinstance(x, str) for x in labels):
         raise _err(where, f"key 'labels': expected a list of strings; got {labels!r}")
     labels = tuple(str(x) for x in labels)
     if len(labels) != n:
@@ -434,22 +467,42 @@ def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
     meta = doc.get("meta", {})
     if not isinstance(meta, Mapping):
         raise ConfigError(f"{path}: key 'meta': expected a table")
+    for key, v in meta.items():
+        if key not in ("title", "source", "notes"):
+            raise ConfigError(f"{path}: key 'meta.{key}': unknown; expected title, source, notes")
+        if not isinstance(v, str):
+            raise ConfigError(f"{path}: key 'meta.{key}': expected a string; got {v!r}")
     obs = doc.get("observable")
     if not isinstance(obs, list) or not obs:
         raise ConfigError(f"{path}: key 'observable': expected one or more [[observable]] tables")
-    unknown = set(doc) - {"meta", "observable"}
+    unknown = set(doc) - {"meta", "observable", "conditions"}
     if unknown:
         raise ConfigError(f"{path}: key {sorted(unknown)[0]!r}: unknown top-level key; "
-                          f"expected 'meta' and [[observable]]")
+                          f"expected 'meta', 'conditions' and [[observable]]")
+    setup = _setup(doc.get("conditions"), str(path), path.parent)
     ms = tuple(measurement_from_dict(o, base_dir=path.parent, where=f"{path}: observable #{i + 1}",
                                      check_range=check_range)
                for i, o in enumerate(obs))
+    if setup.n_layers is not None:
+        for i, m in enumerate(ms):
+            if m.conditions.layer is not None and m.conditions.layer > setup.n_layers:
+                raise ConfigError(f"{path}: observable #{i + 1} {m.name!r}: key "
+                                  f"'conditions.layer': layer {m.conditions.layer}, but the "
+                                  f"file's conditions give {setup.n_layers} layer(s); expected "
+                                  f"1 to {setup.n_layers}")
+    first: dict[str, int] = {}
+    for i, m in enumerate(ms):
+        if m.name in first:
+            raise ConfigError(f"{path}: observable #{i + 1} {m.name!r}: key 'name': already the "
+                              f"name of observable #{first[m.name] + 1}; expected a unique name")
+        first[m.name] = i
     try:
         return MeasurementSet(tuple(m for m in ms if not m.measured_in_no_trial),
                               title=str(meta.get("title", path.stem)),
                               source=str(meta.get("source", "")), path=str(path),
                               notes=str(meta.get("notes", "")),
-                              unmeasured=tuple(m for m in ms if m.measured_in_no_trial))
+                              unmeasured=tuple(m for m in ms if m.measured_in_no_trial),
+                              setup=setup)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
 
@@ -472,6 +525,40 @@ def _toml_value(v) -> str:
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
+def _user_callable(kind: str) -> str | None:
+    """``"module:function"`` of a user kind whose function a file can name (importable by
+    name: not defined in ``__main__`` or inside another function), else None."""
+    from .observables_registry import observable_kinds
+    k = {x.name: x for x in observable_kinds()}.get(kind)
+    if k is None or not k.user:
+        return None
+    where = k.source.split("#")[0]
+    return None if where.startswith("__main__:") or "<locals>" in where else where
+
+
+def _setup_lines(setup) -> list[str]:
+    """The ``[conditions]`` table of a set-up (SI values with their units)."""
+    if setup.is_empty:
+        return []
+    lines = ["", "[conditions]"]
+    if setup.psd is not None:
+        d10, d50, d90, lo, hi = (f'"{x!r} m"' for x in setup.psd)
+        lines.append(f"psd = {{d10 = {d10}, d50 = {d50}, d90 = {d90}, d_min = {lo}, "
+                     f"d_max = {hi}}}")
+    if setup.layer_thickness is not None:
+        lines.append("layer_thickness = [" + ", ".join(f'"{x!r} m"' for x in setup.layer_thickness)
+                     + "]")
+    if setup.blade_speed is not None:
+        lines.append(f'blade_speed = "{setup.blade_speed!r} m/s"')
+    for key in ("platform_length", "platform_width", "wall_distance"):
+        v = getattr(setup, key)
+        if v is not None:
+            lines.append(f'{key} = "{v!r} m"')
+    if setup.side_walls is not None:
+        lines.append(f"side_walls = {_toml_value(setup.side_walls)}")
+    return lines
+
+
 def write_measurements(mset: MeasurementSet, path) -> Path:
     """Write a :class:`MeasurementSet` as a measurement TOML file (canonical units).
 
@@ -484,9 +571,13 @@ def write_measurements(mset: MeasurementSet, path) -> Path:
     lines = ["[meta]", f"title = {_toml_value(mset.title)}", f"source = {_toml_value(mset.source)}"]
     if mset.notes:
         lines.append(f"notes = {_toml_value(mset.notes)}")
+    lines += _setup_lines(mset.setup)
     for m in mset.measurements + tuple(mset.unmeasured):
         lines += ["", "[[observable]]", f"name = {_toml_value(m.name)}", f"kind = {_toml_value(m.kind)}",
                   f"unit = {_toml_value(m.unit)}", f"role = {_toml_value(m.role)}"]
+        func = _user_callable(m.kind)
+        if func:
+            lines.append(f"callable = {_toml_value(func)}")
         if m.role != "candidate" and not m.measured_in_no_trial:
             lines.append(f"value = {_toml_value(m.values)}")
         if np.all(np.isfinite(m.uncertainty)):

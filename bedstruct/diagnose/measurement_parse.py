@@ -137,27 +137,31 @@ def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str
     raise _err(where, msg)
 
 
-def _read_csv(path: Path, where: str) -> tuple[list[str], np.ndarray]:
+def _read_csv(path: Path, where: str, key: str = "csv") -> tuple[list[str], np.ndarray]:
     if not path.is_file():
-        raise _err(where, f"key 'csv': file not found: {path}")
+        raise _err(where, f"key {key!r}: file not found: {path}")
     with open(path, encoding="utf-8") as fh:
         header = fh.readline().strip()
     names = [h.strip() for h in header.split(",")]
     try:
         data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:
-        raise _err(where, f"key 'csv': {path} is not a numeric CSV with a header row ({exc})") from None
+        raise _err(where, f"key {key!r}: {path} is not a numeric CSV with a header row ({exc})") from None
     if data.size == 0:
-        raise _err(where, f"key 'csv': {path} holds no data rows under its header")
+        raise _err(where, f"key {key!r}: {path} holds no data rows under its header")
     if data.shape[1] != len(names):
-        raise _err(where, f"key 'csv': {path} has {data.shape[1]} columns but header names {names}")
+        raise _err(where, f"key {key!r}: {path} has {data.shape[1]} columns but header names {names}")
     if len(names) < 2:
-        raise _err(where, f"key 'csv': {path} has {len(names)} column ({names}); expected at least "
+        raise _err(where, f"key {key!r}: {path} has {len(names)} column ({names}); expected at least "
                           f"two (x and y, picked by 'columns')")
     return names, data
 
 
-def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
+def _conditions(d: Mapping[str, Any] | None, where: str, conversions: list | None = None
+                ) -> Conditions:
+    """An observable's ``conditions`` table (speeds and the box width may carry a unit,
+    e.g. ``"2.54 cm/s"``; a plain number is m/s or m); unit conversions are appended to
+    ``conversions``."""
     if d is None:
         return Conditions()
     if not isinstance(d, Mapping):
@@ -167,8 +171,12 @@ def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
         raise _err(where, f"key 'conditions.{sorted(unknown)[0]}': unknown condition; known: "
                           f"{sorted(_KNOWN_CONDITIONS)}")
     speed = d.get("speed")
+    conv: list[str] = conversions if conversions is not None else []
     if speed is not None:
-        speed = _number(speed, where, "conditions.speed", positive=True, unit="(m/s)")
+        speed = _number(speed, where, "conditions.speed", positive=True, unit="(m/s)") \
+            if _is_number(speed) else \
+            _scalar_quantity(speed, where, "conditions.speed", _SPEED_UNITS, what="speed",
+                             conversions=conv)
     layer = d.get("layer")
     if layer is not None and (isinstance(layer, bool) or not isinstance(layer, int) or layer < 1):
         raise _err(where, f"key 'conditions.layer': expected a positive integer (1-based); got {layer!r}")
@@ -193,7 +201,9 @@ def _conditions(d: Mapping[str, Any] | None, where: str) -> Conditions:
                 if v not in ("before", "after"):
                     raise _err(where, f"key 'conditions.stage': expected 'before' or 'after'; got {v!r}")
             else:
-                v = _number(v, where, f"conditions.{k}")
+                v = _scalar_quantity(v, where, f"conditions.{k}", _LENGTH_UNITS, what="length",
+                                     conversions=conv) \
+                    if k == "box_width" and not _is_number(v) else _number(v, where, f"conditions.{k}")
                 if k == "relative_humidity" and not 0 <= v <= 1:
                     raise _err(where, f"key 'conditions.relative_humidity': expected 0..1 (a "
                                       f"fraction, not %); got {v}")
@@ -258,3 +268,189 @@ def _trials(d: Mapping[str, Any], where: str, role: str):
         raise _err(where, f"key 'not_measured': expected counts between 0 and trials = {trials} "
                           f"(trials that gave no reading); got {raw!r}")
     return trials, (counts if isinstance(raw, (list, tuple)) else int(counts[0]))
+
+
+# --------------------------------------------------------------------------- set-up
+
+_SPEED_UNITS = {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3, "um/s": 1e-6, "µm/s": 1e-6}
+_LENGTH_UNITS = {u: f for u, (dim, f) in _UNIT.items() if dim == "length"}
+_SETUP_KEYS = ("psd", "layers", "layer_thickness", "blade_speed", "platform_length",
+               "platform_width", "side_walls", "wall_distance")
+#: The most layers a file's set-up may ask for.
+MAX_LAYERS = 50
+
+
+def _quantity(v, where: str, key: str, units: Mapping[str, float], *, what: str,
+              conversions: list) -> np.ndarray:
+    """Numbers with their unit, in SI: ``"18.9 mm"``, a list of such strings, or
+    ``{value = 18.9, unit = "mm"}`` (``value`` a number or a list of numbers)."""
+    example = f'"{18.9 if what == "length" else 2.54} {"mm" if what == "length" else "cm/s"}"'
+    expected = (f"a {what} with its unit, e.g. {example} or {{value = ..., unit = ...}} "
+                f"(units: {', '.join(units)})")
+    if isinstance(v, Mapping):
+        extra = set(v) - {"value", "unit"}
+        if extra or "value" not in v or "unit" not in v:
+            raise _err(where, f"key {key!r}: expected {{value = ..., unit = ...}}; got {dict(v)!r}")
+        unit = v["unit"]
+        nums = _float_array(v["value"], where, f"{key}.value")
+        items = [(x, unit) for x in nums]
+    else:
+        raw = v if isinstance(v, (list, tuple)) else [v]
+        if not raw:
+            raise _err(where, f"key {key!r}: expected {expected}; got an empty list")
+        items = []
+        for x in raw:
+            if _is_number(x):
+                raise _err(where, f"key {key!r}: {x!r} has no unit; expected {expected}")
+            if not isinstance(x, str) or len(x.split()) != 2:
+                raise _err(where, f"key {key!r}: expected {expected}; got {x!r}")
+            num, unit = x.split()
+            try:
+                items.append((float(num), unit))
+            except ValueError:
+                raise _err(where, f"key {key!r}: {num!r} in {x!r} is not a number; expected "
+                                  f"{expected}") from None
+    out = []
+    for x, unit in items:
+        if unit not in units:
+            raise _err(where, f"key {key!r}: unknown {what} unit {unit!r}; expected one of "
+                              f"{', '.join(units)}")
+        if not (math.isfinite(x) and x > 0):
+            raise _err(where, f"key {key!r}: expected a positive {what}; got {x:g} {unit}")
+        f = units[unit]
+        # a decimal prefix divides by its (exact) reciprocal: "100 um" is 1e-4 m exactly
+        out.append(x / round(1.0 / f) if f < 1.0 and float(round(1.0 / f)) * f == 1.0 else x * f)
+        if f != 1.0:
+            note = f"{key}: {unit} -> {'m' if what == 'length' else 'm/s'}"
+            if note not in conversions:
+                conversions.append(note)
+    return np.asarray(out, dtype=float)
+
+
+def _scalar_quantity(v, where, key, units, *, what, conversions) -> float:
+    q = _quantity(v, where, key, units, what=what, conversions=conversions)
+    if q.size != 1:
+        raise _err(where, f"key {key!r}: expected one {what}; got {q.size}")
+    return float(q[0])
+
+
+def _setup_psd(v, where: str, base_dir: Path, conversions: list):
+    """``(d10, d50, d90, d_min, d_max)`` (m) and its source from the ``psd`` condition."""
+    key = "conditions.psd"
+    if not isinstance(v, Mapping):
+        raise _err(where, f"key {key!r}: expected a table: {{file = \"psd.csv\", unit = \"um\"}} "
+                          f"(columns diameter, fraction) or {{d10 = \"30 um\", d50 = \"52 um\", "
+                          f"d90 = \"86 um\"}}; got {v!r}")
+    if "file" in v:
+        extra = set(v) - {"file", "unit", "columns"}
+        if extra:
+            raise _err(where, f"key '{key}.{sorted(extra)[0]}': unknown; a size-distribution file "
+                              f"takes file, unit, columns")
+        if "unit" not in v:
+            raise _err(where, f"key '{key}.unit': the unit of the file's diameters (one of "
+                              f"{', '.join(_LENGTH_UNITS)})")
+        unit = _string(v["unit"], where, f"{key}.unit")
+        if unit not in _LENGTH_UNITS:
+            raise _err(where, f"key '{key}.unit': unknown length unit {unit!r}; expected one of "
+                              f"{', '.join(_LENGTH_UNITS)}")
+        path = base_dir / _string(v["file"], where, f"{key}.file")
+        names, data = _read_csv(path, where, f"{key}.file")
+        cols = v.get("columns", ["diameter", "fraction"])
+        if not isinstance(cols, (list, tuple)) or len(cols) != 2 or \
+                not all(isinstance(c, str) and c in names for c in cols):
+            raise _err(where, f"key '{key}.columns': expected two column names of {path.name}'s "
+                              f"header {names} (diameter, volume fraction); got {cols!r}")
+        d = data[:, names.index(cols[0])] * _LENGTH_UNITS[unit]
+        f = data[:, names.index(cols[1])]
+        if d.size < 3 or np.any(~np.isfinite(d)) or np.any(np.diff(d) <= 0) or d[0] <= 0:
+            raise _err(where, f"key '{key}.file': {path.name}: column {cols[0]!r} must hold at "
+                              f"least 3 increasing positive diameters")
+        if np.any(~np.isfinite(f)) or np.any(f < 0) or not f.sum() > 0:
+            raise _err(where, f"key '{key}.file': {path.name}: column {cols[1]!r} must hold "
+                              f"volume fractions >= 0 (per size class), not all 0")
+        from ..analysis import percentile_diameter
+        d10, d50, d90 = (float(x) for x in percentile_diameter(d, [0.1, 0.5, 0.9], weights=f))
+        # the size classes' outer edges: half a class beyond the smallest and largest diameter
+        d_min = max(float(d[0] - 0.5 * (d[1] - d[0])), 0.5 * float(d[0]))
+        d_max = float(d[-1] + 0.5 * (d[-1] - d[-2]))
+        if unit != "m":
+            conversions.append(f"conditions.psd: {path.name} diameters {unit} -> m")
+        conversions.append(f"conditions.psd: {path.name}: volume-weighted d10/d50/d90 "
+                           f"{d10 * 1e6:.4g}/{d50 * 1e6:.4g}/{d90 * 1e6:.4g} um, sizes "
+                           f"{d_min * 1e6:.4g}-{d_max * 1e6:.4g} um")
+        source = str(path)
+    else:
+        extra = set(v) - {"d10", "d50", "d90", "d_min", "d_max"}
+        if extra:
+            raise _err(where, f"key '{key}.{sorted(extra)[0]}': unknown; expected file (a size "
+                              f"distribution) or d10, d50, d90 (and optionally d_min, d_max)")
+        missing = [k for k in ("d10", "d50", "d90") if k not in v]
+        if missing:
+            raise _err(where, f"key '{key}.{missing[0]}': the percentile form needs d10, d50 "
+                              f"and d90 (volume-weighted), e.g. d10 = \"30 um\"")
+        q = {k: _scalar_quantity(v[k], where, f"{key}.{k}", _LENGTH_UNITS, what="length",
+                                 conversions=conversions) for k in v}
+        d10, d50, d90 = q["d10"], q["d50"], q["d90"]
+        # default truncation: as wide again as the D10-D90 span's outer parts
+        d_min = q.get("d_min", max(d10 - (d50 - d10), 0.5 * d10))
+        d_max = q.get("d_max", d90 + (d90 - d50))
+        source = "percentiles"
+    if not d_min < d10 < d50 < d90 < d_max:
+        raise _err(where, f"key {key!r}: expected d_min < d10 < d50 < d90 < d_max; got "
+                          f"{d_min * 1e6:.4g}, {d10 * 1e6:.4g}, {d50 * 1e6:.4g}, {d90 * 1e6:.4g}, "
+                          f"{d_max * 1e6:.4g} um")
+    return (d10, d50, d90, d_min, d_max), source
+
+
+def _setup(d, where: str, base_dir: Path):
+    """The file's set-up (its top-level ``[conditions]`` table), in SI."""
+    from .measurements import Setup
+    if d is None:
+        return Setup(path=where)
+    if not isinstance(d, Mapping):
+        raise _err(where, f"key 'conditions': expected a table; got {d!r}")
+    unknown = set(d) - set(_SETUP_KEYS)
+    if unknown:
+        raise _err(where, f"key 'conditions.{sorted(unknown)[0]}': unknown condition of the "
+                          f"set-up; known: {list(_SETUP_KEYS)} (an observable's own conditions "
+                          f"go in its [observable.conditions])")
+    conv: list[str] = []
+    kw: dict[str, Any] = {}
+    if "psd" in d:
+        kw["psd"], kw["psd_source"] = _setup_psd(d["psd"], where, base_dir, conv)
+    layers = d.get("layers")
+    if layers is not None and (isinstance(layers, bool) or not isinstance(layers, int)
+                               or not 1 <= layers <= MAX_LAYERS):
+        raise _err(where, f"key 'conditions.layers': expected a whole number of layers, 1 to "
+                          f"{MAX_LAYERS}; got {layers!r}")
+    if "layer_thickness" in d:
+        t = _quantity(d["layer_thickness"], where, "conditions.layer_thickness", _LENGTH_UNITS, what="length",
+                      conversions=conv)
+        if t.size == 1 and layers is not None:
+            t = np.full(layers, t[0])
+        elif layers is not None and t.size != layers:
+            raise _err(where, f"key 'conditions.layer_thickness': {t.size} thicknesses but "
+                              f"layers = {layers}; give one thickness (every layer) or one per layer")
+        if t.size > MAX_LAYERS:
+            raise _err(where, f"key 'conditions.layer_thickness': {t.size} layers; at most "
+                              f"{MAX_LAYERS}")
+        kw["layer_thickness"] = tuple(float(x) for x in t)
+    elif layers is not None:
+        raise _err(where, "key 'conditions.layer_thickness': 'layers' needs the layer thickness "
+                          "(one for every layer, e.g. \"100 um\", or a list, one per layer)")
+    if "blade_speed" in d:
+        kw["blade_speed"] = _scalar_quantity(d["blade_speed"], where, "conditions.blade_speed", _SPEED_UNITS,
+                                             what="speed", conversions=conv)
+    for key in ("platform_length", "platform_width", "wall_distance"):
+        if key in d:
+            kw[key] = _scalar_quantity(d[key], where, f"conditions.{key}", _LENGTH_UNITS, what="length",
+                                       conversions=conv)
+    if "side_walls" in d:
+        if not isinstance(d["side_walls"], bool):
+            raise _err(where, f"key 'conditions.side_walls': expected true or false; got "
+                              f"{d['side_walls']!r}")
+        kw["side_walls"] = d["side_walls"]
+    if "wall_distance" in kw and kw.get("side_walls") is not True:
+        raise _err(where, "key 'conditions.wall_distance': the distance between side walls needs "
+                          "side_walls = true")
+    return Setup(path=where, conversions=tuple(conv), **kw)

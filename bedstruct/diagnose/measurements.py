@@ -23,14 +23,16 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["KINDS", "ROLES", "PLAUSIBLE", "normalise_region", "Conditions", "Measurement",
-           "MeasurementSet", "Observations"]
+__all__ = ["KINDS", "ROLES", "PLAUSIBLE", "normalise_region", "Conditions", "Setup",
+           "Measurement", "MeasurementSet", "Observations"]
 
-#: Observable kinds and their canonical unit.
+#: Observable kinds and their canonical unit (the built-in ones, and those added by
+#: :func:`bedstruct.diagnose.register_observable`; how each is computed:
+#: :func:`bedstruct.diagnose.observable_kinds`).
 KINDS: dict[str, str] = {
     "static_angle": "deg", "dynamic_angle_series": "deg", "bed_height": "m",
     "packing_fraction": "1", "psd": "m", "roughness": "m", "coordination": "1",
-    "tool_force_ratio": "1",
+    "segregation_index": "1", "tool_force_ratio": "1",
 }
 #: Roles of an observable; ``candidate`` marks a design-only (not yet measured) one.
 ROLES = ("calibrate", "validate", "candidate")
@@ -48,7 +50,8 @@ _KNOWN_CONDITIONS = {"speed", "layer", "region", "time_window", "stage", "relati
 
 #: Plausible values per kind, canonical units: ``lo < value < hi`` (checked when a
 #: measurement file is read; a value outside is almost always a unit mistake).
-#: ``tool_force_ratio`` (a signed ratio) is not range-checked.
+#: ``tool_force_ratio`` (a signed ratio) and ``segregation_index`` (0 for a mixed bed)
+#: are not range-checked.
 PLAUSIBLE: dict[str, tuple[float, float]] = {
     "static_angle": (5.0, 90.0), "dynamic_angle_series": (5.0, 90.0),   # deg
     "packing_fraction": (0.0, 1.0), "coordination": (0.0, 20.0),
@@ -145,6 +148,83 @@ class Conditions:
         for k, v in self.extra:
             parts.append(f"{k}={v}")
         return ", ".join(parts) if parts else "-"
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The experiment's set-up that a simulator must reproduce (a file's ``[conditions]``).
+
+    Every field is optional (``None``: the simulator's own choice); values are SI,
+    converted from the file's units once, when it is read.
+
+    Parameters
+    ----------
+    psd : (5,) tuple of float or None, m
+        ``(d10, d50, d90, d_min, d_max)``: volume-weighted percentiles of the powder
+        and the smallest and largest diameter.
+    psd_source : str
+        Where ``psd`` came from (``"percentiles"`` or the size-distribution file).
+    layer_thickness : tuple of float or None, m
+        Platform lowering before each layer, one per layer.
+    blade_speed : float or None, m/s
+        Speed of the recoater (observables without their own ``speed``).
+    platform_length, platform_width : float or None, m
+        Build platform along and across the stroke.
+    side_walls : bool or None
+        Whether side walls bound the powder across the stroke.
+    wall_distance : float or None, m
+        Distance between the side walls.
+    path : str or None
+        The file the set-up was read from (named in a simulator's refusal).
+    conversions : tuple of str
+        Unit conversions made when the file was read.
+
+    Examples
+    --------
+    >>> s = Setup(layer_thickness=(100e-6,) * 3, blade_speed=0.05)
+    >>> s.n_layers, s.is_empty
+    (3, False)
+    """
+
+    psd: tuple[float, float, float, float, float] | None = None
+    psd_source: str = ""
+    layer_thickness: tuple[float, ...] | None = None
+    blade_speed: float | None = None
+    platform_length: float | None = None
+    platform_width: float | None = None
+    side_walls: bool | None = None
+    wall_distance: float | None = None
+    path: str | None = None
+    conversions: tuple[str, ...] = ()
+
+    #: The set-up's keys (as in a file's ``[conditions]``), in order.
+    KEYS = ("psd", "layers", "layer_thickness", "blade_speed", "platform_length",
+            "platform_width", "side_walls", "wall_distance")
+
+    @property
+    def n_layers(self) -> int | None:
+        """Number of layers (``len(layer_thickness)``)."""
+        return None if self.layer_thickness is None else len(self.layer_thickness)
+
+    @property
+    def is_empty(self) -> bool:
+        """No condition given."""
+        return all(v is None for v in (self.psd, self.layer_thickness, self.blade_speed,
+                                       self.platform_length, self.platform_width,
+                                       self.side_walls, self.wall_distance))
+
+    def given(self) -> tuple[str, ...]:
+        """The file keys of the conditions given."""
+        out = []
+        for k in self.KEYS:
+            v = self.n_layers if k == "layers" else getattr(self, k)
+            if v is not None:
+                out.append(k)
+        return tuple(out)
+
+    def where(self, key: str) -> str:
+        """``"<file>: key 'conditions.<key>'"``, for messages."""
+        return f"{self.path or 'measurement set'}: key 'conditions.{key}'"
 
 
 @dataclass(frozen=True)
@@ -282,6 +362,7 @@ class MeasurementSet:
     >>> ms.n_components, ms.roles().tolist()
     (1, ['calibrate'])
 
+    ``setup`` holds the file's ``[conditions]``: the experiment's set-up (:class:`Setup`).
     ``unmeasured`` holds the observables that were tried but gave a reading in none of
     their trials (``trials`` and ``not_measured`` equal in the file); they have no values
     and take no part in the fit, and the diagnosis reports them as data.
@@ -293,6 +374,7 @@ class MeasurementSet:
     path: str | None = None
     notes: str = ""
     unmeasured: tuple[Measurement, ...] = ()
+    setup: Setup = field(default_factory=Setup)
 
     def __post_init__(self):
         seen = set()

@@ -14,8 +14,10 @@ The image-based angle operator (:func:`render_side_view`, :func:`surface_profile
 :func:`angle_from_particles`, :class:`AngleFit`, :func:`read_image`) lives in
 :mod:`bedstruct.diagnose.observables_image`.
 
-:func:`observe` dispatches on the kind with a documented dict of arrays, which is
-the contract a simulation workflow fills in.
+Quantities of a frame (bed height, packing fraction, roughness, coordination,
+segregation, the pile's angle) are defined once, in :mod:`bedstruct.analysis`;
+the observable kinds that use them, and :func:`observe`, which dispatches on the
+kind, are in :mod:`bedstruct.diagnose.observables_registry`.
 
 .. versionadded:: 0.1
 """
@@ -28,10 +30,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import observables_image as _image
-from .observables_image import angle_from_image, angle_from_particles
 
-__all__ = ["windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative", "bed_height",
-           "packing_fraction_in_region", "roughness", "tool_force_ratio", "observe"]
+__all__ = ["windowed_mean", "psd_percentiles", "psd_percentiles_from_cumulative",
+           "tool_force_ratio"]
 
 
 def _batch_means_se(block_stat, n: int, n_blocks: int = 10) -> float:
@@ -138,22 +139,23 @@ def psd_percentiles(diameters, percentiles=(10, 50, 90), *, weights="volume") ->
     Returns
     -------
     (k,) ndarray of float, length
-        Diameters below which the given percentage of volume (or number) lies
-        (linear interpolation of the cumulative distribution).
+        Diameters below which the given percentage of volume (or number) lies:
+        :func:`bedstruct.analysis.percentile_diameter` (midpoint plotting
+        positions, linear interpolation), the definition the report uses.
 
     Examples
     --------
     >>> psd_percentiles([1.0, 1.0, 2.0], [50], weights="number")
     array([1.])
     """
-    d = np.sort(np.asarray(diameters, dtype=float).ravel())
+    from ..analysis import percentile_diameter
+    d = np.asarray(diameters, dtype=float).ravel()
     if d.size == 0 or np.any(~np.isfinite(d)) or np.any(d <= 0):
         raise ValueError("`diameters` must be a non-empty array of positive finite lengths")
     if weights not in ("volume", "number"):
         raise ValueError(f"`weights` must be 'volume' or 'number'; got {weights!r}")
-    w = d ** 3 if weights == "volume" else np.ones_like(d)
-    cum = 100.0 * (np.cumsum(w) - 0.5 * w) / w.sum()
-    return np.interp(np.asarray(percentiles, dtype=float), cum, d)
+    q = np.asarray(percentiles, dtype=float) / 100.0
+    return np.atleast_1d(percentile_diameter(d, q, weights=d ** 3 if weights == "volume" else None))
 
 
 def psd_percentiles_from_cumulative(sizes, cumulative, percentiles=(10, 50, 90)) -> np.ndarray:
@@ -184,66 +186,6 @@ def psd_percentiles_from_cumulative(sizes, cumulative, percentiles=(10, 50, 90))
 #: Polarities of :func:`surface_profile` / :func:`angle_from_image` (defined in
 #: :mod:`bedstruct.diagnose.observables_image`).
 POWDER = _image.POWDER
-
-
-def _top_surface(positions, radii, *, bin_size, x_range=None):
-    p = np.asarray(positions, dtype=float).reshape(-1, 3)
-    r = np.asarray(radii, dtype=float).ravel()
-    x = p[:, 0]
-    lo, hi = (x.min(), x.max()) if x_range is None else x_range
-    nb = max(int((hi - lo) / bin_size), 1)
-    idx = np.clip(((x - lo) / (hi - lo) * nb).astype(int), 0, nb - 1)
-    top = np.full(nb, -np.inf)
-    np.maximum.at(top, idx, p[:, 2] + r)
-    top[~np.isfinite(top)] = np.nan
-    return top
-
-
-def bed_height(positions, radii, *, plate_z=0.0, bin_size=None, x_range=None) -> float:
-    """Mean height of the top surface above the plate (length, frame units).
-
-    The top surface is the highest sphere top in each x bin (bin default: the
-    largest diameter), the same operator a profilometer line scan gives.
-    """
-    r = np.asarray(radii, dtype=float)
-    top = _top_surface(positions, radii, bin_size=bin_size or 2 * float(r.max()), x_range=x_range)
-    return float(np.nanmean(top) - plate_z)
-
-
-def roughness(heights) -> float:
-    """Rq roughness of a surface profile after removing its best-fit line (length).
-
-    Examples
-    --------
-    >>> round(roughness([0.0, 1.0, 0.0, 1.0]), 3)
-    0.447
-    """
-    h = np.asarray(heights, dtype=float).ravel()
-    h = h[np.isfinite(h)]
-    if len(h) < 3:
-        raise ValueError("`heights` needs at least 3 finite values")
-    x = np.arange(len(h))
-    resid = h - np.polyval(np.polyfit(x, h, 1), x)
-    return float(np.sqrt(np.mean(resid ** 2)))
-
-
-def packing_fraction_in_region(positions, radii, lo, hi) -> float:
-    """Solid fraction in an axis-aligned region, counting spheres by their centres.
-
-    Spheres whose centre lies in ``[lo, hi)`` contribute their whole volume; the
-    error is of order (mean radius / region size), so regions should be many
-    diameters wide.
-
-    Examples
-    --------
-    >>> round(packing_fraction_in_region([[0.5, 0.5, 0.5]], [0.5], [0, 0, 0], [1, 1, 1]), 4)
-    0.5236
-    """
-    p = np.asarray(positions, dtype=float).reshape(-1, 3)
-    r = np.asarray(radii, dtype=float).ravel()
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    inside = np.all((p >= lo) & (p < hi), axis=1)
-    return float((4.0 / 3.0) * np.pi * np.sum(r[inside] ** 3) / np.prod(hi - lo))
 
 
 def tool_force_ratio(force_x, force_z, *, n_blocks: int = 10) -> tuple[float, float]:
@@ -290,80 +232,3 @@ def tool_force_ratio(force_x, force_z, *, n_blocks: int = 10) -> tuple[float, fl
         raise ValueError("tool_force_ratio: the mean horizontal load is zero (no push recorded)")
     ratio = float(fz.mean()) / mx
     return ratio, _batch_means_se(lambda b: fz[b].mean() / fx[b].mean(), fx.size, n_blocks)
-
-
-def observe(kind: str, data: Mapping[str, Any], *, windows=None, percentiles=None) -> np.ndarray:
-    """Apply the observation operator of ``kind`` to a dict of arrays.
-
-    This is the contract between a simulation workflow (or a real-data reader)
-    and the diagnosis. Keys per kind:
-
-    ``static_angle``
-        ``image`` (+ ``pixel_size``) or ``positions`` + ``radii``.
-    ``dynamic_angle_series``
-        ``times`` (stroke fractions) and ``angles`` (deg) or ``images`` (+ ``pixel_size``);
-        needs ``windows``.
-    ``bed_height``
-        ``positions`` + ``radii`` (+ ``plate_z``) or ``surface_heights``.
-    ``packing_fraction``
-        ``positions`` + ``radii`` + ``region_lo`` + ``region_hi``.
-    ``psd``
-        ``diameters`` or ``sizes`` + ``cumulative``; needs ``percentiles``.
-    ``roughness``
-        ``surface_heights``.
-    ``coordination``
-        ``coordination`` (per-particle contact counts).
-    ``tool_force_ratio``
-        ``force_x`` + ``force_z`` (a load-cell record over the stroke; see
-        :func:`tool_force_ratio`).
-
-    A :class:`bedstruct.Frame` (or any object with ``positions`` and ``radii``)
-    may be passed instead of a dict for the particle-based kinds.
-
-    Returns
-    -------
-    (n,) ndarray
-        Component values in the kind's canonical unit (see :data:`KINDS`).
-
-    Examples
-    --------
-    >>> observe("coordination", {"coordination": [3, 4, 5]})
-    array([4.])
-    """
-    if not isinstance(data, Mapping):
-        if hasattr(data, "positions") and hasattr(data, "radii"):
-            data = {"positions": np.asarray(data.positions), "radii": np.asarray(data.radii)}
-        else:
-            raise TypeError(f"`data` must be a dict of arrays or a Frame; got {type(data).__name__}")
-    if kind == "static_angle":
-        if "image" in data:
-            return np.array([angle_from_image(data["image"], pixel_size=data.get("pixel_size", 1.0))])
-        return np.array([angle_from_particles(data["positions"], data["radii"])])
-    if kind == "dynamic_angle_series":
-        if windows is None:
-            raise ValueError("dynamic_angle_series needs `windows`")
-        if "images" in data:
-            angles = [angle_from_image(im, pixel_size=data.get("pixel_size", 1.0)) for im in data["images"]]
-        else:
-            angles = data["angles"]
-        return windowed_mean(data["times"], angles, windows)[0]
-    if kind == "bed_height":
-        if "surface_heights" in data:
-            return np.array([float(np.nanmean(data["surface_heights"]))])
-        return np.array([bed_height(data["positions"], data["radii"], plate_z=data.get("plate_z", 0.0))])
-    if kind == "packing_fraction":
-        return np.array([packing_fraction_in_region(data["positions"], data["radii"],
-                                                    data["region_lo"], data["region_hi"])])
-    if kind == "psd":
-        if percentiles is None:
-            raise ValueError("psd needs `percentiles`")
-        if "diameters" in data:
-            return psd_percentiles(data["diameters"], percentiles)
-        return psd_percentiles_from_cumulative(data["sizes"], data["cumulative"], percentiles)
-    if kind == "roughness":
-        return np.array([roughness(data["surface_heights"])])
-    if kind == "coordination":
-        return np.array([float(np.mean(data["coordination"]))])
-    if kind == "tool_force_ratio":
-        return np.array([tool_force_ratio(data["force_x"], data["force_z"])[0]])
-    raise ValueError(f"unknown observable kind {kind!r}")

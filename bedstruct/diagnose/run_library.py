@@ -45,6 +45,7 @@ from .._version import __version__
 from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
 from .measurements import Observations
+from .observables_registry import observable_kinds
 from .run_design import DesignPoint, DesignSpec, design_points
 
 __all__ = ["RunLibrary", "StaleLibraryError", "build_library", "load_library",
@@ -129,6 +130,9 @@ def _observables_document(design) -> dict:
             d["windows"] = np.asarray(m.windows, float).round(12).tolist()
         if m.percentiles is not None:
             d["percentiles"] = np.asarray(m.percentiles, float).tolist()
+        kind = {k.name: k for k in observable_kinds()}.get(m.kind)
+        if kind is not None and kind.user:   # a user kind: its function and source hash
+            d["function"] = kind.source
         out[m.name] = d
     return out
 

@@ -34,6 +34,10 @@ from .measurements import MeasurementSet, Observations, normalise_region
 
 __all__ = ["SurrogateSimulator", "BASE_PARAMETERS", "SPEED_X1", "STROKE_LENGTH"]
 
+#: Observable kinds the surrogate models.
+_MODELLED = ("static_angle", "dynamic_angle_series", "bed_height", "packing_fraction", "psd",
+             "roughness", "coordination", "tool_force_ratio")
+
 #: Base contact parameters of the seed model after calibration (SI).
 BASE_PARAMETERS: dict[str, float] = {
     "cohesion_energy_density": 3.6e7,   # J/m^3 (SJKR)
@@ -118,11 +122,20 @@ class SurrogateSimulator:
         self.design = design
         self.noise = float(noise)
         self.correlation = float(correlation)
+        setup = getattr(design, "setup", None)
+        if setup is not None and not setup.is_empty:
+            raise ConfigError(f"{setup.where(setup.given()[0])}: the surrogate simulator models "
+                              f"the seed's set-up only; expected no [conditions] table, or the "
+                              f"engine simulator ([simulator] kind = \"engine\")")
         for m in design:
             self._check(m)
 
     @staticmethod
     def _check(m):
+        if m.kind not in _MODELLED:
+            raise ConfigError(f"observable {m.name!r}: key 'kind': the surrogate does not model "
+                              f"{m.kind!r} (it models {sorted(_MODELLED)}); use the engine "
+                              f"simulator")
         if m.conditions.region is not None:
             _region_x(m)   # an unknown region is an error now, not at the first call
         if m.kind == "bed_height" and m.conditions.layer is None:

@@ -266,3 +266,37 @@ def test_engine_region_lookup_is_strict():
         [0, 1, 1, 2, 1]
     with pytest.raises(ConfigError, match="'pf'.*'middle'"):
         _region_index(_packing("middle"))
+
+
+_ONE = 'name = "a"\nkind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\n'
+
+
+@pytest.mark.parametrize("text, match", [
+    ('[meta]\ntitel = "x"\n[[observable]]\n' + _ONE, r"key 'meta\.titel': unknown; expected title"),
+    ('[[observable]]\n' + _ONE + '[observable.conditions]\nstage = "after"\n',
+     r"#1 'a': key 'conditions\.stage': only a psd has a stage; this is a static_angle"),
+    ('[[observable]]\n' + _ONE + '[observable.conditions]\ntime_window = [0, 0.1]\n',
+     r"#1 'a': key 'conditions\.time_window': only a dynamic_angle_series"),
+    ('[[observable]]\n' + _ONE + 'labels = [1]\n', r"#1 'a': key 'labels': expected a list of strings"),
+    ('[[observable]]\n' + _ONE + 'note = 3\n', r"#1 'a': key 'note': expected a string"),
+    ('[[observable]]\n' + _ONE + '[[observable]]\n' + _ONE,
+     r"observable #2 'a': key 'name': already the name of observable #1"),
+    ('[[observable]]\n' + _ONE + '[observable.conditions]\nspeed = "2.54 furlong/s"\n',
+     r"#1 'a': key 'conditions\.speed': unknown speed unit 'furlong/s'"),
+])
+def test_more_bad_files_name_file_key_and_expectation(tmp_path, text, match):
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    with pytest.raises(ConfigError, match=match) as info:
+        load_measurements(p)
+    assert str(info.value).startswith(str(p))
+
+
+def test_speeds_and_box_widths_may_carry_units(tmp_path):
+    p = tmp_path / "u.toml"
+    p.write_text('[[observable]]\n' + _ONE + '[observable.conditions]\nspeed = "2.54 cm/s"\n'
+                 'box_width = "30 mm"\n')
+    m = load_measurements(p)["a"]
+    assert m.conditions.speed == pytest.approx(0.0254)
+    assert m.conditions.get("box_width") == pytest.approx(0.03)
+    assert any("cm/s -> m/s" in c for c in m.conversions)

@@ -71,7 +71,7 @@ def test_file_level_errors(tmp_path):
     with pytest.raises(ConfigError, match="'observable'"):
         load_measurements(_write(tmp_path, "[meta]\ntitle = 'x'\n"))
     two = '[[observable]]\nname = "a"\nkind = "static_angle"\nvalue = 30.0\nuncertainty = 1.0\n'
-    with pytest.raises(ConfigError, match="used twice"):
+    with pytest.raises(ConfigError, match="already the name of observable #1"):
         load_measurements(_write(tmp_path, two + two))
 
 

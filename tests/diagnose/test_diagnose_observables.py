@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 
 
-from bedstruct.diagnose import (angle_from_image, angle_from_particles, bed_height, fit_surface_angle,
-                                observe, packing_fraction_in_region, psd_percentiles,
-                                psd_percentiles_from_cumulative, render_side_view, roughness,
-                                surface_profile, windowed_mean)
+from bedstruct.diagnose import (angle_from_image, angle_from_particles, fit_surface_angle,
+                                observe, psd_percentiles, psd_percentiles_from_cumulative,
+                                render_side_view, surface_profile, windowed_mean)
 from diagnose_helpers import cubic_positions, heap_particles
 
 
@@ -96,18 +95,23 @@ def test_psd_from_cumulative():
 
 
 def test_packing_fraction_and_bed_height_of_lattice():
+    # a simple cubic lattice: packing pi/6 in the region it fills; seen from above, the
+    # spheres' caps cover pi/4 of the plane (the columns between them reach the plate)
     pos = cubic_positions(6)
     rad = np.full(len(pos), 0.5)
-    assert packing_fraction_in_region(pos, rad, [0, 0, 0], [6, 6, 6]) == pytest.approx(np.pi / 6)
-    assert bed_height(pos, rad) == pytest.approx(6.0)
-    assert bed_height(pos, rad, plate_z=1.0) == pytest.approx(5.0)
+    data = {"positions": pos, "radii": rad}
+    phi = observe("packing_fraction", dict(data, region_lo=[0, 0, 0], region_hi=[6, 6, 6]))
+    assert phi[0] == pytest.approx(np.pi / 6, rel=1e-9)
+    # bed height: top layer centres at 5.5, caps of mean height r (2/3) over their discs
+    h = observe("bed_height", dict(data, plate_z=0.0, bounds=((0, 6), (0, 6)), spacing=0.005))[0]
+    assert h == pytest.approx(np.pi / 4 * (5.5 + 1.0 / 3.0), rel=2e-3)
 
 
-def test_roughness_of_sine_and_tilt_removed():
+def test_roughness_is_the_sa_of_the_height_map():
     x = np.linspace(0, 20 * np.pi, 20001)
-    h = 0.3 * np.sin(x) + 0.01 * x    # tilt is removed
-    # (a sine over whole periods has a small linear component that the detrend removes)
-    assert roughness(h) == pytest.approx(0.3 / np.sqrt(2), rel=5e-3)
+    h = 0.3 * np.sin(x)
+    # Sa of a sine over whole periods: mean |a sin| = 2 a / pi
+    assert observe("roughness", {"surface_heights": h})[0] == pytest.approx(0.6 / np.pi, rel=1e-3)
 
 
 def test_observe_dispatch_matches_direct_operators():
@@ -125,9 +129,10 @@ def test_observe_dispatch_matches_direct_operators():
 
 def test_observe_accepts_a_frame():
     from bedstruct import Frame
+    from bedstruct.analysis import bed_height
     pos = cubic_positions(4)
     f = Frame(pos, np.full(len(pos), 0.5), box=[4, 4, 4])
-    assert observe("bed_height", f)[0] == pytest.approx(4.0)
+    assert observe("bed_height", f)[0] == pytest.approx(bed_height(f, 0.0))
     with pytest.raises(TypeError, match="Frame"):
         observe("bed_height", 3.0)
 

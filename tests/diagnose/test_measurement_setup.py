@@ -1,0 +1,190 @@
+"""A measurement file's set-up ([conditions]): read in SI, mapped onto the engine's runs."""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+
+from bedstruct.diagnose import SurrogateSimulator, load_measurements, write_measurements
+from bedstruct.diagnose.engine_simulator import EngineSimulator
+from bedstruct.errors import ConfigError
+
+_PSD_CSV = "diameter,fraction\n20,1\n30,1\n40,1\n50,1\n60,1\n"
+
+_ANGLE = '''
+[[observable]]
+name = "aor"
+kind = "static_angle"
+value = 33.0
+uncertainty = 1.0
+'''
+_PSD_BEFORE = '''
+[[observable]]
+name = "psd0"
+kind = "psd"
+percentiles = [10, 50, 90]
+value = [30.0, 40.0, 55.0]
+uncertainty = [1.0, 1.0, 1.0]
+unit = "um"
+[observable.conditions]
+stage = "before"
+'''
+_HEIGHT = '''
+[[observable]]
+name = "h3"
+kind = "bed_height"
+value = 300.0
+uncertainty = 10.0
+unit = "um"
+[observable.conditions]
+layer = 3
+'''
+
+
+def _file(tmp_path, conditions: str, observables: str = _ANGLE, name="m.toml"):
+    (tmp_path / "psd.csv").write_text(_PSD_CSV)
+    f = tmp_path / name
+    f.write_text(textwrap.dedent(conditions) + observables)
+    return f
+
+
+def test_setup_is_read_in_si_and_written_back(tmp_path):
+    f = _file(tmp_path, '''
+        [conditions]
+        psd = {file = "psd.csv", unit = "um"}
+        layers = 20
+        layer_thickness = "100 um"
+        blade_speed = "5.08 cm/s"
+        platform_length = "18.9 mm"
+        platform_width = {value = 3, unit = "mm"}
+        side_walls = false
+    ''', _HEIGHT)
+    s = load_measurements(f).setup
+    # equal volume fractions in 5 classes: midpoint positions 10, 30, 50, 70, 90 %
+    np.testing.assert_allclose(s.psd, [20e-6, 40e-6, 60e-6, 15e-6, 65e-6], rtol=1e-12)
+    assert s.n_layers == 20 and s.layer_thickness == (100e-6,) * 20
+    assert s.blade_speed == pytest.approx(0.0508)
+    assert (s.platform_length, s.platform_width) == pytest.approx((18.9e-3, 3e-3))
+    assert s.side_walls is False and s.path == str(f)
+    assert any("cm/s -> m/s" in c for c in s.conversions)
+    back = load_measurements(write_measurements(load_measurements(f), tmp_path / "w.toml")).setup
+    np.testing.assert_allclose(back.psd, s.psd)
+    assert back.layer_thickness == s.layer_thickness and back.blade_speed == s.blade_speed
+    assert (back.platform_length, back.side_walls) == (s.platform_length, False)
+
+
+def test_setup_changes_the_engine_runs_config(tmp_path):
+    f = _file(tmp_path, '''
+        [conditions]
+        psd = {file = "psd.csv", unit = "um"}
+        layer_thickness = ["500 um", "400 um", "200 um"]
+        blade_speed = "2.54 cm/s"
+        platform_length = "8 mm"
+        platform_width = "0.8 mm"
+    ''', _HEIGHT)
+    sim = EngineSimulator(load_measurements(f), {"preset": "tiny"})
+    cfg = sim.run_config({}, {}, 0)
+    p = cfg["psd"]
+    assert [p[k] for k in ("d10", "d50", "d90", "d_min", "d_max")] == \
+        pytest.approx([20e-6, 40e-6, 60e-6, 15e-6, 65e-6])
+    assert p["scale"] == 2.0     # the tiny preset's coarse-graining stays
+    sp = cfg["spread"]
+    assert sp["gaps"] == pytest.approx([500e-6, 400e-6, 200e-6])
+    assert sp["speed"] == pytest.approx(0.0254 * sim.speed_scale) == pytest.approx(0.1)
+    assert (sp["plate_length"], sp["width"]) == pytest.approx((8e-3, 0.8e-3))
+    # twenty layers
+    f20 = _file(tmp_path, '''
+        [conditions]
+        layers = 20
+        layer_thickness = "300 um"
+    ''', _HEIGHT, "twenty.toml")
+    gaps = EngineSimulator(load_measurements(f20), {"preset": "tiny"}).run_config({}, {}, 0)[
+        "spread"]["gaps"]
+    assert gaps == pytest.approx([300e-6] * 20)
+    # without the set-up: the preset's
+    plain = EngineSimulator(load_measurements(_file(tmp_path, "", _HEIGHT, "p.toml")),
+                            {"preset": "tiny"}).run_config({}, {}, 0)
+    assert plain["psd"]["d50"] == pytest.approx(52e-6) and len(plain["spread"]["gaps"]) == 2
+
+
+def test_psd_condition_changes_the_simulated_powder(tmp_path):
+    """The powder the engine draws follows the file's size distribution (no DEM run needed)."""
+    f = _file(tmp_path, '''
+        [conditions]
+        psd = {d10 = "30 um", d50 = "40 um", d90 = "55 um"}
+    ''', _PSD_BEFORE)
+    ms = load_measurements(f)
+    got = EngineSimulator(ms, {"preset": "tiny"})({}, {}, 0)["psd0"]
+    plain = EngineSimulator(load_measurements(_file(tmp_path, "", _PSD_BEFORE, "p.toml")),
+                            {"preset": "tiny"})({}, {}, 0)["psd0"]
+    # 1000 drawn particles: percentiles within a few % of the condition's
+    np.testing.assert_allclose(got, [30e-6, 40e-6, 55e-6], rtol=0.06)
+    assert plain[1] > 48e-6   # the tiny preset's own D50, 52 um
+
+
+def test_side_walls_map_onto_the_repose_box_and_are_refused_for_spreading(tmp_path):
+    f = _file(tmp_path, '''
+        [conditions]
+        side_walls = true
+        wall_distance = "1.2 mm"
+    ''')
+    cfg = EngineSimulator(load_measurements(f), {"preset": "tiny"}).run_config({}, {}, 0)
+    assert cfg["repose"]["periodic_width"] is False
+    assert cfg["repose"]["box"][1] == pytest.approx(1.2e-3)
+    f2 = _file(tmp_path, '''
+        [conditions]
+        side_walls = true
+    ''', _ANGLE + _HEIGHT, "spread.toml")
+    with pytest.raises(ConfigError, match=r"spread\.toml: key 'conditions\.side_walls'.*"
+                                          r"periodic.*\['h3'\].*expected side_walls = false"):
+        EngineSimulator(load_measurements(f2), {"preset": "tiny"})
+    f3 = _file(tmp_path, '''
+        [conditions]
+        side_walls = false
+    ''', name="open.toml")
+    assert EngineSimulator(load_measurements(f3),
+                           {"preset": "tiny"}).run_config({}, {}, 0)["repose"]["periodic_width"]
+
+
+def test_the_surrogate_refuses_a_setup(tmp_path):
+    f = _file(tmp_path, '''
+        [conditions]
+        blade_speed = "5 cm/s"
+    ''')
+    with pytest.raises(ConfigError, match=r"m\.toml: key 'conditions\.blade_speed'.*surrogate"):
+        SurrogateSimulator(load_measurements(f))
+
+
+@pytest.mark.parametrize("conditions, match", [
+    ('platform_length = 18.9', r"'conditions\.platform_length': 18\.9 has no unit"),
+    ('platform_length = "18.9 furlong"', r"unknown length unit 'furlong'"),
+    ('blade_speed = "5 mm"', r"'conditions\.blade_speed': unknown speed unit 'mm'"),
+    ('layers = 0\nlayer_thickness = "100 um"', r"'conditions\.layers': expected a whole number"),
+    ('layers = 3', r"'conditions\.layer_thickness': 'layers' needs the layer thickness"),
+    ('layers = 2\nlayer_thickness = ["1 mm", "1 mm", "1 mm"]', r"3 thicknesses but layers = 2"),
+    ('wall_distance = "3 mm"', r"'conditions\.wall_distance'.*needs side_walls = true"),
+    ('side_walls = "yes"', r"'conditions\.side_walls': expected true or false"),
+    ('psd = {file = "none.csv", unit = "um"}', r"'conditions\.psd\.file': file not found"),
+    ('psd = {file = "psd.csv"}', r"'conditions\.psd\.unit'"),
+    ('psd = {d10 = "30 um", d50 = "20 um", d90 = "55 um"}', r"d_min < d10 < d50 < d90 < d_max"),
+    ('psd = {d50 = "20 um"}', r"'conditions\.psd\.d10': the percentile form needs"),
+    ('humidity = 0.4', r"'conditions\.humidity': unknown condition of the set-up"),
+])
+def test_bad_setup_names_file_key_and_expectation(tmp_path, conditions, match):
+    f = _file(tmp_path, "[conditions]\n" + conditions + "\n", name="bad.toml")
+    with pytest.raises(ConfigError, match=match) as info:
+        load_measurements(f)
+    assert str(f) in str(info.value)
+
+
+def test_an_observable_layer_beyond_the_setups_layers_is_refused(tmp_path):
+    f = _file(tmp_path, '''
+        [conditions]
+        layers = 2
+        layer_thickness = "100 um"
+    ''', _HEIGHT, "layers.toml")
+    with pytest.raises(ConfigError, match=r"layers\.toml: observable #1 'h3': key "
+                                          r"'conditions\.layer': layer 3.*2 layer\(s\)"):
+        load_measurements(f)
