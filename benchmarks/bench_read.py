@@ -10,17 +10,24 @@ omegax omegay omegaz radius``) with a few frames in a temporary folder, three wa
   mostly 16-17 significant digits. These numbers do not fit the parser's one-operation
   (Clinger) fast path; they take its Eisel-Lemire path (docs/formats.md);
 
-then reads each with bedstruct and OVITO (the anchor: ``pip install -e .[bench]``), and the
-two text files with MDAnalysis (a second anchor), in the same run. Later frames are read in
-rounds: each round reads every later frame with both readers in turn (which one goes first
-alternates), so both see the same machine load. Prints seconds per frame (first frame
-including the scan; later frames: the median over rounds of each round's mean), bedstruct's
-peak memory against the size of the arrays it returns, and a final ``RESULT`` line with
-bedstruct's time over OVITO's (``ratio_text``, ``ratio_gz``, ``ratio_text17``: the median
-over rounds of the per-round ratio; nan when OVITO is not installed) and over MDAnalysis's
-(``ratio_mda_text``, ``ratio_mda_text17``), the number of threads bedstruct parsed with
-(``threads=``) and the machine's 1-minute load average at the start and the end
-(``load=``). A ratio below 1 means bedstruct is faster.
+and a ``dump local`` contact file of ``2 n`` contacts per frame (LIGGGHTS ``compute
+pair/gran/local`` keywords ``pos id force contactArea``, 13 columns, ``%g``);
+
+then reads each atom file with bedstruct and OVITO (the anchor: ``pip install -e
+.[bench]``), and the two text files with MDAnalysis (a second anchor), in the same run.
+Later frames are read in rounds: each round reads every later frame with both readers in
+turn (which one goes first alternates), so both see the same machine load. Prints seconds
+per frame (first frame including the scan; later frames: the median over rounds of each
+round's mean), bedstruct's peak memory against the size of the arrays it returns, and a
+final ``RESULT`` line with bedstruct's time over OVITO's (``ratio_text``, ``ratio_gz``,
+``ratio_text17``: the median over rounds of the per-round ratio; nan when OVITO is not
+installed) and over MDAnalysis's (``ratio_mda_text``, ``ratio_mda_text17``), bedstruct's
+seconds per contact frame of ``read_dump_local`` (``bedstruct_local_s``: scan, parse and
+join to atom frames read beforehand; the median over whole-file reads) and its time per MB
+of text over the atom reader's (``local_per_mb_vs_text``; no OVITO or MDAnalysis counterpart
+is timed), the number of threads bedstruct parsed with (``threads=``) and the machine's
+1-minute load average at the start and the end (``load=``). A ratio below 1 means bedstruct
+is faster.
 
 Usage::
 
