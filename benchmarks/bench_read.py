@@ -10,17 +10,24 @@ omegax omegay omegaz radius``) with a few frames in a temporary folder, three wa
   mostly 16-17 significant digits. These numbers do not fit the parser's one-operation
   (Clinger) fast path; they take its Eisel-Lemire path (docs/formats.md);
 
-then reads each with bedstruct and OVITO (the anchor: ``pip install -e .[bench]``), and the
-two text files with MDAnalysis (a second anchor), in the same run. Later frames are read in
-rounds: each round reads every later frame with both readers in turn (which one goes first
-alternates), so both see the same machine load. Prints seconds per frame (first frame
-including the scan; later frames: the median over rounds of each round's mean), bedstruct's
-peak memory against the size of the arrays it returns, and a final ``RESULT`` line with
-bedstruct's time over OVITO's (``ratio_text``, ``ratio_gz``, ``ratio_text17``: the median
-over rounds of the per-round ratio; nan when OVITO is not installed) and over MDAnalysis's
-(``ratio_mda_text``, ``ratio_mda_text17``), the number of threads bedstruct parsed with
-(``threads=``) and the machine's 1-minute load average at the start and the end
-(``load=``). A ratio below 1 means bedstruct is faster.
+and a ``dump local`` contact file of ``2 n`` contacts per frame (LIGGGHTS ``compute
+pair/gran/local`` keywords ``pos id force contactArea``, 13 columns, ``%g``);
+
+then reads each atom file with bedstruct and OVITO (the anchor: ``pip install -e
+.[bench]``), and the two text files with MDAnalysis (a second anchor), in the same run.
+Later frames are read in rounds: each round reads every later frame with both readers in
+turn (which one goes first alternates), so both see the same machine load. Prints seconds
+per frame (first frame including the scan; later frames: the median over rounds of each
+round's mean), bedstruct's peak memory against the size of the arrays it returns, and a
+final ``RESULT`` line with bedstruct's time over OVITO's (``ratio_text``, ``ratio_gz``,
+``ratio_text17``: the median over rounds of the per-round ratio; nan when OVITO is not
+installed) and over MDAnalysis's (``ratio_mda_text``, ``ratio_mda_text17``), bedstruct's
+seconds per contact frame of ``read_dump_local`` (``bedstruct_local_s``: scan, parse and
+join to atom frames read beforehand; the median over whole-file reads) and its time per MB
+of text over the atom reader's (``local_per_mb_vs_text``; no OVITO or MDAnalysis counterpart
+is timed), the number of threads bedstruct parsed with (``threads=``) and the machine's
+1-minute load average at the start and the end (``load=``). A ratio below 1 means bedstruct
+is faster.
 
 Usage::
 
@@ -86,6 +93,46 @@ def generate_engine(path, n, frames, seed=0):
                       ids=data[:, 0].astype(np.int64), types=data[:, 1].astype(np.int64),
                       velocities=data[:, 5:8], forces=data[:, 8:11], omegas=data[:, 11:14])
         write_dump(path, frame, append=k > 0)
+
+
+LOCAL_KEYWORDS = ("pos", "id", "force", "contactArea")
+
+
+def generate_local(path, n, frames, seed=0):
+    """A LIGGGHTS ``compute pair/gran/local`` contact file (keywords ``pos id force
+    contactArea``: 13 columns, 6 significant digits) with ``2 n`` contacts per frame between
+    random particles of the atom frames of :func:`frame_data` (same seed)."""
+    rng = np.random.default_rng(seed + 1)
+    fmt = " ".join(["%g"] * 6 + ["%d"] * 3 + ["%g"] * 4)
+    with open(path, "w") as fh:
+        for k, data in enumerate(frame_data(n, frames, seed)):
+            m = 2 * n
+            i, j = rng.integers(0, n, m), rng.integers(0, n, m)
+            cols = np.column_stack([data[i, 2:5], data[j, 2:5], data[i, 0], data[j, 0],
+                                    np.zeros(m), rng.normal(0, 1e-3, (m, 3)),
+                                    rng.uniform(0, 1e-10, m)])
+            fh.write(f"ITEM: TIMESTEP\n{1000 * k}\nITEM: NUMBER OF ENTRIES\n{m}\n"
+                     "ITEM: BOX BOUNDS pp pp ff\n-0.05 0.05\n-0.05 0.05\n0 0.15\n"
+                     "ITEM: ENTRIES " + " ".join(f"c_cout[{c + 1}]" for c in range(13)) + "\n")
+            fh.write("\n".join(fmt % tuple(r) for r in cols.tolist()))
+            fh.write("\n")
+
+
+def bench_local(path, atoms_path, frames, repeats):
+    """Seconds per contact frame of :func:`bedstruct.read_dump_local` (scan, parse and join
+    to atom frames read beforehand): the median over rounds of whole-file reads."""
+    import bedstruct
+    traj = bedstruct.read_dump(atoms_path)
+    atoms = [traj[k] for k in range(len(traj))]
+    traj.close()
+    bedstruct.read_dump_local(path, keywords=LOCAL_KEYWORDS, frames=atoms)
+    rounds = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        got = bedstruct.read_dump_local(path, keywords=LOCAL_KEYWORDS, frames=atoms)
+        rounds.append((time.perf_counter() - t0) / frames)
+    assert len(got) == frames
+    return float(np.median(rounds))
 
 
 REPEATS = 5  # rounds of later-frame reads; the ratios are medians over rounds
@@ -225,18 +272,22 @@ def main():
         text = os.path.join(tmp, f"dump{tag}.liggghts")
         gz = text + ".gz"
         text17 = os.path.join(tmp, f"dump17_{tag}.liggghts")
+        local = os.path.join(tmp, f"contacts_{tag}.local")
         t0 = time.perf_counter()
         if not (args.dir and all(os.path.exists(p) for p in (text, gz, text17))):
             generate(text, args.n, args.frames)
             with open(text, "rb") as src, gzip.open(gz, "wb", compresslevel=6) as dst:
                 shutil.copyfileobj(src, dst, 1 << 24)
             generate_engine(text17, args.n, args.frames)
+        if not (args.dir and os.path.exists(local)):
+            generate_local(local, args.n, args.frames)
         sizes = {label: os.path.getsize(p) / 1e6 for label, p in
-                 (("text", text), ("gz", gz), ("text17", text17))}
+                 (("text", text), ("gz", gz), ("text17", text17), ("local", local))}
         print(f"generated {args.frames} frames x {args.n} particles x 15 columns: "
               f"{sizes['text']:.1f} MB text (%g), {sizes['gz']:.1f} MB gz, "
-              f"{sizes['text17']:.1f} MB text17 (write_dump, 17 digits) "
-              f"({time.perf_counter() - t0:.1f} s)")
+              f"{sizes['text17']:.1f} MB text17 (write_dump, 17 digits); "
+              f"{2 * args.n} contacts x 13 columns per frame: {sizes['local']:.1f} MB dump local "
+              f"(%g) ({time.perf_counter() - t0:.1f} s)")
 
         # load/compile the numba parser once, outside the timings
         import bedstruct
@@ -271,6 +322,12 @@ def main():
             print(f"[{label}] mdanalysis: first frame {m_first:.3f} s (incl. scan), later "
                   f"{m_later:.3f} s/frame")
             res[f"mdanalysis_{label}_s"] = m_later if args.frames > 1 else m_first
+        local_s = bench_local(local, text, args.frames, args.repeats)
+        # per megabyte of text, against the atom reader's later frames
+        local_per_mb = _ratio(local_s / (sizes["local"] / args.frames),
+                              res["bedstruct_text_s"] / (sizes["text"] / args.frames))
+        print(f"[local] bedstruct read_dump_local: {local_s:.3f} s/frame (scan, parse, join), "
+              f"{local_per_mb:.2f}x the atom reader's time per MB")
         peak, nbytes = bench_memory(text)
         print(f"bedstruct peak traced memory while reading one frame: {peak / 1e6:.1f} MB for "
               f"{nbytes / 1e6:.1f} MB of returned arrays")
@@ -298,6 +355,8 @@ def main():
             f"ratio_mda_text={mda['text']:.3f}",
             f"mdanalysis_text17_s={res['mdanalysis_text17_s']:.4f}",
             f"ratio_mda_text17={mda['text17']:.3f}",
+            f"bedstruct_local_s={local_s:.4f}",
+            f"local_per_mb_vs_text={local_per_mb:.3f}",
             f"peak_mem_ratio={peak / nbytes:.3f}",
             f"n={args.n}", f"frames={args.frames}",
             f"ovito={ovito_version or 'missing'}",

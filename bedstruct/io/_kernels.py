@@ -374,8 +374,10 @@ def gather_rows(data, order, cols, out):
 # have runs of at most seven digits. :func:`_short_number` reads each run of digits as one
 # 8-byte word: a mask finds how many of its characters are digits and three multiplications
 # give their value (the SWAR method of fast_float), so a number costs a few branches that do
-# not depend on its length. Anything it does not take (a run reaching the end of the text, more
-# than 19 digits, exponents of more than three digits, nan, inf, junk) goes to :func:`_number`.
+# not depend on its length. Zeros before the first nonzero digit (``0.00083094380215304``) are
+# not counted against the 19 significant digits a uint64 holds. Anything it does not take (a run
+# reaching the end of the text, more than 19 significant digits, exponents of more than three
+# digits, nan, inf, junk) goes to :func:`_number`.
 
 #: Powers of ten 10**0 .. 10**8 as integers.
 POW10_INT = np.array([10 ** k for k in range(9)], dtype=np.uint64)
@@ -384,6 +386,7 @@ _U8 = np.uint64(8)
 _U16 = np.uint64(16)
 _B64_0F = np.uint64(0x0F0F0F0F0F0F0F0F)
 _B64_F0 = np.uint64(0xF0F0F0F0F0F0F0F0)
+_B64_30 = np.uint64(0x3030303030303030)
 _B64_06 = np.uint64(0x0606060606060606)
 _B64_33 = np.uint64(0x3333333333333333)
 _B64_7F = np.uint64(0x7F7F7F7F7F7F7F7F)
@@ -426,18 +429,28 @@ def _digit_run(w):
 
 
 @njit(inline="always")
-def _mantissa_run(buf, i, e, m, nd):
+def _mantissa_run(buf, i, e, m, nd, ns):
     """Append the digits starting at ``_b(buf, i)`` to ``m`` eight at a time: (m, digits so far,
-    index after them, ok). ``ok`` is False when a word would reach past ``e``."""
+    significant digits so far, index after them, ok). Zeros before the first nonzero digit
+    are digits but not significant ones (``0.00123`` has six digits, three significant), so
+    that ``m`` holds at most ``ns`` digits. ``ok`` is False when a word would reach past
+    ``e``."""
     while True:
         if i + 8 > e:
-            return m, nd, i, False
-        k, v = _digit_run(_load8(buf, i))
+            return m, nd, ns, i, False
+        w = _load8(buf, i)
+        k, v = _digit_run(w)
+        if m == _U0:  # the '0' characters that open the word are not significant
+            z = w ^ _B64_30
+            lz = 8 if z == _U0 else np.int64(_trailing_zeros(z)) >> 3
+            ns += k - min(lz, k)
+        else:
+            ns += k
         m = m * POW10_INT[k] + v
         nd += k
         i += k
         if k < 8:
-            return m, nd, i, True
+            return m, nd, ns, i, True
 
 
 @njit(inline="always")
@@ -452,18 +465,18 @@ def _short_number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
     neg = c == 45
     if c == 45 or c == 43:
         i += 1
-    m, nd, i, ok = _mantissa_run(buf, i, e, _U0, 0)
+    m, nd, ns, i, ok = _mantissa_run(buf, i, e, _U0, 0, 0)
     if not ok:
         return 0.0, i, False
     exp10 = 0
     if i < e and _b(buf, i) == 46:
         i += 1
-        m, nd, j, ok = _mantissa_run(buf, i, e, m, nd)
+        m, nd, ns, j, ok = _mantissa_run(buf, i, e, m, nd, ns)
         if not ok:
             return 0.0, i, False
         exp10 = i - j
         i = j
-    if nd == 0 or nd > 19:
+    if nd == 0 or ns > 19:
         return 0.0, i, False
     if i < e and (_b(buf, i) == 101 or _b(buf, i) == 69):
         i += 1

@@ -67,12 +67,14 @@ class _GzipMembers:
         self._raw = open(path, "rb")
         self._inflate = _gzip_inflater()
         self._member = None          # decompressor of the member being read
-        self._pending = b""          # decoded bytes not yet returned
+        self._pending = b""          # decoded bytes, returned from offset _off on
+        self._off = 0
         self._read_raw = 0           # compressed bytes consumed
         self._done = False
         self.truncated_at = None
 
     def _decode_more(self) -> None:
+        """Decode the next piece of compressed data (``_pending`` is all returned)."""
         data = self._raw.read(self._RAW)
         if not data:
             if self._member is not None and not self._member.eof:
@@ -93,14 +95,43 @@ class _GzipMembers:
                 self._member = None
             else:
                 data = b""
-        self._pending += b"".join(out)
+        self._pending = out[0] if len(out) == 1 else b"".join(out)
+        self._off = 0
+
+    def readinto(self, view) -> int:
+        """Fill ``view`` with the next decoded bytes: the number written (fewer at the end).
+        Decoded data are copied once, into ``view``."""
+        view = memoryview(view).cast("B")
+        got = 0
+        while got < len(view):
+            left = len(self._pending) - self._off
+            if left <= 0:
+                if self._done:
+                    break
+                self._decode_more()
+                continue
+            k = min(left, len(view) - got)
+            view[got:got + k] = memoryview(self._pending)[self._off:self._off + k]
+            self._off += k
+            got += k
+        return got
 
     def read(self, size: int = -1) -> bytes:
         size = (1 << 62) if size is None or size < 0 else size
-        while len(self._pending) < size and not self._done:
-            self._decode_more()
-        got, self._pending = self._pending[:size], self._pending[size:]
-        return got
+        parts = []
+        while size > 0:
+            left = len(self._pending) - self._off
+            if left <= 0:
+                if self._done:
+                    break
+                self._decode_more()
+                continue
+            k = min(left, size)
+            whole = k == len(self._pending)
+            parts.append(self._pending if whole else self._pending[self._off:self._off + k])
+            self._off += k
+            size -= k
+        return parts[0] if len(parts) == 1 else b"".join(parts)
 
     def close(self) -> None:
         self._raw.close()
@@ -184,18 +215,33 @@ class Source:
         ``view``, without an intermediate copy."""
         view = memoryview(view).cast("B")
         if self.compression is not None:
-            data = self.read_range(start, len(view))
-            view[:len(data)] = data
-            return len(data)
-        if self._fh is None:
+            try:
+                self._skip_to(start)
+            except _decompress_errors() as exc:
+                self.close()
+                raise DumpFormatError(f"cannot decompress ({self.compression}): {exc}",
+                                      path=self.path) from None
+            if not hasattr(self._fh, "readinto"):
+                data = self.read_range(start, len(view))
+                view[:len(data)] = data
+                return len(data)
+        elif self._fh is None:
             self._reopen()
-        self._fh.seek(start)
+        if self.compression is None:
+            self._fh.seek(start)
         got = 0
-        while got < len(view):
-            k = self._fh.readinto(view[got:])
-            if not k:
-                break
-            got += k
+        try:
+            while got < len(view):
+                k = self._fh.readinto(view[got:])
+                if not k:
+                    break
+                got += k
+        except _decompress_errors() as exc:
+            if self.compression is None:
+                raise
+            self.close()
+            raise DumpFormatError(f"cannot decompress ({self.compression}): {exc}",
+                                  path=self.path) from None
         self._pos = start + got
         return got
 
@@ -207,7 +253,14 @@ class Source:
             data = self._fh.read(length)
             self._pos = start + len(data)
             return data
-        if start < self._pos:
+        self._skip_to(start)
+        data = self._read_exact(length)
+        self._pos += len(data)
+        return data
+
+    def _skip_to(self, start: int) -> None:
+        """Move a compressed stream to ``start`` (reopened when it is past it)."""
+        if self._fh is None or start < self._pos:
             self._reopen()
         skip = start - self._pos
         while skip > 0:
@@ -216,9 +269,6 @@ class Source:
                 break
             skip -= len(got)
             self._pos += len(got)
-        data = self._read_exact(length)
-        self._pos += len(data)
-        return data
 
     def _read_exact(self, length):
         parts = []

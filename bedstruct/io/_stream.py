@@ -23,22 +23,31 @@ __all__: list[str] = []
 class _Planned:
     """Columns parsed straight into their final arrays (see :func:`_stream_columns`)."""
 
-    def __init__(self, flat, slots, n, order, ids):
+    def __init__(self, flat, slots, n, order, ids, idcol=None):
         self.flat = flat
         self.slots = slots      # column -> (base, stride); triples -> base
         self.n = n
         self.order = order
-        self.ids = ids
+        self.ids = ids          # sorted ids, int64 (None without an id column)
+        self.idcol = idcol
         self.in_order = order is None
 
     def sort(self):
-        """Reorder every slot by ``order`` (rows were parsed in file order)."""
+        """Reorder every slot by ``order`` (rows were parsed in file order); the id
+        column is written from the sorted ids rather than permuted."""
         if self.in_order:
             return
         from ._kernels import permute_rows
         n = self.n
         blocks = [(v, 3) if isinstance(key, tuple) else (v[0], 1)
-                  for key, v in self.slots.items() if isinstance(key, tuple) or v[1] == 1]
+                  for key, v in self.slots.items()
+                  if isinstance(key, tuple) or (v[1] == 1 and key != self.idcol)]
+        if self.idcol is not None and self.slots[self.idcol][1] == 1:
+            b = self.slots[self.idcol][0]
+            self.flat[b:b + n] = self.ids
+        if not blocks:
+            self.in_order = True
+            return
         tmp = np.empty(max(w for _, w in blocks) * n, dtype=np.float64)  # one block's size
         for b, w in blocks:
             permute_rows(self.flat, b, w, self.order, tmp)
@@ -276,4 +285,4 @@ def _stream_columns(source, pos: int, end: int, first: bytes, raw: RawFrame, sor
             if not (hi - lo + 1 == n and consecutive_order(ids, lo, order)):
                 order = np.argsort(ids, kind="stable").astype(np.int64)
             ids = ids[order]
-    return _Planned(flat, slots, n, order, ids)
+    return _Planned(flat, slots, n, order, ids, names.index("id") if ids is not None else None)

@@ -280,24 +280,39 @@ def _contacts_from_raw(raw, keywords, columns, lookup) -> Contacts:
     data = raw.data
     m = raw.n
     ids = frame.ids
-    order = np.argsort(ids, kind="stable")
-    sorted_ids = ids[order]
+    n_atoms = len(ids)
+    if np.all(ids[1:] > ids[:-1]):  # the usual case: a frame read sorted by id
+        order, sorted_ids = None, ids
+    else:
+        order = np.argsort(ids, kind="stable")
+        sorted_ids = ids[order]
+    # ids lo, lo + 1, ..., lo + n - 1: a particle's row is its id - lo (no search)
+    lo = int(ids[0]) if n_atoms else 0
+    dense = order is None and n_atoms > 0 and int(ids[-1]) - lo + 1 == n_atoms
     rows = []
     for name in ("id1", "id2"):
         col = data[:, idx[name]]
         with np.errstate(invalid="ignore"):
             as_int = col.astype(np.int64)
-        pos = np.searchsorted(sorted_ids, as_int)
-        pos_c = np.minimum(pos, max(len(sorted_ids) - 1, 0))
-        ok = (as_int == col) & (len(sorted_ids) > 0)
-        if len(sorted_ids):
-            ok &= sorted_ids[pos_c] == as_int
+        ok = as_int == col
+        if dense:
+            pos = as_int - lo
+            ok &= (pos >= 0) & (pos < n_atoms)
+            pos_c = np.where(ok, pos, 0)
+        else:
+            pos = np.searchsorted(sorted_ids, as_int)
+            pos_c = np.minimum(pos, max(n_atoms - 1, 0))
+            ok &= n_atoms > 0
+            if n_atoms:
+                ok &= sorted_ids[pos_c] == as_int
         if m and not ok.all():
             r = int(np.flatnonzero(~ok)[0])
             raise DumpFormatError(f"contact row {r + 1}: particle id {float(col[r])!r} ({name}) is not "
                                   f"in the atom frame at timestep {raw.timestep}",
                                   path=raw.path, line=raw.data_line + r, text=raw.row_text(r))
-        rows.append(order[pos_c] if m else np.zeros(0, dtype=np.int64))
+        if not m:
+            pos_c = np.zeros(0, dtype=np.int64)
+        rows.append(pos_c if order is None else order[pos_c])
     i, j = rows
     box = frame.box
     raw_d = frame.positions[j] - frame.positions[i]

@@ -380,3 +380,56 @@ def test_units_argument_accepts_the_lammps_styles(write, dump_text, good_rows):
     with pytest.raises(DumpFormatError, match="furlong") as info:
         read_dump(bad)[0]
     assert info.value.line == 2
+
+
+@pytest.mark.parametrize("ids", [[1, 2, 3, 4, 5], [11, 12, 13, 14, 15], [2, 5, 7, 9, 40],
+                                 [3, 1, 5, 2, 4]], ids=["dense", "offset", "sparse", "unsorted"])
+def test_dump_local_joins_contacts_by_particle_id(tmp_path, ids):
+    """Contacts name particles by id; i and j are their rows in the atom frame, whether the
+    ids are a run of consecutive numbers (found by offset) or not (found by search)."""
+    from bedstruct import read_dump_local
+    pos = np.array([[0.1, 0.1, 0.1], [0.3, 0.1, 0.1], [0.5, 0.1, 0.1], [0.7, 0.1, 0.1],
+                    [0.9, 0.1, 0.1]])
+    frame = Frame(pos, np.full(5, 0.1), box=[1, 1, 1], ids=ids, timestep=7)
+    pairs = [(0, 1), (4, 0), (2, 3), (3, 4)]  # rows of `frame` as given
+    lines = [f"{ids[a]} {ids[b]} 0" for a, b in pairs]
+    path = tmp_path / "pairs.local"
+    path.write_text("ITEM: TIMESTEP\n7\nITEM: NUMBER OF ENTRIES\n4\nITEM: BOX BOUNDS pp pp pp\n"
+                    "0 1\n0 1\n0 1\nITEM: ENTRIES id1 id2 periodic\n" + "\n".join(lines) + "\n")
+    c = read_dump_local(path, frames=frame)[7]
+    assert frame.positions[c.i].tolist() == pos[[a for a, _ in pairs]].tolist()
+    assert frame.positions[c.j].tolist() == pos[[b for _, b in pairs]].tolist()
+    assert c.ids_i.tolist() == [ids[a] for a, _ in pairs]
+    assert c.ids_j.tolist() == [ids[b] for _, b in pairs]
+    # branch from i to j by the minimum image (box length 1)
+    dx = [((pos[b, 0] - pos[a, 0] + 0.5) % 1.0) - 0.5 for a, b in pairs]
+    assert c.branch[:, 0] == pytest.approx(dx)
+    for bad in (max(ids) + 1, min(ids) - 1, 0):
+        if bad in ids:
+            continue
+        path.write_text(path.read_text().replace(lines[2], f"{ids[2]} {bad} 0"))
+        with pytest.raises(DumpFormatError, match=rf"particle id {float(bad)!r} \(id2\)") as e:
+            read_dump_local(path, frames=frame)
+        assert e.value.line == 12
+        path.write_text(path.read_text().replace(f"{ids[2]} {bad} 0", lines[2]))
+
+
+def test_gzip_source_reads_the_plain_bytes_at_any_offset(tmp_path):
+    """Ranges of a multi-member gzip stream, read into buffers or as bytes, forwards and
+    backwards (reopening the stream), are the bytes of the plain text."""
+    from bedstruct.io._source import Source
+    rng = np.random.default_rng(3)
+    plain = b"".join(rng.integers(0, 10, 400_000).astype(str).astype("S1"))
+    path = tmp_path / "members.gz"
+    with open(path, "wb") as fh:  # three members and zero padding, as frame-by-frame writes
+        for part in (plain[:100_000], plain[100_000:100_001], plain[100_001:]):
+            fh.write(gzip.compress(part) + b"\0" * 3)
+    src = Source(path)
+    buf = bytearray(150_000)
+    for start, size in [(0, 10), (5, 150_000), (99_990, 30), (300_000, 150_000),
+                        (1000, 1), (399_999, 10), (400_000, 10), (50_000, 120_000)]:
+        want = plain[start:start + size]
+        assert src.read_range(start, size) == want
+        got = src.read_into(start, memoryview(buf)[:size])
+        assert bytes(buf[:got]) == want, (start, size)
+    src.close()

@@ -121,6 +121,28 @@ def test_typical_liggghts_tokens():
         assert not short_number(as_text(tok + PAD.decode()))[2], tok
 
 
+@settings(max_examples=300, deadline=None)
+@given(st.floats(1e-4, 1e-2), st.booleans())
+def test_short_number_takes_round_trip_reprs_with_leading_zeros(x, neg):
+    """``repr`` writes numbers in [1e-4, 1e-2) as ``0.00083094380215304``: up to 21 digits,
+    at most 17 significant. The short path takes them (the zeros before the first nonzero
+    digit are not significant) and reads them exactly."""
+    tok = repr(-x if neg else x)
+    v, end, ok = short_number(as_text(tok + PAD.decode()))
+    assert ok and end == len(tok) and bits(v) == bits(float(tok)), tok
+
+
+def test_short_number_counts_significant_digits_only():
+    sig19, sig20 = "1234567890123456789", "12345678901234567891"
+    for zeros in (0, 1, 3, 7, 8, 9, 17, 30):
+        for tok in ("0." + "0" * zeros + sig19, "-0" * (zeros > 0) + "0" * zeros + sig19,
+                    "0." + "0" * zeros + "1", "0" * zeros + "7.5e-3"):
+            v, end, ok = short_number(as_text(tok + PAD.decode()))
+            assert ok and end == len(tok) and bits(v) == bits(float(tok)), tok
+        for tok in ("0." + "0" * zeros + sig20, "0" * zeros + sig20, sig19 + "0" * (zeros + 1)):
+            assert not short_number(as_text(tok + PAD.decode()))[2], tok  # 20+ significant
+
+
 # --- rows and spans ---------------------------------------------------------------------------
 
 rows_strategy = st.lists(st.lists(tokens, min_size=4, max_size=4), min_size=1, max_size=40)
