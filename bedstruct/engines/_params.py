@@ -48,6 +48,9 @@ class GranularParams:
         realises ``epsd2`` (as ``rolling sds``) only and refuses the others.
     cohesion_energy_density : float, J/m^3
         SJKR cohesion energy density k (0 disables cohesion).
+    rolling_damping : float, dimensionless
+        Viscous damping ratio of the ``epsd`` rolling model (LIGGGHTS
+        ``coefficientRollingViscousDamping``; the embedded engine's ``rolling_damping``).
     gravity : float, m/s^2
         Magnitude of gravity along -z (0 disables it).
     wall_youngs_modulus, wall_poisson_ratio, wall_restitution, wall_friction,
@@ -76,6 +79,7 @@ class GranularParams:
     wall_rolling_friction: float | None = None
     wall_cohesion_energy_density: float | None = None
     rolling_model: str = "epsd2"
+    rolling_damping: float = 0.3
 
     def __post_init__(self):
         if self.rolling_model not in ROLLING_MODELS:
@@ -96,6 +100,7 @@ class GranularParams:
         for name in ("restitution", "wall_restitution"):
             check(name, 0.0, 1.0, lo_open=True)
         for name in ("friction", "rolling_friction", "cohesion_energy_density", "gravity",
+                     "rolling_damping",
                      "wall_friction", "wall_rolling_friction", "wall_cohesion_energy_density"):
             check(name, 0.0, math.inf)
 
@@ -180,6 +185,8 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
                               f"got {rm!r}")
         if rm in ROLLING_MODELS:
             base["rolling_model"] = rm
+        if getattr(model, "rolling_damping", None) is not None:
+            base["rolling_damping"] = float(model.rolling_damping)
         embedded_only = [k for k in ("capillary", "contact_ageing") if getattr(model, k, False)]
         if embedded_only:
             raise ConfigError(f"external decks cannot realise the model's {' and '.join(embedded_only)} "
