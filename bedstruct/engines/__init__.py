@@ -32,7 +32,8 @@ from ._liggghts import (LIGGGHTS_REALISATIONS, LiggghtsDialect, LiquidBridges, f
                         liggghts_model_commands)
 from ._logs import EngineLog, ThermoRun, landing_offsets, parse_log, run_finished, tool_loads
 from ._params import GranularParams, as_granular_params
-from ._registry import ENGINE_NAMES, dialect, effect_realisations
+from ._realisations import effect_realisations
+from ._registry import ENGINE_NAMES, dialect
 from ._repose import repose_deck
 from ._scenarios import LayerSteps, ReposeGeometry, ReposeSchedule, SpreadLayersPlan, tool_top
 from ._spread import spread_layers_deck

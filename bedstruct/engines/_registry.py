@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 
-__all__ = ["ENGINE_NAMES", "dialect", "register", "effect_realisations"]
+__all__ = ["ENGINE_NAMES", "dialect", "register"]
 
 #: Names of the external engines bedstruct writes decks for.
 ENGINE_NAMES = ("liggghts", "lammps")
@@ -62,23 +62,3 @@ def dialect(engine, **options):
         raise ConfigError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
     return engine.with_options(**options) if options else engine
 
-
-def effect_realisations() -> dict:
-    """Per catalogue effect, how each engine realises it: ``{effect: {engine: Realisation}}``.
-
-    The engines are ``embedded`` (:data:`~bedstruct.engines.EMBEDDED_REALISATIONS`) and
-    every external dialect (:attr:`~bedstruct.engines.Dialect.realisations`); a
-    :class:`~bedstruct.engines.Realisation` says how, or why not and what to run instead.
-
-    Examples
-    --------
-    >>> table = effect_realisations()
-    >>> [e for e, r in table["capillary_bridges"].items() if r.realised]
-    ['embedded', 'liggghts']
-    """
-    from ._dialect import EMBEDDED_REALISATIONS, Realisation
-    engines = {"embedded": EMBEDDED_REALISATIONS,
-               **{name: _DIALECTS[name].realisations for name in ENGINE_NAMES if name in _DIALECTS}}
-    missing = Realisation(refused="no realisation is stated")
-    return {effect: {eng: table.get(effect, missing) for eng, table in engines.items()}
-            for effect in EMBEDDED_REALISATIONS}
