@@ -137,8 +137,9 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
         For an unknown key, or a multi-type ContactModel (the external decks
         support one particle type).
     bedstruct.errors.ConfigError
-        For a ContactModel with what no deck writes: a rolling model other than
-        EPSD2, capillary bridges or contact ageing.
+        For a ContactModel with what no contact parameter states: a rolling model
+        no deck writes, capillary bridges or contact ageing (a dialect writes its own
+        model of an effect: :meth:`~bedstruct.engines.Dialect.with_effects`).
     TypeError
         For an object of another kind.
 
@@ -189,9 +190,11 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
             base["rolling_damping"] = float(model.rolling_damping)
         embedded_only = [k for k in ("capillary", "contact_ageing") if getattr(model, k, False)]
         if embedded_only:
-            raise ConfigError(f"external decks cannot realise the model's {' and '.join(embedded_only)} "
-                              "(extensions of the embedded engine); LIGGGHTS writes its own liquid "
-                              "bridges: bedstruct.engines.LiquidBridges")
+            raise ConfigError(f"contact parameters cannot carry the model's "
+                              f"{' and '.join(embedded_only)} (the embedded engine's models); an "
+                              "engine with its own model writes it through its dialect: "
+                              "Dialect.with_effects (LIGGGHTS' liquid bridges, "
+                              "bedstruct.engines.LiquidBridges)")
         if rm == "none":
             base["rolling_friction"] = 0.0
         wm = getattr(model, "wall_material", None)

@@ -386,3 +386,19 @@ def test_the_rolling_model_is_an_option_of_the_contact_model():
         lammps_granular_coeffs(replace(p, rolling_model="cdt"))
     with pytest.raises(ValueError, match="rolling_model"):
         GranularParams(rolling_model="spinning")
+
+
+def test_the_docs_table_states_what_each_engine_realises():
+    """docs/diagnose.md, "How each engine realises an effect": one row per effect, each cell
+    starting with what the engine's table says (realised, or refused)."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[2] / "docs" / "diagnose.md").read_text()
+    section = text.split("### How each engine realises an effect", 1)[1].split("\n## ", 1)[0]
+    rows = [ln for ln in section.splitlines() if ln.startswith("| `")]
+    table = effect_realisations()
+    assert len(rows) == len(table)
+    for ln in rows:
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        effect = cells[0].strip("`")
+        for eng, cell in zip(("embedded", "liggghts", "lammps"), cells[1:]):
+            assert cell.startswith("realised") == table[effect][eng].realised, (effect, eng, cell)
