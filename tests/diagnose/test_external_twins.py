@@ -316,3 +316,16 @@ def test_two_sphere_bridges_from_the_config_have_the_config_angle_and_liquid(tmp
     # near contact, ten times the tolerance above
     wrong = soulie(b.contact_angle)
     assert np.max(np.abs(f1[bridged] / wrong[bridged] - 1)) > 0.02
+
+
+@needs_liggghts
+def test_liggghts_runs_the_epsd_rolling_model_with_its_dashpot(tmp_path):
+    """effects.rolling_model = "epsd" on LIGGGHTS: its EPSD needs the viscous damping
+    property the dialect writes (without it LIGGGHTS stops); a pair in contact then has
+    a rolling torque only after it rolls, so the two-sphere run still separates cleanly."""
+    from dataclasses import replace
+    p = replace(TWO_SPHERE_PARAMS, rolling_friction=0.2, rolling_model="epsd")
+    lines, _ = LiggghtsDialect().model_lines(p, n_types=2)
+    assert any("coefficientRollingViscousDamping" in ln for ln in lines)
+    gaps, f1 = _two_sphere_forces(tmp_path, TWO_SPHERES.format(model="\n".join(lines)))
+    assert len(gaps) >= 20 and np.all(f1[gaps > 1e-7] == 0.0)
