@@ -232,8 +232,8 @@ class LiquidBridges:
         --------
         >>> b = LiquidBridges.from_film(surface_tension=0.072, contact_angle=0.02,
         ...                             film_thickness=1e-9, reference_radius=30e-6)
-        >>> round(b.liquid_volume_fraction, 10), round(0.5 * b.contact_angle ** 2, 12)
-        (1e-04, 0.02)
+        >>> round(b.liquid_volume_fraction * 1e4, 10), round(0.5 * b.contact_angle ** 2, 12)
+        (1.0, 0.02)
         """
         if not (film_thickness > 0 and reference_radius > 0):
             raise ValueError("liquid bridges: `film_thickness` and `reference_radius` must be > 0; "

@@ -118,8 +118,8 @@ def effects_dialect(cfg: dict, *, spreading: bool = False):
     >>> from bedstruct.workflows import load_config
     >>> cfg = load_config(preset="tiny", overrides=["engine=liggghts", "effects.capillary=true",
     ...                                             "effects.capillary_film_thickness=1e-9"])
-    >>> effects_dialect(cfg).liquid_bridges.liquid_volume_fraction   # 3 t / r, r = 52 um
-    5.769230769230769e-05
+    >>> round(effects_dialect(cfg).liquid_bridges.liquid_volume_fraction * 1e6, 4)  # 3 t / r, 52 um
+    57.6923
     """
     r_ref = 0.5 * float(cfg["psd"]["scale"]) * float(cfg["psd"]["d50"])
     return dialect(cfg["engine"]).with_effects(cfg.get("effects"), reference_radius=r_ref,
