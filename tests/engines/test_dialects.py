@@ -358,7 +358,7 @@ def test_a_contact_model_with_embedded_only_effects_is_refused():
     mat = Material(1e7, 0.3, 8300.0)
     assert as_granular_params(ContactModel(mat, **base)).rolling_friction == 0.05
     wet = ContactModel(mat, capillary=True, capillary_film_thickness=1e-7, **base)
-    with pytest.raises(ConfigError, match="cannot realise the model's capillary"):
+    with pytest.raises(ConfigError, match="cannot carry the model's capillary.*Dialect.with_effects"):
         as_granular_params(wet)
     assert as_granular_params(ContactModel(mat, rolling_model="cdt", **base)).rolling_model == "cdt"
 
