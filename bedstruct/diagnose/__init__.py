@@ -17,7 +17,7 @@ simulators (``surrogate``, ``engine_simulator``, ``engine_runs``, ``process_pool
 (``run_design``, ``run_library``, ``emulator``, ``amortised``); the answer, report and figures (``answer``,
 ``report``, ``figures``); validation (``validation_design``, ``twins``, ``validation_records``,
 ``validation_scores``, ``validate``, ``validate_parallel``, ``validate_liggghts``,
-``external_twins``, ``liggghts_effects``, and the blind protocol ``blind``, ``blind_twins``,
+``external_twins``, ``liggghts_law``, and the blind protocol ``blind``, ``blind_twins``,
 ``blind_report``). Imports point from the later groups to the earlier ones.
 """
 

@@ -5,6 +5,8 @@ twins from one seed (:func:`draw_twins`):
 
 - **effect** twins: one catalogue effect at a magnitude drawn uniformly over its prior
   range, the tenth of the range nearest 0 left out (a twin with no effect is a null twin);
+  only effects the twin engine realises are drawn (:func:`engine_realises`: LIGGGHTS and
+  LAMMPS state theirs in :func:`bedstruct.engines.effect_realisations`);
 - **null** twins: the base model with no effect;
 - **out-of-catalogue** twins: a physical change that the catalogue does not hold at all
   (:data:`OUT_OF_CATALOGUE`), at a magnitude drawn over its stated range.
@@ -32,16 +34,17 @@ from typing import Mapping
 
 import numpy as np
 
+from ..engines import ENGINE_NAMES, dialect
 from ..errors import ConfigError
 from .catalogue import CATALOGUE
-from .engine_simulator import diagnosis_simulator
+from .engine_simulator import diagnosis_simulator, effects_config
 from .measurement_io import measurement_from_dict, write_measurements
 from .measurements import MeasurementSet, Observations
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
 from .validation_design import engine_twin_design, twin_design
 
 __all__ = ["TWIN_ENGINES", "OutOfCatalogueChange", "OUT_OF_CATALOGUE", "BENCHMARK_HELDOUT",
-           "TwinSpec", "benchmark_design", "draw_twins", "realisation", "split_counts",
+           "TwinSpec", "benchmark_design", "draw_twins", "realisation", "engine_realises", "split_counts",
            "twin_simulator", "twin_measurements", "effect_magnitude_range"]
 
 #: Engines that can make the twins' "real" data.
@@ -235,6 +238,32 @@ def realisation(change: OutOfCatalogueChange, engine: str) -> tuple[str, str]:
     return tuple(change.realised[engine])
 
 
+def engine_realises(effect, engine: str) -> bool:
+    """Whether twin engine ``engine`` realises catalogue ``effect`` (an :class:`Effect`).
+
+    The surrogate and the embedded engine realise every effect; an external engine
+    realises it when its dialect accepts the effect's ``[effects]`` values at the top of
+    its prior (:meth:`bedstruct.engines.Dialect.check_effects`, spreading).
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import effect
+    >>> engine_realises(effect("contact_ageing"), "liggghts")
+    False
+    >>> engine_realises(effect("capillary_bridges"), "liggghts")
+    True
+    """
+    _check_engine(engine)
+    if engine not in ENGINE_NAMES:
+        return True
+    try:
+        dialect(engine).check_effects(effects_config({effect.name: effect.prior[1]}),
+                                      spreading=True)
+    except ConfigError:
+        return False
+    return True
+
+
 def draw_twins(n: int, seed: int, engine: str) -> list[TwinSpec]:
     """The ``n`` twins of a benchmark, drawn from ``seed`` (see the module docstring).
 
@@ -247,7 +276,7 @@ def draw_twins(n: int, seed: int, engine: str) -> list[TwinSpec]:
     _check_engine(engine)
     if not changes:  # pragma: no cover - every engine realises the contact changes
         raise ConfigError(f"twins engine {engine!r} realises no out-of-catalogue change")
-    effects = list(CATALOGUE)
+    effects = [e for e in CATALOGUE if engine_realises(e, engine)]
     eff_order = rng.permutation(len(effects))
     ooc_order = rng.permutation(len(changes))
     drawn = []

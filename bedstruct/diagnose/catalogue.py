@@ -123,11 +123,26 @@ class Effect:
                 raise ValueError(f"unknown engine_map rule {rule!r} in {self.name!r}")
         return out
 
+    @property
+    def realisations(self) -> dict:
+        """Per engine (``embedded``, ``liggghts``, ``lammps``), how it realises this effect
+        (a :class:`bedstruct.engines.Realisation`: ``how``, or ``refused`` and why).
+
+        Examples
+        --------
+        >>> effect("contact_ageing").realisations["lammps"].realised
+        False
+        """
+        from ..engines import effect_realisations
+        return effect_realisations()[self.name]
+
     def to_json(self) -> dict:
         return {"name": self.name, "title": self.title, "magnitude": self.magnitude,
                 "unit": self.unit, "prior": list(self.prior), "physics": self.physics,
                 "signature": self.signature, "sources": list(self.sources),
                 "engine_parameters_at_prior_top": self.engine_parameters(self.prior[1]),
+                "engines": {eng: {"realised": r.realised, "how": r.how, "refused": r.refused}
+                            for eng, r in self.realisations.items()},
                 "identify_with": [dict(d) for d in self.identify_with]}
 
 

@@ -5,19 +5,17 @@ same simulator the diagnosis uses, so they cannot test what matters most with
 real data: a gap that is partly the two codes' different numerics. A LIGGGHTS
 twin is made like this:
 
-1. The decks come from the public external workflows
+1. The runs are the public external workflows
    (:func:`bedstruct.workflows.run_repose` / ``run_spread`` with
-   ``engine = "liggghts"``, i.e. :mod:`bedstruct.workflows.external`), run on one
+   ``engine = "liggghts"``, i.e. :mod:`bedstruct.workflows.external`), on one
    MPI rank.
-2. The withheld effect is added by a documented transformation of each deck
-   (:func:`apply_effect`): a larger EPSD2 rolling friction coefficient
-   (:func:`with_rolling_friction`), LIGGGHTS' ``cohesion easo/capillary/viscous``
-   liquid bridges (:func:`with_capillary_bridges`), a particle-wall sliding friction
-   other than the particle-particle one (:func:`with_wall_friction`), or nothing (a
-   null twin).
-   The workflow is pointed (``external.exe``) at a small wrapper executable
-   (:func:`write_liggghts_wrapper`) that rewrites the deck it is asked to run,
-   keeps the original as ``<deck>.base`` and then runs the real LIGGGHTS.
+2. The withheld effect is part of the configuration: values of the ``[effects]``
+   section (e.g. ``{"wall_friction_excess": 0.3}``), which the LIGGGHTS dialect
+   writes into the decks as it states
+   (:data:`bedstruct.engines.LIGGGHTS_REALISATIONS`): liquid bridges as LIGGGHTS'
+   ``cohesion easo/capillary/viscous`` (its law: :mod:`bedstruct.diagnose.liggghts_law`),
+   rolling and wall friction as contact coefficients. An effect LIGGGHTS cannot
+   realise is refused by name before any run.
 3. The runs are observed by the engine simulator's own observation operators
    (:class:`bedstruct.diagnose.engine_simulator.EngineSimulator` with the
    LIGGGHTS engine; :func:`liggghts_simulator`), on several seeds (an experiment
@@ -26,23 +24,6 @@ twin is made like this:
    (:func:`make_liggghts_twin`). The diagnosis sees only that file; the truth is
    kept in ``truth.json`` beside it.
 
-LIGGGHTS 3.8 (Debian) facts this module relies on, checked on a two-sphere run
-(tests/diagnose/test_external_twins.py):
-
-- a ``pair_style gran`` model has **one** cohesion model: the liquid bridges
-  *replace* the particle-particle SJKR cohesion (walls keep theirs; the easo
-  model is not allowed on walls);
-- the capillary force is Soulie's law (:func:`easo_capillary_force`),
-  ``F = pi gamma sqrt(r_i r_j) (exp(A s / R_2 + B) + C)`` for a gap ``s`` and the
-  larger radius ``R_2``; the bridge forms on contact and breaks at
-  ``min((1 + theta/2) V^(1/3), (maxSeparationDistanceRatio - 1)(r_i + r_j))``;
-- ``surfaceLiquidContentInitial`` is read as a liquid/solid volume *fraction*
-  (the manual says per cent), and the bridge volume is
-  ``V = sum_i V_i (1 - sqrt(1 - r_j^2 / (r_i + r_j)^2)) / 2`` (the manual says
-  ``0.05 (V_i + V_j)``);
-- the effective contact angle is ``theta_i theta_j / 2`` (the manual says the
-  mean): :func:`easo_effective_contact_angle`.
-
 .. versionadded:: 0.1
 """
 
@@ -50,19 +31,16 @@ from __future__ import annotations
 
 import json
 import logging
-import os
-import shutil
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .liggghts_effects import TWIN_MARK, TwinEffect, apply_effect
+from ..engines import dialect
 
-__all__ = ["write_liggghts_wrapper", "liggghts_simulator", "liggghts_twin_design", "LiggghtsTwin",
+__all__ = ["effects_label", "liggghts_simulator", "liggghts_twin_design", "LiggghtsTwin",
            "make_liggghts_twin"]
 
 log = logging.getLogger(__name__)
@@ -72,87 +50,70 @@ _SPEED_X1 = 0.0254          # m/s, the seed's x1 speed (the engine simulator's r
 
 # --------------------------------------------------------------------------- running
 
-def write_liggghts_wrapper(folder, effect: TwinEffect, *, liggghts: str | None = None) -> Path:
-    """Write the executable that applies ``effect`` to a deck and then runs LIGGGHTS.
+def effects_label(effects: Mapping[str, Any]) -> str:
+    """Short description of ``[effects]`` values (``none`` when empty).
 
-    The workflows call it as they call LIGGGHTS (``external.exe``;
-    ``... -in DECK -log LOG ...``): it rewrites ``DECK`` with :func:`apply_effect`
-    (once; the original is kept as ``DECK.base``) and replaces itself with the
-    real binary (``liggghts``, default :func:`bedstruct.engines.find_liggghts`).
-
-    Returns
-    -------
-    Path
-        The executable (``folder/liggghts-twin``), beside ``twin-effect.json``.
+    Examples
+    --------
+    >>> effects_label({"wall_friction_excess": 0.3})
+    'wall_friction_excess=0.3'
+    >>> effects_label({})
+    'none'
     """
-    from ..engines import find_liggghts
-    folder = Path(folder).resolve()
-    folder.mkdir(parents=True, exist_ok=True)
-    if liggghts is None:
-        info = find_liggghts()
-        if info is None:
-            raise FileNotFoundError("liggghts is not installed (run .ci/install-engines.sh)")
-        liggghts = info.executable
-    spec = folder / "twin-effect.json"
-    spec.write_text(json.dumps({"effect": effect.to_dict(), "liggghts": str(liggghts)}, indent=1))
-    exe = folder / "liggghts-twin"
-    exe.write_text(f"#!{sys.executable}\n# bedstruct: apply a twin effect to a LIGGGHTS deck, "
-                   "then run LIGGGHTS\nimport sys\n"
-                   "from bedstruct.diagnose.external_twins import _wrapped_main\n"
-                   f"sys.exit(_wrapped_main({str(spec)!r}, sys.argv[1:]))\n")
-    exe.chmod(0o755)
-    return exe
+    return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                     for k, v in sorted(effects.items())) or "none"
 
 
-def _wrapped_main(spec_path: str, args: list[str]) -> int:
-    spec = json.loads(Path(spec_path).read_text())
-    effect = TwinEffect(**spec["effect"])
-    if "-in" in args:
-        deck = Path(args[args.index("-in") + 1])
-        text = deck.read_text()
-        if not text.startswith(TWIN_MARK):
-            shutil.copyfile(deck, deck.with_name(deck.name + ".base"))
-            text = apply_effect(text, effect)
-            deck.write_text(text)
-            # the run folders are temporary: keep the last deck of each kind beside the wrapper
-            (Path(spec_path).parent / f"last-{deck.name}").write_text(text)
-    os.execv(spec["liggghts"], [spec["liggghts"], *args])
-    return 1  # pragma: no cover - execv does not return
+def _effects_overrides(effects: Mapping[str, Any]) -> list[str]:
+    """Workflow overrides ``effects.<key>=<value>`` of ``[effects]`` values."""
+    out = []
+    for k, v in sorted(effects.items()):
+        val = ("true" if v else "false") if isinstance(v, bool) else (
+            repr(float(v)) if isinstance(v, (int, float)) else str(v))
+        out.append(f"effects.{k}={val}")
+    return out
 
 
-def liggghts_simulator(design, effect: TwinEffect, *, preset: str = "tiny",
+def liggghts_simulator(design, effects: Mapping[str, Any], *, preset: str = "tiny",
                        overrides: Sequence[str] = (), workdir=None):
-    """A simulator ``sim(base, effects, seed) -> Observations`` running LIGGGHTS with ``effect``.
+    """A simulator ``sim(base, effects, seed) -> Observations`` running LIGGGHTS with ``effects``.
 
     It is :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` (same
     configuration, same observation operators) with ``engine = "liggghts"``, one
-    MPI rank and ``external.exe`` set to :func:`write_liggghts_wrapper`'s
-    executable; pass ``effects = {}`` when calling it (the effect is in the decks).
+    MPI rank and ``effects`` in the configuration's ``[effects]`` section; pass
+    ``effects = {}`` when calling it (the twin's effect is in its configuration).
 
     Parameters
     ----------
     design : MeasurementSet
         Observables to produce.
-    effect : TwinEffect
+    effects : mapping
+        ``[effects]`` values of the twin (config keys, SI), e.g.
+        ``{"capillary": True, "capillary_film_thickness": 8.7e-9}``.
     preset : str
         Workflow preset (as the engine simulator's ``[engine] preset``).
     overrides : sequence of str
         Workflow ``section.key=value`` overrides (use the engine side's).
     workdir : path, optional
-        Folder for the wrapper (``bin/``) and the run folders (``runs/``; one
-        temporary folder per call); default a new temporary folder.
+        Folder of the run folders (``runs/``; one temporary folder per call);
+        default a new temporary folder.
 
     Returns
     -------
     EngineSimulator
         With ``name = "liggghts"``.
+
+    Raises
+    ------
+    bedstruct.errors.ConfigError
+        An effect LIGGGHTS cannot realise (named), or an unknown ``[effects]`` key.
     """
     import tempfile
 
     from .engine_simulator import EngineSimulator
+    dialect("liggghts").check_effects(effects, spreading=True)
     root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
-    exe = write_liggghts_wrapper(root / "bin", effect)
-    ov = [*overrides, "engine=liggghts", "external.np=1", f"external.exe={exe}"]
+    ov = [*overrides, "engine=liggghts", "external.np=1", *_effects_overrides(effects)]
     (root / "runs").mkdir(parents=True, exist_ok=True)
     sim = EngineSimulator(design, {"preset": preset, "overrides": ov, "n_threads": 1,
                                    "workdir": str(root / "runs")})
@@ -217,7 +178,8 @@ class LiggghtsTwin:
         Measurement TOML (values and stated uncertainties only).
     truth_path : Path
         ``truth.json`` beside it: effect, base, seeds, raw observations.
-    effect : TwinEffect
+    effects : dict
+        The twin's ``[effects]`` values (its withheld effect; empty for a null twin).
     base : dict
     seeds : tuple of int
         The seeds whose runs were used (see ``replace_failed``).
@@ -229,7 +191,7 @@ class LiggghtsTwin:
 
     path: Path
     truth_path: Path
-    effect: TwinEffect
+    effects: dict
     base: dict
     seeds: tuple
     raw: dict = field(repr=False)
@@ -279,11 +241,11 @@ def _twin_readings(measured, raw: Mapping[str, np.ndarray], *, rng, scatter=None
     return values, stated
 
 
-def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float], out,
+def make_liggghts_twin(design, effects: Mapping[str, Any], *, base: Mapping[str, float], out,
                        seeds: Sequence[int] = (1000, 1001, 1002), noise_seed: int = 0,
                        scatter: Mapping[str, float] | None = None, preset: str = "tiny",
                        overrides: Sequence[str] = (), replace_failed: int = 0) -> LiggghtsTwin:
-    """Run LIGGGHTS with ``effect`` on every seed and write the twin's measurement file.
+    """Run LIGGGHTS with ``effects`` on every seed and write the twin's measurement file.
 
     Each seed is one repetition of the experiment. Each reading is the
     observation plus Gaussian reading noise of the design's stated uncertainty
@@ -296,7 +258,8 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
     ----------
     design : MeasurementSet
         Observables and reading uncertainties (:func:`liggghts_twin_design`).
-    effect : TwinEffect
+    effects : mapping
+        The twin's ``[effects]`` values (:func:`liggghts_simulator`; empty: a null twin).
     base : mapping
         Base parameters of the engine simulator (SI; ``cohesion_energy_density`` ...).
     out : path
@@ -312,14 +275,16 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
     """
     from .measurements import MeasurementSet, Observations
     from .measurement_io import write_measurements
-    if not isinstance(effect, TwinEffect):
-        raise TypeError(f"effect: expected a TwinEffect; got {type(effect).__name__}")
+    if not isinstance(effects, Mapping):
+        raise TypeError(f"effects: expected a mapping of [effects] values; got "
+                        f"{type(effects).__name__}")
+    effects = dict(effects)
     if len(seeds) < 1:
         raise ValueError("seeds: need at least one LIGGGHTS seed")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     measured = design.select(("calibrate", "validate"))
-    sim = liggghts_simulator(measured, effect, preset=preset, overrides=overrides, workdir=out)
+    sim = liggghts_simulator(measured, effects, preset=preset, overrides=overrides, workdir=out)
     t0 = time.perf_counter()
     runs, used = _run_seeds(sim, base, seeds, replace_failed=replace_failed)
     seconds = time.perf_counter() - t0
@@ -331,7 +296,7 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
     lost = [m.name for m in measured if m.name not in values]
     if lost:
         log.warning("LIGGGHTS twin %s: no repetition observed %s; left out of the file",
-                    effect.label, lost)
+                    effects_label(effects), lost)
     seen = MeasurementSet(tuple(m for m in measured if m.name in values), measured.title)
     twin = seen.with_values(Observations(values, source="liggghts"),
                             uncertainty=Observations(stated), provenance=prov)
@@ -339,11 +304,11 @@ def make_liggghts_twin(design, effect: TwinEffect, *, base: Mapping[str, float],
                           source="bedstruct.diagnose.external_twins (withheld truth)",
                           notes=(f"not observed in any repetition: {', '.join(lost)}" if lost else ""))
     path = write_measurements(twin, out / "twin.toml")
-    truth = {"effect": effect.to_dict(), "label": effect.label, "base": dict(base),
+    truth = {"effects": effects, "label": effects_label(effects), "base": dict(base),
              "seeds": [int(s) for s in seeds], "seeds_used": used, "noise_seed": int(noise_seed), "preset": preset,
              "overrides": list(overrides), "seconds": seconds,
              "raw": {k: v.tolist() for k, v in raw.items()}}
     truth_path = out / "truth.json"
     truth_path.write_text(json.dumps(truth, indent=1))
-    log.info("LIGGGHTS twin %s: %d runs in %.0f s -> %s", effect.label, n, seconds, path)
-    return LiggghtsTwin(path, truth_path, effect, dict(base), tuple(used), raw, seconds)
+    log.info("LIGGGHTS twin %s: %d runs in %.0f s -> %s", effects_label(effects), n, seconds, path)
+    return LiggghtsTwin(path, truth_path, effects, dict(base), tuple(used), raw, seconds)

@@ -2,19 +2,23 @@
 
 :func:`validate_liggghts` is :func:`bedstruct.diagnose.validate` with the "real" data
 made by LIGGGHTS 3.8 (:func:`~bedstruct.diagnose.external_twins.make_liggghts_twin`)
-and the diagnosis run on the embedded engine's fingerprints. The twins are LIGGGHTS'
-own models of the withheld effects, not the catalogue's:
+and the diagnosis run on the embedded engine's fingerprints. Each twin's effect is a set
+of ``[effects]`` values that the LIGGGHTS dialect writes with LIGGGHTS' own models
+(:data:`bedstruct.engines.LIGGGHTS_REALISATIONS`), not the catalogue's:
 
 =================  ===========================================  =================================
-twin               LIGGGHTS deck change                          true catalogue effect (magnitude)
+twin               ``[effects]`` values (LIGGGHTS' model)        true catalogue effect (magnitude)
 =================  ===========================================  =================================
 null               none                                          none
-rolling friction   EPSD2 ``coefficientRollingFriction`` =        ``non_sphericity`` (0.20)
-                   base + 0.20 (particles and walls)
-liquid bridges     ``cohesion easo/capillary/viscous`` in        ``capillary_bridges`` (no
-                   place of SJKR (gamma 1e-3 N/m, liquid 5e-4)   relative humidity in that model)
-wall friction      particle-wall ``coefficientFriction`` =       ``wall_friction`` (0.30)
-                   base + 0.30
+rolling friction   ``shape_rolling_friction`` 0.20,              ``non_sphericity`` (0.20)
+                   ``rolling_model`` epsd2 (EPSD2 coefficient
+                   base + 0.20, particles and walls)
+liquid bridges     ``capillary``, surface tension 1e-3 N/m,      ``capillary_bridges`` (no
+                   film 8.67 nm (liquid fraction 5e-4 at         relative humidity in that model)
+                   52 um), angle 0.061 rad (``cohesion
+                   easo/capillary/viscous`` in place of SJKR)
+wall friction      ``wall_friction_excess`` 0.30 (particle-wall  ``wall_friction`` (0.30)
+                   ``coefficientFriction`` base + 0.30)
 =================  ===========================================  =================================
 
 Each effect twin is diagnosed twice, with its effect in the catalogue and removed
@@ -41,9 +45,8 @@ import numpy as np
 from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
 from .diagnosis import diagnose, diagnosis_design
-from .liggghts_effects import (
-    TwinEffect, capillary_effect, null_effect, rolling_friction_effect, wall_friction_effect)
-from .external_twins import liggghts_twin_design, make_liggghts_twin
+from .external_twins import effects_label, liggghts_twin_design, make_liggghts_twin
+from .liggghts_law import easo_effective_contact_angle
 from .fingerprint_runs import compute_fingerprints
 from .measurement_io import load_measurements
 from .surrogate import BASE_PARAMETERS
@@ -62,17 +65,25 @@ LIGGGHTS_PRESETS = {
                  effects=("capillary_bridges", "non_sphericity", "wall_friction")),
 }
 
+#: The liquid-bridge twin: gamma 1e-3 N/m, a film giving the liquid volume fraction 5e-4 on
+#: the tiny preset's median sphere (radius 52 um; fraction 3 t / r), and the angle LIGGGHTS
+#: applies to two types of 20 degrees each (theta_i theta_j / 2).
+_BRIDGES = {"capillary": True, "capillary_surface_tension": 1e-3,
+            "capillary_film_thickness": 5e-4 * 52e-6 / 3.0,
+            "capillary_contact_angle": easo_effective_contact_angle(0.3490658503988659,
+                                                                    0.3490658503988659)}
+
 
 
 @dataclass(frozen=True)
 class LiggghtsTwinSpec:
-    """One LIGGGHTS twin of the plan: the deck change and the truth it stands for.
+    """One LIGGGHTS twin of the plan: its ``[effects]`` values and the truth they stand for.
 
     Attributes
     ----------
     kind : {"null", "effect"}
-    effect : TwinEffect
-        What is changed in the LIGGGHTS decks.
+    effects : dict
+        The twin's ``[effects]`` values (what the LIGGGHTS runs' configuration adds).
     true_effect : str or None
         The catalogue effect the change is (``None`` for the null twin).
     true_magnitude : float or None
@@ -80,35 +91,48 @@ class LiggghtsTwinSpec:
     """
 
     kind: str
-    effect: TwinEffect
+    effects: dict
     true_effect: str | None = None
     true_magnitude: float | None = None
 
+    @property
+    def label(self) -> str:
+        """Short description of :attr:`effects`."""
+        return effects_label(self.effects)
 
-def liggghts_twin_plan(base) -> list[LiggghtsTwinSpec]:
+
+def liggghts_twin_plan() -> list[LiggghtsTwinSpec]:
     """The LIGGGHTS twins of a validation (see the module docstring).
-
-    Parameters
-    ----------
-    base : mapping
-        Base parameters (``friction``, ``rolling_friction``): the effects are set
-        relative to them, as the catalogue's magnitudes are.
 
     Examples
     --------
-    >>> from bedstruct.diagnose import BASE_PARAMETERS
-    >>> [(t.kind, t.true_effect, t.true_magnitude) for t in liggghts_twin_plan(BASE_PARAMETERS)]
+    >>> [(t.kind, t.true_effect, t.true_magnitude) for t in liggghts_twin_plan()]
     ... # doctest: +NORMALIZE_WHITESPACE
     [('null', None, None), ('effect', 'non_sphericity', 0.2),
      ('effect', 'capillary_bridges', None), ('effect', 'wall_friction', 0.3)]
     """
-    mu, mu_r = float(base["friction"]), float(base["rolling_friction"])
-    return [LiggghtsTwinSpec("null", null_effect()),
-            LiggghtsTwinSpec("effect", rolling_friction_effect(round(mu_r + 0.20, 12)),
+    return [LiggghtsTwinSpec("null", {}),
+            LiggghtsTwinSpec("effect", {"shape_rolling_friction": 0.20, "rolling_model": "epsd2"},
                              "non_sphericity", 0.20),
-            LiggghtsTwinSpec("effect", capillary_effect(1e-3, 5e-4), "capillary_bridges", None),
-            LiggghtsTwinSpec("effect", wall_friction_effect(round(mu + 0.30, 12)),
-                             "wall_friction", 0.30)]
+            LiggghtsTwinSpec("effect", dict(_BRIDGES), "capillary_bridges", None),
+            LiggghtsTwinSpec("effect", {"wall_friction_excess": 0.30}, "wall_friction", 0.30)]
+
+
+def _refuse_rewritten_twin(folder: Path) -> None:
+    """Raise ConfigError for a twin folder whose ``truth.json`` states a deck-rewriting
+    ``effect`` record (a LIGGGHTS twin made before the effects were configuration values)."""
+    truth = folder / "truth.json"
+    try:
+        have = json.loads(truth.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError):
+        return
+    if isinstance(have, dict) and "effect" in have and "effects" not in have:
+        eff = have["effect"]
+        raise ConfigError(
+            f"{folder}: this LIGGGHTS twin states its effect as a deck rewriting "
+            f"(truth.json 'effect' = {eff.get('kind', eff) if isinstance(eff, dict) else eff!r}), "
+            "which bedstruct no longer makes; its runs are not reused. Remove the folder (or "
+            "give another workdir / --cache) to make the twin again from its [effects] values")
 
 
 def _twin_folder_matches(folder: Path, want: dict) -> bool:
@@ -127,7 +151,7 @@ def _twin_folder_matches(folder: Path, want: dict) -> bool:
 def _made_entry(i: int, spec: LiggghtsTwinSpec, folder: Path, *, keep: bool) -> dict:
     """What ``settings["twins_made"]`` says of a finished twin (from its ``truth.json``)."""
     doc = json.loads((folder / "truth.json").read_text(encoding="utf-8"))
-    return {"twin": i, "liggghts_effect": spec.effect.label,
+    return {"twin": i, "liggghts_effect": spec.label,
             "folder": str(folder) if keep else None, "seeds_used": doc.get("seeds_used"),
             "liggghts_seconds": doc.get("seconds")}
 
@@ -169,7 +193,9 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     Raises
     ------
     ConfigError
-        Unknown preset, or no ``liggghts`` executable on the PATH.
+        Unknown preset, no ``liggghts`` executable on the PATH, or a twin folder in
+        ``workdir`` made by deck rewriting (its ``truth.json`` states an ``effect``
+        record, not ``[effects]`` values): remove it to make the twin again.
 
     Examples
     --------
@@ -188,6 +214,10 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if shutil.which("liggghts") is None:
         raise ConfigError("LIGGGHTS twins need the liggghts executable on the PATH "
                           "(Debian/Ubuntu: apt-get install liggghts)")
+    plan = liggghts_twin_plan()
+    if workdir is not None:   # before any run: twins this version cannot reuse are refused
+        for i in range(len(plan)):
+            _refuse_rewritten_twin(Path(workdir) / f"twin{i}")
     from .engine_simulator import diagnosis_simulator
     cfg = LIGGGHTS_PRESETS[preset]
     t0 = time.perf_counter()
@@ -209,7 +239,6 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
                  "select_alpha": select_alpha, "gof_alpha": gof_alpha, "refine": int(refine),
                  "method_version": METHOD_VERSION}
     done = records_done(records, signature)
-    plan = liggghts_twin_plan(base)
     seeds = tuple(1000 + 10 * int(seed) + k for k in range(cfg["repetitions"]))
     twins, failed, made = [], [], []
     tmp = None
@@ -230,13 +259,13 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
         for i, spec in steps:
             truth = {"true_effect": spec.true_effect, "true_magnitude": spec.true_magnitude,
                      "true_cohesion": base["cohesion_energy_density"],
-                     "liggghts_effect": spec.effect.label}
+                     "liggghts_effect": spec.label}
             kinds = [spec.kind] + (["out_of_catalogue"] if spec.kind == "effect" else [])
             twins.extend(done[(i, k)] for k in kinds if (i, k) in done)
             todo = [k for k in kinds if (i, k) not in done]
             folder = root / f"twin{i}"
             noise_seed = 10 + 100 * int(seed) + i
-            want = {"effect": spec.effect.to_dict(), "base": base, "seeds": list(seeds),
+            want = {"effects": spec.effects, "base": base, "seeds": list(seeds),
                     "noise_seed": noise_seed, "preset": preset, "overrides": overrides,
                     "deck_revision": _DECK_REVISION, "method_version": METHOD_VERSION}
             if not todo:  # every diagnosis resumed from the records: list the twin, if kept
@@ -245,7 +274,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
                 continue
             try:
                 if not _twin_folder_matches(folder, want):
-                    made_twin = make_liggghts_twin(measured, spec.effect, base=base, out=folder,
+                    made_twin = make_liggghts_twin(measured, spec.effects, base=base, out=folder,
                                                    seeds=seeds, noise_seed=noise_seed,
                                                    preset=preset, overrides=overrides,
                                                    replace_failed=2)
@@ -266,7 +295,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
             except (ValueError, np.linalg.LinAlgError, RuntimeError) as exc:
                 # a LIGGGHTS run that cannot be observed, or an engine rerun without a
                 # measurable observable: recorded, not scored
-                log.warning("LIGGGHTS twin %d (%s) failed: %s", i, spec.effect.label, exc)
+                log.warning("LIGGGHTS twin %d (%s) failed: %s", i, spec.label, exc)
                 failed.append({"twin": i, "type": spec.kind, **truth, "error": str(exc)[:500]})
     finally:
         if tmp is not None:
@@ -286,7 +315,8 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
                 "resumed_twins": len(done), "alpha": alpha, "select_alpha": select_alpha,
                 "gof_alpha": gof_alpha, "seed": seed,
                 "twin_magnitudes": "fixed (liggghts_twin_plan): rolling friction +0.20, wall "
-                                   "friction +0.30, liquid bridges gamma 1e-3 N/m, liquid 5e-4",
+                                   "friction +0.30, liquid bridges gamma 1e-3 N/m, liquid 5e-4 "
+                                   "at 52 um",
                 "twin_cohesion": "the base's (the LIGGGHTS numerics are the cohesion's gap)",
                 "design": "liggghts_twin_design()",
                 "note": "twins made with LIGGGHTS 3.8 (one MPI rank); fingerprints on the "

@@ -24,13 +24,15 @@ from ._bed import (ImpactResult, bed_deck, hertz_contact_time, impact_deck, impa
                    moving_wall_deck)
 from ._bench import benchmark_external, cached_bed, loose_lattice, pour_bed
 from ._datafile import data_file_radii, read_data_header, write_sphere_data
-from ._dialect import DUMP_COLUMNS, Dialect
-from ._lammps import (REFERENCE_OVERLAP, REFERENCE_RADIUS, LammpsDialect, find_lammps,
-                      lammps_granular_coeffs)
+from ._dialect import DUMP_COLUMNS, EFFECT_KEYS, EMBEDDED_REALISATIONS, Dialect, Realisation, effects_on
+from ._lammps import (LAMMPS_REALISATIONS, REFERENCE_OVERLAP, REFERENCE_RADIUS, LammpsDialect,
+                      find_lammps, lammps_granular_coeffs)
 from ._launch import EngineInfo, EngineRunError, RunResult, run_deck
-from ._liggghts import LiggghtsDialect, LiquidBridges, find_liggghts, liggghts_model_commands
+from ._liggghts import (LIGGGHTS_REALISATIONS, LiggghtsDialect, LiquidBridges, find_liggghts,
+                        liggghts_model_commands)
 from ._logs import EngineLog, ThermoRun, landing_offsets, parse_log, run_finished, tool_loads
 from ._params import GranularParams, as_granular_params
+from ._realisations import effect_realisations
 from ._registry import ENGINE_NAMES, dialect
 from ._repose import repose_deck
 from ._scenarios import LayerSteps, ReposeGeometry, ReposeSchedule, SpreadLayersPlan, tool_top
@@ -43,6 +45,9 @@ __all__ = [
     "Dialect", "LiggghtsDialect", "LammpsDialect", "LiquidBridges", "dialect", "ENGINE_NAMES",
     "find_liggghts", "find_lammps", "liggghts_model_commands", "lammps_granular_coeffs",
     "REFERENCE_RADIUS", "REFERENCE_OVERLAP",
+    # the diagnosis' effects on each engine
+    "Realisation", "EFFECT_KEYS", "EMBEDDED_REALISATIONS", "LIGGGHTS_REALISATIONS",
+    "LAMMPS_REALISATIONS", "effect_realisations", "effects_on",
     # running and logs
     "EngineInfo", "EngineRunError", "RunResult", "run_deck",
     "EngineLog", "ThermoRun", "parse_log", "landing_offsets", "run_finished", "tool_loads",

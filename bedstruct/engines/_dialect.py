@@ -9,28 +9,108 @@ set-up lines, the contact model, walls, moving meshes or regions, contact dumps.
 
 A piece that an engine cannot realise is refused by name (:meth:`Dialect.refuse`,
 a :class:`~bedstruct.errors.ConfigError`), never replaced by another model.
+
+The diagnosis' effects (config section ``effects``) are options of the decks: each
+dialect states, per catalogue effect, how it realises the effect or why it refuses it
+(:attr:`Dialect.realisations`, :class:`Realisation`); :meth:`Dialect.check_effects`
+refuses by that table and :meth:`Dialect.with_effects` returns the dialect that writes
+them. :data:`EMBEDDED_REALISATIONS` states the embedded engine's, for the same table.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, Mapping
 
 from ..errors import ConfigError
 from ._datafile import data_file_radii, read_data_header
 from ._launch import run_deck
 from ._logs import parse_log
 
-__all__ = ["Dialect", "DUMP_COLUMNS", "path_word"]
+__all__ = ["Dialect", "DUMP_COLUMNS", "path_word", "Realisation", "EFFECT_KEYS",
+           "EMBEDDED_REALISATIONS", "effects_on"]
 
 #: Per-particle dump columns written by every deck.
 DUMP_COLUMNS = "id type x y z vx vy vz fx fy fz omegax omegay omegaz radius"
 
-#: Diagnosis extensions (config section ``effects``) that no deck writes: the
-#: embedded engine's own; a deck without them would be the base model under their name.
-_EMBEDDED_ONLY = ("capillary", "contact_ageing")
-_EMBEDDED_ONLY_SPREADING = ("blade_ramp_time", "blade_vibration_amplitude")
+#: The ``effects`` config keys that switch each catalogue effect on (the effect is on when
+#: one of its keys is: a switch set, a magnitude non-zero).
+EFFECT_KEYS = {"capillary_bridges": ("capillary",),
+               "contact_ageing": ("contact_ageing",),
+               "non_sphericity": ("shape_rolling_friction",),
+               "missing_fines": ("fines_mass_fraction",),
+               "wall_friction": ("wall_friction_excess",),
+               "blade_startup": ("blade_ramp_time", "blade_vibration_amplitude")}
+#: Effects of the spreading tool: a deck without a tool (repose, bed) has nothing to realise.
+_SPREADING_ONLY = ("blade_startup",)
+
+
+@dataclasses.dataclass(frozen=True)
+class Realisation:
+    """How one engine realises one catalogue effect, or why it cannot.
+
+    Attributes
+    ----------
+    how : str
+        The engine's model of the effect, in words (empty when refused).
+    refused : str
+        Why the engine cannot realise it, and the alternative (empty when realised).
+
+    Examples
+    --------
+    >>> Realisation(refused="no such model; run it with --engine embedded").realised
+    False
+    """
+
+    how: str = ""
+    refused: str = ""
+
+    @property
+    def realised(self) -> bool:
+        """Whether the engine writes the effect."""
+        return not self.refused
+
+
+#: The embedded engine's realisation of every catalogue effect (each a kernel option).
+EMBEDDED_REALISATIONS: Mapping[str, Realisation] = {
+    "capillary_bridges": Realisation(
+        "Willett closed-form liquid bridges between particles (asperity bridges: effective "
+        "surface tension and film thickness from the catalogue), added to SJKR cohesion; "
+        "bridge volume 2 pi R*^2 t, rupture (1 + theta/2) V^(1/3)"),
+    "contact_ageing": Realisation(
+        "a bond at resting contacts growing as ln(1 + t_w / tau), broken by tangential slip"),
+    "non_sphericity": Realisation(
+        "EPSD rolling resistance (Ai et al. 2011) with mu_r + mu_r,shape, stiffness "
+        "f k_n mu_r^2 R*^2 (f = effects.rolling_stiffness_factor), damping ratio 0.3"),
+    "missing_fines": Realisation("fines inserted with the PSD (log-normal tail below psd.d_min)"),
+    "wall_friction": Realisation("particle-wall sliding friction mu + d_mu"),
+    "blade_startup": Realisation(
+        "tool speed v (1 - exp(-t/tau)) plus a vertical sinusoidal vibration (wall program)"),
+}
+
+
+def effects_on(effects, *, spreading: bool = False) -> list[str]:
+    """The catalogue effects that the config section ``effects`` switches on.
+
+    ``spreading``: include the tool's effects (``blade_startup``); other runs have no tool.
+
+    Examples
+    --------
+    >>> effects_on({"capillary": True, "wall_friction_excess": -0.1, "blade_ramp_time": 0.1})
+    ['capillary_bridges', 'wall_friction']
+    """
+    fx = effects or {}
+    out = []
+    for name, keys in EFFECT_KEYS.items():
+        if name in _SPREADING_ONLY and not spreading:
+            continue
+        vals = [fx.get(k, False) for k in keys]
+        if any(bool(v) if isinstance(v, bool) else float(v) != 0.0 for v in vals):
+            out.append(name)
+    return out
+
+
 #: Options of how one engine maps the seed's contact model; meaningless (ignored) elsewhere.
 _MAPPING_OPTIONS = ("cohesion_model", "reference_radius", "reference_overlap")
 
@@ -66,6 +146,9 @@ class Dialect:
         that turns it into the load of the particles on the tool.
     impact_thermo_modify : str
         The ``thermo_modify`` line of impact decks.
+    realisations : mapping of str to Realisation
+        Per catalogue effect (:data:`EFFECT_KEYS`), how this engine's decks realise it or
+        why they cannot.
     """
 
     name: ClassVar[str] = ""
@@ -75,6 +158,7 @@ class Dialect:
     contact_dump_columns: ClassVar[str] = ""
     tool_load: ClassVar[tuple] = ("", "")
     impact_thermo_modify: ClassVar[str] = "thermo_modify norm no"
+    realisations: ClassVar[Mapping[str, Realisation]] = {}
 
     # ------------------------------------------------------------------ generic
     def with_options(self, **options) -> "Dialect":
@@ -114,27 +198,54 @@ class Dialect:
         return parse_log(source)
 
     def check_effects(self, effects, *, spreading: bool = False) -> None:
-        """Refuse the diagnosis extensions (config section ``effects``) no deck writes.
+        """Refuse the diagnosis' effects (config section ``effects``) this engine cannot realise.
 
-        Wall friction, missing fines and rolling friction are ordinary deck
-        parameters; capillary bridges, contact ageing and the blade's start-up ramp
-        and vibration exist in the embedded engine only.
+        Each effect switched on (:func:`effects_on`) is looked up in
+        :attr:`realisations`; a refused one raises, and so do options of a realised one
+        that the engine's model lacks (:meth:`check_effect_options`).
 
         Raises
         ------
         bedstruct.errors.ConfigError
-            Naming the keys.
+            Naming the effect, its config keys, the engine and the alternative.
         """
-        fx = effects or {}
-        found = [k for k in _EMBEDDED_ONLY if fx.get(k)]
-        if spreading:
-            found += [k for k in _EMBEDDED_ONLY_SPREADING if float(fx.get(k, 0.0)) > 0.0]
-        if found:
-            raise ConfigError(
-                f"engine {self.name!r}: config key(s) {', '.join('effects.' + k for k in found)} "
-                "are extensions of the embedded engine, not written to the "
-                f"{self.name} decks; run them with --engine embedded (for LIGGGHTS-made "
-                "twins with liquid bridges see bedstruct.diagnose.external_twins)")
+        for name in effects_on(effects, spreading=spreading):
+            r = self.realisations.get(name)
+            if r is None or not r.realised:
+                keys = ", ".join("effects." + k for k in EFFECT_KEYS[name])
+                why = r.refused if r is not None else "no realisation is stated for it"
+                raise ConfigError(f"engine {self.name!r} cannot realise the effect {name!r} "
+                                  f"({keys}): {why}")
+        self.check_effect_options(effects or {}, spreading=spreading)
+
+    def check_effect_options(self, effects, *, spreading: bool = False) -> None:
+        """Refuse options of a realised effect that this engine's model lacks (none here)."""
+
+    def with_effects(self, effects, *, reference_radius: float | None = None,
+                     spreading: bool = False) -> "Dialect":
+        """The dialect that writes the effects of the config section ``effects``.
+
+        Refuses what this engine cannot realise (:meth:`check_effects`). Effects that are
+        ordinary contact parameters (wall friction, rolling friction) or inputs (fines) are
+        already in the deck's parameters and particles; a dialect with its own model of an
+        effect (LIGGGHTS' liquid bridges) returns a copy with it set.
+
+        Parameters
+        ----------
+        effects : mapping
+            The config section ``effects``.
+        reference_radius : float, m, optional
+            The particle radius an engine's per-particle quantity is set for (LIGGGHTS'
+            liquid content from the film thickness); needed only by such a model.
+        spreading : bool
+            A spreading deck (the tool's effects apply).
+        """
+        self.check_effects(effects, spreading=spreading)
+        return self
+
+    def effect_notes(self) -> list[str]:
+        """What this dialect's effect models write differently from the embedded engine's."""
+        return []
 
     def cohesion_options(self, p, choice: str):
         """How this engine writes the cohesion of ``p``: ``(params, cohesion_model)``.
@@ -146,11 +257,12 @@ class Dialect:
 
     def approximations(self, *, tool=None) -> list[str]:
         """Notes on what this engine's decks write differently from the embedded run."""
-        return []
+        return self.effect_notes()
 
     def header(self, title: str) -> str:
-        """The first line of a deck."""
-        return f"# bedstruct deck for {self.name}: {title}"
+        """The first line of a deck, followed by a comment line per :meth:`effect_notes`."""
+        return "\n".join([f"# bedstruct deck for {self.name}: {title}",
+                          *(f"# effect realised differently: {n}" for n in self.effect_notes())])
 
     def setup_lines(self, boundary: str, processors: str | None) -> list[str]:
         """Atom style, boundary, communication and units (SI) lines."""

@@ -20,6 +20,8 @@ Mapping (details and caveats in docs/backends.md):
   because LAMMPS refuses ``coeff_restitution`` (and ``tsuji``) damping with
   cohesive normal models, ``damping viscoelastic`` with eta_n0 matched to the
   LIGGGHTS damping at the same reference contact.
+
+The diagnosis' effects LAMMPS realises are stated in :data:`LAMMPS_REALISATIONS`.
 """
 
 from __future__ import annotations
@@ -37,14 +39,14 @@ from importlib import metadata
 from pathlib import Path
 
 from ..errors import BedstructWarning, ConfigError
-from ._dialect import Dialect
+from ._dialect import Dialect, Realisation, effects_on
 from ._launch import EngineInfo
 from ._params import GranularParams, as_granular_params
 from ._registry import register
 from ._stl import BladeGeometry, RollerGeometry
 
-__all__ = ["LammpsDialect", "find_lammps", "lammps_granular_coeffs", "REFERENCE_RADIUS",
-           "REFERENCE_OVERLAP"]
+__all__ = ["LammpsDialect", "LAMMPS_REALISATIONS", "find_lammps", "lammps_granular_coeffs",
+           "REFERENCE_RADIUS", "REFERENCE_OVERLAP"]
 
 log = logging.getLogger(__name__)
 
@@ -233,6 +235,27 @@ def _region_wall(coeffs: str, region: str, suffix: str = "") -> str:
     return f"fix w{region} all wall/gran/region granular {coeffs} region {region}{suffix}"
 
 
+#: How LAMMPS realises each catalogue effect (:attr:`LammpsDialect.realisations`).
+LAMMPS_REALISATIONS = {
+    "capillary_bridges": Realisation(refused=(
+        "pair_style granular has no liquid-bridge model; run it with --engine liggghts "
+        "(easo/capillary/viscous bridges) or --engine embedded (Willett bridges)")),
+    "contact_ageing": Realisation(refused=(
+        "LAMMPS has no contact model whose bond grows with each contact's rest time; "
+        "run it with --engine embedded")),
+    "non_sphericity": Realisation(
+        "rolling sds with mu_r + mu_r,shape at particle and wall contacts, when "
+        "effects.rolling_model = epsd2 (LAMMPS has no EPSD rolling dashpot: the catalogue's "
+        "epsd is refused; run it with --engine liggghts or embedded)"),
+    "missing_fines": Realisation("fines inserted with the particles (the PSD's data file)"),
+    "wall_friction": Realisation("particle-wall friction mu + d_mu in every wall fix"),
+    "blade_startup": Realisation(refused=(
+        "the decks move the tool at constant velocity (a step-ramp region variable); the "
+        "start-up ramp and vibration are a wall program of the embedded engine: run them "
+        "with --engine embedded")),
+}
+
+
 @register
 @dataclass(frozen=True)
 class LammpsDialect(Dialect):
@@ -266,9 +289,18 @@ class LammpsDialect(Dialect):
     contact_dump_columns = "id1 id2 distance fx fy fz"
     tool_load = ("c_toolsum", "-")
     impact_thermo_modify = "thermo_modify norm no format float %.12g"
+    realisations = LAMMPS_REALISATIONS
 
     def find(self, executable=None):
         return find_lammps(executable)
+
+    def check_effect_options(self, effects, *, spreading=False):
+        if "non_sphericity" in effects_on(effects) and effects.get("rolling_model", "epsd") != "epsd2":
+            raise ConfigError(
+                "engine 'lammps' cannot realise the effect 'non_sphericity' with "
+                f"effects.rolling_model = {effects.get('rolling_model', 'epsd')!r}: LAMMPS "
+                "realises rolling friction as `rolling sds` (EPSD2) only; set "
+                "effects.rolling_model = epsd2, or run it with --engine liggghts or embedded")
 
     def cohesion_options(self, p, choice):
         """LAMMPS has no SJKR: the ``dmt``/``jkr`` stand-in, or ``none`` drops cohesion."""

@@ -2,7 +2,8 @@
 under OpenMPI (:func:`find_liggghts`), the seed's contact model as ``pair_style gran
 model hertz tangential history`` with SJKR cohesion and EPSD2 rolling friction
 (:func:`liggghts_model_commands`), and walls as STL meshes (``fix mesh/surface``)
-moved by ``fix move/mesh``.
+moved by ``fix move/mesh``. The diagnosis' effects it realises are stated in
+:data:`LIGGGHTS_REALISATIONS`; liquid bridges are its own model (:class:`LiquidBridges`).
 """
 
 from __future__ import annotations
@@ -14,14 +15,15 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from ._dialect import Dialect, path_word
+from ..errors import ConfigError
+from ._dialect import Dialect, Realisation, effects_on, path_word
 from ._launch import EngineInfo
 from ._params import GranularParams
 from ._registry import register
 from ._stl import RollerGeometry, _chamber_meshes, repose_wall_stls, write_stl
 
-__all__ = ["LiggghtsDialect", "LiquidBridges", "find_liggghts", "liggghts_model_commands",
-           "liggghts_wall_model"]
+__all__ = ["LiggghtsDialect", "LiquidBridges", "LIGGGHTS_REALISATIONS", "find_liggghts",
+           "liggghts_model_commands", "liggghts_wall_model"]
 
 _RUN_AS_ROOT = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
 
@@ -168,6 +170,10 @@ def liggghts_model_commands(params: GranularParams, *, n_types: int = 2) -> tupl
     if "sjkr" in model:
         lines.append("fix m6 all property/global cohesionEnergyDensity peratomtypepair "
                      f"{per_pair('cohesion_energy_density')}")
+    if "rolling_friction epsd " in model + " ":
+        # LIGGGHTS' EPSD carries a rolling dashpot; the same damping ratio at every pair
+        lines.append("fix m7 all property/global coefficientRollingViscousDamping peratomtypepair "
+                     f"{n_types} " + " ".join([_fmt(p.rolling_damping)] * n_types ** 2))
     lines += [f"pair_style gran {model}", "pair_coeff * *"]
     return lines, wt
 
@@ -210,6 +216,34 @@ class LiquidBridges:
             raise ValueError("liquid bridges: `surface_tension` and `liquid_volume_fraction` "
                              "must be > 0")
 
+    @classmethod
+    def from_film(cls, *, surface_tension: float, contact_angle: float, film_thickness: float,
+                  reference_radius: float, **kwargs) -> "LiquidBridges":
+        """The bridges of a liquid film ``film_thickness`` on spheres of ``reference_radius``.
+
+        A film ``t`` on a sphere of radius ``r`` holds ``4 pi r^2 t`` of liquid, the
+        volume fraction ``3 t / r`` (LIGGGHTS' one ``surfaceLiquidContentInitial`` for
+        every particle: the fraction of spheres of ``reference_radius``). LIGGGHTS 3.8
+        uses ``theta_i theta_j / 2`` (rad) as the angle between equal types, so each type
+        gets ``sqrt(2 contact_angle)`` and the angle LIGGGHTS applies is ``contact_angle``.
+        Other keywords are those of the class (viscosity, separation ratios).
+
+        Examples
+        --------
+        >>> b = LiquidBridges.from_film(surface_tension=0.072, contact_angle=0.02,
+        ...                             film_thickness=1e-9, reference_radius=30e-6)
+        >>> round(b.liquid_volume_fraction * 1e4, 10), round(0.5 * b.contact_angle ** 2, 12)
+        (1.0, 0.02)
+        """
+        if not (film_thickness > 0 and reference_radius > 0):
+            raise ValueError("liquid bridges: `film_thickness` and `reference_radius` must be > 0; "
+                             f"got {film_thickness!r}, {reference_radius!r}")
+        if not 0.0 <= contact_angle < 0.5 * math.pi:
+            raise ValueError(f"liquid bridges: `contact_angle` must lie in [0, pi/2) rad; got "
+                             f"{contact_angle!r}")
+        return cls(float(surface_tension), 3.0 * float(film_thickness) / float(reference_radius),
+                   contact_angle=math.sqrt(2.0 * float(contact_angle)), **kwargs)
+
     def lines(self, n_types: int) -> list[str]:
         """The ``property/global`` lines of the model for ``n_types`` atom types."""
         return [
@@ -250,6 +284,33 @@ def _mesh_walls(meshes: dict, p, wt: int, *, back_plane: bool = False, loaded=()
     return lines
 
 
+#: How LIGGGHTS 3.8 realises each catalogue effect (:attr:`LiggghtsDialect.realisations`).
+LIGGGHTS_REALISATIONS = {
+    "capillary_bridges": Realisation(
+        "LIGGGHTS' own liquid bridges, pair_style gran cohesion easo/capillary/viscous "
+        "(Soulie's law, LiquidBridges.from_film): surface tension and contact angle from "
+        "`effects`, liquid volume fraction 3 t / r from the film thickness t on a sphere of "
+        "the PSD's median radius r = psd.scale psd.d50 / 2; they replace the particles' SJKR "
+        "cohesion (one cohesion model per pair style) and walls get none"),
+    "contact_ageing": Realisation(refused=(
+        "LIGGGHTS has no contact model whose bond grows with each contact's rest time; "
+        "run it with --engine embedded")),
+    "non_sphericity": Realisation(
+        "rolling friction mu_r + mu_r,shape at particle and wall contacts in the rolling model "
+        "`effects.rolling_model`: epsd (Ai et al. 2011; stiffness 2.25 k_n mu_r^2 R*^2, "
+        "coefficientRollingViscousDamping 0.3, the embedded damping ratio), epsd2 or cdt"),
+    "missing_fines": Realisation("fines inserted with the particles (the PSD's data file)"),
+    "wall_friction": Realisation("particle-wall coefficientFriction mu + d_mu (atom type 2)"),
+    "blade_startup": Realisation(refused=(
+        "the decks move the tool at constant velocity (fix move/mesh linear); the start-up "
+        "ramp and vibration are a wall program of the embedded engine: run them with "
+        "--engine embedded")),
+}
+
+#: LIGGGHTS' EPSD rolling stiffness prefactor (k_r = 2.25 k_n mu_r^2 R*^2), fixed in the code.
+_LIGGGHTS_EPSD_STIFFNESS = 2.25
+
+
 @register
 @dataclass(frozen=True)
 class LiggghtsDialect(Dialect):
@@ -275,11 +336,46 @@ class LiggghtsDialect(Dialect):
     # compute pair/gran/local pos id force contactArea delta
     contact_dump_columns = "x1 y1 z1 x2 y2 z2 id1 id2 periodic fx fy fz contact_area overlap"
     tool_load = ("f_tool", "")
+    realisations = LIGGGHTS_REALISATIONS
 
     liquid_bridges: LiquidBridges | None = None
 
     def find(self, executable=None):
         return find_liggghts(executable)
+
+    def check_effect_options(self, effects, *, spreading=False):
+        if ("non_sphericity" in effects_on(effects)
+                and effects.get("rolling_model", "epsd") == "epsd"
+                and float(effects.get("rolling_stiffness_factor", _LIGGGHTS_EPSD_STIFFNESS))
+                != _LIGGGHTS_EPSD_STIFFNESS):
+            raise ConfigError(
+                "engine 'liggghts' cannot realise the effect 'non_sphericity' with "
+                f"effects.rolling_stiffness_factor = {effects['rolling_stiffness_factor']!r}: "
+                "LIGGGHTS' EPSD rolling stiffness is 2.25 k_n mu_r^2 R*^2; set it to 2.25 or run "
+                "with --engine embedded")
+
+    def with_effects(self, effects, *, reference_radius=None, spreading=False):
+        self.check_effects(effects, spreading=spreading)
+        fx = effects or {}
+        if "capillary_bridges" not in effects_on(fx):
+            return self
+        if reference_radius is None:
+            raise ValueError("LIGGGHTS liquid bridges need `reference_radius` (m): the radius "
+                             "whose liquid volume fraction the film thickness sets")
+        bridges = LiquidBridges.from_film(
+            surface_tension=float(fx["capillary_surface_tension"]),
+            contact_angle=float(fx["capillary_contact_angle"]),
+            film_thickness=float(fx["capillary_film_thickness"]),
+            reference_radius=float(reference_radius))
+        return self.with_options(liquid_bridges=bridges)
+
+    def effect_notes(self):
+        if self.liquid_bridges is None:
+            return []
+        return ["liquid bridges are LIGGGHTS' easo/capillary/viscous (Soulie), not the embedded "
+                "engine's Willett bridges; they replace the particles' SJKR cohesion; walls get "
+                "no bridges; one liquid fraction for every particle (set at the PSD's median "
+                "radius)"]
 
     def model_lines(self, p, *, n_types, soft=False):
         lines, wt = liggghts_model_commands(p, n_types=n_types)

@@ -48,6 +48,9 @@ class GranularParams:
         realises ``epsd2`` (as ``rolling sds``) only and refuses the others.
     cohesion_energy_density : float, J/m^3
         SJKR cohesion energy density k (0 disables cohesion).
+    rolling_damping : float, dimensionless
+        Viscous damping ratio of the ``epsd`` rolling model (LIGGGHTS
+        ``coefficientRollingViscousDamping``; the embedded engine's ``rolling_damping``).
     gravity : float, m/s^2
         Magnitude of gravity along -z (0 disables it).
     wall_youngs_modulus, wall_poisson_ratio, wall_restitution, wall_friction,
@@ -76,6 +79,7 @@ class GranularParams:
     wall_rolling_friction: float | None = None
     wall_cohesion_energy_density: float | None = None
     rolling_model: str = "epsd2"
+    rolling_damping: float = 0.3
 
     def __post_init__(self):
         if self.rolling_model not in ROLLING_MODELS:
@@ -96,6 +100,7 @@ class GranularParams:
         for name in ("restitution", "wall_restitution"):
             check(name, 0.0, 1.0, lo_open=True)
         for name in ("friction", "rolling_friction", "cohesion_energy_density", "gravity",
+                     "rolling_damping",
                      "wall_friction", "wall_rolling_friction", "wall_cohesion_energy_density"):
             check(name, 0.0, math.inf)
 
@@ -132,8 +137,9 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
         For an unknown key, or a multi-type ContactModel (the external decks
         support one particle type).
     bedstruct.errors.ConfigError
-        For a ContactModel with what no deck writes: a rolling model other than
-        EPSD2, capillary bridges or contact ageing.
+        For a ContactModel with what no contact parameter states: a rolling model
+        no deck writes, capillary bridges or contact ageing (a dialect writes its own
+        model of an effect: :meth:`~bedstruct.engines.Dialect.with_effects`).
     TypeError
         For an object of another kind.
 
@@ -180,11 +186,15 @@ def as_granular_params(model=None, **overrides) -> GranularParams:
                               f"got {rm!r}")
         if rm in ROLLING_MODELS:
             base["rolling_model"] = rm
+        if getattr(model, "rolling_damping", None) is not None:
+            base["rolling_damping"] = float(model.rolling_damping)
         embedded_only = [k for k in ("capillary", "contact_ageing") if getattr(model, k, False)]
         if embedded_only:
-            raise ConfigError(f"external decks cannot realise the model's {' and '.join(embedded_only)} "
-                              "(extensions of the embedded engine); LIGGGHTS writes its own liquid "
-                              "bridges: bedstruct.engines.LiquidBridges")
+            raise ConfigError(f"contact parameters cannot carry the model's "
+                              f"{' and '.join(embedded_only)} (the embedded engine's models); an "
+                              "engine with its own model writes it through its dialect: "
+                              "Dialect.with_effects (LIGGGHTS' liquid bridges, "
+                              "bedstruct.engines.LiquidBridges)")
         if rm == "none":
             base["rolling_friction"] = 0.0
         wm = getattr(model, "wall_material", None)

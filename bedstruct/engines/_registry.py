@@ -61,3 +61,4 @@ def dialect(engine, **options):
     if engine is None or not hasattr(engine, "model_lines"):
         raise ConfigError(f"`engine` must be 'liggghts' or 'lammps'; got {engine!r}")
     return engine.with_options(**options) if options else engine
+

@@ -21,7 +21,9 @@ Differences from the embedded run (docs/workflows.md): all spheres are
 inserted at once (the embedded engine inserts in rounds when the box is full);
 LAMMPS has no SJKR cohesion (``external.cohesion_model`` picks the DMT/JKR
 stand-in of docs/backends.md, or ``none``); LAMMPS' rolling stiffness is
-frozen at a reference contact.
+frozen at a reference contact. The diagnosis' effects (section ``effects``) are
+written by the engine's dialect as it states (:func:`effects_dialect`,
+:func:`bedstruct.engines.effect_realisations`), or refused by name.
 
 Spreading on the external engines is in :mod:`bedstruct.workflows.external_spread`
 (:func:`~bedstruct.workflows.external_spread.run_spread_external`).
@@ -49,7 +51,7 @@ from ._rundir import RunLayout
 from .repose_measure import (ReposeReplicate, _finished_replicate, _record_replicate,
                              combine_replicates, measure_pile, repose_result_from_dict)
 
-__all__ = ["ExternalDecks", "engine_for", "run_repose_external", "repose_inputs"]
+__all__ = ["ExternalDecks", "engine_for", "effects_dialect", "run_repose_external", "repose_inputs"]
 
 log = logging.getLogger(__name__)
 
@@ -98,15 +100,41 @@ def engine_for(cfg: dict, *, required: bool = True):
 
 
 def _check_effects(cfg: dict, *, spreading: bool = False) -> None:
-    """Raise ConfigError for a diagnosis extension (``effects``) the engine's decks do not
-    write (:meth:`bedstruct.engines.Dialect.check_effects`)."""
+    """Raise ConfigError for a diagnosis effect (``effects``) the engine cannot realise
+    (:meth:`bedstruct.engines.Dialect.check_effects`)."""
     dialect(cfg["engine"]).check_effects(cfg.get("effects"), spreading=spreading)
 
 
+def effects_dialect(cfg: dict, *, spreading: bool = False):
+    """The dialect of ``cfg["engine"]`` that writes the config's ``effects``
+    (:meth:`bedstruct.engines.Dialect.with_effects`).
+
+    An engine's per-particle effect quantity (LIGGGHTS' liquid content from
+    ``effects.capillary_film_thickness``) is set at the PSD's volume-weighted median
+    radius ``psd.scale * psd.d50 / 2``.
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config
+    >>> cfg = load_config(preset="tiny", overrides=["engine=liggghts", "effects.capillary=true",
+    ...                                             "effects.capillary_film_thickness=1e-9"])
+    >>> round(effects_dialect(cfg).liquid_bridges.liquid_volume_fraction * 1e6, 4)  # 3 t / r, 52 um
+    57.6923
+    """
+    r_ref = 0.5 * float(cfg["psd"]["scale"]) * float(cfg["psd"]["d50"])
+    return dialect(cfg["engine"]).with_effects(cfg.get("effects"), reference_radius=r_ref,
+                                               spreading=spreading)
+
+
 def _granular_params(cfg: dict, cohesion: float, *, spreading: bool = False):
-    """GranularParams of ``cfg``, the LAMMPS cohesion model (or None) and the ContactModel."""
+    """GranularParams of ``cfg``, the LAMMPS cohesion model (or None) and the ContactModel.
+
+    Liquid bridges are the dialect's own model (:func:`effects_dialect`), not a contact
+    parameter: the ContactModel is built without the embedded engine's bridges."""
     _check_effects(cfg, spreading=spreading)
-    model = contact_model(cfg, cohesion=cohesion)
+    fx = cfg.get("effects")
+    base_cfg = {**cfg, "effects": {**fx, "capillary": False}} if fx else cfg
+    model = contact_model(base_cfg, cohesion=cohesion)
     p, cm = dialect(cfg["engine"]).cohesion_options(as_granular_params(model),
                                                     cfg["external"]["cohesion_model"])
     return p, cm, model
@@ -207,7 +235,9 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
 
     rc = cfg["repose"]
     L, W, H = (float(v) for v in rc["box"])
-    engine = cfg["engine"]
+    engine = effects_dialect(cfg)
+    for note in engine.effect_notes():
+        log.warning("%s: %s", engine.name, note)
     p, cm, model = _granular_params(cfg, cohesion)
     inp = repose_inputs(cfg, seed=seed)
     # a replicate not recorded as finished starts over (no restart of a killed engine run):

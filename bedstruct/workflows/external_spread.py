@@ -27,7 +27,7 @@ from ..errors import BedstructError, ConfigError
 from ._common import german_fit_values, psd_sampler
 from ._rundir import RunLayout
 from .external import (ExternalDecks, _check_effects, _engine_file, _granular_params, _gzip,
-                       _reference_contact, engine_for)
+                       _reference_contact, effects_dialect, engine_for)
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, SpreadResult, frame_metrics,
                              measure_layer, spread_result_from_dict)
 from .spread_pile import _run_pile
@@ -117,7 +117,8 @@ def run_spread_external(cfg: dict, *, out=None):
                                  height=float(sc["blade_height"]), bevel_deg=bevel)
             x_stop = Lplat + float(sc["stop_margin"])   # trailing face; mid-plane at x_end
             tool_top = float(sc["blade_height"])
-        for note in dialect(cfg["engine"]).approximations(tool=tool):
+        engine = effects_dialect(cfg, spreading=True)
+        for note in engine.approximations(tool=tool):
             log.warning("%s: %s", cfg["engine"], note)
         front0 = x0 + half
         x_end = Lplat + float(sc["stop_margin"]) + half
@@ -160,7 +161,7 @@ def run_spread_external(cfg: dict, *, out=None):
         ref = _reference_contact(p, pile.radii, height=pile_top)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            deck = spread_layers_deck(data, p, engine=cfg["engine"], plan=plan, stl_folder=root,
+            deck = spread_layers_deck(data, p, engine=engine, plan=plan, stl_folder=root,
                                       contacts=bool(cfg["output"]["contacts"]),
                                       cohesion_model=cm, **ref)
         deck_path = root / "in.spread"

@@ -1,143 +1,90 @@
-"""LIGGGHTS twins: deck transformations (text), the easo capillary law against a two-sphere
-LIGGGHTS run, the wrapper executable, and (slow) one tiny twin end to end."""
+"""LIGGGHTS twins: the effect is configuration (the same decks as the config route, no
+rewriting), the easo capillary law against a two-sphere LIGGGHTS run with the dialect's
+liquid bridges, and (slow) one tiny twin end to end."""
 
 from __future__ import annotations
 
 import json
 import math
-import subprocess
 
 import numpy as np
 import pytest
 
-from bedstruct.engines import find_liggghts
-from bedstruct.diagnose.liggghts_effects import (
-    TWIN_MARK, apply_effect, capillary_effect, easo_bridge_volume, easo_capillary_force,
-    null_effect, rolling_friction_effect, wall_friction_effect, willett_capillary_force,
-    with_capillary_bridges, with_rolling_friction, with_wall_friction)
-from bedstruct.diagnose.external_twins import (
-    liggghts_simulator, liggghts_twin_design, make_liggghts_twin, write_liggghts_wrapper)
+from bedstruct.engines import GranularParams, LiggghtsDialect, LiquidBridges, find_liggghts
+from bedstruct.errors import ConfigError
+from bedstruct.diagnose.liggghts_law import (easo_bridge_volume, easo_capillary_force,
+                                             willett_capillary_force)
+from bedstruct.diagnose.external_twins import (effects_label, liggghts_simulator,
+                                               liggghts_twin_design, make_liggghts_twin)
 
 needs_liggghts = pytest.mark.skipif(find_liggghts() is None,
                                     reason="liggghts is not installed (.ci/install-engines.sh)")
 
-BASE = "\n".join([
-    "# bedstruct deck for liggghts: test",
-    "fix m1 all property/global youngsModulus peratomtype 1000000 1000000",
-    "fix m4 all property/global coefficientFriction peratomtypepair 2 0.4 0.4 0.4 0.4",
-    "fix m5 all property/global coefficientRollingFriction peratomtypepair 2 0.05 0.06 0.06 0.07",
-    "fix m6 all property/global cohesionEnergyDensity peratomtypepair 2 3000 0 0 3000",
-    "pair_style gran model hertz tangential history cohesion sjkr rolling_friction epsd2",
-    "pair_coeff * *",
-    "fix wmesh all wall/gran model hertz tangential history cohesion sjkr rolling_friction epsd2 "
-    "mesh n_meshes 1 meshes plate",
-    "run 10",
-])
+#: [effects] values of a liquid-bridge twin: 0.05 N/m, liquid fraction 2e-3 on the tiny
+#: preset's median sphere (r = 52 um, fraction 3 t / r), LIGGGHTS angle theta^2/2 of 30 deg.
+BRIDGES = {"capillary": True, "capillary_surface_tension": 0.05,
+           "capillary_film_thickness": 2e-3 * 52e-6 / 3,
+           "capillary_contact_angle": 0.5 * math.radians(30.0) ** 2}
+#: What the retired deck rewriting made of the tiny preset's LIGGGHTS repose deck with
+#: these bridges: six property lines after the last property line, and the pair style.
+REWRITTEN_PROPERTIES = [
+    "fix twc1 all property/global surfaceLiquidContentInitial scalar 0.002",
+    "fix twc2 all property/global surfaceTension scalar 0.05",
+    "fix twc3 all property/global fluidViscosity scalar 0.001",
+    "fix twc4 all property/global contactAngle peratomtype 30 30",
+    "fix twc5 all property/global minSeparationDistanceRatio scalar 1.01",
+    "fix twc6 all property/global maxSeparationDistanceRatio scalar 1.1",
+]
+REWRITTEN_PAIR = ("pair_style gran model hertz tangential history cohesion easo/capillary/viscous "
+                  "rolling_friction epsd2")
 
 
-def _line(deck, start):
-    return [ln for ln in deck.splitlines() if ln.startswith(start)]
+def _model_lines(deck):
+    return [ln for ln in deck.splitlines() if "property/global" in ln or ln.startswith("pair_style")]
 
 
-def test_rolling_friction_sets_particle_entries_only():
-    out = with_rolling_friction(BASE, 0.25)
-    (ln,) = _line(out, "fix m5 ")
-    assert ln.split()[-4:] == ["0.25", "0.25", "0.25", "0.07"]   # 1-1, 1-2, 2-1 set; 2-2 kept
-    out = with_rolling_friction(BASE, 0.25, walls=False)
-    assert _line(out, "fix m5 ")[0].split()[-4:] == ["0.25", "0.06", "0.06", "0.07"]
-    # everything else is untouched
-    assert [a for a in BASE.splitlines() if not a.startswith("fix m5")] == \
-        [a for a in out.splitlines() if not a.startswith("fix m5")]
-
-
-def test_rolling_friction_added_where_the_base_has_none():
-    base = BASE.replace(" rolling_friction epsd2", "").replace(
-        "fix m5 all property/global coefficientRollingFriction peratomtypepair 2 0.05 0.06 0.06 0.07\n", "")
-    out = with_rolling_friction(base, 0.2)
-    (pair,) = _line(out, "pair_style")
-    assert pair.endswith("cohesion sjkr rolling_friction epsd2")
-    (wall,) = _line(out, "fix wmesh")
-    assert "cohesion sjkr rolling_friction epsd2 mesh n_meshes" in wall
-    (prop,) = [ln for ln in out.splitlines() if "coefficientRollingFriction" in ln]
-    assert prop.split()[-5:] == ["2", "0.2", "0.2", "0.2", "0"]
-    lines = out.splitlines()
-    assert lines.index(prop) < lines.index(pair)   # properties before the pair style
-
-
-def test_capillary_replaces_pair_cohesion_and_adds_properties():
-    out = with_capillary_bridges(BASE, surface_tension=0.05, liquid_volume_fraction=2e-3,
-                                 contact_angle=math.radians(30.0))
-    (pair,) = _line(out, "pair_style")
-    assert pair == ("pair_style gran model hertz tangential history cohesion "
-                    "easo/capillary/viscous rolling_friction epsd2")
-    assert _line(out, "fix wmesh") == _line(BASE, "fix wmesh")        # walls keep SJKR
-    props = {ln.split()[4]: ln.split()[5:] for ln in out.splitlines() if "property/global" in ln}
-    assert props["surfaceTension"] == ["scalar", "0.05"]
-    assert props["surfaceLiquidContentInitial"] == ["scalar", "0.002"]
-    assert props["contactAngle"] == ["peratomtype", "30", "30"]      # degrees, one per type
-    assert props["maxSeparationDistanceRatio"] == ["scalar", "1.1"]
-    assert "cohesionEnergyDensity" in props                          # still needed by the walls
-
-
-def test_wall_friction_replaces_the_particle_wall_entries_only():
-    out = with_wall_friction(BASE, 0.75)
-    (prop,) = [ln for ln in out.splitlines() if "coefficientFriction " in ln]
-    assert prop.split()[-5:] == ["2", "0.4", "0.75", "0.75", "0.4"]
-    changed = [a for a, b in zip(BASE.splitlines(), out.splitlines()) if a != b]
-    assert len(changed) == 1 and "coefficientFriction " in changed[0]
-    assert apply_effect(BASE, wall_friction_effect(0.75)).splitlines()[0] == \
-        f"{TWIN_MARK} wall_friction 0.75"
-    with pytest.raises(ValueError, match="no 'property/global coefficientFriction"):
-        with_wall_friction("\n".join(ln for ln in BASE.splitlines()
-                                     if "coefficientFriction " not in ln), 0.75)
-    with pytest.raises(ValueError, match="wall_friction must be >= 0"):
-        wall_friction_effect(-0.1)
-
-
-def test_apply_effect_marks_and_null_changes_nothing():
-    out = apply_effect(BASE, null_effect())
-    assert out.splitlines()[0] == f"{TWIN_MARK} none"
-    assert out.splitlines()[1:] == BASE.splitlines()
-    assert apply_effect(BASE, rolling_friction_effect(0.3)).splitlines()[0].endswith("0.3")
-    with pytest.raises(ValueError, match="not a bedstruct LIGGGHTS deck"):
-        apply_effect("units si\n", null_effect())
-    with pytest.raises(ValueError, match="rolling_friction must be > 0"):
-        rolling_friction_effect(0.0)
-
-
-def test_wrapper_rewrites_once_keeps_the_original_and_runs_the_engine(tmp_path):
-    fake = tmp_path / "fake-liggghts"
-    fake.write_text("#!/bin/sh\necho ran \"$@\" > ran.txt\n")
-    fake.chmod(0o755)
-    exe = write_liggghts_wrapper(tmp_path / "bin", rolling_friction_effect(0.4), liggghts=str(fake))
-    deck = tmp_path / "in.repose"
-    deck.write_text(BASE + "\n")
-    for _ in range(2):  # a second call must not stack the effect
-        subprocess.run([str(exe), "-in", str(deck), "-log", "in.log"], cwd=tmp_path, check=True)
-    text = deck.read_text()
-    assert text.count(TWIN_MARK) == 1 and "0.4 0.4 0.4 0.07" in text
-    assert (tmp_path / "in.repose.base").read_text() == BASE + "\n"
-    assert (tmp_path / "ran.txt").read_text().split()[1:3] == ["-in", str(deck)]
-    assert (tmp_path / "bin" / "last-in.repose").read_text() == text
-    assert json.loads((tmp_path / "bin" / "twin-effect.json").read_text())["effect"]["kind"] == \
-        "rolling_friction"
-
-
-def test_workflow_decks_transform(tmp_path):
-    """The decks the public external workflow writes take every transformation."""
+def test_a_twin_writes_the_same_deck_as_the_config_route(tmp_path):
+    """The twin's simulator puts its effect into the configuration; the deck is the one the
+    config route writes, and the one the deck rewriting made (literal lines)."""
     from bedstruct.workflows import load_config
     from bedstruct.workflows.external import run_repose_external
-    cfg = load_config(preset="tiny", overrides=["engine=liggghts", "external.write_only=true"])
-    res = run_repose_external(cfg, out=tmp_path)
-    deck = open(res.decks[0]).read()
-    for eff in (null_effect(), rolling_friction_effect(0.2), capillary_effect(),
-                wall_friction_effect(0.8)):
-        out = apply_effect(deck, eff)
-        assert out.splitlines()[1:] != deck.splitlines() or eff.kind == "none"
-        assert out.count("pair_style gran") == 1
-    cap = apply_effect(deck, capillary_effect())
-    assert "cohesion easo/capillary/viscous" in _line(cap, "pair_style")[0]
-    assert all("easo" not in ln for ln in cap.splitlines() if "wall/gran" in ln)
+    design = liggghts_twin_design()
+    sim = liggghts_simulator(design, BRIDGES, workdir=tmp_path / "twin")
+    base = {"cohesion_energy_density": 3.6e7, "friction": 0.4, "rolling_friction": 0.05,
+            "restitution": 0.1}
+    cfg = sim.run_config(base, {}, 1)
+    cfg["external"]["write_only"] = True
+    twin = open(run_repose_external(cfg, out=tmp_path / "a").decks[0]).read()
+    over = [f"contact.cohesion={cfg['contact']['cohesion']!r}", "engine=liggghts",
+            "external.write_only=true", "effects.capillary=true",
+            *(f"effects.{k}={v!r}" for k, v in BRIDGES.items() if k != "capillary")]
+    direct = open(run_repose_external(load_config(preset="tiny", overrides=over),
+                                      out=tmp_path / "b").decks[0]).read()
+    assert _model_lines(twin) == _model_lines(direct)
+    # the rewriting's output: the plain deck with the bridges' lines inserted, pair style replaced
+    plain = open(run_repose_external(load_config(preset="tiny", overrides=over[:3]),
+                                     out=tmp_path / "c").decks[0]).read()
+    plain = plain.replace(str(tmp_path / "c"), str(tmp_path / "b")).splitlines()
+    last = max(i for i, ln in enumerate(plain) if "property/global" in ln)
+    want = plain[:last + 1] + REWRITTEN_PROPERTIES + plain[last + 1:]
+    want = [REWRITTEN_PAIR if ln.startswith("pair_style") else ln for ln in want]
+    got = direct.splitlines()
+    assert [ln for ln in got if not ln.startswith("#")] == [ln for ln in want if not ln.startswith("#")]
+    assert any("effect realised differently: liquid bridges" in ln for ln in got[:3])
+    assert sum("easo" in ln for ln in got if "wall/gran" in ln) == 0    # walls keep their model
+
+
+def test_a_twin_with_an_effect_liggghts_lacks_is_refused_before_any_run(tmp_path):
+    with pytest.raises(ConfigError, match="'liggghts' cannot realise the effect 'contact_ageing'"):
+        liggghts_simulator(liggghts_twin_design(), {"contact_ageing": True,
+                                                    "ageing_bond_ratio": 1.0})
+    with pytest.raises(ConfigError, match="'blade_startup'.*--engine embedded"):
+        make_liggghts_twin(liggghts_twin_design(), {"blade_ramp_time": 0.05}, base={},
+                           out=tmp_path)
+    with pytest.raises(TypeError, match="mapping of \\[effects\\] values"):
+        make_liggghts_twin(liggghts_twin_design(), "capillary", base={}, out=tmp_path)
+    assert effects_label({"wall_friction_excess": 0.3, "capillary": True}) == \
+        "capillary=True, wall_friction_excess=0.3"
 
 
 def test_easo_law_values():
@@ -169,13 +116,7 @@ create_atoms 1 single 0 0 0 units box
 create_atoms 1 single 0.99e-4 0 0 units box
 set atom 1 diameter 1e-4 density 8300
 set atom 2 diameter 1e-4 density 8300
-fix m1 all property/global youngsModulus peratomtype 1e7 1e7
-fix m2 all property/global poissonsRatio peratomtype 0.3 0.3
-fix m3 all property/global coefficientRestitution peratomtypepair 2 0.1 0.1 0.1 0.1
-fix m4 all property/global coefficientFriction peratomtypepair 2 0.4 0.4 0.4 0.4
-fix m6 all property/global cohesionEnergyDensity peratomtypepair 2 3000 3000 3000 3000
-pair_style gran model hertz tangential history cohesion sjkr
-pair_coeff * *
+{model}
 timestep 1e-8
 group a1 id 1
 group a2 id 2
@@ -184,6 +125,17 @@ fix mv2 a2 move linear 0.1 0 0
 dump d all custom 500 out.dump id x y z fx fy fz radius
 run 16000
 """
+
+
+#: The two spheres' contact model: Hertz, SJKR cohesion, no rolling friction.
+TWO_SPHERE_PARAMS = GranularParams(youngs_modulus=1e7, poisson_ratio=0.3, restitution=0.1,
+                                   friction=0.4, rolling_friction=0.0,
+                                   cohesion_energy_density=3000.0)
+
+
+def _two_sphere_deck(bridges=None):
+    lines, _ = LiggghtsDialect(liquid_bridges=bridges).model_lines(TWO_SPHERE_PARAMS, n_types=2)
+    return TWO_SPHERES.format(model="\n".join(lines))
 
 
 def _two_sphere_forces(tmp_path, deck):
@@ -208,9 +160,9 @@ def test_two_sphere_capillary_force_matches_the_documented_law(tmp_path, theta_d
     force on sphere 1 is the bridge alone, pulling it towards sphere 2 (+x), as Soulie's
     law (LIGGGHTS' manual, with 3.8's angle and volume conventions) says, until rupture."""
     gamma, frac, theta = 0.05, 2e-3, math.radians(theta_deg)
-    deck = with_capillary_bridges(TWO_SPHERES, surface_tension=gamma, liquid_volume_fraction=frac,
-                                  contact_angle=theta, fluid_viscosity=1e-9,
-                                  max_separation_ratio=1.2)
+    deck = _two_sphere_deck(LiquidBridges(gamma, frac, contact_angle=theta, fluid_viscosity=1e-9,
+                                          max_separation_ratio=1.2))
+    assert "cohesion easo/capillary/viscous" in deck
     gaps, f1 = _two_sphere_forces(tmp_path, deck)
     law = easo_capillary_force(gaps, 50e-6, 50e-6, surface_tension=gamma,
                                liquid_volume_fraction=frac, contact_angle=theta,
@@ -227,8 +179,8 @@ def test_two_sphere_capillary_force_matches_the_documented_law(tmp_path, theta_d
                                 volume=float(easo_bridge_volume(50e-6, 50e-6, frac)),
                                 contact_angle=theta)
     assert 0.75 < f1[bridged][0] / w < 1.25
-    # the untransformed deck (SJKR only) has no force once the spheres are apart
-    _, f_base = _two_sphere_forces(tmp_path, TWO_SPHERES)
+    # without the bridges (SJKR only) there is no force once the spheres are apart
+    _, f_base = _two_sphere_forces(tmp_path, _two_sphere_deck())
     np.testing.assert_array_equal(f_base[sep], 0.0)
 
 
@@ -243,16 +195,15 @@ def test_one_tiny_twin_end_to_end(tmp_path):
     design = replace(design, measurements=tuple(m for m in design if m.kind != "dynamic_angle_series"))
     base = {"cohesion_energy_density": 3.6e7, "friction": 0.4, "rolling_friction": 0.05,
             "restitution": 0.1}
-    twin = make_liggghts_twin(design, rolling_friction_effect(0.25), base=base, out=tmp_path,
+    twin = make_liggghts_twin(design, {"shape_rolling_friction": 0.20, "rolling_model": "epsd2"},
+                              base=base, out=tmp_path,
                               seeds=(1000, 1001))
     ms = dg.load_measurements(twin.path)
     assert set(ms.names) == set(design.names)
     assert all(np.all(np.isfinite(m.values)) and np.all(m.uncertainty > 0) for m in ms)
-    assert "0.25" not in twin.path.read_text()                  # the truth is not in the file
+    assert "rolling" not in twin.path.read_text()               # the truth is not in the file
     truth = json.loads(twin.truth_path.read_text())
-    assert truth["effect"]["rolling_friction"] == 0.25 and len(truth["raw"]["static_angle"]) == 2
-    kept = (tmp_path / "bin" / "last-in.repose").read_text()
-    assert kept.startswith(TWIN_MARK) and "coefficientRollingFriction peratomtypepair 2 0.25" in kept
+    assert truth["effects"]["shape_rolling_friction"] == 0.2 and len(truth["raw"]["static_angle"]) == 2
     # bed heights of the tiny preset's layers (450 and 750 um below the tool) are sane
     assert 200e-6 < ms["bed_height_layer1"].values[0] < 600e-6
 
@@ -278,9 +229,9 @@ def test_wall_friction_moves_the_recoater_load_in_liggghts_as_in_the_engine(tmp_
                               for s in seeds]))
     embedded = EngineSimulator(design, {"preset": "tiny", "n_threads": 1})
     e0, e1 = mean_ratio(embedded, {}), mean_ratio(embedded, {"wall_friction": -0.2})
-    l0 = mean_ratio(liggghts_simulator(design, null_effect(), workdir=tmp_path / "null"), {})
-    l1 = mean_ratio(liggghts_simulator(design, wall_friction_effect(0.2), workdir=tmp_path / "wf"),
-                    {})
+    l0 = mean_ratio(liggghts_simulator(design, {}, workdir=tmp_path / "null"), {})
+    l1 = mean_ratio(liggghts_simulator(design, {"wall_friction_excess": -0.2},
+                                       workdir=tmp_path / "wf"), {})
     assert abs(l0 - e0) < 0.03                       # the two engines' base loads agree
     assert e1 - e0 < -0.025 and l1 - l0 < -0.025     # both respond, beyond the scatter
     assert 0.5 < (l1 - l0) / (e1 - e0) < 2.0         # by about as much
@@ -330,3 +281,51 @@ def test_unobservable_repetitions_are_repeated_then_kept_as_missing():
     raw[m.name][:] = np.nan
     vals, _ = _twin_readings(design, raw, rng=np.random.default_rng(3))
     assert m.name not in vals and other.name in vals
+
+
+@needs_liggghts
+def test_two_sphere_bridges_from_the_config_have_the_config_angle_and_liquid(tmp_path):
+    """effects.capillary on LIGGGHTS (LiquidBridges.from_film): a film t on spheres of the
+    reference radius r gives the liquid fraction 3 t / r, and LIGGGHTS applies the config's
+    contact angle (0.5 rad, far from the per-type value it is written as): Soulie's law at
+    theta = 0.5 rad, not at the per-type angle, matches the run."""
+    theta, r = 0.5, 50e-6
+    b = LiquidBridges.from_film(surface_tension=0.05, contact_angle=theta,
+                                film_thickness=2e-3 * r / 3, reference_radius=r,
+                                fluid_viscosity=1e-9, max_separation_ratio=1.2)
+    assert b.liquid_volume_fraction == pytest.approx(2e-3, rel=1e-12)
+    gaps, f1 = _two_sphere_forces(tmp_path, _two_sphere_deck(b))
+
+    def soulie(theta_eff):
+        # Soulie's law written out at an effective angle (LIGGGHTS' manual), bridge volume of
+        # equal spheres (1 - sqrt(3)/2) of one particle's liquid
+        vol = (1 - math.sqrt(3) / 2) * 4 / 3 * math.pi * r ** 3 * 2e-3
+        vs = vol / r ** 3
+        a = -1.1 * vs ** -0.53
+        bb = (-0.148 * math.log(vs) - 0.96) * theta_eff ** 2 - 0.0082 * math.log(vs) + 0.48
+        c = 0.0018 * math.log(vs) + 0.078
+        f = math.pi * 0.05 * r * (np.exp(a * np.maximum(gaps, 0) / r + bb) + c)
+        rupture = min((1 + 0.5 * theta_eff) * vol ** (1 / 3), 0.2 * 2 * r)
+        return np.where(gaps < rupture, f, 0.0)
+
+    law = soulie(theta)
+    bridged = (gaps > 1e-7) & (law > 0)
+    assert bridged.sum() >= 5
+    np.testing.assert_allclose(f1[bridged], law[bridged], rtol=2e-3)
+    # the per-type angle (sqrt(2 theta) = 1 rad) taken as the effective one is off by 3 %
+    # near contact, ten times the tolerance above
+    wrong = soulie(b.contact_angle)
+    assert np.max(np.abs(f1[bridged] / wrong[bridged] - 1)) > 0.02
+
+
+@needs_liggghts
+def test_liggghts_runs_the_epsd_rolling_model_with_its_dashpot(tmp_path):
+    """effects.rolling_model = "epsd" on LIGGGHTS: its EPSD needs the viscous damping
+    property the dialect writes (without it LIGGGHTS stops); a pair in contact then has
+    a rolling torque only after it rolls, so the two-sphere run still separates cleanly."""
+    from dataclasses import replace
+    p = replace(TWO_SPHERE_PARAMS, rolling_friction=0.2, rolling_model="epsd")
+    lines, _ = LiggghtsDialect().model_lines(p, n_types=2)
+    assert any("coefficientRollingViscousDamping" in ln for ln in lines)
+    gaps, f1 = _two_sphere_forces(tmp_path, TWO_SPHERES.format(model="\n".join(lines)))
+    assert len(gaps) >= 20 and np.all(f1[gaps > 1e-7] == 0.0)

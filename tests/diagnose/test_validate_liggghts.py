@@ -19,10 +19,19 @@ from bedstruct.errors import ConfigError
 # the package's ``validate_liggghts`` is the function; the tests patch its module
 vl = importlib.import_module("bedstruct.diagnose.validate_liggghts")
 
-#: What each LIGGGHTS deck change stands for on the surrogate (the capillary twin's
-#: humidity is the stand-in's, as LIGGGHTS' model has none).
-_AS_CATALOGUE = {"none": {}, "rolling_friction": {"non_sphericity": 0.20},
-                 "capillary": {"capillary_bridges": 0.5}, "wall_friction": {"wall_friction": 0.30}}
+#: What each LIGGGHTS twin's [effects] switch stands for on the surrogate (the capillary
+#: twin's humidity is the stand-in's, as LIGGGHTS' model has none).
+_AS_CATALOGUE = {"shape_rolling_friction": {"non_sphericity": 0.20},
+                 "capillary": {"capillary_bridges": 0.5},
+                 "wall_friction_excess": {"wall_friction": 0.30}}
+
+
+def _as_catalogue(effects):
+    out = {}
+    for key, stand_in in _AS_CATALOGUE.items():
+        if effects.get(key):
+            out.update(stand_in)
+    return out
 
 
 class _StandIn(SurrogateSimulator):
@@ -43,8 +52,8 @@ class _StandIn(SurrogateSimulator):
 def stand_ins(monkeypatch):
     made = []
 
-    def fake_liggghts(design, effect, **kw):
-        made.append(_StandIn(design, _AS_CATALOGUE[effect.kind]))
+    def fake_liggghts(design, effects, **kw):
+        made.append(_StandIn(design, _as_catalogue(effects)))
         return made[-1]
 
     monkeypatch.setattr(vl.shutil, "which", lambda name: "/usr/bin/" + name)
@@ -54,12 +63,34 @@ def stand_ins(monkeypatch):
 
 
 def test_plan_covers_null_and_three_liggghts_models():
-    plan = vl.liggghts_twin_plan(BASE_PARAMETERS)
+    from bedstruct.engines import dialect
+    from bedstruct.workflows import load_config
+    from bedstruct.workflows.external import effects_dialect
+    plan = vl.liggghts_twin_plan()
     assert [t.kind for t in plan] == ["null", "effect", "effect", "effect"]
-    rolling, wall = plan[1].effect, plan[3].effect
+    assert plan[0].effects == {} and plan[0].label == "none"
     # set relative to the base, as the catalogue's magnitudes are
-    assert rolling.rolling_friction == pytest.approx(BASE_PARAMETERS["rolling_friction"] + 0.2)
-    assert wall.wall_friction == pytest.approx(BASE_PARAMETERS["friction"] + 0.3)
+    assert plan[1].effects == {"shape_rolling_friction": 0.2, "rolling_model": "epsd2"}
+    assert plan[3].effects == {"wall_friction_excess": 0.3}
+    for t in plan:     # every twin's effect is one LIGGGHTS realises
+        dialect("liggghts").check_effects(t.effects, spreading=True)
+    # the liquid-bridge twin: liquid fraction 5e-4 and 20 degrees per type on the tiny preset
+    ov = [f"effects.{k}={v!r}".replace("True", "true") for k, v in plan[2].effects.items()]
+    bridges = effects_dialect(load_config(preset="tiny", overrides=["engine=liggghts", *ov])
+                              ).liquid_bridges
+    assert bridges.lines(2)[0].endswith("surfaceLiquidContentInitial scalar 0.0005")
+    assert bridges.lines(2)[3].endswith("contactAngle peratomtype 20 20")
+    assert bridges.surface_tension == 1e-3
+
+
+def test_a_twin_made_by_deck_rewriting_is_refused_by_name(stand_ins, tmp_path):
+    old = tmp_path / "twins" / "twin2"
+    old.mkdir(parents=True)
+    (old / "truth.json").write_text(json.dumps({"effect": {"kind": "capillary"}, "seeds": [1000]}))
+    (old / "twin.toml").write_text("")
+    with pytest.raises(ConfigError, match="twin2.*deck rewriting.*'capillary'.*Remove the folder"):
+        vl.validate_liggghts("tiny", workdir=tmp_path / "twins", refine=0)
+    assert stand_ins == []                                # refused before any run
 
 
 def test_validation_scores_resumes_and_reuses_twins(stand_ins, tmp_path):

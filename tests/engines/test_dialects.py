@@ -10,10 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bedstruct.engines import (BladeGeometry, Dialect, GranularParams, LammpsDialect, LiquidBridges,
-                               LiggghtsDialect, ReposeGeometry, ReposeSchedule, RollerGeometry,
-                               SpreadLayersPlan, bed_deck, dialect, impact_deck, repose_deck,
-                               spread_layers_deck, write_sphere_data)
+from bedstruct.engines import (EFFECT_KEYS, BladeGeometry, Dialect, GranularParams, LammpsDialect,
+                               LiquidBridges, LiggghtsDialect, ReposeGeometry, ReposeSchedule,
+                               RollerGeometry, SpreadLayersPlan, bed_deck, dialect,
+                               effect_realisations, impact_deck, liggghts_model_commands,
+                               repose_deck, spread_layers_deck, write_sphere_data)
 from bedstruct.errors import ConfigError
 
 IMPACT_LAMMPS = """\
@@ -211,8 +212,8 @@ def test_refusals_name_what_the_engine_cannot_realise(bed):
     for name in ("liggghts", "lammps"):
         d = dialect(name)
         d.check_effects({"capillary": False, "blade_ramp_time": 0.0}, spreading=True)
-        with pytest.raises(ConfigError, match=f"engine '{name}'.*effects.capillary"):
-            d.check_effects({"capillary": True})
+        with pytest.raises(ConfigError, match=f"engine '{name}'.*effects.contact_ageing"):
+            d.check_effects({"contact_ageing": True})
         with pytest.raises(ConfigError, match="effects.blade_ramp_time"):
             d.check_effects({"blade_ramp_time": 1e-3}, spreading=True)
         d.check_effects({"blade_ramp_time": 1e-3}, spreading=False)  # repose has no blade
@@ -229,23 +230,112 @@ def test_cohesion_options_per_engine():
     assert "unbevelled" in dialect("lammps").approximations(tool=blade)[0]
 
 
-@pytest.mark.parametrize("params", [GranularParams(), GranularParams(cohesion_energy_density=1e4,
-                                                                     rolling_friction=0.0)])
-def test_liquid_bridges_are_a_liggghts_option(bed, tmp_path, params):
-    # the same deck as the diagnosis' rewriting of a finished deck, written directly
-    from bedstruct.diagnose.liggghts_effects import with_capillary_bridges
+#: The bridges' lines the retired rewriting of finished decks inserted after the last
+#: property line, for LiquidBridges(0.072, 2e-3, contact_angle=0.3, fluid_viscosity=2e-3).
+_BRIDGE_LINES = [
+    "fix twc1 all property/global surfaceLiquidContentInitial scalar 0.002",
+    "fix twc2 all property/global surfaceTension scalar 0.072",
+    "fix twc3 all property/global fluidViscosity scalar 0.002",
+    "fix twc4 all property/global contactAngle peratomtype 17.18873385 17.18873385",
+    "fix twc5 all property/global minSeparationDistanceRatio scalar 1.01",
+    "fix twc6 all property/global maxSeparationDistanceRatio scalar 1.1",
+]
+
+
+@pytest.mark.parametrize("params, pair", [
+    (GranularParams(), "pair_style gran model hertz tangential history cohesion "
+                       "easo/capillary/viscous rolling_friction epsd2"),
+    (GranularParams(cohesion_energy_density=1e4, rolling_friction=0.0),
+     "pair_style gran model hertz tangential history cohesion easo/capillary/viscous")])
+def test_liquid_bridges_are_a_liggghts_option(bed, tmp_path, params, pair):
+    # the same deck as the rewriting of a finished deck made (literal lines), written directly
     bridges = LiquidBridges(0.072, 2e-3, contact_angle=0.3, fluid_viscosity=2e-3)
     g = ReposeGeometry(4e-4, 4e-4, 4e-4, slide=4e-4, plate_speed=0.5)
     s = ReposeSchedule.from_times(1e-7, fill=1e-5, slide=8e-4, drain=1e-5, n_frames=3)
     plain = repose_deck(bed, params, engine="liggghts", geometry=g, schedule=s,
-                        stl_folder=tmp_path)
+                        stl_folder=tmp_path).splitlines()
     direct = repose_deck(bed, params, engine=LiggghtsDialect(liquid_bridges=bridges), geometry=g,
                          schedule=s, stl_folder=tmp_path)
-    assert direct == with_capillary_bridges(plain, surface_tension=0.072,
-                                            liquid_volume_fraction=2e-3, contact_angle=0.3,
-                                            fluid_viscosity=2e-3)
-    assert "cohesion easo/capillary/viscous" in lines(direct, "pair_style")[0]
+    last = max(i for i, ln in enumerate(plain) if "property/global" in ln)
+    want = plain[:last + 1] + _BRIDGE_LINES + plain[last + 1:]
+    want = [pair if ln.startswith("pair_style") else ln for ln in want]
+    got = direct.splitlines()
+    assert got[0] == want[0] and got[1].startswith("# effect realised differently: liquid bridges")
+    assert got[2:] == want[1:]
     assert "easo" not in " ".join(lines(direct, "fix wmesh"))   # the walls keep their model
+
+
+def _capillary_effects(**kw):
+    return {"capillary": True, "capillary_surface_tension": 0.072,
+            "capillary_contact_angle": 0.045, "capillary_film_thickness": 2e-9, **kw}
+
+
+def test_liggghts_realises_the_capillary_effect_from_the_film():
+    d = dialect("liggghts").with_effects(_capillary_effects(), reference_radius=30e-6)
+    b = d.liquid_bridges
+    # a film t on a sphere of radius r: 4 pi r^2 t of liquid, the fraction 3 t / r
+    assert b.liquid_volume_fraction == pytest.approx(3 * 2e-9 / 30e-6, rel=1e-12)
+    # LIGGGHTS 3.8 applies theta_i theta_j / 2: each type gets sqrt(2 theta)
+    assert 0.5 * b.contact_angle ** 2 == pytest.approx(0.045, rel=1e-12)
+    assert b.surface_tension == 0.072
+    assert dialect("liggghts").with_effects({"capillary": False}).liquid_bridges is None
+    with pytest.raises(ValueError, match="reference_radius"):
+        dialect("liggghts").with_effects(_capillary_effects())
+    with pytest.raises(ValueError, match="film_thickness"):
+        dialect("liggghts").with_effects(_capillary_effects(capillary_film_thickness=0.0),
+                                         reference_radius=30e-6)
+    assert "replace the particles' SJKR" in d.approximations()[0]
+
+
+def test_effects_an_engine_cannot_realise_are_refused_by_name():
+    with pytest.raises(ConfigError, match=r"engine 'lammps' cannot realise the effect "
+                                          r"'capillary_bridges' \(effects.capillary\).*"
+                                          r"--engine liggghts"):
+        dialect("lammps").with_effects(_capillary_effects(), reference_radius=30e-6)
+    for eng in ("liggghts", "lammps"):
+        with pytest.raises(ConfigError, match=f"'{eng}' cannot realise the effect "
+                                              "'contact_ageing'.*--engine embedded"):
+            dialect(eng).check_effects({"contact_ageing": True})
+        # the tool's start-up exists only where there is a tool
+        dialect(eng).check_effects({"blade_ramp_time": 0.1})
+        with pytest.raises(ConfigError, match="'blade_startup' \\(effects.blade_ramp_time, "
+                                              "effects.blade_vibration_amplitude\\)"):
+            dialect(eng).check_effects({"blade_vibration_amplitude": 2e-6}, spreading=True)
+        # ordinary contact parameters and inputs are realised
+        dialect(eng).check_effects({"wall_friction_excess": -0.1, "fines_mass_fraction": 0.05,
+                                    "shape_rolling_friction": 0.1, "rolling_model": "epsd2"},
+                                   spreading=True)
+    # EPSD: LAMMPS has no rolling dashpot; LIGGGHTS' stiffness prefactor is fixed
+    rolling = {"shape_rolling_friction": 0.1, "rolling_model": "epsd"}
+    with pytest.raises(ConfigError, match="'lammps' cannot realise the effect 'non_sphericity' "
+                                          "with effects.rolling_model = 'epsd'.*epsd2"):
+        dialect("lammps").check_effects(rolling)
+    dialect("liggghts").check_effects(rolling)
+    with pytest.raises(ConfigError, match="rolling_stiffness_factor = 3.0.*2.25"):
+        dialect("liggghts").check_effects({**rolling, "rolling_stiffness_factor": 3.0})
+
+
+def test_liggghts_epsd_writes_its_rolling_dashpot():
+    p = GranularParams(rolling_model="epsd", rolling_friction=0.2, rolling_damping=0.3)
+    model, _ = liggghts_model_commands(p, n_types=2)
+    assert "fix m7 all property/global coefficientRollingViscousDamping peratomtypepair 2 "\
+        "0.3 0.3 0.3 0.3" in model
+    assert model[-2].endswith("rolling_friction epsd")
+    # the EPSD2 and CDT models have no dashpot
+    model2, _ = liggghts_model_commands(GranularParams(rolling_model="epsd2"), n_types=2)
+    assert not any("ViscousDamping" in ln for ln in model2)
+
+
+def test_the_realisation_tables_cover_every_engine_and_effect():
+    table = effect_realisations()
+    assert set(table) == set(EFFECT_KEYS)
+    for effect, row in table.items():
+        assert set(row) == {"embedded", "liggghts", "lammps"}
+        assert row["embedded"].realised
+        for eng, r in row.items():
+            assert bool(r.how) != bool(r.refused), (effect, eng)   # one of the two, stated
+            if not r.realised:
+                assert "--engine" in r.refused, (effect, eng)     # names the alternative
 
 
 def test_an_option_an_engine_lacks_is_refused_by_name(bed):
@@ -268,7 +358,7 @@ def test_a_contact_model_with_embedded_only_effects_is_refused():
     mat = Material(1e7, 0.3, 8300.0)
     assert as_granular_params(ContactModel(mat, **base)).rolling_friction == 0.05
     wet = ContactModel(mat, capillary=True, capillary_film_thickness=1e-7, **base)
-    with pytest.raises(ConfigError, match="cannot realise the model's capillary"):
+    with pytest.raises(ConfigError, match="cannot carry the model's capillary.*Dialect.with_effects"):
         as_granular_params(wet)
     assert as_granular_params(ContactModel(mat, rolling_model="cdt", **base)).rolling_model == "cdt"
 
@@ -296,3 +386,19 @@ def test_the_rolling_model_is_an_option_of_the_contact_model():
         lammps_granular_coeffs(replace(p, rolling_model="cdt"))
     with pytest.raises(ValueError, match="rolling_model"):
         GranularParams(rolling_model="spinning")
+
+
+def test_the_docs_table_states_what_each_engine_realises():
+    """docs/diagnose.md, "How each engine realises an effect": one row per effect, each cell
+    starting with what the engine's table says (realised, or refused)."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[2] / "docs" / "diagnose.md").read_text()
+    section = text.split("### How each engine realises an effect", 1)[1].split("\n## ", 1)[0]
+    rows = [ln for ln in section.splitlines() if ln.startswith("| `")]
+    table = effect_realisations()
+    assert len(rows) == len(table)
+    for ln in rows:
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        effect = cells[0].strip("`")
+        for eng, cell in zip(("embedded", "liggghts", "lammps"), cells[1:]):
+            assert cell.startswith("realised") == table[effect][eng].realised, (effect, eng, cell)
