@@ -7,7 +7,8 @@ present) and, with --heat, heat-affected-zone roundness. A section that fails
 is reported as failed; the rest still renders. Prints where it wrote the
 report and what the input is (settled bed, pile, moving bed, dilute flow).
 Exit status 0 when the report was written (even with failed sections), 1 on
-bad input.
+bad input. With ``--lenient``, malformed frames of damaged dumps are left out
+with a warning naming file, timestep and line; the report lists them.
 """
 
 from __future__ import annotations
@@ -44,6 +45,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--heat-stop-fraction", type=float, default=0.25, metavar="F",
                         help="end the heat runs when the hottest particle has cooled to this fraction "
                              "of the pulse excess (default 0.25)")
+    parser.add_argument("--lenient", action="store_true",
+                        help="read damaged dumps: leave malformed frames out (each named with "
+                             "file, timestep and line, and listed in the report)")
     parser.add_argument("--json", action="store_true", help="print the JSON summary as the last line")
     parser.add_argument("--progress", action="store_true", default=None,
                         help="show a progress bar (default: when stderr is a terminal)")
@@ -65,11 +69,16 @@ def run(args) -> int:
     kw = args.contact_keywords.split() if args.contact_keywords else None
     report, html_path, json_path = report_on_files(
         args.paths, args.out, contacts=args.contacts, contact_keywords=kw, options=options,
-        radius=args.radius, units=args.units, progress=progress)
+        radius=args.radius, units=args.units, progress=progress,
+        on_error="skip" if args.lenient else "raise")
     state = report.state or {}
     kind = f" (input: {state['kind']}" + (f"; not meaningful for it: {', '.join(state['not_meaningful'])}"
                                         if state.get("not_meaningful") else "") + ")" if state else ""
     print(f"bedstruct report: wrote {html_path} and {json_path}{kind}")
+    skipped = report.inputs.get("skipped_frames") or []
+    if skipped:   # each one was also warned about as it was read
+        print(f"bedstruct report: warning: {len(skipped)} malformed frame(s) left out "
+              f"(listed in {html_path})", file=sys.stderr)
     if args.json:
         summary = report.summary()
         summary.update(html=str(html_path), json=str(json_path))

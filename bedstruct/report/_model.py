@@ -160,10 +160,13 @@ class Report:
         for s in self.sections:
             for k, q in s.numbers.items():
                 values[f"{s.key}.{k}"] = to_jsonable(q.value)
-        return {"schema": SCHEMA, "title": self.title,
-                "input_kind": self.state["kind"] if self.state else None,
-                "sections": {s.key: s.status for s in self.sections},
-                "failed_sections": self.failed, "values": values}
+        out = {"schema": SCHEMA, "title": self.title,
+               "input_kind": self.state["kind"] if self.state else None,
+               "sections": {s.key: s.status for s in self.sections},
+               "failed_sections": self.failed, "values": values}
+        if self.inputs.get("skipped_frames"):
+            out["skipped_frames"] = to_jsonable(self.inputs["skipped_frames"])
+        return out
 
 
 def run_section(key: str, title: str, func: Callable[[Section], None]) -> Section:

@@ -466,3 +466,37 @@ def test_voronoi_section_without_pyvoro2_is_skipped_with_the_install_hint(monkey
     lattice = cubic_lattice((6, 4, 4), spacing=1.0, radius=0.5, boundary=("pp", "pp", "ff"))
     sec = build_report(lattice).section("voronoi")
     assert sec.status == "skipped" and "bedstruct[voronoi]" in sec.text
+
+
+def test_cli_report_lenient_lists_the_frames_it_left_out(bed_dump, tmp_path, capsys):
+    """Frames with a non-numeric value and a wrong atom count between the good ones: strict
+    stops with the file and line; --lenient reports on the good frames and lists both."""
+    good = bed_dump.read_text()
+    second = good.index("ITEM: TIMESTEP", 1)
+    one = good[:second]                                 # frame at timestep 0
+    garbled = one.replace("ITEM: TIMESTEP\n0\n", "ITEM: TIMESTEP\n50\n", 1)
+    rows = garbled.splitlines(keepends=True)
+    rows[30] = rows[30].replace(".", ",", 1)            # a non-numeric value on line 31
+    short = one.replace("ITEM: TIMESTEP\n0\n", "ITEM: TIMESTEP\n70\n", 1)
+    short = short[:short.rindex("\n", 0, len(short) - 1) + 1]   # one row fewer than the count
+    path = tmp_path / "damaged.dump"
+    path.write_text(one + "".join(rows) + short + good[second:])
+    n_one = one.count("\n")
+    # strict reads only the frames selected: all of them here, so the first bad one stops it
+    assert main(["report", str(path), "--out", str(tmp_path / "strict"), "--frames", "all"]) == 1
+    err = capsys.readouterr().err
+    assert f"{path}, line {n_one + 31}: non-numeric value" in err
+    with pytest.warns(UserWarning, match="skipping a malformed frame"):
+        assert main(["report", str(path), "--out", str(tmp_path / "r"), "--lenient", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert "2 malformed frame(s) left out" in err
+    summary = json.loads(out.strip().splitlines()[-1])
+    expected = [(50, n_one + 31), (70, 3 * n_one)]   # 70: where the next frame begins
+    assert [(k["timestep"], k["line"]) for k in summary["skipped_frames"]] == expected
+    doc = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert doc["inputs"]["frames_in_input"] == 2
+    assert [(k["timestep"], k["line"]) for k in doc["inputs"]["skipped_frames"]] == expected
+    assert summary["values"]["summary.timestep"] == 100
+    html = (tmp_path / "r" / "report.html").read_text()
+    assert 'id="skipped-frames"' in html and "2 malformed frame(s) left out" in html
+    assert "atom count mismatch" in html and "non-numeric value" in html
