@@ -1,9 +1,12 @@
 """Write a self-contained HTML report and a JSON file of every number for dumps.
 
-Sections: data summary, packing fraction along the bed, coordination and
-German's law, size distribution and segregation, surface roughness, fabric
-tensors with rose diagrams, harmonic spectrum, angle of repose (when a pile is
-present) and, with --heat, heat-affected-zone roundness. A section that fails
+At the top, pictures of the bed coloured by particle size: a 3-D view
+(rendered off screen with pyvista, the ``interop`` extra; the report says why
+when it cannot be drawn) and a side view. Sections: data summary, packing
+fraction along the bed, coordination and German's law, size distribution and
+segregation, surface roughness, fabric tensors with rose diagrams, harmonic
+spectrum, angle of repose (when a pile is present) and, with --heat,
+heat-affected-zone roundness. A section that fails
 is reported as failed; the rest still renders. Prints where it wrote the
 report and what the input is (settled bed, pile, moving bed, dilute flow).
 Exit status 0 when the report was written (even with failed sections), 1 on
@@ -39,6 +42,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--german-windows", type=int, default=None, metavar="N",
                         help="windows along the bed for the German's-law fit (default 12, the library's "
                              "analysis.german_law_along)")
+    parser.add_argument("--no-3d", dest="view_3d", action="store_false",
+                        help="leave out the 3-D picture of the bed (the side view is always drawn)")
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
     parser.add_argument("--heat-length-unit", type=float, default=None, metavar="M",
                         help="metres per dump length unit (heat needs SI when the unit is unknown)")
@@ -61,7 +66,7 @@ def run(args) -> int:
         options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames,
                                 heat=args.heat, heat_length_unit=args.heat_length_unit,
                                 heat_stop_fraction=args.heat_stop_fraction,
-                                repose_base=args.repose_base,
+                                repose_base=args.repose_base, view_3d=args.view_3d,
                                 **({} if args.german_windows is None else {"german_windows": args.german_windows}))
     except ValueError as exc:   # an option's value out of range: a usage error, like argparse's
         raise UsageError(str(exc)) from None

@@ -164,6 +164,17 @@ def _skipped_html(report: Report) -> str:
             f"{rows}</table></div>")
 
 
+def _pictures_html(report: Report) -> str:
+    """The pictures of the bed at the top of the page, with how they were drawn."""
+    if not report.pictures and not report.picture_note:
+        return ""
+    figs = "".join(f'<figure><img src="{uri}" alt="{html.escape(caption)}">'
+                   f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+                   for caption, uri in report.pictures)
+    note = f'<p class="def">{html.escape(report.picture_note)}</p>' if report.picture_note else ""
+    return f'<div id="bed-pictures">{figs}{note}</div>'
+
+
 def render_html(report: Report) -> str:
     """The report as a self-contained HTML document (figures embedded as data URIs)."""
     nav = " ".join(f'<a href="#{html.escape(s.key)}">{html.escape(s.title)}</a>' for s in report.sections)
@@ -179,7 +190,7 @@ def render_html(report: Report) -> str:
             f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
             f"<h1>{html.escape(report.title)}</h1>"
             f"<p class=\"def\">bedstruct {html.escape(report.version)}</p>"
-            f"{_state_html(report)}{_skipped_html(report)}<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
+            f"{_state_html(report)}{_skipped_html(report)}{_pictures_html(report)}<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
 
 
 def _atomic_write(path: Path, text: str) -> None:

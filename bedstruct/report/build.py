@@ -63,6 +63,11 @@ class ReportOptions:
         Rattler threshold of the mechanical coordination number (default 2:
         with friction and cohesion a particle needs two contacts to be held
         in a spread bed; use 4 for frictionless packings).
+    view_3d : bool
+        Draw the 3-D picture of the bed at the top of the report (default
+        True; needs pyvista, the ``interop`` extra, and an off-screen
+        renderer; the report says why when it is not drawn). The side view
+        is always drawn.
     """
 
     regions: int = 3
@@ -76,6 +81,7 @@ class ReportOptions:
     min_contacts: int = 2
     repose_base: float | None = None
     german_windows: int = GERMAN_WINDOWS
+    view_3d: bool = True
 
     def __post_init__(self):
         if self.axis not in _AXES:
@@ -577,6 +583,7 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
                     settings=dataclasses.asdict(options),   # every option, so a rerun can match
                     version=__version__)
     report.state = _state(ctx)
+    _pictures(ctx, report)
     todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
     from tqdm.auto import tqdm
     for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
@@ -586,6 +593,37 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
             continue
         report.sections.append(run_section(key, title, lambda sec, f=func: f(ctx, sec)))
     return report
+
+
+def _pictures(ctx: _Context, report: Report) -> None:
+    """The side view (always) and the 3-D view (when PyVista renders here) of the bed."""
+    from ._model import figure_uri, png_uri
+    from ._picture import diameters_shown, render_3d, side_view
+    f, opt = ctx.frame, ctx.options
+    notes = []
+    size_unit = diameters_shown(f).unit
+    if opt.view_3d:
+        try:
+            png, note = render_3d(f)
+        except Exception as exc:   # the picture must not take the report down
+            log.debug("3-D view failed", exc_info=True)
+            png, note = None, f"3-D view not drawn ({type(exc).__name__}: {exc})"
+        notes.append(note)
+        if png is not None:
+            report.pictures.append((f"The bed in 3-D, coloured by particle diameter ({size_unit})",
+                                    png_uri(png)))
+    else:
+        notes.append("3-D view not drawn (turned off in the report options)")
+    try:
+        factor, unit = ctx.plot_unit(np.ptp(f.positions, axis=0) if f.n_particles else [0.0])
+        fig = side_view(f, axis=opt.axis_index, scale=factor, unit=unit)
+        report.pictures.append((f"Side view of the bed along {opt.axis} (every particle, nearest "
+                                f"in front), coloured by particle diameter ({size_unit})",
+                                figure_uri(fig)))
+    except Exception as exc:
+        log.debug("side view failed", exc_info=True)
+        notes.append(f"side view not drawn ({type(exc).__name__}: {exc})")
+    report.picture_note = "; ".join(notes) + "."
 
 
 def _state(ctx: _Context) -> dict:
