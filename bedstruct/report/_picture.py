@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import Frame
+from ._model import figure_uri, png_uri
 
 __all__: list[str] = []
 
@@ -173,3 +174,41 @@ def render_3d(frame: Frame, *, scale: float = 1.0, timeout: float = RENDER_TIMEO
     headless = sys.platform.startswith("linux") and not os.environ.get("DISPLAY")
     hint = "; no display, and no Xvfb to provide one" if headless and len(attempts) == 1 else ""
     return None, f"3-D view not drawn: {why}{hint}"
+
+
+def bed_pictures(frame: Frame, *, axis: int = 0, view_3d: bool = True
+                 ) -> tuple[list[tuple[str, str]], str]:
+    """The pictures of a bed for the top of a page: ``([(caption, PNG data URI)], note)``.
+
+    The 3-D view (when ``view_3d`` and PyVista renders here) comes first, then the
+    side view, which is always drawn; the note says how they were drawn or why
+    one is missing. A picture that fails is left out with the reason in the note,
+    never taking the page down.
+    """
+    from ._render import _display_unit
+    pictures, notes = [], []
+    size_unit = diameters_shown(frame).unit
+    if view_3d:
+        try:
+            png, note = render_3d(frame)
+        except Exception as exc:   # the picture must not take the page down
+            png, note = None, f"3-D view not drawn ({type(exc).__name__}: {exc})"
+        notes.append(note)
+        if png is not None:
+            pictures.append((f"The bed in 3-D, coloured by particle diameter ({size_unit})",
+                             png_uri(png)))
+    else:
+        notes.append("3-D view not drawn (turned off)")
+    try:
+        unit = frame.units.length_unit
+        if unit == "unknown":
+            factor, unit = 1.0, "length unit of the dump"
+        else:
+            extent = np.ptp(frame.positions, axis=0) if frame.n_particles else [0.0]
+            factor, unit = _display_unit(list(np.ravel(extent)), unit)
+        fig = side_view(frame, axis=axis, scale=factor, unit=unit)
+        pictures.append((f"Side view of the bed along {_AXES[axis]} (every particle, nearest in "
+                         f"front), coloured by particle diameter ({size_unit})", figure_uri(fig)))
+    except Exception as exc:
+        notes.append(f"side view not drawn ({type(exc).__name__}: {exc})")
+    return pictures, "; ".join(notes) + "."

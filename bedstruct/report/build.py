@@ -597,33 +597,9 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
 
 def _pictures(ctx: _Context, report: Report) -> None:
     """The side view (always) and the 3-D view (when PyVista renders here) of the bed."""
-    from ._model import figure_uri, png_uri
-    from ._picture import diameters_shown, render_3d, side_view
-    f, opt = ctx.frame, ctx.options
-    notes = []
-    size_unit = diameters_shown(f).unit
-    if opt.view_3d:
-        try:
-            png, note = render_3d(f)
-        except Exception as exc:   # the picture must not take the report down
-            log.debug("3-D view failed", exc_info=True)
-            png, note = None, f"3-D view not drawn ({type(exc).__name__}: {exc})"
-        notes.append(note)
-        if png is not None:
-            report.pictures.append((f"The bed in 3-D, coloured by particle diameter ({size_unit})",
-                                    png_uri(png)))
-    else:
-        notes.append("3-D view not drawn (turned off in the report options)")
-    try:
-        factor, unit = ctx.plot_unit(np.ptp(f.positions, axis=0) if f.n_particles else [0.0])
-        fig = side_view(f, axis=opt.axis_index, scale=factor, unit=unit)
-        report.pictures.append((f"Side view of the bed along {opt.axis} (every particle, nearest "
-                                f"in front), coloured by particle diameter ({size_unit})",
-                                figure_uri(fig)))
-    except Exception as exc:
-        log.debug("side view failed", exc_info=True)
-        notes.append(f"side view not drawn ({type(exc).__name__}: {exc})")
-    report.picture_note = "; ".join(notes) + "."
+    from ._picture import bed_pictures
+    report.pictures, report.picture_note = bed_pictures(ctx.frame, axis=ctx.options.axis_index,
+                                                        view_3d=ctx.options.view_3d)
 
 
 def _state(ctx: _Context) -> dict:

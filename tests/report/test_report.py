@@ -78,7 +78,8 @@ def test_report_sections_and_numbers(bed_dump, tmp_path):
     json.dumps(doc, allow_nan=False)
     html_path, json_path = write_report(rep, tmp_path)
     html = html_path.read_text()
-    assert html.count("data:image/png;base64,") == sum(len(s.figures) for s in rep.sections) > 3
+    n_figures = sum(len(s.figures) for s in rep.sections)
+    assert n_figures > 3 and html.count("data:image/png;base64,") == n_figures + len(rep.pictures)
     assert json.loads(json_path.read_text())["schema"] == "bedstruct.report/1"
 
 
