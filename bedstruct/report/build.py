@@ -585,7 +585,10 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     report.state = _state(ctx)
     _pictures(ctx, report)
     todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
-    from tqdm.auto import tqdm
+    if progress:
+        from tqdm.auto import tqdm
+    else:   # tqdm's notebook front end warns where ipywidgets is missing: only for a shown bar
+        from tqdm import tqdm
     for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
         why = ctx.state.not_meaningful.get(key) if ctx.state is not None else None
         if why is not None:
