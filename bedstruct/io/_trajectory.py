@@ -106,9 +106,9 @@ class DumpTrajectory(Trajectory):
         entries = []
         for f in self._files:
             found = self._scan(f, strict, lenient)
+            _carry_units(found, units)   # a style stated by a frame left out still holds
             if lenient:
                 found = self._keep_readable(found)
-            _carry_units(found, units)
             entries.extend(found)
         if len(self._files) > 1:
             entries.sort(key=lambda e: e.timestep)  # stable: file order, then file position
@@ -202,7 +202,7 @@ class DumpTrajectory(Trajectory):
             exc = tail_truncation(raw, buf, last.line)
             if strict:
                 raise exc
-            self._skip(f.path, None, exc, "a cut-off frame header at the end of the file",
+            self._skip(f.path, None, exc, "a cut-off frame header at the end",
                        stacklevel=5)
             last.end = last.start + raw.tail_offset
             last.at_eof = False

@@ -157,3 +157,17 @@ def test_clean_file_skips_nothing_and_bad_option(tmp_path, clean):
         read_dump(p, on_error="ignore")
     with pytest.raises(ValueError, match="on_error"):
         bedstruct.io.read(p, on_error=True)
+
+
+def test_the_unit_style_of_a_frame_left_out_still_holds(tmp_path):
+    """LAMMPS states ITEM: UNITS before the first frame only: with that frame left out,
+    the later frames are still in those units."""
+    frames = _frames_text()
+    bad = frames[0].splitlines(keepends=True)
+    bad[12] = bad[12].replace(" ", " 1x ", 1)       # line 13 of the frame: a token too many
+    p = tmp_path / "units.dump"
+    p.write_text("ITEM: UNITS\nsi\n" + "".join(bad) + frames[1])
+    traj, kept, messages = _lenient(p)
+    assert [f.timestep for f in kept] == [200] and len(messages) == 1
+    assert kept[0].units.style == "si"
+    assert (traj.skipped[0].timestep, traj.skipped[0].line) == (100, 2 + 13)
