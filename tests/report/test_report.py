@@ -148,7 +148,7 @@ def test_report_renders_in_headless_chromium(bed_dump, tmp_path):
         pytest.skip("headless Chromium not installed (Debian package 'chromium'); cannot test rendering")
     rep = build_report(bedstruct.read_dump(bed_dump)[-1])
     html_path, _ = write_report(rep, tmp_path)
-    n_fig = sum(len(s.figures) for s in rep.sections)
+    n_fig = sum(len(s.figures) for s in rep.sections) + len(rep.pictures)
     # count images that decoded (naturalWidth > 0) and report console errors via the DOM title
     probe = tmp_path / "probe.html"
     probe.write_text(html_path.read_text().replace(
