@@ -90,6 +90,16 @@ def write_run_summary(out_dir, *, results: dict | None = None, view_3d: bool = T
         Without ``results`` when the folder has no ``results.json``.
     ValueError
         For results of a workflow other than ``repose`` or ``spread``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from bedstruct.report import write_run_summary
+    >>> results = {"workflow": "repose", "angle_deg": 31.0, "angle_std_deg": 1.0,
+    ...            "spread_deg": None, "cohesion": 3000.0, "replicates": []}
+    >>> page = write_run_summary(tempfile.mkdtemp(), results=results)
+    >>> page.name, "31" in page.read_text()
+    ('summary.html', True)
     """
     out = Path(out_dir)
     if results is None:
