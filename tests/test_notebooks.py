@@ -18,6 +18,14 @@ def test_notebook_runs(path):
     nb = nbformat.read(path, as_version=4)
     client = NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}})
     client.execute()
-    errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
-              if o.get("output_type") == "error"]
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    errors = [o for o in outputs if o.get("output_type") == "error"]
     assert not errors
+    # what a reader sees: no warnings (printed on stderr) and numbers, not numpy reprs
+    warned = [o["text"] for o in outputs if o.get("output_type") == "stream"
+              and (o.get("name") == "stderr" or "Warning" in o["text"])]
+    assert not warned, warned
+    texts = [o["text"] if o.get("output_type") == "stream" else o.get("data", {}).get("text/plain", "")
+             for o in outputs]
+    reprs = [t for t in texts if "np.float64(" in t or "np.int64(" in t]
+    assert not reprs, reprs

@@ -178,7 +178,7 @@ def fit_german_law(f, cn, *, confidence: float = 0.95, weights=None) -> GermanFi
         s2 = float(np.sum(w * res ** 2) / dof)   # weights are relative: scale from residuals
         cov = s2 * np.linalg.inv((X * w[:, None]).T @ X)
         t = float(stats.t.ppf(0.5 + confidence / 2, dof))
-        se = np.sqrt(np.clip(np.diag(cov), 0.0, None))   # an exact fit can round to -0
+        se = [float(v) for v in np.sqrt(np.clip(np.diag(cov), 0.0, None))]  # exact fit: -0
         a_ci = (a - t * se[0], a + t * se[0])
         b_ci = (b - t * se[1], b + t * se[1])
     else:

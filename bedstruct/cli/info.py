@@ -6,6 +6,10 @@ on its own. Every frame's atom count is checked against its rows; the values
 of the first non-empty frame are parsed. Quiet and one block per summary by
 default; ``--json`` prints one JSON object per call as the last line. Exit
 status 1 when a file cannot be read or holds no frame (an empty file).
+
+With ``--lenient`` every frame of a dump is parsed and the malformed ones
+(cut off, non-numeric values, atom counts that do not match their rows) are
+left out with a warning naming file, timestep and line, and listed as skipped.
 """
 
 from __future__ import annotations
@@ -24,14 +28,19 @@ def add_arguments(parser) -> None:
     parser.add_argument("--columns", default=None, metavar="NAMES",
                         help="column names for dumps that do not name theirs (old text dumps, "
                              "old binary dumps), e.g. 'id type x y z radius'")
+    parser.add_argument("--lenient", action="store_true",
+                        help="read damaged dumps: leave malformed frames out (each named with "
+                             "file, timestep and line) instead of stopping at the first")
 
 
 def run(args) -> int:
     from .. import io
     from . import print_json
 
+    on_error = "skip" if args.lenient else "raise"
     summaries = [s for p in args.paths
-                 for s in io.summarise_all(p, radius=args.radius, columns=args.columns)]
+                 for s in io.summarise_all(p, radius=args.radius, columns=args.columns,
+                                           on_error=on_error)]
     if args.json:
         print_json({"files": summaries})
     else:

@@ -4,8 +4,10 @@
   bedstruct run spread my.toml --set spread.tool=roller --out runs/roller
   bedstruct run spread --preset small --engine liggghts --np 2 --out runs/lig
 
-Running the same command again resumes a killed run. `bedstruct run WORKFLOW --help`
-lists the workflow's configuration keys; details in docs/workflows.md.
+Running the same command again resumes a killed run. A repose or spread run also
+writes OUT/summary.html: its numbers and pictures of the bed (the first pile, the
+last layer). `bedstruct run WORKFLOW --help` lists the workflow's configuration
+keys; details in docs/workflows.md.
 """
 
 from __future__ import annotations
@@ -52,6 +54,8 @@ def _workflow_arguments(parser) -> None:
                         help="show a progress bar (default: when stderr is a terminal)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an earlier run of another configuration in --out")
+    parser.add_argument("--no-3d", dest="view_3d", action="store_false",
+                        help="repose, spread: leave the 3-D picture out of summary.html")
 
 
 def add_arguments(parser) -> None:
@@ -156,6 +160,21 @@ def run(args) -> int:
                   f"{', '.join(f'{v:.3f}' for v in layer.packing_fraction)}, dynamic angle "
                   f"{angle_txt}")
     print(f"results: {args.out}/results.json", file=sys.stderr)
+    if args.workflow in ("repose", "spread"):
+        _write_summary_page(args)
     if args.json:
         print_json(summary)
     return 0
+
+
+def _write_summary_page(args) -> None:
+    """OUT/summary.html, and where it is; a page that cannot be written is a warning (the
+    run itself succeeded)."""
+    from ..report.run_summary import write_run_summary
+    try:
+        path = write_run_summary(args.out, view_3d=getattr(args, "view_3d", True))
+    except Exception as exc:   # the results are written: the page is a convenience
+        print(f"bedstruct run: warning: no summary page ({type(exc).__name__}: {exc})",
+              file=sys.stderr)
+        return
+    print(f"summary: {path}", file=sys.stderr)

@@ -374,13 +374,16 @@ def _before_first_frame(source, buf, j, line):
                            path=source.path, line=line, text=_line_text(buf, j))
 
 
-def scan_text(source: Source) -> TextScan:
+def scan_text(source: Source, *, lenient: bool = False) -> TextScan:
     """Find every frame of a text dump (``ITEM: TIMESTEP``, with any preceding
     ``ITEM: UNITS``/``ITEM: TIME`` items) in one pass.
 
     Also records, per frame, the unit style stated before it and the line of
     its ``ITEM: ATOMS``/``ENTRIES`` item, so that row counts can be checked
     without parsing.
+
+    With ``lenient``, a timestep or atom count value that is not an integer
+    is left as None (the frame parser then names it) instead of raising.
 
     Raises
     ------
@@ -440,7 +443,9 @@ def scan_text(source: Source) -> TextScan:
                             value = _int_value(raw, source.path, nl_count + 1)
                             (scan.timesteps if kind == "ts" else scan.counts)[k] = value
                     except DumpFormatError:
-                        if not cut:  # a cut-off value is a truncated frame, reported later
+                        # a cut-off value is a truncated frame, reported later; with lenient a
+                        # bad value is left to the frame parser, which names it
+                        if not (cut or (lenient and kind != "units")):
                             raise
                 elif not (eof and e >= n):  # an empty value line before the end of the file
                     what = {"ts": "the timestep", "n": "the number of atoms",

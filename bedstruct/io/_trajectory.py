@@ -7,6 +7,7 @@ Implementation module of :mod:`bedstruct.io.lammps_dump` (import from there).
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -17,9 +18,54 @@ from ._columns import frame_from_raw
 from ._source import Source, scan_text, stream_cut
 from ._stream import _stream_columns
 from ._text import (RawFrame, TruncatedFrame, check_unit_style, normalise_columns,
-                    parse_text_frame, skip_or_raise, tail_truncation, truncated)
+                    parse_text_frame, tail_truncation, truncated)
 
-__all__ = ["DumpTrajectory"]
+__all__ = ["DumpTrajectory", "SkippedFrame", "ON_ERROR"]
+
+#: What a reader does with a malformed frame: raise (default) or skip it with a warning.
+ON_ERROR = ("raise", "skip")
+
+
+@dataclass(frozen=True)
+class SkippedFrame:
+    """A frame left out of a trajectory because it is malformed or cut off.
+
+    Attributes
+    ----------
+    path : str
+        The file holding the frame.
+    timestep : int or None
+        Its timestep (None when the timestep itself cannot be read).
+    line : int or None
+        The 1-based line where the problem was found (text dumps); for
+        binary dumps the reader's position, as in
+        :class:`~bedstruct.errors.DumpFormatError`.
+    reason : str
+        What is wrong, as the strict reader's error says it.
+    """
+
+    path: str
+    timestep: int | None
+    line: int | None
+    reason: str
+
+    def to_dict(self) -> dict:
+        """The record as a JSON-ready dict."""
+        return {"path": self.path, "timestep": self.timestep, "line": self.line,
+                "reason": self.reason}
+
+    def __str__(self) -> str:
+        where = f"{self.path}" + (f", line {self.line}" if self.line is not None else "")
+        step = "unknown" if self.timestep is None else self.timestep
+        return f"{where}: frame at timestep {step} skipped: {self.reason}"
+
+
+def check_on_error(on_error) -> str:
+    """``on_error`` when it is one of :data:`ON_ERROR`, else a ValueError naming them."""
+    if on_error not in ON_ERROR:
+        raise ValueError(f"`on_error` must be 'raise' (a malformed frame is an error) or 'skip' "
+                         f"(it is left out with a warning); got {on_error!r}")
+    return on_error
 
 
 class _Entry:
@@ -48,22 +94,56 @@ class DumpTrajectory(Trajectory):
     """
 
     def __init__(self, paths, *, radius=None, units=None, strict=True, sort_by_id=True,
-                 wrap=False, columns=None):
+                 wrap=False, columns=None, on_error="raise"):
         units = check_unit_style(units)
+        lenient = check_on_error(on_error) == "skip"
+        strict = strict and not lenient
         self._opts = dict(radius=radius, units=units, sort_by_id=sort_by_id, wrap=wrap)
         self._columns = normalise_columns(columns)
         self._files = [_File(p) for p in paths]
+        #: The frames left out (:class:`SkippedFrame`), in file order.
+        self.skipped: list[SkippedFrame] = []
         entries = []
         for f in self._files:
-            found = self._scan(f, strict)
-            _carry_units(found, units)
+            found = self._scan(f, strict, lenient)
+            _carry_units(found, units)   # a style stated by a frame left out still holds
+            if lenient:
+                found = self._keep_readable(found)
             entries.extend(found)
         if len(self._files) > 1:
             entries.sort(key=lambda e: e.timestep)  # stable: file order, then file position
         self._entries = entries
 
+    def _skip(self, path, timestep, exc: DumpFormatError, what: str, stacklevel: int) -> None:
+        """Record a left-out frame and warn, naming the file, timestep and line."""
+        record = SkippedFrame(path=str(path), timestep=timestep, line=exc.line,
+                              reason=exc.message)
+        self.skipped.append(record)
+        step = "unknown" if timestep is None else timestep
+        line = "" if exc.line is None else f" (line {exc.line})"
+        warnings.warn(f"skipping {what} of {path} (timestep {step}): {exc.message}{line}",
+                      BedstructWarning, stacklevel=stacklevel + 1)
+
+    def _keep_readable(self, entries: list) -> list:
+        """The entries whose frames read without error; each other one is skipped.
+
+        Every frame is parsed once here, so that the trajectory holds only
+        frames that read: the cost of ``on_error="skip"``.
+        """
+        kept = []
+        for e in entries:
+            try:
+                self._read_entry(e)
+            except DumpFormatError as exc:
+                self._skip(e.file.path, e.timestep, exc, "a malformed frame", stacklevel=4)
+                continue
+            kept.append(e)
+        for k, e in enumerate(kept):
+            e.at_eof = e.at_eof and k == len(kept) - 1
+        return kept
+
     # ----------------------------------------------------------------- scanning
-    def _scan(self, f: _File, strict: bool) -> list:
+    def _scan(self, f: _File, strict: bool, lenient: bool = False) -> list:
         src = f.source
         head = src.read_range(0, 64)
         src.close()
@@ -71,14 +151,15 @@ class DumpTrajectory(Trajectory):
             return []
         if is_binary(head):
             return self._scan_binary(f, strict)
-        scan = scan_text(src)
+        scan = scan_text(src, lenient=lenient)
         stream_cut(src, strict, stacklevel=5)
         f.ends_with_newline = scan.ends_with_newline
         if not scan.starts and scan.cut_line is not None:
             exc = truncated("the file ends inside the header of its first frame", path=f.path,
                             line=scan.cut_line)
-            skip_or_raise(exc, strict, f"skipping the truncated only frame of {f.path}",
-                          stacklevel=4)
+            if strict:
+                raise exc
+            self._skip(f.path, None, exc, "the truncated only frame", stacklevel=4)
             return []
         entries = []
         for k, start in enumerate(scan.starts):
@@ -108,8 +189,9 @@ class DumpTrajectory(Trajectory):
                                    file_ends_with_newline=f.ends_with_newline,
                                    parse_values=False, ncols_override=self._columns)
         except TruncatedFrame as exc:
-            skip_or_raise(exc, strict, f"skipping the truncated last frame of {f.path} "
-                                       f"(timestep {last.timestep})", stacklevel=5)
+            if strict:
+                raise
+            self._skip(f.path, last.timestep, exc, "the truncated last frame", stacklevel=5)
             entries.pop()
             if entries:
                 entries[-1].at_eof = False
@@ -117,8 +199,11 @@ class DumpTrajectory(Trajectory):
         except DumpFormatError:
             return  # any other defect is reported when that frame is read
         if raw.partial_tail is not None:
-            skip_or_raise(tail_truncation(raw, buf, last.line), strict,
-                          f"ignoring a cut-off frame header at the end of {f.path}", stacklevel=5)
+            exc = tail_truncation(raw, buf, last.line)
+            if strict:
+                raise exc
+            self._skip(f.path, None, exc, "a cut-off frame header at the end",
+                       stacklevel=5)
             last.end = last.start + raw.tail_offset
             last.at_eof = False
         elif last.timestep is None:
@@ -130,8 +215,9 @@ class DumpTrajectory(Trajectory):
             if strict or not scan.starts:
                 raise DumpFormatError(f"truncated frame: binary snapshot {len(scan.starts) + 1} "
                                       f"is cut off at byte {scan.truncated_at}", path=f.path)
-            warnings.warn(f"skipping the truncated last snapshot of {f.path} (byte "
-                          f"{scan.truncated_at})", BedstructWarning, stacklevel=4)
+            exc = DumpFormatError(f"truncated frame: binary snapshot {len(scan.starts) + 1} "
+                                  f"is cut off at byte {scan.truncated_at}", path=f.path)
+            self._skip(f.path, None, exc, "the truncated last snapshot", stacklevel=4)
         return [_Entry(file=f, kind="binary", start=s, end=e, line=None, timestep=t, count=c,
                        at_eof=False, state=st, index=k, units=u, units_line=None, rows=r)
                 for k, (s, e, t, c, st, u, r) in enumerate(zip(
@@ -143,7 +229,9 @@ class DumpTrajectory(Trajectory):
         return len(self._entries)
 
     def _raw(self, index: int, *, header_only=False) -> RawFrame:
-        e = self._entries[index]
+        return self._raw_entry(self._entries[index], header_only=header_only)
+
+    def _raw_entry(self, e: _Entry, *, header_only=False) -> RawFrame:
         buf = e.file.source.read_range(e.start, e.end - e.start)
         if e.kind == "binary":
             raw = parse_binary_frame(buf, path=e.file.path, state=e.state,
@@ -165,12 +253,14 @@ class DumpTrajectory(Trajectory):
         return row_text
 
     def _read_frame(self, index: int) -> Frame:
-        e = self._entries[index]
+        return self._read_entry(self._entries[index])
+
+    def _read_entry(self, e: _Entry) -> Frame:
         if e.kind == "text":
             frame = self._read_text_fast(e)
             if frame is not None:
                 return frame
-        raw = self._raw(index)  # general path: exact error messages, rare tokens
+        raw = self._raw_entry(e)  # general path: exact error messages, rare tokens
         if raw.kind != "ATOMS":
             raise DumpFormatError("this is a 'dump local' file (ITEM: ENTRIES); read it with "
                                   "read_dump_local", path=raw.path, line=raw.header_line)

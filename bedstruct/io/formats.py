@@ -15,6 +15,7 @@ from pathlib import Path
 from ..core import FrameList, Trajectory
 from ..errors import DumpFormatError
 from ._source import _decompress_errors, _open_stream, compression_of
+from ._trajectory import check_on_error
 from .data_file import read_data
 from .hdf5 import load_hdf5
 from .lammps_dump import expand_paths, read_dump
@@ -118,7 +119,7 @@ def detect_format(path) -> str:
                           f"reads ({what})")
 
 
-def read(path_or_glob, *, radius=None, units=None, **kwargs) -> Trajectory:
+def read(path_or_glob, *, radius=None, units=None, on_error="raise", **kwargs) -> Trajectory:
     """Read the frames of a particle file, whatever its format.
 
     Dumps (text or binary, plain or compressed, a glob or a list of files),
@@ -134,6 +135,11 @@ def read(path_or_glob, *, radius=None, units=None, **kwargs) -> Trajectory:
     radius, units : optional
         As for :func:`read_dump` (a dump without radii; the unit style when the
         file states none). ``units`` also applies to data files.
+    on_error : {"raise", "skip"}, optional
+        For dumps, as for :func:`read_dump`: ``"skip"`` leaves malformed
+        frames out with a warning and lists them in the trajectory's
+        ``skipped``. A malformed data or HDF5 file (one frame, or an archive
+        written whole) raises either way.
     **kwargs
         Further options of the chosen reader (e.g. ``strict``, ``columns`` for
         dumps, ``atom_style`` for data files).
@@ -156,6 +162,7 @@ def read(path_or_glob, *, radius=None, units=None, **kwargs) -> Trajectory:
     >>> traj[-1].n_particles > 0
     True
     """
+    check_on_error(on_error)
     paths = expand_paths(path_or_glob)
     kinds = {p: detect_format(p) for p in paths}
     found = set(kinds.values())
@@ -165,7 +172,7 @@ def read(path_or_glob, *, radius=None, units=None, **kwargs) -> Trajectory:
                               "bedstruct.io.read_dump_local (in the CLI: --contacts)")
     if found <= {"dump", "dump-binary"}:
         return read_dump(paths if len(paths) > 1 else paths[0], radius=radius, units=units,
-                         **kwargs)
+                         on_error=on_error, **kwargs)
     if len(found) > 1:
         raise DumpFormatError("files of different formats in one read: " + ", ".join(
             f"{p} ({k})" for p, k in kinds.items()))

@@ -19,11 +19,11 @@ import os
 import numpy as np
 
 from ._columns import frame_from_raw
-from ._trajectory import DumpTrajectory
+from ._trajectory import DumpTrajectory, SkippedFrame
 from ._writer import write_dump
 
-__all__ = ["read_dump", "iter_frames", "write_dump", "DumpTrajectory", "expand_paths",
-           "frame_from_raw"]
+__all__ = ["read_dump", "iter_frames", "write_dump", "DumpTrajectory", "SkippedFrame",
+           "expand_paths", "frame_from_raw"]
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +57,7 @@ def expand_paths(path_or_glob) -> list[str]:
 
 
 def read_dump(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=True,
-              wrap=False, columns=None) -> DumpTrajectory:
+              wrap=False, columns=None, on_error="raise") -> DumpTrajectory:
     """Open LAMMPS/LIGGGHTS dump file(s) as a lazily read trajectory.
 
     Text ``dump custom`` files (plain, ``.gz``, ``.bz2``, ``.zst`` when the
@@ -97,6 +97,18 @@ def read_dump(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=
         (``"id type x y z radius"``) or a sequence: needed for old-style text
         dumps (``ITEM: ATOMS`` without names) and binary dumps of the old
         layout, which carry no names.
+    on_error : {"raise", "skip"}, optional
+        What a malformed frame does. ``"raise"`` (default): reading it raises
+        a :class:`~bedstruct.errors.DumpFormatError` naming the file and
+        line. ``"skip"``: every frame is parsed once when the files are
+        opened, and each one that does not read (a truncated frame, a
+        non-numeric value, an atom count that does not match its rows, a
+        timestep or count that is not an integer, ...) is left out with a
+        :class:`~bedstruct.errors.BedstructWarning` naming the file, the
+        timestep and the line; the trajectory's ``skipped`` attribute lists
+        them as :class:`SkippedFrame` records. Implies ``strict=False``.
+        Defects that leave no frame to find (text before the first frame, an
+        unknown unit style) still raise.
 
     Returns
     -------
@@ -138,11 +150,24 @@ def read_dump(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=
     >>> len(traj), frame.n_particles, frame.positions[1].tolist()
     (1, 2, [1.5, 0.5, 0.5])
 
+    A damaged frame is left out with ``on_error="skip"``:
+
+    >>> import warnings
+    >>> text = open(path).read()
+    >>> with open(path, "w") as fh:
+    ...     _ = fh.write(text.replace("ITEM: TIMESTEP\\n0", "ITEM: TIMESTEP\\n5")
+    ...                  + text.replace("1.5", "1.x"))
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     traj = read_dump(path, on_error="skip")
+    >>> traj.timesteps.tolist(), [(s.timestep, s.line) for s in traj.skipped]
+    ([5], [(0, 22)])
+
     .. versionadded:: 0.1
     """
     _check_radius(radius)
     return DumpTrajectory(expand_paths(path_or_glob), radius=radius, units=units, strict=strict,
-                          sort_by_id=sort_by_id, wrap=wrap, columns=columns)
+                          sort_by_id=sort_by_id, wrap=wrap, columns=columns, on_error=on_error)
 
 
 def _check_radius(radius):
@@ -157,7 +182,7 @@ def _check_radius(radius):
 
 
 def iter_frames(path_or_glob, *, radius=None, units=None, strict=True, sort_by_id=True,
-                wrap=False, columns=None):
+                wrap=False, columns=None, on_error="raise"):
     """Yield the frames of dump file(s) one at a time (generator form of :func:`read_dump`).
 
     Only one frame is held at a time; the file is closed when the generator
@@ -174,7 +199,7 @@ def iter_frames(path_or_glob, *, radius=None, units=None, strict=True, sort_by_i
     [0, 100]
     """
     traj = read_dump(path_or_glob, radius=radius, units=units, strict=strict,
-                     sort_by_id=sort_by_id, wrap=wrap, columns=columns)
+                     sort_by_id=sort_by_id, wrap=wrap, columns=columns, on_error=on_error)
     try:
         for k in range(len(traj)):
             yield traj._read_frame(k)

@@ -10,6 +10,7 @@ import numpy as np
 from ..errors import DumpFormatError
 from ._binary import is_binary
 from ._source import Source
+from ._trajectory import check_on_error
 from .data_file import read_data
 from .lammps_dump import expand_paths, read_dump
 
@@ -72,7 +73,7 @@ def _groups(path_or_glob) -> list:
              key[0], key[1], fs) for key, fs in groups.items()]
 
 
-def summarise_all(path_or_glob, radius=None, columns=None) -> list[dict]:
+def summarise_all(path_or_glob, radius=None, columns=None, on_error="raise") -> list[dict]:
     """Summarise every file of a path or glob: one summary per data file, one per
     set of dumps of the same kind (read as one trajectory).
 
@@ -85,6 +86,8 @@ def summarise_all(path_or_glob, radius=None, columns=None) -> list[dict]:
     columns : str or sequence of str, optional
         Column names for dumps that do not name theirs (old text dumps,
         old-layout binary dumps).
+    on_error : {"raise", "skip"}, optional
+        As for :func:`summarise`.
 
     Returns
     -------
@@ -103,11 +106,12 @@ def summarise_all(path_or_glob, radius=None, columns=None) -> list[dict]:
     >>> [s["n_particles"] for s in summarise_all(os.path.join(folder, "*.data"))]
     [[1], [2]]
     """
-    return [_summarise_group(label, kind, comp, files, radius, columns)
+    check_on_error(on_error)
+    return [_summarise_group(label, kind, comp, files, radius, columns, on_error)
             for label, kind, comp, files in _groups(path_or_glob)]
 
 
-def summarise(path, radius=None, columns=None) -> dict:
+def summarise(path, radius=None, columns=None, on_error="raise") -> dict:
     """Summarise a dump, dump local or data file (or a glob of dumps).
 
     Reads the frame headers, checks every frame's atom count against its
@@ -124,6 +128,11 @@ def summarise(path, radius=None, columns=None) -> dict:
     columns : str or sequence of str, optional
         Column names for dumps that do not name theirs (old text dumps,
         old-layout binary dumps).
+    on_error : {"raise", "skip"}, optional
+        ``"skip"`` reads dumps with :func:`read_dump`'s ``on_error="skip"``:
+        every frame is parsed, the malformed ones are left out and listed in
+        ``skipped``. Default ``"raise"``: the first malformed frame is an
+        error.
 
     Returns
     -------
@@ -131,8 +140,9 @@ def summarise(path, radius=None, columns=None) -> dict:
         JSON-serialisable: ``path``, ``files``, ``format``, ``n_frames``,
         ``timesteps``, ``n_particles`` (per frame; contact rows for dump
         local files), ``box`` (``lo``, ``hi``, ``tilt``, ``boundary``,
-        ``periodic`` of the first frame), ``columns``, ``units`` and
-        ``notes``.
+        ``periodic`` of the first frame), ``columns``, ``units``, ``notes``
+        and ``skipped`` (the frames left out: ``path``, ``timestep``,
+        ``line``, ``reason``; empty unless ``on_error="skip"``).
 
     Raises
     ------
@@ -158,11 +168,11 @@ def summarise(path, radius=None, columns=None) -> dict:
         raise ValueError(f"{path}: {len(groups)} kinds of file (or several data files) cannot "
                          f"be summarised as one; use summarise_all")
     label, kind, comp, files = groups[0]
-    return _summarise_group(label, kind, comp, files, radius, columns)
+    return _summarise_group(label, kind, comp, files, radius, columns, check_on_error(on_error))
 
 
-def _summarise_group(label, kind, comp, files, radius, columns) -> dict:
-    summary = {"path": str(label), "files": [str(f) for f in files]}
+def _summarise_group(label, kind, comp, files, radius, columns, on_error="raise") -> dict:
+    summary = {"path": str(label), "files": [str(f) for f in files], "skipped": []}
     if kind == "empty":
         summary.update(format="empty", n_frames=0, timesteps=[], n_particles=[], box=None,
                        columns=[], units=None, notes=["the file is empty (nothing but blank "
@@ -179,12 +189,13 @@ def _summarise_group(label, kind, comp, files, radius, columns) -> dict:
                        + list(frame.columns),
                        units=frame.units.style, notes=list(frame.provenance.notes))
         return summary
-    with read_dump(files, radius=radius, columns=columns) as traj:
-        _summarise_dump(traj, kind, comp, summary, radius)
+    with read_dump(files, radius=radius, columns=columns, on_error=on_error) as traj:
+        summary["skipped"] = [s.to_dict() for s in traj.skipped]
+        _summarise_dump(traj, kind, comp, summary, radius, on_error == "skip")
     return summary
 
 
-def _summarise_dump(traj, kind, comp, summary, radius) -> None:
+def _summarise_dump(traj, kind, comp, summary, radius, all_parsed=False) -> None:
     n = len(traj)
     fmt = "lammps-dump-text" if kind == "text" else "lammps-dump-binary"
     summary.update(format=fmt + (f" ({comp})" if comp else ""), n_frames=n,
@@ -214,8 +225,13 @@ def _summarise_dump(traj, kind, comp, summary, radius) -> None:
     k = int(np.argmax(counts > 0)) if np.any(counts > 0) else 0
     frame = traj[k]
     summary["notes"] = list(dict.fromkeys(summary["notes"] + list(frame.provenance.notes)))
-    summary["notes"].append(f"{checked}; values parsed and checked in frame {k} only "
-                            f"(timestep {frame.timestep})")
+    if all_parsed:
+        summary["notes"].append(f"values parsed and checked in all {n} frames kept"
+                                + (f"; {len(traj.skipped)} malformed frame(s) left out"
+                                   if traj.skipped else ""))
+    else:
+        summary["notes"].append(f"{checked}; values parsed and checked in frame {k} only "
+                                f"(timestep {frame.timestep})")
 
 
 def format_summary(summary: dict) -> str:
@@ -263,4 +279,8 @@ def format_summary(summary: dict) -> str:
     lines.append(f"  units: {s.get('units') or 'not stated'}")
     for note in s.get("notes", []):
         lines.append(f"  note: {note}")
+    for k in s.get("skipped", []):
+        where = k["path"] + (f", line {k['line']}" if k.get("line") is not None else "")
+        step = "unknown" if k.get("timestep") is None else k["timestep"]
+        lines.append(f"  skipped: frame at timestep {step} ({where}): {k['reason']}")
     return "\n".join(lines)

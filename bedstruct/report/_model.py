@@ -100,10 +100,7 @@ class Section:
 
     def add_figure(self, fig, caption: str) -> None:
         """Embed a matplotlib Figure as a PNG data URI (the figure is then closed)."""
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-        uri = "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
-        self.figures.append((caption, uri))
+        self.figures.append((caption, figure_uri(fig)))
 
     def to_json(self) -> dict:
         out = {"title": self.title, "status": self.status,
@@ -127,6 +124,10 @@ class Report:
     sections: list[Section] = field(default_factory=list)
     version: str = ""
     state: dict | None = None
+    #: Pictures of the bed for the top of the page: (caption, PNG data URI).
+    pictures: list[tuple[str, str]] = field(default_factory=list)
+    #: How the pictures were drawn, or why one is missing.
+    picture_note: str = ""
 
     def section(self, key: str) -> Section:
         for s in self.sections:
@@ -141,11 +142,14 @@ class Report:
 
     def to_json(self) -> dict:
         """The full, documented JSON document (schema ``bedstruct.report/1``)."""
-        return {"schema": SCHEMA, "bedstruct_version": self.version, "title": self.title,
-                "inputs": to_jsonable(self.inputs), "settings": to_jsonable(self.settings),
-                "input_state": self._state_json(),
-                "sections": {s.key: s.to_json() for s in self.sections},
-                "failed_sections": self.failed}
+        out = {"schema": SCHEMA, "bedstruct_version": self.version, "title": self.title,
+               "inputs": to_jsonable(self.inputs), "settings": to_jsonable(self.settings),
+               "input_state": self._state_json()}
+        if self.pictures or self.picture_note:
+            out["pictures"] = {"captions": [c for c, _ in self.pictures], "note": self.picture_note}
+        out.update(sections={s.key: s.to_json() for s in self.sections},
+                   failed_sections=self.failed)
+        return out
 
     def _state_json(self) -> dict | None:
         if self.state is None:
@@ -160,10 +164,25 @@ class Report:
         for s in self.sections:
             for k, q in s.numbers.items():
                 values[f"{s.key}.{k}"] = to_jsonable(q.value)
-        return {"schema": SCHEMA, "title": self.title,
-                "input_kind": self.state["kind"] if self.state else None,
-                "sections": {s.key: s.status for s in self.sections},
-                "failed_sections": self.failed, "values": values}
+        out = {"schema": SCHEMA, "title": self.title,
+               "input_kind": self.state["kind"] if self.state else None,
+               "sections": {s.key: s.status for s in self.sections},
+               "failed_sections": self.failed, "values": values}
+        if self.inputs.get("skipped_frames"):
+            out["skipped_frames"] = to_jsonable(self.inputs["skipped_frames"])
+        return out
+
+
+def figure_uri(fig) -> str:
+    """A matplotlib Figure as a PNG data URI."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    return png_uri(buf.getvalue())
+
+
+def png_uri(png: bytes) -> str:
+    """PNG bytes as a data URI."""
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
 def run_section(key: str, title: str, func: Callable[[Section], None]) -> Section:

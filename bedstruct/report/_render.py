@@ -149,18 +149,48 @@ def _state_html(report: Report) -> str:
     return "".join(parts)
 
 
+def _skipped_html(report: Report) -> str:
+    """The frames of damaged dumps left out of the report (read with ``on_error="skip"``)."""
+    skipped = report.inputs.get("skipped_frames") or []
+    if not skipped:
+        return ""
+    rows = "".join(
+        f"<tr><td>{html.escape(str(k.get('path')))}</td>"
+        f"<td class=\"num\">{_fmt(k.get('timestep'))}</td><td class=\"num\">{_fmt(k.get('line'))}</td>"
+        f"<td>{html.escape(str(k.get('reason')))}</td></tr>" for k in skipped)
+    return (f'<div class="state warn" id="skipped-frames"><b>{len(skipped)} malformed frame(s) left out</b>'
+            f" &mdash; the input was read leniently; these frames are not in the report."
+            f"<table><tr><th>file</th><th>timestep</th><th>line</th><th>what is wrong</th></tr>"
+            f"{rows}</table></div>")
+
+
+def _pictures_html(report: Report) -> str:
+    """The pictures of the bed at the top of the page, with how they were drawn."""
+    if not report.pictures and not report.picture_note:
+        return ""
+    figs = "".join(f'<figure><img src="{uri}" alt="{html.escape(caption)}">'
+                   f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+                   for caption, uri in report.pictures)
+    note = f'<p class="def">{html.escape(report.picture_note)}</p>' if report.picture_note else ""
+    return f'<div id="bed-pictures">{figs}{note}</div>'
+
+
 def render_html(report: Report) -> str:
     """The report as a self-contained HTML document (figures embedded as data URIs)."""
     nav = " ".join(f'<a href="#{html.escape(s.key)}">{html.escape(s.title)}</a>' for s in report.sections)
     inputs = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_fmt(v)}</td></tr>"
-                     for k, v in report.inputs.items())
+                     for k, v in report.inputs.items() if k != "skipped_frames")
+    if "skipped_frames" in report.inputs:
+        n = len(report.inputs["skipped_frames"] or [])
+        inputs += (f"<tr><th>skipped_frames</th><td>{n} (malformed frames left out"
+                   f"{', listed above' if n else ''})</td></tr>")
     body = "\n".join(_section_html(s) for s in report.sections)
     return (f"<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
             f"<h1>{html.escape(report.title)}</h1>"
             f"<p class=\"def\">bedstruct {html.escape(report.version)}</p>"
-            f"{_state_html(report)}<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
+            f"{_state_html(report)}{_skipped_html(report)}{_pictures_html(report)}<table>{inputs}</table><nav>{nav}</nav>{body}</body></html>")
 
 
 def _atomic_write(path: Path, text: str) -> None:

@@ -63,6 +63,11 @@ class ReportOptions:
         Rattler threshold of the mechanical coordination number (default 2:
         with friction and cohesion a particle needs two contacts to be held
         in a spread bed; use 4 for frictionless packings).
+    view_3d : bool
+        Draw the 3-D picture of the bed at the top of the report (default
+        True; needs pyvista, the ``interop`` extra, and an off-screen
+        renderer; the report says why when it is not drawn). The side view
+        is always drawn.
     """
 
     regions: int = 3
@@ -76,6 +81,7 @@ class ReportOptions:
     min_contacts: int = 2
     repose_base: float | None = None
     german_windows: int = GERMAN_WINDOWS
+    view_3d: bool = True
 
     def __post_init__(self):
         if self.axis not in _AXES:
@@ -577,8 +583,12 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
                     settings=dataclasses.asdict(options),   # every option, so a rerun can match
                     version=__version__)
     report.state = _state(ctx)
+    _pictures(ctx, report)
     todo = [s for s in SECTIONS if s[0] != "heat" or options.heat]
-    from tqdm.auto import tqdm
+    if progress:
+        from tqdm.auto import tqdm
+    else:   # tqdm's notebook front end warns where ipywidgets is missing: only for a shown bar
+        from tqdm import tqdm
     for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
         why = ctx.state.not_meaningful.get(key) if ctx.state is not None else None
         if why is not None:
@@ -586,6 +596,13 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
             continue
         report.sections.append(run_section(key, title, lambda sec, f=func: f(ctx, sec)))
     return report
+
+
+def _pictures(ctx: _Context, report: Report) -> None:
+    """The side view (always) and the 3-D view (when PyVista renders here) of the bed."""
+    from ._picture import bed_pictures
+    report.pictures, report.picture_note = bed_pictures(ctx.frame, axis=ctx.options.axis_index,
+                                                        view_3d=ctx.options.view_3d)
 
 
 def _state(ctx: _Context) -> dict:

@@ -16,7 +16,8 @@ __all__ = ["load_report_inputs", "report_on_files"]
 
 def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
                        contact_keywords: Sequence[str] | None = None, frames: str = "-1",
-                       radius: float | None = None, units: str | None = None
+                       radius: float | None = None, units: str | None = None,
+                       on_error: str = "raise"
                        ) -> tuple[list[Frame], list[int], Contacts | None, dict]:
     """Read the frames selected from dump files and the matching contacts.
 
@@ -32,7 +33,14 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
     contact_keywords : sequence of str, optional
         The ``compute pair/gran/local`` keywords of the contact file.
     frames : str
-        Frame selection (see :func:`select_frames`).
+        Frame selection (see :func:`select_frames`), counted over the frames
+        that read.
+    radius, units : optional
+        As for :func:`bedstruct.io.read`.
+    on_error : {"raise", "skip"}
+        ``"skip"`` leaves malformed dump frames out (see
+        :func:`bedstruct.io.read_dump`); they are listed in the inputs under
+        ``skipped_frames`` (file, timestep, line, reason).
 
     Returns
     -------
@@ -40,7 +48,8 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
         The selected frames, their indices, the contacts of the last one
         (or None) and a description of the inputs for the report.
     """
-    trajectories = [read(p, radius=radius, units=units) for p in paths]
+    trajectories = [read(p, radius=radius, units=units, on_error=on_error) for p in paths]
+    skipped = [s.to_dict() for t in trajectories for s in getattr(t, "skipped", ())]
     sizes = [len(t) for t in trajectories]
     total = sum(sizes)
     if total == 0:
@@ -64,21 +73,25 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
     inputs = {"paths": [str(p) for p in paths], "frames_in_input": total,
               "frames_selected": idx, "contacts": str(contacts) if contacts else "geometric detection",
               "units_given": units, "radius_given": radius}
+    if on_error == "skip":
+        inputs["skipped_frames"] = skipped
     return selected, idx, contact_obj, inputs
 
 
 def report_on_files(paths: Sequence[str], out_dir, *, contacts: str | None = None,
                     contact_keywords: Sequence[str] | None = None, options: ReportOptions | None = None,
-                    radius: float | None = None, units: str | None = None, progress: bool = False
-                    ) -> tuple[Report, Path, Path]:
+                    radius: float | None = None, units: str | None = None, progress: bool = False,
+                    on_error: str = "raise") -> tuple[Report, Path, Path]:
     """Read inputs, build the report and write ``report.html`` and ``report.json``.
 
-    Returns the report and the two paths written.
+    ``on_error="skip"`` reads damaged dumps, leaving malformed frames out;
+    the report lists them (see :func:`load_report_inputs`). Returns the
+    report and the two paths written.
     """
     options = options or ReportOptions()
     frames, idx, contact_obj, inputs = load_report_inputs(
         paths, contacts=contacts, contact_keywords=contact_keywords, frames=options.frames,
-        radius=radius, units=units)
+        radius=radius, units=units, on_error=on_error)
     report = build_report(frames, contacts=contact_obj, options=options, frame_indices=idx,
                           inputs=inputs, progress=progress)
     html_path, json_path = write_report(report, out_dir)

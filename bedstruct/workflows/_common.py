@@ -17,10 +17,23 @@ from ..errors import ConfigError
 log = logging.getLogger(__name__)
 
 __all__ = ["contact_model", "psd_sampler", "check_engine", "tool_motion", "from_plain",
-           "frame_fingerprint", "german_fit_values", "CONTACT_KEYWORDS"]
+           "frame_fingerprint", "german_fit_values", "progress_bar", "CONTACT_KEYWORDS"]
 
 #: LIGGGHTS ``compute pair/gran/local`` keywords of the contact dumps written by the workflows.
 CONTACT_KEYWORDS = ("pos", "id", "force", "force_normal", "force_tangential", "contactArea")
+
+
+def progress_bar(iterable=None, *, progress: bool, **kwargs):
+    """A tqdm progress bar when ``progress`` (the notebook one in Jupyter), else a silent one.
+
+    The silent one is plain tqdm: tqdm's notebook front end is imported only for a
+    bar that is shown, as it warns where ipywidgets is missing.
+    """
+    if progress:
+        from tqdm.auto import tqdm
+    else:
+        from tqdm import tqdm
+    return tqdm(iterable, disable=not progress, **kwargs)
 
 
 def check_engine(cfg: dict) -> None:

@@ -193,8 +193,8 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
         layout = RunLayout(out, cfg, workflow="calibrate", inputs=inputs, overwrite=overwrite)
     pts: dict[float, CalibrationPoint] = {}
     n_runs = 0
-    from tqdm.auto import tqdm
-    bar = tqdm(total=nmax + 2, desc="calibrate", unit="point", disable=not progress)
+    from ._common import progress_bar
+    bar = progress_bar(total=nmax + 2, desc="calibrate", unit="point", progress=progress)
 
     def ev(k):
         nonlocal n_runs

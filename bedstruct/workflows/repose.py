@@ -20,7 +20,7 @@ import time as _time
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import check_engine, contact_model, psd_sampler
+from ._common import check_engine, contact_model, progress_bar, psd_sampler
 from ._rundir import RunLayout, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
 from .external import run_repose_external
@@ -196,9 +196,8 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
     res = layout.reuse_results(repose_result_from_dict) if layout is not None else None
     if res is not None:
         return res
-    from tqdm.auto import tqdm
     reps = []
-    for i in tqdm(range(n), desc="repose", unit="replicate", disable=not progress):
+    for i in progress_bar(range(n), desc="repose", unit="replicate", progress=progress):
         seed, stage = int(cfg["seed"]) + i, f"rep{i:02d}"
         rep = _finished_replicate(layout, stage, seed, k)
         if rep is None:

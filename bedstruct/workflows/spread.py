@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import ConfigError
 from .._json import to_jsonable
 from ._common import (check_engine, contact_model, frame_fingerprint, from_plain,
-                      german_fit_values, psd_sampler, tool_motion)
+                      german_fit_values, progress_bar, psd_sampler, tool_motion)
 from ._rundir import RunLayout, as_resumable, clear_run, resumable_simulation, run_in_frames
 from .config import validate_config
 from .external_spread import run_spread_external
@@ -184,8 +184,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
     n_frames = int(sc["n_frames"])
     i_mid = max(1, n_frames // 2)
     writer = None
-    from tqdm.auto import tqdm
-    for k, gap in enumerate(tqdm(gaps, desc="spread", unit="layer", disable=not progress)):
+    for k, gap in enumerate(progress_bar(gaps, desc="spread", unit="layer", progress=progress)):
         t_layer = _time.perf_counter()
         writer = layout.stage(f"layer{k + 1:02d}", reset=False) if layout is not None else None
         if writer is not None:

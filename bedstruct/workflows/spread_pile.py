@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ._common import contact_model, psd_sampler
+from ._common import contact_model, progress_bar, psd_sampler
 from ._rundir import resumable_simulation
 
 __all__ = ["generate_pile", "pile_key"]
@@ -57,8 +57,7 @@ def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress:
         sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (Lp, W, zlo + layer)))
         return True
 
-    from tqdm.auto import tqdm
-    with tqdm(total=n, desc="pile", unit="particle", disable=not progress, leave=False) as bar:
+    with progress_bar(total=n, desc="pile", unit="particle", progress=progress, leave=False) as bar:
         for _ in range(50):
             if not ctl.value(insert_slab):
                 break

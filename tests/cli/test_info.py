@@ -186,3 +186,30 @@ def test_info_columns_option(tmp_path, capsys):
     assert main(["info", str(binary), "--columns", "id type x y z radius", "--json"]) == 0
     s = _json(capsys)["files"][0]
     assert s["format"] == "lammps-dump-binary" and s["timesteps"] == [9]
+
+
+def test_info_lenient_names_the_frames_it_leaves_out(tmp_path, capsys):
+    """A non-numeric value in frame 2 and a cut-off last frame: strict stops at the cut with
+    its line; --lenient summarises the good frames and lists both bad ones."""
+    path = tmp_path / "damaged.dump"
+    write_dump(path, [Frame([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5]], [0.25, 0.25], box=[2, 1, 1],
+                            timestep=t) for t in (0, 100, 200, 300)])
+    lines = path.read_text().splitlines(keepends=True)
+    bad = 11 + 11      # 1-based: the second row of frame 2 (11 lines a frame)
+    lines[bad - 1] = lines[bad - 1].replace("1.5", "1.5.0")
+    text = "".join(lines)[:-4]   # the last radius cut short: a truncated frame
+    path.write_text(text)
+    assert main(["info", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "line 44: truncated" in err
+    with pytest.warns(UserWarning) as said:
+        assert main(["info", str(path), "--lenient", "--json"]) == 0
+    s = _json(capsys)["files"][0]
+    assert s["timesteps"] == [0, 200] and s["n_frames"] == 2
+    assert [(k["timestep"], k["line"]) for k in s["skipped"]] == [(300, 44), (100, bad)]
+    assert all(k["path"] == str(path) for k in s["skipped"])
+    assert len([w for w in said if str(path) in str(w.message)]) == 2
+    with pytest.warns(UserWarning):
+        assert main(["info", str(path), "--lenient"]) == 0
+    out = capsys.readouterr().out
+    assert f"skipped: frame at timestep 100 ({path}, line {bad}): non-numeric" in out

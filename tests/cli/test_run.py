@@ -42,7 +42,12 @@ def test_repose_json(tmp_path, capsys):
     rc = main(["run", "repose", "--preset", "tiny", "--set", "repose.drain_time=0.02",
                "--out", str(tmp_path), "--json"])
     assert rc == 0
-    out = capsys.readouterr().out.strip().splitlines()
+    captured = capsys.readouterr()
+    out = captured.out.strip().splitlines()
+    # the page of the run, said on stderr (stdout: the result, then the JSON)
+    assert captured.err.strip().splitlines()[-1] == f"summary: {tmp_path}/summary.html"
+    page = (tmp_path / "summary.html").read_text()
+    assert "bed pictured" in page and "rep00/pile.dump.gz" in page and "Side view" in page
     d = json.loads(out[-1])
     assert 5 < d["angle_deg"] < 60 and d["angle_std_deg"] > 0
     # the +- says what it is: with one pile (tiny) the flank fit's uncertainty, not a scatter

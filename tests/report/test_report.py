@@ -9,7 +9,18 @@ import bedstruct
 from bedstruct.cli import main
 from bedstruct.report import ReportOptions, build_report, render_html, select_frames, write_report
 from bedstruct.report import build as build_mod
+from bedstruct.report import _picture
 from lattices import cubic_lattice
+
+_REAL_RENDER_3D = _picture.render_3d
+
+
+@pytest.fixture(autouse=True)
+def _no_3d_render(monkeypatch):
+    """The 3-D view takes seconds in a child process: the tests of it render it, the
+    others get a note instead."""
+    monkeypatch.setattr(_picture, "render_3d",
+                        lambda frame, **kw: (None, "3-D view not drawn (left out in the tests)"))
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +78,8 @@ def test_report_sections_and_numbers(bed_dump, tmp_path):
     json.dumps(doc, allow_nan=False)
     html_path, json_path = write_report(rep, tmp_path)
     html = html_path.read_text()
-    assert html.count("data:image/png;base64,") == sum(len(s.figures) for s in rep.sections) > 3
+    n_figures = sum(len(s.figures) for s in rep.sections)
+    assert n_figures > 3 and html.count("data:image/png;base64,") == n_figures + len(rep.pictures)
     assert json.loads(json_path.read_text())["schema"] == "bedstruct.report/1"
 
 
@@ -136,7 +148,7 @@ def test_report_renders_in_headless_chromium(bed_dump, tmp_path):
         pytest.skip("headless Chromium not installed (Debian package 'chromium'); cannot test rendering")
     rep = build_report(bedstruct.read_dump(bed_dump)[-1])
     html_path, _ = write_report(rep, tmp_path)
-    n_fig = sum(len(s.figures) for s in rep.sections)
+    n_fig = sum(len(s.figures) for s in rep.sections) + len(rep.pictures)
     # count images that decoded (naturalWidth > 0) and report console errors via the DOM title
     probe = tmp_path / "probe.html"
     probe.write_text(html_path.read_text().replace(
@@ -466,3 +478,120 @@ def test_voronoi_section_without_pyvoro2_is_skipped_with_the_install_hint(monkey
     lattice = cubic_lattice((6, 4, 4), spacing=1.0, radius=0.5, boundary=("pp", "pp", "ff"))
     sec = build_report(lattice).section("voronoi")
     assert sec.status == "skipped" and "bedstruct[voronoi]" in sec.text
+
+
+def test_cli_report_lenient_lists_the_frames_it_left_out(bed_dump, tmp_path, capsys):
+    """Frames with a non-numeric value and a wrong atom count between the good ones: strict
+    stops with the file and line; --lenient reports on the good frames and lists both."""
+    good = bed_dump.read_text()
+    second = good.index("ITEM: TIMESTEP", 1)
+    one = good[:second]                                 # frame at timestep 0
+    garbled = one.replace("ITEM: TIMESTEP\n0\n", "ITEM: TIMESTEP\n50\n", 1)
+    rows = garbled.splitlines(keepends=True)
+    rows[30] = rows[30].replace(".", ",", 1)            # a non-numeric value on line 31
+    short = one.replace("ITEM: TIMESTEP\n0\n", "ITEM: TIMESTEP\n70\n", 1)
+    short = short[:short.rindex("\n", 0, len(short) - 1) + 1]   # one row fewer than the count
+    path = tmp_path / "damaged.dump"
+    path.write_text(one + "".join(rows) + short + good[second:])
+    n_one = one.count("\n")
+    # strict reads only the frames selected: all of them here, so the first bad one stops it
+    assert main(["report", str(path), "--out", str(tmp_path / "strict"), "--frames", "all"]) == 1
+    err = capsys.readouterr().err
+    assert f"{path}, line {n_one + 31}: non-numeric value" in err
+    with pytest.warns(UserWarning, match="skipping a malformed frame"):
+        assert main(["report", str(path), "--out", str(tmp_path / "r"), "--lenient", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert "2 malformed frame(s) left out" in err
+    summary = json.loads(out.strip().splitlines()[-1])
+    expected = [(50, n_one + 31), (70, 3 * n_one)]   # 70: where the next frame begins
+    assert [(k["timestep"], k["line"]) for k in summary["skipped_frames"]] == expected
+    doc = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert doc["inputs"]["frames_in_input"] == 2
+    assert [(k["timestep"], k["line"]) for k in doc["inputs"]["skipped_frames"]] == expected
+    assert summary["values"]["summary.timestep"] == 100
+    html = (tmp_path / "r" / "report.html").read_text()
+    assert 'id="skipped-frames"' in html and "2 malformed frame(s) left out" in html
+    assert "atom count mismatch" in html and "non-numeric value" in html
+
+
+# ---------------------------------------------------------------- pictures of the bed
+def _png_pixels(uri_or_png):
+    """The RGB(A) pixels of a PNG (bytes or data URI) as floats in [0, 1]."""
+    import base64
+    import io
+    from matplotlib.image import imread
+    png = (base64.b64decode(uri_or_png.split(",", 1)[1]) if isinstance(uri_or_png, str)
+           else uri_or_png)
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    return imread(io.BytesIO(png), format="png")
+
+
+def _si_slab(n=(8, 3, 2), radius=25e-6):
+    """A small slab of touching spheres in SI units (diameters 50 um, the first row 80 um)."""
+    frame = cubic_lattice(n, spacing=2 * radius, radius=radius, boundary=("pp", "pp", "ff"))
+    radii = np.full(frame.n_particles, radius)
+    radii[frame.positions[:, 0] < 2 * radius] = 40e-6
+    return bedstruct.Frame(frame.positions, radii, box=frame.box, units="si")
+
+
+def test_side_view_draws_every_sphere_at_its_size_coloured_by_diameter_in_um():
+    from matplotlib.collections import EllipseCollection
+    from bedstruct.report._picture import side_view
+    frame = _si_slab()
+    fig = side_view(frame, axis=0, scale=1e6, unit="µm")
+    ax = fig.axes[0]
+    (discs,) = [c for c in ax.collections if isinstance(c, EllipseCollection)]
+    assert len(discs.get_offsets()) == frame.n_particles
+    # x along the bed, z up, in um; each disc as wide as its sphere
+    np.testing.assert_allclose(np.sort(discs.get_widths()), np.sort(2 * frame.radii * 1e6))
+    np.testing.assert_allclose(discs.get_offsets(), frame.positions[np.argsort(
+        -frame.positions[:, 1], kind="stable")][:, [0, 2]] * 1e6)   # far ones (large y) first
+    np.testing.assert_allclose(np.sort(discs.get_array()), np.sort(2 * frame.radii * 1e6))
+    assert set(np.round(discs.get_array(), 9)) == {50.0, 80.0}
+    assert ax.get_xlabel() == "x (µm)" and ax.get_ylabel() == "z (µm)"
+    lo, hi = ax.get_xlim()
+    assert lo <= (frame.positions[:, 0].min() - 40e-6) * 1e6 + 1e-9
+    assert hi >= (frame.positions[:, 0].max() + 40e-6) * 1e6 - 1e-9
+    assert "particle diameter (µm)" in fig.axes[1].get_ylabel()
+
+
+def test_report_has_the_side_view_at_the_top_without_3d(monkeypatch):
+    monkeypatch.setattr(build_mod, "SECTIONS", build_mod.SECTIONS[:1])   # the pictures only
+    rep = build_report(_si_slab(), options=ReportOptions(view_3d=False))
+    assert [c.split(" (")[0] for c, _ in rep.pictures] == ["Side view of the bed along x"]
+    pixels = _png_pixels(rep.pictures[0][1])
+    assert pixels.shape[0] > 100 and np.ptp(pixels[..., :3]) > 0.5     # a picture, not blank
+    assert "turned off" in rep.picture_note
+    html = render_html(rep)
+    assert html.index('id="bed-pictures"') < html.index("<section")
+    assert "turned off" in html
+    assert rep.to_json()["pictures"]["captions"] == [rep.pictures[0][0]]
+
+
+def test_report_says_why_there_is_no_3d_view_without_pyvista(monkeypatch):
+    import importlib.util
+    real = importlib.util.find_spec
+    monkeypatch.setattr(_picture, "render_3d", _REAL_RENDER_3D)
+    monkeypatch.setattr(build_mod, "SECTIONS", build_mod.SECTIONS[:1])
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "pyvista" else real(name, *a))
+    rep = build_report(_si_slab())
+    assert len(rep.pictures) == 1 and rep.pictures[0][0].startswith("Side view")
+    assert "3-D view not drawn: it needs pyvista (pip install 'bedstruct[interop]')" in rep.picture_note
+    assert "it needs pyvista" in render_html(rep)
+
+
+def test_3d_view_renders_off_screen_when_pyvista_is_importable():
+    pytest.importorskip("pyvista")
+    png, note = _REAL_RENDER_3D(_si_slab())
+    if png is None and "no display, and no Xvfb" in note:
+        pytest.skip(note)
+    assert png is not None, note
+    assert note.startswith("3-D view rendered off screen with PyVista")
+    pixels = _png_pixels(png)[..., :3]
+    assert pixels.shape[:2] == (640, 1000)
+    drawn = np.any(pixels < 0.95, axis=-1)             # not the white background
+    assert 0.02 < drawn.mean() < 0.9
+    # two sizes, two colours of viridis: the 80 um row is yellow-green, the rest dark blue
+    colours = pixels[drawn]
+    assert (colours[:, 1] > 0.6).any() and ((colours[:, 2] > colours[:, 0]) & (colours[:, 1] < 0.4)).any()
