@@ -159,6 +159,9 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         self._resume_outputs = None
         self.n_threads = int(n_threads or _numba.get_num_threads())
         self.serial_below = 5000
+        # the pair pass in gather-compute-scatter blocks (vectorised contact law); False runs
+        # the single loop, whose rounding the reference trajectories record
+        self._blocked_pairs = True
         if self.n_threads < 1:
             raise ConfigError(f"`n_threads` must be >= 1; got {n_threads}")
         self.rng = np.random.default_rng(seed)
@@ -345,7 +348,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
                       self._pair_tab, m.rolling_code, m.limit_force, float(m.rolling_damping), dt,
                       store, fn_out, ft_out, self._cap if m.capillary else None,
                       (self.hx if hx is None else hx, self._age) if m.contact_ageing else None,
-                      self._kr_fac)
+                      self._kr_fac, blocked=self._blocked_pairs)
 
     def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm,
                      kick_next=False):
