@@ -8,6 +8,9 @@ spreading over it (``spread``) or the floor plate of a repose box sliding out
 extension. :func:`run_case` returns the state after the run, the contact forces
 the output path computes and the wall contacts (all arrays).
 
+The runs use the engine's single-loop pair pass (the blocked pass rounds differently in
+the last bits; ``test_engine_speedpaths.py`` compares the two).
+
 Run this module as a script to record the digests of this machine's results into
 ``data/reference_trajectories.json`` (and, with ``--npz DIR``, the arrays); ``--cases``
 re-records only the cases named:

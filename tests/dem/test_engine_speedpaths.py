@@ -255,3 +255,59 @@ def test_history_remap_by_partner_equals_the_binary_search():
     a, b = np.argsort(dense.ids), np.argsort(sparse.ids)
     np.testing.assert_array_equal(dense.x[a], sparse.x[b])
     np.testing.assert_array_equal(dense.om[a], sparse.om[b])
+
+
+def test_busy_machine_runs_the_chunks_on_one_thread(monkeypatch):
+    # a run that finds the cores busy runs its chunks on one thread: same chunks, same bits
+    import numba
+
+    from bedstruct.dem import simulation
+    if simulation._numba_max_threads() < 2:
+        pytest.skip("numba may use one thread only here")
+    used = {}
+    res = {}
+    for busy in (False, True):
+        monkeypatch.setattr(simulation, "_cores_busy", lambda threads, busy=busy: busy)
+        sim = _bed()
+        sim.serial_below = 0
+        sim.run(200, callback=lambda s: used.setdefault(busy, numba.get_num_threads()))
+        res[busy] = sim
+    assert used == {False: 2, True: 1}
+    for name in ("x", "v", "om", "f", "tq", "ht", "hr"):
+        np.testing.assert_array_equal(getattr(res[True], name), getattr(res[False], name),
+                                      err_msg=name)
+    # without yield_when_busy the threads run whatever the load
+    sim = _bed()
+    sim.serial_below = 0
+    sim.yield_when_busy = False
+    sim.run(2, callback=lambda s: used.setdefault("off", numba.get_num_threads()))
+    assert used["off"] == 2
+
+
+def test_cores_busy_subtracts_own_use(monkeypatch):
+    from bedstruct.dem import simulation
+    monkeypatch.setattr(simulation.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    clock = {"wall": 100.0, "cpu": 10.0}
+    monkeypatch.setattr(simulation._time, "perf_counter", lambda: clock["wall"])
+    monkeypatch.setattr(simulation._time, "process_time", lambda: clock["cpu"])
+    monkeypatch.setattr(simulation, "_LOAD_PROBE", [None, None, 0.0])
+    load = {"1min": 1.3}
+    monkeypatch.setattr(simulation.os, "getloadavg", lambda: (load["1min"], 0.0, 0.0))
+    # first look: this process counts as one running thread; 0.3 for the others leaves
+    # two cores to two threads
+    assert not simulation._cores_busy(2)
+    load["1min"] = 3.0  # within half a second the estimate is kept
+    clock["wall"] += 0.1
+    assert not simulation._cores_busy(2)
+    # 1.9 s later, this process used 2 cores (its two threads): 3 - 2 = 1 for the others
+    clock["wall"] += 1.9
+    clock["cpu"] += 2.0 * 2.0
+    assert simulation._cores_busy(2)
+    assert not simulation._cores_busy(1)
+    # idle for 10 s: a load of 1.2 is all the others'
+    load["1min"] = 1.2
+    clock["wall"] += 10.0
+    assert simulation._cores_busy(2) and not simulation._cores_busy(1)
+    load["1min"] = 0.2
+    clock["wall"] += 10.0
+    assert not simulation._cores_busy(2)
