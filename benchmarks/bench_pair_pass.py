@@ -3,15 +3,19 @@ single loop, on a settled bed of 20,000 spheres, one thread, CPU time.
 
 The bed is the one of ``bench_engine.py`` (poured and cached on first use, which takes a few
 minutes); the model is the seed's (hertz, history, epsd2, SJKR cohesion). From one state
-the two passes are run alternately, ``--calls`` calls each per repeat, timed with the
+(every call from the same history) the two passes are run alternately, ``--calls`` calls
+each per repeat, timed with the
 process's CPU time (``time.process_time``: the machine may be shared); the speed-up is the
 median of the per-repeat ratios. The passes' results from the same state (forces, torques,
 histories) are compared first: ``identical=1`` when equal bit for bit, and the largest
-relative difference otherwise.
+difference relative to each quantity's largest magnitude. Whole steps are timed the same
+way (``--steps`` per side and repeat, the simulation advancing).
 
-Usage: ``python benchmarks/bench_pair_pass.py [--particles N] [--calls N] [--repeat N]``.
-The last line is ``RESULT pair_ns_per_contact_old=... new=... speedup=... identical=...
-max_rel_diff=... contacts=... load=...``.
+Usage: ``python benchmarks/bench_pair_pass.py [--particles N] [--calls N] [--steps N]
+[--repeat N]`` (about a minute at the defaults once compiled).
+The last line is ``RESULT pair_ns_per_contact_old=... new=... speedup=... step_ms_old=...
+step_ms_new=... step_speedup=... identical=... max_rel_diff=... contacts=... load=...``
+(medians; ``load`` is the 1-minute load average).
 """
 
 from __future__ import annotations
@@ -45,6 +49,7 @@ def main(argv=None) -> int:
     ap.add_argument("--particles", type=int, default=20000)
     ap.add_argument("--calls", type=int, default=200, help="pair passes per side and repeat")
     ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--steps", type=int, default=50, help="whole steps per side and repeat")
     ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
     a = ap.parse_args(argv)
     cache = Path(a.cache_dir)
@@ -62,32 +67,49 @@ def main(argv=None) -> int:
         ht, hr = ht0.copy(), hr0.copy()
         fb, tb = np.zeros_like(sim._fbuf), np.zeros_like(sim._tbuf)
         _pass(sim, blocked, ht, hr, fb, tb)
-        out[blocked] = np.concatenate([fb.ravel(), tb.ravel(), ht.ravel(), hr.ravel()])
-    old, new = out[False], out[True]
-    identical = bool(np.array_equal(old, new))
-    scale = np.maximum(np.abs(old), 1e-300)
-    max_rel = float(np.max(np.abs(new - old) / scale * (old != new))) if not identical else 0.0
+        out[blocked] = (fb, tb, ht, hr)
+    identical = all(np.array_equal(a, b) for a, b in zip(out[False], out[True]))
+    # the largest difference relative to each quantity's largest magnitude
+    max_rel = max(float(np.abs(b - a).max() / max(np.abs(a).max(), 1e-300))
+                  for a, b in zip(out[False], out[True]))
     ratios, t_old, t_new = [], [], []
     for rep in range(a.repeat):  # interleaved, the order alternating between repeats
         times = {}
         for blocked in ((False, True) if rep % 2 == 0 else (True, False)):
             ht, hr = ht0.copy(), hr0.copy()
             fb, tb = np.zeros_like(sim._fbuf), np.zeros_like(sim._tbuf)
-            c0 = time.process_time()
+            cpu = 0.0
             for _ in range(a.calls):
+                ht[:] = ht0  # every call from the same history (not timed)
+                hr[:] = hr0
+                c0 = time.process_time()
                 _pass(sim, blocked, ht, hr, fb, tb)
-            times[blocked] = (time.process_time() - c0) / a.calls / n_contacts * 1e9
+                cpu += time.process_time() - c0
+            times[blocked] = cpu / a.calls / n_contacts * 1e9
         t_old.append(times[False])
         t_new.append(times[True])
         ratios.append(times[False] / times[True])
         print(f"# repeat {rep}: old {times[False]:.1f} ns/contact, new {times[True]:.1f}, "
               f"ratio {ratios[-1]:.3f}", flush=True)
+    step_ratios, s_old, s_new = [], [], []
+    for rep in range(a.repeat):  # whole steps (the simulation advances), 1 thread, CPU time
+        times = {}
+        for blocked in ((False, True) if rep % 2 == 0 else (True, False)):
+            sim._blocked_pairs = blocked
+            c0 = time.process_time()
+            sim.run(a.steps)
+            times[blocked] = (time.process_time() - c0) / a.steps * 1e3
+        s_old.append(times[False])
+        s_new.append(times[True])
+        step_ratios.append(times[False] / times[True])
     load = 0.5 * (load0 + os.getloadavg()[0])
     print(f"# {sim.n_particles} spheres, {n_contacts} contacts, {sim.n_pairs} pairs; one thread; "
           f"load average {load:.2f} on {os.cpu_count()} CPUs")
     print(f"RESULT pair_ns_per_contact_old={np.median(t_old):.4g} new={np.median(t_new):.4g} "
-          f"speedup={np.median(ratios):.3f} identical={int(identical)} max_rel_diff={max_rel:.3g} "
-          f"contacts={n_contacts} load={load:.2f}")
+          f"speedup={np.median(ratios):.3f} step_ms_old={np.median(s_old):.4g} "
+          f"step_ms_new={np.median(s_new):.4g} step_speedup={np.median(step_ratios):.3f} "
+          f"identical={int(identical)} max_rel_diff={max_rel:.3g} contacts={n_contacts} "
+          f"load={load:.2f}")
     return 0
 
 

@@ -454,7 +454,8 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
                         ij = 1.0 / S[_IJ * _BLOCK_B + q] + mj * rj * rj
                         ieff = ii * ij / (ii + ij)
                     h1, h2, h3, m1, m2, m3 = _rolling_torque(
-                        rolling, S[_H1 * _BLOCK_B + q], S[_H2 * _BLOCK_B + q], S[_H3 * _BLOCK_B + q],
+                        rolling,
+                        S[_H1 * _BLOCK_B + q], S[_H2 * _BLOCK_B + q], S[_H3 * _BLOCK_B + q],
                         oi1 - oj1, oi2 - oj2, oi3 - oj3, e1, e2, e3, kn, kt, delta,
                         reff, fn_cap, mur, dt, ieff, eta_r, krf)
                     S[_H1 * _BLOCK_B + q] = h1
