@@ -145,6 +145,7 @@ def make_bedstruct(fr, *, n_threads: int, warmup: int, dt: float | None = None) 
                      walls=[Plane((0, 0, 0), (0, 0, 1), name="floor")], n_threads=n_threads,
                      dt=dt, force=dt is not None, skin=bench_skin(fr))
     sim.serial_below = 0  # use the threads even for the --quick bed
+    sim.yield_when_busy = False  # the threads asked for, however busy the machine
     sim.add_particles(fr.positions, fr.radii, velocities=fr.velocities, omegas=fr.omegas)
     sim.run(warmup)
     return sim

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import time as _time
 from dataclasses import dataclass
 
@@ -104,7 +105,10 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         Number of threads (and force-buffer chunks); default all of numba's.
         Results are bitwise reproducible for a given seed and n_threads.
         Systems of fewer than ``serial_below`` (5000) particles run the same
-        chunks on one thread (identical results, less overhead).
+        chunks on one thread (identical results, less overhead). So does a
+        run that starts while other processes keep the cores busy (with
+        ``yield_when_busy``, the default): threads that wait for each other
+        on a loaded machine run slower than one thread alone.
     seed : int, optional
         Seed of the generator used by insertion.
     nonfinite : {"raise", "drop"}
@@ -159,6 +163,10 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         self._resume_outputs = None
         self.n_threads = int(n_threads or _numba.get_num_threads())
         self.serial_below = 5000
+        self.yield_when_busy = True
+        # the pair pass in gather-compute-scatter blocks (vectorised contact law); False runs
+        # the single loop, whose rounding the reference trajectories record
+        self._blocked_pairs = True
         if self.n_threads < 1:
             raise ConfigError(f"`n_threads` must be >= 1; got {n_threads}")
         self.rng = np.random.default_rng(seed)
@@ -345,7 +353,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
                       self._pair_tab, m.rolling_code, m.limit_force, float(m.rolling_damping), dt,
                       store, fn_out, ft_out, self._cap if m.capillary else None,
                       (self.hx if hx is None else hx, self._age) if m.contact_ageing else None,
-                      self._kr_fac)
+                      self._kr_fac, blocked=self._blocked_pairs)
 
     def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm,
                      kick_next=False):
@@ -515,7 +523,12 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         # n_threads); small systems run those chunks on one thread, where thread
         # wake-up costs more than the work (ENGINE-NOTES point 10)
         actual = 1 if self.n_particles < self.serial_below else self.n_threads
-        _numba.set_num_threads(min(actual, _numba_max_threads()))
+        actual = min(actual, _numba_max_threads())
+        if actual > 1 and self.yield_when_busy and _cores_busy(actual):
+            log.info("other processes keep the cores busy: this run's %d chunks run on one "
+                     "thread", self.n_threads)
+            actual = 1
+        _numba.set_num_threads(actual)
         bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -565,6 +578,32 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
         return RunStats(nsteps, wall, psteps / wall if wall > 0 else float("nan"),
                         self.n_rebuilds - reb0, self.n_removed - rem0,
                         self.n_lost_nonfinite - bad0)
+
+
+#: this process's wall time, CPU time and the others' load at the last look (_cores_busy)
+_LOAD_PROBE = [None, None, 0.0]
+
+
+def _cores_busy(threads: int) -> bool:
+    """Whether other processes leave fewer than ``threads`` cores to this one.
+
+    The 1-minute load average less this process's own use (its CPU time over the
+    wall time since the previous look, one thread at the first) estimates what the
+    others run; the cores are busy when that exceeds ``cores - threads + 0.5``. The
+    load is looked at most every half second (the estimate is kept in between);
+    False where the load average is unknown.
+    """
+    try:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+        wall, cpu = _time.perf_counter(), _time.process_time()
+        w0, c0, others = _LOAD_PROBE
+        if w0 is None or wall - w0 >= 0.5:
+            own = 1.0 if w0 is None else (cpu - c0) / (wall - w0)
+            others = os.getloadavg()[0] - own
+            _LOAD_PROBE[:] = [wall, cpu, others]
+    except (AttributeError, OSError):
+        return False
+    return others > (cores or 1) - threads + 0.5
 
 
 def _numba_max_threads() -> int:

@@ -8,6 +8,9 @@ spreading over it (``spread``) or the floor plate of a repose box sliding out
 extension. :func:`run_case` returns the state after the run, the contact forces
 the output path computes and the wall contacts (all arrays).
 
+The runs use the engine's single-loop pair pass (the blocked pass rounds differently in
+the last bits; ``test_engine_speedpaths.py`` compares the two).
+
 Run this module as a script to record the digests of this machine's results into
 ``data/reference_trajectories.json`` (and, with ``--npz DIR``, the arrays); ``--cases``
 re-records only the cases named:
@@ -59,8 +62,12 @@ def _cases() -> dict[str, tuple[str, dict]]:
 CASES = _cases()
 
 
-def run_case(name: str) -> dict[str, np.ndarray]:
-    """The arrays of one case after its run (see the module docstring)."""
+def run_case(name: str, *, blocked: bool = False) -> dict[str, np.ndarray]:
+    """The arrays of one case after its run (see the module docstring).
+
+    The digests are those of the engine's single-loop pair pass; ``blocked`` runs the
+    blocked (vectorised) pair pass instead, whose rounding differs in the last bits.
+    """
     scene, kw = CASES[name]
     model = ContactModel(Material(E, NU, RHO), restitution=0.4, friction=0.5,
                          rolling_friction=0.1, limit_force=(scene == "repose"), **kw)
@@ -78,6 +85,7 @@ def run_case(name: str) -> dict[str, np.ndarray]:
             walls.append(Blade(gap=200e-6, speed=0.0, x0=-0.3e-3))
         sim = Simulation(box, model, walls=walls, n_threads=2, seed=3, gravity=(0.0, 0.0, -50.0))
         region = ((0, 0, 0), (0.6e-3, 0.5e-3, 0.9e-3))
+    sim._blocked_pairs = blocked
     sim.insert_raindrop(300, radii, region=region, velocity=(0.05, 0.0, -0.5))
     sim.run(SETTLE)
     if model.contact_ageing:

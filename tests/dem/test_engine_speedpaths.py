@@ -1,6 +1,7 @@
 """The engine's fast paths give the same numbers as the plain ones (bit for bit)."""
 
 import numpy as np
+import pytest
 
 from bedstruct import Box
 from bedstruct.dem import ContactModel, Material, Plane, Simulation
@@ -32,27 +33,36 @@ def test_fused_steps_equal_plain_steps():
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
-def _pair_call(sim, pi, pj, psh, ht, hr, bounds, fb, tb, fn, ft):
+def _pair_call(sim, pi, pj, psh, ht, hr, bounds, fb, tb, fn, ft, blocked=True):
     m = sim.model
     K.pair_forces((sim.x, sim.v, sim.om, sim.rad, sim.mass, sim.inv_i, sim.ptype), (pi, pj, psh),
                   sim._L, (ht, hr), bounds, fb, tb, sim._pair_tab, m.rolling_code, m.limit_force,
-                  float(m.rolling_damping), sim.dt, True, fn, ft)
+                  float(m.rolling_damping), sim.dt, True, fn, ft, sim._cap if m.capillary else None,
+                  None, sim._kr_fac, blocked=blocked)
 
 
-def test_pair_kernel_blocks_equal_pair_by_pair():
-    # the kernel works in blocks of 64 pairs split into touching and other pairs;
-    # every pair must get the force it gets alone, and pairs apart lose their history
+def _lattice(n_threads=3, side=8, **kw):
+    """A jammed lattice: about half the bonds overlap, random velocities and spins."""
     model = ContactModel(Material(E, NU, RHO), restitution=0.3, friction=0.5,
-                         rolling_friction=0.1, rolling_model="epsd2", cohesion=1e4)
-    box = Box([0, 0, 0], [1e-3, 1e-3, 1e-3], boundary="pp pp ff")
-    sim = Simulation(box, model, n_threads=3, gravity=(0, 0, 0))
+                         **{"rolling_friction": 0.1, "rolling_model": "epsd2", "cohesion": 1e4,
+                            **kw})
+    box = Box([0, 0, 0], [side * 125e-6] * 3, boundary="pp pp ff")
+    sim = Simulation(box, model, n_threads=n_threads, gravity=(0, 0, 0))
     rng = np.random.default_rng(0)
-    g = (np.arange(8) + 0.5) * 2 * R * 0.999
+    g = (np.arange(side) + 0.5) * 2 * R * 0.999
     pos = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
-    pos += rng.normal(0, 0.01 * R, pos.shape)  # about half the lattice bonds overlap
+    pos += rng.normal(0, 0.01 * R, pos.shape)
     sim.add_particles(pos, R, velocities=rng.normal(0, 0.01, pos.shape),
                       omegas=rng.normal(0, 100.0, pos.shape))
     sim.run(1)
+    return sim
+
+
+@pytest.mark.parametrize("blocked", [True, False], ids=["blocked", "single-loop"])
+def test_pair_kernel_blocks_equal_pair_by_pair(blocked):
+    # the kernel works in blocks of pairs split into touching and other pairs;
+    # every pair must get the force it gets alone, and pairs apart lose their history
+    sim = _lattice()
     m = sim.n_pairs
     assert m > 3 * 64 + 5  # several blocks per chunk and a partial last block
     rng = np.random.default_rng(1)
@@ -65,7 +75,7 @@ def test_pair_kernel_blocks_equal_pair_by_pair():
     ht, hr = ht0.copy(), hr0.copy()
     fb, tb = np.zeros((3, n, 3)), np.zeros((3, n, 3))
     fn, ft = np.zeros(m), np.zeros((m, 3))
-    _pair_call(sim, sim.pi, sim.pj, sim.psh, ht, hr, sim._chunks(m), fb, tb, fn, ft)
+    _pair_call(sim, sim.pi, sim.pj, sim.psh, ht, hr, sim._chunks(m), fb, tb, fn, ft, blocked)
     assert np.all(ht[~touch] == 0.0) and np.all(hr[~touch] == 0.0)
     assert np.all(fn[~touch] == 0.0)
     one = np.array([0, 1])
@@ -74,11 +84,82 @@ def test_pair_kernel_blocks_equal_pair_by_pair():
         f1, t1 = np.zeros((1, n, 3)), np.zeros((1, n, 3))
         fn1, ft1 = np.zeros(1), np.zeros((1, 3))
         _pair_call(sim, sim.pi[k:k + 1], sim.pj[k:k + 1], sim.psh[k:k + 1], h1, r1, one, f1, t1,
-                   fn1, ft1)
+                   fn1, ft1, blocked)
         assert fn1[0] == fn[k] and np.array_equal(ft1[0], ft[k])
         assert np.array_equal(h1[0], ht[k]) and np.array_equal(r1[0], hr[k])
     # Newton's third law over all chunks
     np.testing.assert_allclose(fb.sum(axis=(0, 1)), 0.0, atol=1e-12 * np.abs(fb).max())
+
+
+_ROLLING = {"none": dict(rolling_model="none", cohesion=0.0),
+            "cdt": dict(rolling_model="cdt"), "epsd": dict(rolling_model="epsd"),
+            "epsd2": dict(rolling_model="epsd2"),
+            "epsd-krf3": dict(rolling_model="epsd", rolling_stiffness_factor=3.0)}
+
+
+def _both_passes(sim):
+    """One pair pass from the same state, blocked and single loop: {blocked: arrays}."""
+    out = {}
+    m, n = sim.n_pairs, sim.n_particles
+    rng = np.random.default_rng(1)
+    ht0 = sim.ht + rng.normal(0, 1e-7, (m, 3))  # springs and rolling torques under way
+    hr0 = sim.hr + rng.normal(0, 1e-12, (m, 3))
+    for blocked in (True, False):
+        ht, hr = ht0.copy(), hr0.copy()
+        fb, tb = np.zeros((3, n, 3)), np.zeros((3, n, 3))
+        fn, ft = np.zeros(m), np.zeros((m, 3))
+        _pair_call(sim, sim.pi, sim.pj, sim.psh, ht, hr, sim._chunks(m), fb, tb, fn, ft, blocked)
+        out[blocked] = dict(fn=fn, ft=ft, ht=ht, hr=hr, f=fb, tq=tb)
+    return out
+
+
+@pytest.mark.parametrize("case", sorted(_ROLLING))
+def test_blocked_pair_pass_equals_single_loop_to_rounding(case):
+    # the two passes compute the same contact law; they round differently (the single loop's
+    # fast-math may reassociate and fuse, the blocked loop rounds every operation as written),
+    # which amplified by cancellation (delta = r_i + r_j - r, cohesion against Hertz) stays
+    # below 1e-10 of each quantity's largest magnitude
+    out = _both_passes(_lattice(**_ROLLING[case]))
+    for name, ref in out[False].items():
+        scale = np.abs(ref).max()
+        assert scale > 0.0 or name == "hr", name
+        np.testing.assert_allclose(out[True][name], ref, rtol=0, atol=1e-10 * scale, err_msg=name)
+        assert np.array_equal(out[True][name] == 0.0, ref == 0.0), name  # same pairs in contact
+
+
+def test_blocked_pair_pass_rounds_as_written(monkeypatch):
+    # the blocked pass's vectorised loop gives the bits of its own source run by the Python
+    # interpreter (every operation rounded as written, in IEEE double)
+    from bedstruct.dem import _kernels_pairs as KP
+    sim = _lattice(side=5, rolling_model="epsd")
+    m, n = sim.n_pairs, sim.n_particles
+    assert m > 3 * KP._BLOCK_B
+    rng = np.random.default_rng(2)
+    ht0 = sim.ht + rng.normal(0, 1e-7, (m, 3))
+    hr0 = sim.hr + rng.normal(0, 1e-12, (m, 3))
+    bounds = sim._chunks(m)
+    res = []
+    for python in (False, True):
+        ht, hr = ht0.copy(), hr0.copy()
+        fb, tb = np.zeros((3, n, 3)), np.zeros((3, n, 3))
+        fn, ft = np.zeros(m), np.zeros((m, 3))
+        if not python:
+            _pair_call(sim, sim.pi, sim.pj, sim.psh, ht, hr, bounds, fb, tb, fn, ft)
+        else:
+            for name in ("hertz_stiffness", "pair_damping", "normal_force", "tangential_velocity",
+                         "shear_torques", "_tangential_history", "_rolling_torque",
+                         "_sjkr_area_pair", "_open_pair"):
+                monkeypatch.setattr(KP, name, getattr(KP, name).py_func)
+            mo = sim.model
+            for t in range(len(bounds) - 1):
+                KP._pair_chunk_blocked.py_func(
+                    t, (sim.x, sim.v, sim.om, sim.rad, sim.mass, sim.inv_i, sim.ptype),
+                    (sim.pi, sim.pj, sim.psh), sim._L, (ht, hr), bounds, fb, tb, sim._pair_tab,
+                    mo.rolling_code, mo.limit_force, float(mo.rolling_damping), sim.dt, True, fn,
+                    ft, None)
+        res.append((fn, ft, ht, hr, fb, tb))
+    for a, b, name in zip(*res, ("fn", "ft", "ht", "hr", "f", "tq")):
+        assert np.array_equal(a, b), name
 
 
 def test_run_interrupted_between_fused_steps_resumes_exactly(tmp_path):
@@ -174,3 +255,59 @@ def test_history_remap_by_partner_equals_the_binary_search():
     a, b = np.argsort(dense.ids), np.argsort(sparse.ids)
     np.testing.assert_array_equal(dense.x[a], sparse.x[b])
     np.testing.assert_array_equal(dense.om[a], sparse.om[b])
+
+
+def test_busy_machine_runs_the_chunks_on_one_thread(monkeypatch):
+    # a run that finds the cores busy runs its chunks on one thread: same chunks, same bits
+    import numba
+
+    from bedstruct.dem import simulation
+    if simulation._numba_max_threads() < 2:
+        pytest.skip("numba may use one thread only here")
+    used = {}
+    res = {}
+    for busy in (False, True):
+        monkeypatch.setattr(simulation, "_cores_busy", lambda threads, busy=busy: busy)
+        sim = _bed()
+        sim.serial_below = 0
+        sim.run(200, callback=lambda s: used.setdefault(busy, numba.get_num_threads()))
+        res[busy] = sim
+    assert used == {False: 2, True: 1}
+    for name in ("x", "v", "om", "f", "tq", "ht", "hr"):
+        np.testing.assert_array_equal(getattr(res[True], name), getattr(res[False], name),
+                                      err_msg=name)
+    # without yield_when_busy the threads run whatever the load
+    sim = _bed()
+    sim.serial_below = 0
+    sim.yield_when_busy = False
+    sim.run(2, callback=lambda s: used.setdefault("off", numba.get_num_threads()))
+    assert used["off"] == 2
+
+
+def test_cores_busy_subtracts_own_use(monkeypatch):
+    from bedstruct.dem import simulation
+    monkeypatch.setattr(simulation.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    clock = {"wall": 100.0, "cpu": 10.0}
+    monkeypatch.setattr(simulation._time, "perf_counter", lambda: clock["wall"])
+    monkeypatch.setattr(simulation._time, "process_time", lambda: clock["cpu"])
+    monkeypatch.setattr(simulation, "_LOAD_PROBE", [None, None, 0.0])
+    load = {"1min": 1.3}
+    monkeypatch.setattr(simulation.os, "getloadavg", lambda: (load["1min"], 0.0, 0.0))
+    # first look: this process counts as one running thread; 0.3 for the others leaves
+    # two cores to two threads
+    assert not simulation._cores_busy(2)
+    load["1min"] = 3.0  # within half a second the estimate is kept
+    clock["wall"] += 0.1
+    assert not simulation._cores_busy(2)
+    # 1.9 s later, this process used 2 cores (its two threads): 3 - 2 = 1 for the others
+    clock["wall"] += 1.9
+    clock["cpu"] += 2.0 * 2.0
+    assert simulation._cores_busy(2)
+    assert not simulation._cores_busy(1)
+    # idle for 10 s: a load of 1.2 is all the others'
+    load["1min"] = 1.2
+    clock["wall"] += 10.0
+    assert simulation._cores_busy(2) and not simulation._cores_busy(1)
+    load["1min"] = 0.2
+    clock["wall"] += 10.0
+    assert not simulation._cores_busy(2)

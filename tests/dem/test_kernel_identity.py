@@ -1,5 +1,9 @@
 """The engine's results are bit for bit those recorded in ``data/reference_trajectories.json``.
 
+The runs use the single-loop pair pass (``reference_trajectories.run_case``); the blocked
+pass, the default without capillary bridges and ageing, rounds differently in the last bits
+and is compared with the single loop in ``test_engine_speedpaths.py``.
+
 The digests were recorded with ``reference_trajectories.py`` on the machine named in the
 file (the bits depend on the CPU and the numba/llvmlite versions, not only on the code);
 elsewhere the test is skipped. A change to the kernels that is meant to keep the model
