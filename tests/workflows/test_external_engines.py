@@ -66,8 +66,10 @@ def test_tiny_pile_matches_embedded(tmp_path, engine, embedded_tiny):
     res = run_repose(_cfg(engine), out=tmp_path)
     ext, emb = res.replicates[0], embedded_tiny.replicates[0]
     assert ext.n_inserted in (emb.n_inserted, emb.n_inserted - 1)  # same spheres (1 round vs rounds)
-    # the bulk outcome is not chaotic: pile height and what stays agree closely
-    assert ext.pile_height == pytest.approx(emb.pile_height, rel=0.06)
+    # the bulk outcome is far less chaotic than the angle: the embedded tiny pile's height
+    # scatters by 2.2 % (sd) between seeds (0.377-0.402 mm over 8 runs), so two single piles
+    # differ by 3.1 % (sd); 9 % is three of those
+    assert ext.pile_height == pytest.approx(emb.pile_height, rel=0.09)
     assert ext.n_remaining == pytest.approx(emb.n_remaining, rel=0.08)
     # one tiny pile scatters by ~4 degrees between seeds: compare loosely here
     assert 12 < ext.angle_deg < 35
