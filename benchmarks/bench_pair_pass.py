@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     for rep in range(a.repeat):  # whole steps (the simulation advances), 1 thread, CPU time
         times = {}
         for blocked in ((False, True) if rep % 2 == 0 else (True, False)):
-            sim._blocked_pairs = blocked
+            sim.blocked_pairs = blocked
             c0 = time.process_time()
             sim.run(a.steps)
             times[blocked] = (time.process_time() - c0) / a.steps * 1e3

@@ -588,7 +588,7 @@ _BLOCKED_BY_ROLLING = (_pair_forces_blocked_0, _pair_forces_blocked_1, _pair_for
 
 
 def pair_forces(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt, store,
-                fn_out, ft_out, cap=None, age=None, kr_fac=None, blocked=True):
+                fn_out, ft_out, cap=None, age=None, kr_fac=None, blocked=False):
     """Contact forces of the pair list into per-chunk buffers (history updated in place).
 
     Parameters

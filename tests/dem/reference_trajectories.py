@@ -85,7 +85,7 @@ def run_case(name: str, *, blocked: bool = False) -> dict[str, np.ndarray]:
             walls.append(Blade(gap=200e-6, speed=0.0, x0=-0.3e-3))
         sim = Simulation(box, model, walls=walls, n_threads=2, seed=3, gravity=(0.0, 0.0, -50.0))
         region = ((0, 0, 0), (0.6e-3, 0.5e-3, 0.9e-3))
-    sim._blocked_pairs = blocked
+    sim.blocked_pairs = blocked
     sim.insert_raindrop(300, radii, region=region, velocity=(0.05, 0.0, -0.5))
     sim.run(SETTLE)
     if model.contact_ageing:
