@@ -256,6 +256,7 @@ def parse_local(path, frame):
                     n_particles=frame.n_particles, source=str(path))
 
 
+@pytest.mark.slow   # the default run's cross-check is test_liggghts_written_bed_agrees
 def test_geometric_agrees_with_dumped_contacts(tmp_path):
     from bedstruct import read_dump_local
     frame = relaxed_bed()
