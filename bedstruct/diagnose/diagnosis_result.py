@@ -228,6 +228,7 @@ class Diagnosis:
                            f"the value is the mean of the others ({sim}), and the answer's "
                            f"model must give such trials as often")
         out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
+        out += [f"set-up: {c}" for c in self.measurements.setup.conversions]
         return out + list(self.settings.get("data_notes") or [])
 
 

@@ -188,3 +188,18 @@ def test_an_observable_layer_beyond_the_setups_layers_is_refused(tmp_path):
     with pytest.raises(ConfigError, match=r"layers\.toml: observable #1 'h3': key "
                                           r"'conditions\.layer': layer 3.*2 layer\(s\)"):
         load_measurements(f)
+
+
+def test_the_answers_data_notes_list_the_setups_unit_conversions(tmp_path):
+    from types import SimpleNamespace
+
+    from bedstruct.diagnose import Diagnosis
+    ms = load_measurements(_file(tmp_path, '''
+        [conditions]
+        blade_speed = "5.08 cm/s"
+    ''', _HEIGHT))
+    view = SimpleNamespace(settings={}, measurements=ms, trials_without_reading=lambda: [])
+    notes = Diagnosis.data_notes(view)
+    assert [n for n in notes if n.startswith("set-up: ")] == \
+        [f"set-up: {c}" for c in ms.setup.conversions]
+    assert any("cm/s -> m/s" in n for n in notes)
