@@ -127,6 +127,16 @@ def write_data_file(sim: Simulation, path: Path) -> Path:
     return path
 
 
+def settled_bed_data(n: int, cache: Path) -> Path:
+    """The data file of a settled bed of ``n`` spheres in ``cache``, poured by bedstruct on
+    first use (:func:`pour`) and reused after."""
+    cache.mkdir(parents=True, exist_ok=True)
+    data = cache / f"bedstruct_bed{n}.data"
+    if not data.exists():
+        write_data_file(pour(n, cache / f"bedstruct_bed{n}.npz"), data)
+    return data
+
+
 def load_bed(data: Path):
     """The bed of a data file as a Frame (SI, x/y periodic, z fixed)."""
     from bedstruct.io import read_data
@@ -312,9 +322,7 @@ def main(argv=None) -> int:
     elif other.exists():
         data, origin = other, "poured by LAMMPS/LIGGGHTS (bedstruct.engines.cached_bed)"
     else:
-        sim = pour(n, cache / f"bedstruct_bed{n}.npz")
-        write_data_file(sim, data)
-        origin = "poured by bedstruct"
+        data, origin = settled_bed_data(n, cache), "poured by bedstruct"
     import numba
     max_threads = int(numba.config.NUMBA_NUM_THREADS)
     one_thread_only = max_threads < 2

@@ -52,11 +52,7 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=50, help="whole steps per side and repeat")
     ap.add_argument("--cache-dir", default=str(Path(tempfile.gettempdir()) / "bedstruct-engines"))
     a = ap.parse_args(argv)
-    cache = Path(a.cache_dir)
-    cache.mkdir(parents=True, exist_ok=True)
-    data = cache / f"bedstruct_bed{a.particles}.data"
-    if not data.exists():
-        be.write_data_file(be.pour(a.particles, cache / f"bedstruct_bed{a.particles}.npz"), data)
+    data = be.settled_bed_data(a.particles, Path(a.cache_dir))
     load0 = os.getloadavg()[0]
     _numba.set_num_threads(1)
     sim = be.make_bedstruct(be.load_bed(data), n_threads=1, warmup=20)
