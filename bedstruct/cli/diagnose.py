@@ -224,23 +224,14 @@ def run(args) -> int:
     ms = load_measurements(args.real)
     design = diagnosis_design(ms, cfg.effects)
     sim = make_simulator(cfg, design)
-    settings = dict(replicates=cfg.replicates, top_up=cfg.top_up,
-                    seed=cfg.seed if args.seed is None else args.seed,
-                    alpha=cfg.alpha, select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
-                    max_effects=cfg.max_effects, refine=cfg.refine,
-                    confirm_rounds=cfg.confirm_rounds, bounds=cfg.bounds)
+    settings = cfg.diagnose_settings(seed=args.seed)
     amortised = None
     if args.library:
         from ..diagnose.amortised import diagnose_with_library
-        lib = dict(cfg.library)
-        vary = lib.pop("vary", 0.25)
-        if "replicates" in lib:
-            lib["library_replicates"] = lib.pop("replicates")
         amortised = diagnose_with_library(
-            ms, sim, base=cfg.base, library=args.library, effects=cfg.effects,
-            nuisance=cfg.nuisance, vary={n: vary for n in cfg.nuisance},
-            workers=args.workers or 1, scheduler=args.scheduler, progress=args.progress,
-            **lib, **settings)
+            ms, sim, base=cfg.base, library=args.library, workers=args.workers or 1,
+            scheduler=args.scheduler, progress=args.progress, **cfg.library_settings(),
+            **settings)
         diag = amortised.diagnosis
     elif args.workers is not None or args.scheduler:
         raise UsageError("--workers/--scheduler build a run library: give --library DIR")

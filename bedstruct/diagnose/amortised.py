@@ -28,7 +28,8 @@ from .emulator import EmulatedSimulator, EmulatorCheck, fit_emulator
 from .run_design import design_spec
 from .run_library import build_library
 
-__all__ = ["AmortisedDiagnosis", "diagnose_with_library", "confirming_runs"]
+__all__ = ["AmortisedDiagnosis", "diagnose_with_library", "library_emulator",
+           "confirming_runs"]
 
 
 @dataclass(frozen=True)
@@ -140,6 +141,34 @@ def confirming_runs(simulator, base, effects, seeds, workers: int = 1) -> list:
     return [simulator(base, effects, s) for s in seeds]
 
 
+def library_emulator(simulator, *, base: Mapping[str, float], library,
+                     effects: Sequence | None = None,
+                     nuisance: Sequence[str] = ("cohesion_energy_density",),
+                     vary: Mapping | None = None, n_base: int = 16, n_per_effect: int = 16,
+                     library_replicates: int = 3, workers: int = 1, scheduler=None,
+                     progress: bool = False):
+    """The emulator of a simulator's run library: built (or resumed, or reused) and fitted.
+
+    The library's design varies each ``nuisance`` base parameter over ``vary`` (default
+    +-25 %) and each catalogue effect over its prior
+    (:func:`~bedstruct.diagnose.run_design.design_spec`). Parameters as
+    :func:`diagnose_with_library`.
+
+    Returns
+    -------
+    Emulator
+        Fitted on the library (``emulator.n_runs`` runs, ``emulator.key`` its key).
+    """
+    effects = tuple(effects) if effects is not None else None
+    if vary is None:
+        vary = {name: 0.25 for name in nuisance}
+    spec = design_spec(dict(base), vary=vary, effects=effects, n_base=n_base,
+                       n_per_effect=n_per_effect, replicates=library_replicates)
+    lib = build_library(simulator, spec, Path(library), workers=workers, scheduler=scheduler,
+                        progress=progress)
+    return fit_emulator(lib, progress=progress)
+
+
 def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float], library,
                           effects: Sequence | None = None,
                           nuisance: Sequence[str] = ("cohesion_energy_density",),
@@ -205,13 +234,10 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
     if confirm_seeds < 1:
         raise ConfigError(f"confirm_seeds must be >= 1; got {confirm_seeds}")
     effects = tuple(effects) if effects is not None else None
-    if vary is None:
-        vary = {name: 0.25 for name in nuisance}
-    spec = design_spec(dict(base), vary=vary, effects=effects, n_base=n_base,
-                       n_per_effect=n_per_effect, replicates=library_replicates)
-    lib = build_library(simulator, spec, Path(library), workers=workers, scheduler=scheduler,
-                        progress=progress)
-    emulator = fit_emulator(lib, progress=progress)
+    emulator = library_emulator(simulator, base=base, library=library, effects=effects,
+                                nuisance=nuisance, vary=vary, n_base=n_base,
+                                n_per_effect=n_per_effect, library_replicates=library_replicates,
+                                workers=workers, scheduler=scheduler, progress=progress)
     emulated = EmulatedSimulator(emulator)
     diag = diagnose(measurements, emulated, base=base, effects=effects, nuisance=nuisance,
                     progress=progress, **diagnose_kwargs)
@@ -224,7 +250,8 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
     seeds = [RERUN_SEED_STRIDE + i for i in range(int(confirm_seeds))]
     runs = confirming_runs(simulator, point, magnitudes, seeds, workers)
     check = emulator.check(runs, point, magnitudes)
-    return AmortisedDiagnosis(diag, check, point, magnitudes, Path(library), lib.n_runs,
+    return AmortisedDiagnosis(diag, check, point, magnitudes, Path(library),
+                              emulator.n_runs,
                               float(emulator.loo.loo_rmse_sigma),
                               float(emulator.loo.loo_within_2sigma), tuple(emulator.names),
                               dict(emulator.n_components))

@@ -43,12 +43,14 @@ import numpy as np
 from .._json import to_jsonable, write_json_atomic
 from .._version import __version__
 from ..errors import ConfigError
+from .amortised import library_emulator
 from .blind_report import benchmark_html, confusion_figure
 from .blind_twins import (OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design, draw_twins,
                           split_counts, twin_measurements)
 from .catalogue import CATALOGUE
 from .config import load_sim_config, make_simulator
 from .diagnosis import diagnose, diagnosis_design
+from .emulator import EmulatedSimulator
 from .measurement_io import load_measurements
 
 __all__ = ["PROTOCOL", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
@@ -133,13 +135,18 @@ def _finite(x) -> float | None:
     return float(x) if x is not None and np.isfinite(x) else None
 
 
-def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None) -> dict:
+def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
+                  emulator=None) -> dict:
     """Diagnose one measurement file as ``bedstruct diagnose --sim SIM --real PATH`` does.
 
     ``sim`` is ``"surrogate"`` or a simulation config path (:func:`load_sim_config`);
     ``settings`` replaces fields of that config (``replicates``, ``refine``...: for tests
-    only; the protocol uses the config's, i.e. the diagnosis' defaults). The file is read
-    with ``check_range=False`` (a twin's numbers need not lie in a kind's plausible range).
+    only; the protocol uses the config's, i.e. the diagnosis' defaults). With ``emulator``
+    (an :class:`~bedstruct.diagnose.emulator.Emulator` of that configuration's run
+    library, :func:`~bedstruct.diagnose.amortised.library_emulator`) the diagnosis runs
+    on the emulator, as ``--library`` answers, without the confirming rerun. The file is
+    read with ``check_range=False`` (a twin's numbers need not lie in a kind's plausible
+    range).
 
     Returns
     -------
@@ -151,16 +158,14 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None)
         ``seconds``.
     """
     t0 = time.perf_counter()
-    cfg = load_sim_config(sim)
-    if settings:
-        cfg = dataclasses.replace(cfg, **settings)
+    cfg = _sim_config(sim, settings)
     ms = load_measurements(path, check_range=False)
-    simulator = make_simulator(cfg, diagnosis_design(ms, cfg.effects))
+    if emulator is not None:
+        simulator = EmulatedSimulator(emulator)
+    else:
+        simulator = make_simulator(cfg, diagnosis_design(ms, cfg.effects))
     diag = diagnose(ms, simulator, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
-                    replicates=cfg.replicates, top_up=cfg.top_up, seed=cfg.seed, alpha=cfg.alpha,
-                    select_alpha=cfg.select_alpha, gof_alpha=cfg.gof_alpha,
-                    max_effects=cfg.max_effects, refine=cfg.refine,
-                    confirm_rounds=cfg.confirm_rounds)
+                    **cfg.diagnose_settings())
     att, sh = diag.attribution, diag.shrink
     effects = [{"effect": e.effect, "magnitude": float(e.magnitude),
                 "interval": [float(v) for v in e.interval], "confidence": _finite(e.confidence)}
@@ -176,6 +181,11 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None)
                                     and p_before < SHRINK_ALPHA),
             "reason": att.reason, "simulator": diag.simulator,
             "seconds": round(time.perf_counter() - t0, 2)}
+
+
+def _sim_config(sim, settings):
+    cfg = load_sim_config(sim)
+    return dataclasses.replace(cfg, **settings) if settings else cfg
 
 
 @dataclass(frozen=True)
@@ -280,12 +290,14 @@ def score_benchmark(truth: dict, results: dict) -> dict:
             "settings": truth["settings"], "twins": per_twin}
 
 
-def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs) -> dict:
+def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library) -> dict:
     n_eff, n_null, n_ooc = split_counts(n)
     return {"protocol": PROTOCOL, "commit": _commit(), "version": __version__,
             "settings": {"n": int(n), "seed": int(seed), "twins_engine": twins_engine,
                          "preset": preset, "sim": str(sim),
                          "diagnose_settings": dict(settings or {}) or "defaults",
+                         "diagnosed_on": "simulator" if library is None else
+                         {"emulator_of_run_library": _library_doc(sim, settings)},
                          "split": {"effect": n_eff, "null": n_null, "out_of_catalogue": n_ooc},
                          "effect_magnitudes": "uniform over the prior, the tenth of its range "
                                               "nearest 0 left out",
@@ -296,12 +308,34 @@ def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs) -> dict:
             "twins": {s.twin: s.as_dict() for s in specs}}
 
 
+def _library_doc(sim, settings) -> dict:
+    """The run library's design settings of the diagnosing configuration (for the truth)."""
+    lib = _sim_config(sim, settings).library_settings()
+    lib["effects"] = [e.name for e in lib["effects"]]
+    lib["nuisance"] = list(lib["nuisance"])
+    return lib
+
+
+def _emulator(sim, settings, design, library, workers, scheduler, progress):
+    """Build (or resume, or reuse) the diagnosing configuration's run library on the
+    benchmark's measurement design, and fit its emulator."""
+    cfg = _sim_config(sim, settings)
+    simulator = make_simulator(cfg, diagnosis_design(design, cfg.effects))
+    return library_emulator(simulator, base=cfg.base, library=library, workers=workers,
+                            scheduler=scheduler, progress=progress, **cfg.library_settings())
+
+
 def _dump(doc) -> bytes:
     return (json.dumps(doc, indent=1, sort_keys=True) + "\n").encode("utf-8")
 
 
-def _prepare(out: Path, truth: dict, specs, twins_engine, preset) -> dict:
-    """Write truth, twin files and seal (or check those there); returns the seal."""
+def _prepare(out: Path, truth: dict, specs, twins_engine, preset, progress=None) -> dict:
+    """Write truth, twin files and seal (or check those there); returns the seal.
+
+    A run killed while making the twins resumes with the twin files already written (each
+    is written atomically, so one that exists is complete); the seal is written once every
+    twin file exists.
+    """
     out.mkdir(parents=True, exist_ok=True)
     tpath, spath = out / "truth.json", out / "seal.json"
     body = _dump(truth)
@@ -324,9 +358,12 @@ def _prepare(out: Path, truth: dict, specs, twins_engine, preset) -> dict:
     for s in specs:
         p = out / "twins" / f"{s.twin}.toml"
         if sealed is None:
-            tmp = p.with_suffix(".toml.tmp")
-            twin_measurements(s, twins_engine, design, tmp, preset=preset)
-            tmp.replace(p)
+            if not p.exists():  # written atomically: a file there is a finished twin
+                tmp = p.with_suffix(".toml.tmp")
+                twin_measurements(s, twins_engine, design, tmp, preset=preset)
+                tmp.replace(p)
+            if progress is not None:
+                progress(f"{s.twin}: measurement file ready")
         elif not p.exists() or _sha256(p) != sealed["twins_sha256"].get(s.twin):
             raise ConfigError(f"{out}: twin file {p.name} is missing or differs from its seal; "
                               f"refused")
@@ -340,7 +377,8 @@ def _prepare(out: Path, truth: dict, specs, twins_engine, preset) -> dict:
 
 def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surrogate",
                   preset: str = "tiny", sim: str = "surrogate",
-                  diagnose_settings: dict | None = None, progress=None) -> BenchmarkResult:
+                  diagnose_settings: dict | None = None, library=None, workers: int = 1,
+                  scheduler=None, progress=None) -> BenchmarkResult:
     """Run the blind benchmark into folder ``out`` (see the module docstring).
 
     Parameters
@@ -360,8 +398,15 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
     diagnose_settings : dict, optional
         Fields of the simulation config replaced for the diagnosis (tests only: the
         protocol diagnoses with the defaults); recorded in ``truth.json``.
+    library : path, optional
+        Diagnose every twin on the emulator of the diagnosing configuration's run library
+        in this folder (its ``[library]`` table sizes the design; built after the twins
+        are sealed, resumed or reused as ``bedstruct diagnose --library`` does), without
+        a confirming rerun. Recorded in ``truth.json`` (the design, not the folder).
+    workers, scheduler :
+        Local processes, or a Dask scheduler address, for the library's runs.
     progress : callable, optional
-        Called with a line per twin diagnosed.
+        Called with a line per twin made and per twin diagnosed.
 
     Returns
     -------
@@ -372,17 +417,22 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
                           f"got {twins_engine!r}")
     out = Path(out)
     specs = draw_twins(n, seed, twins_engine)
-    truth = _truth_doc(n, seed, twins_engine, preset, sim, diagnose_settings, specs)
-    seal = _prepare(out, truth, specs, twins_engine, preset)
+    truth = _truth_doc(n, seed, twins_engine, preset, sim, diagnose_settings, specs, library)
+    seal = _prepare(out, truth, specs, twins_engine, preset, progress)
     rdir = out / "results"
     rdir.mkdir(exist_ok=True)
     results = {}
+    emulator = None
     for s in specs:
         rp = rdir / f"{s.twin}.json"
         if rp.exists():
             results[s.twin] = json.loads(rp.read_text())
             continue
-        rec = diagnose_file(out / "twins" / f"{s.twin}.toml", sim, settings=diagnose_settings)
+        if library is not None and emulator is None:
+            emulator = _emulator(sim, diagnose_settings, benchmark_design(twins_engine),
+                                 library, workers, scheduler, progress is not None)
+        rec = diagnose_file(out / "twins" / f"{s.twin}.toml", sim, settings=diagnose_settings,
+                            emulator=emulator)
         rec["twin_sha256"] = seal["twins_sha256"][s.twin]
         write_json_atomic(rp, rec)
         results[s.twin] = json.loads(rp.read_text())  # as a resumed run reads it
@@ -434,6 +484,10 @@ def add_benchmark_arguments(parser) -> None:
     add("--out", required=True,
         help="benchmark folder (resumed if it holds this benchmark; another is refused)")
     add("--json", action="store_true", help="print the summary as one line of JSON (last line)")
+    add("--library", default=None, metavar="DIR",
+        help="diagnose on the emulator of the diagnosing config's run library in DIR")
+    add("--workers", type=int, default=None, help="--library: local processes for its runs")
+    add("--scheduler", default=None, help="--library: Dask scheduler address for its runs")
     add("--diagnose-setting", action="append", default=[], metavar="KEY=VALUE",
         help="benchmark: replace a diagnosis setting (replicates, refine, ...); for tests "
              "only, recorded in truth.json")
@@ -462,6 +516,8 @@ def run_benchmark_command(args) -> int:
     res = run_benchmark(args.out, n=arg("n", 40), seed=arg("seed", 0), twins_engine=engine,
                         preset=arg("preset", "tiny"), sim=sim,
                         diagnose_settings=_settings(arg("diagnose_setting", [])) or None,
+                        library=arg("library", None), workers=arg("workers", 1),
+                        scheduler=arg("scheduler", None),
                         progress=None if arg("json", False) else print)
     s = res.summary
 

@@ -77,6 +77,26 @@ class SimConfig:
     library: dict = field(default_factory=dict)
     path: str | None = None
 
+    def diagnose_settings(self, seed: int | None = None) -> dict[str, Any]:
+        """Keyword arguments of :func:`~bedstruct.diagnose.diagnose` this configuration sets
+        (``seed`` replaces the configured replicate seed)."""
+        return dict(replicates=self.replicates, top_up=self.top_up,
+                    seed=self.seed if seed is None else int(seed), alpha=self.alpha,
+                    select_alpha=self.select_alpha, gof_alpha=self.gof_alpha,
+                    max_effects=self.max_effects, refine=self.refine,
+                    confirm_rounds=self.confirm_rounds, bounds=self.bounds)
+
+    def library_settings(self) -> dict[str, Any]:
+        """Keyword arguments of the run library's design
+        (:func:`~bedstruct.diagnose.amortised.library_emulator`) from ``[library]``: each
+        recalibrated parameter varied by ``vary`` (relative half-width, default 0.25)."""
+        lib = dict(self.library)
+        vary = float(lib.pop("vary", 0.25))
+        if "replicates" in lib:
+            lib["library_replicates"] = lib.pop("replicates")
+        return dict(lib, effects=self.effects, nuisance=self.nuisance,
+                    vary={n: vary for n in self.nuisance})
+
     def as_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "base": dict(self.base), "recalibrate": list(self.nuisance),
                 "bounds": parameter_bounds(self.nuisance, self.bounds),

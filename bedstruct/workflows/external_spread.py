@@ -222,7 +222,13 @@ def run_spread_external(cfg: dict, *, out=None):
                 for name in ("frames.dump", "contacts.dump", "start.dump", "start_contacts.dump"):
                     if (stage / name).exists():
                         _gzip(stage / name)
-            write_dump(stage / f"final{gz}", final)
+            # the same layout as the embedded engine's: the bed on the platform after the
+            # layer, and the whole state after the last layer
+            on_bed = ((np.asarray(final.positions)[:, 0] < Lplat)
+                      & (np.asarray(final.positions)[:, 2] > z_plat - rmax))
+            write_dump(stage / f"bed{gz}", final.select(on_bed))
+            if k == K - 1:
+                write_dump(stage / f"final{gz}", final)
             layer, pack, cnw = measure_layer(
                 final, find_contacts(final), cfg, index=k + 1, z_plat=z_plat, front0=front0,
                 r_max=rmax, pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid,

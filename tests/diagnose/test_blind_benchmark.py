@@ -272,8 +272,55 @@ def test_the_cli_hands_its_options_to_the_protocol(tmp_path, monkeypatch, capsys
 
     monkeypatch.setattr(blind, "run_benchmark", fake)
     code = main(["diagnose", "benchmark", "--twins-engine", "surrogate", "--n", "8", "--seed", "3",
-                 "--out", str(tmp_path / "b"), "--diagnose-setting", "replicates=2"])
+                 "--out", str(tmp_path / "b"), "--diagnose-setting", "replicates=2",
+                 "--library", str(tmp_path / "lib"), "--workers", "2"])
     assert code == 1 and "stop here" in capsys.readouterr().err
     assert seen == dict(out=str(tmp_path / "b"), n=8, seed=3, twins_engine="surrogate",
                         preset="tiny", sim="surrogate", diagnose_settings={"replicates": 2},
+                        library=str(tmp_path / "lib"), workers=2, scheduler=None,
                         progress=print)
+
+
+def test_twins_on_a_run_library_emulator(tmp_path):
+    """--library: the twins are diagnosed on the emulator of the diagnosing configuration's
+    run library (built once, after the seal), and the truth records its design."""
+    lib = {"n_base": 4, "n_per_effect": 4, "replicates": 2}
+    out = tmp_path / "lib-run"
+    res = run_benchmark(out, n=4, seed=3, diagnose_settings=dict(FAST, library=lib),
+                        library=tmp_path / "lib")
+    truth = json.loads((out / "truth.json").read_text())
+    on = truth["settings"]["diagnosed_on"]["emulator_of_run_library"]
+    assert on["n_base"] == 4 and on["library_replicates"] == 2
+    assert on["effects"] == [e.name for e in CATALOGUE]
+    recs = [json.loads(p.read_text()) for p in sorted((out / "results").glob("*.json"))]
+    assert len(recs) == 4 and all(r["simulator"].startswith("emulator") for r in recs)
+    runs = list((tmp_path / "lib" / "runs").glob("*.json"))
+    assert len(runs) > 0 and all(p.stat().st_mtime > (out / "seal.json").stat().st_mtime
+                                 for p in runs)
+    assert res.n == 4
+
+
+def test_killed_twin_making_resumes_with_the_twin_files_written(bench, tmp_path, monkeypatch):
+    """A run killed while making the twins (no seal yet) keeps the finished twin files and
+    makes only the missing ones."""
+    out, _, _ = bench
+    again = tmp_path / "killed"
+    shutil.copytree(out, again)
+    for p in ("seal.json", "summary.json", "report.html"):
+        (again / p).unlink()
+    shutil.rmtree(again / "results")
+    (again / "twins" / "twin-001.toml").unlink()
+    kept = {p.name: p.read_bytes() for p in (again / "twins").glob("*.toml")}
+    made = []
+    real = blind.twin_measurements
+
+    def spy(spec, *a, **k):
+        made.append(spec.twin)
+        return real(spec, *a, **k)
+    monkeypatch.setattr(blind, "twin_measurements", spy)
+    run_benchmark(again, n=4, seed=3, diagnose_settings=FAST)
+    assert made == ["twin-001"]
+    for name, body in kept.items():
+        assert (again / "twins" / name).read_bytes() == body
+    assert (again / "twins" / "twin-001.toml").read_bytes() == \
+        (out / "twins" / "twin-001.toml").read_bytes()

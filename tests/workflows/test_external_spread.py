@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from bedstruct.engines import find_lammps, find_liggghts
+from bedstruct.io import read_dump
 from bedstruct.workflows import load_config, run_spread
 
 from _runfiles import run_files, without_times
@@ -163,6 +164,22 @@ def test_liggghts_keeps_contact_histories_between_layers(liggghts_two_layers):
     # change 0.39 (these 400-sphere piles), 0.95 and 0.29 (800), 0.99 and 0.07 (300)
     assert 0.7 < ratio < 1.3
     assert change < 0.6
+
+
+def test_liggghts_spread_writes_the_embedded_engines_layer_layout(liggghts_two_layers):
+    """Each layer folder holds ``bed.dump.gz``: the spheres on the platform after the layer
+    (what the diagnosis reads for the PSD after spreading), as the embedded engine writes
+    it; the whole state, ``final.dump.gz``, is written after the last layer only."""
+    cfg, res, out = liggghts_two_layers
+    lplat = float(cfg["spread"]["plate_length"])
+    for k, layer in enumerate(res.layers):
+        stage = out / f"layer{k + 1:02d}"
+        bed = read_dump(stage / "bed.dump.gz")[0]
+        x = np.asarray(bed.positions)[:, 0]
+        assert bed.n_particles >= layer.n_bed and np.all(x < lplat)
+        assert (stage / "final.dump.gz").exists() == (k == len(res.layers) - 1)
+    final = read_dump(out / f"layer{len(res.layers):02d}" / "final.dump.gz")[0]
+    assert set(np.asarray(bed.ids).tolist()) <= set(np.asarray(final.ids).tolist())
 
 
 class Killed(BaseException):
