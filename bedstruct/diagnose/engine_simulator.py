@@ -79,10 +79,10 @@ _MODEL_REVISIONS = {"contact_ageing": 2}
 #: Version of the LIGGGHTS/LAMMPS decks the external workflows write (in the keys of
 #: external-engine calls, and in a LIGGGHTS twin's ``truth.json``).
 _DECK_REVISION = 2
-#: The code an engine call's observations depend on, hashed into :func:`code_versions`:
-#: the engine (its kernels, workflows, presets and the catalogue's mapping of effects onto
-#: them) and the observation (the operators and the analyses and readers they use).
-_CODE = {"engine": ("dem", "workflows", "_numba.py", "diagnose/catalogue.py",
+#: The code an engine call's observations depend on, hashed into :func:`code_versions`
+#: and into a run library's key: the engine (its kernels, the external engines' decks,
+#: workflows, presets and the catalogue's mapping of effects onto them) and the observation (the operators and the analyses and readers they use).
+_CODE = {"engine": ("dem", "engines", "workflows", "_numba.py", "diagnose/catalogue.py",
                     "diagnose/engine_simulator.py"),
          "observation": ("analysis", "io", "core", "diagnose/engine_runs.py",
                          "diagnose/observables.py", "diagnose/observables_image.py",

@@ -60,9 +60,6 @@ _ROOT = Path(__file__).resolve().parents[1]   # the bedstruct package
 #: and its workflows, the analyses the observation operators call, the operators, the
 #: catalogue. A change to any of it makes a library stale.
 _CODE = {
-    "engine": ("dem", "workflows", "analysis", "core", "diagnose/observables.py",
-               "diagnose/observables_image.py", "diagnose/catalogue.py",
-               "diagnose/measurements.py"),
     "surrogate": ("diagnose/surrogate.py", "diagnose/catalogue.py", "diagnose/measurements.py"),
 }
 
@@ -102,7 +99,7 @@ def _simulator_identity(simulator) -> tuple[dict, tuple[str, ...]]:
         ident["config"] = {"noise": simulator.noise, "correlation": simulator.correlation}
         return ident, _CODE["surrogate"]
     if cls.__name__ == "EngineSimulator":
-        from ..workflows import diagnosis_sim as ds
+        from . import engine_simulator as ds
         ident["config"] = {
             "preset": simulator.preset, "overrides": list(simulator.overrides),
             "resolved_config": to_jsonable(simulator.base_cfg, keep_nonfinite=False),
@@ -111,7 +108,7 @@ def _simulator_identity(simulator) -> tuple[dict, tuple[str, ...]]:
                 "capillary_scale", "fines_scale", "wide_box", "seed_offset")},
             "cache_schema": ds._CACHE_SCHEMA, "model_revisions": dict(ds._MODEL_REVISIONS),
             "deck_revision": ds._DECK_REVISION}
-        return ident, _CODE["engine"]
+        return ident, tuple(ds._CODE["engine"]) + tuple(ds._CODE["observation"])
     # any other callable: its own source file stands for its code
     try:
         src = inspect.getsource(cls if not inspect.isfunction(simulator) else simulator)

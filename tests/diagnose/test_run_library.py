@@ -255,3 +255,22 @@ def test_a_diagnosis_on_the_emulated_surrogate_names_the_surrogates_effect(tmp_p
     assert on_emu.attribution.best.effects == on_sim.attribution.best.effects
     a, b = on_sim.shrink.magnitudes, on_emu.shrink.magnitudes
     assert set(a) == set(b) and all(abs(a[k] - b[k]) < 0.3 * abs(a[k]) for k in a)
+
+
+def test_engine_simulator_library_key_covers_its_config_and_code():
+    """An embedded-engine simulator's library key names its preset, resolved configuration,
+    scale factors and the hashes of the engine, external decks and observation code (the
+    same code list as its engine-call cache), and changes with the preset."""
+    from bedstruct.diagnose import catalogue, diagnosis_design, engine_twin_design
+    from bedstruct.diagnose import engine_simulator as es
+    from bedstruct.diagnose.engine_simulator import diagnosis_simulator
+    from bedstruct.diagnose.run_library import library_key, library_key_document
+
+    design = diagnosis_design(engine_twin_design("seed"), catalogue())
+    spec = design_spec(BASE_PARAMETERS, n_base=2, n_per_effect=2, replicates=2)
+    doc = library_key_document(diagnosis_simulator(design, {"preset": "tiny"}), spec)
+    assert doc["simulator"]["config"]["preset"] == "tiny"
+    assert set(doc["code"]) == set(es._CODE["engine"]) | set(es._CODE["observation"])
+    assert {"dem", "engines", "workflows", "io", "analysis"} <= set(doc["code"])
+    other = library_key_document(diagnosis_simulator(design, {"preset": "small"}), spec)
+    assert library_key(other) != library_key(doc)
