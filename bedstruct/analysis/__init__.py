@@ -41,6 +41,7 @@ from .surface import (
 )
 from .repose import (
     FlankFit, ReposeResult, angle_of_repose, PileAngle, pile_angle, dynamic_angle_of_repose,
+    heap_front_angle,
     ReposeSeries, dynamic_repose_series, free_surface_profile,
 )
 from .fabric import (
@@ -87,7 +88,7 @@ __all__ = [
     "heap_mask", "SurfaceResult", "Roughness", "surface_roughness", "surface_height_map",
     "height_profile", "bed_height", "layer_heights", "grounded_particles", "largest_cluster",
     "FlankFit", "ReposeResult", "angle_of_repose", "PileAngle", "pile_angle",
-    "dynamic_angle_of_repose", "ReposeSeries", "dynamic_repose_series", "free_surface_profile",
+    "dynamic_angle_of_repose", "heap_front_angle", "ReposeSeries", "dynamic_repose_series", "free_surface_profile",
     "FabricTensors", "fabric_tensors", "fabric_density", "projected_density",
     "sample_directions", "contact_regions", "RegionFabric", "region_fabric", "LammpsFabric",
     "lammps_fabric", "lammps_voigt", "fabric_table", "deviatoric_rank4", "sym_delta_tensor",

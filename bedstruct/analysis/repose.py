@@ -17,7 +17,7 @@ from ..core.frame import _as_frame
 from .surface import height_profile, surface_height_map
 
 __all__ = ["FlankFit", "ReposeResult", "angle_of_repose", "PileAngle", "pile_angle", "dynamic_angle_of_repose",
-           "ReposeSeries", "dynamic_repose_series", "free_surface_profile"]
+           "heap_front_angle", "ReposeSeries", "dynamic_repose_series", "free_surface_profile"]
 
 
 @dataclass(frozen=True)
@@ -468,6 +468,97 @@ class ReposeSeries:
     blade_positions: np.ndarray
     angle_deg: np.ndarray
     angle_std_deg: np.ndarray
+
+
+def heap_front_angle(frame, blade_position: float, *, platform_end: float, platform_z: float,
+                     tool_bottom: float, r_max: float | None = None,
+                     fit_range=(0.2, 0.8)) -> float:
+    """Front-flank angle of the heap ahead of a spreading tool, NaN where there is no heap.
+
+    The heap is the powder ahead of the tool's front face on the platform (spreading along
+    +x, z up). Its free surface (side silhouette, the highest sphere top per half median
+    radius) is fitted from the crest forwards between ``fit_range`` of the heap height,
+    measured from the **toe**: the lowest point of the surface ahead of the crest (the
+    bed or bare platform the heap runs onto), as the angle the heap makes with the bed.
+
+    NaN, rather than a number that is not a heap's angle, when:
+
+    - the heap is lower than two median diameters;
+    - its toe is not on the platform (the heap reached the front wall or the platform's
+      end: no free toe, and the band between crest and cut is not a flank);
+    - its toe is not below the tool's lowest point (the pile is still an inserted block
+      with a vertical front, whose profile ends a radius below its top edge);
+    - the fitted line descends through less than half of the fitted band (the flat top
+      of a block ending in a cliff).
+
+    Parameters
+    ----------
+    frame : Frame
+        One frame of the stroke.
+    blade_position : float, length
+        x of the tool's front face.
+    platform_end : float, length
+        x where the platform ends (it starts behind the tool).
+    platform_z : float, length
+        Height of the platform surface (spheres below it by more than ``r_max`` are
+        ignored: the powder that fell off).
+    tool_bottom : float, length
+        Height of the tool's lowest point (the bed surface lies below it).
+    r_max : float, length, optional
+        Largest sphere radius (default: the frame's).
+    fit_range : (float, float)
+        Fractions of the heap height between which the flank is fitted.
+
+    Returns
+    -------
+    float, deg
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Frame
+    >>> from bedstruct.analysis import heap_front_angle
+    >>> x = np.arange(5.25, 30, 0.5)
+    >>> z = np.clip(8 - np.tan(np.radians(35)) * (x - 5), 0, None) - 1.0
+    >>> f = Frame(np.c_[x, np.zeros_like(x), z], np.full(x.size, 0.25), box=([0, -1, -2], [40, 1, 12]))
+    >>> round(heap_front_angle(f, 5.0, platform_end=40.0, platform_z=-1.25, tool_bottom=0.0), 1)
+    35.0
+    >>> cut = heap_front_angle(f, 5.0, platform_end=15.0, platform_z=-1.25, tool_bottom=0.0)
+    >>> block = heap_front_angle(f, 5.0, platform_end=40.0, platform_z=-1.25, tool_bottom=-2.0)
+    >>> bool(np.isnan(cut)), bool(np.isnan(block))   # toe cut off; toe above the tool's edge
+    (True, True)
+    """
+    frame = _as_frame(frame)
+    p = frame.positions
+    r_max = float(np.max(frame.radii)) if r_max is None else float(r_max)
+    front = float(blade_position)
+    sub = frame.select((p[:, 0] < platform_end) & (p[:, 0] > front) & (p[:, 2] > platform_z - r_max))
+    if sub.n_particles == 0:
+        return float("nan")
+    rmed = float(np.median(frame.radii))
+    spacing = 0.5 * rmed
+    try:
+        x, h = free_surface_profile(sub, axis=0, vertical=2, spacing=spacing, statistic="max")
+        ahead = x > front
+        x, h = x[ahead], h[ahead]
+        peak = int(np.nanargmax(h))
+        i_toe = peak + int(np.nanargmin(h[peak:]))   # lowest point ahead of the crest
+        r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
+                                    bed_level=float(h[i_toe]), spacing=spacing, statistic="max",
+                                    fit_range=fit_range)
+    except ValueError:
+        return float("nan")
+    if not r.top - r.base > 4 * rmed or r.right is None:
+        return float("nan")
+    if not x[i_toe] < platform_end - 2 * r_max:
+        return float("nan")
+    if not h[i_toe] < tool_bottom:
+        return float("nan")
+    fit = r.right
+    drop = abs(fit.slope) * float(fit.x.max() - fit.x.min())
+    if drop < 0.5 * (fit_range[1] - fit_range[0]) * (r.top - r.base):
+        return float("nan")
+    return float(r.angle_deg)
 
 
 def dynamic_repose_series(frames, blade_positions, **kwargs) -> ReposeSeries:

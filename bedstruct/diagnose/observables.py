@@ -88,12 +88,12 @@ def windowed_mean(times, values, windows, *, n_blocks: int = 10) -> tuple[np.nda
         neighbouring blocks; the same estimator as :func:`tool_force_ratio`). A
         window of fewer than ``2 n_blocks`` samples gets their standard deviation
         (no credit for averaging: their correlation cannot be estimated), and 0
-        for a single sample.
+        for a single sample; NaN for a window whose samples are all NaN (missing data).
 
     Raises
     ------
     ValueError
-        If shapes disagree or a window holds no sample.
+        If shapes disagree or a window holds no sample time.
 
     Examples
     --------
@@ -111,11 +111,14 @@ def windowed_mean(times, values, windows, *, n_blocks: int = 10) -> tuple[np.nda
     mean = np.empty(len(w))
     sem = np.empty(len(w))
     for i, (t0, t1) in enumerate(w):
-        sel = (t >= t0) & ((t < t1) | ((i == len(w) - 1) & (t <= t1))) & np.isfinite(v)
-        vals = v[sel]
-        k = len(vals)
-        if k == 0:
+        inside = (t >= t0) & ((t < t1) | ((i == len(w) - 1) & (t <= t1)))
+        if not inside.any():
             raise ValueError(f"window [{t0:g}, {t1:g}] holds no sample")
+        vals = v[inside & np.isfinite(v)]
+        k = len(vals)
+        if k == 0:   # samples without a value (e.g. no heap to measure): missing data
+            mean[i] = sem[i] = np.nan
+            continue
         mean[i] = vals.mean()
         if k >= 2 * n_blocks:
             sem[i] = _batch_means_se(lambda b: vals[b].mean(), k, n_blocks)

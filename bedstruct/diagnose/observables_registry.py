@@ -138,6 +138,13 @@ def _dynamic_angle_series(data, *, windows=None, **_):
     if "images" in data:
         from .observables_image import angle_from_image
         angles = [angle_from_image(im, pixel_size=data.get("pixel_size", 1.0)) for im in data["images"]]
+    elif "frames" in data and "platform_end" in data:
+        # the spreading workflow's heap checks: NaN where a frame shows no heap with a free toe
+        from ..analysis import heap_front_angle
+        angles = [heap_front_angle(f, b, platform_end=data["platform_end"],
+                                   platform_z=data["platform_z"],
+                                   tool_bottom=data.get("tool_bottom", 0.0))
+                  for f, b in zip(data["frames"], data["blade_positions"])]
     elif "frames" in data:
         from ..analysis import dynamic_repose_series
         angles = dynamic_repose_series(data["frames"], data["blade_positions"]).angle_deg
@@ -208,7 +215,8 @@ _BUILTIN = (
                    "static angle of repose of a settled pile (both flanks fitted, averaged)"),
     ObservableKind("dynamic_angle_series", "deg", "spread",
                    "times (stroke fractions) and angles (deg), images (+ pixel_size) or frames + "
-                   "blade_positions; windows", "bedstruct.analysis.dynamic_angle_of_repose",
+                   "blade_positions (+ platform_end, platform_z, tool_bottom: the heap checks "
+                   "of heap_front_angle); windows", "bedstruct.analysis.dynamic_angle_of_repose",
                    _dynamic_angle_series, "mean dynamic angle of the heap ahead of the tool in "
                    "each time window of the stroke"),
     ObservableKind("bed_height", "m", "spread", "frame / positions + radii (+ plate_z, bounds, "

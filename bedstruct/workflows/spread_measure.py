@@ -174,43 +174,11 @@ def frame_metrics(fr, contacts, front: float, *, plate_length: float, z_plat: fl
 
 def _dynamic_angle(fr, front: float, *, plate_length: float, z_plat: float, r_max: float,
                    fit_range=(0.2, 0.8)) -> float:
-    """Front-flank angle of the heap ahead of ``front`` (see :func:`frame_metrics`); NaN if none."""
-    from ..analysis import dynamic_angle_of_repose, free_surface_profile
-    p = fr.positions
-    sub = fr.select((p[:, 0] < plate_length) & (p[:, 0] > front) & (p[:, 2] > z_plat - r_max))
-    if sub.n_particles == 0:
-        return float("nan")
-    rmed = float(np.median(fr.radii))
-    spacing = 0.5 * rmed
-    try:
-        x, h = free_surface_profile(sub, axis=0, vertical=2, spacing=spacing, statistic="max")
-        ahead = x > front
-        x, h = x[ahead], h[ahead]
-        peak = int(np.nanargmax(h))
-        i_toe = peak + int(np.nanargmin(h[peak:]))   # lowest point ahead of the crest
-        r = dynamic_angle_of_repose(sub, front, direction=1, axis=0, vertical=2,
-                                    bed_level=float(h[i_toe]), spacing=spacing, statistic="max",
-                                    fit_range=fit_range)
-    except ValueError:
-        return float("nan")
-    # a heap lower than two particle diameters has no measurable flank
-    if not r.top - r.base > 4 * rmed or r.right is None:
-        return float("nan")
-    # the toe must lie on the platform: a heap cut by the front wall (or the platform end)
-    # has no free toe, and the band between its crest and the cut is not its flank
-    if not x[i_toe] < plate_length - 2 * r_max:
-        return float("nan")
-    # ... and at the bed, below the tool's lowest point (z = 0): the profile of a block with a
-    # vertical front ends one radius below its top edge, far above the bed
-    if not h[i_toe] < 0.0:
-        return float("nan")
-    # the fitted line must descend through at least half of the band: a heap not yet formed
-    # (the inserted block, a flat top ending in a cliff) would give the slope of its top
-    fit = r.right
-    drop = abs(fit.slope) * float(fit.x.max() - fit.x.min())
-    if drop < 0.5 * (fit_range[1] - fit_range[0]) * (r.top - r.base):
-        return float("nan")
-    return float(r.angle_deg)
+    """Front-flank angle of the heap ahead of ``front`` (see :func:`frame_metrics`); NaN if none.
+    The tool's lowest point is at z = 0."""
+    from ..analysis import heap_front_angle
+    return heap_front_angle(fr, front, platform_end=plate_length, platform_z=z_plat,
+                            tool_bottom=0.0, r_max=r_max, fit_range=fit_range)
 
 
 def mid_layer_segregation(mfr, mfront: float, plate_length: float, pile) -> tuple:

@@ -87,6 +87,27 @@ def test_dynamic_angle_from_frames_is_the_analysis_series_windowed():
     assert got[0] - got[1] == pytest.approx(5.0, abs=0.5)
 
 
+def test_dynamic_angle_from_frames_with_the_platform_applies_the_heap_checks():
+    """Given the platform, frames whose heap has no free toe on it read NaN (not the angle
+    of a cut heap), as the spreading workflow measures them; the others equal
+    analysis.heap_front_angle."""
+    x = np.arange(5.25, 30, 0.5)
+    z = np.clip(8 - np.tan(np.radians(35.0)) * (x - 5), 0, None) - 1.0
+    heap = Frame(np.c_[x, np.zeros_like(x), z], np.full(x.size, 0.25), box=([0, -1, -2], [40, 1, 12]))
+    late = Frame(heap.positions + [6.0, 0, 0], heap.radii, box=([0, -1, -2], [40, 1, 12]))
+    data = {"frames": [heap, heap, late, late], "blade_positions": [5.0, 5.0, 11.0, 11.0],
+            "times": np.array([0.05, 0.1, 0.6, 0.9]), "platform_end": 20.0, "platform_z": -1.25}
+    got = observe("dynamic_angle_series", data, windows=[[0, 0.2], [0.5, 1.0]])
+    assert got[0] == pytest.approx(an.heap_front_angle(heap, 5.0, platform_end=20.0,
+                                                       platform_z=-1.25, tool_bottom=0.0))
+    assert got[0] == pytest.approx(35.0, abs=0.1)
+    assert np.isnan(got[1])   # the heap reached the platform's end: no toe on it
+    plain = observe("dynamic_angle_series", {k: v for k, v in data.items()
+                                              if k not in ("platform_end", "platform_z")},
+                    windows=[[0, 0.2], [0.5, 1.0]])
+    assert np.isfinite(plain[1])   # without the platform, no check
+
+
 def test_missing_input_names_what_the_kind_needs():
     with pytest.raises(ValueError, match="force_x"):
         observe("tool_force_ratio", {"force_z": [1.0]})
