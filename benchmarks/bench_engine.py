@@ -28,7 +28,8 @@ Usage: ``python benchmarks/bench_engine.py [--quick] [--steps N] [--particles N]
 [--repeat N] [--no-external] [--threading-layer omp|tbb|workqueue|default]``.
 The last line is ``RESULT bedstruct_steps_per_s=... liggghts_steps_per_s=...
 lammps_steps_per_s=... ratio_1core=... ratio_1core_cdt=... ratio_1core_180k=...
-speedup_2threads=... bytes_per_particle_peak=... ...`` (particle-steps per
+speedup_2threads=... bytes_per_particle_peak=... bytes_per_particle_peak_goal=...
+memory_goal_met=yes|no ...`` (particle-steps per
 second, medians over repeats; bedstruct_steps_per_s is the 2-thread figure;
 ratio_1core is bedstruct over LIGGGHTS epsd2 on one core, ratio_1core_cdt over
 LIGGGHTS cdt; ratio_1core_180k is measured only with ``--particles 180000``,
@@ -197,6 +198,7 @@ def time_bedstruct(sim: Simulation, *, steps: int) -> dict:
             "pss_cpu": sim.n_particles * steps / max(cpu, 1e-12),
             "rebuilds": sim.n_rebuilds - reb0,
             "contacts_per_particle": 2 * c.n_contacts / sim.n_particles,
+            "contacts_total_per_particle": n_contacts / sim.n_particles,
             "pairs_per_particle": sim.n_pairs / sim.n_particles,
             "bytes_per_particle": per_p,
             "bytes_per_contact": per_pair * sim.n_pairs / max(n_contacts, 1),
@@ -387,6 +389,8 @@ def main(argv=None) -> int:
     peak = rebuild_peak_bytes(s1)
     steady = first["bytes_per_particle"] * s1.n_particles + first["bytes_per_pair"] * s1.n_pairs
     per_peak = (steady + peak) / s1.n_particles
+    # the goal: peak memory <= 500 B per particle + 100 B per contact (walls included)
+    goal_per_particle = 500.0 + 100.0 * first["contacts_total_per_particle"]
     big = s1.n_particles >= 150000
     med = {key: _median(vals) if vals else math.nan for key, vals in runs.items()}
     print(f"# medians over {n_rep} interleaved repeats; load average at the end "
@@ -404,6 +408,8 @@ def main(argv=None) -> int:
           f"repeats={n_rep} rebuilds={first['rebuilds']} "
           f"bytes_per_particle={first['bytes_per_particle']:.0f} "
           f"bytes_per_particle_peak={per_peak:.0f} "
+          f"bytes_per_particle_peak_goal={goal_per_particle:.0f} "
+          f"memory_goal_met={'yes' if per_peak <= goal_per_particle else 'no'} "
           f"bytes_per_contact={first['bytes_per_contact']:.0f} bytes_per_pair={first['bytes_per_pair']:.0f} "
           f"threading_layer={_layer_used()} numba_max_threads={max_threads}")
     return 0
