@@ -14,7 +14,8 @@ pytest.importorskip("sklearn")
 from bedstruct.diagnose import (BASE_PARAMETERS, MeasurementSet, Observations, SurrogateSimulator,
                                 catalogue, diagnose, diagnosis_design, load_measurements,
                                 measurement_from_dict)
-from bedstruct.diagnose.emulator import EmulatedSimulator, fit_emulator
+from bedstruct.diagnose.emulator import EmulatedSimulator
+from bedstruct.diagnose.emulator_fit import fit_emulator
 from bedstruct.diagnose.run_design import design_points, design_spec
 from bedstruct.diagnose.run_library import StaleLibraryError, build_library, load_library
 from bedstruct.errors import ConfigError
