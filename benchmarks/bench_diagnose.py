@@ -66,7 +66,8 @@ def main(argv=None) -> int:
                                     diagnosis_design, load_measurements)
     from bedstruct.diagnose.amortised import confirming_runs
     from bedstruct.diagnose.confirm import RERUN_SEED_STRIDE
-    from bedstruct.diagnose.emulator import EmulatedSimulator, fit_emulator
+    from bedstruct.diagnose.emulator import EmulatedSimulator
+    from bedstruct.diagnose.emulator_fit import fit_emulator
     from bedstruct.diagnose.run_design import design_spec
     from bedstruct.diagnose.run_library import build_library, load_library
 

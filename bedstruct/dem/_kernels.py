@@ -4,10 +4,12 @@ The kernels live in focused modules, re-exported here:
 
 * :mod:`~bedstruct.dem._kernels_contact`: the contact physics, each piece written
   once as an inline function (Hertz, damping, Mindlin history, SJKR, rolling
-  resistance, capillary bridges, ageing bonds) and the particle-wall contact;
+  resistance, capillary bridges, ageing bonds), the particle-wall contact and the
+  per-type-pair table of the pair kernels;
 * :mod:`~bedstruct.dem._kernels_walls`: wall geometry and candidate lists;
 * :mod:`~bedstruct.dem._kernels_pairs`: the pair-force kernel (extensions
-  compiled in only when on);
+  compiled in only when on) and its single-loop pass;
+* :mod:`~bedstruct.dem._kernels_pairs_blocked`: its blocked (vectorised) pass;
 * :mod:`~bedstruct.dem._kernels_step`: the integrator passes;
 * :mod:`~bedstruct.dem._kernels_neighbours`: cell list, pair list, history remap.
 
@@ -29,13 +31,14 @@ from __future__ import annotations
 from ._kernels_contact import (EPSD_STIFFNESS_FACTOR, ROLL_CDT, ROLL_EPSD, ROLL_EPSD2,  # noqa: F401
                                ROLL_NONE, SQRT_5_6, ageing_bond, capillary_force,
                                hertz_coefficients, hertz_stiffness, normal_force, pair_damping,
-                               rolling_torque, shear_torques, sjkr_area_pair, sjkr_area_wall,
-                               tangential_history, tangential_velocity, wall_contact)
+                               pair_table, rolling_torque, shear_torques, sjkr_area_pair,
+                               sjkr_area_wall, tangential_history, tangential_velocity,
+                               wall_contact)
 from ._kernels_neighbours import (HALF_STENCIL, active_history, cell_indices,  # noqa: F401
                                   counting_sort, pair_build, pair_keys, partner_csr,
                                   raindrop_accept, remap_history, remap_history_csr,
                                   wrap_and_flag)
-from ._kernels_pairs import pair_forces, pair_table  # noqa: F401
+from ._kernels_pairs import pair_forces  # noqa: F401
 from ._kernels_step import finish_step, kick_drift  # noqa: F401
 from ._kernels_walls import (WALL_CYLINDER, WALL_MESH, WALL_NCOL, WALL_PLANE,  # noqa: F401
                              WALL_PRISM, WALL_RECT, closest_on_triangle, mesh_geometry,

@@ -5,8 +5,9 @@ Hertz stiffness and damping, the normal force, SJKR lens areas, the relative
 tangential velocity, the Mindlin tangential spring with history and Coulomb
 cap, the torques of the tangential force, rolling resistance (CDT, EPSD,
 EPSD2), the Willett capillary bridge and the ageing bond. The pair kernel
-(:mod:`bedstruct.dem._kernels_pairs`) and the particle-wall contact
-(:func:`wall_contact`) are built from them. Each can be tested in pure Python
+(:mod:`bedstruct.dem._kernels_pairs`, :mod:`bedstruct.dem._kernels_pairs_blocked`) and the
+particle-wall contact (:func:`wall_contact`) are built from them; the pair kernels read
+their per-type-pair constants from one table (:func:`pair_table`). Each can be tested in pure Python
 through ``.py_func``.
 
 Two kinds: the one-line pieces are inlined into the caller by numba
@@ -26,13 +27,16 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .._numba import njit
 
 __all__ = ["hertz_stiffness", "hertz_coefficients", "pair_damping", "normal_force",
            "sjkr_area_pair", "sjkr_area_wall", "tangential_velocity", "tangential_history",
            "shear_torques", "rolling_torque", "capillary_force", "ageing_bond",
            "wall_contact", "ROLL_NONE", "ROLL_CDT", "ROLL_EPSD", "ROLL_EPSD2", "SQRT_5_6",
-           "EPSD_STIFFNESS_FACTOR"]
+           "EPSD_STIFFNESS_FACTOR", "pair_table", "TAB_YOUNGS", "TAB_SHEAR", "TAB_DAMPING",
+           "TAB_DAMPING_RATIO", "TAB_FRICTION", "TAB_ROLLING_FRICTION", "TAB_COHESION"]
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
 
@@ -284,3 +288,41 @@ def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v
         t3 -= m3
     return (fn * n1 + f1, fn * n2 + f2, fn * n3 + f3, t1, t2, t3, fn, delta,
             h1, h2, h3, r1, r2, r3)
+
+
+# --- the pair kernels' per-type-pair constants, and a pair apart ------------------------------
+
+#: Rows of the per-type-pair table ``TAB`` (see :func:`pair_table`).
+TAB_YOUNGS, TAB_SHEAR, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION, TAB_ROLLING_FRICTION, \
+    TAB_COHESION = range(7)
+
+
+def pair_table(youngs, shear, beta, friction, rolling_friction, cohesion, tangential_damping):
+    """The per-type-pair constants of the pair kernel as one ``(7, T+1, T+1)`` array.
+
+    Rows: ``Y*``, ``G*``, ``B = -2 sqrt(5/6) beta sqrt(2 Y*)``,
+    ``GTR = sqrt(4 G*/Y*)`` (0 without tangential damping), ``mu``, ``mu_r`` and
+    the SJKR cohesion energy density, so that ``gamma_n = B sqrt(sqrt(R* delta) m*)``
+    and ``gamma_t = GTR gamma_n`` equal :func:`hertz_coefficients`.
+    """
+    gn_coef = -2.0 * math.sqrt(5.0 / 6.0) * beta * np.sqrt(2.0 * youngs)
+    gt_ratio = np.sqrt(4.0 * shear / youngs) if tangential_damping else np.zeros_like(youngs)
+    return np.ascontiguousarray(np.stack([youngs, shear, gn_coef, gt_ratio, friction,
+                                          rolling_friction, cohesion]), dtype=np.float64)
+
+
+@njit(inline="always", **_FM)
+def _open_pair(k, ht, hr, store, fn_out, ft_out):
+    """A pair apart: its history is cleared (written only when set) and no force stored."""
+    if ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0:
+        ht[k, 0] = 0.0
+        ht[k, 1] = 0.0
+        ht[k, 2] = 0.0
+    if hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0:
+        hr[k, 0] = 0.0
+        hr[k, 1] = 0.0
+        hr[k, 2] = 0.0
+    if store:
+        ft_out[k, 0] = 0.0
+        ft_out[k, 1] = 0.0
+        ft_out[k, 2] = 0.0

@@ -19,10 +19,11 @@ import numpy as np
 
 from .. import _numba
 from ..core import Box
-from ..errors import ConfigError, UnsafeTimestepError
+from ..errors import ConfigError
 from . import _kernels as K
 from ._sim_io import _StateIO
 from ._sim_particles import _Particles
+from ._sim_timestep import _TimeStep
 from ._sim_neighbours import NumericalInstabilityError, _NeighbourList
 from ._sim_walls import _WALL_SLOTS, WallState, _WallControl, _vec3
 from .params import ContactModel
@@ -63,7 +64,7 @@ class RunStats:
     n_removed: int
     n_lost_nonfinite: int = 0
 
-class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
+class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
     """An embedded DEM simulation of polydisperse spheres (SI units).
 
     Parameters
@@ -256,93 +257,6 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO):
     def n_pairs(self) -> int:
         """Number of pairs in the neighbour list (touching or within the skin)."""
         return int(self.pi.shape[0])
-
-    # ------------------------------------------------------------- time step
-    def rayleigh_time(self) -> float:
-        """Rayleigh time (s) of the smallest particle (or ``min_radius``)."""
-        return self.model.rayleigh_time(self._rmin())
-
-    def _rmin(self) -> float:
-        if self.min_radius is not None:
-            return float(self.min_radius)
-        if self.n_particles == 0:
-            raise ConfigError("no particles: give `min_radius` or add particles before running")
-        return float(self.rad.min())
-
-    def _check_time_settings(self):
-        """``safety``, ``max_rayleigh_fraction`` and ``v_max`` are usable (see the class)."""
-        if not (math.isfinite(self.max_rayleigh_fraction) and self.max_rayleigh_fraction > 0):
-            raise ConfigError("`max_rayleigh_fraction` must be a positive fraction of the "
-                              f"Rayleigh time; got {self.max_rayleigh_fraction!r}")
-        if not (math.isfinite(self.v_max) and self.v_max > 0):
-            raise ConfigError("`v_max` (the largest expected impact speed, for the Hertz-time "
-                              f"limit) must be a positive speed in m/s; got {self.v_max!r}")
-        if not (math.isfinite(self.safety) and self.safety > 0):
-            raise ConfigError("`safety` (the default time step as a fraction of the Rayleigh "
-                              f"time) must be positive; got {self.safety!r}")
-        if self.safety > self.max_rayleigh_fraction:
-            msg = (f"unsafe time step: `safety` = {self.safety:g} would step at {self.safety:.0%} "
-                   f"of the Rayleigh time; the stable limit is max_rayleigh_fraction = "
-                   f"{self.max_rayleigh_fraction:g}. Use a smaller safety or force=True.")
-            if not self.force:
-                raise UnsafeTimestepError(msg)
-            log.warning("%s (accepted because force=True)", msg)
-
-    @staticmethod
-    def default_time_step(model: ContactModel, min_radius: float, v_max: float,
-                          safety: float = 0.15) -> float:
-        """The time step a simulation chooses without ``dt``: ``min(safety t_R, t_H / 10)``.
-
-        ``t_R`` is the Rayleigh time of a sphere of ``min_radius`` and ``t_H`` the
-        Hertz impact time of two such spheres at ``v_max`` (s).
-
-        Examples
-        --------
-        >>> from bedstruct.dem import ContactModel, Material, Simulation
-        >>> model = ContactModel(Material(1e7, 0.3, 2500.0))
-        >>> dt = Simulation.default_time_step(model, 1e-4, 1.0)
-        >>> dt == min(0.15 * model.rayleigh_time(1e-4), 0.1 * model.hertz_time(1e-4, 1.0))
-        True
-        """
-        if not (math.isfinite(float(v_max)) and float(v_max) > 0):
-            raise ConfigError(f"`v_max` must be a positive speed in m/s; got {v_max!r}")
-        if not (math.isfinite(float(safety)) and float(safety) > 0):
-            raise ConfigError(f"`safety` must be positive; got {safety!r}")
-        return min(float(safety) * model.rayleigh_time(min_radius),
-                   0.1 * model.hertz_time(min_radius, v_max))
-
-    def _choose_dt(self):
-        rmin = self._rmin()
-        t_r = self.model.rayleigh_time(rmin)
-        t_h = self.model.hertz_time(rmin, self.v_max)
-        if self._dt_user is None:
-            dt = self.default_time_step(self.model, rmin, self.v_max, self.safety)
-        else:
-            dt = float(self._dt_user)
-            if not dt > 0:
-                raise ConfigError(f"`dt` must be positive; got {dt}")
-            reasons = []
-            if dt > self.max_rayleigh_fraction * t_r:
-                reasons.append(f"dt = {dt:.3g} s is {dt / t_r:.0%} of the Rayleigh time "
-                               f"{t_r:.3g} s of the smallest sphere (r = {rmin:.3g} m); the limit "
-                               f"is {self.max_rayleigh_fraction:.0%}")
-            if dt > 0.1 * t_h:
-                reasons.append(f"dt = {dt:.3g} s exceeds 10% of the Hertz impact time "
-                               f"{t_h:.3g} s at v_max = {self.v_max} m/s (a collision would span "
-                               f"fewer than 10 steps)")
-            if reasons:
-                msg = "unsafe time step: " + "; ".join(reasons) + \
-                      ". Use a smaller dt, a softer Young's modulus, or force=True."
-                if not self.force:
-                    raise UnsafeTimestepError(msg)
-                log.warning("%s (accepted because force=True)", msg)
-        self.dt = dt
-        if self._skin_user is not None:
-            self.skin = float(self._skin_user)
-        else:
-            self.skin = 0.15 * 2.0 * rmin
-        self.t_rayleigh = t_r
-        self.t_hertz = t_h
 
     # ------------------------------------------------------------- stepping
     def _pair_pass(self, dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out, hx=None):

@@ -7,18 +7,18 @@ The diagnosis talks to simulations only through the simulator interface
 examples, the analytic :class:`SurrogateSimulator` (labelled ``"surrogate"``).
 
 The modules, by concept: measurements (``measurements``, ``measurement_io``,
-``measurement_parse``, ``observables``, ``observables_image``, ``observables_registry``,
-``trial_counts``);
-simulators (``surrogate``, ``engine_simulator``, ``engine_runs``, ``process_pool``,
-``replicates``, ``config``, ``parameters``, ``catalogue``); the model and its fit
-(``effect_response``, ``fingerprints``, ``fingerprint_runs``, ``identifiability``,
-``noise_correlation``, ``where``, ``attribution``, ``profile_interval``, ``separation``,
-``confirm``, ``diagnosis``, ``diagnosis_result``); the run library and its emulator
-(``run_design``, ``run_library``, ``emulator``, ``amortised``); the answer, report and figures (``answer``,
-``report``, ``figures``); validation (``validation_design``, ``twins``, ``validation_records``,
-``validation_scores``, ``validate``, ``validate_parallel``, ``validate_liggghts``,
-``external_twins``, ``liggghts_law``, and the blind protocol ``blind``, ``blind_twins``,
-``blind_report``). Imports point from the later groups to the earlier ones.
+``measurement_parse``, ``measurement_values``, ``observables``, ``observables_image``,
+``observables_registry``, ``trial_counts``); simulators (``surrogate``, ``engine_simulator``,
+``engine_cache``, ``engine_runs``, ``process_pool``, ``replicates``, ``config``, ``parameters``,
+``catalogue``); the model and its fit (``effect_response``, ``fingerprints``,
+``fingerprint_runs``, ``identifiability``, ``noise_correlation``, ``where``, ``attribution``,
+``profile_interval``, ``separation``, ``confirm``, ``diagnosis``, ``diagnosis_result``); the run
+library and its emulator (``run_design``, ``run_library``, ``emulator``, ``emulator_fit``,
+``amortised``); the answer, report and figures (``answer``, ``report``, ``figures``);
+validation (``validation_design``, ``twins``, ``validation_records``, ``validation_scores``,
+``validate``, ``validate_parallel``, ``validate_liggghts``, ``external_twins``,
+``liggghts_law``, and the blind protocol ``blind``, ``blind_twins``, ``blind_report``).
+Imports point from the later groups to the earlier ones.
 """
 
 from __future__ import annotations
@@ -35,7 +35,8 @@ from .confirm import Shrink, gap_size
 from .diagnosis import candidate_design, diagnose, diagnosis_design
 from .diagnosis_result import Diagnosis, NextMeasurement, identification
 from .effect_response import Fingerprint
-from .emulator import EmulatedSimulator, Emulator, fit_emulator
+from .emulator import EmulatedSimulator, Emulator
+from .emulator_fit import fit_emulator
 from .fingerprint_runs import compute_fingerprints
 from .fingerprints import FingerprintSet
 from .identifiability import nuisance_projector

@@ -2,7 +2,7 @@
 
 :func:`diagnose_with_library` builds (or resumes, or reuses) the run library of a
 simulator and a catalogue (:func:`~bedstruct.diagnose.run_library.build_library`), fits
-its emulator (:func:`~bedstruct.diagnose.emulator.fit_emulator`), runs
+its emulator (:func:`~bedstruct.diagnose.emulator_fit.fit_emulator`), runs
 :func:`~bedstruct.diagnose.diagnose` on the emulated simulator, then reruns the real
 simulator at the chosen point (recalibrated base parameters plus the attributed
 magnitudes) and says how well the emulator predicted that rerun. The library is paid
@@ -24,7 +24,8 @@ from .answer import _observable_words, quantity_text
 from .confirm import RERUN_SEED_STRIDE
 from .diagnosis import diagnose
 from .diagnosis_result import Diagnosis
-from .emulator import EmulatedSimulator, EmulatorCheck, fit_emulator
+from .emulator import EmulatedSimulator, EmulatorCheck
+from .emulator_fit import fit_emulator
 from .run_design import design_spec
 from .run_library import build_library
 

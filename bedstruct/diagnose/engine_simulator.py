@@ -23,14 +23,8 @@ number). Numbers from such runs test the wiring and the method on real contact
 physics; they are not predictions for the seed powder.
 
 With ``cache = DIR`` in the ``[engine]`` table every call's observations are
-stored on disk (``DIR/<hash>.json``, one file per call, named by the fully
-resolved workflow configuration of the call, i.e. preset, overrides, base
-parameters, effects and seed, plus each observable's kind and conditions): a
-rerun, a validation twin or another measurement file with observables of the
-same kinds and conditions reuses them instead of simulating again. Each entry
-states the code it was made by (:func:`code_versions`: the bedstruct version and
-hashes of the engine's and the observation operators' source); an entry of other
-code is refused with a warning naming what differs, and the call simulated again.
+stored on disk and reused by a later call of the same configuration and code
+(:mod:`bedstruct.diagnose.engine_cache`).
 
 .. versionadded:: 0.1
 """
@@ -38,28 +32,26 @@ code is refused with a warning naming what differs, and the call simulated again
 from __future__ import annotations
 
 import copy
-import hashlib
 import json
 import logging
 import math
-import os
 import tempfile
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
-from .._version import __version__
 from ..errors import ConfigError
 from ..workflows.config import load_config
 from .catalogue import effect
+from .engine_cache import call_key, code_versions, read_entry, write_entry
 from .engine_runs import CallRuns, _region_index
 from .measurements import Observations
 from .observables_registry import observable_kind
 from .process_pool import run_calls
 
 __all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "setup_config",
-           "code_versions", "PRESET_OVERRIDES"]
+           "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
 
@@ -69,53 +61,6 @@ _STROKE_SEED = 18.9e-3 / _SPEED_X1   # s, the seed's x1 stroke over its 18.9 mm 
 _ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_time_scale",
                 "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
                 "seed", "workdir", "cache", "jobs"}
-#: Version of the cache entry's layout and key (the hashed document of
-#: :meth:`EngineSimulator.cache_key`).
-_CACHE_SCHEMA = 4
-#: Workflow options at whose neutral value no run changes: left out of the cache key.
-_NEUTRAL_OPTIONS = {("repose", "rest_time"): 0.0}
-#: Contact-model versions: a call with the model switched on carries its version in the key.
-_MODEL_REVISIONS = {"contact_ageing": 2}
-#: Version of the LIGGGHTS/LAMMPS decks the external workflows write (in the keys of
-#: external-engine calls, and in a LIGGGHTS twin's ``truth.json``).
-_DECK_REVISION = 2
-#: The code an engine call's observations depend on, hashed into :func:`code_versions`
-#: and into a run library's key: the engine (its kernels, the external engines' decks,
-#: workflows, presets and the catalogue's mapping of effects onto them) and the observation (the operators and the analyses and readers they use).
-_CODE = {"engine": ("dem", "engines", "workflows", "_numba.py", "diagnose/catalogue.py",
-                    "diagnose/engine_simulator.py"),
-         "observation": ("analysis", "io", "core", "diagnose/engine_runs.py",
-                         "diagnose/observables.py", "diagnose/observables_image.py",
-                         "diagnose/observables_registry.py",
-                         "diagnose/measurements.py")}
-
-
-def code_versions() -> dict[str, str]:
-    """The versions an engine call's cached observations are valid for.
-
-    ``bedstruct``: the package version; ``engine`` and ``observation``: SHA-256 (16 hex
-    digits) of the source files (``*.py``, ``*.toml``) of the engine and of the observation
-    operators (:data:`_CODE`). A cache entry written under other versions is refused.
-
-    Returns
-    -------
-    dict of str to str
-    """
-    root = Path(__file__).resolve().parents[1]
-    out = {"bedstruct": __version__}
-    for part, paths in _CODE.items():
-        h = hashlib.sha256()
-        for rel in paths:
-            p = root / rel
-            files = sorted(f for f in p.rglob("*") if f.suffix in (".py", ".toml")
-                           and "__pycache__" not in f.parts) if p.is_dir() else [p]
-            for f in files:
-                h.update(f.relative_to(root).as_posix().encode() + b"\0")
-                h.update(f.read_bytes() + b"\0")
-        out[part] = h.hexdigest()[:16]
-    return out
-
-
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
 #: the stroke, leaving most frames without a heap whose angle can be measured; and the
@@ -462,52 +407,8 @@ class EngineSimulator:
 
     def cache_key(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int) -> str:
         """Hash of one call (the fully resolved workflow configuration and the scale model)."""
-        cfg = self.run_config(base, effects, seed)
-        for (sec, key), neutral in _NEUTRAL_OPTIONS.items():
-            if cfg.get(sec, {}).get(key, neutral) == neutral:
-                cfg[sec].pop(key, None)
-        doc = {"schema": _CACHE_SCHEMA, "config": cfg,
-               "wide_box": self.wide_box, "speed_scale": self.speed_scale}
-        revised = {m: r for m, r in _MODEL_REVISIONS.items() if cfg["effects"].get(m)}
-        if revised:
-            doc["revisions"] = revised
-        if cfg.get("engine", "embedded") != "embedded":
-            doc["deck_revision"] = _DECK_REVISION
-        text = json.dumps(doc, sort_keys=True, default=float)
-        return hashlib.sha256(text.encode()).hexdigest()[:32]
-
-    def _cache_read(self, key: str) -> dict:
-        if self.cache is None:
-            return {}
-        f = self.cache / f"{key}.json"
-        if not f.is_file():
-            return {}
-        try:
-            doc = json.loads(f.read_text(encoding="utf-8"))
-            have = (doc.get("meta") or {}).get("versions") or {}
-            observables = doc.get("observables", {})
-        except (OSError, ValueError, AttributeError):
-            log.warning("engine cache: unreadable entry %s ignored", f)
-            return {}
-        differ = [k for k in self.versions if have.get(k) != self.versions[k]]
-        if differ:
-            # observations of other code: never reused, the call is simulated again
-            log.warning("engine cache: entry %s refused: written by other code (%s); the call "
-                        "is simulated again and the entry replaced", f.name,
-                        "; ".join(f"{k} {have.get(k) or 'not stated'}, this code "
-                                  f"{self.versions[k]}" for k in differ))
-            return {}
-        return observables
-
-    def _cache_write(self, key: str, entries: dict, meta: dict) -> None:
-        if self.cache is None:
-            return
-        self.cache.mkdir(parents=True, exist_ok=True)
-        f = self.cache / f"{key}.json"
-        tmp = f.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_text(json.dumps({"meta": meta, "observables": entries}, indent=0,
-                                  sort_keys=True), encoding="utf-8")
-        os.replace(tmp, f)
+        return call_key(self.run_config(base, effects, seed), wide_box=self.wide_box,
+                        speed_scale=self.speed_scale)
 
     # ------------------------------------------------------------------- runs
     def _memo_key(self, base, effects, seed) -> str:
@@ -550,7 +451,7 @@ class EngineSimulator:
     def _fully_cached(self, base, effects, seed) -> bool:
         if self.cache is None:
             return False
-        cached = self._cache_read(self.cache_key(base, effects, seed))
+        cached = read_entry(self.cache, self.cache_key(base, effects, seed), self.versions)
         return all(json.dumps(self._spec(m), sort_keys=True) in cached for m in self.design)
 
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int):
@@ -560,7 +461,7 @@ class EngineSimulator:
                                 source="engine")
         cfg = self.run_config(base, effects, seed)
         key = self.cache_key(base, effects, seed) if self.cache is not None else ""
-        cached = self._cache_read(key) if key else {}
+        cached = read_entry(self.cache, key, self.versions) if key else {}
         specs = {m.name: json.dumps(self._spec(m), sort_keys=True) for m in self.design}
         values = {n: np.asarray(cached[sp]["value"], float) for n, sp in specs.items()
                   if sp in cached}
@@ -575,10 +476,10 @@ class EngineSimulator:
                 entries = dict(cached)
                 for m in todo:  # NaN (unobservable in this run) is a result too
                     entries[specs[m.name]] = {"value": values[m.name].tolist(), "name": m.name}
-                self._cache_write(key, entries, {"base": dict(base), "effects": dict(effects),
-                                                 "seed": int(seed), "preset": self.preset,
-                                                 "overrides": self.overrides,
-                                                 "versions": self.versions})
+                write_entry(self.cache, key, entries,
+                            {"base": dict(base), "effects": dict(effects), "seed": int(seed),
+                             "preset": self.preset, "overrides": self.overrides,
+                             "versions": self.versions})
             self._called()
         else:
             self.n_cached += 1

@@ -99,16 +99,17 @@ def _simulator_identity(simulator) -> tuple[dict, tuple[str, ...]]:
         ident["config"] = {"noise": simulator.noise, "correlation": simulator.correlation}
         return ident, _CODE["surrogate"]
     if cls.__name__ == "EngineSimulator":
-        from . import engine_simulator as ds
+        from . import engine_cache
         ident["config"] = {
             "preset": simulator.preset, "overrides": list(simulator.overrides),
             "resolved_config": to_jsonable(simulator.base_cfg, keep_nonfinite=False),
             "scales": {k: getattr(simulator, k) for k in (
                 "cohesion_scale", "speed_scale", "ageing_time_scale", "blade_time_scale",
                 "capillary_scale", "fines_scale", "wide_box", "seed_offset")},
-            "cache_schema": ds._CACHE_SCHEMA, "model_revisions": dict(ds._MODEL_REVISIONS),
-            "deck_revision": ds._DECK_REVISION}
-        return ident, tuple(ds._CODE["engine"]) + tuple(ds._CODE["observation"])
+            "cache_schema": engine_cache._CACHE_SCHEMA,
+            "model_revisions": dict(engine_cache._MODEL_REVISIONS),
+            "deck_revision": engine_cache._DECK_REVISION}
+        return ident, tuple(engine_cache._CODE["engine"]) + tuple(engine_cache._CODE["observation"])
     # any other callable: its own source file stands for its code
     try:
         src = inspect.getsource(cls if not inspect.isfunction(simulator) else simulator)

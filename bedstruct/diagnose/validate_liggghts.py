@@ -254,7 +254,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if progress:
         from tqdm import tqdm
         steps = tqdm(steps, desc="LIGGGHTS twins")
-    from .engine_simulator import _DECK_REVISION
+    from .engine_cache import _DECK_REVISION
     try:
         for i, spec in steps:
             truth = {"true_effect": spec.true_effect, "true_magnitude": spec.true_magnitude,

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core import Box, Frame, Provenance, Units
 from ..errors import BedstructWarning, DumpFormatError
-from ._kernels import gather_rows
+from ._order_kernels import gather_rows
 from ._text import RawFrame, check_unit_style
 
 __all__ = ["frame_from_raw"]

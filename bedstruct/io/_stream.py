@@ -37,7 +37,7 @@ class _Planned:
         column is written from the sorted ids rather than permuted."""
         if self.in_order:
             return
-        from ._kernels import permute_rows
+        from ._order_kernels import permute_rows
         n = self.n
         blocks = [(v, 3) if isinstance(key, tuple) else (v[0], 1)
                   for key, v in self.slots.items()
@@ -224,7 +224,7 @@ def _stream_columns(source, pos: int, end: int, first: bytes, raw: RawFrame, sor
     takes the general path, which reports problems precisely.
     """
     from .._numba import get_num_threads
-    from ._kernels import consecutive_order, integer_column
+    from ._order_kernels import consecutive_order, integer_column
 
     n, names = raw.n, raw.names
     ncols = len(names)

@@ -1,7 +1,7 @@
 """Shared pieces of the workflows: model from config, size distribution, tool motion.
 
-The run folders and resuming live in :mod:`bedstruct.workflows._rundir`; JSON
-conversion in :mod:`bedstruct._json`.
+The run folders live in :mod:`bedstruct.workflows._rundir`, resuming in
+:mod:`bedstruct.workflows._resume`; JSON conversion in :mod:`bedstruct._json`.
 """
 
 from __future__ import annotations

@@ -21,7 +21,8 @@ import numpy as np
 
 from ..errors import ConfigError
 from ._common import check_engine, contact_model, progress_bar, psd_sampler
-from ._rundir import RunLayout, clear_run, resumable_simulation, run_in_frames
+from ._resume import resumable_simulation, run_in_frames
+from ._rundir import RunLayout, clear_run
 from .config import validate_config
 from .external import run_repose_external
 from .repose_measure import (ReposeReplicate, ReposeResult, _finished_replicate,

@@ -32,7 +32,8 @@ from ..errors import ConfigError
 from .._json import to_jsonable
 from ._common import (check_engine, contact_model, frame_fingerprint, from_plain,
                       german_fit_values, progress_bar, psd_sampler, tool_motion)
-from ._rundir import RunLayout, as_resumable, clear_run, resumable_simulation, run_in_frames
+from ._resume import as_resumable, resumable_simulation, run_in_frames
+from ._rundir import RunLayout, clear_run
 from .config import validate_config
 from .external_spread import run_spread_external
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, LayerResult, SpreadResult,
@@ -302,7 +303,7 @@ def _land_flyers(sim, z_plat: float, foot, settle_time: float, *, layer: int) ->
     radius above what rests there; returns the time waited (0: the state is untouched).
 
     ``sim`` is a :class:`~bedstruct.dem.Simulation` or the run's
-    :class:`~bedstruct.workflows._rundir.Resumable`."""
+    :class:`~bedstruct.workflows._resume.Resumable`."""
     ctl = as_resumable(sim)
 
     def n_flying():

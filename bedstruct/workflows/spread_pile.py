@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ._common import contact_model, progress_bar, psd_sampler
-from ._rundir import resumable_simulation
+from ._resume import resumable_simulation
 
 __all__ = ["generate_pile", "pile_key"]
 

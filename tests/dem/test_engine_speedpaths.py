@@ -131,7 +131,7 @@ def test_blocked_pair_pass_equals_single_loop_to_rounding(case):
 def test_blocked_pair_pass_rounds_as_written(monkeypatch):
     # the blocked pass's vectorised loop gives the bits of its own source run by the Python
     # interpreter (every operation rounded as written, in IEEE double)
-    from bedstruct.dem import _kernels_pairs as KP
+    from bedstruct.dem import _kernels_pairs_blocked as KP
     sim = _lattice(side=5, rolling_model="epsd")
     m, n = sim.n_pairs, sim.n_particles
     assert m > 3 * KP._BLOCK_B

@@ -47,7 +47,7 @@ def test_cache_returns_the_stored_call_and_keys_on_everything_that_matters(tmp_p
         .cache_key({}, {"missing_fines": 0.1}, 3)
     # LIGGGHTS/LAMMPS calls carry the deck revision (entries of older decks are stale); the
     # embedded calls' keys do not depend on it
-    import bedstruct.diagnose.engine_simulator as dsim
+    import bedstruct.diagnose.engine_cache as dsim
     ext = EngineSimulator(_psd_design(), dict(cfg, overrides=["engine=liggghts"]))
     ek = ext.cache_key({}, {"missing_fines": 0.1}, 3)
     assert ek != k
@@ -259,7 +259,7 @@ def test_an_angle_after_rest_rests_the_pile_on_the_ageing_clock(monkeypatch, tmp
     assert seen == [0.0] and obs["after_rest"][0] == obs["static_angle"][0] == 30.0
     import hashlib
 
-    from bedstruct.diagnose.engine_simulator import _CACHE_SCHEMA
+    from bedstruct.diagnose.engine_cache import _CACHE_SCHEMA
     cfg = sim.run_config({}, {}, 0)
     assert cfg["repose"].pop("rest_time") == 0.0
     old_doc = {"schema": _CACHE_SCHEMA, "config": cfg, "wide_box": sim.wide_box,

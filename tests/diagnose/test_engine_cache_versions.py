@@ -15,7 +15,8 @@ import bedstruct.diagnose as dg
 import bedstruct.workflows.repose as repose
 from bedstruct._version import __version__
 from bedstruct.diagnose import MeasurementSet
-from bedstruct.diagnose.engine_simulator import EngineSimulator, code_versions
+from bedstruct.diagnose.engine_cache import code_versions, read_entry
+from bedstruct.diagnose.engine_simulator import EngineSimulator
 
 RECORDS = pathlib.Path(__file__).resolve().parents[2] / "docs" / "records"
 
@@ -63,7 +64,7 @@ def test_an_entry_of_other_code_is_refused_and_the_call_simulated_again(tmp_path
     for entry in doc["observables"].values():     # a stale answer that must not come back
         entry["value"] = [99.0]
     f.write_text(json.dumps(doc))
-    with caplog.at_level("WARNING", logger="bedstruct.diagnose.engine_simulator"):
+    with caplog.at_level("WARNING", logger="bedstruct.diagnose.engine_cache"):
         obs = _sim(tmp_path)({}, {}, 0)
     assert obs["static_angle"][0] == 30.0 and len(counted_repose) == 2
     assert f"refused: written by other code ({part} 0123456789abcdef, this code " \
@@ -78,6 +79,6 @@ def test_an_entry_without_versions_is_refused(tmp_path, counted_repose, caplog):
     sim = _sim(tmp_path)
     committed = sorted((RECORDS / "small-engine-cache").glob("*.json"))[0]
     shutil.copy(committed, tmp_path / committed.name)
-    with caplog.at_level("WARNING", logger="bedstruct.diagnose.engine_simulator"):
-        assert sim._cache_read(committed.stem) == {}
+    with caplog.at_level("WARNING", logger="bedstruct.diagnose.engine_cache"):
+        assert read_entry(sim.cache, committed.stem, sim.versions) == {}
     assert "engine not stated" in caplog.text and "observation not stated" in caplog.text

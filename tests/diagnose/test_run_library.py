@@ -14,7 +14,8 @@ pytest.importorskip("sklearn")
 from bedstruct.diagnose import (BASE_PARAMETERS, MeasurementSet, Observations, SurrogateSimulator,
                                 catalogue, diagnose, diagnosis_design, load_measurements,
                                 measurement_from_dict)
-from bedstruct.diagnose.emulator import EmulatedSimulator, fit_emulator
+from bedstruct.diagnose.emulator import EmulatedSimulator
+from bedstruct.diagnose.emulator_fit import fit_emulator
 from bedstruct.diagnose.run_design import design_points, design_spec
 from bedstruct.diagnose.run_library import StaleLibraryError, build_library, load_library
 from bedstruct.errors import ConfigError
@@ -176,6 +177,20 @@ def test_a_stale_library_is_refused_naming_what_differs(tmp_path):
         build_library(SurrogateSimulator(_one_angle()), other, fresh, progress=False)
 
 
+def test_an_engine_simulators_library_key_names_its_cache_and_deck_revisions():
+    from bedstruct.diagnose import engine_cache
+    from bedstruct.diagnose.engine_simulator import EngineSimulator
+    from bedstruct.diagnose.run_library import library_key_document
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2)
+    doc = library_key_document(EngineSimulator(_one_angle(), {"preset": "tiny"}), spec)
+    config = doc["simulator"]["config"]
+    assert config["preset"] == "tiny"
+    assert config["cache_schema"] == engine_cache._CACHE_SCHEMA
+    assert config["deck_revision"] == engine_cache._DECK_REVISION
+    assert config["model_revisions"] == engine_cache._MODEL_REVISIONS
+    assert "dem" in doc["code"]
+
+
 # ----------------------------------------------------------------------------- emulator
 @pytest.fixture(scope="module")
 def surrogate_emulator(tmp_path_factory):
@@ -262,7 +277,7 @@ def test_engine_simulator_library_key_covers_its_config_and_code():
     scale factors and the hashes of the engine, external decks and observation code (the
     same code list as its engine-call cache), and changes with the preset."""
     from bedstruct.diagnose import catalogue, diagnosis_design, engine_twin_design
-    from bedstruct.diagnose import engine_simulator as es
+    from bedstruct.diagnose import engine_cache as es
     from bedstruct.diagnose.engine_simulator import diagnosis_simulator
     from bedstruct.diagnose.run_library import library_key, library_key_document
 
