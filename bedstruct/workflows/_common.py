@@ -157,7 +157,9 @@ def psd_table(p: dict):
     ...
     bedstruct.errors.ConfigError: config key `psd.diameters` must list at least 3 diameters (m) of the tabulated distribution; got 2
     """
-    d_raw, f_raw = p.get("diameters") or (), p.get("volume_fractions") or ()
+    d_raw, f_raw = p.get("diameters"), p.get("volume_fractions")
+    d_raw = () if d_raw is None else d_raw
+    f_raw = () if f_raw is None else f_raw
     if not len(d_raw) and not len(f_raw):
         return None
     d = np.asarray(d_raw, dtype=np.float64)
@@ -167,7 +169,7 @@ def psd_table(p: dict):
                           f"tabulated distribution; got {d.size}")
     if not (np.all(np.isfinite(d)) and d[0] > 0 and np.all(np.diff(d) > 0)):
         raise ConfigError("config key `psd.diameters` must hold positive diameters (m) in "
-                          f"increasing order; got {list(d_raw)!r}")
+                          f"increasing order; got {[float(x) for x in d_raw]!r}")
     if f.shape != d.shape:
         raise ConfigError("config key `psd.volume_fractions` must give one cumulative volume "
                           f"fraction per diameter of `psd.diameters` ({d.size}); got {f.size}")
@@ -175,7 +177,7 @@ def psd_table(p: dict):
             and np.all(np.diff(f) >= 0) and f[-1] > f[0]):
         raise ConfigError("config key `psd.volume_fractions` must hold the cumulative volume "
                           "fraction undersize at each diameter: within [0, 1], not decreasing, "
-                          f"the last above the first; got {list(f_raw)!r}")
+                          f"the last above the first; got {[float(x) for x in f_raw]!r}")
     return d, f
 
 
