@@ -120,7 +120,7 @@ def width_bounds(width: float, *, walls: bool, margin: float) -> tuple[float, fl
 
 
 def side_walls(width: float, *, x_range, z_range, prefix: str = "box") -> list:
-    """The side walls at y = 0 and y = ``width``, facing inwards, over ``x_range`` x ``z_range``.
+    """The side walls at y = 0 and y = ``width`` over ``x_range`` x ``z_range``.
 
     Fixed plates (:class:`~bedstruct.dem.Rectangle`, the ``y`` pair of
     :func:`~bedstruct.dem.box_walls`) named ``{prefix}_ylo`` and ``{prefix}_yhi``: the
@@ -130,8 +130,8 @@ def side_walls(width: float, *, x_range, z_range, prefix: str = "box") -> list:
 
     Examples
     --------
-    >>> [(w.name, w.normal[1]) for w in side_walls(3e-3, x_range=(0, 1e-2), z_range=(0, 2e-3))]
-    [('box_ylo', 1.0), ('box_yhi', -1.0)]
+    >>> [(w.name, float(w.center[1])) for w in side_walls(3e-3, x_range=(0, 1e-2), z_range=(0, 2e-3))]
+    [('box_ylo', 0.0), ('box_yhi', 0.003)]
     """
     from ..dem import box_walls
     lo = (float(x_range[0]), 0.0, float(z_range[0]))

@@ -112,3 +112,24 @@ def test_an_engine_spreads_between_the_side_walls(tmp_path, engine):
     assert layer.n_bed > 0 and layer.n_bed + layer.n_heap + layer.n_removed == layer.n_inserted
     for fr in read_dump(tmp_path / "layer01" / "frames.dump.gz", units="si"):
         _assert_between_walls(fr, W)
+
+
+def test_a_run_folder_without_the_side_walls_key_resumes_and_side_walls_are_another_run(tmp_path):
+    """A run folder whose configuration has no ``spread.side_walls`` (nor a PSD table) ran
+    without them: the same configuration resumes it, side walls are another run."""
+    from bedstruct.errors import ConfigError
+    from bedstruct.workflows import RunLayout
+    cfg = load_config(preset="tiny")
+    RunLayout(tmp_path, cfg, workflow="spread").release()
+    # at their defaults the keys are not in the folder's marker: as in a folder written by
+    # a configuration without them
+    d = json.loads((tmp_path / "run.json").read_text())
+    assert "side_walls" not in d["config"]["spread"] and "diameters" not in d["config"]["psd"]
+    assert d["config"]["spread"]["width"] == cfg["spread"]["width"]
+    lay = RunLayout(tmp_path, cfg, workflow="spread")
+    assert lay.resumed
+    lay.release()
+    walled = load_config(preset="tiny", overrides=["spread.side_walls=true"])
+    with pytest.raises(ConfigError, match=r"`spread\.side_walls`: '\(missing\)' in the folder, "
+                                          r"True now"):
+        RunLayout(tmp_path, walled, workflow="spread")
