@@ -99,9 +99,10 @@ def test_the_external_spread_deck_has_the_side_walls(tmp_path):
     assert [ln.split()[-1] for ln in deck if "yplane" in ln] == ["0.0", f"{W:.10g}"]
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("engine", ["liggghts", "lammps"])
 def test_an_engine_spreads_between_the_side_walls(tmp_path, engine):
+    """A LIGGGHTS or LAMMPS layer between the side walls (about 7 s each): every sphere stays
+    between them, every sphere is accounted for."""
     if {"liggghts": find_liggghts, "lammps": find_lammps}[engine]() is None:
         pytest.skip(f"{engine} is not installed (bash .ci/install-engines.sh)")
     cfg = load_config(preset="tiny", overrides=[
