@@ -136,15 +136,21 @@ def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float
     ==================  ====================================================================
     condition           configuration
     ==================  ====================================================================
-    ``psd``             ``psd.d10``, ``d50``, ``d90``, ``d_min``, ``d_max`` (the preset's
-                        coarse-graining ``psd.scale`` still multiplies every diameter)
+    ``psd``             ``psd.d10``, ``d50``, ``d90``, ``d_min``, ``d_max``; from a file also
+                        the whole distribution, ``psd.diameters`` and
+                        ``psd.volume_fractions`` (cumulative at the size classes' edges),
+                        which the radii are drawn from (the preset's coarse-graining
+                        ``psd.scale`` still multiplies every diameter)
     ``layer_thickness`` ``spread.gaps`` (one per layer; ``layers`` is their number)
     ``blade_speed``     ``spread.speed`` = blade speed x ``speed_scale`` (the scale
                         model's speed; 1 on the ``seed`` preset)
     ``platform_length`` ``spread.plate_length``
-    ``platform_width``  ``spread.width`` (the strip is periodic across the stroke)
-    ``side_walls``      the repose box: ``repose.periodic_width = not side_walls``; with
-                        ``wall_distance`` its width ``repose.box[1]``
+    ``platform_width``  ``spread.width`` (without side walls a strip periodic across the
+                        stroke)
+    ``side_walls``      ``spread.side_walls`` (plane walls at y = 0 and y = ``spread.width``)
+                        and the repose box: ``repose.periodic_width = not side_walls``
+    ``wall_distance``   the distance between the side walls: ``spread.width`` and the
+                        repose box's width ``repose.box[1]``
     ==================  ====================================================================
 
     Parameters
@@ -153,7 +159,8 @@ def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float
         A complete workflow configuration (:func:`bedstruct.workflows.load_config`).
     setup : Setup
     design : iterable of Measurement
-        The observables to simulate (side walls are refused when one needs a spreading run).
+        The observables to simulate (not used by the mapping; kept for the simulators'
+        common signature).
     speed_scale : float
         Simulated speed per real speed.
 
@@ -166,8 +173,8 @@ def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float
     ------
     ConfigError
         A condition the engine cannot honour, naming the file, the key and what is
-        expected: side walls for spreading observables (the spreading workflow
-        simulates a strip periodic across the platform).
+        expected: a ``wall_distance`` narrower than ``platform_width`` (the walls bound
+        the platform), or a set-up that gives an invalid configuration.
 
     Examples
     --------
@@ -182,6 +189,9 @@ def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float
     sp, rp = out["spread"], out["repose"]
     if setup.psd is not None:
         out["psd"].update(zip(("d10", "d50", "d90", "d_min", "d_max"), (float(x) for x in setup.psd)))
+        table = getattr(setup, "psd_table", None)
+        out["psd"]["diameters"] = [] if table is None else [float(x) for x in table[0]]
+        out["psd"]["volume_fractions"] = [] if table is None else [float(x) for x in table[1]]
     if setup.layer_thickness is not None:
         sp["gaps"] = [float(x) for x in setup.layer_thickness]
     if setup.blade_speed is not None:
@@ -192,23 +202,19 @@ def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float
     if setup.platform_width is not None:
         sp["width"] = float(setup.platform_width)
     if setup.side_walls is not None:
-        if setup.side_walls:
-            spreading = [m.name for m in design
-                         if m.kind != "static_angle"
-                         and not (m.kind == "psd" and m.conditions.get("stage", "before") == "before")]
-            if spreading:
-                raise ConfigError(f"{setup.where('side_walls')}: the engine's spreading workflow "
-                                  f"simulates a strip periodic across the platform, without side "
-                                  f"walls, and observable(s) {spreading} need a spreading run; "
-                                  f"expected side_walls = false (with platform_width), or side "
-                                  f"walls for repose observables only")
-            rp["periodic_width"] = False
-            if setup.wall_distance is not None:
-                box = list(rp["box"])
-                box[1] = float(setup.wall_distance)
-                rp["box"] = box
-        else:
-            rp["periodic_width"] = True
+        sp["side_walls"] = bool(setup.side_walls)
+        rp["periodic_width"] = not setup.side_walls
+        if setup.side_walls and setup.wall_distance is not None:
+            w = float(setup.wall_distance)
+            if setup.platform_width is not None and float(setup.platform_width) > w * (1 + 1e-9):
+                raise ConfigError(f"{setup.where('wall_distance')}: the side walls bound the "
+                                  f"platform, so their distance ({w * 1e3:.4g} mm) must be at "
+                                  f"least platform_width ({setup.platform_width * 1e3:.4g} mm); "
+                                  f"expected wall_distance >= platform_width")
+            sp["width"] = w
+            box = list(rp["box"])
+            box[1] = w
+            rp["box"] = box
     try:
         return load_config(out)
     except ConfigError as exc:

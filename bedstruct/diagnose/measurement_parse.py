@@ -335,7 +335,8 @@ def _scalar_quantity(v, where, key, units, *, what, conversions) -> float:
 
 
 def _setup_psd(v, where: str, base_dir: Path, conversions: list):
-    """``(d10, d50, d90, d_min, d_max)`` (m) and its source from the ``psd`` condition."""
+    """``(d10, d50, d90, d_min, d_max)`` (m), its source and, from a file, the table
+    ``(diameters, cumulative volume fractions)`` at the size classes' edges (else None)."""
     key = "conditions.psd"
     if not isinstance(v, Mapping):
         raise _err(where, f"key {key!r}: expected a table: {{file = \"psd.csv\", unit = \"um\"}} "
@@ -378,6 +379,12 @@ def _setup_psd(v, where: str, base_dir: Path, conversions: list):
         conversions.append(f"conditions.psd: {path.name}: volume-weighted d10/d50/d90 "
                            f"{d10 * 1e6:.4g}/{d50 * 1e6:.4g}/{d90 * 1e6:.4g} um, sizes "
                            f"{d_min * 1e6:.4g}-{d_max * 1e6:.4g} um")
+        # the cumulative volume fraction undersize at the classes' edges (midway between
+        # diameters; the outer edges d_min, d_max): the whole distribution, for the engine
+        edges = np.concatenate([[d_min], 0.5 * (d[1:] + d[:-1]), [d_max]])
+        cum = np.concatenate([[0.0], np.cumsum(f) / f.sum()])
+        cum[-1] = 1.0
+        table = (tuple(float(x) for x in edges), tuple(float(x) for x in cum))
         source = str(path)
     else:
         extra = set(v) - {"d10", "d50", "d90", "d_min", "d_max"}
@@ -395,11 +402,12 @@ def _setup_psd(v, where: str, base_dir: Path, conversions: list):
         d_min = q.get("d_min", max(d10 - (d50 - d10), 0.5 * d10))
         d_max = q.get("d_max", d90 + (d90 - d50))
         source = "percentiles"
+        table = None
     if not d_min < d10 < d50 < d90 < d_max:
         raise _err(where, f"key {key!r}: expected d_min < d10 < d50 < d90 < d_max; got "
                           f"{d_min * 1e6:.4g}, {d10 * 1e6:.4g}, {d50 * 1e6:.4g}, {d90 * 1e6:.4g}, "
                           f"{d_max * 1e6:.4g} um")
-    return (d10, d50, d90, d_min, d_max), source
+    return (d10, d50, d90, d_min, d_max), source, table
 
 
 def _setup(d, where: str, base_dir: Path):
@@ -417,7 +425,8 @@ def _setup(d, where: str, base_dir: Path):
     conv: list[str] = []
     kw: dict[str, Any] = {}
     if "psd" in d:
-        kw["psd"], kw["psd_source"] = _setup_psd(d["psd"], where, base_dir, conv)
+        kw["psd"], kw["psd_source"], kw["psd_table"] = _setup_psd(d["psd"], where, base_dir,
+                                                                   conv)
     layers = d.get("layers")
     if layers is not None and (isinstance(layers, bool) or not isinstance(layers, int)
                                or not 1 <= layers <= MAX_LAYERS):

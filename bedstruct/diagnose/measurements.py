@@ -164,6 +164,10 @@ class Setup:
         and the smallest and largest diameter.
     psd_source : str
         Where ``psd`` came from (``"percentiles"`` or the size-distribution file).
+    psd_table : (diameters, fractions) tuple of tuples of float or None
+        From a size-distribution file, the whole distribution: the cumulative volume
+        fraction undersize (0 to 1) at the size classes' edges (m), midway between the
+        file's diameters and half a class beyond the first and last.
     layer_thickness : tuple of float or None, m
         Platform lowering before each layer, one per layer.
     blade_speed : float or None, m/s
@@ -188,6 +192,7 @@ class Setup:
 
     psd: tuple[float, float, float, float, float] | None = None
     psd_source: str = ""
+    psd_table: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     layer_thickness: tuple[float, ...] | None = None
     blade_speed: float | None = None
     platform_length: float | None = None

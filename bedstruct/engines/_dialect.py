@@ -335,5 +335,6 @@ class Dialect:
         raise NotImplementedError
 
     def spread_walls(self, plan, p, wall_type, *, stl_folder) -> list[str]:
-        """Platform, back and front walls and the tool of a spreading plan."""
+        """Platform, back and front walls, the side walls (``plan.side_walls``) and the
+        tool of a spreading plan."""
         raise NotImplementedError

@@ -430,6 +430,8 @@ class LammpsDialect(Dialect):
                  "move NULL NULL v_pz units box",
                  _region_wall(wc, "platform"),
                  f"fix wback all wall/gran granular {wc} xplane 0.0 NULL"]
+        if pl.side_walls:
+            lines.append(f"fix wside all wall/gran granular {wc} yplane 0.0 {W:.10g}")
         tool = pl.tool
         if isinstance(tool, RollerGeometry):
             rot = ""

@@ -431,4 +431,9 @@ class LiggghtsDialect(Dialect):
             meshes["tool"] = write_stl(folder / "tool.stl", tool.triangles(0.0, W), name="roller")
         else:
             meshes["tool"] = tool.write_stl(folder / "tool.stl", 0.0, W, caps=False)
-        return _mesh_walls(meshes, p, wall_type, back_plane=True, loaded=("tool",))
+        lines = _mesh_walls(meshes, p, wall_type, back_plane=True, loaded=("tool",))
+        if plan.side_walls:  # primitive planes, as the back wall
+            wm = liggghts_wall_model(p)
+            lines += [f"fix wylo all wall/gran {wm} primitive type {wall_type} yplane 0.0",
+                      f"fix wyhi all wall/gran {wm} primitive type {wall_type} yplane {W:.10g}"]
+        return lines

@@ -128,7 +128,7 @@ class SpreadLayersPlan:
     Parameters
     ----------
     plate_length, width : float, m
-        Platform length (x from 0) and y period.
+        Platform length (x from 0) and y period (or distance between the side walls).
     gaps : tuple of float, m
         Layer thicknesses; before layer k the platform sits at ``-sum(gaps[:k+1])``
         below the tool's lowest point (z = 0).
@@ -169,6 +169,9 @@ class SpreadLayersPlan:
         Spheres in flight count only when their top is more than this above the
         highest top of what rests in the footprint (the embedded run uses the
         largest radius).
+    side_walls : bool
+        Fixed plane walls at y = 0 and y = ``width`` (y not periodic; the data file's
+        box must reach them) instead of a strip periodic over ``width``.
     """
 
     plate_length: float
@@ -191,6 +194,7 @@ class SpreadLayersPlan:
     wall_thickness: float = 1e-4
     landing_intervals: int = 0
     landing_margin: float = 0.0
+    side_walls: bool = False
     layers: tuple = field(default=(), init=False)
     every: int = field(default=0, init=False)
 

@@ -27,7 +27,10 @@ How the deck reproduces the embedded workflow:
   motion carrying the rotation axis along), settles, then returns above the
   bed (up, back, down at ``return_speed``) for the next layer;
 * LAMMPS: block/cylinder regions moved by step-ramp variables
-  (``wall/gran/region``; the blade is the unbevelled slab, docs/backends.md).
+  (``wall/gran/region``; the blade is the unbevelled slab, docs/backends.md);
+* with ``plan.side_walls`` y is not periodic: fixed planes at y = 0 and y = W
+  (``fix wall/gran`` ``yplane``, the particle-wall contact of the other fixed
+  walls) bound the platform, the piles and the tool.
 
 The walls, the tool's motion and the source of its load come from the dialect
 (:meth:`~bedstruct.engines.Dialect.spread_walls`, :meth:`~bedstruct.engines.Dialect.moving_run`,
@@ -78,7 +81,8 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     Parameters
     ----------
     data_file : str or os.PathLike
-        All spheres (every pile; 2 atom types), y periodic over ``[0, W]``,
+        All spheres (every pile; 2 atom types), y periodic over ``[0, W]`` (with
+        ``plan.side_walls``: y fixed, the box reaching the walls at 0 and ``W``),
         x and z fixed (spheres pushed over the front wall fall out and are
         deleted).
     params : GranularParams, mapping or ContactModel, optional
@@ -127,7 +131,7 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     gaps = [float(g) for g in pl.gaps]
     dt = pl.dt
     lines, wt = d.workflow_head(
-        data_file, p, boundary="f p f", dt=dt, skin=skin,
+        data_file, p, boundary="f f f" if pl.side_walls else "f p f", dt=dt, skin=skin,
         title=(f"{len(gaps)} spreading layer(s) in one run ({'roller' if roller else 'blade'}); "
                "contact histories carry over between layers"))
     for k, (a, b) in enumerate(pl.pile_ids):

@@ -16,8 +16,9 @@ from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["contact_model", "psd_sampler", "check_engine", "tool_motion", "from_plain",
-           "frame_fingerprint", "german_fit_values", "progress_bar", "CONTACT_KEYWORDS"]
+__all__ = ["contact_model", "psd_sampler", "psd_table", "tabulated_psd_sampler", "side_walls",
+           "width_bounds", "check_engine", "tool_motion", "from_plain", "frame_fingerprint",
+           "german_fit_values", "progress_bar", "CONTACT_KEYWORDS"]
 
 #: LIGGGHTS ``compute pair/gran/local`` keywords of the contact dumps written by the workflows.
 CONTACT_KEYWORDS = ("pos", "id", "force", "force_normal", "force_tangential", "contactArea")
@@ -100,31 +101,185 @@ def tool_motion(sim, cfg: dict, name: str, velocity, **kw) -> None:
         sim.set_wall_motion(name, velocity=velocity, **kw)
 
 
-def psd_sampler(cfg: dict):
-    """A callable ``(n, rng) -> radii`` (m) drawing from the fitted, scaled size distribution.
+def width_bounds(width: float, *, walls: bool, margin: float) -> tuple[float, float, str]:
+    """``(ylo, yhi, boundary)`` of a workflow's simulation box across y.
 
-    The volume-weighted D10/D50/D90 are fitted with
-    :func:`bedstruct.analysis.psd_from_percentiles` (truncated to
-    ``[d_min, d_max]``) and every drawn diameter is multiplied by
-    ``psd.scale``.
+    Periodic over ``[0, width]`` without side walls; with them (:func:`side_walls`) the
+    box reaches ``margin`` beyond each wall and y is not periodic.
+
+    Examples
+    --------
+    >>> width_bounds(3e-3, walls=False, margin=1e-4)
+    (0.0, 0.003, 'pp')
+    >>> width_bounds(3e-3, walls=True, margin=1e-4)
+    (-0.0001, 0.0031, 'ff')
     """
-    from ..analysis import psd_from_percentiles
-    p = cfg["psd"]
-    fit = psd_from_percentiles(p["d10"], p["d50"], p["d90"], (p["d_min"], p["d_max"]),
-                               weighting="volume")
-    scale = float(p["scale"])
+    if walls:
+        return -float(margin), float(width) + float(margin), "ff"
+    return 0.0, float(width), "pp"
 
-    fx = cfg.get("effects") or {}
-    phi = float(fx.get("fines_mass_fraction", 0.0))
+
+def side_walls(width: float, *, x_range, z_range, prefix: str = "box") -> list:
+    """The side walls at y = 0 and y = ``width`` over ``x_range`` x ``z_range``.
+
+    Fixed plates (:class:`~bedstruct.dem.Rectangle`, the ``y`` pair of
+    :func:`~bedstruct.dem.box_walls`) named ``{prefix}_ylo`` and ``{prefix}_yhi``: the
+    particle-wall contacts of the contact model's wall parameters. The repose box
+    (``repose.periodic_width = false``) and the spreading run (``spread.side_walls``)
+    are bounded across y by them.
+
+    Examples
+    --------
+    >>> [(w.name, float(w.center[1])) for w in side_walls(3e-3, x_range=(0, 1e-2), z_range=(0, 2e-3))]
+    [('box_ylo', 0.0), ('box_yhi', 0.003)]
+    """
+    from ..dem import box_walls
+    lo = (float(x_range[0]), 0.0, float(z_range[0]))
+    hi = (float(x_range[1]), float(width), float(z_range[1]))
+    return box_walls(lo, hi, open_top=True, sides=("y",), prefix=prefix)[1:]
+
+
+def psd_table(p: dict):
+    """The tabulated size distribution of a ``psd`` section, checked: ``(diameters, F)``
+    arrays (m, cumulative volume fraction undersize), or None when none is given.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``psd.diameters`` or ``psd.volume_fractions`` and what is expected.
+
+    Examples
+    --------
+    >>> psd_table({"diameters": [], "volume_fractions": []}) is None
+    True
+    >>> psd_table({"diameters": [2e-5, 4e-5], "volume_fractions": [0.0, 1.0]})
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: config key `psd.diameters` must list at least 3 diameters (m) of the tabulated distribution; got 2
+    """
+    d_raw, f_raw = p.get("diameters"), p.get("volume_fractions")
+    d_raw = () if d_raw is None else d_raw
+    f_raw = () if f_raw is None else f_raw
+    if not len(d_raw) and not len(f_raw):
+        return None
+    d = np.asarray(d_raw, dtype=np.float64)
+    f = np.asarray(f_raw, dtype=np.float64)
+    if d.ndim != 1 or d.size < 3:
+        raise ConfigError("config key `psd.diameters` must list at least 3 diameters (m) of the "
+                          f"tabulated distribution; got {d.size}")
+    if not (np.all(np.isfinite(d)) and d[0] > 0 and np.all(np.diff(d) > 0)):
+        raise ConfigError("config key `psd.diameters` must hold positive diameters (m) in "
+                          f"increasing order; got {[float(x) for x in d_raw]!r}")
+    if f.shape != d.shape:
+        raise ConfigError("config key `psd.volume_fractions` must give one cumulative volume "
+                          f"fraction per diameter of `psd.diameters` ({d.size}); got {f.size}")
+    if not (np.all(np.isfinite(f)) and np.all((f >= 0) & (f <= 1))
+            and np.all(np.diff(f) >= 0) and f[-1] > f[0]):
+        raise ConfigError("config key `psd.volume_fractions` must hold the cumulative volume "
+                          "fraction undersize at each diameter: within [0, 1], not decreasing, "
+                          f"the last above the first; got {[float(x) for x in f_raw]!r}")
+    return d, f
+
+
+def tabulated_psd_sampler(diameters, volume_fractions, *, scale: float = 1.0):
+    """A callable ``(n, rng) -> radii`` (m) drawing by number from a tabulated volume CDF.
+
+    Parameters
+    ----------
+    diameters : (M,) array_like of float, m
+        Increasing diameters, M >= 3.
+    volume_fractions : (M,) array_like of float
+        Cumulative volume fraction undersize at each diameter (laser diffraction's
+        table), not decreasing, in [0, 1].
+    scale : float
+        Coarse-graining factor multiplying every drawn diameter.
+
+    Returns
+    -------
+    callable
+        With attributes ``r_min``, ``r_max`` (the table's range times ``scale``, halved)
+        and ``number_fractions`` (the number fraction in each interval of the table).
+
+    Notes
+    -----
+    The volume CDF is interpolated linearly in :math:`\\ln d` between the points and
+    truncated to the table's range (renormalised from its first to its last value):
+    in interval :math:`i` the volume density per :math:`\\ln d` is the constant
+    :math:`c_i = \\Delta F_i / \\Delta \\ln d_i`. A particle's volume is
+    :math:`\\propto d^3`, so the number density per :math:`\\ln d` is
+    :math:`c_i d^{-3}`, exactly: interval :math:`i` holds the number weight
+    :math:`w_i = c_i (d_i^{-3} - d_{i+1}^{-3}) / 3`, and inside it
+    :math:`d^{-3}` is uniform between :math:`d_i^{-3}` and :math:`d_{i+1}^{-3}`.
+    An interval is drawn by :math:`w_i`, then :math:`d` by inverting that.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> draw = tabulated_psd_sampler([20e-6, 40e-6, 80e-6], [0.0, 0.5, 1.0])
+    >>> r = draw(100000, np.random.default_rng(0))
+    >>> bool(r.min() >= 10e-6 and r.max() <= 40e-6)
+    True
+    >>> d = 2 * r        # half the volume lies below 40 um
+    >>> round(float(np.sum(d[d < 40e-6] ** 3) / np.sum(d ** 3)), 2)
+    0.5
+    """
+    d = np.asarray(diameters, dtype=np.float64)
+    f = np.asarray(volume_fractions, dtype=np.float64)
+    psd_table({"diameters": d, "volume_fractions": f})   # the checks, named by key
+    lnd = np.log(d)
+    c = np.diff(f) / np.diff(lnd)                    # volume fraction per ln d, per interval
+    inv3 = d ** -3.0
+    w = c * (inv3[:-1] - inv3[1:]) / 3.0             # number weight per interval
+    p_num = w / w.sum()
+    cum = np.cumsum(p_num)
+    cum[-1] = 1.0
+    scale = float(scale)
 
     def draw(n, rng):
-        return scale * fit.sample_radii(int(n), seed=rng)
-    draw.r_min = 0.5 * scale * p["d_min"]
-    draw.r_max = 0.5 * scale * p["d_max"]
-    draw.fit = fit
+        n = int(n)
+        i = np.minimum(np.searchsorted(cum, rng.random(n), side="right"), len(w) - 1)
+        u = rng.random(n)
+        x = inv3[i] - u * (inv3[i] - inv3[i + 1])  # d^-3, uniform within the interval
+        return 0.5 * scale * np.clip(x ** (-1.0 / 3.0), d[i], d[i + 1])
+    draw.r_min = 0.5 * scale * float(d[0])
+    draw.r_max = 0.5 * scale * float(d[-1])
+    draw.number_fractions = p_num
+    draw.fit = None
+    return draw
+
+
+def psd_sampler(cfg: dict):
+    """A callable ``(n, rng) -> radii`` (m) drawing from the configured, scaled size distribution.
+
+    With a tabulated distribution (``psd.diameters`` and ``psd.volume_fractions``,
+    :func:`tabulated_psd_sampler`) the radii are drawn from it, truncated to its
+    range; otherwise the volume-weighted D10/D50/D90 are fitted with
+    :func:`bedstruct.analysis.psd_from_percentiles` (truncated to
+    ``[d_min, d_max]``). Every drawn diameter is multiplied by ``psd.scale``;
+    ``effects.fines_mass_fraction`` adds fines below the smallest diameter.
+    """
+    p = cfg["psd"]
+    scale = float(p["scale"])
+    fx = cfg.get("effects") or {}
+    phi = float(fx.get("fines_mass_fraction", 0.0))
+    table = psd_table(p)
+    if table is not None:
+        draw = tabulated_psd_sampler(*table, scale=scale)
+        d_cut = float(table[0][0])
+    else:
+        from ..analysis import psd_from_percentiles
+        fit = psd_from_percentiles(p["d10"], p["d50"], p["d90"], (p["d_min"], p["d_max"]),
+                                   weighting="volume")
+
+        def draw(n, rng):
+            return scale * fit.sample_radii(int(n), seed=rng)
+        draw.r_min = 0.5 * scale * p["d_min"]
+        draw.r_max = 0.5 * scale * p["d_max"]
+        draw.fit = fit
+        d_cut = p["d_min"]
     if phi <= 0.0:
         return draw
-    return _with_fines(draw, phi, fx, d_cut=p["d_min"], scale=scale)
+    return _with_fines(draw, phi, fx, d_cut=d_cut, scale=scale)
 
 
 def _fines_diameters(n, rng, fx, d_cut):
@@ -144,9 +299,12 @@ def _fines_diameters(n, rng, fx, d_cut):
 
 
 def _with_fines(base, phi, fx, *, d_cut, scale):
-    """Mix a fines population carrying mass fraction ``phi`` into the sampler ``base``."""
+    """Mix a fines population carrying mass fraction ``phi`` into the sampler ``base``
+    (fines below ``d_cut``: ``psd.d_min``, or the tabulated distribution's smallest diameter)."""
     if float(fx["fines_min_diameter"]) >= d_cut:
-        raise ConfigError("config key `effects.fines_min_diameter` must lie below `psd.d_min`")
+        raise ConfigError("config key `effects.fines_min_diameter` must lie below the smallest "
+                          f"diameter of the size distribution (`psd.d_min`, or the first of "
+                          f"`psd.diameters`): {d_cut!r} m")
     ref = np.random.default_rng(12345)
     v_c = float(np.mean((2.0 * base(20000, ref) / scale) ** 3))
     v_f = float(np.mean(_fines_diameters(20000, ref, fx, d_cut) ** 3))

@@ -56,6 +56,11 @@ RUN_MARKER = "run.json"
 #: written, or whether an external engine run is given time to finish, not the results).
 _RESUME_FREE = (("output", "checkpoint"), ("output", "checkpoint_every"), ("external", "timeout"))
 
+#: Keys that enter a run's identity only off their default: a run folder whose configuration
+#: lacks them ran as with the default (its runs resume).
+_DEFAULT_FREE = (("psd", "diameters", []), ("psd", "volume_fractions", []),
+                 ("spread", "side_walls", False))
+
 #: The lock file of a run folder: held (``flock``) by the process writing the run.
 RUN_LOCK = ".bedstruct.lock"
 
@@ -130,6 +135,9 @@ def _identity(workflow: str, cfg: dict, inputs) -> dict:
     c = copy.deepcopy(cfg)
     for sec, key in _RESUME_FREE:
         if isinstance(c.get(sec), dict):
+            c[sec].pop(key, None)
+    for sec, key, default in _DEFAULT_FREE:
+        if isinstance(c.get(sec), dict) and c[sec].get(key, default) == default:
             c[sec].pop(key, None)
     return plain({"workflow": workflow, "config": c, "inputs": dict(inputs or {})})
 

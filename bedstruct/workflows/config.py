@@ -19,6 +19,7 @@ import tomllib
 from pathlib import Path
 
 from ..errors import ConfigError
+from ._common import psd_table
 from .schema import MAX_SAFETY, check_bounds, defaults_dict
 
 __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path", "config_to_toml",
@@ -266,6 +267,7 @@ def _validate(cfg: dict) -> None:
                           "expected impact speed, which bounds the time step by the Hertz "
                           f"contact time; got {t['v_max']!r}")
     p = cfg["psd"]
+    psd_table(p)
     if not p["d_min"] < p["d10"] < p["d50"] < p["d90"] < p["d_max"]:
         raise ConfigError("config keys `psd.d_min < psd.d10 < psd.d50 < psd.d90 < psd.d_max` must "
                           f"increase; got {p['d_min']}, {p['d10']}, {p['d50']}, {p['d90']}, {p['d_max']}")

@@ -151,7 +151,8 @@ def run_spread_external(cfg: dict, *, out=None):
             pile_lift=lift, clear=clear, x_end=x_stop,
             chamber_depth=(depth - 2 * rmax) if sc["chamber"] else 0.0,
             n_frames=max(1, int(sc["n_frames"])), wall_thickness=4 * rmax,
-            landing_intervals=_MAX_LANDING_WAIT, landing_margin=rmax)
+            landing_intervals=_MAX_LANDING_WAIT, landing_margin=rmax,
+            side_walls=bool(sc["side_walls"]))
         data = write_sphere_data(root / "initial.data", X, R_, box_lo=lo, box_hi=hi,
                                  density=p.density, n_types=2, velocities=np.tile(pv, (K, 1)),
                                  omegas=np.tile(po, (K, 1)),

@@ -1,7 +1,9 @@
 """Angle-of-repose workflow: fill a box by raindrop insertion, slide the bottom plate out, measure the pile.
 
 Geometry (SI, the box spans ``[0, L] x [0, W] x [0, H]``): side plates
-(:func:`bedstruct.dem.repose_box`), a bottom plate named ``plate`` and, when
+(:func:`bedstruct.dem.repose_box`; across y the side walls of
+:func:`~bedstruct.workflows._common.side_walls`, or y periodic with
+``repose.periodic_width``), a bottom plate named ``plate`` and, when
 ``repose.pedestal_fraction > 0``, a fixed ledge of that fraction of ``L``
 centred under the box. The box is filled to about ``fill_fraction`` of its
 height by raindrop insertion and settles; the plate then slides towards
@@ -20,7 +22,8 @@ import time as _time
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import check_engine, contact_model, progress_bar, psd_sampler
+from ._common import (check_engine, contact_model, progress_bar, psd_sampler, side_walls,
+                      width_bounds)
 from ._resume import resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run
 from .config import validate_config
@@ -53,7 +56,7 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     records the finished replicate in ``<stage>/result.json`` and removes the checkpoint.
     """
     from ..core import Box
-    from ..dem import Rectangle, repose_box
+    from ..dem import Rectangle, box_walls
 
     check_engine(cfg)
     rc = cfg["repose"]
@@ -65,12 +68,13 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     periodic = bool(rc["periodic_width"])
     depth = float(rc["reservoir_depth"])
     margin = 4 * rmax
-    box = Box([-margin - L, 0.0 if periodic else -margin, -depth],
-              [L + margin, W if periodic else W + margin, 2.0 * H],
-              boundary=("ff", "pp" if periodic else "ff", "ff"))
-    walls = repose_box([0.0, 0.0, 0.0], [L, W, H])
-    if periodic:
-        walls = [w for w in walls if not w.name.endswith(("ylo", "yhi"))]
+    ylo, yhi, ybound = width_bounds(W, walls=not periodic, margin=margin)
+    box = Box([-margin - L, ylo, -depth], [L + margin, yhi, 2.0 * H],
+              boundary=("ff", ybound, "ff"))
+    walls = box_walls([0.0, 0.0, 0.0], [L, W, H], open_top=True, sides=("x",), prefix="box")
+    walls[0].name = "plate"
+    if not periodic:
+        walls += side_walls(W, x_range=(0.0, L), z_range=(0.0, H))
     # the plate: wide enough along y to cover the periodic seam
     plate = walls[0]
     plate.half_sizes = (L / 2, W if periodic else W / 2)

@@ -62,7 +62,7 @@ class ContactSection:
 
 @dataclass(frozen=True)
 class PSDSection:
-    """Volume-weighted particle size distribution (laser diffraction percentiles)."""
+    """Volume-weighted particle size distribution: laser diffraction percentiles, or its table."""
 
     d10: float = key(29.84e-6, "m", "D10 diameter", gt=0)
     d50: float = key(52.08e-6, "m", "D50 diameter", gt=0)
@@ -70,6 +70,10 @@ class PSDSection:
     d_min: float = key(28e-6, "m", "smallest diameter (truncation)", gt=0)
     d_max: float = key(100e-6, "m", "largest diameter (truncation)", gt=0)
     scale: float = key(1.0, "", "coarse-graining factor applied to every diameter", gt=0)
+    diameters: tuple = key((), "m", "tabulated distribution: increasing diameters (at least 3; "
+                           "replaces d10-d_max)", gt=0)
+    volume_fractions: tuple = key((), "", "tabulated distribution: cumulative volume fraction "
+                                  "undersize at each diameter", ge=0, le=1)
 
 
 @dataclass(frozen=True)
@@ -110,7 +114,9 @@ class SpreadSection:
     tool: str = key("blade", "", "spreading tool (rake = blade)", choices=("blade", "rake", "plate", "roller"))
     plate_length: float = key(18.9e-3, "m", "build platform length along x", gt=0)
     chamber: bool = key(True, "", "front wall up to the tool level (platform in a chamber)")
-    width: float = key(3e-3, "m", "width, periodic along y", gt=0)
+    width: float = key(3e-3, "m", "width: the period along y, or the distance between the side walls",
+                       gt=0)
+    side_walls: bool = key(False, "", "plane walls at y = 0 and y = width instead of a periodic strip")
     gaps: tuple = key((508e-6, 508e-6, 102e-6, 127e-6), "m", "gap between tool and bed, one per layer",
                       gt=0)
     speed: float = key(0.0254, "m/s", "tool speed", gt=0)

@@ -2,7 +2,9 @@
 
 Geometry (SI): a build platform (``platform``, a plate of length
 ``plate_length`` along x from x = 0) in a y-periodic strip of width
-``width``, a fixed back wall at x = 0 and, with ``spread.chamber`` (default),
+``width`` or, with ``spread.side_walls``, between fixed side walls at y = 0
+and y = ``width`` (``side_ylo``, ``side_yhi``) that bound the platform, the pile
+and the tool, a fixed back wall at x = 0 and, with ``spread.chamber`` (default),
 a front wall at x = ``plate_length`` reaching up to the tool level, so that
 the platform is a piston in a build chamber; powder pushed over the front wall
 (or, without it, off the platform end) falls into the overflow and leaves the
@@ -31,7 +33,8 @@ import numpy as np
 from ..errors import ConfigError
 from .._json import to_jsonable
 from ._common import (check_engine, contact_model, frame_fingerprint, from_plain,
-                      german_fit_values, progress_bar, psd_sampler, tool_motion)
+                      german_fit_values, progress_bar, psd_sampler, side_walls, tool_motion,
+                      width_bounds)
 from ._resume import as_resumable, resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run
 from .config import validate_config
@@ -158,9 +161,11 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
     tool, half = _tool_walls(cfg, x0, draw)
     front0 = x0 + half
     x_end = Lplat + float(sc["stop_margin"]) + half
-    box = Box([-2 * rmax - 2 * half, 0.0, -depth],
-              [x_end + half + 4 * rmax, W, max(pile_top * 3, float(sc["blade_height"])) + depth],
-              boundary="ff pp ff")
+    walled = bool(sc["side_walls"])
+    ylo, yhi, ybound = width_bounds(W, walls=walled, margin=4 * rmax)
+    box = Box([-2 * rmax - 2 * half, ylo, -depth],
+              [x_end + half + 4 * rmax, yhi, max(pile_top * 3, float(sc["blade_height"])) + depth],
+              boundary=("ff", ybound, "ff"))
     walls = [Rectangle(center=(Lplat / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
                        half_sizes=(Lplat / 2, W), name="platform"),
              Plane((0.0, 0.0, 0.0), (1, 0, 0), name="back"), tool]
@@ -170,6 +175,9 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         zc = 0.5 * (depth - 2 * rmax)
         walls.append(Rectangle(center=(Lplat, W / 2, -zc), normal=(-1, 0, 0), axis=(0, 0, 1),
                                half_sizes=(zc, W), name="front"))
+    if walled:  # across y: the side walls bound the platform, the pile and the tool
+        walls += side_walls(W, x_range=(box.lo[0], box.hi[0]), z_range=(box.lo[2], box.hi[2]),
+                            prefix="side")
     model = contact_model(cfg)
     folder = None if layout is None else layout.path
     ctl, sim = resumable_simulation(cfg, None if folder is None else folder / "progress.npz", box,

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ._common import contact_model, progress_bar, psd_sampler
+from ._common import contact_model, progress_bar, psd_sampler, side_walls, width_bounds
 from ._resume import resumable_simulation
 
 __all__ = ["generate_pile", "pile_key"]
@@ -23,6 +23,9 @@ __all__ = ["generate_pile", "pile_key"]
 
 def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress: bool = False):
     """Settle ``spread.pile_particles`` by raindrop insertion in a walled box (x from 0, z from 0).
+
+    Across y the box is the spreading run's: periodic over ``spread.width``, or between
+    its side walls (``spread.side_walls``).
 
     Returns the settled :class:`~bedstruct.Frame` (SI) and the number of steps run.
     With ``checkpoint`` (a path, ``progress.npz``) the generation checkpoints there every
@@ -41,9 +44,14 @@ def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress:
     v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
     h_est = n * v_mean / (0.55 * Lp * W)
     top = 3.0 * h_est + 20 * draw.r_max
-    box = Box([-draw.r_max, 0.0, -draw.r_max], [Lp + draw.r_max, W, top], boundary="ff pp ff")
+    walled = bool(sc["side_walls"])
+    ylo, yhi, ybound = width_bounds(W, walls=walled, margin=4 * draw.r_max)
+    box = Box([-draw.r_max, ylo, -draw.r_max], [Lp + draw.r_max, yhi, top],
+              boundary=("ff", ybound, "ff"))
     walls = [Plane((0, 0, 0), (0, 0, 1), name="floor"), Plane((0, 0, 0), (1, 0, 0), name="xlo"),
              Plane((Lp, 0, 0), (-1, 0, 0), name="xhi")]
+    if walled:   # the spreading run's side walls bound the pile too
+        walls += side_walls(W, x_range=(-draw.r_max, Lp + draw.r_max), z_range=(-draw.r_max, top))
     model = contact_model(cfg)
     ctl, sim = resumable_simulation(cfg, checkpoint, box, model, walls, min_radius=draw.r_min,
                                     seed=seed)

@@ -90,6 +90,9 @@ def test_setup_changes_the_engine_runs_config(tmp_path):
     assert [p[k] for k in ("d10", "d50", "d90", "d_min", "d_max")] == \
         pytest.approx([20e-6, 40e-6, 60e-6, 15e-6, 65e-6])
     assert p["scale"] == 2.0     # the tiny preset's coarse-graining stays
+    # the file's whole distribution: cumulative volume fractions at the classes' edges
+    assert p["diameters"] == pytest.approx([15e-6, 25e-6, 35e-6, 45e-6, 55e-6, 65e-6])
+    assert p["volume_fractions"] == pytest.approx([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
     sp = cfg["spread"]
     assert sp["gaps"] == pytest.approx([500e-6, 400e-6, 200e-6])
     assert sp["speed"] == pytest.approx(0.0254 * sim.speed_scale) == pytest.approx(0.1)
@@ -124,28 +127,70 @@ def test_psd_condition_changes_the_simulated_powder(tmp_path):
     assert plain[1] > 48e-6   # the tiny preset's own D50, 52 um
 
 
-def test_side_walls_map_onto_the_repose_box_and_are_refused_for_spreading(tmp_path):
+def test_side_walls_map_onto_the_spreading_run_and_the_repose_box(tmp_path):
     f = _file(tmp_path, '''
         [conditions]
         side_walls = true
         wall_distance = "1.2 mm"
-    ''')
+    ''', _ANGLE + _HEIGHT)
     cfg = EngineSimulator(load_measurements(f), {"preset": "tiny"}).run_config({}, {}, 0)
     assert cfg["repose"]["periodic_width"] is False
     assert cfg["repose"]["box"][1] == pytest.approx(1.2e-3)
+    assert cfg["spread"]["side_walls"] is True
+    assert cfg["spread"]["width"] == pytest.approx(1.2e-3)
+    # without wall_distance the walls bound the platform's width
     f2 = _file(tmp_path, '''
         [conditions]
         side_walls = true
+        platform_width = "0.9 mm"
     ''', _ANGLE + _HEIGHT, "spread.toml")
-    with pytest.raises(ConfigError, match=r"spread\.toml: key 'conditions\.side_walls'.*"
-                                          r"periodic.*\['h3'\].*expected side_walls = false"):
-        EngineSimulator(load_measurements(f2), {"preset": "tiny"})
+    sp = EngineSimulator(load_measurements(f2), {"preset": "tiny"}).run_config({}, {}, 0)["spread"]
+    assert sp["side_walls"] is True and sp["width"] == pytest.approx(0.9e-3)
     f3 = _file(tmp_path, '''
         [conditions]
         side_walls = false
-    ''', name="open.toml")
-    assert EngineSimulator(load_measurements(f3),
-                           {"preset": "tiny"}).run_config({}, {}, 0)["repose"]["periodic_width"]
+    ''', _ANGLE + _HEIGHT, name="open.toml")
+    cfg3 = EngineSimulator(load_measurements(f3), {"preset": "tiny"}).run_config({}, {}, 0)
+    assert cfg3["repose"]["periodic_width"] is True and cfg3["spread"]["side_walls"] is False
+    f4 = _file(tmp_path, '''
+        [conditions]
+        side_walls = true
+        platform_width = "2 mm"
+        wall_distance = "1.2 mm"
+    ''', _HEIGHT, "narrow.toml")
+    with pytest.raises(ConfigError, match=r"narrow\.toml: key 'conditions\.wall_distance'.*"
+                                          r"expected wall_distance >= platform_width"):
+        EngineSimulator(load_measurements(f4), {"preset": "tiny"})
+
+
+def test_a_psd_file_is_drawn_in_full_not_refitted(tmp_path):
+    """A bimodal size distribution from a file reaches the engine's sampler whole: the drawn
+    powder has both modes (a fit to its d10/d50/d90 has one)."""
+    from bedstruct.workflows._common import psd_sampler
+    d = np.arange(10.0, 101.0, 2.0)
+    frac = np.exp(-0.5 * ((d - 25.0) / 3.0) ** 2) + np.exp(-0.5 * ((d - 80.0) / 5.0) ** 2)
+    rows = "\n".join(f"{a:g},{b:.6g}" for a, b in zip(d, frac))
+    (tmp_path / "bimodal.csv").write_text("diameter,fraction\n" + rows + "\n")
+    f = tmp_path / "b.toml"
+    f.write_text('[conditions]\npsd = {file = "bimodal.csv", unit = "um"}\n' + _ANGLE)
+    cfg = EngineSimulator(load_measurements(f), {"preset": "tiny"}).run_config({}, {}, 0)
+    scale = cfg["psd"]["scale"]
+    rng = np.random.default_rng(0)
+    drawn = 2e6 * psd_sampler(cfg)(100000, rng) / scale                       # um
+    fitted = dict(cfg, psd=dict(cfg["psd"], diameters=[], volume_fractions=[]))
+    refit = 2e6 * psd_sampler(fitted)(100000, rng) / scale
+    edges = np.arange(9.0, 102.0, 6.0)
+
+    def volume_modes(x):
+        h = np.pad(np.histogram(x, bins=edges, weights=x ** 3)[0], 1)
+        return [0.5 * (edges[i - 1] + edges[i]) for i in range(1, len(h) - 1)
+                if h[i] > h[i - 1] and h[i] >= h[i + 1] and h[i] > 0.2 * h.max()]
+    modes = volume_modes(drawn)
+    assert len(modes) == 2 and abs(modes[0] - 25) < 6 and abs(modes[1] - 80) < 6
+    assert len(volume_modes(refit)) == 1
+    # the volume fraction below the gap between the modes is the file's
+    below = frac[d < 50].sum() / frac.sum()
+    assert np.sum(drawn[drawn < 50] ** 3) / np.sum(drawn ** 3) == pytest.approx(below, abs=0.01)
 
 
 def test_the_surrogate_refuses_a_setup(tmp_path):
