@@ -105,15 +105,16 @@ def scan_pairs(rows, pos, radii, cell_xyz, cell_start, ncell, periodic, reach, m
         counts[r] = c
 
 
-@njit_parallel
+@njit
 def compact_pairs(rows, take, offsets, out_j, out_shift, order, i_out, j_out, s_out):
     """Gather the scan buffers into flat arrays in original row indices.
 
     Row ``r`` contributes ``take[r]`` pairs at ``offsets[r]``; indices are mapped
     through ``order`` (cell-sorted -> original) and each pair is oriented so
-    that ``i <= j`` (the image shift changes sign when swapped).
+    that ``i <= j`` (the image shift changes sign when swapped). One thread: a
+    memory-bound gather, where threads would cost more to compile than they save.
     """
-    for r in prange(rows.shape[0]):
+    for r in range(rows.shape[0]):
         base = offsets[r]
         a = order[rows[r]]
         for c in range(take[r]):
@@ -136,10 +137,11 @@ def compact_pairs(rows, take, offsets, out_j, out_shift, order, i_out, j_out, s_
                 s_out[k, 2] = -sz
 
 
-@njit_parallel
+@njit
 def pair_geometry(i, j, shift, pos, radii, matrix, out_branch, out_area):
-    """Branch vectors ``pos[j] + matrix @ shift - pos[i]`` and lens areas ``pi a^2``."""
-    for k in prange(i.shape[0]):
+    """Branch vectors ``pos[j] + matrix @ shift - pos[i]`` and lens areas ``pi a^2``
+    (one thread: a few flops per contact)."""
+    for k in range(i.shape[0]):
         a = i[k]
         b = j[k]
         sx = shift[k, 0]

@@ -27,16 +27,20 @@ MONO2 = np.array([(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)], dtype=np.int6
 N_MOMENT_COLUMNS = 2 + 6 + 15   # [sum w, n_bad, 6 second moments, 15 fourth moments]
 
 
-@njit_parallel
+@njit
 def moment_sums(normals, weights, use_weights, n_chunks, out):
     """Weighted sums of n n and n n n n over unit directions, by chunk.
+
+    One thread: a few dozen flops per direction, memory-bound, where threads
+    would cost more to compile than they save. The chunks fix the order of the
+    sums, so the result does not depend on the number of threads.
 
     ``normals`` (M, 3) need not be unit vectors: each row is normalised.
     Rows of zero length or with non-finite entries are skipped and counted
     in column 1. ``out`` has shape (n_chunks, N_MOMENT_COLUMNS).
     """
     m = normals.shape[0]
-    for c in prange(n_chunks):
+    for c in range(n_chunks):
         start = (m * c) // n_chunks
         stop = (m * (c + 1)) // n_chunks
         sw = 0.0

@@ -114,6 +114,7 @@ def _parse_piece(piece: bytes, final: bool, row0: int, n: int, ncols: int, flat,
         while end > 0 and piece[end - 1] <= 32:
             end -= 1
     arr = np.frombuffer(piece, dtype=np.uint8)[:end]
+    arr.flags.writeable = False   # the kernels' one signature: read-only text (as _text passes)
     if arr.size == 0:
         return 0
     nl = np.flatnonzero(arr == 10)
@@ -183,6 +184,7 @@ class _Pieces:
             while end > 0 and buf[end - 1] <= 32:
                 end -= 1
         arr = np.frombuffer(buf, dtype=np.uint8)
+        arr.flags.writeable = False   # the kernels' one signature: read-only text (as _text passes)
         k = count_lines(arr, 0, end)
         if self.row + k > self.n:
             return False

@@ -409,6 +409,7 @@ def line_bounds(buf: bytes, p: int):
     while end > p and _is_space(buf[end - 1]):
         end -= 1
     body = np.frombuffer(buf, dtype=np.uint8)[p:end]
+    body.flags.writeable = False   # the kernels' one signature, whatever holds the text
     if body.size:
         step = 1 << 22  # newline search in 4 MiB pieces: no frame-sized temporary
         nl = np.concatenate([np.flatnonzero(body[k:k + step] == 10) + k
@@ -496,6 +497,7 @@ def parse_block(buf: bytes, p: int, n: int, ncols: int, *, path: str, data_line:
     while end > p and _is_space(buf[end - 1]):
         end -= 1
     arr = np.frombuffer(buf, dtype=np.uint8)
+    arr.flags.writeable = False   # the kernels' one signature, whatever holds the text
     m = count_lines(arr, p, end)
     names = [f"column {c + 1}" for c in range(ncols)] if names is None else list(names)
     what = f"({' '.join(names)})"

@@ -75,10 +75,15 @@ def _diverging(kind, values, cmap, norm):
 
 
 def _draw_rose(ax, dirs, values, cmap, norm):
+    """The surface r = |values| over the latitude-longitude grid ``dirs``, one quadrilateral
+    per grid cell coloured by the value at its first corner, as one collection."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
     r = np.abs(values)
     xyz = dirs * r[..., None]
-    ax.plot_surface(xyz[..., 0], xyz[..., 1], xyz[..., 2], facecolors=cmap(norm(values)),
-                    rstride=1, cstride=1, linewidth=0, antialiased=False, shade=False)
+    quads = np.stack([xyz[:-1, :-1], xyz[:-1, 1:], xyz[1:, 1:], xyz[1:, :-1]], axis=2).reshape(-1, 4, 3)
+    colours = cmap(norm(values[:-1, :-1])).reshape(-1, 4)
+    ax.add_collection3d(Poly3DCollection(quads, facecolors=colours, edgecolors=colours, linewidth=0,
+                                         antialiased=False, shade=False), autolim=False)
     lim = float(r.max()) or 1.0
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)

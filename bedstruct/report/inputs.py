@@ -86,8 +86,11 @@ def report_on_files(paths: Sequence[str], out_dir, *, contacts: str | None = Non
 
     ``on_error="skip"`` reads damaged dumps, leaving malformed frames out;
     the report lists them (see :func:`load_report_inputs`). Returns the
-    report and the two paths written.
+    report and the two paths written. An ``out_dir`` that is a file is an error
+    before anything is read.
     """
+    if Path(out_dir).exists() and not Path(out_dir).is_dir():
+        raise NotADirectoryError(f"the output folder {out_dir} is a file")
     options = options or ReportOptions()
     frames, idx, contact_obj, inputs = load_report_inputs(
         paths, contacts=contacts, contact_keywords=contact_keywords, frames=options.frames,

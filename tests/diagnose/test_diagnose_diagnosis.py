@@ -28,6 +28,16 @@ def twin_setup():
     return eff, sim, fps
 
 
+@pytest.fixture(scope="module")
+def tiny_serial(tmp_path_factory):
+    """``validate("tiny", refine=0)`` run once, serially, into a fresh records file:
+    (result, the records' lines, the status lines it said)."""
+    whole = tmp_path_factory.mktemp("tiny") / "whole.jsonl"
+    statuses = []
+    res = validate("tiny", refine=0, records=whole, on_status=statuses.append)
+    return res, whole.read_text().splitlines(), statuses
+
+
 def _twin(sim, fps, tmp_path, effects, seed):
     return _twin_measurements(twin_design(), sim, dict(BASE_PARAMETERS), effects, seed, tmp_path, seed,
                               sim.noise_sd())
@@ -541,12 +551,10 @@ def test_a_twins_repeated_experiments_are_handed_to_a_parallel_simulator_at_once
         assert np.array_equal(with_prefetch[m.name].values, plain[m.name].values)
 
 
-def test_twins_run_in_processes_make_the_serial_records(tmp_path):
+def test_twins_run_in_processes_make_the_serial_records(tiny_serial, tmp_path):
     """``twin_jobs``: the twins left to run go to worker processes, one twin each; their
     records are those a serial run makes, and are merged into ``records``."""
-    whole = tmp_path / "whole.jsonl"
-    serial = validate("tiny", refine=0, records=whole)
-    lines = whole.read_text().splitlines()
+    serial, lines, _ = tiny_serial
     left = {json.loads(x)["twin"] for x in lines[-2:]}
     part = tmp_path / "part.jsonl"
     part.write_text("".join(x + "\n" for x in lines if json.loads(x)["twin"] not in left))
@@ -570,14 +578,12 @@ def test_twins_run_in_processes_make_the_serial_records(tmp_path):
         validate("tiny", twin_jobs=0)
 
 
-def test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once(tmp_path):
+def test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once(tiny_serial, tmp_path):
     """A worker's records file starts with what ``records`` holds of its twin, so a twin
     interrupted between its diagnoses is not diagnosed again, and merging writes each line
     once (before, a resumed twin's finished record was redone and then stood twice)."""
     from bedstruct.diagnose.validate_parallel import run_twins_in_processes
-    whole = tmp_path / "whole.jsonl"
-    validate("tiny", refine=0, records=whole)
-    lines = whole.read_text().splitlines()
+    lines = tiny_serial[1]
     first = json.loads(lines[0])["twin"]
     other = json.loads(lines[-1])["twin"]
     # the finished record carries a mark a rerun would not write: had the worker diagnosed
@@ -608,12 +614,11 @@ def test_a_status_line_that_cannot_be_written_does_not_stop_the_twin(tmp_path, m
     assert validate_parallel._read_status(part) == ""
 
 
-def test_running_twins_say_how_far_they_have_come(tmp_path):
+def test_running_twins_say_how_far_they_have_come(tiny_serial, tmp_path):
     """``on_status`` hears which twin runs (its worker process writes that line beside its
     records, where the bar of ``twin_jobs`` reads it); merging the records removes it."""
     from bedstruct.diagnose.validate_parallel import _append, _one_twin, _read_status
-    statuses = []
-    res = validate("tiny", refine=0, on_status=statuses.append)
+    res, _, statuses = tiny_serial
     names = {t["twin"]: t["true_effect"] or "null" for t in res.twins}
     assert statuses == [f"twin {i} ({names[i]})" for i in sorted(names)]
     part = str(tmp_path / "twin3.jsonl")

@@ -59,6 +59,26 @@ def test_plot_rose_dumbbell(ti_sample, tmp_path):
     _render(fig, tmp_path, "rose")
 
 
+def test_rose_cells_lie_on_the_rose_and_are_coloured_by_its_value(ti_sample):
+    _, t = ti_sample
+    fig = plot_rose(t, kind=4, n_theta=13, n_phi=25)
+    (surface,) = fig.axes[0].collections
+    _, _, d = sphere_grid(13, 25)
+    f = 4 * np.pi * fabric_density(t, d, rank=4)
+    on_rose = d * np.abs(f)[..., None]
+    corners = surface._faces                   # (cells, 4, 3): the quadrilaterals as drawn
+    assert corners.shape == (12 * 24, 4, 3)
+    # cell (a, b) has the grid points (a, b), (a, b+1), (a+1, b+1), (a+1, b) as corners
+    for k, (da, db) in enumerate([(0, 0), (0, 1), (1, 1), (1, 0)]):
+        expected = on_rose[da:da + 12, db:db + 24].reshape(-1, 3)
+        np.testing.assert_allclose(corners[:, k], expected, rtol=1e-12, atol=1e-15)
+    # coloured by the value at the first corner on viridis over the range of the values (the
+    # colours in cell order; get_facecolor gives them sorted by depth for one view)
+    from matplotlib import colormaps, colors
+    expected = colormaps["viridis"](colors.Normalize(f.min(), f.max())(f[:-1, :-1].ravel()))
+    np.testing.assert_allclose(surface._facecolor3d, expected, atol=1e-12)
+
+
 def test_plot_rose_difference_uses_symmetric_diverging_colours(ti_sample):
     _, t = ti_sample
     fig = plot_rose(t, kind="difference", n_theta=11, n_phi=21)

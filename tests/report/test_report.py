@@ -1,3 +1,4 @@
+import contextlib
 import json
 import shutil
 import subprocess
@@ -15,12 +16,26 @@ from lattices import cubic_lattice
 _REAL_RENDER_3D = _picture.render_3d
 
 
+def _note_instead_of_3d(frame, **kw):
+    return None, "3-D view not drawn (left out in the tests)"
+
+
 @pytest.fixture(autouse=True)
 def _no_3d_render(monkeypatch):
     """The 3-D view takes seconds in a child process: the tests of it render it, the
     others get a note instead."""
-    monkeypatch.setattr(_picture, "render_3d",
-                        lambda frame, **kw: (None, "3-D view not drawn (left out in the tests)"))
+    monkeypatch.setattr(_picture, "render_3d", _note_instead_of_3d)
+
+
+@contextlib.contextmanager
+def _only(*keys):
+    """Reports built inside (by build_report or the CLI) run only the named sections; the
+    input is judged and pictured as always. For tests of one section's numbers."""
+    todo = [s for s in build_mod.SECTIONS if s[0] in keys]
+    assert [s[0] for s in todo] == [k for k, _, _ in build_mod.SECTIONS if k in keys] and len(todo) == len(keys)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(build_mod, "SECTIONS", todo)
+        yield
 
 
 @pytest.fixture(scope="module")
@@ -36,6 +51,39 @@ def bed_dump(tmp_path_factory):
     path = tmp_path_factory.mktemp("bed") / "bed.dump"
     bedstruct.write_dump(path, frames)
     return path
+
+
+@pytest.fixture(scope="module")
+def bed_report(bed_dump):
+    """The full report on the last frame of ``bed_dump`` (default options), built once for the
+    tests that read it, with every figure the sections drew as ``(section key, Figure)``."""
+    from bedstruct.report import _model
+    shown = []
+    real = _model.Section.add_figure
+
+    def keep(self, fig, caption):
+        shown.append((self.key, fig))
+        return real(self, fig, caption)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_model.Section, "add_figure", keep)
+        mp.setattr(_picture, "render_3d", _note_instead_of_3d)
+        rep = build_report(bedstruct.read_dump(bed_dump)[-1])
+    return rep, shown
+
+
+@pytest.fixture(scope="module")
+def cli_heat_run(bed_dump, tmp_path_factory):
+    """``bedstruct report --heat`` on ``bed_dump`` (no unit system: heat is skipped), run once
+    with the summary and heat sections: (exit code, stdout, stderr, output folder)."""
+    import io
+    out = tmp_path_factory.mktemp("cli") / "rep"
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with _only("summary", "heat"), contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr), \
+            pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_picture, "render_3d", _note_instead_of_3d)
+        code = main(["report", str(bed_dump), "--heat", "--out", str(out)])
+    return code, stdout.getvalue(), stderr.getvalue(), out
 
 
 def test_select_frames_errors():
@@ -58,9 +106,10 @@ def test_cli_option_values_out_of_range_are_usage_errors(bed_dump, tmp_path, cap
     assert not (tmp_path / "r").exists()
 
 
-def test_report_sections_and_numbers(bed_dump, tmp_path):
+def test_report_sections_and_numbers(bed_dump, bed_report, tmp_path):
     frame = bedstruct.read_dump(bed_dump)[-1]
-    rep = build_report(frame, options=ReportOptions(regions=3))
+    rep, _ = bed_report                           # default options: 3 regions
+    assert rep.settings["regions"] == 3
     status = {s.key: s.status for s in rep.sections}
     assert status["summary"] == "ok" and status["packing"] == "ok" and status["fabric"] == "ok"
     assert status["repose"] == "skipped"          # a flat slab has no pile
@@ -91,7 +140,8 @@ def test_report_packing_regions_of_a_lattice_with_a_depleted_end():
     site = np.round(lattice.positions / 50.0 - 0.5).astype(int)
     removed = (site[:, 0] >= 16) & (site.sum(axis=1) % 2 == 1) & (site[:, 2] < 3)
     bed = bedstruct.Frame(lattice.positions[~removed], lattice.radii[~removed], box=lattice.box)
-    num = build_report(bed, options=ReportOptions(regions=3)).summary()["values"]
+    with _only("packing"):
+        num = build_report(bed, options=ReportOptions(regions=3)).summary()["values"]
     full = np.pi / 6
     assert num["packing.fraction_start"] == pytest.approx(full, rel=1e-12)
     assert num["packing.fraction_centre"] == pytest.approx(full, rel=1e-12)
@@ -103,19 +153,22 @@ def test_report_packing_regions_of_a_lattice_with_a_depleted_end():
 def test_failing_section_does_not_break_report(bed_dump, monkeypatch):
     def boom(ctx, section):
         raise RuntimeError("kaboom")
-    sections = [(k, t, boom if k == "surface" else f) for k, t, f in build_mod.SECTIONS]
+    # the sections before, at and after the failing one
+    sections = [(k, t, boom if k == "surface" else f) for k, t, f in build_mod.SECTIONS
+                if k in ("summary", "packing", "surface", "harmonics")]
     monkeypatch.setattr(build_mod, "SECTIONS", sections)
     rep = build_report(bedstruct.read_dump(bed_dump)[-1])
     assert rep.failed == ["surface"]
     assert "kaboom" in rep.section("surface").error
-    assert rep.section("packing").status == "ok"
+    assert rep.section("packing").status == "ok" and rep.section("harmonics").status == "ok"
     assert "This section failed" in render_html(rep)
 
 
 def test_cli_report_json_last_line(bed_dump, tmp_path, capsys):
     out = tmp_path / "rep"
-    assert main(["report", str(bed_dump), "--out", str(out), "--json", "--frames", "all",
-                 "--german-windows", "8"]) == 0
+    with _only("summary", "coordination"):
+        assert main(["report", str(bed_dump), "--out", str(out), "--json", "--frames", "all",
+                     "--german-windows", "8"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     summary = json.loads(last)
     assert summary["values"]["coordination.german_windows"] == 8
@@ -142,11 +195,11 @@ def _chromium():
     return None
 
 
-def test_report_renders_in_headless_chromium(bed_dump, tmp_path):
+def test_report_renders_in_headless_chromium(bed_report, tmp_path):
     exe = _chromium()
     if exe is None:
         pytest.skip("headless Chromium not installed (Debian package 'chromium'); cannot test rendering")
-    rep = build_report(bedstruct.read_dump(bed_dump)[-1])
+    rep, _ = bed_report
     html_path, _ = write_report(rep, tmp_path)
     n_fig = sum(len(s.figures) for s in rep.sections) + len(rep.pictures)
     # count images that decoded (naturalWidth > 0) and report console errors via the DOM title
@@ -178,20 +231,21 @@ def test_repose_section_on_a_pile(tmp_path):
     # radius 0.15: the spheres overlap into one network (with 0.05 the cloud is dilute, not a pile)
     frame = bedstruct.Frame(pile, np.full(len(pile), 0.15),
                             box=bedstruct.Box([-12, 0, 0], [12, 4, 8], boundary="ff pp ff"))
-    rep = build_report(frame)
+    with _only("repose"):
+        rep = build_report(frame)
     assert rep.state["kind"] == "pile", rep.state["reason"]
     sec = rep.section("repose")
     assert sec.status == "ok", sec.text
     assert abs(sec.numbers["angle_deg"].value - 30.0) < 1.5
 
 
-def test_heat_section_needs_units_and_reports_each_region(bed_dump):
-    frame = bedstruct.read_dump(bed_dump)[-1]               # no ITEM: UNITS in the file
-    rep = build_report(frame, options=ReportOptions(heat=True))
-    assert rep.section("heat").status == "skipped" and "unit" in rep.section("heat").text
-    from lattices import cubic_lattice
+def test_heat_section_needs_units_and_reports_each_region(cli_heat_run):
+    # bed_dump has no ITEM: UNITS
+    heat = json.loads((cli_heat_run[3] / "report.json").read_text())["sections"]["heat"]
+    assert heat["status"] == "skipped" and "unit" in heat["text"]
     lattice = cubic_lattice((24, 8, 4), spacing=50.0, radius=25.5, boundary=("ff", "pp", "ff"))
-    rep = build_report(lattice.with_units("micro"), options=ReportOptions(heat=True))
+    with _only("heat"):
+        rep = build_report(lattice.with_units("micro"), options=ReportOptions(heat=True))
     heat = rep.section("heat")
     assert heat.status == "ok", heat.error
     for name in ("start", "centre", "end"):
@@ -225,14 +279,14 @@ def test_cli_missing_optional_dependency_is_one_line(tmp_path, capsys, monkeypat
     assert len(err) == 1 and "zstandard" in err[0]
 
 
-def test_cli_out_that_is_a_file_is_an_error_not_a_traceback(bed_dump, tmp_path, capsys):
+def test_cli_out_that_is_a_file_is_an_error_not_a_traceback(bed_dump, cli_heat_run, tmp_path, capsys):
     taken = tmp_path / "taken"
     taken.write_text("")
     assert main(["report", str(bed_dump), "--out", str(taken)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("bedstruct report: error:") and "taken" in err[0]
-    out = tmp_path / "rep"
-    assert main(["report", str(bed_dump), "--out", str(out)]) == 0
+    code, _, _, out = cli_heat_run                  # a folder that is not there yet is made
+    assert code == 0
     mode = (out / "report.html").stat().st_mode & 0o777
     assert mode & 0o044 == 0o044 & ~bedstruct._atomic._UMASK   # readable as the umask allows
 
@@ -243,7 +297,8 @@ def test_repose_sample_is_measured_on_its_pile_not_on_falling_clumps():
     from pathlib import Path
     sample = Path(__file__).parents[2] / "data" / "samples" / "repose" / "pile.dump.gz"
     frame = bedstruct.read_dump(sample, units="si")[-1]
-    sec = build_report(frame).section("repose")
+    with _only("repose"):
+        sec = build_report(frame).section("repose")
     assert sec.status == "ok", sec.text
     assert sec.numbers["angle_deg"].value == pytest.approx(29.9, abs=2.0)
     assert "largest cluster" in sec.text
@@ -258,9 +313,9 @@ def test_repose_sample_is_measured_on_its_pile_not_on_falling_clumps():
         abs(sec.numbers["left_deg"].value - sec.numbers["right_deg"].value))
 
 
-def test_cli_heat_skipped_for_unknown_units_is_said_on_stderr(bed_dump, tmp_path, capsys):
-    assert main(["report", str(bed_dump), "--heat", "--out", str(tmp_path / "r")]) == 0
-    err = capsys.readouterr().err
+def test_cli_heat_skipped_for_unknown_units_is_said_on_stderr(bed_dump, cli_heat_run, tmp_path):
+    code, _, err, _ = cli_heat_run
+    assert code == 0
     assert "warning: --heat skipped" in err and "unit" in err
     with pytest.raises(SystemExit) as exc:       # an unknown unit style is a usage error
         main(["report", str(bed_dump), "--units", "furlong", "--out", str(tmp_path / "s")])
@@ -271,7 +326,8 @@ def test_d50_shift_is_none_when_the_end_region_is_empty():
     # periodic along x: the regions span the box, and the last third holds no particle
     f = bedstruct.Frame([[10, 5, 5], [20, 5, 5], [30, 5, 5], [45, 5, 5]], [2, 2, 3, 3.0],
                         box=bedstruct.Box([0, 0, 0], [100, 10, 10], boundary="pp pp ff"))
-    sec = build_report(f).section("psd")
+    with _only("psd"):
+        sec = build_report(f).section("psd")
     assert [row[1] for row in sec.tables[0].rows] == [3, 1, 0]
     assert sec.numbers["d50_shift_start_to_end"].value is None     # not centre minus start
 
@@ -319,23 +375,27 @@ def test_a_bed_still_settling_is_not_reported_as_a_bed():
     v = rng.normal(0, 0.03, g.shape) + [0, 0, -0.13]
     frame = bedstruct.Frame(pos, rng.uniform(23.0, 27.0, len(pos)) * 1e-6, velocities=v,
                             box=bedstruct.Box([0, 0, 0], [1.2e-3, 0.3e-3, 0.4e-3], boundary="pp pp ff")).with_units("si")
-    rep = build_report(frame, options=ReportOptions(heat=True))
+    judged = ("coordination", "surface", "repose", "heat")     # those not meaningful for it
+    with _only(*judged):
+        rep = build_report(frame, options=ReportOptions(heat=True))
     assert rep.state["kind"] == "moving bed"
+    assert {s.key for s in rep.sections if s.status == "not meaningful"} == set(judged)
     assert rep.section("coordination").status == "not meaningful"
     assert rep.section("heat").status == "not meaningful"
     assert _static_numbers(rep) == []
     # the same positions at rest are a settled bed with German's fit
     still = bedstruct.Frame(frame.positions, frame.radii, box=frame.box, velocities=v * 1e-3).with_units("si")
-    rep = build_report(still)
+    with _only("coordination"):
+        rep = build_report(still)
     assert rep.state["kind"] == "settled bed"
     assert rep.section("coordination").status == "ok"
     assert "german_a" in rep.section("coordination").numbers
 
 
-def test_report_german_fit_is_the_library_default_and_says_its_windows(bed_dump):
+def test_report_german_fit_is_the_library_default_and_says_its_windows(bed_dump, bed_report):
     from bedstruct.analysis import GERMAN_WINDOWS, german_law_along
     frame = bedstruct.read_dump(bed_dump)[-1]
-    sec = build_report(frame).section("coordination")
+    sec = bed_report[0].section("coordination")
     lib = german_law_along(frame)
     assert lib.n_windows == GERMAN_WINDOWS
     assert sec.numbers["german_a"].value == lib.fit.a and sec.numbers["german_b"].value == lib.fit.b
@@ -343,22 +403,15 @@ def test_report_german_fit_is_the_library_default_and_says_its_windows(bed_dump)
     assert lib.definition in sec.numbers["german_windows"].definition
     assert f"over {lib.n_used} windows along x" in sec.numbers["german_a"].definition
     # a different number of windows is a stated option, and gives the library's numbers for it
-    sec8 = build_report(frame, options=ReportOptions(german_windows=8)).section("coordination")
+    with _only("coordination"):
+        sec8 = build_report(frame, options=ReportOptions(german_windows=8)).section("coordination")
     assert sec8.numbers["german_a"].value == german_law_along(frame, n_windows=8).fit.a
     assert sec8.numbers["german_a"].value != lib.fit.a
 
 
-def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, monkeypatch):
-    from bedstruct.report import _model
-    shown = []
-    real = _model.Section.add_figure
-
-    def keep(self, fig, caption):
-        shown.append((self.key, fig))
-        return real(self, fig, caption)
-
-    monkeypatch.setattr(_model.Section, "add_figure", keep)
-    sec = build_report(bedstruct.read_dump(bed_dump)[-1]).section("harmonics")
+def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, bed_report):
+    rep, shown = bed_report
+    sec = rep.section("harmonics")
     assert sec.status == "ok", sec.text
     table = sec.tables[0]
     assert table.columns[:3] == ["region", "x from", "x to"] and table.units[1:3] == ["unknown", "unknown"]
@@ -377,6 +430,29 @@ def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, monkeypatch
     e = harmonic_expansion(c.normals, 8)
     assert sec.numbers["power_l4"].value == pytest.approx(e.power[4] / e.power[0], rel=1e-12)
     assert sec.numbers["power_l4"].value == pytest.approx(4 * np.pi * e.power[4], rel=1e-12)
+
+
+def test_fabric_roses_plot_the_regions_of_the_table(bed_report):
+    """Each region's rank-2 rose reaches 4 pi f_2 = 1 + 15/2 (lambda_1 - 1/3) along its
+    principal direction, with lambda_1 from the section's table (the grid of the rose
+    passes within 3 degrees of that direction)."""
+    rep, shown = bed_report
+    sec = rep.section("fabric")
+    assert sec.status == "ok", sec.text
+    table = sec.tables[0]
+    assert table.columns[:3] == ["region", "contacts", "λ1"]
+    grid = [f for key, f in shown if key == "fabric"][0]
+    roses = [a for a in grid.axes if a.name == "3d"]
+    assert len(roses) == 3 * len(table.rows)
+    reach = []
+    for row, ax in zip(table.rows, roses[::3]):
+        assert ax.get_title() == f"{row[0]}: rank 2"
+        (surface,) = ax.collections
+        corners = surface._faces            # (cells, 4, 3): the quadrilaterals as drawn
+        reach.append(float(np.linalg.norm(corners, axis=-1).max()))
+    expected = [1 + 7.5 * (row[2] - 1 / 3) for row in table.rows]
+    np.testing.assert_allclose(reach, expected, rtol=2e-3)
+    assert max(expected) - min(expected) > 0.05         # the regions differ: a mix-up shows
 
 
 def test_html_shows_natural_units_and_json_keeps_si(tmp_path):
@@ -420,7 +496,8 @@ def test_a_section_whose_numbers_are_all_nan_is_not_ok(monkeypatch):
 def test_repose_skip_text_has_no_nan():
     # a flat slab: the slope test fails; its reason must not read "nan +- nan"
     lattice = cubic_lattice((24, 6, 4), spacing=1.0, radius=0.51, boundary=("ff", "pp", "ff"))
-    sec = build_report(lattice).section("repose")
+    with _only("repose"):
+        sec = build_report(lattice).section("repose")
     assert sec.status == "skipped" and "nan" not in sec.text.lower()
 
 
@@ -436,10 +513,10 @@ def test_height_map_has_axes_units_and_true_aspect():
     assert "mm" in fig.axes[1].get_xlabel() + fig.axes[1].get_ylabel()       # the colour bar
 
 
-def test_cli_report_says_where_it_wrote_and_what_the_input_is(bed_dump, tmp_path, capsys):
-    out = tmp_path / "rep"
-    assert main(["report", str(bed_dump), "--out", str(out)]) == 0
-    lines = capsys.readouterr().out.strip().splitlines()
+def test_cli_report_says_where_it_wrote_and_what_the_input_is(cli_heat_run):
+    code, stdout, _, out = cli_heat_run
+    assert code == 0
+    lines = stdout.strip().splitlines()
     assert lines == [f"bedstruct report: wrote {out / 'report.html'} and {out / 'report.json'} "
                      f"(input: settled bed)"]
 
@@ -447,7 +524,8 @@ def test_cli_report_says_where_it_wrote_and_what_the_input_is(bed_dump, tmp_path
 def test_rdf_section_of_a_lattice_bed_has_its_first_shell_at_one_diameter():
     from bedstruct.analysis import radial_distribution
     lattice = cubic_lattice((24, 6, 4), spacing=100e-6, radius=50e-6, boundary=("ff", "pp", "ff"))
-    sec = build_report(lattice.with_units("si")).section("rdf")
+    with _only("rdf"):
+        sec = build_report(lattice.with_units("si")).section("rdf")
     assert sec.status == "ok", sec.text
     assert sec.numbers["peak_r_over_d50"].value == pytest.approx(1.0, abs=0.05)
     assert sec.numbers["peak_r"].value == radial_distribution(lattice).first_peak[0]
@@ -457,7 +535,8 @@ def test_rdf_section_of_a_lattice_bed_has_its_first_shell_at_one_diameter():
 def test_voronoi_section_of_a_lattice_bed_is_pi_over_6_inside(monkeypatch):
     pytest.importorskip("pyvoro2", reason="optional extra bedstruct[voronoi] (pyvoro2) not installed")
     lattice = cubic_lattice((12, 4, 4), spacing=100e-6, radius=50e-6, boundary=("pp", "pp", "ff"))
-    sec = build_report(lattice.with_units("si")).section("voronoi")
+    with _only("voronoi"):
+        sec = build_report(lattice.with_units("si")).section("voronoi")
     assert sec.status == "ok", sec.text
     assert sec.numbers["mean_inside"].value == pytest.approx(np.pi / 6, rel=1e-9)
     assert sec.numbers["mean_all"].value == pytest.approx(np.pi / 6, rel=1e-9)   # the region ends at the caps
@@ -476,7 +555,8 @@ def test_voronoi_section_without_pyvoro2_is_skipped_with_the_install_hint(monkey
 
     monkeypatch.setattr(builtins, "__import__", no_pyvoro2)
     lattice = cubic_lattice((6, 4, 4), spacing=1.0, radius=0.5, boundary=("pp", "pp", "ff"))
-    sec = build_report(lattice).section("voronoi")
+    with _only("voronoi"):
+        sec = build_report(lattice).section("voronoi")
     assert sec.status == "skipped" and "bedstruct[voronoi]" in sec.text
 
 
@@ -498,7 +578,7 @@ def test_cli_report_lenient_lists_the_frames_it_left_out(bed_dump, tmp_path, cap
     assert main(["report", str(path), "--out", str(tmp_path / "strict"), "--frames", "all"]) == 1
     err = capsys.readouterr().err
     assert f"{path}, line {n_one + 31}: non-numeric value" in err
-    with pytest.warns(UserWarning, match="skipping a malformed frame"):
+    with pytest.warns(UserWarning, match="skipping a malformed frame"), _only("summary"):
         assert main(["report", str(path), "--out", str(tmp_path / "r"), "--lenient", "--json"]) == 0
     out, err = capsys.readouterr()
     assert "2 malformed frame(s) left out" in err
