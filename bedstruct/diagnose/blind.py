@@ -35,6 +35,7 @@ import json
 import math
 import subprocess
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -329,7 +330,16 @@ def _dump(doc) -> bytes:
     return (json.dumps(doc, indent=1, sort_keys=True) + "\n").encode("utf-8")
 
 
-def _prepare(out: Path, truth: dict, specs, twins_engine, preset, progress=None) -> dict:
+def _make_twin(spec, twins_engine, preset, out: Path) -> None:
+    """Make one twin's measurement file, atomically (a process of its own may run it)."""
+    p = out / "twins" / f"{spec.twin}.toml"
+    tmp = p.with_suffix(".toml.tmp")
+    twin_measurements(spec, twins_engine, benchmark_design(twins_engine), tmp, preset=preset)
+    tmp.replace(p)
+
+
+def _prepare(out: Path, truth: dict, specs, twins_engine, preset, progress=None,
+             workers: int = 1) -> dict:
     """Write truth, twin files and seal (or check those there); returns the seal.
 
     A run killed while making the twins resumes with the twin files already written (each
@@ -353,18 +363,27 @@ def _prepare(out: Path, truth: dict, specs, twins_engine, preset, progress=None)
     sealed = json.loads(spath.read_text()) if spath.exists() else None
     if sealed is not None and sealed.get("truth_sha256") != _sha256(tpath):
         raise ConfigError(f"{out}: seal.json does not match truth.json; refused")
-    design = benchmark_design(twins_engine)
+    if sealed is None:
+        # a twin file is written atomically: one that exists is a finished twin
+        (out / "twins").mkdir(exist_ok=True)
+        missing = [s for s in specs if not (out / "twins" / f"{s.twin}.toml").exists()]
+        if workers > 1 and len(missing) > 1:
+            with ProcessPoolExecutor(min(int(workers), len(missing))) as pool:
+                jobs = {pool.submit(_make_twin, s, twins_engine, preset, out): s for s in missing}
+                for job in as_completed(jobs):
+                    job.result()
+                    if progress is not None:
+                        progress(f"{jobs[job].twin}: measurement file written")
+        else:
+            for s in missing:
+                _make_twin(s, twins_engine, preset, out)
+                if progress is not None:
+                    progress(f"{s.twin}: measurement file written")
     files = {}
     for s in specs:
         p = out / "twins" / f"{s.twin}.toml"
-        if sealed is None:
-            if not p.exists():  # written atomically: a file there is a finished twin
-                tmp = p.with_suffix(".toml.tmp")
-                twin_measurements(s, twins_engine, design, tmp, preset=preset)
-                tmp.replace(p)
-            if progress is not None:
-                progress(f"{s.twin}: measurement file ready")
-        elif not p.exists() or _sha256(p) != sealed["twins_sha256"].get(s.twin):
+        if sealed is not None and (not p.exists()
+                                   or _sha256(p) != sealed["twins_sha256"].get(s.twin)):
             raise ConfigError(f"{out}: twin file {p.name} is missing or differs from its seal; "
                               f"refused")
         files[s.twin] = _sha256(p)
@@ -403,8 +422,10 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
         in this folder (its ``[library]`` table sizes the design; built after the twins
         are sealed, resumed or reused as ``bedstruct diagnose --library`` does), without
         a confirming rerun. Recorded in ``truth.json`` (the design, not the folder).
-    workers, scheduler :
-        Local processes, or a Dask scheduler address, for the library's runs.
+    workers : int
+        Local processes making the twins (one twin each), and for the library's runs.
+    scheduler : str, optional
+        A Dask scheduler address for the library's runs.
     progress : callable, optional
         Called with a line per twin made and per twin diagnosed.
 
@@ -418,7 +439,7 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
     out = Path(out)
     specs = draw_twins(n, seed, twins_engine)
     truth = _truth_doc(n, seed, twins_engine, preset, sim, diagnose_settings, specs, library)
-    seal = _prepare(out, truth, specs, twins_engine, preset, progress)
+    seal = _prepare(out, truth, specs, twins_engine, preset, progress, workers)
     rdir = out / "results"
     rdir.mkdir(exist_ok=True)
     results = {}

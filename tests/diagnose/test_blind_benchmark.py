@@ -324,3 +324,13 @@ def test_killed_twin_making_resumes_with_the_twin_files_written(bench, tmp_path,
         assert (again / "twins" / name).read_bytes() == body
     assert (again / "twins" / "twin-001.toml").read_bytes() == \
         (out / "twins" / "twin-001.toml").read_bytes()
+
+
+def test_twins_made_in_two_processes_equal_those_made_in_one(bench, tmp_path):
+    out, _, _ = bench
+    two = tmp_path / "two"
+    run_benchmark(two, n=4, seed=3, diagnose_settings=FAST, workers=2)
+    for p in sorted((out / "twins").glob("*.toml")):
+        assert (two / "twins" / p.name).read_bytes() == p.read_bytes()
+    assert json.loads((two / "seal.json").read_text())["twins_sha256"] == \
+        json.loads((out / "seal.json").read_text())["twins_sha256"]
