@@ -407,8 +407,13 @@ def _setup_lines(setup) -> list[str]:
     lines = ["", "[conditions]"]
     if setup.psd is not None:
         d10, d50, d90, lo, hi = (f'"{x!r} m"' for x in setup.psd)
+        table = ""
+        if setup.psd_table is not None:
+            dd, cum = setup.psd_table
+            table = (", diameters = [" + ", ".join(f'"{x!r} m"' for x in dd) + "], cumulative = ["
+                     + ", ".join(repr(float(x)) for x in cum) + "]")
         lines.append(f"psd = {{d10 = {d10}, d50 = {d50}, d90 = {d90}, d_min = {lo}, "
-                     f"d_max = {hi}}}")
+                     f"d_max = {hi}{table}}}")
     if setup.layer_thickness is not None:
         lines.append("layer_thickness = [" + ", ".join(f'"{x!r} m"' for x in setup.layer_thickness)
                      + "]")

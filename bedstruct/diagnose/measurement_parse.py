@@ -387,27 +387,54 @@ def _setup_psd(v, where: str, base_dir: Path, conversions: list):
         table = (tuple(float(x) for x in edges), tuple(float(x) for x in cum))
         source = str(path)
     else:
-        extra = set(v) - {"d10", "d50", "d90", "d_min", "d_max"}
+        extra = set(v) - {"d10", "d50", "d90", "d_min", "d_max", "diameters", "cumulative"}
         if extra:
             raise _err(where, f"key '{key}.{sorted(extra)[0]}': unknown; expected file (a size "
-                              f"distribution) or d10, d50, d90 (and optionally d_min, d_max)")
+                              f"distribution) or d10, d50, d90 (and optionally d_min, d_max, "
+                              f"and the whole distribution as diameters and cumulative)")
         missing = [k for k in ("d10", "d50", "d90") if k not in v]
         if missing:
             raise _err(where, f"key '{key}.{missing[0]}': the percentile form needs d10, d50 "
                               f"and d90 (volume-weighted), e.g. d10 = \"30 um\"")
         q = {k: _scalar_quantity(v[k], where, f"{key}.{k}", _LENGTH_UNITS, what="length",
-                                 conversions=conversions) for k in v}
+                                 conversions=conversions)
+             for k in v if k not in ("diameters", "cumulative")}
         d10, d50, d90 = q["d10"], q["d50"], q["d90"]
         # default truncation: as wide again as the D10-D90 span's outer parts
         d_min = q.get("d_min", max(d10 - (d50 - d10), 0.5 * d10))
         d_max = q.get("d_max", d90 + (d90 - d50))
         source = "percentiles"
-        table = None
+        table = _psd_table(v, where, key, d_min, d_max, conversions)
     if not d_min < d10 < d50 < d90 < d_max:
         raise _err(where, f"key {key!r}: expected d_min < d10 < d50 < d90 < d_max; got "
                           f"{d_min * 1e6:.4g}, {d10 * 1e6:.4g}, {d50 * 1e6:.4g}, {d90 * 1e6:.4g}, "
                           f"{d_max * 1e6:.4g} um")
     return (d10, d50, d90, d_min, d_max), source, table
+
+
+def _psd_table(v, where: str, key: str, d_min: float, d_max: float, conversions: list):
+    """The whole distribution given beside the percentiles (``diameters``: lengths at the
+    size classes' edges, ``cumulative``: volume fraction undersize at each), or None."""
+    if ("diameters" in v) != ("cumulative" in v):
+        raise _err(where, f"key '{key}': the whole distribution needs both diameters and "
+                          f"cumulative (volume fraction undersize at each diameter)")
+    if "diameters" not in v:
+        return None
+    d = _quantity(v["diameters"], where, f"{key}.diameters", _LENGTH_UNITS, what="length",
+                  conversions=conversions)
+    c = np.asarray(v["cumulative"], dtype=float) if isinstance(v["cumulative"], list) else None
+    if d.size < 3 or np.any(np.diff(d) <= 0) or d[0] <= 0:
+        raise _err(where, f"key '{key}.diameters': expected at least 3 increasing positive "
+                          f"diameters")
+    if c is None or c.shape != d.shape or np.any(~np.isfinite(c)) or np.any(c < 0) \
+            or np.any(c > 1) or np.any(np.diff(c) < 0) or not c[-1] > c[0]:
+        raise _err(where, f"key '{key}.cumulative': expected {d.size} non-decreasing volume "
+                          f"fractions in [0, 1], one per diameter; got {v['cumulative']!r}")
+    if not (math.isclose(d[0], d_min, rel_tol=1e-9) and math.isclose(d[-1], d_max, rel_tol=1e-9)):
+        raise _err(where, f"key '{key}': the diameters must span d_min to d_max "
+                          f"({d_min * 1e6:.6g}-{d_max * 1e6:.6g} um); got "
+                          f"{d[0] * 1e6:.6g}-{d[-1] * 1e6:.6g} um")
+    return tuple(float(x) for x in d), tuple(float(x) for x in c)
 
 
 def _setup(d, where: str, base_dir: Path):

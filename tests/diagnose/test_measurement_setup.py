@@ -248,3 +248,35 @@ def test_the_answers_data_notes_list_the_setups_unit_conversions(tmp_path):
     assert [n for n in notes if n.startswith("set-up: ")] == \
         [f"set-up: {c}" for c in ms.setup.conversions]
     assert any("cm/s -> m/s" in n for n in notes)
+
+
+def test_a_psd_files_whole_distribution_survives_writing_and_reading(tmp_path):
+    """write_measurements writes a file PSD's whole distribution beside its percentiles;
+    read back, the set-up and the engine's run configuration are the same."""
+    f = _file(tmp_path, '''
+        [conditions]
+        psd = {file = "psd.csv", unit = "um"}
+    ''')
+    s = load_measurements(f).setup
+    back = load_measurements(write_measurements(load_measurements(f), tmp_path / "w.toml")).setup
+    np.testing.assert_array_equal(back.psd, s.psd)
+    assert back.psd_table == s.psd_table and len(s.psd_table[0]) == 6
+    cfg = EngineSimulator(load_measurements(f), {"preset": "tiny"}).run_config({}, {}, 0)
+    cfg_back = EngineSimulator(load_measurements(tmp_path / "w.toml"),
+                               {"preset": "tiny"}).run_config({}, {}, 0)
+    assert cfg_back["psd"] == cfg["psd"] and len(cfg["psd"]["diameters"]) == 6
+
+
+@pytest.mark.parametrize("table, match", [
+    ('diameters = ["15 um", "40 um", "65 um"]', "both diameters and cumulative"),
+    ('diameters = ["15 um", "40 um", "65 um"], cumulative = [0.0, 0.7, 0.5]', "non-decreasing"),
+    ('diameters = ["15 um", "40 um"], cumulative = [0.0, 1.0]', "at least 3"),
+    ('diameters = ["10 um", "40 um", "65 um"], cumulative = [0.0, 0.5, 1.0]', "span d_min"),
+])
+def test_a_bad_whole_distribution_is_refused_by_key(tmp_path, table, match):
+    f = _file(tmp_path, f'''
+        [conditions]
+        psd = {{d10 = "20 um", d50 = "40 um", d90 = "60 um", d_min = "15 um", d_max = "65 um", {table}}}
+    ''')
+    with pytest.raises(ConfigError, match=r"conditions\.psd.*" + match):
+        load_measurements(f)
