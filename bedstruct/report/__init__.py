@@ -5,7 +5,8 @@
 
 from ._model import Quantity, Report, Section, Table, run_section, skip
 from ._render import render_html, write_report
-from .build import ReportOptions, build_report, select_frames
+from .build import build_report
+from .options import ReportOptions, select_frames
 from .inputs import load_report_inputs, report_on_files
 from .run_summary import write_run_summary
 

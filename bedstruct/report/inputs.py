@@ -7,7 +7,8 @@ from typing import Sequence
 
 from ..core import Contacts, Frame
 from ..io import read, read_dump_local
-from .build import ReportOptions, build_report, select_frames
+from .build import build_report
+from .options import ReportOptions, select_frames
 from ._model import Report
 from ._render import write_report
 
