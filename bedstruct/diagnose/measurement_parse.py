@@ -217,9 +217,14 @@ def _windowed(times, series, windows, where, key):
     """Mean and standard error of ``series`` in each window (the series operator)."""
     from .observables import windowed_mean
     try:
-        return windowed_mean(times, series, windows)
+        mean, sem = windowed_mean(times, series, windows)
     except ValueError as exc:
         raise _err(where, f"key {key!r}: {exc}") from None
+    empty = [w for w, m in zip(np.atleast_2d(np.asarray(windows, float)), mean) if not np.isfinite(m)]
+    if empty:   # a measured series: a window without a value is a gap in the file
+        raise _err(where, f"key {key!r}: window [{empty[0][0]:g}, {empty[0][1]:g}] holds no "
+                          f"finite value")
+    return mean, sem
 
 
 _SERIES_NOTE = ("uncertainty: the window means' standard errors by batch means (10 blocks, "

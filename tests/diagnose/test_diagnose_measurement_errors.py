@@ -300,3 +300,16 @@ def test_speeds_and_box_widths_may_carry_units(tmp_path):
     assert m.conditions.speed == pytest.approx(0.0254)
     assert m.conditions.get("box_width") == pytest.approx(0.03)
     assert any("cm/s -> m/s" in c for c in m.conversions)
+
+
+def test_a_measured_series_window_without_a_finite_value_is_named(tmp_path):
+    """A measured angle series with only NaN in one window is a gap in the file: an error
+    naming the file, the key and the window (a simulated series reads NaN there instead)."""
+    t = np.linspace(0.0, 1.0, 21)
+    y = np.where(t < 0.5, np.nan, 30.0)
+    np.savetxt(tmp_path / "s.csv", np.column_stack([t, y]), delimiter=",", header="t,angle",
+               comments="")
+    f = _write(tmp_path, HEAD + 'kind = "dynamic_angle_series"\ncsv = "s.csv"\n'
+                                'windows = [[0.0, 0.4], [0.5, 1.0]]\n')
+    with pytest.raises(ConfigError, match=r"m\.toml.*window \[0, 0\.4\] holds no finite value"):
+        load_measurements(f)
