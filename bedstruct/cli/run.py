@@ -31,7 +31,7 @@ _WORKFLOWS = {
                   "search over repose runs)", ("repose", "calibrate")),
 }
 _COMMON_SECTIONS = ("", "material", "contact", "psd", "time")
-_LATE_SECTIONS = ("external", "effects", "output")
+_LATE_SECTIONS = ("external", "output")
 
 
 def _workflow_arguments(parser) -> None:

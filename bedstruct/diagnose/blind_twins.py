@@ -37,7 +37,8 @@ import numpy as np
 from ..engines import ENGINE_NAMES, dialect
 from ..errors import ConfigError
 from .catalogue import CATALOGUE
-from .engine_simulator import diagnosis_simulator, effects_config
+from ..workflows.config import DEFAULTS
+from .engine_simulator import diagnosis_simulator, effects_config, with_options
 from .measurement_io import measurement_from_dict, write_measurements
 from .measurements import MeasurementSet, Observations
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
@@ -242,8 +243,8 @@ def engine_realises(effect, engine: str) -> bool:
     """Whether twin engine ``engine`` realises catalogue ``effect`` (an :class:`Effect`).
 
     The surrogate and the embedded engine realise every effect; an external engine
-    realises it when its dialect accepts the effect's ``[effects]`` values at the top of
-    its prior (:meth:`bedstruct.engines.Dialect.check_effects`, spreading).
+    realises it when its dialect accepts the effect's options at the top of its prior
+    (:meth:`bedstruct.engines.Dialect.check_effects`, spreading).
 
     Examples
     --------
@@ -257,8 +258,8 @@ def engine_realises(effect, engine: str) -> bool:
     if engine not in ENGINE_NAMES:
         return True
     try:
-        dialect(engine).check_effects(effects_config({effect.name: effect.prior[1]}),
-                                      spreading=True)
+        on = effects_config({effect.name: effect.prior[1]}, DEFAULTS)
+        dialect(engine).check_effects(with_options(DEFAULTS, on), spreading=True)
     except ConfigError:
         return False
     return True

@@ -3,8 +3,11 @@
 Every effect names the physics it adds, the magnitude parameter that switches it
 on (magnitude 0 is the base model), the prior range of that magnitude, sources,
 the expected signature, and the measurements that would identify it. The mapping
-from magnitude to engine parameters is kept as *data* (``engine_map``) so that the
-DEM engine can wire each extension without reading this module's code.
+from magnitude to workflow configuration options is kept as *data* (``engine_map``):
+each effect sets ordinary options of the section where its physics lives
+(``contact.capillary``, ``contact.rolling_friction``, ``psd.fines_mass_fraction``,
+``spread.ramp_time`` ...), which the embedded engine and the external engines' dialects
+realise or refuse by name.
 
 .. versionadded:: 0.1
 """
@@ -44,9 +47,12 @@ class Effect:
     sources : tuple of str
         Literature (with DOI) behind the physics and the prior range.
     engine_map : tuple of (str, str, float, float)
-        ``(engine_parameter, rule, a, b)`` rows mapping the magnitude ``m`` to
-        engine parameters: rule ``"linear"`` gives ``a * m + b``, ``"const"``
-        gives ``a``, ``"switch"`` gives ``m != 0``, ``"halsey"`` gives ``a`` times
+        ``(option, rule, a, b)`` rows mapping the magnitude ``m`` to workflow
+        configuration options (dotted names, ``"contact.rolling_friction"``): rule
+        ``"linear"`` gives ``a * m + b``, ``"const"`` gives ``a``, ``"switch"`` gives
+        ``m != 0``, ``"offset"`` gives ``max(0, base + a * m)`` with ``base`` the value
+        of option ``b`` in the configuration being diagnosed (a change of a contact
+        coefficient relative to the base model), ``"halsey"`` gives ``a`` times
         the water film thickness (m) at relative humidity ``m`` (see
         :func:`halsey_film_thickness`), ``"kelvin"`` gives
         ``a * (1 + 2 r_K(m) / b)`` with the Kelvin radius ``r_K`` (see
@@ -64,7 +70,9 @@ class Effect:
     >>> e.magnitude, e.unit, e.prior
     ('relative_humidity', '1', (0.0, 0.8))
     >>> sorted(e.engine_parameters(0.0))[:2]
-    ['capillary', 'capillary_contact_angle']
+    ['contact.capillary', 'contact.capillary_contact_angle']
+    >>> effect("wall_friction").engine_parameters(0.2, {"contact": {"friction": 0.5}})
+    {'contact.wall_friction': 0.7}
     """
 
     name: str
@@ -85,31 +93,37 @@ class Effect:
         hi = self.prior[1]
         return (0.5 * hi, hi)
 
-    def engine_parameters(self, magnitude: float) -> dict[str, Any]:
-        """Engine parameters that switch this effect on at ``magnitude``.
+    def engine_parameters(self, magnitude: float,
+                          base: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """The configuration options that switch this effect on at ``magnitude``.
 
         Parameters
         ----------
         magnitude : float
             The effect magnitude in :attr:`unit`.
+        base : mapping, optional
+            The workflow configuration being diagnosed (sections of options), which the
+            ``"offset"`` rules read their base value from; needed only by those.
 
         Returns
         -------
         dict
-            ``{engine_parameter: value}`` in SI units; what the DEM engine must
-            accept to implement the extension.
+            ``{"section.option": value}`` in SI units.
 
         Raises
         ------
         ValueError
-            If ``magnitude`` is not finite.
+            If ``magnitude`` is not finite, or an ``"offset"`` rule has no ``base``
+            configuration holding its option.
         """
         m = float(magnitude)
         if not math.isfinite(m):
             raise ValueError(f"magnitude of {self.name!r} must be finite; got {magnitude!r}")
         out: dict[str, Any] = {}
         for key, rule, a, b in self.engine_map:
-            if rule == "linear":
+            if rule == "offset":
+                out[key] = max(0.0, _option(base, b, self.name) + a * m)
+            elif rule == "linear":
                 out[key] = a * m + b
             elif rule == "const":
                 out[key] = a
@@ -140,10 +154,20 @@ class Effect:
         return {"name": self.name, "title": self.title, "magnitude": self.magnitude,
                 "unit": self.unit, "prior": list(self.prior), "physics": self.physics,
                 "signature": self.signature, "sources": list(self.sources),
-                "engine_parameters_at_prior_top": self.engine_parameters(self.prior[1]),
+                "engine_parameters_at_prior_top": engine_hooks()[self.name],
                 "engines": {eng: {"realised": r.realised, "how": r.how, "refused": r.refused}
                             for eng, r in self.realisations.items()},
                 "identify_with": [dict(d) for d in self.identify_with]}
+
+
+def _option(cfg, dotted: str, name: str) -> float:
+    """The value of option ``section.key`` in the configuration ``cfg``."""
+    section, _, key = dotted.partition(".")
+    try:
+        return float(cfg[section][key])
+    except (TypeError, KeyError):
+        raise ValueError(f"effect {name!r}: its offset from `{dotted}` needs the configuration "
+                         "being diagnosed (base=), holding that option") from None
 
 
 def halsey_film_thickness(relative_humidity: float, *, monolayer: float = 0.354e-9) -> float:
@@ -229,11 +253,11 @@ CAPILLARY_ASPERITY = {"asperity_radius": 0.05e-6, "roughness_height": 1.0e-9,
 def _capillary_map():
     c = CAPILLARY_ASPERITY
     ratio = c["asperity_radius"] / (2.0 * c["reference_radius"])
-    return (("capillary", "switch", 0, 0),
-            ("capillary_surface_tension", "kelvin", c["surface_tension"] * ratio,
+    return (("contact.capillary", "switch", 0, 0),
+            ("contact.capillary_surface_tension", "kelvin", c["surface_tension"] * ratio,
              c["roughness_height"] / math.cos(c["contact_angle"])),
-            ("capillary_contact_angle", "const", c["contact_angle"], 0),
-            ("capillary_film_thickness", "halsey",
+            ("contact.capillary_contact_angle", "const", c["contact_angle"], 0),
+            ("contact.capillary_film_thickness", "halsey",
              (c["asperity_radius"] / c["reference_radius"]) ** 2, 0))
 
 
@@ -268,11 +292,11 @@ CATALOGUE: tuple[Effect, ...] = (
             "Frye, K.M., Marone, C. (2002). Effect of humidity on granular friction at room "
             "temperature. J. Geophys. Res. 107, 2309. doi:10.1029/2001JB000654",
         ),
-        engine_map=(("contact_ageing", "switch", 0, 0),
-                    ("ageing_bond_ratio", "linear", 1.0, 0.0),
-                    ("ageing_time_constant", "const", 10.0, 0),
-                    ("ageing_reference_rest_time", "const", 60.0, 0),
-                    ("ageing_break_slip", "const", 1e-6, 0)),
+        engine_map=(("contact.ageing", "switch", 0, 0),
+                    ("contact.ageing_bond_ratio", "linear", 1.0, 0.0),
+                    ("contact.ageing_time_constant", "const", 10.0, 0),
+                    ("contact.ageing_reference_rest_time", "const", 60.0, 0),
+                    ("contact.ageing_break_slip", "const", 1e-6, 0)),
         identify_with=(_m("avalanche_angle_rest600", "static_angle", 0.5, "deg", rest_time=600.0,
                           box_width=0.03),
                        _m("dynamic_angle_x5_early", "dynamic_angle_series", 1.0, "deg",
@@ -354,9 +378,9 @@ CATALOGUE: tuple[Effect, ...] = (
             "Wensrich, C.M., Katterfeld, A. (2012). Rolling friction as a technique for modelling "
             "particle shape in DEM. Powder Technol. 217, 409-417. doi:10.1016/j.powtec.2011.10.057",
         ),
-        engine_map=(("rolling_model", "const", "epsd", 0),
-                    ("shape_rolling_friction", "linear", 1.0, 0.0),
-                    ("rolling_stiffness_factor", "const", 2.25, 0)),
+        engine_map=(("contact.rolling_model", "const", "epsd", 0),
+                    ("contact.rolling_friction", "offset", 1.0, "contact.rolling_friction"),
+                    ("contact.rolling_stiffness_factor", "const", 2.25, 0)),
         identify_with=(_m("packing_fraction_x1_center", "packing_fraction", 0.005, "1",
                           speed=0.0254, layer=1, region="center"),
                        _m("coordination_x1_center", "coordination", 0.2, "1",
@@ -383,10 +407,10 @@ CATALOGUE: tuple[Effect, ...] = (
             "doi:10.1016/j.jmatprotec.2018.10.037",
             "Seed report: measured PSD 25-105 um with D10 = 29.84 um vs simulated radii 14-50 um.",
         ),
-        engine_map=(("fines_mass_fraction", "linear", 1.0, 0.0),
-                    ("fines_median_diameter", "const", 20e-6, 0),
-                    ("fines_sigma_ln", "const", 0.25, 0),
-                    ("fines_min_diameter", "const", 8e-6, 0)),
+        engine_map=(("psd.fines_mass_fraction", "linear", 1.0, 0.0),
+                    ("psd.fines_median_diameter", "const", 20e-6, 0),
+                    ("psd.fines_sigma_ln", "const", 0.25, 0),
+                    ("psd.fines_min_diameter", "const", 8e-6, 0)),
         identify_with=(_m("psd_before", "psd", 0.6e-6, "m", stage="before"),),
     ),
     Effect(
@@ -419,7 +443,7 @@ CATALOGUE: tuple[Effect, ...] = (
             "additive manufacturing using DEM simulations. Powder Technol. 321, 94-104. "
             "doi:10.1016/j.powtec.2017.08.011",
         ),
-        engine_map=(("wall_friction_excess", "linear", 1.0, 0.0),),
+        engine_map=(("contact.wall_friction", "offset", 1.0, "contact.friction"),),
         identify_with=(_m("static_angle_narrow_box", "static_angle", 0.5, "deg", box_width=0.003),
                        _m("static_angle_wide_box", "static_angle", 0.5, "deg", box_width=0.03),
                        _m("tool_force_ratio_x1_layer2", "tool_force_ratio", 0.005, "1",
@@ -443,9 +467,9 @@ CATALOGUE: tuple[Effect, ...] = (
             "manufacturing. Powder Technol. 338, 253-262. doi:10.1016/j.powtec.2018.07.030",
             "Haeri, S. (2017). Powder Technol. 321, 94-104. doi:10.1016/j.powtec.2017.08.011",
         ),
-        engine_map=(("blade_ramp_time", "linear", 1.0, 0.0),
-                    ("blade_vibration_amplitude", "const", 2e-6, 0),
-                    ("blade_vibration_frequency", "const", 120.0, 0)),
+        engine_map=(("spread.ramp_time", "linear", 1.0, 0.0),
+                    ("spread.vibration_amplitude", "const", 2e-6, 0),
+                    ("spread.vibration_frequency", "const", 120.0, 0)),
         identify_with=(_m("dynamic_angle_x5_early", "dynamic_angle_series", 1.0, "deg",
                           speed=0.127, layer=3, time_window=[0.0, 0.1]),
                        _m("packing_fraction_x5_start", "packing_fraction", 0.005, "1",
@@ -487,12 +511,15 @@ def effect(name: str) -> Effect:
     return catalogue([name])[0]
 
 
-def engine_hooks() -> dict[str, dict[str, Any]]:
-    """Engine parameters every effect needs, at the top of its prior (the wiring contract).
+def engine_hooks(base: Mapping[str, Any] | None = None) -> dict[str, dict[str, Any]]:
+    """The configuration options every effect sets at the top of its prior (the wiring
+    contract), on the configuration ``base`` (default: the workflow defaults).
 
     Examples
     --------
-    >>> engine_hooks()["wall_friction"]
-    {'wall_friction_excess': 0.4}
+    >>> engine_hooks()["wall_friction"]      # contact.friction 0.4 + 0.4
+    {'contact.wall_friction': 0.8}
     """
-    return {e.name: e.engine_parameters(e.prior[1]) for e in CATALOGUE}
+    if base is None:
+        from ..workflows.config import DEFAULTS as base
+    return {e.name: e.engine_parameters(e.prior[1], base) for e in CATALOGUE}

@@ -37,7 +37,7 @@ _CACHE_SCHEMA = 4
 #: Workflow options at whose neutral value no run changes: left out of the cache key.
 _NEUTRAL_OPTIONS = {("repose", "rest_time"): 0.0}
 #: Contact-model versions: a call with the model switched on carries its version in the key.
-_MODEL_REVISIONS = {"contact_ageing": 2}
+_MODEL_REVISIONS = {"contact.ageing": 2}
 #: Version of the LIGGGHTS/LAMMPS decks the external workflows write (in the keys of
 #: external-engine calls, and in a LIGGGHTS twin's ``truth.json``).
 _DECK_REVISION = 2
@@ -96,7 +96,8 @@ def call_key(cfg: Mapping[str, Any], *, wide_box: float, speed_scale: float) -> 
             cfg[sec].pop(key, None)
     doc = {"schema": _CACHE_SCHEMA, "config": cfg,
            "wide_box": wide_box, "speed_scale": speed_scale}
-    revised = {m: r for m, r in _MODEL_REVISIONS.items() if cfg["effects"].get(m)}
+    revised = {m: r for m, r in _MODEL_REVISIONS.items()
+               if cfg[m.partition(".")[0]].get(m.partition(".")[2])}
     if revised:
         doc["revisions"] = revised
     if cfg.get("engine", "embedded") != "embedded":

@@ -57,16 +57,16 @@ class CallRuns:
     def _repose(self, rh, walled=False, rest=0.0):
         # a rest changes nothing without contact ageing (the settled pile is at rest): the
         # run without it is the same run
-        ageing = bool(self.cfg["effects"]["contact_ageing"]) and \
-            float(self.cfg["effects"]["ageing_bond_ratio"]) > 0.0
+        ageing = bool(self.cfg["contact"]["ageing"]) and \
+            float(self.cfg["contact"]["ageing_bond_ratio"]) > 0.0
         rest = float(rest or 0.0) if ageing else 0.0
         key = ("repose", rh, walled, rest)
         if key not in self.cache:
             from ..workflows.repose import run_repose
             cfg = copy.deepcopy(self.cfg)
             if rh is not None:  # the observable's humidity overrides the capillary magnitude
-                cfg["effects"] = self.owner.effects_section(
-                    dict(self.effects, capillary_bridges=float(rh)))
+                cfg = self.owner.with_effects(cfg, {"capillary_bridges": float(rh)},
+                                              replace=("capillary_bridges",))
             if walled:  # a narrow box: side walls at the preset's box width
                 cfg["repose"]["periodic_width"] = False
             # the rest before the plate moves, on the scale model's ageing clock

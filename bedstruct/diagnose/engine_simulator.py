@@ -5,9 +5,9 @@
 simulation configuration into the simulator callable the diagnosis expects,
 ``sim(base, effects, seed) -> Observations``. Each call runs the repose and
 spreading workflows of the embedded DEM engine with the base contact parameters
-and the catalogue effects switched on at their magnitudes (through the
-``[effects]`` configuration section, whose keys are the catalogue's
-``engine_map`` names), then applies the observation operators of
+and the catalogue effects switched on at their magnitudes (the configuration
+options of the catalogue's ``engine_map``, e.g. ``contact.capillary`` or
+``contact.rolling_friction``), then applies the observation operators of
 :mod:`bedstruct.diagnose.observables` to the runs.
 
 Scaled presets (``tiny``, ``small``) are scale models: the base cohesion energy
@@ -50,8 +50,8 @@ from .measurements import Observations
 from .observables_registry import observable_kind
 from .process_pool import run_calls
 
-__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "setup_config",
-           "PRESET_OVERRIDES"]
+__all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "with_options",
+           "setup_config", "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
 
@@ -81,38 +81,46 @@ PRESET_OVERRIDES = {"tiny": ("spread.pile_particles=1000", "spread.pile_length=0
                               "output.compress=false")}
 
 
-def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1.0) -> dict:
-    """The ``[effects]`` configuration values of catalogue effects at their magnitudes.
+def effects_config(effects: Mapping[str, float], base: Mapping[str, Any] | None = None, *,
+                   ageing_time_scale: float = 1.0) -> dict:
+    """The configuration options of catalogue effects at their magnitudes.
 
     Effects at magnitude 0 (or absent) are left out, so the base model is
-    reproduced exactly. Times of the ageing law are divided by
-    ``ageing_time_scale`` (to fit rest times into short simulations).
+    reproduced exactly. An effect that changes a contact coefficient relative to the
+    base model (rolling friction from shape, wall friction from its excess over the
+    particle friction) gives the coefficient's whole value, from its value in
+    ``base``. Times of the ageing law are divided by ``ageing_time_scale`` (to fit
+    rest times into short simulations).
 
     Parameters
     ----------
     effects : mapping of str to float
         Catalogue names to magnitudes.
+    base : mapping, optional
+        The workflow configuration the effects apply to (needed by the effects that
+        offset one of its options: ``non_sphericity``, ``wall_friction``).
     ageing_time_scale : float
-        Divisor of ``ageing_time_constant`` and ``ageing_reference_rest_time``.
+        Divisor of ``contact.ageing_time_constant`` and ``contact.ageing_reference_rest_time``.
 
     Returns
     -------
     dict
-        Keys of the ``effects`` configuration section.
+        ``{"section.option": value}`` (:func:`with_options` sets them).
 
     Examples
     --------
     >>> effects_config({"capillary_bridges": 0.0})
     {}
-    >>> fx = effects_config({"wall_friction": 0.1, "blade_startup": 0.05})
-    >>> fx["wall_friction_excess"], fx["blade_ramp_time"], fx["blade_vibration_frequency"]
-    (0.1, 0.05, 120.0)
+    >>> cfg = load_config(preset="tiny", overrides=["contact.friction=0.5"])
+    >>> fx = effects_config({"wall_friction": 0.2, "blade_startup": 0.05}, cfg)
+    >>> fx["contact.wall_friction"], fx["spread.ramp_time"], fx["spread.vibration_frequency"]
+    (0.7, 0.05, 120.0)
     """
     out: dict[str, Any] = {}
     for name, m in effects.items():
         if float(m) == 0.0:
             continue
-        for key, val in effect(name).engine_parameters(float(m)).items():
+        for key, val in effect(name).engine_parameters(float(m), base).items():
             if isinstance(val, (bool, np.bool_)):
                 out[key] = bool(val)
             elif isinstance(val, str):
@@ -120,9 +128,32 @@ def effects_config(effects: Mapping[str, float], *, ageing_time_scale: float = 1
             else:
                 out[key] = float(val)
     if ageing_time_scale != 1.0:
-        for key in ("ageing_time_constant", "ageing_reference_rest_time"):
+        for key in ("contact.ageing_time_constant", "contact.ageing_reference_rest_time"):
             if key in out:
                 out[key] = out[key] / float(ageing_time_scale)
+    return out
+
+
+def with_options(cfg: Mapping[str, Any], options: Mapping[str, Any]) -> dict:
+    """A copy of the workflow configuration ``cfg`` with ``{"section.option": value}`` set.
+
+    Raises
+    ------
+    ConfigError
+        Naming an option that is not in the configuration.
+
+    Examples
+    --------
+    >>> cfg = with_options(load_config(preset="tiny"), {"psd.fines_mass_fraction": 0.05})
+    >>> cfg["psd"]["fines_mass_fraction"]
+    0.05
+    """
+    out = copy.deepcopy(dict(cfg))
+    for dotted, value in options.items():
+        section, _, key = dotted.partition(".")
+        if not isinstance(out.get(section), dict) or key not in out[section]:
+            raise ConfigError(f"unknown config key `{dotted}`")
+        out[section][key] = value
     return out
 
 
@@ -315,6 +346,9 @@ class EngineSimulator:
                 raise ConfigError(f"observable {m.name!r}: kind {m.kind!r} not produced by the "
                                   f"engine ({exc})") from None
         self.n_runs = 0
+        #: options (``{"section.option": value}``) set on every call after its base
+        #: parameters, before its effects (a LIGGGHTS twin's withheld change)
+        self.options: dict[str, Any] = {}
 
     # ------------------------------------------------------------------ config
     def run_config(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int) -> dict:
@@ -332,18 +366,28 @@ class EngineSimulator:
             raise ConfigError(f"base parameter {sorted(unknown)[0]!r} is not known to the engine "
                               "simulator (cohesion_energy_density, friction, rolling_friction, "
                               "restitution)")
-        cfg["effects"].update(self.scale_effects(effects_config(effects)))
+        cfg = self.with_effects(with_options(cfg, self.options), effects)
         cfg["seed"] = int(seed) + self.seed_offset
         return load_config(cfg)  # type checks and validation
 
-    def effects_section(self, effects: Mapping[str, float]) -> dict:
-        """The whole ``[effects]`` section of a run with catalogue ``effects`` (scale model)."""
-        fx = copy.deepcopy(self.base_cfg["effects"])
-        fx.update(self.scale_effects(effects_config(effects)))
-        return fx
+    def with_effects(self, cfg: Mapping[str, Any], effects: Mapping[str, float], *,
+                     replace=()) -> dict:
+        """``cfg`` with the catalogue ``effects`` switched on (scale model).
+
+        The options of the effects named in ``replace`` are first reset to the
+        simulator's base configuration (an observable's own magnitude of an effect
+        replaces the call's).
+        """
+        cfg = copy.deepcopy(dict(cfg))
+        for name in replace:
+            for dotted, *_ in effect(name).engine_map:
+                section, _, key = dotted.partition(".")
+                cfg[section][key] = copy.deepcopy(self.base_cfg[section][key])
+        return with_options(cfg, self.scale_effects(effects_config(effects, cfg)))
 
     def scale_effects(self, fx: Mapping[str, Any]) -> dict:
-        """Map catalogue engine parameters (seed scale) to the preset's scale model.
+        """Map the options of catalogue effects (``{"section.option": value}``, seed scale)
+        to the preset's scale model.
 
         Ageing times are divided by ``ageing_time_scale``; the blade ramp time is
         multiplied and the vibration frequency divided by ``blade_time_scale`` (the
@@ -357,20 +401,16 @@ class EngineSimulator:
         """
         out = dict(fx)
         ps = float(self.base_cfg["psd"]["scale"])
-        rules = {"ageing_time_constant": 1.0 / self.ageing_time_scale,
-                 "ageing_reference_rest_time": 1.0 / self.ageing_time_scale,
-                 "blade_ramp_time": self.blade_time_scale,
-                 "blade_vibration_frequency": 1.0 / self.blade_time_scale,
-                 "blade_vibration_amplitude": ps,
-                 "ageing_break_slip": ps,
-                 "fines_median_diameter": self.fines_scale,
-                 "fines_min_diameter": self.fines_scale,
-                 "capillary_surface_tension": self.capillary_scale,
-                 "capillary_film_thickness": ps}
-        if not out.get("contact_ageing"):
-            # inert without ageing: left as given, so that the calls without ageing keep the
-            # cache keys they had before the break slip was scaled
-            rules.pop("ageing_break_slip")
+        rules = {"contact.ageing_time_constant": 1.0 / self.ageing_time_scale,
+                 "contact.ageing_reference_rest_time": 1.0 / self.ageing_time_scale,
+                 "spread.ramp_time": self.blade_time_scale,
+                 "spread.vibration_frequency": 1.0 / self.blade_time_scale,
+                 "spread.vibration_amplitude": ps,
+                 "contact.ageing_break_slip": ps,
+                 "psd.fines_median_diameter": self.fines_scale,
+                 "psd.fines_min_diameter": self.fines_scale,
+                 "contact.capillary_surface_tension": self.capillary_scale,
+                 "contact.capillary_film_thickness": ps}
         for key, f in rules.items():
             if key in out and not isinstance(out[key], (bool, str)):
                 out[key] = float(out[key]) * f

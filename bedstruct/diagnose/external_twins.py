@@ -9,8 +9,8 @@ twin is made like this:
    (:func:`bedstruct.workflows.run_repose` / ``run_spread`` with
    ``engine = "liggghts"``, i.e. :mod:`bedstruct.workflows.external`), on one
    MPI rank.
-2. The withheld effect is part of the configuration: values of the ``[effects]``
-   section (e.g. ``{"wall_friction_excess": 0.3}``), which the LIGGGHTS dialect
+2. The withheld effect is part of the configuration: values of its options
+   (e.g. ``{"contact.wall_friction": 0.7}``), which the LIGGGHTS dialect
    writes into the decks as it states
    (:data:`bedstruct.engines.LIGGGHTS_REALISATIONS`): liquid bridges as LIGGGHTS'
    ``cohesion easo/capillary/viscous`` (its law: :mod:`bedstruct.diagnose.liggghts_law`),
@@ -51,12 +51,12 @@ _SPEED_X1 = 0.0254          # m/s, the seed's x1 speed (the engine simulator's r
 # --------------------------------------------------------------------------- running
 
 def effects_label(effects: Mapping[str, Any]) -> str:
-    """Short description of ``[effects]`` values (``none`` when empty).
+    """Short description of a twin's option values (``none`` when empty).
 
     Examples
     --------
-    >>> effects_label({"wall_friction_excess": 0.3})
-    'wall_friction_excess=0.3'
+    >>> effects_label({"contact.wall_friction": 0.7})
+    'contact.wall_friction=0.7'
     >>> effects_label({})
     'none'
     """
@@ -64,13 +64,13 @@ def effects_label(effects: Mapping[str, Any]) -> str:
                      for k, v in sorted(effects.items())) or "none"
 
 
-def _effects_overrides(effects: Mapping[str, Any]) -> list[str]:
-    """Workflow overrides ``effects.<key>=<value>`` of ``[effects]`` values."""
+def _options_overrides(options: Mapping[str, Any]) -> list[str]:
+    """Workflow overrides ``section.option=value`` of option values."""
     out = []
-    for k, v in sorted(effects.items()):
+    for k, v in sorted(options.items()):
         val = ("true" if v else "false") if isinstance(v, bool) else (
             repr(float(v)) if isinstance(v, (int, float)) else str(v))
-        out.append(f"effects.{k}={val}")
+        out.append(f"{k}={val}")
     return out
 
 
@@ -80,16 +80,17 @@ def liggghts_simulator(design, effects: Mapping[str, Any], *, preset: str = "tin
 
     It is :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` (same
     configuration, same observation operators) with ``engine = "liggghts"``, one
-    MPI rank and ``effects`` in the configuration's ``[effects]`` section; pass
-    ``effects = {}`` when calling it (the twin's effect is in its configuration).
+    MPI rank and the option values ``effects`` in its configuration, set after each
+    call's base parameters (:attr:`EngineSimulator.options`); pass ``effects = {}``
+    when calling it (the twin's effect is in its configuration).
 
     Parameters
     ----------
     design : MeasurementSet
         Observables to produce.
     effects : mapping
-        ``[effects]`` values of the twin (config keys, SI), e.g.
-        ``{"capillary": True, "capillary_film_thickness": 8.7e-9}``.
+        Option values of the twin (``"section.option"``, SI), e.g.
+        ``{"contact.capillary": True, "contact.capillary_film_thickness": 8.7e-9}``.
     preset : str
         Workflow preset (as the engine simulator's ``[engine] preset``).
     overrides : sequence of str
@@ -106,17 +107,19 @@ def liggghts_simulator(design, effects: Mapping[str, Any], *, preset: str = "tin
     Raises
     ------
     bedstruct.errors.ConfigError
-        An effect LIGGGHTS cannot realise (named), or an unknown ``[effects]`` key.
+        An effect LIGGGHTS cannot realise (named), or an unknown option.
     """
     import tempfile
 
-    from .engine_simulator import EngineSimulator
-    dialect("liggghts").check_effects(effects, spreading=True)
+    from .engine_simulator import EngineSimulator, with_options
+    from ..workflows.config import load_config
+    dialect("liggghts").check_effects(with_options(load_config(), effects), spreading=True)
     root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
-    ov = [*overrides, "engine=liggghts", "external.np=1", *_effects_overrides(effects)]
+    ov = [*overrides, "engine=liggghts", "external.np=1", *_options_overrides(effects)]
     (root / "runs").mkdir(parents=True, exist_ok=True)
     sim = EngineSimulator(design, {"preset": preset, "overrides": ov, "n_threads": 1,
                                    "workdir": str(root / "runs")})
+    sim.options = dict(effects)
     sim.name = "liggghts"
     return sim
 
@@ -179,7 +182,7 @@ class LiggghtsTwin:
     truth_path : Path
         ``truth.json`` beside it: effect, base, seeds, raw observations.
     effects : dict
-        The twin's ``[effects]`` values (its withheld effect; empty for a null twin).
+        The twin's option values (its withheld effect; empty for a null twin).
     base : dict
     seeds : tuple of int
         The seeds whose runs were used (see ``replace_failed``).
@@ -259,7 +262,7 @@ def make_liggghts_twin(design, effects: Mapping[str, Any], *, base: Mapping[str,
     design : MeasurementSet
         Observables and reading uncertainties (:func:`liggghts_twin_design`).
     effects : mapping
-        The twin's ``[effects]`` values (:func:`liggghts_simulator`; empty: a null twin).
+        The twin's option values (:func:`liggghts_simulator`; empty: a null twin).
     base : mapping
         Base parameters of the engine simulator (SI; ``cohesion_energy_density`` ...).
     out : path
@@ -276,7 +279,7 @@ def make_liggghts_twin(design, effects: Mapping[str, Any], *, base: Mapping[str,
     from .measurements import MeasurementSet, Observations
     from .measurement_io import write_measurements
     if not isinstance(effects, Mapping):
-        raise TypeError(f"effects: expected a mapping of [effects] values; got "
+        raise TypeError(f"effects: expected a mapping of option values; got "
                         f"{type(effects).__name__}")
     effects = dict(effects)
     if len(seeds) < 1:

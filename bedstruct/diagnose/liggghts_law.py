@@ -3,7 +3,7 @@
 The force, bridge volume and contact angle LIGGGHTS 3.8 computes, as measured on
 two-sphere runs (tests/diagnose/test_external_twins.py), and Willett's closed form
 that the embedded engine implements, for comparison. The LIGGGHTS decks write the
-bridges through :class:`bedstruct.engines.LiquidBridges` (config ``effects.capillary``
+bridges through :class:`bedstruct.engines.LiquidBridges` (config ``contact.capillary``
 on ``engine = "liggghts"``).
 
 LIGGGHTS 3.8 (Debian) facts:

@@ -3,23 +3,25 @@
 :func:`validate_liggghts` is :func:`bedstruct.diagnose.validate` with the "real" data
 made by LIGGGHTS 3.8 (:func:`~bedstruct.diagnose.external_twins.make_liggghts_twin`)
 and the diagnosis run on the embedded engine's fingerprints. Each twin's effect is a set
-of ``[effects]`` values that the LIGGGHTS dialect writes with LIGGGHTS' own models
+of configuration option values that the LIGGGHTS dialect writes with LIGGGHTS' own models
 (:data:`bedstruct.engines.LIGGGHTS_REALISATIONS`), not the catalogue's:
 
 =================  ===========================================  =================================
-twin               ``[effects]`` values (LIGGGHTS' model)        true catalogue effect (magnitude)
+twin               option values (LIGGGHTS' model)               true catalogue effect (magnitude)
 =================  ===========================================  =================================
 null               none                                          none
-rolling friction   ``shape_rolling_friction`` 0.20,              ``non_sphericity`` (0.20)
-                   ``rolling_model`` epsd2 (EPSD2 coefficient
-                   base + 0.20, particles and walls)
-liquid bridges     ``capillary``, surface tension 1e-3 N/m,      ``capillary_bridges`` (no
-                   film 8.67 nm (liquid fraction 5e-4 at         relative humidity in that model)
-                   52 um), angle 0.061 rad (``cohesion
+rolling friction   ``contact.rolling_friction`` base + 0.20,     ``non_sphericity`` (0.20)
+                   ``contact.rolling_model`` epsd2 (EPSD2,
+                   particles and walls)
+liquid bridges     ``contact.capillary``, surface tension        ``capillary_bridges`` (no
+                   1e-3 N/m, film 8.67 nm (liquid fraction       relative humidity in that model)
+                   5e-4 at 52 um), angle 0.061 rad (``cohesion
                    easo/capillary/viscous`` in place of SJKR)
-wall friction      ``wall_friction_excess`` 0.30 (particle-wall  ``wall_friction`` (0.30)
-                   ``coefficientFriction`` base + 0.30)
+wall friction      ``contact.wall_friction`` base friction       ``wall_friction`` (0.30)
+                   + 0.30 (particle-wall ``coefficientFriction``)
 =================  ===========================================  =================================
+
+The base is the diagnosis' base parameters (:data:`~bedstruct.diagnose.surrogate.BASE_PARAMETERS`).
 
 Each effect twin is diagnosed twice, with its effect in the catalogue and removed
 (the out-of-catalogue twin), on the same file; the scores are those of
@@ -68,22 +70,23 @@ LIGGGHTS_PRESETS = {
 #: The liquid-bridge twin: gamma 1e-3 N/m, a film giving the liquid volume fraction 5e-4 on
 #: the tiny preset's median sphere (radius 52 um; fraction 3 t / r), and the angle LIGGGHTS
 #: applies to two types of 20 degrees each (theta_i theta_j / 2).
-_BRIDGES = {"capillary": True, "capillary_surface_tension": 1e-3,
-            "capillary_film_thickness": 5e-4 * 52e-6 / 3.0,
-            "capillary_contact_angle": easo_effective_contact_angle(0.3490658503988659,
-                                                                    0.3490658503988659)}
+_BRIDGES = {"contact.capillary": True, "contact.capillary_surface_tension": 1e-3,
+            "contact.capillary_film_thickness": 5e-4 * 52e-6 / 3.0,
+            "contact.capillary_contact_angle": easo_effective_contact_angle(0.3490658503988659,
+                                                                            0.3490658503988659)}
 
 
 
 @dataclass(frozen=True)
 class LiggghtsTwinSpec:
-    """One LIGGGHTS twin of the plan: its ``[effects]`` values and the truth they stand for.
+    """One LIGGGHTS twin of the plan: its option values and the truth they stand for.
 
     Attributes
     ----------
     kind : {"null", "effect"}
     effects : dict
-        The twin's ``[effects]`` values (what the LIGGGHTS runs' configuration adds).
+        The twin's option values (``"section.option"``: what the LIGGGHTS runs'
+        configuration sets, after the base parameters).
     true_effect : str or None
         The catalogue effect the change is (``None`` for the null twin).
     true_magnitude : float or None
@@ -101,21 +104,30 @@ class LiggghtsTwinSpec:
         return effects_label(self.effects)
 
 
-def liggghts_twin_plan() -> list[LiggghtsTwinSpec]:
-    """The LIGGGHTS twins of a validation (see the module docstring).
+def liggghts_twin_plan(base=None) -> list[LiggghtsTwinSpec]:
+    """The LIGGGHTS twins of a validation (see the module docstring) on the base
+    parameters ``base`` (default :data:`~bedstruct.diagnose.surrogate.BASE_PARAMETERS`).
 
     Examples
     --------
-    >>> [(t.kind, t.true_effect, t.true_magnitude) for t in liggghts_twin_plan()]
+    >>> plan = liggghts_twin_plan({"friction": 0.5, "rolling_friction": 0.1})
+    >>> [(t.kind, t.true_effect, t.true_magnitude) for t in plan]
     ... # doctest: +NORMALIZE_WHITESPACE
     [('null', None, None), ('effect', 'non_sphericity', 0.2),
      ('effect', 'capillary_bridges', None), ('effect', 'wall_friction', 0.3)]
+    >>> plan[1].effects["contact.rolling_friction"], plan[3].effects
+    (0.3, {'contact.wall_friction': 0.8})
     """
+    base = BASE_PARAMETERS if base is None else base
     return [LiggghtsTwinSpec("null", {}),
-            LiggghtsTwinSpec("effect", {"shape_rolling_friction": 0.20, "rolling_model": "epsd2"},
+            LiggghtsTwinSpec("effect", {"contact.rolling_friction":
+                                        round(float(base["rolling_friction"]) + 0.20, 12),
+                                        "contact.rolling_model": "epsd2"},
                              "non_sphericity", 0.20),
             LiggghtsTwinSpec("effect", dict(_BRIDGES), "capillary_bridges", None),
-            LiggghtsTwinSpec("effect", {"wall_friction_excess": 0.30}, "wall_friction", 0.30)]
+            LiggghtsTwinSpec("effect", {"contact.wall_friction":
+                                        round(float(base["friction"]) + 0.30, 12)},
+                             "wall_friction", 0.30)]
 
 
 def _refuse_rewritten_twin(folder: Path) -> None:
@@ -132,7 +144,7 @@ def _refuse_rewritten_twin(folder: Path) -> None:
             f"{folder}: this LIGGGHTS twin states its effect as a deck rewriting "
             f"(truth.json 'effect' = {eff.get('kind', eff) if isinstance(eff, dict) else eff!r}), "
             "which bedstruct no longer makes; its runs are not reused. Remove the folder (or "
-            "give another workdir / --cache) to make the twin again from its [effects] values")
+            "give another workdir / --cache) to make the twin again from its option values")
 
 
 def _twin_folder_matches(folder: Path, want: dict) -> bool:
@@ -195,7 +207,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     ConfigError
         Unknown preset, no ``liggghts`` executable on the PATH, or a twin folder in
         ``workdir`` made by deck rewriting (its ``truth.json`` states an ``effect``
-        record, not ``[effects]`` values): remove it to make the twin again.
+        record, not option values): remove it to make the twin again.
 
     Examples
     --------
@@ -214,7 +226,8 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if shutil.which("liggghts") is None:
         raise ConfigError("LIGGGHTS twins need the liggghts executable on the PATH "
                           "(Debian/Ubuntu: apt-get install liggghts)")
-    plan = liggghts_twin_plan()
+    base = dict(BASE_PARAMETERS)
+    plan = liggghts_twin_plan(base)
     if workdir is not None:   # before any run: twins this version cannot reuse are refused
         for i in range(len(plan)):
             _refuse_rewritten_twin(Path(workdir) / f"twin{i}")
@@ -222,7 +235,6 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     cfg = LIGGGHTS_PRESETS[preset]
     t0 = time.perf_counter()
     effects = _catalogue(cfg["effects"])
-    base = dict(BASE_PARAMETERS)
     measured = liggghts_twin_design()
     design = diagnosis_design(measured, effects)
     engine = dict(engine or {"preset": preset})

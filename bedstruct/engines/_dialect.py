@@ -10,11 +10,13 @@ set-up lines, the contact model, walls, moving meshes or regions, contact dumps.
 A piece that an engine cannot realise is refused by name (:meth:`Dialect.refuse`,
 a :class:`~bedstruct.errors.ConfigError`), never replaced by another model.
 
-The diagnosis' effects (config section ``effects``) are options of the decks: each
-dialect states, per catalogue effect, how it realises the effect or why it refuses it
-(:attr:`Dialect.realisations`, :class:`Realisation`); :meth:`Dialect.check_effects`
-refuses by that table and :meth:`Dialect.with_effects` returns the dialect that writes
-them. :data:`EMBEDDED_REALISATIONS` states the embedded engine's, for the same table.
+The diagnosis' effects are ordinary options of a workflow configuration's sections
+(:data:`EFFECT_KEYS`: liquid bridges and contact ageing in ``contact``, a fines tail in
+``psd``, the tool's start-up in ``spread``): each dialect states, per catalogue effect,
+how it realises the effect or why it refuses it (:attr:`Dialect.realisations`,
+:class:`Realisation`); :meth:`Dialect.check_effects` refuses by that table and
+:meth:`Dialect.with_effects` returns the dialect that writes them.
+:data:`EMBEDDED_REALISATIONS` states the embedded engine's, for the same table.
 """
 
 from __future__ import annotations
@@ -29,21 +31,38 @@ from ._launch import run_deck
 from ._logs import parse_log
 
 __all__ = ["Dialect", "DUMP_COLUMNS", "path_word", "Realisation", "EFFECT_KEYS",
-           "EMBEDDED_REALISATIONS", "effects_on"]
+           "EMBEDDED_REALISATIONS", "effects_on", "option"]
 
 #: Per-particle dump columns written by every deck.
 DUMP_COLUMNS = "id type x y z vx vy vz fx fy fz omegax omegay omegaz radius"
 
-#: The ``effects`` config keys that switch each catalogue effect on (the effect is on when
-#: one of its keys is: a switch set, a magnitude non-zero).
-EFFECT_KEYS = {"capillary_bridges": ("capillary",),
-               "contact_ageing": ("contact_ageing",),
-               "non_sphericity": ("shape_rolling_friction",),
-               "missing_fines": ("fines_mass_fraction",),
-               "wall_friction": ("wall_friction_excess",),
-               "blade_startup": ("blade_ramp_time", "blade_vibration_amplitude")}
+#: The configuration options (``section.option``) that carry each catalogue effect. An
+#: effect with a switch is on when one of its options is (true, or non-zero); rolling and
+#: wall friction are coefficients of every contact model, written by every deck.
+EFFECT_KEYS = {"capillary_bridges": ("contact.capillary",),
+               "contact_ageing": ("contact.ageing",),
+               "non_sphericity": ("contact.rolling_friction", "contact.rolling_model",
+                                  "contact.rolling_stiffness_factor"),
+               "missing_fines": ("psd.fines_mass_fraction",),
+               "wall_friction": ("contact.wall_friction",),
+               "blade_startup": ("spread.ramp_time", "spread.vibration_amplitude")}
+#: Effects that are coefficients of every contact model: never switched on or off.
+_COEFFICIENTS = ("non_sphericity", "wall_friction")
 #: Effects of the spreading tool: a deck without a tool (repose, bed) has nothing to realise.
 _SPREADING_ONLY = ("blade_startup",)
+
+
+def option(cfg, dotted: str, default=None):
+    """The value of option ``section.option`` in the configuration ``cfg`` (``default``
+    when it has no such section or option).
+
+    Examples
+    --------
+    >>> option({"contact": {"capillary": True}}, "contact.capillary")
+    True
+    """
+    section, _, key = dotted.partition(".")
+    return ((cfg or {}).get(section) or {}).get(key, default)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -82,30 +101,31 @@ EMBEDDED_REALISATIONS: Mapping[str, Realisation] = {
         "a bond at resting contacts growing as ln(1 + t_w / tau), broken by tangential slip"),
     "non_sphericity": Realisation(
         "EPSD rolling resistance (Ai et al. 2011) with mu_r + mu_r,shape, stiffness "
-        "f k_n mu_r^2 R*^2 (f = effects.rolling_stiffness_factor), damping ratio 0.3"),
+        "f k_n mu_r^2 R*^2 (f = contact.rolling_stiffness_factor), damping ratio 0.3"),
     "missing_fines": Realisation("fines inserted with the PSD (log-normal tail below psd.d_min)"),
-    "wall_friction": Realisation("particle-wall sliding friction mu + d_mu"),
+    "wall_friction": Realisation("particle-wall sliding friction contact.wall_friction"),
     "blade_startup": Realisation(
         "tool speed v (1 - exp(-t/tau)) plus a vertical sinusoidal vibration (wall program)"),
 }
 
 
-def effects_on(effects, *, spreading: bool = False) -> list[str]:
-    """The catalogue effects that the config section ``effects`` switches on.
+def effects_on(cfg, *, spreading: bool = False) -> list[str]:
+    """The catalogue effects with a switch that the configuration ``cfg`` switches on.
 
-    ``spreading``: include the tool's effects (``blade_startup``); other runs have no tool.
+    ``cfg`` holds the sections of options (a workflow configuration); ``spreading``:
+    include the tool's effects (``blade_startup``); other runs have no tool.
 
     Examples
     --------
-    >>> effects_on({"capillary": True, "wall_friction_excess": -0.1, "blade_ramp_time": 0.1})
-    ['capillary_bridges', 'wall_friction']
+    >>> effects_on({"contact": {"capillary": True}, "psd": {"fines_mass_fraction": 0.05},
+    ...             "spread": {"ramp_time": 0.1}})
+    ['capillary_bridges', 'missing_fines']
     """
-    fx = effects or {}
     out = []
     for name, keys in EFFECT_KEYS.items():
-        if name in _SPREADING_ONLY and not spreading:
+        if name in _COEFFICIENTS or (name in _SPREADING_ONLY and not spreading):
             continue
-        vals = [fx.get(k, False) for k in keys]
+        vals = [option(cfg, k, False) for k in keys]
         if any(bool(v) if isinstance(v, bool) else float(v) != 0.0 for v in vals):
             out.append(name)
     return out
@@ -197,8 +217,9 @@ class Dialect:
         """The parsed log (:func:`~bedstruct.engines.parse_log`; the same for both engines)."""
         return parse_log(source)
 
-    def check_effects(self, effects, *, spreading: bool = False) -> None:
-        """Refuse the diagnosis' effects (config section ``effects``) this engine cannot realise.
+    def check_effects(self, cfg, *, spreading: bool = False) -> None:
+        """Refuse the diagnosis' effects that the configuration ``cfg`` switches on and this
+        engine cannot realise.
 
         Each effect switched on (:func:`effects_on`) is looked up in
         :attr:`realisations`; a refused one raises, and so do options of a realised one
@@ -207,23 +228,23 @@ class Dialect:
         Raises
         ------
         bedstruct.errors.ConfigError
-            Naming the effect, its config keys, the engine and the alternative.
+            Naming the effect, its config options, the engine and the alternative.
         """
-        for name in effects_on(effects, spreading=spreading):
+        for name in effects_on(cfg, spreading=spreading):
             r = self.realisations.get(name)
             if r is None or not r.realised:
-                keys = ", ".join("effects." + k for k in EFFECT_KEYS[name])
+                keys = ", ".join(EFFECT_KEYS[name])
                 why = r.refused if r is not None else "no realisation is stated for it"
                 raise ConfigError(f"engine {self.name!r} cannot realise the effect {name!r} "
                                   f"({keys}): {why}")
-        self.check_effect_options(effects or {}, spreading=spreading)
+        self.check_effect_options(cfg or {}, spreading=spreading)
 
-    def check_effect_options(self, effects, *, spreading: bool = False) -> None:
+    def check_effect_options(self, cfg, *, spreading: bool = False) -> None:
         """Refuse options of a realised effect that this engine's model lacks (none here)."""
 
-    def with_effects(self, effects, *, reference_radius: float | None = None,
+    def with_effects(self, cfg, *, reference_radius: float | None = None,
                      spreading: bool = False) -> "Dialect":
-        """The dialect that writes the effects of the config section ``effects``.
+        """The dialect that writes the effects the configuration ``cfg`` switches on.
 
         Refuses what this engine cannot realise (:meth:`check_effects`). Effects that are
         ordinary contact parameters (wall friction, rolling friction) or inputs (fines) are
@@ -232,15 +253,15 @@ class Dialect:
 
         Parameters
         ----------
-        effects : mapping
-            The config section ``effects``.
+        cfg : mapping
+            A workflow configuration (its sections of options).
         reference_radius : float, m, optional
             The particle radius an engine's per-particle quantity is set for (LIGGGHTS'
             liquid content from the film thickness); needed only by such a model.
         spreading : bool
             A spreading deck (the tool's effects apply).
         """
-        self.check_effects(effects, spreading=spreading)
+        self.check_effects(cfg, spreading=spreading)
         return self
 
     def effect_notes(self) -> list[str]:

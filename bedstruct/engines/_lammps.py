@@ -39,7 +39,7 @@ from importlib import metadata
 from pathlib import Path
 
 from ..errors import BedstructWarning, ConfigError
-from ._dialect import Dialect, Realisation, effects_on
+from ._dialect import Dialect, Realisation, option
 from ._launch import EngineInfo
 from ._params import GranularParams, as_granular_params
 from ._registry import register
@@ -244,11 +244,11 @@ LAMMPS_REALISATIONS = {
         "LAMMPS has no contact model whose bond grows with each contact's rest time; "
         "run it with --engine embedded")),
     "non_sphericity": Realisation(
-        "rolling sds with mu_r + mu_r,shape at particle and wall contacts, when "
-        "effects.rolling_model = epsd2 (LAMMPS has no EPSD rolling dashpot: the catalogue's "
-        "epsd is refused; run it with --engine liggghts or embedded)"),
+        "rolling sds with contact.rolling_friction (mu_r + mu_r,shape) at particle and wall "
+        "contacts, when contact.rolling_model = epsd2 (LAMMPS has no EPSD rolling dashpot: "
+        "the catalogue's epsd is refused; run it with --engine liggghts or embedded)"),
     "missing_fines": Realisation("fines inserted with the particles (the PSD's data file)"),
-    "wall_friction": Realisation("particle-wall friction mu + d_mu in every wall fix"),
+    "wall_friction": Realisation("particle-wall friction contact.wall_friction in every wall fix"),
     "blade_startup": Realisation(refused=(
         "the decks move the tool at constant velocity (a step-ramp region variable); the "
         "start-up ramp and vibration are a wall program of the embedded engine: run them "
@@ -294,13 +294,14 @@ class LammpsDialect(Dialect):
     def find(self, executable=None):
         return find_lammps(executable)
 
-    def check_effect_options(self, effects, *, spreading=False):
-        if "non_sphericity" in effects_on(effects) and effects.get("rolling_model", "epsd") != "epsd2":
+    def check_effect_options(self, cfg, *, spreading=False):
+        model = option(cfg, "contact.rolling_model", "epsd2")
+        if float(option(cfg, "contact.rolling_friction", 0.0)) > 0.0 and model != "epsd2":
             raise ConfigError(
-                "engine 'lammps' cannot realise the effect 'non_sphericity' with "
-                f"effects.rolling_model = {effects.get('rolling_model', 'epsd')!r}: LAMMPS "
-                "realises rolling friction as `rolling sds` (EPSD2) only; set "
-                "effects.rolling_model = epsd2, or run it with --engine liggghts or embedded")
+                f"engine 'lammps' cannot realise contact.rolling_model = {model!r} (rolling "
+                "friction, which carries the effect 'non_sphericity'): LAMMPS realises it as "
+                "`rolling sds` (EPSD2) only; set contact.rolling_model = epsd2, or run it "
+                "with --engine liggghts or embedded")
 
     def cohesion_options(self, p, choice):
         """LAMMPS has no SJKR: the ``dmt``/``jkr`` stand-in, or ``none`` drops cohesion."""

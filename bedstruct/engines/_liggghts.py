@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ConfigError
-from ._dialect import Dialect, Realisation, effects_on, path_word
+from ._dialect import Dialect, Realisation, effects_on, option, path_word
 from ._launch import EngineInfo
 from ._params import GranularParams
 from ._registry import register
@@ -185,7 +185,7 @@ class LiquidBridges:
     LIGGGHTS 3.8 allows one cohesion model, so the bridges replace the particles'
     SJKR cohesion in ``pair_style gran`` (its coefficients stay declared); the walls
     keep their model. The bridge law is LIGGGHTS' own (Easo), not the embedded
-    engine's Willett bridges (``effects.capillary``).
+    engine's Willett bridges (``contact.capillary``).
 
     Parameters
     ----------
@@ -289,18 +289,20 @@ LIGGGHTS_REALISATIONS = {
     "capillary_bridges": Realisation(
         "LIGGGHTS' own liquid bridges, pair_style gran cohesion easo/capillary/viscous "
         "(Soulie's law, LiquidBridges.from_film): surface tension and contact angle from "
-        "`effects`, liquid volume fraction 3 t / r from the film thickness t on a sphere of "
+        "`contact.capillary_*`, liquid volume fraction 3 t / r from the film thickness t on a sphere of "
         "the PSD's median radius r = psd.scale psd.d50 / 2; they replace the particles' SJKR "
         "cohesion (one cohesion model per pair style) and walls get none"),
     "contact_ageing": Realisation(refused=(
         "LIGGGHTS has no contact model whose bond grows with each contact's rest time; "
         "run it with --engine embedded")),
     "non_sphericity": Realisation(
-        "rolling friction mu_r + mu_r,shape at particle and wall contacts in the rolling model "
-        "`effects.rolling_model`: epsd (Ai et al. 2011; stiffness 2.25 k_n mu_r^2 R*^2, "
-        "coefficientRollingViscousDamping 0.3, the embedded damping ratio), epsd2 or cdt"),
+        "rolling friction `contact.rolling_friction` (mu_r + mu_r,shape) at particle and wall "
+        "contacts in the rolling model `contact.rolling_model`: epsd (Ai et al. 2011; stiffness "
+        "2.25 k_n mu_r^2 R*^2, coefficientRollingViscousDamping 0.3, the embedded damping "
+        "ratio; another `contact.rolling_stiffness_factor` is refused), epsd2 or cdt"),
     "missing_fines": Realisation("fines inserted with the particles (the PSD's data file)"),
-    "wall_friction": Realisation("particle-wall coefficientFriction mu + d_mu (atom type 2)"),
+    "wall_friction": Realisation("particle-wall coefficientFriction contact.wall_friction "
+                                 "(atom type 2)"),
     "blade_startup": Realisation(refused=(
         "the decks move the tool at constant velocity (fix move/mesh linear); the start-up "
         "ramp and vibration are a wall program of the embedded engine: run them with "
@@ -343,29 +345,28 @@ class LiggghtsDialect(Dialect):
     def find(self, executable=None):
         return find_liggghts(executable)
 
-    def check_effect_options(self, effects, *, spreading=False):
-        if ("non_sphericity" in effects_on(effects)
-                and effects.get("rolling_model", "epsd") == "epsd"
-                and float(effects.get("rolling_stiffness_factor", _LIGGGHTS_EPSD_STIFFNESS))
-                != _LIGGGHTS_EPSD_STIFFNESS):
+    def check_effect_options(self, cfg, *, spreading=False):
+        f = float(option(cfg, "contact.rolling_stiffness_factor", _LIGGGHTS_EPSD_STIFFNESS))
+        if (option(cfg, "contact.rolling_model") == "epsd"
+                and float(option(cfg, "contact.rolling_friction", 0.0)) > 0.0
+                and f != _LIGGGHTS_EPSD_STIFFNESS):
             raise ConfigError(
-                "engine 'liggghts' cannot realise the effect 'non_sphericity' with "
-                f"effects.rolling_stiffness_factor = {effects['rolling_stiffness_factor']!r}: "
-                "LIGGGHTS' EPSD rolling stiffness is 2.25 k_n mu_r^2 R*^2; set it to 2.25 or run "
-                "with --engine embedded")
+                f"engine 'liggghts' cannot realise contact.rolling_stiffness_factor = {f!r} (the "
+                "EPSD rolling friction carrying the effect 'non_sphericity'): LIGGGHTS' EPSD"
+                " stiffness is 2.25 k_n mu_r^2 R*^2; set it to 2.25 or run with --engine embedded")
 
-    def with_effects(self, effects, *, reference_radius=None, spreading=False):
-        self.check_effects(effects, spreading=spreading)
-        fx = effects or {}
-        if "capillary_bridges" not in effects_on(fx):
+    def with_effects(self, cfg, *, reference_radius=None, spreading=False):
+        self.check_effects(cfg, spreading=spreading)
+        if "capillary_bridges" not in effects_on(cfg):
             return self
         if reference_radius is None:
             raise ValueError("LIGGGHTS liquid bridges need `reference_radius` (m): the radius "
                              "whose liquid volume fraction the film thickness sets")
+        c = cfg["contact"]
         bridges = LiquidBridges.from_film(
-            surface_tension=float(fx["capillary_surface_tension"]),
-            contact_angle=float(fx["capillary_contact_angle"]),
-            film_thickness=float(fx["capillary_film_thickness"]),
+            surface_tension=float(c["capillary_surface_tension"]),
+            contact_angle=float(c["capillary_contact_angle"]),
+            film_thickness=float(c["capillary_film_thickness"]),
             reference_radius=float(reference_radius))
         return self.with_options(liquid_bridges=bridges)
 

@@ -59,38 +59,29 @@ def contact_model(cfg: dict, *, cohesion: float | None = None):
         kw["wall_friction"] = c["wall_friction"]
     if c["wall_cohesion"] >= 0:
         kw["wall_cohesion"] = c["wall_cohesion"]
-    rolling_friction, rolling_model = c["rolling_friction"], c["rolling_model"]
-    fx = cfg.get("effects")
-    if fx:  # diagnosis extensions; every one off at its default (the base model)
-        if fx["wall_friction_excess"] != 0.0:
-            mu_w = c["wall_friction"] if c["wall_friction"] >= 0 else c["friction"]
-            kw["wall_friction"] = max(0.0, mu_w + fx["wall_friction_excess"])
-        if fx["shape_rolling_friction"] > 0.0:
-            rolling_model = fx["rolling_model"]
-            rolling_friction = rolling_friction + fx["shape_rolling_friction"]
-            kw["rolling_stiffness_factor"] = fx["rolling_stiffness_factor"]
-        if fx["capillary"]:
-            kw.update(capillary=True, capillary_surface_tension=fx["capillary_surface_tension"],
-                      capillary_contact_angle=fx["capillary_contact_angle"],
-                      capillary_film_thickness=fx["capillary_film_thickness"])
-        if fx["contact_ageing"] and fx["ageing_bond_ratio"] > 0.0:
-            kw.update(contact_ageing=True, ageing_bond_ratio=fx["ageing_bond_ratio"],
-                      ageing_time_constant=fx["ageing_time_constant"],
-                      ageing_reference_rest_time=fx["ageing_reference_rest_time"],
-                      ageing_break_slip=fx["ageing_break_slip"])
+    if c["capillary"]:
+        kw.update(capillary=True, capillary_surface_tension=c["capillary_surface_tension"],
+                  capillary_contact_angle=c["capillary_contact_angle"],
+                  capillary_film_thickness=c["capillary_film_thickness"])
+    if c["ageing"] and c["ageing_bond_ratio"] > 0.0:
+        kw.update(contact_ageing=True, ageing_bond_ratio=c["ageing_bond_ratio"],
+                  ageing_time_constant=c["ageing_time_constant"],
+                  ageing_reference_rest_time=c["ageing_reference_rest_time"],
+                  ageing_break_slip=c["ageing_break_slip"])
     return ContactModel(mat, restitution=c["restitution"], friction=c["friction"],
-                        rolling_friction=rolling_friction, cohesion=k,
-                        rolling_model=rolling_model, **kw)
+                        rolling_friction=c["rolling_friction"], cohesion=k,
+                        rolling_model=c["rolling_model"],
+                        rolling_stiffness_factor=c["rolling_stiffness_factor"], **kw)
 
 
 def tool_motion(sim, cfg: dict, name: str, velocity, **kw) -> None:
     """Start the spreading tool: constant velocity, or the start-up ramp and vibration of
-    ``effects.blade_ramp_time`` / ``blade_vibration_*`` when set
+    ``spread.ramp_time`` / ``spread.vibration_*`` when set
     (:meth:`~bedstruct.dem.Simulation.set_wall_program`, vibration along z)."""
-    fx = cfg.get("effects") or {}
-    tau = float(fx.get("blade_ramp_time", 0.0))
-    amp = float(fx.get("blade_vibration_amplitude", 0.0))
-    freq = float(fx.get("blade_vibration_frequency", 0.0))
+    sp = cfg["spread"]
+    tau = float(sp["ramp_time"])
+    amp = float(sp["vibration_amplitude"])
+    freq = float(sp["vibration_frequency"])
     if tau > 0.0 or (amp > 0.0 and freq > 0.0):
         if kw:
             sim.set_wall_motion(name, **kw)
@@ -256,12 +247,11 @@ def psd_sampler(cfg: dict):
     range; otherwise the volume-weighted D10/D50/D90 are fitted with
     :func:`bedstruct.analysis.psd_from_percentiles` (truncated to
     ``[d_min, d_max]``). Every drawn diameter is multiplied by ``psd.scale``;
-    ``effects.fines_mass_fraction`` adds fines below the smallest diameter.
+    ``psd.fines_mass_fraction`` adds fines below the smallest diameter.
     """
     p = cfg["psd"]
     scale = float(p["scale"])
-    fx = cfg.get("effects") or {}
-    phi = float(fx.get("fines_mass_fraction", 0.0))
+    phi = float(p["fines_mass_fraction"])
     table = psd_table(p)
     if table is not None:
         draw = tabulated_psd_sampler(*table, scale=scale)
@@ -279,44 +269,44 @@ def psd_sampler(cfg: dict):
         d_cut = p["d_min"]
     if phi <= 0.0:
         return draw
-    return _with_fines(draw, phi, fx, d_cut=d_cut, scale=scale)
+    return _with_fines(draw, phi, p, d_cut=d_cut, scale=scale)
 
 
-def _fines_diameters(n, rng, fx, d_cut):
+def _fines_diameters(n, rng, p, d_cut):
     """Number-weighted draw of the fines: log-normal with volume-weighted median
     ``fines_median_diameter`` (number median ``d50_v exp(-3 sigma^2)``), truncated to
     ``[fines_min_diameter, d_cut]`` by inverse-CDF sampling (m, unscaled)."""
     from scipy.special import ndtr, ndtri
-    s = float(fx["fines_sigma_ln"])
-    mu = math.log(float(fx["fines_median_diameter"])) - 3.0 * s * s
-    lo = ndtr((math.log(float(fx["fines_min_diameter"])) - mu) / s)
+    s = float(p["fines_sigma_ln"])
+    mu = math.log(float(p["fines_median_diameter"])) - 3.0 * s * s
+    lo = ndtr((math.log(float(p["fines_min_diameter"])) - mu) / s)
     hi = ndtr((math.log(float(d_cut)) - mu) / s)
     if not hi > lo:
-        raise ConfigError("config keys `effects.fines_*`: the fines distribution has no mass "
-                          f"between fines_min_diameter and psd.d_min ({d_cut})")
+        raise ConfigError("config keys `psd.fines_*`: the fines distribution has no mass "
+                          f"between psd.fines_min_diameter and the smallest diameter ({d_cut})")
     u = lo + (hi - lo) * rng.random(int(n))
     return np.exp(mu + s * ndtri(u))
 
 
-def _with_fines(base, phi, fx, *, d_cut, scale):
+def _with_fines(base, phi, p, *, d_cut, scale):
     """Mix a fines population carrying mass fraction ``phi`` into the sampler ``base``
     (fines below ``d_cut``: ``psd.d_min``, or the tabulated distribution's smallest diameter)."""
-    if float(fx["fines_min_diameter"]) >= d_cut:
-        raise ConfigError("config key `effects.fines_min_diameter` must lie below the smallest "
+    if float(p["fines_min_diameter"]) >= d_cut:
+        raise ConfigError("config key `psd.fines_min_diameter` must lie below the smallest "
                           f"diameter of the size distribution (`psd.d_min`, or the first of "
                           f"`psd.diameters`): {d_cut!r} m")
     ref = np.random.default_rng(12345)
     v_c = float(np.mean((2.0 * base(20000, ref) / scale) ** 3))
-    v_f = float(np.mean(_fines_diameters(20000, ref, fx, d_cut) ** 3))
+    v_f = float(np.mean(_fines_diameters(20000, ref, p, d_cut) ** 3))
     p_f = (phi / v_f) / (phi / v_f + (1.0 - phi) / v_c)   # number fraction of fines
 
     def draw(n, rng):
         n = int(n)
         k = int(rng.binomial(n, p_f))
-        r = np.concatenate([base(n - k, rng), 0.5 * scale * _fines_diameters(k, rng, fx, d_cut)])
+        r = np.concatenate([base(n - k, rng), 0.5 * scale * _fines_diameters(k, rng, p, d_cut)])
         rng.shuffle(r)
         return r
-    draw.r_min = 0.5 * scale * float(fx["fines_min_diameter"])
+    draw.r_min = 0.5 * scale * float(p["fines_min_diameter"])
     draw.r_max = base.r_max
     draw.fit = base.fit
     draw.fines_number_fraction = p_f

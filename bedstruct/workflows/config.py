@@ -1,7 +1,7 @@
 """Workflow configuration: TOML files, presets, defaults and ``key=value`` overrides.
 
 A configuration is a nested mapping of sections (``material``, ``contact``,
-``psd``, ``repose``, ``spread``, ``calibrate``, ``external``, ``effects``, ``output``) to scalar or list
+``psd``, ``time``, ``repose``, ``spread``, ``calibrate``, ``external``, ``output``) to scalar or list
 values, all in SI units. :func:`load_config` starts from :data:`DEFAULTS`,
 applies a preset (``tiny``, ``small``, ``seed``; files in
 ``bedstruct/workflows/presets``), then a user TOML file, then ``--set``
@@ -28,6 +28,32 @@ __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path"
 #: Default configuration (SI units), from the section dataclasses of
 #: :mod:`bedstruct.workflows.schema`. Presets and user files override it.
 DEFAULTS: dict = defaults_dict()
+
+#: Where each key of the ``[effects]`` section lives: the section is refused (by
+#: :func:`load_config`), naming these options, and nothing is translated.
+_MOVED_EFFECT_KEYS = {
+    "capillary": "contact.capillary",
+    "capillary_surface_tension": "contact.capillary_surface_tension",
+    "capillary_contact_angle": "contact.capillary_contact_angle",
+    "capillary_film_thickness": "contact.capillary_film_thickness",
+    "contact_ageing": "contact.ageing",
+    "ageing_bond_ratio": "contact.ageing_bond_ratio",
+    "ageing_time_constant": "contact.ageing_time_constant",
+    "ageing_reference_rest_time": "contact.ageing_reference_rest_time",
+    "ageing_break_slip": "contact.ageing_break_slip",
+    "rolling_model": "contact.rolling_model",
+    "shape_rolling_friction": "contact.rolling_friction (the whole coefficient, shape included)",
+    "rolling_stiffness_factor": "contact.rolling_stiffness_factor",
+    "fines_mass_fraction": "psd.fines_mass_fraction",
+    "fines_median_diameter": "psd.fines_median_diameter",
+    "fines_sigma_ln": "psd.fines_sigma_ln",
+    "fines_min_diameter": "psd.fines_min_diameter",
+    "wall_friction_excess": "contact.wall_friction (the particle-wall friction itself, "
+                            "not its excess over contact.friction)",
+    "blade_ramp_time": "spread.ramp_time",
+    "blade_vibration_amplitude": "spread.vibration_amplitude",
+    "blade_vibration_frequency": "spread.vibration_frequency",
+}
 
 #: Names of the bundled presets.
 PRESETS = ("tiny", "small", "seed")
@@ -107,7 +133,20 @@ def _check_value(key: str, default, value):
                       f"got {_type_name(value)} {value!r}")
 
 
+def _refuse_effects_section(new: dict) -> None:
+    """Refuse an ``[effects]`` section, naming the option of each of its keys."""
+    if "effects" not in new:
+        return
+    fx = new["effects"]
+    keys = list(fx) if isinstance(fx, dict) and fx else list(_MOVED_EFFECT_KEYS)
+    rows = "; ".join(f"effects.{k} -> {_MOVED_EFFECT_KEYS.get(k, 'no such option')}" for k in keys)
+    raise ConfigError("config section `effects` does not exist: the effects are options of the "
+                      f"section where their physics lives; set them there ({rows})")
+
+
 def _merge(base: dict, new: dict, prefix: str = "") -> None:
+    if not prefix:
+        _refuse_effects_section(new)
     for k, v in new.items():
         key = f"{prefix}{k}"
         if k not in base:
@@ -274,17 +313,17 @@ def _validate(cfg: dict) -> None:
     if len(cfg["repose"]["box"]) != 3:
         raise ConfigError(f"config key `repose.box` must be [L, W, H]; got {cfg['repose']['box']!r}")
     check_bounds(cfg)
-    _validate_effects(cfg["effects"])
+    _validate_options(cfg["contact"])
     b = cfg["calibrate"]["cohesion_bracket"]
     if len(b) != 2 or not b[0] < b[1]:
         raise ConfigError(f"config key `calibrate.cohesion_bracket` must be [low, high] with "
                           f"low < high; got {b!r}")
 
 
-def _validate_effects(fx: dict) -> None:
-    if fx["capillary"] and fx["capillary_film_thickness"] <= 0:
-        raise ConfigError("config key `effects.capillary_film_thickness` must be positive when "
-                          "`effects.capillary` is true")
+def _validate_options(c: dict) -> None:
+    if c["capillary"] and c["capillary_film_thickness"] <= 0:
+        raise ConfigError("config key `contact.capillary_film_thickness` must be positive when "
+                          "`contact.capillary` is true")
 
 
 def _toml_value(v) -> str:

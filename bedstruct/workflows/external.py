@@ -21,8 +21,8 @@ Differences from the embedded run (docs/workflows.md): all spheres are
 inserted at once (the embedded engine inserts in rounds when the box is full);
 LAMMPS has no SJKR cohesion (``external.cohesion_model`` picks the DMT/JKR
 stand-in of docs/backends.md, or ``none``); LAMMPS' rolling stiffness is
-frozen at a reference contact. The diagnosis' effects (section ``effects``) are
-written by the engine's dialect as it states (:func:`effects_dialect`,
+frozen at a reference contact. The diagnosis' effects (options such as
+``contact.capillary`` or ``spread.ramp_time``) are written by the engine's dialect as it states (:func:`effects_dialect`,
 :func:`bedstruct.engines.effect_realisations`), or refused by name.
 
 Spreading on the external engines is in :mod:`bedstruct.workflows.external_spread`
@@ -100,29 +100,29 @@ def engine_for(cfg: dict, *, required: bool = True):
 
 
 def _check_effects(cfg: dict, *, spreading: bool = False) -> None:
-    """Raise ConfigError for a diagnosis effect (``effects``) the engine cannot realise
-    (:meth:`bedstruct.engines.Dialect.check_effects`)."""
-    dialect(cfg["engine"]).check_effects(cfg.get("effects"), spreading=spreading)
+    """Raise ConfigError for a diagnosis effect the configuration switches on and the engine
+    cannot realise (:meth:`bedstruct.engines.Dialect.check_effects`)."""
+    dialect(cfg["engine"]).check_effects(cfg, spreading=spreading)
 
 
 def effects_dialect(cfg: dict, *, spreading: bool = False):
-    """The dialect of ``cfg["engine"]`` that writes the config's ``effects``
+    """The dialect of ``cfg["engine"]`` that writes the effects the config switches on
     (:meth:`bedstruct.engines.Dialect.with_effects`).
 
     An engine's per-particle effect quantity (LIGGGHTS' liquid content from
-    ``effects.capillary_film_thickness``) is set at the PSD's volume-weighted median
+    ``contact.capillary_film_thickness``) is set at the PSD's volume-weighted median
     radius ``psd.scale * psd.d50 / 2``.
 
     Examples
     --------
     >>> from bedstruct.workflows import load_config
-    >>> cfg = load_config(preset="tiny", overrides=["engine=liggghts", "effects.capillary=true",
-    ...                                             "effects.capillary_film_thickness=1e-9"])
+    >>> cfg = load_config(preset="tiny", overrides=["engine=liggghts", "contact.capillary=true",
+    ...                                             "contact.capillary_film_thickness=1e-9"])
     >>> round(effects_dialect(cfg).liquid_bridges.liquid_volume_fraction * 1e6, 4)  # 3 t / r, 52 um
     57.6923
     """
     r_ref = 0.5 * float(cfg["psd"]["scale"]) * float(cfg["psd"]["d50"])
-    return dialect(cfg["engine"]).with_effects(cfg.get("effects"), reference_radius=r_ref,
+    return dialect(cfg["engine"]).with_effects(cfg, reference_radius=r_ref,
                                                spreading=spreading)
 
 
@@ -132,8 +132,7 @@ def _granular_params(cfg: dict, cohesion: float, *, spreading: bool = False):
     Liquid bridges are the dialect's own model (:func:`effects_dialect`), not a contact
     parameter: the ContactModel is built without the embedded engine's bridges."""
     _check_effects(cfg, spreading=spreading)
-    fx = cfg.get("effects")
-    base_cfg = {**cfg, "effects": {**fx, "capillary": False}} if fx else cfg
+    base_cfg = {**cfg, "contact": {**cfg["contact"], "capillary": False}}
     model = contact_model(base_cfg, cohesion=cohesion)
     p, cm = dialect(cfg["engine"]).cohesion_options(as_granular_params(model),
                                                     cfg["external"]["cohesion_model"])

@@ -1,8 +1,12 @@
 """The workflow configuration, defined once: sections as frozen dataclasses.
 
 Each section (``material``, ``contact``, ``psd``, ``time``, ``repose``, ``spread``,
-``calibrate``, ``external``, ``effects``, ``output``) is a frozen dataclass whose
-fields carry their default, unit, meaning and bounds in the field metadata.
+``calibrate``, ``external``, ``output``) is a frozen dataclass whose fields carry
+their default, unit, meaning and bounds in the field metadata. The diagnosis'
+effects are ordinary options of the section whose physics they change (liquid
+bridges, contact ageing and the EPSD rolling stiffness in ``contact``, a fines tail
+in ``psd``, the tool's start-up and vibration in ``spread``); every default is the
+base model.
 From this one definition come the defaults of :func:`~bedstruct.workflows.load_config`
 (:data:`~bedstruct.workflows.DEFAULTS`), the range checks and their messages, the
 configuration reference in ``bedstruct run --help`` and in the docs
@@ -19,7 +23,7 @@ from ..errors import ConfigError
 
 __all__ = ["WorkflowConfig", "MaterialSection", "ContactSection", "PSDSection", "TimeSection",
            "ReposeSection", "SpreadSection", "CalibrateSection", "ExternalSection",
-           "EffectsSection", "OutputSection", "typed_config", "defaults_dict", "check_bounds",
+           "OutputSection", "typed_config", "defaults_dict", "check_bounds",
            "config_reference", "SECTIONS"]
 
 #: Largest ``time.safety``: the engine refuses a step above this fraction of the Rayleigh
@@ -58,6 +62,18 @@ class ContactSection:
     rolling_model: str = key("epsd2", "", "rolling resistance model", choices=("epsd", "epsd2", "cdt"))
     wall_friction: float = key(-1.0, "", "particle-wall friction; negative: the particle value")
     wall_cohesion: float = key(-1.0, "J/m^3", "particle-wall cohesion; negative: the particle value")
+    rolling_stiffness_factor: float = key(2.25, "", "epsd rolling stiffness k_r = f k_n mu_r^2 R*^2",
+                                          gt=0)
+    capillary: bool = key(False, "", "Willett liquid bridges between particles")
+    capillary_surface_tension: float = key(0.072, "N/m", "liquid surface tension", ge=0)
+    capillary_contact_angle: float = key(0.3490658503988659, "rad", "liquid contact angle", ge=0,
+                                         lt=0.5 * math.pi)
+    capillary_film_thickness: float = key(0.0, "m", "liquid film; bridge volume 2 pi R*^2 t", ge=0)
+    ageing: bool = key(False, "", "bonds grow at resting contacts")
+    ageing_bond_ratio: float = key(0.0, "", "bond / SJKR force after the reference rest time", ge=0)
+    ageing_time_constant: float = key(10.0, "s", "bond growth time constant", gt=0)
+    ageing_reference_rest_time: float = key(60.0, "s", "rest time of ageing_bond_ratio", gt=0)
+    ageing_break_slip: float = key(1e-6, "m", "tangential slip that breaks a bond", ge=0)
 
 
 @dataclass(frozen=True)
@@ -74,6 +90,11 @@ class PSDSection:
                            "replaces d10-d_max)", gt=0)
     volume_fractions: tuple = key((), "", "tabulated distribution: cumulative volume fraction "
                                   "undersize at each diameter", ge=0, le=1)
+    fines_mass_fraction: float = key(0.0, "", "mass fraction of fines below the smallest diameter",
+                                     ge=0, lt=1)
+    fines_median_diameter: float = key(20e-6, "m", "volume-weighted median diameter of the fines", gt=0)
+    fines_sigma_ln: float = key(0.25, "", "log-normal width of the fines", gt=0)
+    fines_min_diameter: float = key(8e-6, "m", "smallest fine", gt=0)
 
 
 @dataclass(frozen=True)
@@ -99,7 +120,7 @@ class ReposeSection:
     plate_speed: float = key(0.05, "m/s", "plate speed towards -x", gt=0)
     fill_time: float = key(0.02, "s", "settling after insertion", gt=0)
     drain_time: float = key(0.05, "s", "time after the plate has moved", ge=0)
-    rest_time: float = key(0.0, "s", "rest before the plate moves (contacts age with effects.contact_ageing)",
+    rest_time: float = key(0.0, "s", "rest before the plate moves (contacts age with contact.ageing)",
                            ge=0)
     reservoir_depth: float = key(10e-3, "m", "depth below the plate; particles leaving it are removed",
                                  gt=0)
@@ -133,6 +154,9 @@ class SpreadSection:
     roller_omega_factor: float = key(-1.0, "", "roller spin = factor * speed / radius: -1 counter-rotating, "
                                      "1 rolling, 0 none")
     stop_margin: float = key(0.5e-3, "m", "the tool stops this far beyond the platform end", ge=0)
+    ramp_time: float = key(0.0, "s", "tool start-up: speed v (1 - exp(-t/tau))", ge=0)
+    vibration_amplitude: float = key(0.0, "m", "vertical tool vibration amplitude", ge=0)
+    vibration_frequency: float = key(0.0, "Hz", "vertical tool vibration frequency", ge=0)
     n_frames: int = key(10, "", "frames per layer (dynamic angle, dumps)", ge=1)
     regions: int = key(3, "", "regions along the platform", ge=1)
 
@@ -158,34 +182,6 @@ class ExternalSection:
     cohesion_model: str = key("dmt", "", "LAMMPS stand-in for SJKR (none drops cohesion)",
                               choices=("dmt", "jkr", "none"))
     timeout: float = key(0.0, "s", "limit per engine run (0: none)", ge=0)
-
-
-@dataclass(frozen=True)
-class EffectsSection:
-    """Effects beyond the base model; every default is the base model."""
-
-    capillary: bool = key(False, "", "Willett liquid bridges between particles")
-    capillary_surface_tension: float = key(0.072, "N/m", "liquid surface tension", ge=0)
-    capillary_contact_angle: float = key(0.3490658503988659, "rad", "liquid contact angle", ge=0,
-                                         lt=0.5 * math.pi)
-    capillary_film_thickness: float = key(0.0, "m", "liquid film; bridge volume 2 pi R*^2 t", ge=0)
-    contact_ageing: bool = key(False, "", "bonds grow at resting contacts")
-    ageing_bond_ratio: float = key(0.0, "", "bond / SJKR force after the reference rest time", ge=0)
-    ageing_time_constant: float = key(10.0, "s", "bond growth time constant", gt=0)
-    ageing_reference_rest_time: float = key(60.0, "s", "rest time of ageing_bond_ratio", gt=0)
-    ageing_break_slip: float = key(1e-6, "m", "tangential slip that breaks a bond", ge=0)
-    rolling_model: str = key("epsd", "", "rolling model carrying shape_rolling_friction",
-                             choices=("epsd", "epsd2", "cdt"))
-    shape_rolling_friction: float = key(0.0, "", "added to contact.rolling_friction", ge=0)
-    rolling_stiffness_factor: float = key(2.25, "", "epsd rolling stiffness k_r = f k_n mu_r^2 R*^2", gt=0)
-    fines_mass_fraction: float = key(0.0, "", "mass fraction of fines below psd.d_min", ge=0, lt=1)
-    fines_median_diameter: float = key(20e-6, "m", "volume-weighted median diameter of the fines", gt=0)
-    fines_sigma_ln: float = key(0.25, "", "log-normal width of the fines", gt=0)
-    fines_min_diameter: float = key(8e-6, "m", "smallest fine", gt=0)
-    wall_friction_excess: float = key(0.0, "", "wall friction = particle friction + excess")
-    blade_ramp_time: float = key(0.0, "s", "tool start-up: speed v (1 - exp(-t/tau))", ge=0)
-    blade_vibration_amplitude: float = key(0.0, "m", "vertical tool vibration amplitude", ge=0)
-    blade_vibration_frequency: float = key(0.0, "Hz", "vertical tool vibration frequency", ge=0)
 
 
 @dataclass(frozen=True)
@@ -217,7 +213,6 @@ class WorkflowConfig:
     spread: SpreadSection = field(default_factory=SpreadSection)
     calibrate: CalibrateSection = field(default_factory=CalibrateSection)
     external: ExternalSection = field(default_factory=ExternalSection)
-    effects: EffectsSection = field(default_factory=EffectsSection)
     output: OutputSection = field(default_factory=OutputSection)
 
 
