@@ -46,32 +46,34 @@ def check_engine(cfg: dict) -> None:
                           "(bedstruct.workflows), which hand the config to bedstruct.workflows.external")
 
 
+#: ``contact`` options that are not :class:`~bedstruct.dem.ContactModel` fields of the same
+#: name and meaning (every other one is passed to it as it is).
+_CONTACT_OWN = ("cohesion", "wall_friction", "wall_cohesion", "ageing")
+
+
 def contact_model(cfg: dict, *, cohesion: float | None = None):
-    """The :class:`~bedstruct.dem.ContactModel` of a configuration (SI)."""
+    """The :class:`~bedstruct.dem.ContactModel` of a configuration (SI).
+
+    Every ``contact`` option named like a field of the contact model is that field
+    (coefficients, the rolling model, liquid bridges, the ageing law's parameters); a
+    negative ``wall_friction`` / ``wall_cohesion`` is the particle value, and contact
+    ageing is on when ``ageing`` is set with a positive ``ageing_bond_ratio``.
+    """
     from ..dem import ContactModel, Material
     m, c = cfg["material"], cfg["contact"]
     mat = Material(m["youngs_modulus"], m["poisson_ratio"], m["density"])
     k = float(c["cohesion"] if cohesion is None else cohesion)
     if k < 0:
         raise ConfigError(f"config key `contact.cohesion` must be >= 0; got {k}")
-    kw = {}
+    fields_of_model = {f.name for f in fields(ContactModel)}
+    kw = {name: value for name, value in c.items()
+          if name in fields_of_model and name not in _CONTACT_OWN}
     if c["wall_friction"] >= 0:
         kw["wall_friction"] = c["wall_friction"]
     if c["wall_cohesion"] >= 0:
         kw["wall_cohesion"] = c["wall_cohesion"]
-    if c["capillary"]:
-        kw.update(capillary=True, capillary_surface_tension=c["capillary_surface_tension"],
-                  capillary_contact_angle=c["capillary_contact_angle"],
-                  capillary_film_thickness=c["capillary_film_thickness"])
-    if c["ageing"] and c["ageing_bond_ratio"] > 0.0:
-        kw.update(contact_ageing=True, ageing_bond_ratio=c["ageing_bond_ratio"],
-                  ageing_time_constant=c["ageing_time_constant"],
-                  ageing_reference_rest_time=c["ageing_reference_rest_time"],
-                  ageing_break_slip=c["ageing_break_slip"])
-    return ContactModel(mat, restitution=c["restitution"], friction=c["friction"],
-                        rolling_friction=c["rolling_friction"], cohesion=k,
-                        rolling_model=c["rolling_model"],
-                        rolling_stiffness_factor=c["rolling_stiffness_factor"], **kw)
+    kw["contact_ageing"] = bool(c["ageing"]) and c["ageing_bond_ratio"] > 0.0
+    return ContactModel(mat, cohesion=k, **kw)
 
 
 def tool_motion(sim, cfg: dict, name: str, velocity, **kw) -> None:

@@ -211,12 +211,13 @@ def test_refusals_name_what_the_engine_cannot_realise(bed):
                  dt=1e-7)
     for name in ("liggghts", "lammps"):
         d = dialect(name)
-        d.check_effects({"capillary": False, "blade_ramp_time": 0.0}, spreading=True)
-        with pytest.raises(ConfigError, match=f"engine '{name}'.*effects.contact_ageing"):
-            d.check_effects({"contact_ageing": True})
-        with pytest.raises(ConfigError, match="effects.blade_ramp_time"):
-            d.check_effects({"blade_ramp_time": 1e-3}, spreading=True)
-        d.check_effects({"blade_ramp_time": 1e-3}, spreading=False)  # repose has no blade
+        d.check_effects({"contact": {"capillary": False}, "spread": {"ramp_time": 0.0}},
+                        spreading=True)
+        with pytest.raises(ConfigError, match=f"engine '{name}'.*contact.ageing"):
+            d.check_effects({"contact": {"ageing": True}})
+        with pytest.raises(ConfigError, match="spread.ramp_time"):
+            d.check_effects({"spread": {"ramp_time": 1e-3}}, spreading=True)
+        d.check_effects({"spread": {"ramp_time": 1e-3}}, spreading=False)  # repose has no blade
 
 
 def test_cohesion_options_per_engine():
@@ -266,8 +267,8 @@ def test_liquid_bridges_are_a_liggghts_option(bed, tmp_path, params, pair):
 
 
 def _capillary_effects(**kw):
-    return {"capillary": True, "capillary_surface_tension": 0.072,
-            "capillary_contact_angle": 0.045, "capillary_film_thickness": 2e-9, **kw}
+    return {"contact": {"capillary": True, "capillary_surface_tension": 0.072,
+                        "capillary_contact_angle": 0.045, "capillary_film_thickness": 2e-9, **kw}}
 
 
 def test_liggghts_realises_the_capillary_effect_from_the_film():
@@ -278,7 +279,7 @@ def test_liggghts_realises_the_capillary_effect_from_the_film():
     # LIGGGHTS 3.8 applies theta_i theta_j / 2: each type gets sqrt(2 theta)
     assert 0.5 * b.contact_angle ** 2 == pytest.approx(0.045, rel=1e-12)
     assert b.surface_tension == 0.072
-    assert dialect("liggghts").with_effects({"capillary": False}).liquid_bridges is None
+    assert dialect("liggghts").with_effects({"contact": {"capillary": False}}).liquid_bridges is None
     with pytest.raises(ValueError, match="reference_radius"):
         dialect("liggghts").with_effects(_capillary_effects())
     with pytest.raises(ValueError, match="film_thickness"):
@@ -289,30 +290,33 @@ def test_liggghts_realises_the_capillary_effect_from_the_film():
 
 def test_effects_an_engine_cannot_realise_are_refused_by_name():
     with pytest.raises(ConfigError, match=r"engine 'lammps' cannot realise the effect "
-                                          r"'capillary_bridges' \(effects.capillary\).*"
+                                          r"'capillary_bridges' \(contact.capillary\).*"
                                           r"--engine liggghts"):
         dialect("lammps").with_effects(_capillary_effects(), reference_radius=30e-6)
     for eng in ("liggghts", "lammps"):
         with pytest.raises(ConfigError, match=f"'{eng}' cannot realise the effect "
                                               "'contact_ageing'.*--engine embedded"):
-            dialect(eng).check_effects({"contact_ageing": True})
+            dialect(eng).check_effects({"contact": {"ageing": True}})
         # the tool's start-up exists only where there is a tool
-        dialect(eng).check_effects({"blade_ramp_time": 0.1})
-        with pytest.raises(ConfigError, match="'blade_startup' \\(effects.blade_ramp_time, "
-                                              "effects.blade_vibration_amplitude\\)"):
-            dialect(eng).check_effects({"blade_vibration_amplitude": 2e-6}, spreading=True)
+        dialect(eng).check_effects({"spread": {"ramp_time": 0.1}})
+        with pytest.raises(ConfigError, match="'blade_startup' \\(spread.ramp_time, "
+                                              "spread.vibration_amplitude\\)"):
+            dialect(eng).check_effects({"spread": {"vibration_amplitude": 2e-6}}, spreading=True)
         # ordinary contact parameters and inputs are realised
-        dialect(eng).check_effects({"wall_friction_excess": -0.1, "fines_mass_fraction": 0.05,
-                                    "shape_rolling_friction": 0.1, "rolling_model": "epsd2"},
-                                   spreading=True)
+        dialect(eng).check_effects({"contact": {"wall_friction": 0.3, "rolling_friction": 0.15,
+                                                "rolling_model": "epsd2"},
+                                    "psd": {"fines_mass_fraction": 0.05}}, spreading=True)
     # EPSD: LAMMPS has no rolling dashpot; LIGGGHTS' stiffness prefactor is fixed
-    rolling = {"shape_rolling_friction": 0.1, "rolling_model": "epsd"}
-    with pytest.raises(ConfigError, match="'lammps' cannot realise the effect 'non_sphericity' "
-                                          "with effects.rolling_model = 'epsd'.*epsd2"):
+    rolling = {"contact": {"rolling_friction": 0.15, "rolling_model": "epsd"}}
+    with pytest.raises(ConfigError, match="'lammps' cannot realise contact.rolling_model = "
+                                          "'epsd'.*'non_sphericity'.*epsd2"):
         dialect("lammps").check_effects(rolling)
     dialect("liggghts").check_effects(rolling)
-    with pytest.raises(ConfigError, match="rolling_stiffness_factor = 3.0.*2.25"):
-        dialect("liggghts").check_effects({**rolling, "rolling_stiffness_factor": 3.0})
+    stiff = {"contact": {**rolling["contact"], "rolling_stiffness_factor": 3.0}}
+    with pytest.raises(ConfigError, match="contact.rolling_stiffness_factor = 3.0.*2.25"):
+        dialect("liggghts").check_effects(stiff)
+    # without rolling friction the rolling model writes nothing
+    dialect("lammps").check_effects({"contact": {"rolling_friction": 0.0, "rolling_model": "epsd"}})
 
 
 def test_liggghts_epsd_writes_its_rolling_dashpot():

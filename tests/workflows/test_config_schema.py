@@ -32,8 +32,10 @@ def test_defaults_come_from_the_schema_and_every_key_says_what_it_is():
     ("contact.restitution=1.5", "contact.restitution", "<= 1"),
     ("contact.cohesion=-4e6", "contact.cohesion", "J/m^3"),
     ("material.poisson_ratio=0.5", "material.poisson_ratio", "< 0.5"),
-    ("effects.fines_mass_fraction=1", "effects.fines_mass_fraction", "< 1"),
-    ("effects.rolling_model=foo", "effects.rolling_model", "one of epsd, epsd2, cdt"),
+    ("psd.fines_mass_fraction=1", "psd.fines_mass_fraction", "< 1"),
+    ("contact.rolling_model=foo", "contact.rolling_model", "one of epsd, epsd2, cdt"),
+    ("contact.rolling_stiffness_factor=0", "contact.rolling_stiffness_factor", "positive"),
+    ("spread.vibration_frequency=-1", "spread.vibration_frequency", "Hz"),
     ("spread.bevel_deg=90", "spread.bevel_deg", "deg"),
 ])
 def test_physical_bounds_are_enforced_with_the_unit(assignment, key, words):

@@ -203,3 +203,32 @@ def test_engine_simulator_smoke_tiny():
     obs = sim({}, {}, 0)
     assert set(design.names) <= set(obs.names) and obs.source == "engine"
     assert 10 < obs["static_angle"][0] < 70
+
+
+def test_every_effect_option_at_its_default_is_the_base_model_bit_for_bit():
+    """The configuration's effect options at their defaults build the plain base contact
+    model (no extension field set), and the engine's trajectory is the same to the bit."""
+    from bedstruct import Box
+    from bedstruct.dem import ContactModel, Material, Plane, Simulation
+    cfg = load_config(preset="tiny", overrides=["contact.rolling_friction=0.1",
+                                                "contact.cohesion=1e4"])
+    c, m = cfg["contact"], cfg["material"]
+    walls = {k: c[k] for k in ("wall_friction", "wall_cohesion") if c[k] >= 0}
+    plain = ContactModel(Material(m["youngs_modulus"], m["poisson_ratio"], m["density"]),
+                         restitution=c["restitution"], friction=c["friction"],
+                         rolling_friction=c["rolling_friction"], cohesion=c["cohesion"],
+                         rolling_model=c["rolling_model"], **walls)
+    model = contact_model(cfg)
+    assert model == plain and model.extension_code == 0
+
+    def run(model):
+        box = Box([0, 0, 0], [1.2e-3, 1.2e-3, 3e-3], boundary="pp pp ff")
+        sim = Simulation(box, model, walls=[Plane((0, 0, 0), (0, 0, 1))], n_threads=1, seed=3)
+        sim.insert_raindrop(60, 1e-4, region=((0, 0, 0), (1.2e-3, 1.2e-3, 1.5e-3)))
+        sim.run(steps=300)
+        return sim.frame()
+    a, b = run(plain), run(model)
+    np.testing.assert_array_equal(a.positions, b.positions)
+    np.testing.assert_array_equal(a.velocities, b.velocities)
+    # the PSD without fines and the tool without start-up are the base ones too
+    assert not hasattr(psd_sampler(cfg), "fines_number_fraction")

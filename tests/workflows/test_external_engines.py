@@ -161,23 +161,23 @@ def test_missing_engine_is_a_clear_error(tmp_path):
         run_repose(cfg, out=tmp_path)
 
 
-@pytest.mark.parametrize("engine, effect", [("liggghts", "effects.contact_ageing=true"),
-                                            ("lammps", "effects.contact_ageing=true"),
-                                            ("lammps", "effects.capillary=true")])
+@pytest.mark.parametrize("engine, effect", [("liggghts", "contact.ageing=true"),
+                                            ("lammps", "contact.ageing=true"),
+                                            ("lammps", "contact.capillary=true")])
 def test_effects_an_engine_lacks_are_refused_not_dropped(tmp_path, engine, effect):
     """A deck without the effect's model would be the base model under the effect's name.
     Refused by name before anything runs (no engine needed: write-only)."""
     cfg = _cfg(engine, "external.write_only=true", effect,
-               "effects.capillary_film_thickness=1e-9", "effects.ageing_bond_ratio=1.0")
+               "contact.capillary_film_thickness=1e-9", "contact.ageing_bond_ratio=1.0")
     with pytest.raises(ConfigError, match=f"engine '{engine}' cannot realise the effect .*"
                        + effect.split("=")[0].replace(".", r"\.")):
         run_repose(cfg, out=tmp_path)
 
 
 def test_liggghts_writes_the_capillary_effect_as_its_liquid_bridges(tmp_path):
-    """effects.capillary on LIGGGHTS: easo bridges from the film on the PSD's median sphere."""
-    cfg = _cfg("liggghts", "external.write_only=true", "effects.capillary=true",
-               "effects.capillary_film_thickness=1e-9", "effects.capillary_surface_tension=0.01")
+    """contact.capillary on LIGGGHTS: easo bridges from the film on the PSD's median sphere."""
+    cfg = _cfg("liggghts", "external.write_only=true", "contact.capillary=true",
+               "contact.capillary_film_thickness=1e-9", "contact.capillary_surface_tension=0.01")
     deck = open(run_repose(cfg, out=tmp_path).decks[0]).read()
     r = 0.5 * cfg["psd"]["scale"] * cfg["psd"]["d50"]
     frac = float([ln for ln in deck.splitlines() if "surfaceLiquidContentInitial" in ln][0].split()[-1])
@@ -190,8 +190,8 @@ def test_liggghts_writes_the_capillary_effect_as_its_liquid_bridges(tmp_path):
 def test_blade_start_up_is_refused_for_external_spreading(tmp_path):
     from bedstruct.workflows import run_spread
     cfg = load_config(preset="tiny", overrides=["engine=lammps", "external.write_only=true",
-                                                "effects.blade_ramp_time=0.01"])
-    with pytest.raises(ConfigError, match="blade_ramp_time"):
+                                                "spread.ramp_time=0.01"])
+    with pytest.raises(ConfigError, match=r"'blade_startup' \(spread\.ramp_time"):
         run_spread(cfg, out=tmp_path)
 
 

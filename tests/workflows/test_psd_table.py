@@ -71,16 +71,16 @@ def test_a_bimodal_table_gives_two_modes():
 
 def test_fines_mix_into_a_tabulated_distribution():
     F = ndtr((np.log(D) - np.log(45e-6)) / 0.35)
-    cfg = _cfg(D, F, "effects.fines_mass_fraction=0.1", "effects.fines_median_diameter=10e-6",
-               "effects.fines_min_diameter=5e-6")
+    cfg = _cfg(D, F, "psd.fines_mass_fraction=0.1", "psd.fines_median_diameter=10e-6",
+               "psd.fines_min_diameter=5e-6")
     draw = psd_sampler(cfg)
     d = 2.0 * draw(200_000, np.random.default_rng(4)) / cfg["psd"]["scale"]
     assert draw.r_min == pytest.approx(0.5 * cfg["psd"]["scale"] * 5e-6)
     # the fines are those below the table's smallest diameter, with their mass fraction
     assert np.sum(d[d < D[0]] ** 3) / np.sum(d ** 3) == pytest.approx(0.1, abs=0.01)
     with pytest.raises(ConfigError, match="fines_min_diameter.*first of `psd.diameters`"):
-        psd_sampler(_cfg(D, F, "effects.fines_mass_fraction=0.1",
-                         "effects.fines_min_diameter=20e-6"))
+        psd_sampler(_cfg(D, F, "psd.fines_mass_fraction=0.1",
+                         "psd.fines_min_diameter=20e-6"))
 
 
 def test_without_a_table_the_percentile_fit_draws_as_before():
