@@ -24,15 +24,18 @@ def test_catalogue_has_the_six_effects_documented():
         assert e.sources and all("doi:" in s or "Seed report" in s or "arXiv" in s for s in e.sources)
         assert len(e.physics) > 80 and len(e.signature) > 40
         assert e.identify_with
-        assert e.engine_parameters(0.0) is not None
+        assert e.engine_parameters(0.0, {"contact": {"friction": 0.4, "rolling_friction": 0.05}})
         assert e.reference_magnitudes == (0.5 * hi, hi)
     hooks = engine_hooks()
-    assert hooks["capillary_bridges"]["capillary"] is True
+    assert hooks["capillary_bridges"]["contact.capillary"] is True
     ca = CAPILLARY_ASPERITY
-    assert hooks["capillary_bridges"]["capillary_film_thickness"] == pytest.approx(
+    assert hooks["capillary_bridges"]["contact.capillary_film_thickness"] == pytest.approx(
         halsey_film_thickness(0.8) * (ca["asperity_radius"] / ca["reference_radius"]) ** 2)
-    assert effect("capillary_bridges").engine_parameters(0.0)["capillary"] is False
-    assert effect("blade_startup").engine_parameters(0.1)["blade_ramp_time"] == pytest.approx(0.1)
+    assert effect("capillary_bridges").engine_parameters(0.0)["contact.capillary"] is False
+    assert effect("blade_startup").engine_parameters(0.1)["spread.ramp_time"] == pytest.approx(0.1)
+    # the top of each prior on the default configuration (offsets from its coefficients)
+    assert hooks["wall_friction"] == {"contact.wall_friction": pytest.approx(0.4 + 0.4)}
+    assert hooks["non_sphericity"]["contact.rolling_friction"] == pytest.approx(0.05 + 0.3)
     with pytest.raises(ConfigError, match="unknown effect"):
         catalogue(["humidity"])
     with pytest.raises(ValueError, match="finite"):
@@ -161,8 +164,8 @@ def test_capillary_asperity_force_is_a_few_particle_weights_and_grows_with_humid
     bo = []
     for rh in (0.1, 0.3, 0.5, 0.8):
         p = effect("capillary_bridges").engine_parameters(rh)
-        bo.append(2 * math.pi * (d / 2) * p["capillary_surface_tension"]
-                  * math.cos(p["capillary_contact_angle"]) / weight)
+        bo.append(2 * math.pi * (d / 2) * p["contact.capillary_surface_tension"]
+                  * math.cos(p["contact.capillary_contact_angle"]) / weight)
     assert all(b2 > b1 for b1, b2 in zip(bo, bo[1:]))
     assert 2.0 < bo[0] and bo[-1] < 50.0       # not the full-sphere ~2000 weights
     full = 2 * math.pi * (d / 2) * 0.072 * math.cos(math.radians(20)) / weight

@@ -14,6 +14,7 @@ from bedstruct.diagnose.measurements import MeasurementSet
 from bedstruct.diagnose.measurement_io import measurement_from_dict
 from bedstruct.errors import ConfigError
 from bedstruct.diagnose.engine_simulator import EngineSimulator, effects_config
+from bedstruct.workflows.config import load_config
 
 
 def _psd_design():
@@ -140,25 +141,25 @@ def test_effect_parameters_are_mapped_to_the_scale_model():
     s = tiny.scale_effects(fx)
     cfg = tiny.base_cfg
     stroke_ratio = (cfg["spread"]["plate_length"] / cfg["spread"]["speed"]) / (18.9e-3 / 0.0254)
-    assert s["blade_ramp_time"] == pytest.approx(0.2 * stroke_ratio)
-    assert s["blade_vibration_frequency"] * s["blade_ramp_time"] == pytest.approx(
-        fx["blade_vibration_frequency"] * fx["blade_ramp_time"])
-    assert s["ageing_time_constant"] == pytest.approx(10.0 / 1000)
+    assert s["spread.ramp_time"] == pytest.approx(0.2 * stroke_ratio)
+    assert s["spread.vibration_frequency"] * s["spread.ramp_time"] == pytest.approx(
+        fx["spread.vibration_frequency"] * fx["spread.ramp_time"])
+    assert s["contact.ageing_time_constant"] == pytest.approx(10.0 / 1000)
     # the bond's break slip is the same fraction of a (coarse-grained) particle
-    assert s["ageing_break_slip"] == pytest.approx(fx["ageing_break_slip"] * cfg["psd"]["scale"])
-    assert s["fines_median_diameter"] / cfg["psd"]["d_min"] == pytest.approx(20e-6 / 28e-6)
+    assert s["contact.ageing_break_slip"] == pytest.approx(fx["contact.ageing_break_slip"] * cfg["psd"]["scale"])
+    assert s["psd.fines_median_diameter"] / cfg["psd"]["d_min"] == pytest.approx(20e-6 / 28e-6)
     # capillary bridges at the same Bond number (force / weight) as the seed powder: the
     # engine's pull-off 2 pi (2 R*) gamma' cos(theta) at the coarse-grained size
     ps = cfg["psd"]["scale"]
     d_seed, d_tiny = 52.08e-6, 52.08e-6 * ps
 
     def bond(p, d):
-        f = 2 * math.pi * (d / 2) * p["capillary_surface_tension"] * math.cos(
-            p["capillary_contact_angle"])
+        f = 2 * math.pi * (d / 2) * p["contact.capillary_surface_tension"] * math.cos(
+            p["contact.capillary_contact_angle"])
         return f / (math.pi / 6 * d ** 3 * 8300.0 * 9.81)
     assert bond(s, d_tiny) == pytest.approx(bond(fx, d_seed))
     # bridge volume 2 pi R*^2 t scales as a volume
-    v = lambda p, d: 2 * math.pi * (d / 4) ** 2 * p["capillary_film_thickness"]  # noqa: E731
+    v = lambda p, d: 2 * math.pi * (d / 4) ** 2 * p["contact.capillary_film_thickness"]  # noqa: E731
     assert v(s, d_tiny) == pytest.approx(v(fx, d_seed) * ps ** 3)
     assert CAPILLARY_ASPERITY["asperity_radius"] < 1e-6
     with pytest.raises(ConfigError, match="blade_time_scale"):
@@ -222,13 +223,14 @@ def test_narrow_box_is_run_with_side_walls_and_the_wide_box_periodic(monkeypatch
     seen = []
 
     def fake_run_repose(cfg, *, out, replicates):
-        seen.append((bool(cfg["repose"]["periodic_width"]), cfg["effects"]["wall_friction_excess"]))
+        seen.append((bool(cfg["repose"]["periodic_width"]), cfg["contact"]["wall_friction"]))
         return types.SimpleNamespace(angle_deg=30.0 + len(seen))
     monkeypatch.setattr(repose, "run_repose", fake_run_repose)
     d = dg.engine_twin_design()
     design = MeasurementSet((d["static_angle"], d["static_angle_narrow_box"]))
     obs = EngineSimulator(design, {"preset": "tiny"})({}, {"wall_friction": 0.3}, 0)
-    assert seen == [(True, 0.3), (False, 0.3)]
+    mu = load_config(preset="tiny")["contact"]["friction"]   # the wall: mu + 0.3
+    assert seen == [(True, pytest.approx(mu + 0.3)), (False, pytest.approx(mu + 0.3))]
     assert obs["static_angle"][0] == 31.0 and obs["static_angle_narrow_box"][0] == 32.0
 
 
@@ -269,7 +271,7 @@ def test_an_angle_after_rest_rests_the_pile_on_the_ageing_clock(monkeypatch, tmp
     # ... also with another effect on (its inert ageing parameters are not rescaled)
     cap = sim.run_config({}, {"capillary_bridges": 0.3}, 0)
     cap["repose"].pop("rest_time")
-    cap["effects"]["ageing_break_slip"] = 1e-6
+    assert cap["contact"]["ageing_break_slip"] == 1e-6
     cap_doc = {"schema": _CACHE_SCHEMA, "config": cap, "wide_box": sim.wide_box,
                "speed_scale": sim.speed_scale}
     assert sim.cache_key({}, {"capillary_bridges": 0.3}, 0) == hashlib.sha256(
