@@ -20,11 +20,11 @@ from bedstruct.diagnose.external_twins import (effects_label, liggghts_simulator
 needs_liggghts = pytest.mark.skipif(find_liggghts() is None,
                                     reason="liggghts is not installed (.ci/install-engines.sh)")
 
-#: [effects] values of a liquid-bridge twin: 0.05 N/m, liquid fraction 2e-3 on the tiny
+#: Option values of a liquid-bridge twin: 0.05 N/m, liquid fraction 2e-3 on the tiny
 #: preset's median sphere (r = 52 um, fraction 3 t / r), LIGGGHTS angle theta^2/2 of 30 deg.
-BRIDGES = {"capillary": True, "capillary_surface_tension": 0.05,
-           "capillary_film_thickness": 2e-3 * 52e-6 / 3,
-           "capillary_contact_angle": 0.5 * math.radians(30.0) ** 2}
+BRIDGES = {"contact.capillary": True, "contact.capillary_surface_tension": 0.05,
+           "contact.capillary_film_thickness": 2e-3 * 52e-6 / 3,
+           "contact.capillary_contact_angle": 0.5 * math.radians(30.0) ** 2}
 #: What the retired deck rewriting made of the tiny preset's LIGGGHTS repose deck with
 #: these bridges: six property lines after the last property line, and the pair style.
 REWRITTEN_PROPERTIES = [
@@ -56,8 +56,8 @@ def test_a_twin_writes_the_same_deck_as_the_config_route(tmp_path):
     cfg["external"]["write_only"] = True
     twin = open(run_repose_external(cfg, out=tmp_path / "a").decks[0]).read()
     over = [f"contact.cohesion={cfg['contact']['cohesion']!r}", "engine=liggghts",
-            "external.write_only=true", "effects.capillary=true",
-            *(f"effects.{k}={v!r}" for k, v in BRIDGES.items() if k != "capillary")]
+            "external.write_only=true", "contact.capillary=true",
+            *(f"{k}={v!r}" for k, v in BRIDGES.items() if k != "contact.capillary")]
     direct = open(run_repose_external(load_config(preset="tiny", overrides=over),
                                       out=tmp_path / "b").decks[0]).read()
     assert _model_lines(twin) == _model_lines(direct)
@@ -76,15 +76,28 @@ def test_a_twin_writes_the_same_deck_as_the_config_route(tmp_path):
 
 def test_a_twin_with_an_effect_liggghts_lacks_is_refused_before_any_run(tmp_path):
     with pytest.raises(ConfigError, match="'liggghts' cannot realise the effect 'contact_ageing'"):
-        liggghts_simulator(liggghts_twin_design(), {"contact_ageing": True,
-                                                    "ageing_bond_ratio": 1.0})
+        liggghts_simulator(liggghts_twin_design(), {"contact.ageing": True,
+                                                    "contact.ageing_bond_ratio": 1.0})
     with pytest.raises(ConfigError, match="'blade_startup'.*--engine embedded"):
-        make_liggghts_twin(liggghts_twin_design(), {"blade_ramp_time": 0.05}, base={},
+        make_liggghts_twin(liggghts_twin_design(), {"spread.ramp_time": 0.05}, base={},
                            out=tmp_path)
-    with pytest.raises(TypeError, match="mapping of \\[effects\\] values"):
+    with pytest.raises(ConfigError, match="unknown config key `contact.wall_friction_excess`"):
+        liggghts_simulator(liggghts_twin_design(), {"contact.wall_friction_excess": 0.3})
+    with pytest.raises(TypeError, match="mapping of option values"):
         make_liggghts_twin(liggghts_twin_design(), "capillary", base={}, out=tmp_path)
-    assert effects_label({"wall_friction_excess": 0.3, "capillary": True}) == \
-        "capillary=True, wall_friction_excess=0.3"
+    assert effects_label({"contact.wall_friction": 0.7, "contact.capillary": True}) == \
+        "contact.capillary=True, contact.wall_friction=0.7"
+
+
+def test_a_twins_options_are_set_after_each_calls_base_parameters(tmp_path):
+    """A twin's rolling friction is the whole coefficient of its runs: the call's base
+    parameters do not overwrite it (the simulator's options come after them)."""
+    sim = liggghts_simulator(liggghts_twin_design(), {"contact.rolling_friction": 0.25,
+                                                      "contact.rolling_model": "epsd2"},
+                             workdir=tmp_path)
+    cfg = sim.run_config({"friction": 0.3, "rolling_friction": 0.05}, {}, 1)
+    assert cfg["contact"]["rolling_friction"] == 0.25 and cfg["contact"]["friction"] == 0.3
+    assert cfg["engine"] == "liggghts" and cfg["contact"]["rolling_model"] == "epsd2"
 
 
 def test_easo_law_values():
@@ -195,7 +208,8 @@ def test_one_tiny_twin_end_to_end(tmp_path):
     design = replace(design, measurements=tuple(m for m in design if m.kind != "dynamic_angle_series"))
     base = {"cohesion_energy_density": 3.6e7, "friction": 0.4, "rolling_friction": 0.05,
             "restitution": 0.1}
-    twin = make_liggghts_twin(design, {"shape_rolling_friction": 0.20, "rolling_model": "epsd2"},
+    twin = make_liggghts_twin(design, {"contact.rolling_friction": 0.25,
+                                       "contact.rolling_model": "epsd2"},
                               base=base, out=tmp_path,
                               seeds=(1000, 1001))
     ms = dg.load_measurements(twin.path)
@@ -203,7 +217,8 @@ def test_one_tiny_twin_end_to_end(tmp_path):
     assert all(np.all(np.isfinite(m.values)) and np.all(m.uncertainty > 0) for m in ms)
     assert "rolling" not in twin.path.read_text()               # the truth is not in the file
     truth = json.loads(twin.truth_path.read_text())
-    assert truth["effects"]["shape_rolling_friction"] == 0.2 and len(truth["raw"]["static_angle"]) == 2
+    assert truth["effects"]["contact.rolling_friction"] == 0.25
+    assert len(truth["raw"]["static_angle"]) == 2
     # bed heights of the tiny preset's layers (450 and 750 um below the tool) are sane
     assert 200e-6 < ms["bed_height_layer1"].values[0] < 600e-6
 
@@ -230,7 +245,7 @@ def test_wall_friction_moves_the_recoater_load_in_liggghts_as_in_the_engine(tmp_
     embedded = EngineSimulator(design, {"preset": "tiny", "n_threads": 1})
     e0, e1 = mean_ratio(embedded, {}), mean_ratio(embedded, {"wall_friction": -0.2})
     l0 = mean_ratio(liggghts_simulator(design, {}, workdir=tmp_path / "null"), {})
-    l1 = mean_ratio(liggghts_simulator(design, {"wall_friction_excess": -0.2},
+    l1 = mean_ratio(liggghts_simulator(design, {"contact.wall_friction": 0.4 - 0.2},
                                        workdir=tmp_path / "wf"), {})
     assert abs(l0 - e0) < 0.03                       # the two engines' base loads agree
     assert e1 - e0 < -0.025 and l1 - l0 < -0.025     # both respond, beyond the scatter
@@ -285,7 +300,7 @@ def test_unobservable_repetitions_are_repeated_then_kept_as_missing():
 
 @needs_liggghts
 def test_two_sphere_bridges_from_the_config_have_the_config_angle_and_liquid(tmp_path):
-    """effects.capillary on LIGGGHTS (LiquidBridges.from_film): a film t on spheres of the
+    """contact.capillary on LIGGGHTS (LiquidBridges.from_film): a film t on spheres of the
     reference radius r gives the liquid fraction 3 t / r, and LIGGGHTS applies the config's
     contact angle (0.5 rad, far from the per-type value it is written as): Soulie's law at
     theta = 0.5 rad, not at the per-type angle, matches the run."""
@@ -320,7 +335,7 @@ def test_two_sphere_bridges_from_the_config_have_the_config_angle_and_liquid(tmp
 
 @needs_liggghts
 def test_liggghts_runs_the_epsd_rolling_model_with_its_dashpot(tmp_path):
-    """effects.rolling_model = "epsd" on LIGGGHTS: its EPSD needs the viscous damping
+    """contact.rolling_model = "epsd" on LIGGGHTS: its EPSD needs the viscous damping
     property the dialect writes (without it LIGGGHTS stops); a pair in contact then has
     a rolling torque only after it rolls, so the two-sphere run still separates cleanly."""
     from dataclasses import replace

@@ -19,11 +19,11 @@ from bedstruct.errors import ConfigError
 # the package's ``validate_liggghts`` is the function; the tests patch its module
 vl = importlib.import_module("bedstruct.diagnose.validate_liggghts")
 
-#: What each LIGGGHTS twin's [effects] switch stands for on the surrogate (the capillary
-#: twin's humidity is the stand-in's, as LIGGGHTS' model has none).
-_AS_CATALOGUE = {"shape_rolling_friction": {"non_sphericity": 0.20},
-                 "capillary": {"capillary_bridges": 0.5},
-                 "wall_friction_excess": {"wall_friction": 0.30}}
+#: What each LIGGGHTS twin's options stand for on the surrogate (the capillary twin's
+#: humidity is the stand-in's, as LIGGGHTS' model has none).
+_AS_CATALOGUE = {"contact.rolling_model": {"non_sphericity": 0.20},
+                 "contact.capillary": {"capillary_bridges": 0.5},
+                 "contact.wall_friction": {"wall_friction": 0.30}}
 
 
 def _as_catalogue(effects):
@@ -66,16 +66,19 @@ def test_plan_covers_null_and_three_liggghts_models():
     from bedstruct.engines import dialect
     from bedstruct.workflows import load_config
     from bedstruct.workflows.external import effects_dialect
+    from bedstruct.diagnose.engine_simulator import with_options
     plan = vl.liggghts_twin_plan()
     assert [t.kind for t in plan] == ["null", "effect", "effect", "effect"]
     assert plan[0].effects == {} and plan[0].label == "none"
-    # set relative to the base, as the catalogue's magnitudes are
-    assert plan[1].effects == {"shape_rolling_friction": 0.2, "rolling_model": "epsd2"}
-    assert plan[3].effects == {"wall_friction_excess": 0.3}
+    # the whole coefficients: the base's, changed by the catalogue's magnitudes
+    mu, mu_r = BASE_PARAMETERS["friction"], BASE_PARAMETERS["rolling_friction"]
+    assert plan[1].effects == {"contact.rolling_friction": pytest.approx(mu_r + 0.2),
+                               "contact.rolling_model": "epsd2"}
+    assert plan[3].effects == {"contact.wall_friction": pytest.approx(mu + 0.3)}
     for t in plan:     # every twin's effect is one LIGGGHTS realises
-        dialect("liggghts").check_effects(t.effects, spreading=True)
+        dialect("liggghts").check_effects(with_options(load_config(), t.effects), spreading=True)
     # the liquid-bridge twin: liquid fraction 5e-4 and 20 degrees per type on the tiny preset
-    ov = [f"effects.{k}={v!r}".replace("True", "true") for k, v in plan[2].effects.items()]
+    ov = [f"{k}={v!r}".replace("True", "true") for k, v in plan[2].effects.items()]
     bridges = effects_dialect(load_config(preset="tiny", overrides=["engine=liggghts", *ov])
                               ).liquid_bridges
     assert bridges.lines(2)[0].endswith("surfaceLiquidContentInitial scalar 0.0005")
