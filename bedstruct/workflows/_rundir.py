@@ -22,7 +22,7 @@ from pathlib import Path
 from .._atomic import atomic_path
 from .._json import plain, write_json_atomic
 from ..errors import ConfigError, RunFolderInUseError
-from .config import config_to_toml
+from .config import _refuse_effects_section, config_to_toml
 
 try:
     import fcntl
@@ -280,6 +280,10 @@ class RunLayout:
                 status = old["status"]
             except (ValueError, KeyError, TypeError, AttributeError) as exc:
                 raise ConfigError(f"{marker}: not a readable run marker ({exc}).{hint}") from None
+            try:
+                _refuse_effects_section(old["config"])
+            except ConfigError as exc:
+                raise ConfigError(f"{marker}: the folder's run has {exc}.{hint}") from None
             if ident != self._identity:
                 diff = []
                 if ident["workflow"] != self._identity["workflow"]:

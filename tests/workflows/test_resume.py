@@ -147,6 +147,21 @@ def test_an_external_engine_run_may_resume_with_another_timeout(tmp_path):
                   workflow="spread")
 
 
+def test_a_folder_whose_run_has_an_effects_section_is_refused_naming_the_options(tmp_path):
+    """A run folder written with the [effects] section: its marker is refused, each of its
+    effect keys named with the option that holds it (nothing is translated)."""
+    from bedstruct.workflows import RunLayout
+    cfg = load_config(preset="tiny")
+    RunLayout(tmp_path, cfg, workflow="repose").release()
+    marker = json.loads((tmp_path / "run.json").read_text())
+    marker["config"]["effects"] = {"wall_friction_excess": 0.0, "blade_ramp_time": 0.0}
+    (tmp_path / "run.json").write_text(json.dumps(marker))
+    with pytest.raises(ConfigError, match=r"run.json: the folder's run has config section "
+                       r"`effects`.*effects.wall_friction_excess -> contact.wall_friction.*"
+                       r"effects.blade_ramp_time -> spread.ramp_time.*--overwrite"):
+        RunLayout(tmp_path, cfg, workflow="repose")
+
+
 def test_legacy_folder_of_another_configuration_is_refused(tmp_path):
     from bedstruct.workflows import config_to_toml
     (tmp_path / "config.toml").write_text(config_to_toml(load_config(preset="tiny")))
