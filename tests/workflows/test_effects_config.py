@@ -111,32 +111,32 @@ def test_effect_options_are_checked():
 
 
 def test_an_effects_section_is_refused_naming_the_new_options(tmp_path):
-    """A user file or an old run folder's configuration with ``[effects]`` is refused, each
+    """A user file or a run folder's configuration with ``[effects]`` is refused, each
     of its keys named with the option that replaces it; nothing is translated."""
-    f = tmp_path / "old.toml"
+    f = tmp_path / "effects.toml"
     f.write_text('preset = "tiny"\n[effects]\ncapillary = true\nwall_friction_excess = 0.2\n'
                  'shape_rolling_friction = 0.1\nblade_ramp_time = 0.01\nfines_sigma_ln = 0.3\n')
     with pytest.raises(ConfigError) as err:
         load_config(f)
     msg = str(err.value)
-    for old, new in [("capillary", "contact.capillary"), ("blade_ramp_time", "spread.ramp_time"),
-                     ("fines_sigma_ln", "psd.fines_sigma_ln")]:
-        assert f"effects.{old} -> {new}" in msg
+    for key, option in [("capillary", "contact.capillary"), ("blade_ramp_time", "spread.ramp_time"),
+                        ("fines_sigma_ln", "psd.fines_sigma_ln")]:
+        assert f"effects.{key} -> {option}" in msg
     assert "effects.wall_friction_excess -> contact.wall_friction (the particle-wall friction" in msg
     assert "effects.shape_rolling_friction -> contact.rolling_friction (the whole" in msg
     assert "effects.contact_ageing" not in msg      # only the keys the file has
     with pytest.raises(ConfigError, match=r"effects.contact_ageing -> contact.ageing\)"):
         load_config(preset="tiny", overrides=["effects.contact_ageing=true"])
-    old = load_config(preset="tiny")
-    old["effects"] = {}   # an old config.json with an empty section: every key is named
+    stored = load_config(preset="tiny")
+    stored["effects"] = {}   # a config.json with an empty section: every key is named
     with pytest.raises(ConfigError) as err:
-        load_config(old)
+        load_config(stored)
     assert all(f"effects.{k} -> {v}" in str(err.value) for k, v in _MOVED_EFFECT_KEYS.items())
-    # every new option exists
+    # every option named exists
     cfg = load_config(preset="tiny")
-    for new in _MOVED_EFFECT_KEYS.values():
-        section, _, key = new.split(" ")[0].partition(".")
-        assert key in cfg[section], new
+    for option in _MOVED_EFFECT_KEYS.values():
+        section, _, key = option.split(" ")[0].partition(".")
+        assert key in cfg[section], option
 
 
 def test_tool_motion_uses_the_ramp_program():
