@@ -273,9 +273,6 @@ def _run_in_own_group(cmd, *, cwd, env, timeout):
     main thread) kills the group and is then delivered again to this process under its
     previous handler: by default the process dies of it (exit status 143 in a shell).
     """
-    proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            errors="replace", start_new_session=True)
     old = None
     installed = False
     if threading.current_thread() is threading.main_thread():
@@ -285,8 +282,12 @@ def _run_in_own_group(cmd, *, cwd, env, timeout):
                 raise _Terminated()
             signal.signal(signal.SIGTERM, on_term)
             installed = True
+    proc = None
     try:
         try:
+            proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL,
+                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                    errors="replace", start_new_session=True)
             stdout, _ = proc.communicate(timeout=timeout)
         except subprocess.TimeoutExpired as exc:
             _kill_group(proc, grace=1.0)
@@ -298,10 +299,12 @@ def _run_in_own_group(cmd, *, cwd, env, timeout):
                 pass
             raise subprocess.TimeoutExpired(cmd, timeout, output=out) from None
         except BaseException:
-            _kill_group(proc)
+            if proc is not None:
+                _kill_group(proc)
             raise
     except _Terminated:
-        log.warning("SIGTERM: the engine run (process group %d) was ended", proc.pid)
+        if proc is not None:
+            log.warning("SIGTERM: the engine run (process group %d) was ended", proc.pid)
         if installed:
             signal.signal(signal.SIGTERM, old if old is not None else signal.SIG_DFL)
             installed = False
