@@ -120,3 +120,4 @@ def test_twin_file_keeps_the_designs_set_up(design, tmp_path, monkeypatch):
     for m in ms:
         # the mean of three readings of the truth, each with the design's reading noise
         assert abs(m.values[0] - truth[m.name][0]) < 4 * design[m.name].uncertainty[0]
+
