@@ -121,3 +121,19 @@ def test_twin_file_keeps_the_designs_set_up(design, tmp_path, monkeypatch):
         # the mean of three readings of the truth, each with the design's reading noise
         assert abs(m.values[0] - truth[m.name][0]) < 4 * design[m.name].uncertainty[0]
 
+
+def test_recorded_answer_is_the_one_the_docs_quote():
+    import json
+    rec = json.loads((ROOT / "docs" / "records" / "example-layers" / "answer.json")
+                     .read_text(encoding="utf-8"))
+    assert rec["verdict"] in ("attributed", "none", "unexplained")
+    assert rec["simulator"] == "emulator[engine]" and rec["library_runs"] == 18
+    doc = (ROOT / "docs" / "diagnose.md").read_text(encoding="utf-8")
+    start = doc.index("## Worked example: a layer-by-layer packing experiment")
+    section = doc[start:doc.index("\n## ", start + 1)]
+    assert f"**`{rec['verdict']}`**" in section
+    if rec["effect"] is not None:
+        assert f"`{rec['effect']}`" in section
+    # the three largest gaps of the record are the observables the section names first
+    for row in rec["where"]:
+        assert row["observable"].replace("_", " ") in section
