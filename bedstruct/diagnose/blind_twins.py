@@ -359,7 +359,7 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
 
 def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path, *,
                       preset: str = "tiny", repeats: int | None = None,
-                      title: str | None = None) -> Path:
+                      title: str | None = None, source: str = "blind benchmark twin") -> Path:
     """Make twin ``spec`` on ``engine`` and write its measurement file to ``path``.
 
     The file states the mean of ``repeats`` runs (default 1 on the surrogate, 3 on a DEM
@@ -367,7 +367,10 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
     where ``run_sd`` is the surrogate's replicate scatter at the base point
     (:meth:`SurrogateSimulator.noise_sd`) or, on a DEM engine, the sample standard
     deviation of the twin's own repeats. The title (default the twin's id) and the file
-    say nothing of the truth.
+    say nothing of the truth. The design's set-up (its ``[conditions]``: PSD, layers, blade
+    speed, platform, side walls), which the DEM engines' runs reproduce, and its notes are
+    written to the file; ``source`` is its ``[meta] source`` and every observable's
+    provenance.
     """
     repeats = int(repeats or (1 if engine == "surrogate" else 3))
     point = twin_point(spec, engine, preset=preset)
@@ -387,8 +390,8 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
         stated[m.name] = np.sqrt(m.uncertainty ** 2 + np.asarray(run_sd[m.name]) ** 2 / repeats)
     bad = [m.name for m in design if not np.all(np.isfinite(values[m.name]))]
     keep = tuple(m for m in design if m.name not in bad)
-    ms = MeasurementSet(keep, title=title or spec.twin, source="blind benchmark twin")
+    ms = replace(design, measurements=keep, title=title or spec.twin, source=source, path=None)
     ms = ms.with_values(Observations({k: values[k] for k in ms.names}, source="twin"),
                         uncertainty=Observations({k: stated[k] for k in ms.names}),
-                        provenance="blind benchmark twin")
+                        provenance=source)
     return write_measurements(ms, path)
