@@ -36,6 +36,8 @@ def add_arguments(parser) -> None:
                         help="validate --simulator engine: the twins' measurement design")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
                         help="engine: run engine calls in N processes")
+    parser.add_argument("--np", type=int, default=None, metavar="N",
+                        help="engine: MPI ranks of each LIGGGHTS or LAMMPS run")
     parser.add_argument("--records", metavar="FILE",
                         help="validate: record each twin here and resume from it")
     parser.add_argument("--records-only", action="store_true", default=None,
@@ -123,8 +125,8 @@ def _run_validate(args) -> int:
 
     if args.real:
         raise UsageError("--real is for a diagnosis; validate makes its own measurement files")
-    if args.library or args.workers is not None or args.scheduler:
-        raise UsageError("--library/--workers/--scheduler are for a diagnosis, not validate")
+    if args.library or args.workers is not None or args.scheduler or args.np is not None:
+        raise UsageError("--library/--workers/--scheduler/--np are for a diagnosis, not validate")
     for name, default in _VALIDATE_ONLY.items():
         if getattr(args, name) is None:
             setattr(args, name, default)
@@ -211,8 +213,12 @@ def run(args) -> int:
     from . import print_json
 
     cfg = load_sim_config(args.sim)
-    if (args.jobs is not None or args.cache) and cfg.kind != "engine":
-        raise UsageError("--jobs/--cache need a simulation config with kind = \"engine\"")
+    given = [f"--{n}" for n in ("jobs", "cache", "np") if getattr(args, n) not in (None, "")]
+    if given and cfg.kind != "engine":
+        raise UsageError(f"{', '.join(given)} need{'s' if len(given) == 1 else ''} a simulation "
+                         f"config with kind = \"engine\"")
+    if args.np is not None:
+        cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, np=args.np))
     if args.jobs is not None:
         cfg = dataclasses.replace(cfg, engine=dict(cfg.engine, jobs=args.jobs))
     if args.cache:

@@ -533,6 +533,12 @@ def run_benchmark_command(args) -> int:
 
     if not getattr(args, "out", None):
         raise ConfigError("benchmark: --out DIR is required")
+    ignored = [f"--{n.replace('_', '-')}" for n in ("real", "np", "jobs", "cache", "records",
+                                                    "refine", "top_up", "twin_jobs")
+               if getattr(args, n, None) not in (None, False)]
+    if ignored:
+        raise ConfigError(f"benchmark: {', '.join(ignored)} do not apply (the protocol's settings "
+                          f"are frozen; see docs/diagnose-validation.md)")
     engine, sim = arg("twins_engine", "surrogate"), arg("sim", "surrogate")
     res = run_benchmark(args.out, n=arg("n", 40), seed=arg("seed", 0), twins_engine=engine,
                         preset=arg("preset", "tiny"), sim=sim,

@@ -114,6 +114,38 @@ class SimConfig:
 LIBRARY_KEYS = {"n_base": int, "n_per_effect": int, "replicates": int, "vary": float}
 
 
+def _engine_table(doc, p) -> dict:
+    eng = doc.get("engine", {})
+    if not isinstance(eng, dict):
+        raise ConfigError(f"{p}: key 'engine': expected a table; got {eng!r}")
+    eng = dict(eng)
+    if "config" in eng:   # the user's workflow configuration, relative to this file
+        if not isinstance(eng["config"], str) or not eng["config"]:
+            raise ConfigError(f"{p} [engine]: key 'config': expected the path of a workflow "
+                              f"configuration (TOML); got {eng['config']!r}")
+        cfg_path = Path(eng["config"]).expanduser()
+        if not cfg_path.is_absolute():
+            cfg_path = p.parent / cfg_path
+        if not cfg_path.is_file():
+            raise ConfigError(f"{p} [engine]: key 'config': workflow configuration not found: "
+                              f"{cfg_path}")
+        eng["config"] = str(cfg_path)
+    return eng
+
+
+def _model_base(engine: dict, p) -> dict:
+    """The base point of the user's own workflow configuration (its contact model)."""
+    from ..workflows.config import load_config
+    try:
+        c = load_config(engine["config"], preset=engine.get("preset"),
+                        overrides=[str(s) for s in engine.get("overrides", [])])["contact"]
+    except ConfigError as exc:
+        raise ConfigError(f"{p} [engine]: key 'config': {exc}") from None
+    return {"cohesion_energy_density": float(c["cohesion"]), "friction": float(c["friction"]),
+            "rolling_friction": float(c["rolling_friction"]),
+            "restitution": float(c["restitution"])}
+
+
 def _library_table(doc, p) -> dict:
     lib = doc.get("library", {})
     if not isinstance(lib, dict):
@@ -172,7 +204,8 @@ def load_sim_config(path) -> SimConfig:
     kind = _get(sim, "kind", str, f"{p} [simulator]", "surrogate")
     if kind not in ("surrogate", "engine"):
         raise ConfigError(f"{p} [simulator]: key 'kind': expected 'surrogate' or 'engine'; got {kind!r}")
-    base = dict(BASE_PARAMETERS)
+    engine = _engine_table(doc, p)
+    base = dict(BASE_PARAMETERS) if "config" not in engine else _model_base(engine, p)
     for k, v in doc.get("base", {}).items():
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise ConfigError(f"{p} [base]: key {k!r}: expected a number; got {v!r}")
@@ -220,7 +253,7 @@ def load_sim_config(path) -> SimConfig:
                     max_effects=_get(dg, "max_effects", int, f"{p} [diagnosis]", 2),
                     refine=_get(dg, "refine", int, f"{p} [diagnosis]", 2),
                     confirm_rounds=_get(dg, "confirm_rounds", int, f"{p} [diagnosis]", 2),
-                    engine=dict(doc.get("engine", {})), library=_library_table(doc, p),
+                    engine=engine, library=_library_table(doc, p),
                     path=str(p))
     if cfg.replicates < 2:
         raise ConfigError(f"{p} [simulator]: key 'replicates': need >= 2; got {cfg.replicates}")
@@ -257,4 +290,14 @@ def make_simulator(config: SimConfig, design: MeasurementSet):
         return SurrogateSimulator(design, noise=config.noise)
     # the engine simulator loads the DEM engine (numba): only when asked for
     from .engine_simulator import diagnosis_simulator
-    return diagnosis_simulator(design, dict(config.engine))
+    sim = diagnosis_simulator(design, dict(config.engine))
+    refused = [(e.name, e.realisations[sim.engine].refused) for e in config.effects
+               if not e.realisations[sim.engine].realised]
+    if refused:
+        where = f"{config.path} [catalogue]" if config.path else "[catalogue]"
+        names = ", ".join(repr(n) for n, _ in refused)
+        why = "; ".join(f"{n}: {r}" for n, r in refused)
+        raise ConfigError(f"{where}: the {sim.engine} engine cannot realise {names} ({why}). "
+                          f"Leave them out (exclude = [{names}]) or diagnose on the embedded "
+                          f"engine")
+    return sim

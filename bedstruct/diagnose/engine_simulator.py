@@ -58,9 +58,10 @@ log = logging.getLogger(__name__)
 _SPEED_X1 = 0.0254          # m/s, the seed's x1 rake speed
 _K_SEED = 3.6e7             # J/m^3, the diagnosis' base cohesion energy density
 _STROKE_SEED = 18.9e-3 / _SPEED_X1   # s, the seed's x1 stroke over its 18.9 mm platform
-_ENGINE_KEYS = {"preset", "overrides", "cohesion_scale", "speed_scale", "ageing_time_scale",
-                "blade_time_scale", "capillary_scale", "fines_scale", "wide_box", "n_threads",
-                "seed", "workdir", "cache", "jobs"}
+_ENGINE_KEYS = {"preset", "config", "engine", "np", "overrides", "cohesion_scale", "speed_scale",
+                "ageing_time_scale", "blade_time_scale", "capillary_scale", "fines_scale",
+                "wide_box", "n_threads", "seed", "workdir", "cache", "jobs"}
+_ENGINES = ("embedded", "liggghts", "lammps")
 #: Workflow overrides applied to a preset before the user's (the scale model of the
 #: diagnosis): the tiny preset's 800-particle pile is used up within the first third of
 #: the stroke, leaving most frames without a heap whose angle can be measured; and the
@@ -262,13 +263,19 @@ class EngineSimulator:
     design : MeasurementSet
         Observables to produce (kinds and conditions are used).
     config : mapping
-        The ``[engine]`` table: ``preset`` (default ``"tiny"``), ``overrides``
-        (list of ``section.key=value``), ``cohesion_scale``, ``speed_scale``
-        (default: preset speed / 0.0254), ``ageing_time_scale`` (default 1),
-        ``blade_time_scale`` (default: the preset's stroke time over the seed's,
-        1 for ``seed``), ``capillary_scale`` (factor on the bridge force;
-        default ``psd.scale**2``, the same Bond number at coarse-grained sizes),
-        ``fines_scale`` (default: ``psd.d_min`` / 28 um), ``wide_box`` (m; a
+        The ``[engine]`` table: ``preset`` (default ``"tiny"``), or ``config``
+        (the path of the user's own workflow configuration, a ``bedstruct run``
+        TOML file: their material, contact model and machine, simulated as it
+        stands, at full scale: every scale below defaults to 1), ``engine``
+        (``"embedded"``, ``"liggghts"`` or ``"lammps"``; default the
+        configuration's), ``np`` (MPI ranks of each LIGGGHTS or LAMMPS run),
+        ``overrides`` (list of ``section.key=value``), ``cohesion_scale``,
+        ``speed_scale`` (default: preset speed / 0.0254), ``ageing_time_scale``
+        (default 1000, 1 for ``seed``), ``blade_time_scale`` (default: the preset's
+        stroke time over the seed's, 1 for ``seed``), ``capillary_scale`` (factor on
+        the bridge force; default ``psd.scale**2``, the same Bond number at
+        coarse-grained sizes), ``fines_scale`` (default: ``psd.d_min`` / 28 um,
+        1 for ``seed``), ``wide_box`` (m; a
         ``box_width`` below it is simulated with side walls, default 0.01),
         ``n_threads``, ``seed`` (offset added to the replicate seed),
         ``workdir`` (folder for run directories; default a temporary one),
@@ -291,28 +298,49 @@ class EngineSimulator:
             raise ConfigError(f"[engine]: key {sorted(unknown)[0]!r}: unknown "
                               f"(known: {sorted(_ENGINE_KEYS)})")
         self.design = design
-        self.preset = str(cfg.get("preset", "tiny"))
-        self.overrides = list(PRESET_OVERRIDES.get(self.preset, ())) + \
-            [str(s) for s in cfg.get("overrides", [])]
-        self.base_cfg = load_config(preset=self.preset, overrides=self.overrides)
+        # the user's own workflow configuration (their material, contact model, machine) is
+        # the model as it stands, at full scale; a preset gets the diagnosis' scale model
+        self.config_file = str(cfg["config"]) if cfg.get("config") else None
+        user_overrides = [str(s) for s in cfg.get("overrides", [])]
+        if self.config_file is not None:
+            self.preset = str(cfg["preset"]) if "preset" in cfg else None
+            self.overrides = user_overrides
+            self.base_cfg = load_config(Path(self.config_file).expanduser(),
+                                        preset=self.preset, overrides=self.overrides)
+        else:
+            self.preset = str(cfg.get("preset", "tiny"))
+            self.overrides = list(PRESET_OVERRIDES.get(self.preset, ())) + user_overrides
+            self.base_cfg = load_config(preset=self.preset, overrides=self.overrides)
+        if "engine" in cfg:
+            if cfg["engine"] not in _ENGINES:
+                raise ConfigError(f"[engine]: key 'engine': expected one of {', '.join(_ENGINES)}; "
+                                  f"got {cfg['engine']!r}")
+            self.base_cfg["engine"] = str(cfg["engine"])
+        if "np" in cfg:
+            n_ranks = cfg["np"]
+            if isinstance(n_ranks, bool) or not isinstance(n_ranks, int) or n_ranks < 1:
+                raise ConfigError(f"[engine]: key 'np': expected a whole number >= 1 (MPI ranks "
+                                  f"of each LIGGGHTS or LAMMPS run); got {n_ranks!r}")
+            self.base_cfg["external"]["np"] = n_ranks
+        self.engine = str(self.base_cfg["engine"])
         if "n_threads" in cfg:
             self.base_cfg["n_threads"] = int(cfg["n_threads"])
+        full_scale = self.config_file is not None or self.preset == "seed"
         k0 = float(self.base_cfg["contact"]["cohesion"])
         self.cohesion_scale = float(cfg.get("cohesion_scale",
-                                            1.0 if self.preset == "seed" else k0 / _K_SEED))
-        self.speed_scale = float(cfg.get("speed_scale",
+                                            1.0 if full_scale else k0 / _K_SEED))
+        self.speed_scale = float(cfg.get("speed_scale", 1.0 if self.config_file is not None else
                                          float(self.base_cfg["spread"]["speed"]) / _SPEED_X1))
-        seed_preset = self.preset == "seed"
         sc = self.base_cfg["spread"]
         stroke = float(sc["plate_length"]) / float(sc["speed"])
         # scale model: rest times of the ageing law fit into the preset's settling times
-        self.ageing_time_scale = float(cfg.get("ageing_time_scale", 1.0 if seed_preset else 1000.0))
+        self.ageing_time_scale = float(cfg.get("ageing_time_scale", 1.0 if full_scale else 1000.0))
         self.blade_time_scale = float(cfg.get("blade_time_scale",
-                                              1.0 if seed_preset else stroke / _STROKE_SEED))
+                                              1.0 if full_scale else stroke / _STROKE_SEED))
         psd = self.base_cfg["psd"]
         self.capillary_scale = float(cfg.get("capillary_scale", float(psd["scale"]) ** 2))
         self.fines_scale = float(cfg.get("fines_scale",
-                                         1.0 if seed_preset else float(psd["d_min"]) / 28e-6))
+                                         1.0 if full_scale else float(psd["d_min"]) / 28e-6))
         self.wide_box = float(cfg.get("wide_box", 0.01))
         for key in ("ageing_time_scale", "blade_time_scale", "capillary_scale", "fines_scale",
                     "wide_box"):

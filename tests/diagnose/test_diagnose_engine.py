@@ -461,4 +461,4 @@ def test_cli_diagnose_cache_option_replaces_the_configs_cache(tmp_path, capsys):
     capsys.readouterr()
     rc = main(["diagnose", "--sim", "surrogate", "--real", str(tmp_path / "real.toml"),
                "--out", str(tmp_path / "o2"), "--cache", str(tmp_path / "c2")])
-    assert rc != 0 and "--cache need a simulation config" in capsys.readouterr().err
+    assert rc != 0 and "--cache needs a simulation config" in capsys.readouterr().err
