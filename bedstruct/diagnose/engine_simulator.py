@@ -269,8 +269,9 @@ class EngineSimulator:
         stands, at full scale: every scale below defaults to 1), ``engine``
         (``"embedded"``, ``"liggghts"`` or ``"lammps"``; default the
         configuration's), ``np`` (MPI ranks of each LIGGGHTS or LAMMPS run),
-        ``overrides`` (list of ``section.key=value``), ``cohesion_scale``,
-        ``speed_scale`` (default: preset speed / 0.0254), ``ageing_time_scale``
+        ``overrides`` (list of ``section.key=value``), ``cohesion_scale`` (default:
+        the preset's ``contact.cohesion`` / 3.6e7, so the seed's calibrated cohesion
+        maps onto the preset's at its softened modulus), ``speed_scale`` (default: preset speed / 0.0254), ``ageing_time_scale``
         (default 1000, 1 for ``seed``), ``blade_time_scale`` (default: the preset's
         stroke time over the seed's, 1 for ``seed``), ``capillary_scale`` (factor on
         the bridge force; default ``psd.scale**2``, the same Bond number at
@@ -327,8 +328,10 @@ class EngineSimulator:
             self.base_cfg["n_threads"] = int(cfg["n_threads"])
         full_scale = self.config_file is not None or self.preset == "seed"
         k0 = float(self.base_cfg["contact"]["cohesion"])
+        # a preset's cohesion stands for the seed's calibrated 3.6e7 J/m^3 at its own
+        # (softened) modulus, the seed preset's too: SJKR pull-in scales as k^3 / E*^2
         self.cohesion_scale = float(cfg.get("cohesion_scale",
-                                            1.0 if full_scale else k0 / _K_SEED))
+                                            1.0 if self.config_file is not None else k0 / _K_SEED))
         self.speed_scale = float(cfg.get("speed_scale", 1.0 if self.config_file is not None else
                                          float(self.base_cfg["spread"]["speed"]) / _SPEED_X1))
         sc = self.base_cfg["spread"]

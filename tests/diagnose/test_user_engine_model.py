@@ -130,3 +130,20 @@ def test_the_users_liggghts_model_answers_a_static_angle(tmp_path):
     assert math.isfinite(angle) and 10.0 < angle < 60.0
     decks = list((tmp_path / "runs").rglob("in.*"))
     assert decks and any("7900" in d.read_text() for d in decks)   # LIGGGHTS ran the user's powder
+
+
+def test_every_preset_maps_the_seed_cohesion_onto_its_softened_modulus(tmp_path):
+    """The seed preset runs E = 1e7 Pa: the seed's 3.6e7 J/m^3 there would pull spheres
+    into each other (SJKR k pi R* d against Hertz 4/3 E* sqrt(R*) d^1.5 balance at an
+    overlap of millimetres), so the base cohesion maps onto the preset's own value."""
+    from bedstruct.workflows import load_config
+    for preset in ("tiny", "seed"):
+        sim = make_simulator(load_sim_config(_sim_file(tmp_path, f'preset = "{preset}"')),
+                             _design())
+        run = sim.run_config({"cohesion_energy_density": 3.6e7}, {}, 0)
+        assert run["contact"]["cohesion"] == pytest.approx(
+            load_config(preset=preset)["contact"]["cohesion"], rel=1e-12)
+    # the balance overlap at the seed's 3.6e7 J/m^3 and E = 1e7 Pa (two d50 spheres)
+    r_eff, e_eff = 0.5 * 26.04e-6, 1e7 / (2 * (1 - 0.3 ** 2))
+    overlap = (3.6e7 * math.pi * r_eff / (4 / 3 * e_eff * math.sqrt(r_eff))) ** 2
+    assert overlap > 50e-6
