@@ -57,6 +57,7 @@ log = logging.getLogger(__name__)
 
 _SPEED_X1 = 0.0254          # m/s, the seed's x1 rake speed
 _K_SEED = 3.6e7             # J/m^3, the diagnosis' base cohesion energy density
+_E_COCR = 2.1e11            # Pa, CoCr's Young's modulus (the seed's calibration)
 _STROKE_SEED = 18.9e-3 / _SPEED_X1   # s, the seed's x1 stroke over its 18.9 mm platform
 _ENGINE_KEYS = {"preset", "config", "engine", "np", "overrides", "cohesion_scale", "speed_scale",
                 "ageing_time_scale", "blade_time_scale", "capillary_scale", "fines_scale",
@@ -270,8 +271,10 @@ class EngineSimulator:
         (``"embedded"``, ``"liggghts"`` or ``"lammps"``; default the
         configuration's), ``np`` (MPI ranks of each LIGGGHTS or LAMMPS run),
         ``overrides`` (list of ``section.key=value``), ``cohesion_scale`` (default:
-        the preset's ``contact.cohesion`` / 3.6e7, so the seed's calibrated cohesion
-        maps onto the preset's at its softened modulus), ``speed_scale`` (default: preset speed / 0.0254), ``ageing_time_scale``
+        ``seed``: (E / 2.1e11 Pa)^(2/3), the SJKR pull-in force of CoCr's modulus kept at
+        the preset's softened one; ``tiny`` and ``small``: the preset's
+        ``contact.cohesion`` / 3.6e7, their own calibration of the seed's value),
+        ``speed_scale`` (default: preset speed / 0.0254), ``ageing_time_scale``
         (default 1000, 1 for ``seed``), ``blade_time_scale`` (default: the preset's
         stroke time over the seed's, 1 for ``seed``), ``capillary_scale`` (factor on
         the bridge force; default ``psd.scale**2``, the same Bond number at
@@ -328,10 +331,17 @@ class EngineSimulator:
             self.base_cfg["n_threads"] = int(cfg["n_threads"])
         full_scale = self.config_file is not None or self.preset == "seed"
         k0 = float(self.base_cfg["contact"]["cohesion"])
-        # a preset's cohesion stands for the seed's calibrated 3.6e7 J/m^3 at its own
-        # (softened) modulus, the seed preset's too: SJKR pull-in scales as k^3 / E*^2
-        self.cohesion_scale = float(cfg.get("cohesion_scale",
-                                            1.0 if self.config_file is not None else k0 / _K_SEED))
+        # the seed's calibrated 3.6e7 J/m^3 belongs to CoCr's modulus: the seed preset
+        # (real sizes, softened modulus) transfers it keeping the SJKR pull-in force
+        # (~ k^3 / E*^2); a coarse-grained preset's cohesion is its own calibration of it
+        if self.config_file is not None:
+            default_scale = 1.0
+        elif self.preset == "seed":
+            default_scale = (float(self.base_cfg["material"]["youngs_modulus"])
+                             / _E_COCR) ** (2.0 / 3.0)
+        else:
+            default_scale = k0 / _K_SEED
+        self.cohesion_scale = float(cfg.get("cohesion_scale", default_scale))
         self.speed_scale = float(cfg.get("speed_scale", 1.0 if self.config_file is not None else
                                          float(self.base_cfg["spread"]["speed"]) / _SPEED_X1))
         sc = self.base_cfg["spread"]

@@ -137,12 +137,18 @@ def test_every_preset_maps_the_seed_cohesion_onto_its_softened_modulus(tmp_path)
     into each other (SJKR k pi R* d against Hertz 4/3 E* sqrt(R*) d^1.5 balance at an
     overlap of millimetres), so the base cohesion maps onto the preset's own value."""
     from bedstruct.workflows import load_config
-    for preset in ("tiny", "seed"):
+    def mapped(preset):
         sim = make_simulator(load_sim_config(_sim_file(tmp_path, f'preset = "{preset}"')),
                              _design())
-        run = sim.run_config({"cohesion_energy_density": 3.6e7}, {}, 0)
-        assert run["contact"]["cohesion"] == pytest.approx(
-            load_config(preset=preset)["contact"]["cohesion"], rel=1e-12)
+        return sim.run_config({"cohesion_energy_density": 3.6e7}, {}, 0)["contact"]["cohesion"]
+
+    # tiny: its own calibration of the seed's value
+    assert mapped("tiny") == pytest.approx(load_config(preset="tiny")["contact"]["cohesion"],
+                                           rel=1e-12)
+    # seed: the pull-in force k^3 / E*^2 of CoCr (2.1e11 Pa) kept at 1e7 Pa
+    k = mapped("seed")
+    assert k ** 3 / 1e7 ** 2 == pytest.approx(3.6e7 ** 3 / 2.1e11 ** 2, rel=1e-9)
+    assert 4.6e4 < k < 4.8e4
     # the balance overlap at the seed's 3.6e7 J/m^3 and E = 1e7 Pa (two d50 spheres)
     r_eff, e_eff = 0.5 * 26.04e-6, 1e7 / (2 * (1 - 0.3 ** 2))
     overlap = (3.6e7 * math.pi * r_eff / (4 / 3 * e_eff * math.sqrt(r_eff))) ** 2
