@@ -1,4 +1,4 @@
-"""Decks on a bed or a pair of spheres, in the same SI parameters for every engine:
+"""Decks on a bed or a pair of spheres, from the same contact model (SI) for every engine:
 a settled bed from a data file (:func:`bed_deck`), the bed with a moving blade
 (:func:`moving_wall_deck`) and a head-on impact (:func:`impact_deck`,
 read back by :func:`impact_result`).

@@ -288,8 +288,8 @@ class Dialect:
         """The dialect that writes the effects the configuration ``cfg`` switches on.
 
         Refuses what this engine cannot realise (:meth:`check_effects`). Effects that are
-        ordinary contact parameters (wall friction, rolling friction) or inputs (fines) are
-        already in the deck's parameters and particles; a dialect with its own model of an
+        ordinary contact coefficients (wall friction, rolling friction) or inputs (fines) are
+        already in the deck's contact model and particles; a dialect with its own model of an
         effect (LIGGGHTS' liquid bridges) returns a copy with it set.
 
         Parameters
