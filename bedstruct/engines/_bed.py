@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..dem import effective_youngs_modulus
 from ._datafile import data_file_radii, read_data_header
 from ._dialect import DUMP_COLUMNS, path_word
 from ._logs import EngineLog
@@ -234,7 +233,7 @@ def hertz_contact_time(radius1: float, radius2: float, model=None, *, speed: flo
     m2 = 4.0 / 3.0 * math.pi * radius2 ** 3 * density
     mstar = m1 * m2 / (m1 + m2)
     rstar = radius1 * radius2 / (radius1 + radius2)
-    estar = effective_youngs_modulus(model.materials[0], model.materials[0])
+    estar = float(model.tables().youngs[0, 0])   # E* = 1 / (2 (1 - nu^2) / E)
     return 2.868 * (mstar ** 2 / (rstar * estar ** 2 * speed)) ** 0.2
 
 

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy
 
-from ..dem import rayleigh_time, seed_contact_model
 from ._bed import bed_deck
 from ._datafile import read_data_header, write_sphere_data
 from ._launch import run_deck
@@ -192,12 +191,14 @@ def pour_bed(out_data, *, n_particles: int = 20000, engine: str = "liggghts", np
     pathlib.Path
         ``out_data``.
     """
-    model = dialect(engine).deck_model(model if model is not None else
-                                       seed_contact_model(rolling_friction=0.0))
+    if model is None:
+        from ..dem import seed_contact_model
+        model = seed_contact_model(rolling_friction=0.0)
+    model = dialect(engine).deck_model(model)
     gravity = check_gravity(gravity)
     pos, rad, lo, hi = loose_lattice(n_particles, radius_range=radius_range, width=width, rng=rng)
     if dt is None:
-        dt = 0.15 * rayleigh_time(float(rad.min()), model.materials[0])
+        dt = 0.15 * model.rayleigh_time(float(rad.min()))
     if steps is None:
         g_eff = max(gravity * gravity_factor, 1e-12)
         t_fall = math.sqrt(2.0 * hi[2] / g_eff)

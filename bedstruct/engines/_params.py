@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 
-from ..dem import ContactModel, seed_contact_model
 from ..errors import ConfigError
 
 __all__ = ["one_type_model", "coefficient", "check_gravity"]
@@ -22,8 +21,12 @@ _TABLES = ("restitution", "friction", "rolling_friction", "cohesion")
 _MATERIAL = ("youngs_modulus", "poisson_ratio", "density")
 
 
-def one_type_model(model, engine: str) -> ContactModel:
+def one_type_model(model, engine: str):
     """``model`` checked for the decks of ``engine`` (None: the seed's model).
+
+    Returns
+    -------
+    bedstruct.dem.ContactModel
 
     Raises
     ------
@@ -33,6 +36,8 @@ def one_type_model(model, engine: str) -> ContactModel:
         For more than one particle type, a zero restitution, or switches the decks do not
         write (``tangential_damping`` off, ``limit_force`` on), each named.
     """
+    # the engine's kernels load with bedstruct.dem: imported when a deck is written
+    from ..dem import ContactModel, seed_contact_model
     if model is None:
         return seed_contact_model()
     if not isinstance(model, ContactModel):
@@ -54,7 +59,7 @@ def one_type_model(model, engine: str) -> ContactModel:
     return model
 
 
-def coefficient(model: ContactModel, name: str, *, wall: bool = False) -> float:
+def coefficient(model, name: str, *, wall: bool = False) -> float:
     """Particle-particle (or, with ``wall``, particle-wall) value of ``name`` in SI.
 
     ``name`` is a coefficient (``restitution``, ``friction``, ``rolling_friction`` (0
