@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from bedstruct import Box
-from bedstruct.dem import ContactModel, Material, Plane, Simulation
+from bedstruct.dem import ContactModel, Plane, Simulation, seed_contact_model
 
 R_MIN, R_MAX = 14e-6, 50e-6
 WIDTH = 2e-3
@@ -68,9 +68,7 @@ BENCH_COHESION = 1e5
 
 def seed_model(*, cohesion: float = 0.0) -> ContactModel:
     """The seed's contact model (soft CoCr; hertz, history, epsd2), SJKR ``cohesion`` (J/m^3)."""
-    return ContactModel(Material(1e7, 0.3, 8300.0, name="CoCr (soft)"), restitution=0.1,
-                        friction=0.4, rolling_friction=0.05, rolling_model="epsd2",
-                        cohesion=cohesion)
+    return seed_contact_model(cohesion=cohesion)
 
 
 def pour(n: int, path: Path, *, n_threads: int = 1, log=print) -> Simulation:
@@ -246,12 +244,11 @@ def time_liggghts(data: Path, *, np_: int, steps: int, dt: float, skin: float,
 
     from dataclasses import replace
 
-    from bedstruct.engines import as_granular_params, bed_deck, run_deck
+    from bedstruct.engines import bed_deck, run_deck
     try:
         with _tf.TemporaryDirectory(prefix="bedstruct-bench-liggghts-") as wd:
-            params = replace(as_granular_params(seed_model(cohesion=BENCH_COHESION)),
-                             rolling_model=rolling)
-            deck = bed_deck(data, params, engine="liggghts", steps=steps, dt=dt,
+            model = replace(seed_model(cohesion=BENCH_COHESION), rolling_model=rolling)
+            deck = bed_deck(data, model, engine="liggghts", steps=steps, dt=dt,
                             thermo_every=0, warmup_steps=100, skin=skin)
             path = Path(wd) / "bench_liggghts.in"
             path.write_text(deck)
@@ -269,7 +266,7 @@ def time_lammps(data: Path, *, np_: int, steps: int, dt: float) -> float:
     try:
         from bedstruct.engines import benchmark_external
         res = benchmark_external(data, engine="lammps", np=np_, steps=steps, dt=dt,
-                                 model_params=seed_model(cohesion=BENCH_COHESION),
+                                 model=seed_model(cohesion=BENCH_COHESION),
                                  cohesion_model="dmt", warmup_steps=100, timeout=900)
         return float(res["particle_steps_per_s"])
     except Exception as exc:

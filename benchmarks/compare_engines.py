@@ -43,8 +43,8 @@ from pathlib import Path
 import numpy as np
 
 from bedstruct import Box, Frame, coordination, packing_fraction
-from bedstruct.dem import ContactModel, Material, Plane, Simulation
-from bedstruct.engines import (GranularParams, bed_deck, find_lammps, find_liggghts,
+from bedstruct.dem import ContactModel, Plane, Simulation, rayleigh_time, seed_contact_model
+from bedstruct.engines import (bed_deck, find_lammps, find_liggghts,
                                loose_lattice, run_deck, write_sphere_data)
 from bedstruct.io import read_data
 
@@ -101,26 +101,18 @@ class Settled:
         return float(self.time[above[-1] + 1])
 
 
-def params(cohesion: float = 0.0) -> GranularParams:
-    """The seed's soft contact model (E = 1e7 Pa, e = 0.1, mu = 0.4, mu_r = 0.05)."""
-    return GranularParams(youngs_modulus=1e7, poisson_ratio=0.3, density=8300.0,
-                          restitution=0.1, friction=0.4, rolling_friction=0.05,
-                          cohesion_energy_density=cohesion, gravity=9.81)
+#: Gravity along -z (m/s^2), in every engine.
+GRAVITY = 9.81
 
 
-def engine_model(p: GranularParams) -> ContactModel:
-    """The same parameters as a ``bedstruct.dem.ContactModel`` (epsd2 rolling)."""
-    return ContactModel(Material(p.youngs_modulus, p.poisson_ratio, p.density),
-                        restitution=p.restitution, friction=p.friction,
-                        rolling_friction=p.rolling_friction, cohesion=p.cohesion_energy_density,
-                        rolling_model="epsd2")
+def params(cohesion: float = 0.0) -> ContactModel:
+    """The seed's soft contact model (E = 1e7 Pa, e = 0.1, mu = 0.4, mu_r = 0.05 epsd2)."""
+    return seed_contact_model(cohesion=cohesion)
 
 
-def time_step(p: GranularParams) -> float:
+def time_step(p: ContactModel) -> float:
     """0.15 x the Rayleigh time of the smallest radius of ``RADIUS_RANGE`` (s)."""
-    g = p.youngs_modulus / (2 * (1 + p.poisson_ratio))
-    t_r = math.pi * RADIUS_RANGE[0] * math.sqrt(p.density / g) / (0.1631 * p.poisson_ratio + 0.8766)
-    return 0.15 * t_r
+    return 0.15 * rayleigh_time(RADIUS_RANGE[0], p.materials[0])
 
 
 def make_case(n: int, *, width: float, seed: int = 0, perturbation: float = 0.0,
@@ -153,11 +145,11 @@ def statistics(res: Settled, case: Case) -> dict:
                                                   else len(f.radii)))
 
 
-def run_bedstruct(case: Case, p: GranularParams, *, dt: float, steps: int, every: int) -> Settled:
+def run_bedstruct(case: Case, p: ContactModel, *, dt: float, steps: int, every: int) -> Settled:
     """Settle ``case`` with the embedded engine; KE every ``every`` steps."""
     box = Box(case.lo, case.hi, boundary="pp pp ff")
-    sim = Simulation(box, engine_model(p), walls=[Plane((0, 0, case.lo[2]), (0, 0, 1), name="plate")],
-                     gravity=(0, 0, -p.gravity), dt=dt, n_threads=1,
+    sim = Simulation(box, p, walls=[Plane((0, 0, case.lo[2]), (0, 0, 1), name="plate")],
+                     gravity=(0, 0, -GRAVITY), dt=dt, n_threads=1,
                      skin=0.2 * float(case.radii.min()))
     sim.add_particles(case.positions, case.radii, velocities=case.velocities)
     t, ke = [0.0], [sim.kinetic_energy()]
@@ -187,7 +179,7 @@ def tangential_reduce_on(deck: str) -> str:
                      for line in deck.splitlines()) + "\n"
 
 
-def run_external(engine: str, case: Case, p: GranularParams, *, dt: float, steps: int, every: int,
+def run_external(engine: str, case: Case, p: ContactModel, *, dt: float, steps: int, every: int,
                  workdir) -> Settled:
     """Settle ``case`` with LIGGGHTS (``"liggghts"``, or ``"liggghts_tr"`` with
     ``tangential_reduce on``) or LAMMPS (one rank); thermo every ``every`` steps."""
@@ -196,9 +188,9 @@ def run_external(engine: str, case: Case, p: GranularParams, *, dt: float, steps
     wd = Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
     data = write_sphere_data(wd / "initial.data", case.positions, case.radii, box_lo=case.lo,
-                             box_hi=case.hi, density=p.density, n_types=2,
+                             box_hi=case.hi, density=p.materials[0].density, n_types=2,
                              velocities=case.velocities)
-    deck = bed_deck(data, p, engine=engine, steps=steps, dt=dt, thermo_every=every,
+    deck = bed_deck(data, p, engine=engine, steps=steps, dt=dt, gravity=GRAVITY, thermo_every=every,
                     write_data="final.data", skin=0.2 * float(case.radii.min()))
     if name == "liggghts_tr":
         deck = tangential_reduce_on(deck)
@@ -229,10 +221,10 @@ def log_curve_distance(a: Settled, b: Settled, *, floor: float = SETTLED_FRACTIO
     return float(np.median(np.abs(np.log10(ka[m]) - np.log10(kb[m]))))
 
 
-def settle_steps(case: Case, p: GranularParams, dt: float) -> int:
+def settle_steps(case: Case, p: ContactModel, dt: float) -> int:
     """Steps enough to settle: 3x the free-fall time from the top of the lattice."""
     ztop = float(np.max(case.positions[:, 2]))
-    return int(math.ceil(3.0 * math.sqrt(2 * ztop / p.gravity) / dt))
+    return int(math.ceil(3.0 * math.sqrt(2 * ztop / GRAVITY) / dt))
 
 
 def main(argv=None) -> int:

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["Material", "ContactModel", "ModelTables", "rayleigh_time", "hertz_time",
+__all__ = ["Material", "ContactModel", "ModelTables", "seed_contact_model", "rayleigh_time", "hertz_time",
            "effective_youngs_modulus", "effective_shear_modulus", "restitution_beta",
            "ROLLING_MODELS"]
 
@@ -158,8 +158,8 @@ class ModelTables:
     """Per-type-pair constants read by the kernels, shape (T+1, T+1) each.
 
     Index ``T`` is the wall type. ``youngs`` = Y*, ``shear`` = G*, ``beta``
-    from restitution, ``friction`` = mu, ``rolling_friction`` = mu_r,
-    ``cohesion`` = k (J/m^3).
+    from the coefficient of restitution ``restitution`` = e, ``friction`` = mu,
+    ``rolling_friction`` = mu_r, ``cohesion`` = k (J/m^3).
     """
 
     youngs: np.ndarray
@@ -168,6 +168,7 @@ class ModelTables:
     friction: np.ndarray
     rolling_friction: np.ndarray
     cohesion: np.ndarray
+    restitution: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -380,7 +381,8 @@ class ContactModel:
         e_full = full(rest, w_rest)
         beta = np.vectorize(restitution_beta)(e_full)
         return ModelTables(youngs=Y, shear=G, beta=beta, friction=full(mu, w_mu),
-                           rolling_friction=full(mur, w_mur), cohesion=full(coh, w_coh))
+                           rolling_friction=full(mur, w_mur), cohesion=full(coh, w_coh),
+                           restitution=e_full)
 
     def tables(self) -> ModelTables:
         """The per-type-pair constant tables (computed once)."""
@@ -417,6 +419,46 @@ class ContactModel:
         out["wall_material"] = conv(self.wall_material) if self.wall_material else None
         out["units"] = "SI"
         return out
+
+
+def seed_contact_model(*, youngs_modulus: float = 1.0e7, poisson_ratio: float = 0.3,
+                       density: float = 8300.0, **fields) -> ContactModel:
+    """The seed's contact model: soft CoCr spheres, Hertz-Mindlin with EPSD2 rolling friction.
+
+    One particle type of ``Material(youngs_modulus, poisson_ratio, density)``; the seed's
+    coefficients are restitution 0.1, friction 0.4, rolling friction 0.05 (``epsd2``)
+    and no cohesion. Every other :class:`ContactModel` field (``cohesion``,
+    ``wall_friction``, ``wall_material`` ...) is given by keyword and replaces the
+    seed's value. The external engines' decks take this model by default.
+
+    Parameters
+    ----------
+    youngs_modulus : float, Pa
+        Young's modulus of the (softened) particles.
+    poisson_ratio : float, dimensionless
+    density : float, kg/m^3
+    **fields
+        :class:`ContactModel` fields.
+
+    Returns
+    -------
+    ContactModel
+
+    Examples
+    --------
+    >>> m = seed_contact_model(cohesion=4.2e4)
+    >>> m.materials[0].youngs_modulus, m.restitution, m.friction, m.rolling_friction, m.cohesion
+    (10000000.0, 0.1, 0.4, 0.05, 42000.0)
+    >>> seed_contact_model(youngs_modulus=1e8, wall_friction=0.6).tables().friction[0].tolist()
+    [0.4, 0.6]
+    """
+    if "materials" in fields:
+        raise ConfigError("seed_contact_model takes the particles' material as `youngs_modulus`, "
+                          "`poisson_ratio` and `density`, not `materials`")
+    seed = dict(restitution=0.1, friction=0.4, rolling_friction=0.05, cohesion=0.0,
+                rolling_model="epsd2")
+    return ContactModel(Material(youngs_modulus, poisson_ratio, density, name="CoCr (soft)"),
+                        **{**seed, **fields})
 
 
 def _as_sequence(x) -> Sequence:

@@ -4,9 +4,10 @@ dialect object each.
 A dialect (:class:`LiggghtsDialect`, :class:`LammpsDialect`; :func:`dialect` by
 name) spells bedstruct's scenarios in its engine's commands, finds its binary
 (:meth:`Dialect.find`), runs decks (:meth:`Dialect.run`, :func:`run_deck` on N MPI
-ranks) and reads their logs (:func:`parse_log`). The deck writers take the same SI
-contact parameters (:class:`GranularParams`) and scenario descriptions for every
-engine: a bed (:func:`bed_deck`, :func:`moving_wall_deck`), a head-on impact
+ranks) and reads their logs (:func:`parse_log`). The deck writers take the embedded
+engine's contact model (a one-type :class:`~bedstruct.dem.ContactModel`, SI; by default
+the seed's, :func:`~bedstruct.dem.seed_contact_model`) and scenario descriptions for
+every engine: a bed (:func:`bed_deck`, :func:`moving_wall_deck`), a head-on impact
 (:func:`impact_deck`), the angle-of-repose box (:func:`repose_deck`) and
 multi-layer spreading (:func:`spread_layers_deck`). What an engine cannot realise is
 refused by name (:class:`~bedstruct.errors.ConfigError`). Install both engines with
@@ -14,8 +15,9 @@ refused by name (:class:`~bedstruct.errors.ConfigError`). Install both engines w
 
 Examples
 --------
->>> from bedstruct.engines import GranularParams, impact_deck
->>> deck = impact_deck(GranularParams(youngs_modulus=1e8, restitution=0.5), engine="lammps")
+>>> from bedstruct.dem import seed_contact_model
+>>> from bedstruct.engines import impact_deck
+>>> deck = impact_deck(seed_contact_model(youngs_modulus=1e8, restitution=0.5), engine="lammps")
 >>> deck.splitlines()[0]
 '# bedstruct deck for lammps: head-on impact on a sphere'
 """
@@ -31,7 +33,6 @@ from ._launch import EngineInfo, EngineRunError, RunResult, run_deck
 from ._liggghts import (LIGGGHTS_REALISATIONS, LiggghtsDialect, LiquidBridges, find_liggghts,
                         liggghts_model_commands)
 from ._logs import EngineLog, ThermoRun, landing_offsets, parse_log, run_finished, tool_loads
-from ._params import GranularParams, as_granular_params
 from ._realisations import effect_realisations
 from ._registry import ENGINE_NAMES, dialect
 from ._repose import repose_deck
@@ -52,7 +53,6 @@ __all__ = [
     "EngineInfo", "EngineRunError", "RunResult", "run_deck",
     "EngineLog", "ThermoRun", "parse_log", "landing_offsets", "run_finished", "tool_loads",
     # inputs
-    "GranularParams", "as_granular_params",
     "write_sphere_data", "read_data_header", "data_file_radii",
     "BladeGeometry", "RollerGeometry", "box_triangles", "cylinder_triangles",
     "read_stl_triangles", "repose_wall_stls", "stl_text", "write_stl",

@@ -1,4 +1,4 @@
-"""Decks on a bed or a pair of spheres, in the same SI parameters for every engine:
+"""Decks on a bed or a pair of spheres, from the same contact model (SI) for every engine:
 a settled bed from a data file (:func:`bed_deck`), the bed with a moving blade
 (:func:`moving_wall_deck`) and a head-on impact (:func:`impact_deck`,
 read back by :func:`impact_result`).
@@ -12,6 +12,7 @@ files, STL meshes) are written into the deck with absolute paths.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -20,7 +21,7 @@ import numpy as np
 from ._datafile import data_file_radii, read_data_header
 from ._dialect import DUMP_COLUMNS, path_word
 from ._logs import EngineLog
-from ._params import GranularParams, as_granular_params
+from ._params import coefficient, one_type_model
 from ._registry import dialect
 from ._stl import BladeGeometry
 
@@ -28,8 +29,8 @@ __all__ = ["bed_deck", "impact_deck", "moving_wall_deck", "impact_result", "Impa
            "hertz_contact_time"]
 
 
-def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
-             thermo_every: int = 1000, dump: str | None = None, dump_every: int = 0,
+def bed_deck(data_file, model=None, *, engine: str, steps: int, dt: float,
+             gravity: float = 9.81, thermo_every: int = 1000, dump: str | None = None, dump_every: int = 0,
              contacts: str | None = None, contacts_every: int | None = None,
              warmup_steps: int = 0, skin: float | None = None, write_data: str | None = None,
              boundary: str = "p p f", processors: str | None = "* * 1",
@@ -41,19 +42,23 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     The bed comes from a data file (``atom_style sphere``/``granular`` atoms
     ``id type diameter density x y z``); x and y are periodic, z fixed; a
     bottom plane sits at the box's ``zlo``; gravity acts along -z. The contact
-    model is the seed's (see :class:`GranularParams` and docs/backends.md).
+    model is the embedded engine's (docs/backends.md gives the mapping).
 
     Parameters
     ----------
     data_file : str or os.PathLike
         The bed. If it declares 2 atom types, walls use type 2 in LIGGGHTS.
-    params : GranularParams, mapping or ContactModel, optional
-        Contact parameters in SI (default :class:`GranularParams()`).
+    model : bedstruct.dem.ContactModel, optional
+        Contact model of one particle type, SI (default: the seed's,
+        :func:`~bedstruct.dem.seed_contact_model`); what the engine cannot write is
+        refused by name (:meth:`Dialect.deck_model`).
     engine : {"liggghts", "lammps"} or Dialect
     steps : int
         Steps of the main run.
     dt : float, s
         Time step.
+    gravity : float, m/s^2
+        Magnitude of gravity along -z (0 switches it off).
     thermo_every : int
         Thermo output interval (columns ``Step Atoms KinEng c_rke``; kinetic
         and rotational energy in J). 0 prints only the first and last line.
@@ -109,8 +114,8 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     """
     d = dialect(engine, cohesion_model=cohesion_model, reference_radius=reference_radius,
                 reference_overlap=reference_overlap)
-    p = as_granular_params(params)
-    fabric_lines = d.fabric_lines(p) if fabric else []
+    m = d.deck_model(model)
+    fabric_lines = d.fabric_lines(m) if fabric else []
     steps, warmup_steps = int(steps), int(warmup_steps)
     if steps < 0 or warmup_steps < 0:
         raise ValueError("`steps` and `warmup_steps` must be >= 0")
@@ -124,14 +129,13 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
              *d.setup_lines(boundary, processors),
              f"read_data {path_word(data_file)}",
              f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
-    model_lines, wt = d.model_lines(p, n_types=head["atom types"])
+    model_lines, wt = d.model_lines(m, n_types=head["atom types"])
     lines += model_lines
     lines.append(f"timestep {dt:.10g}")
-    if p.gravity > 0:
-        lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
-    lines += d.plane_wall(p, wt, zlo=zlo)
+    lines += d.gravity_lines(gravity)
+    lines += d.plane_wall(m, wt, zlo=zlo)
     if _blade is not None:
-        lines += d.moving_blade(p, wt, _blade[0], stl_path=_blade[1])
+        lines += d.moving_blade(m, wt, _blade[0], stl_path=_blade[1])
     fab = ""
     if fabric:
         lines += fabric_lines
@@ -163,7 +167,7 @@ def bed_deck(data_file, params=None, *, engine: str, steps: int, dt: float,
     return "\n".join(lines) + "\n"
 
 
-def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometry,
+def moving_wall_deck(data_file, model=None, *, engine: str, blade: BladeGeometry,
                      stl_path=None, steps: int, dt: float, **bed_kwargs) -> str:
     """:func:`bed_deck` plus a blade (or plate) moving along +x at constant speed.
 
@@ -179,7 +183,7 @@ def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometr
 
     Parameters
     ----------
-    data_file, params, engine, steps, dt
+    data_file, model, engine, steps, dt
         As in :func:`bed_deck`.
     blade : BladeGeometry
         Blade position at t = 0, size, bevel and speed (SI).
@@ -192,11 +196,11 @@ def moving_wall_deck(data_file, params=None, *, engine: str, blade: BladeGeometr
     -------
     str
     """
-    return bed_deck(data_file, params, engine=engine, steps=steps, dt=dt, _blade=(blade, stl_path),
+    return bed_deck(data_file, model, engine=engine, steps=steps, dt=dt, _blade=(blade, stl_path),
                     **bed_kwargs)
 
 
-def hertz_contact_time(radius1: float, radius2: float, params=None, *, speed: float) -> float:
+def hertz_contact_time(radius1: float, radius2: float, model=None, *, speed: float) -> float:
     """Duration of an undamped head-on Hertz collision (s).
 
     .. math:: t_c = 2.868 \\left(\\frac{m^{*2}}{R^* E^{*2} v}\\right)^{1/5}
@@ -207,14 +211,15 @@ def hertz_contact_time(radius1: float, radius2: float, params=None, *, speed: fl
     Parameters
     ----------
     radius1, radius2 : float, m
-    params : GranularParams, optional
-        Supplies E, nu and density.
+    model : bedstruct.dem.ContactModel, optional
+        One particle type; supplies E, nu and density (default: the seed's).
     speed : float, m/s
         Relative approach speed.
 
     Examples
     --------
-    >>> t = hertz_contact_time(2e-5, 2e-5, GranularParams(youngs_modulus=1e8), speed=1.0)
+    >>> from bedstruct.dem import seed_contact_model
+    >>> t = hertz_contact_time(2e-5, 2e-5, seed_contact_model(youngs_modulus=1e8), speed=1.0)
     >>> round(t * 1e6, 3)  # microseconds
     2.624
 
@@ -222,15 +227,17 @@ def hertz_contact_time(radius1: float, radius2: float, params=None, *, speed: fl
     ----------
     Johnson, K. L. (1985). Contact Mechanics, Cambridge University Press, sec. 11.4.
     """
-    p = as_granular_params(params)
-    m1 = 4.0 / 3.0 * math.pi * radius1 ** 3 * p.density
-    m2 = 4.0 / 3.0 * math.pi * radius2 ** 3 * p.density
+    model = one_type_model(model, "impact")
+    density = coefficient(model, "density")
+    m1 = 4.0 / 3.0 * math.pi * radius1 ** 3 * density
+    m2 = 4.0 / 3.0 * math.pi * radius2 ** 3 * density
     mstar = m1 * m2 / (m1 + m2)
     rstar = radius1 * radius2 / (radius1 + radius2)
-    return 2.868 * (mstar ** 2 / (rstar * p.effective_youngs_modulus() ** 2 * speed)) ** 0.2
+    estar = float(model.tables().youngs[0, 0])   # E* = 1 / (2 (1 - nu^2) / E)
+    return 2.868 * (mstar ** 2 / (rstar * estar ** 2 * speed)) ** 0.2
 
 
-def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: float | None = None,
+def impact_deck(model=None, *, engine: str, radius: float = 20e-6, radius2: float | None = None,
                 speed: float = 1.0, dt: float | None = None, gap: float = 0.02,
                 thermo_every: int = 1, target: str = "sphere") -> str:
     """A head-on impact of two spheres, or of one sphere on the bottom plane.
@@ -246,9 +253,9 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
 
     Parameters
     ----------
-    params : GranularParams, optional
-        Contact parameters (cohesion and friction play no role head-on;
-        cohesion is switched off).
+    model : bedstruct.dem.ContactModel, optional
+        Contact model of one particle type (default: the seed's); cohesion and
+        friction play no role head-on (cohesion is switched off).
     engine : {"liggghts", "lammps"}
     radius, radius2 : float, m
         Radii (``radius2`` defaults to ``radius``; unused for the wall).
@@ -268,27 +275,27 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
     """
     if target not in ("sphere", "wall"):
         raise ValueError(f"`target` must be 'sphere' or 'wall'; got {target!r}")
-    p = as_granular_params(params, gravity=0.0, cohesion_energy_density=0.0,
-                           wall_cohesion_energy_density=0.0)
     r1 = float(radius)
     r2 = float(radius if radius2 is None else radius2)
     wall = target == "wall"
+    d = dialect(engine, reference_radius=r1 if wall else max(r1, r2))
+    m = d.deck_model(model)
+    m = dataclasses.replace(m, cohesion=0.0, wall_cohesion=0.0)
+    density = coefficient(m, "density")
     if wall:
-        e_wall = 1.0 / ((1 - p.poisson_ratio ** 2) / p.youngs_modulus
-                        + (1 - p.wall("poisson_ratio") ** 2) / p.wall("youngs_modulus"))
-        m = 4.0 / 3.0 * math.pi * r1 ** 3 * p.density
-        tc = 2.868 * (m ** 2 / (r1 * e_wall ** 2 * speed)) ** 0.2
+        e_wall = float(m.tables().youngs[0, m.n_types])
+        mass = 4.0 / 3.0 * math.pi * r1 ** 3 * density
+        tc = 2.868 * (mass ** 2 / (r1 * e_wall ** 2 * speed)) ** 0.2
         s = gap * r1
     else:
-        tc = hertz_contact_time(r1, r2, p, speed=speed)
+        tc = hertz_contact_time(r1, r2, m, speed=speed)
         s = gap * (r1 + r2)
     if dt is None:
         dt = tc / 400.0
     steps = int(math.ceil((s / speed + 3.0 * tc) / dt))
     half = 20 * (r1 + r2)
     n_types = 2 if wall else 1
-    d = dialect(engine, reference_radius=r1 if wall else max(r1, r2))
-    model_lines, wt = d.model_lines(p, n_types=n_types)
+    model_lines, wt = d.model_lines(m, n_types=n_types)
     lines = [d.header(f"head-on impact on a {target}"),
              *d.setup_lines("f f f", None),
              f"region reg block {-half:.10g} {half:.10g} {-half:.10g} {half:.10g} "
@@ -298,10 +305,10 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
              *model_lines,
              f"timestep {dt:.10g}"]
     if wall:
-        lines += d.plane_wall(p, wt, zlo=0.0)
+        lines += d.plane_wall(m, wt, zlo=0.0)
         lines += [f"create_atoms 1 single 0 0 {r1 + s:.10g} units box",
                   f"set atom 1 diameter {2 * r1:.10g}",
-                  f"set atom * density {p.density:.10g}",
+                  f"set atom * density {density:.10g}",
                   "velocity all set 0 0 0 units box",
                   f"set atom 1 vz {-speed:.10g}",
                   "variable dist equal z[1]",
@@ -311,7 +318,7 @@ def impact_deck(params=None, *, engine: str, radius: float = 20e-6, radius2: flo
         lines += [f"create_atoms 1 single {x1:.10g} 0 0 units box",
                   f"create_atoms 1 single {x2:.10g} 0 0 units box",
                   f"set atom 1 diameter {2 * r1:.10g}", f"set atom 2 diameter {2 * r2:.10g}",
-                  f"set atom * density {p.density:.10g}",
+                  f"set atom * density {density:.10g}",
                   "velocity all set 0 0 0 units box",
                   f"set atom 1 vx {speed / 2:.10g}", f"set atom 2 vx {-speed / 2:.10g}",
                   "variable dist equal x[2]-x[1]",

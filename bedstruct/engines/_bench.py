@@ -12,7 +12,7 @@ import numpy
 from ._bed import bed_deck
 from ._datafile import read_data_header, write_sphere_data
 from ._launch import run_deck
-from ._params import as_granular_params
+from ._params import check_gravity, coefficient
 from ._registry import dialect
 
 __all__ = ["benchmark_external", "pour_bed", "loose_lattice", "cached_bed"]
@@ -21,7 +21,7 @@ log = logging.getLogger(__name__)
 
 
 def benchmark_external(data_file, *, engine: str, np: int = 1, steps: int = 1000,
-                       dt: float, model_params=None, warmup_steps: int = 100,
+                       dt: float, model=None, gravity: float = 9.81, warmup_steps: int = 100,
                        workdir=None, cohesion_model: str | None = None,
                        timeout: float | None = None) -> dict:
     """Time LIGGGHTS or LAMMPS on a bed, excluding start-up and I/O.
@@ -42,8 +42,11 @@ def benchmark_external(data_file, *, engine: str, np: int = 1, steps: int = 1000
         Timed steps.
     dt : float, s
         Time step.
-    model_params : GranularParams, mapping or ContactModel, optional
-        Contact parameters (default :class:`GranularParams()`).
+    model : bedstruct.dem.ContactModel, optional
+        Contact model of one particle type (default: the seed's,
+        :func:`~bedstruct.dem.seed_contact_model`).
+    gravity : float, m/s^2
+        Magnitude of gravity along -z.
     warmup_steps : int
         Untimed steps before the timed run.
     workdir : str or os.PathLike, optional
@@ -70,13 +73,13 @@ def benchmark_external(data_file, *, engine: str, np: int = 1, steps: int = 1000
     EngineRunError
         If the run fails.
     """
-    params = as_granular_params(model_params)
     own = workdir is None
     tmp = tempfile.TemporaryDirectory(prefix=f"bedstruct-bench-{engine}-") if own else None
     wd = Path(tmp.name if own else workdir)
     wd.mkdir(parents=True, exist_ok=True)
     try:
-        deck = bed_deck(data_file, params, engine=engine, steps=steps, dt=dt, thermo_every=0,
+        deck = bed_deck(data_file, model, engine=engine, steps=steps, dt=dt, gravity=gravity,
+                        thermo_every=0,
                         warmup_steps=warmup_steps, cohesion_model=cohesion_model)
         deck_path = wd / f"bench_{engine}.in"
         deck_path.write_text(deck)
@@ -149,13 +152,13 @@ def loose_lattice(n_particles: int, *, radius_range=(14e-6, 50e-6), width=(2e-3,
 
 
 def pour_bed(out_data, *, n_particles: int = 20000, engine: str = "liggghts", np: int = 1,
-             radius_range=(14e-6, 50e-6), width=(2.5e-3, 2.5e-3), model_params=None,
-             gravity_factor: float = 50.0, steps: int | None = None, dt: float | None = None,
+             radius_range=(14e-6, 50e-6), width=(2.5e-3, 2.5e-3), model=None,
+             gravity: float = 9.81, gravity_factor: float = 50.0, steps: int | None = None, dt: float | None = None,
              rng=0, workdir=None, timeout: float | None = None) -> Path:
     """Pour spheres from a loose lattice onto a plate and write the settled bed.
 
     A quick way to make a dense polydisperse bed for benchmarks: enhanced
-    gravity (``gravity_factor`` x 9.81 m/s^2) and strong damping shorten the
+    gravity (``gravity_factor`` x ``gravity``) and strong damping shorten the
     fall; a final quarter of the steps runs at normal gravity. The physics of
     the pour is not meant to match anything.
 
@@ -167,8 +170,11 @@ def pour_bed(out_data, *, n_particles: int = 20000, engine: str = "liggghts", np
         See :func:`loose_lattice`.
     engine, np
         Engine and MPI ranks.
-    model_params : GranularParams or mapping, optional
-        Default: E = 1e7 Pa, e = 0.1, mu = 0.4, no rolling friction or cohesion.
+    model : bedstruct.dem.ContactModel, optional
+        One particle type. Default: the seed's
+        (:func:`~bedstruct.dem.seed_contact_model`) without rolling friction.
+    gravity : float, m/s^2
+        Magnitude of normal gravity along -z.
     gravity_factor : float
         Gravity multiplier during the fall.
     steps : int, optional
@@ -185,17 +191,16 @@ def pour_bed(out_data, *, n_particles: int = 20000, engine: str = "liggghts", np
     pathlib.Path
         ``out_data``.
     """
-    p = as_granular_params(model_params if model_params is not None else
-                           dict(youngs_modulus=1e7, restitution=0.1, rolling_friction=0.0,
-                                cohesion_energy_density=0.0))
+    if model is None:
+        from ..dem import seed_contact_model
+        model = seed_contact_model(rolling_friction=0.0)
+    model = dialect(engine).deck_model(model)
+    gravity = check_gravity(gravity)
     pos, rad, lo, hi = loose_lattice(n_particles, radius_range=radius_range, width=width, rng=rng)
     if dt is None:
-        g = p.youngs_modulus / (2 * (1 + p.poisson_ratio))
-        t_r = (math.pi * rad.min() * math.sqrt(p.density / g)
-               / (0.1631 * p.poisson_ratio + 0.8766))
-        dt = 0.15 * t_r
+        dt = 0.15 * model.rayleigh_time(float(rad.min()))
     if steps is None:
-        g_eff = max(p.gravity * gravity_factor, 1e-12)
+        g_eff = max(gravity * gravity_factor, 1e-12)
         t_fall = math.sqrt(2.0 * hi[2] / g_eff)
         steps = int(math.ceil(1.5 * t_fall / dt / 0.75))
     out_data = Path(out_data).resolve()
@@ -205,13 +210,13 @@ def pour_bed(out_data, *, n_particles: int = 20000, engine: str = "liggghts", np
     wd.mkdir(parents=True, exist_ok=True)
     try:
         init = write_sphere_data(wd / "lattice.data", pos, rad, box_lo=lo, box_hi=hi,
-                                 density=p.density, n_types=2,
+                                 density=coefficient(model, "density"), n_types=2,
                                  velocities=numpy.tile([0.0, 0.0, -0.2], (n_particles, 1)))
         fall = int(steps * 3 // 4)
-        deck = bed_deck(init, as_granular_params(p, gravity=p.gravity * gravity_factor),
-                        engine=engine, steps=fall, dt=dt, thermo_every=max(fall // 10, 1))
+        deck = bed_deck(init, model, gravity=gravity * gravity_factor, engine=engine, steps=fall,
+                        dt=dt, thermo_every=max(fall // 10, 1))
         # second stage at normal gravity, then write the bed
-        deck += (f"unfix gravi\nfix gravi2 all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0\n"
+        deck += (f"unfix gravi\nfix gravi2 all gravity {gravity:.10g} vector 0.0 0.0 -1.0\n"
                  f"run {steps - fall}\n"
                  f"{dialect(engine).write_data_line(out_data)}\n")
         deck_path = wd / "pour.in"

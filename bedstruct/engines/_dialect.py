@@ -29,6 +29,7 @@ from ..errors import ConfigError
 from ._datafile import data_file_radii, read_data_header
 from ._launch import run_deck
 from ._logs import parse_log
+from ._params import check_gravity, one_type_model
 
 __all__ = ["Dialect", "DUMP_COLUMNS", "path_word", "Realisation", "EFFECT_KEYS",
            "EMBEDDED_REALISATIONS", "effects_on", "option"]
@@ -242,13 +243,53 @@ class Dialect:
     def check_effect_options(self, cfg, *, spreading: bool = False) -> None:
         """Refuse options of a realised effect that this engine's model lacks (none here)."""
 
+    def deck_model(self, model):
+        """``model`` (a one-type :class:`~bedstruct.dem.ContactModel`; None: the seed's,
+        :func:`~bedstruct.dem.seed_contact_model`) checked for this engine's decks.
+
+        The embedded engine's effect models that ``model`` switches on (``capillary``,
+        ``contact_ageing``) are refused as :attr:`realisations` states; options of a
+        realised one that this engine lacks are refused by :meth:`check_model_options`.
+
+        Raises
+        ------
+        bedstruct.errors.ConfigError
+            Naming what this engine's decks cannot write (more than one particle type
+            among them).
+        TypeError
+            For a model of another kind.
+
+        Examples
+        --------
+        >>> from bedstruct.dem import seed_contact_model
+        >>> from bedstruct.engines import dialect
+        >>> dialect("lammps").deck_model(seed_contact_model(capillary=True,
+        ...                              capillary_film_thickness=1e-9))
+        Traceback (most recent call last):
+        ...
+        bedstruct.errors.ConfigError: engine 'lammps' cannot realise the ContactModel's `capillary` (effect 'capillary_bridges'): pair_style granular has no liquid-bridge model; run it with --engine liggghts (easo/capillary/viscous bridges) or --engine embedded (Willett bridges)
+        """
+        m = one_type_model(model, self.name)
+        for key, effect in (("capillary", "capillary_bridges"), ("contact_ageing", "contact_ageing")):
+            r = self.realisations.get(effect)
+            if getattr(m, key) and (r is None or not r.realised):
+                why = r.refused if r is not None else "no realisation is stated for it"
+                raise ConfigError(f"engine {self.name!r} cannot realise the ContactModel's "
+                                  f"`{key}` (effect {effect!r}): {why}")
+        self.check_model_options(m)
+        return m
+
+    def check_model_options(self, model) -> None:
+        """Refuse what a one-type ContactModel states and this engine's decks cannot write
+        (none here)."""
+
     def with_effects(self, cfg, *, reference_radius: float | None = None,
                      spreading: bool = False) -> "Dialect":
         """The dialect that writes the effects the configuration ``cfg`` switches on.
 
         Refuses what this engine cannot realise (:meth:`check_effects`). Effects that are
-        ordinary contact parameters (wall friction, rolling friction) or inputs (fines) are
-        already in the deck's parameters and particles; a dialect with its own model of an
+        ordinary contact coefficients (wall friction, rolling friction) or inputs (fines) are
+        already in the deck's contact model and particles; a dialect with its own model of an
         effect (LIGGGHTS' liquid bridges) returns a copy with it set.
 
         Parameters
@@ -268,13 +309,13 @@ class Dialect:
         """What this dialect's effect models write differently from the embedded engine's."""
         return []
 
-    def cohesion_options(self, p, choice: str):
-        """How this engine writes the cohesion of ``p``: ``(params, cohesion_model)``.
+    def cohesion_options(self, model, choice: str):
+        """How this engine writes the cohesion of ``model``: ``(model, cohesion_model)``.
 
         ``choice`` is the config's ``external.cohesion_model`` (``dmt``, ``jkr`` or
         ``none``); engines with SJKR cohesion ignore it (``cohesion_model`` None).
         """
-        return p, None
+        return model, None
 
     def approximations(self, *, tool=None) -> list[str]:
         """Notes on what this engine's decks write differently from the embedded run."""
@@ -293,9 +334,11 @@ class Dialect:
             lines.append(f"processors {processors}")
         return lines
 
-    def workflow_head(self, data_file, p, *, title: str, boundary: str, dt: float, skin):
+    def workflow_head(self, data_file, model, *, title: str, boundary: str, dt: float, skin,
+                      gravity: float):
         """Deck lines up to gravity of the workflow decks (set-up, data file, neighbours,
-        contact model, time step); returns ``(lines, wall_type)``."""
+        contact model, time step, ``gravity`` in m/s^2 along -z); returns
+        ``(lines, wall_type)``."""
         head = read_data_header(data_file)
         if head["atom types"] < 2:
             raise ValueError("the data file must declare 2 atom types (walls use type 2); write "
@@ -306,29 +349,36 @@ class Dialect:
         lines = [self.header(title), *self.setup_lines(boundary, "* 1 1"),
                  f"read_data {path_word(data_file)}",
                  f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
-        model, wt = self.model_lines(p, n_types=head["atom types"], soft=True)
-        lines += model
+        model_lines, wt = self.model_lines(model, n_types=head["atom types"], soft=True)
+        lines += model_lines
         lines.append(f"timestep {dt:.10g}")
-        if p.gravity > 0:
-            lines.append(f"fix gravi all gravity {p.gravity:.10g} vector 0.0 0.0 -1.0")
+        lines += self.gravity_lines(gravity)
         return lines, wt
 
+    @staticmethod
+    def gravity_lines(gravity: float) -> list[str]:
+        """``fix gravi``: gravity of magnitude ``gravity`` (m/s^2) along -z (none for 0)."""
+        g = check_gravity(gravity)
+        return [f"fix gravi all gravity {g:.10g} vector 0.0 0.0 -1.0"] if g > 0 else []
+
     # ------------------------------------------------------------------ hooks
-    def model_lines(self, p, *, n_types: int, soft: bool = False) -> tuple[list[str], int]:
-        """Contact model lines for ``n_types`` atom types and the walls' atom type.
+    def model_lines(self, model, *, n_types: int,
+                    soft: bool = False) -> tuple[list[str], int]:
+        """Contact model lines of ``model`` (checked by :meth:`deck_model`) for ``n_types``
+        atom types and the walls' atom type.
 
         ``soft``: allow Young's moduli that an engine refuses by default."""
         raise NotImplementedError
 
-    def plane_wall(self, p, wall_type: int, *, zlo: float) -> list[str]:
+    def plane_wall(self, model, wall_type: int, *, zlo: float) -> list[str]:
         """A fixed bottom plane at ``zlo`` (fix id ``wbottom``)."""
         raise NotImplementedError
 
-    def moving_blade(self, p, wall_type: int, blade, *, stl_path) -> list[str]:
+    def moving_blade(self, model, wall_type: int, blade, *, stl_path) -> list[str]:
         """A blade (:class:`~bedstruct.engines.BladeGeometry`) moving along +x."""
         raise NotImplementedError
 
-    def fabric_lines(self, p) -> list[str]:
+    def fabric_lines(self, model) -> list[str]:
         """``compute fab``: the contact and normal-force fabric tensors as thermo columns."""
         self.refuse("`fabric` (compute fabric)",
                     "`fabric` needs LAMMPS without DMT/JKR cohesion (compute fabric)")
@@ -351,11 +401,11 @@ class Dialect:
         as ``rotate`` says: ``origin x y z axis ax ay az period T``)."""
         raise NotImplementedError
 
-    def repose_walls(self, geometry, schedule, p, wall_type, *, stl_folder) -> list[str]:
+    def repose_walls(self, geometry, schedule, model, wall_type, *, stl_folder) -> list[str]:
         """Walls of the repose box (:class:`~bedstruct.engines.ReposeGeometry`)."""
         raise NotImplementedError
 
-    def spread_walls(self, plan, p, wall_type, *, stl_folder) -> list[str]:
+    def spread_walls(self, plan, model, wall_type, *, stl_folder) -> list[str]:
         """Platform, back and front walls, the side walls (``plan.side_walls``) and the
         tool of a spreading plan."""
         raise NotImplementedError

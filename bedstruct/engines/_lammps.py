@@ -26,6 +26,7 @@ The diagnosis' effects LAMMPS realises are stated in :data:`LAMMPS_REALISATIONS`
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import logging
 import math
@@ -41,7 +42,7 @@ from pathlib import Path
 from ..errors import BedstructWarning, ConfigError
 from ._dialect import Dialect, Realisation, option
 from ._launch import EngineInfo
-from ._params import GranularParams, as_granular_params
+from ._params import coefficient
 from ._registry import register
 from ._stl import BladeGeometry, RollerGeometry
 
@@ -130,38 +131,38 @@ def _fmt(x: float) -> str:
     return f"{float(x):.10g}"
 
 
-def _reference_contact(params: GranularParams, *, wall: bool, reference_radius: float,
+def _reference_contact(model, *, wall: bool, reference_radius: float,
                        reference_overlap: float) -> dict:
-    E, nu = params.youngs_modulus, params.poisson_ratio
+    # Y* and G* of the particle-particle (or particle-wall) pair: the model's tables
+    t = model.tables()
+    k = model.n_types if wall else 0
+    estar, gstar = float(t.youngs[0, k]), float(t.shear[0, k])
+    density = coefficient(model, "density")
     if wall:
-        Ew, nuw = params.wall("youngs_modulus"), params.wall("poisson_ratio")
-        estar = 1.0 / ((1 - nu ** 2) / E + (1 - nuw ** 2) / Ew)
         rstar = reference_radius
-        mstar = 4.0 / 3.0 * math.pi * reference_radius ** 3 * params.density
+        mstar = 4.0 / 3.0 * math.pi * reference_radius ** 3 * density
     else:
-        estar = 1.0 / (2 * (1 - nu ** 2) / E)
         rstar = reference_radius / 2
-        mstar = 4.0 / 3.0 * math.pi * reference_radius ** 3 * params.density / 2
-    nuw = params.wall("poisson_ratio") if wall else nu
-    Ew = params.wall("youngs_modulus") if wall else E
-    gstar = 1.0 / (2 * (2 - nu) * (1 + nu) / E + 2 * (2 - nuw) * (1 + nuw) / Ew)
+        mstar = 4.0 / 3.0 * math.pi * reference_radius ** 3 * density / 2
     delta = reference_overlap * rstar
     a = math.sqrt(rstar * delta)
     return dict(estar=estar, gstar=gstar, rstar=rstar, mstar=mstar, delta=delta, a=a,
                 kn=4.0 / 3.0 * estar * a, kt=8.0 * gstar * a)
 
 
-def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
+def lammps_granular_coeffs(model, *, wall: bool = False,
                            cohesion_model: str | None = None,
                            reference_radius: float = REFERENCE_RADIUS,
                            reference_overlap: float = REFERENCE_OVERLAP) -> str:
-    """The ``pair_coeff`` / ``fix wall/gran granular`` model words for ``params``.
+    """The ``pair_coeff`` / ``fix wall/gran granular`` model words for ``model``.
 
     Parameters
     ----------
-    params : GranularParams
+    model : bedstruct.dem.ContactModel
+        One particle type.
     wall : bool
-        Particle-wall coefficients (``wall_*`` values) instead of particle-particle.
+        Particle-wall coefficients (``wall_material``, ``wall_*`` values) instead of
+        particle-particle.
     cohesion_model : {None, "dmt", "jkr"}
         How to represent SJKR cohesion. None requires zero cohesion.
     reference_radius : float, m
@@ -176,27 +177,30 @@ def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
     Raises
     ------
     ValueError
-        An unknown ``cohesion_model``; non-zero cohesion without one (a
-        :class:`~bedstruct.errors.ConfigError`: LAMMPS has no SJKR).
+        An unknown ``cohesion_model``; non-zero cohesion without one, or a rolling
+        model other than ``epsd2`` with rolling friction (a
+        :class:`~bedstruct.errors.ConfigError`: LAMMPS has no SJKR, no EPSD or CDT).
 
     Examples
     --------
-    >>> lammps_granular_coeffs(GranularParams(youngs_modulus=1e8, restitution=0.5,
-    ...                                       rolling_friction=0.0))
+    >>> from bedstruct.dem import seed_contact_model
+    >>> lammps_granular_coeffs(seed_contact_model(youngs_modulus=1e8, restitution=0.5,
+    ...                                           rolling_friction=0.0))
     'hertz/material 100000000 0.5 0.3 damping coeff_restitution tangential mindlin NULL 1.0 0.4'
     """
-    pick = params.wall if wall else (lambda n: getattr(params, n))
-    nu, e = params.poisson_ratio, pick("restitution")
-    ref = _reference_contact(params, wall=wall, reference_radius=reference_radius,
+    def pick(name):
+        return coefficient(model, name, wall=wall)
+    nu, e = coefficient(model, "poisson_ratio"), pick("restitution")
+    ref = _reference_contact(model, wall=wall, reference_radius=reference_radius,
                              reference_overlap=reference_overlap)
     # LAMMPS mixes the one (E, nu) it is given with itself, E* = E / (2 (1 - nu^2)),
     # for particle-wall contacts too: pass the E that reproduces the LIGGGHTS E*.
     E = 2.0 * (1.0 - nu ** 2) * ref["estar"]
-    mu, mur, k = pick("friction"), pick("rolling_friction"), pick("cohesion_energy_density")
+    mu, mur, k = pick("friction"), pick("rolling_friction"), pick("cohesion")
     if k > 0 and cohesion_model is None:
         raise ConfigError(
             "LAMMPS has no SJKR cohesion: pass cohesion_model='dmt' or 'jkr' (an approximate "
-            "mapping, see docs/backends.md) or set cohesion_energy_density=0")
+            "mapping, see docs/backends.md) or set the model's cohesion to 0")
     if cohesion_model not in (None, "dmt", "jkr"):
         raise ValueError(f"`cohesion_model` must be None, 'dmt' or 'jkr'; got {cohesion_model!r}")
     if cohesion_model is None or k == 0:
@@ -213,9 +217,9 @@ def lammps_granular_coeffs(params: GranularParams, *, wall: bool = False,
         normal = (f"{cohesion_model} {_fmt(E)} {_fmt(eta0)} {_fmt(nu)} {_fmt(gamma)} "
                   "damping viscoelastic")
     words = f"{normal} tangential mindlin NULL 1.0 {_fmt(mu)}"
-    if mur > 0 and params.rolling_model != "epsd2":
+    if mur > 0 and model.rolling_model != "epsd2":
         raise ConfigError(f"LAMMPS realises the rolling model epsd2 only (as `rolling sds`); "
-                          f"got rolling_model {params.rolling_model!r}")
+                          f"got rolling_model {model.rolling_model!r}")
     if mur > 0:
         k_roll = ref["kt"]  # EPSD2: k_r = k_t R*^2 per radian = R* k_roll R*
         words += f" rolling sds {_fmt(k_roll)} 0.0 {_fmt(mur)}"
@@ -303,37 +307,36 @@ class LammpsDialect(Dialect):
                 "`rolling sds` (EPSD2) only; set contact.rolling_model = epsd2, or run it "
                 "with --engine liggghts or embedded")
 
-    def cohesion_options(self, p, choice):
+    def cohesion_options(self, model, choice):
         """LAMMPS has no SJKR: the ``dmt``/``jkr`` stand-in, or ``none`` drops cohesion."""
-        if max(p.cohesion_energy_density, p.wall("cohesion_energy_density")) <= 0:
-            return p, None
+        if max(coefficient(model, "cohesion"), coefficient(model, "cohesion", wall=True)) <= 0:
+            return model, None
         if choice == "none":
             log.warning("lammps: cohesion dropped (external.cohesion_model = none)")
-            return as_granular_params(p, cohesion_energy_density=0.0,
-                                      wall_cohesion_energy_density=0.0), None
+            return dataclasses.replace(model, cohesion=0.0, wall_cohesion=0.0), None
         log.warning("lammps has no SJKR cohesion; using the %s stand-in (docs/backends.md)", choice)
-        return p, choice
+        return model, choice
 
     def approximations(self, *, tool=None):
         if isinstance(tool, BladeGeometry) and tool.bevel_deg > 0 and tool.speed != 0:
             return ["the moving blade is the unbevelled slab (docs/backends.md)"]
         return []
 
-    def coeffs(self, p, *, wall: bool = False) -> str:
+    def coeffs(self, model, *, wall: bool = False) -> str:
         """The granular model words of particle-particle (or particle-wall) contacts."""
-        return lammps_granular_coeffs(p, wall=wall, cohesion_model=self.cohesion_model,
+        return lammps_granular_coeffs(model, wall=wall, cohesion_model=self.cohesion_model,
                                       reference_radius=self.reference_radius,
                                       reference_overlap=self.reference_overlap)
 
-    def model_lines(self, p, *, n_types, soft=False):
-        return ["pair_style granular", f"pair_coeff * * {self.coeffs(p)}"], 2
+    def model_lines(self, model, *, n_types, soft=False):
+        return ["pair_style granular", f"pair_coeff * * {self.coeffs(model)}"], 2
 
-    def plane_wall(self, p, wall_type, *, zlo):
-        return [f"fix wbottom all wall/gran granular {self.coeffs(p, wall=True)} zplane "
+    def plane_wall(self, model, wall_type, *, zlo):
+        return [f"fix wbottom all wall/gran granular {self.coeffs(model, wall=True)} zplane "
                 f"{zlo:.10g} NULL"]
 
-    def moving_blade(self, p, wall_type, blade, *, stl_path):
-        coeffs = self.coeffs(p, wall=True)
+    def moving_blade(self, model, wall_type, blade, *, stl_path):
+        coeffs = self.coeffs(model, wall=True)
         x0, x1 = blade.x0, blade.x0 + blade.thickness
         z0, z1 = blade.z_bottom, blade.z_bottom + blade.height
         out = [f"variable bx equal {blade.speed:.10g}*time"]
@@ -356,8 +359,8 @@ class LammpsDialect(Dialect):
                        "side out move v_bx NULL NULL units box")
         return out + [_region_wall(coeffs, "blade")]
 
-    def fabric_lines(self, p):
-        if self.cohesion_model and p.cohesion_energy_density > 0:
+    def fabric_lines(self, model):
+        if self.cohesion_model and coefficient(model, "cohesion") > 0:
             self.refuse("`fabric` (compute fabric) with DMT/JKR cohesion",
                         "`fabric` needs LAMMPS without DMT/JKR cohesion (compute fabric)")
         return ["compute fab all fabric radius contact force/normal"]
@@ -376,9 +379,9 @@ class LammpsDialect(Dialect):
     def moving_run(self, fix, mesh, velocity, steps, *, rotate=None):
         return [f"run {steps}"]
 
-    def repose_walls(self, geometry, schedule, p, wall_type, *, stl_folder):
+    def repose_walls(self, geometry, schedule, model, wall_type, *, stl_folder):
         """Block regions; the plate's moves by ``v_px``, a ramp over the slide's steps."""
-        coeffs = self.coeffs(p, wall=True)
+        coeffs = self.coeffs(model, wall=True)
         L, W, H, t = geometry.length, geometry.width, geometry.height, geometry.wall_thickness
         v, dt = geometry.plate_speed, schedule.dt
         s0 = schedule.fill_steps
@@ -402,10 +405,10 @@ class LammpsDialect(Dialect):
             regions.append("ledge")
         return lines + [_region_wall(coeffs, r) for r in regions]
 
-    def spread_walls(self, plan, p, wall_type, *, stl_folder):
+    def spread_walls(self, plan, model, wall_type, *, stl_folder):
         """Regions moved by step-ramp variables over the whole run; the tool's wall fix keeps
         its per-atom forces (``contacts``), summed into the load on the tool (``c_toolsum``)."""
-        pl, wc = plan, self.coeffs(p, wall=True)
+        pl, wc = plan, self.coeffs(model, wall=True)
         gaps = [float(g) for g in pl.gaps]
         L, W, t, dt = pl.plate_length, pl.width, pl.wall_thickness, pl.dt
         pz, bx, bz, th = [], [], [], []

@@ -18,7 +18,7 @@ from pathlib import Path
 from ..errors import ConfigError
 from ._dialect import Dialect, Realisation, effects_on, option, path_word
 from ._launch import EngineInfo
-from ._params import GranularParams
+from ._params import coefficient
 from ._registry import register
 from ._stl import RollerGeometry, _chamber_meshes, repose_wall_stls, write_stl
 
@@ -85,35 +85,39 @@ def _fmt(x: float) -> str:
     return f"{float(x):.10g}"
 
 
-def liggghts_wall_model(params: GranularParams) -> str:
+def liggghts_wall_model(model) -> str:
     """The ``model ...`` words shared by ``pair_style gran`` and ``fix wall/gran``.
 
-    Cohesion (``sjkr``) and rolling friction (``params.rolling_model``, ``epsd2`` by
-    default) are included only when their coefficients are non-zero for particles or walls.
+    ``model`` is a one-type :class:`~bedstruct.dem.ContactModel`. Cohesion (``sjkr``)
+    and rolling friction (``model.rolling_model``) are included only when their
+    coefficients are non-zero for particles or walls.
 
     Examples
     --------
-    >>> liggghts_wall_model(GranularParams(cohesion_energy_density=3.2e7))
+    >>> from bedstruct.dem import seed_contact_model
+    >>> liggghts_wall_model(seed_contact_model(cohesion=3.2e7))
     'model hertz tangential history cohesion sjkr rolling_friction epsd2'
-    >>> liggghts_wall_model(GranularParams(rolling_friction=0.0))
+    >>> liggghts_wall_model(seed_contact_model(rolling_friction=0.0))
     'model hertz tangential history'
-    >>> liggghts_wall_model(GranularParams(rolling_model="cdt"))
+    >>> liggghts_wall_model(seed_contact_model(rolling_model="cdt"))
     'model hertz tangential history rolling_friction cdt'
     """
     words = "model hertz tangential history"
-    if params.cohesion_energy_density > 0 or params.wall("cohesion_energy_density") > 0:
+    if max(coefficient(model, "cohesion"), coefficient(model, "cohesion", wall=True)) > 0:
         words += " cohesion sjkr"
-    if params.rolling_friction > 0 or params.wall("rolling_friction") > 0:
-        words += f" rolling_friction {params.rolling_model}"
+    if max(coefficient(model, "rolling_friction"),
+           coefficient(model, "rolling_friction", wall=True)) > 0:
+        words += f" rolling_friction {model.rolling_model}"
     return words
 
 
-def liggghts_model_commands(params: GranularParams, *, n_types: int = 2) -> tuple[list[str], int]:
-    """Material fixes and ``pair_style gran`` lines for ``n_types`` atom types.
+def liggghts_model_commands(model, *, n_types: int = 2) -> tuple[list[str], int]:
+    """Material fixes and ``pair_style gran`` lines of a one-type
+    :class:`~bedstruct.dem.ContactModel` for ``n_types`` atom types.
 
     Particles are type 1; walls use type 2 when ``n_types >= 2`` (their own
-    coefficients), else type 1 (then the wall values must equal the particle
-    values).
+    coefficients: ``wall_material`` and the ``wall_*`` values), else type 1 (then
+    the wall values must equal the particle values).
 
     Returns
     -------
@@ -127,34 +131,36 @@ def liggghts_model_commands(params: GranularParams, *, n_types: int = 2) -> tupl
 
     Examples
     --------
-    >>> lines, wt = liggghts_model_commands(GranularParams(youngs_modulus=1e8), n_types=2)
+    >>> from bedstruct.dem import seed_contact_model
+    >>> lines, wt = liggghts_model_commands(seed_contact_model(youngs_modulus=1e8), n_types=2)
     >>> lines[0]
     'fix m1 all property/global youngsModulus peratomtype 100000000 100000000'
     >>> wt
     2
     """
-    p = params
+    def value(name, wall=False):
+        return coefficient(model, name, wall=wall)
+
     if n_types >= 2:
         wt = 2
     else:
         wt = 1
         for name in ("youngs_modulus", "poisson_ratio", "restitution", "friction",
-                     "rolling_friction", "cohesion_energy_density"):
-            if p.wall(name) != getattr(p, name):
+                     "rolling_friction", "cohesion"):
+            if value(name, wall=True) != value(name):
                 raise ValueError(f"wall {name} differs from the particle value but the data file "
                                  "declares 1 atom type; write it with n_types=2 so that walls "
                                  "get atom type 2")
 
     def per_type(name):
-        vals = [p.wall(name) if t == wt else getattr(p, name) for t in range(1, n_types + 1)]
+        vals = [value(name, wall=t == wt) for t in range(1, n_types + 1)]
         return " ".join(_fmt(v) for v in vals)
 
     def per_pair(name):
         vals = []
         for i in range(1, n_types + 1):
             for j in range(1, n_types + 1):
-                wall = (i == wt) != (j == wt)
-                vals.append(p.wall(name) if wall else getattr(p, name))
+                vals.append(value(name, wall=(i == wt) != (j == wt)))
         return f"{n_types} " + " ".join(_fmt(v) for v in vals)
 
     lines = [
@@ -163,18 +169,18 @@ def liggghts_model_commands(params: GranularParams, *, n_types: int = 2) -> tupl
         f"fix m3 all property/global coefficientRestitution peratomtypepair {per_pair('restitution')}",
         f"fix m4 all property/global coefficientFriction peratomtypepair {per_pair('friction')}",
     ]
-    model = liggghts_wall_model(p)
-    if "rolling_friction" in model:
+    words = liggghts_wall_model(model)
+    if "rolling_friction" in words:
         lines.append("fix m5 all property/global coefficientRollingFriction peratomtypepair "
                      f"{per_pair('rolling_friction')}")
-    if "sjkr" in model:
+    if "sjkr" in words:
         lines.append("fix m6 all property/global cohesionEnergyDensity peratomtypepair "
-                     f"{per_pair('cohesion_energy_density')}")
-    if "rolling_friction epsd " in model + " ":
+                     f"{per_pair('cohesion')}")
+    if "rolling_friction epsd " in words + " ":
         # LIGGGHTS' EPSD carries a rolling dashpot; the same damping ratio at every pair
         lines.append("fix m7 all property/global coefficientRollingViscousDamping peratomtypepair "
-                     f"{n_types} " + " ".join([_fmt(p.rolling_damping)] * n_types ** 2))
-    lines += [f"pair_style gran {model}", "pair_coeff * *"]
+                     f"{n_types} " + " ".join([_fmt(model.rolling_damping)] * n_types ** 2))
+    lines += [f"pair_style gran {words}", "pair_coeff * *"]
     return lines, wt
 
 
@@ -267,13 +273,13 @@ class LiquidBridges:
                              "tangential history cohesion easo/capillary/viscous", 1)
 
 
-def _mesh_walls(meshes: dict, p, wt: int, *, back_plane: bool = False, loaded=(),
+def _mesh_walls(meshes: dict, model, wt: int, *, back_plane: bool = False, loaded=(),
                 wall_fix: str = "wmesh") -> list[str]:
     """One ``fix mesh/surface`` per mesh (name -> STL path), all in one ``fix wall/gran``
     (LIGGGHTS allows one mesh wall/gran fix); with ``back_plane`` also the primitive plane
     ``x = 0``. Meshes named in ``loaded`` are ``mesh/surface/stress``: their fix's global
     vector holds the total force (and torque) of the particles on them."""
-    wm = liggghts_wall_model(p)
+    wm = liggghts_wall_model(model)
     lines = [f"fix {name} all mesh/surface{'/stress' if name in loaded else ''} file "
              f"{path_word(path)} type {wt} curvature_tolerant yes"
              for name, path in meshes.items()]
@@ -355,6 +361,23 @@ class LiggghtsDialect(Dialect):
                 "EPSD rolling friction carrying the effect 'non_sphericity'): LIGGGHTS' EPSD"
                 " stiffness is 2.25 k_n mu_r^2 R*^2; set it to 2.25 or run with --engine embedded")
 
+    def check_model_options(self, model):
+        """Refuse liquid bridges without their LIGGGHTS model (:class:`LiquidBridges`) and an
+        EPSD rolling stiffness other than LIGGGHTS' own."""
+        if model.capillary and self.liquid_bridges is None:
+            raise ConfigError(
+                "engine 'liggghts' writes the ContactModel's `capillary` bridges as its own model "
+                "(LiquidBridges): give the dialect `liquid_bridges` (LiquidBridges.from_film, or "
+                "Dialect.with_effects of a workflow configuration)")
+        f = model.rolling_stiffness_factor
+        if (model.rolling_model == "epsd" and f != _LIGGGHTS_EPSD_STIFFNESS
+                and max(coefficient(model, "rolling_friction"),
+                        coefficient(model, "rolling_friction", wall=True)) > 0.0):
+            raise ConfigError(
+                f"engine 'liggghts' cannot realise `rolling_stiffness_factor` = {f!r}: LIGGGHTS' "
+                "EPSD stiffness is 2.25 k_n mu_r^2 R*^2; set it to 2.25 or run with --engine "
+                "embedded")
+
     def with_effects(self, cfg, *, reference_radius=None, spreading=False):
         self.check_effects(cfg, spreading=spreading)
         if "capillary_bridges" not in effects_on(cfg):
@@ -378,27 +401,28 @@ class LiggghtsDialect(Dialect):
                 "no bridges; one liquid fraction for every particle (set at the PSD's median "
                 "radius)"]
 
-    def model_lines(self, p, *, n_types, soft=False):
-        lines, wt = liggghts_model_commands(p, n_types=n_types)
+    def model_lines(self, model, *, n_types, soft=False):
+        lines, wt = liggghts_model_commands(model, n_types=n_types)
         if self.liquid_bridges is not None:
             *props, pair_style, pair_coeff = lines
             pair_style = "pair_style gran " + self.liquid_bridges.pair_model(
                 pair_style[len("pair_style gran "):])
             lines = [*props, *self.liquid_bridges.lines(n_types), pair_style, pair_coeff]
-        if soft and min(p.youngs_modulus, p.wall("youngs_modulus")) < 5e6:
+        if soft and min(coefficient(model, "youngs_modulus"),
+                        coefficient(model, "youngs_modulus", wall=True)) < 5e6:
             # LIGGGHTS refuses E < 5e6 Pa in SI units unless told (softened moduli are deliberate)
             lines = ["soft_particles yes", *lines]
         return lines, wt
 
-    def plane_wall(self, p, wall_type, *, zlo):
-        return [f"fix wbottom all wall/gran {liggghts_wall_model(p)} primitive type "
+    def plane_wall(self, model, wall_type, *, zlo):
+        return [f"fix wbottom all wall/gran {liggghts_wall_model(model)} primitive type "
                 f"{wall_type} zplane {zlo:.10g}"]
 
-    def moving_blade(self, p, wall_type, blade, *, stl_path):
+    def moving_blade(self, model, wall_type, blade, *, stl_path):
         if stl_path is None:
             raise ValueError("LIGGGHTS needs the blade as an STL file: pass `stl_path` "
                              "(write it with blade.write_stl(...))")
-        return [*_mesh_walls({"blade": stl_path}, p, wall_type, wall_fix="wblade"),
+        return [*_mesh_walls({"blade": stl_path}, model, wall_type, wall_fix="wblade"),
                 f"fix mvblade all move/mesh mesh blade linear {blade.speed:.10g} 0 0"]
 
     def contact_computes(self, *, tangential=False):
@@ -416,12 +440,12 @@ class LiggghtsDialect(Dialect):
         return lines + [f"fix {rot} all move/mesh mesh {mesh} rotate {rotate}",
                         f"run {steps}", f"unfix {rot}", f"unfix {fix}"]
 
-    def repose_walls(self, geometry, schedule, p, wall_type, *, stl_folder):
+    def repose_walls(self, geometry, schedule, model, wall_type, *, stl_folder):
         if stl_folder is None:
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
-        return _mesh_walls(repose_wall_stls(geometry, stl_folder), p, wall_type)
+        return _mesh_walls(repose_wall_stls(geometry, stl_folder), model, wall_type)
 
-    def spread_walls(self, plan, p, wall_type, *, stl_folder):
+    def spread_walls(self, plan, model, wall_type, *, stl_folder):
         if stl_folder is None:
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")
         tool, W = plan.tool, plan.width
@@ -432,9 +456,9 @@ class LiggghtsDialect(Dialect):
             meshes["tool"] = write_stl(folder / "tool.stl", tool.triangles(0.0, W), name="roller")
         else:
             meshes["tool"] = tool.write_stl(folder / "tool.stl", 0.0, W, caps=False)
-        lines = _mesh_walls(meshes, p, wall_type, back_plane=True, loaded=("tool",))
+        lines = _mesh_walls(meshes, model, wall_type, back_plane=True, loaded=("tool",))
         if plan.side_walls:  # primitive planes, as the back wall
-            wm = liggghts_wall_model(p)
+            wm = liggghts_wall_model(model)
             lines += [f"fix wylo all wall/gran {wm} primitive type {wall_type} yplane 0.0",
                       f"fix wyhi all wall/gran {wm} primitive type {wall_type} yplane {W:.10g}"]
         return lines

@@ -31,7 +31,6 @@ dist fx fy fz``) at the same steps.
 from __future__ import annotations
 
 from ._dialect import DUMP_COLUMNS
-from ._params import as_granular_params
 from ._registry import dialect
 from ._scenarios import ReposeGeometry, ReposeSchedule
 
@@ -53,8 +52,8 @@ def _integrate_and_dump(d, every: int, thermo: int, contacts: bool):
     return lines, dumps
 
 
-def repose_deck(data_file, params=None, *, engine: str, geometry: ReposeGeometry,
-                schedule: ReposeSchedule, stl_folder=None, contacts: bool = True,
+def repose_deck(data_file, model=None, *, engine: str, geometry: ReposeGeometry,
+                schedule: ReposeSchedule, gravity: float = 9.81, stl_folder=None, contacts: bool = True,
                 thermo_every: int = 0, skin: float | None = None,
                 cohesion_model: str | None = None, reference_radius: float | None = None,
                 reference_overlap: float | None = None) -> str:
@@ -67,11 +66,14 @@ def repose_deck(data_file, params=None, *, engine: str, geometry: ReposeGeometry
         type 2 in LIGGGHTS), box as the deck's domain: x and z fixed (spheres
         leaving are deleted: those falling into the reservoir below the plate),
         y periodic when ``geometry.periodic_width``.
-    params : GranularParams, mapping or ContactModel, optional
-        SI contact parameters (gravity along -z).
+    model : bedstruct.dem.ContactModel, optional
+        Contact model of one particle type, SI (default: the seed's,
+        :func:`~bedstruct.dem.seed_contact_model`).
     engine : {"liggghts", "lammps"} or Dialect
     geometry : ReposeGeometry
     schedule : ReposeSchedule
+    gravity : float, m/s^2
+        Magnitude of gravity along -z.
     stl_folder : path, optional
         LIGGGHTS only (required): where :func:`repose_wall_stls` writes the meshes.
     contacts : bool
@@ -105,12 +107,12 @@ def repose_deck(data_file, params=None, *, engine: str, geometry: ReposeGeometry
     """
     d = dialect(engine, cohesion_model=cohesion_model, reference_radius=reference_radius,
                 reference_overlap=reference_overlap)
-    p = as_granular_params(params)
+    m = d.deck_model(model)
     boundary = "f p f" if geometry.periodic_width else "f f f"
-    lines, wt = d.workflow_head(data_file, p, boundary=boundary, dt=schedule.dt,
+    lines, wt = d.workflow_head(data_file, m, boundary=boundary, dt=schedule.dt,
                                 title="angle of repose (settle, slide the plate, drain)",
-                                skin=skin)
-    lines += d.repose_walls(geometry, schedule, p, wt, stl_folder=stl_folder)
+                                skin=skin, gravity=gravity)
+    lines += d.repose_walls(geometry, schedule, m, wt, stl_folder=stl_folder)
     every = int(schedule.every)
     out, dumps = _integrate_and_dump(d, every, int(thermo_every) or every, contacts)
     lines += out

@@ -63,7 +63,7 @@ import math
 
 from ._dialect import DUMP_COLUMNS
 from ._logs import _DONE_LINE, _LOAD_LINE, _OFFSET_LINE
-from ._params import as_granular_params
+from ._params import check_gravity
 from ._registry import dialect
 from ._scenarios import SpreadLayersPlan, tool_top
 from ._stl import RollerGeometry
@@ -71,8 +71,8 @@ from ._stl import RollerGeometry
 __all__ = ["spread_layers_deck"]
 
 
-def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayersPlan,
-                       stl_folder=None, contacts: bool = True, skin: float | None = None,
+def spread_layers_deck(data_file, model=None, *, engine: str, plan: SpreadLayersPlan,
+                       gravity: float = 9.81, stl_folder=None, contacts: bool = True, skin: float | None = None,
                        cohesion_model: str | None = None,
                        reference_radius: float | None = None,
                        reference_overlap: float | None = None) -> str:
@@ -85,9 +85,13 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
         ``plan.side_walls``: y fixed, the box reaching the walls at 0 and ``W``),
         x and z fixed (spheres pushed over the front wall fall out and are
         deleted).
-    params : GranularParams, mapping or ContactModel, optional
+    model : bedstruct.dem.ContactModel, optional
+        Contact model of one particle type, SI (default: the seed's,
+        :func:`~bedstruct.dem.seed_contact_model`).
     engine : {"liggghts", "lammps"} or Dialect
     plan : SpreadLayersPlan
+    gravity : float, m/s^2
+        Magnitude of gravity along -z.
     stl_folder : path, optional
         LIGGGHTS: where the platform, front wall and tool STL files are written
         (required); the deck refers to them by path.
@@ -124,14 +128,15 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     """
     d = dialect(engine, cohesion_model=cohesion_model, reference_radius=reference_radius,
                 reference_overlap=reference_overlap)
-    p = as_granular_params(params)
+    m = d.deck_model(model)
+    grav = check_gravity(gravity)
     pl, tool = plan, plan.tool
     roller = isinstance(tool, RollerGeometry)
     W = pl.width
     gaps = [float(g) for g in pl.gaps]
     dt = pl.dt
     lines, wt = d.workflow_head(
-        data_file, p, boundary="f f f" if pl.side_walls else "f p f", dt=dt, skin=skin,
+        data_file, m, gravity=grav, boundary="f f f" if pl.side_walls else "f p f", dt=dt, skin=skin,
         title=(f"{len(gaps)} spreading layer(s) in one run ({'roller' if roller else 'blade'}); "
                "contact histories carry over between layers"))
     for k, (a, b) in enumerate(pl.pile_ids):
@@ -144,9 +149,9 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
     if len(gaps) > 1:
         lines.append("neigh_modify exclude group wait01 all")
     lines.append("variable off equal 0")   # steps waited for flying powder so far
-    lines += d.spread_walls(pl, p, wt, stl_folder=stl_folder)
+    lines += d.spread_walls(pl, m, wt, stl_folder=stl_folder)
     x0f, x1f = pl.footprint
-    flight = _flight_computes(pl, p.gravity)
+    flight = _flight_computes(pl, grav)
     lines += ["fix integr active nve/sphere",
               "compute rke all erotate/sphere",
               "compute prad all property/atom radius",
@@ -184,7 +189,7 @@ def spread_layers_deck(data_file, params=None, *, engine: str, plan: SpreadLayer
             lines.append(f"run {pl._steps(min(pl.settle_time, 2 * g / pl.lower_speed))}")
             z_plat = -sum(gaps[:k + 1])
             lines.append("run 0")
-            lines += _landing_wait(pl, k, z_plat, gravity=p.gravity)
+            lines += _landing_wait(pl, k, z_plat, gravity=grav)
             # the pile's base: the highest sphere top in its footprint, at least the platform
             lines += [f"variable zb{tag} equal {z_plat:.10g}+(c_zfoot-({z_plat:.10g}))"
                       f"*(c_zfoot>{z_plat:.10g})",

@@ -43,8 +43,8 @@ import numpy as np
 
 from .._atomic import atomic_path
 from .._json import to_jsonable
-from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, as_granular_params, dialect,
-                       repose_deck, run_deck, write_sphere_data)
+from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, dialect, repose_deck,
+                       run_deck, write_sphere_data)
 from ..errors import ConfigError
 from ._common import contact_model, psd_sampler
 from ._rundir import RunLayout
@@ -54,6 +54,9 @@ from .repose_measure import (ReposeReplicate, _finished_replicate, _record_repli
 __all__ = ["ExternalDecks", "engine_for", "effects_dialect", "run_repose_external", "repose_inputs"]
 
 log = logging.getLogger(__name__)
+
+#: Gravity of the workflows (m/s^2, along -z): the embedded engine's.
+_GRAVITY = 9.81
 
 
 @dataclass(frozen=True)
@@ -126,17 +129,17 @@ def effects_dialect(cfg: dict, *, spreading: bool = False):
                                                spreading=spreading)
 
 
-def _granular_params(cfg: dict, cohesion: float, *, spreading: bool = False):
-    """GranularParams of ``cfg``, the LAMMPS cohesion model (or None) and the ContactModel.
+def _deck_model(cfg: dict, cohesion: float, *, spreading: bool = False):
+    """The ContactModel of ``cfg`` as the engine's decks write it, the LAMMPS cohesion model
+    (or None) and the ContactModel of ``cfg``.
 
-    Liquid bridges are the dialect's own model (:func:`effects_dialect`), not a contact
-    parameter: the ContactModel is built without the embedded engine's bridges."""
+    The engine's own models of the effects the model switches on (LIGGGHTS' liquid
+    bridges) are in the dialect of :func:`effects_dialect`."""
     _check_effects(cfg, spreading=spreading)
-    base_cfg = {**cfg, "contact": {**cfg["contact"], "capillary": False}}
-    model = contact_model(base_cfg, cohesion=cohesion)
-    p, cm = dialect(cfg["engine"]).cohesion_options(as_granular_params(model),
-                                                    cfg["external"]["cohesion_model"])
-    return p, cm, model
+    model = contact_model(cfg, cohesion=cohesion)
+    deck_model, cm = dialect(cfg["engine"]).cohesion_options(model,
+                                                             cfg["external"]["cohesion_model"])
+    return deck_model, cm, model
 
 
 def repose_inputs(cfg: dict, *, seed: int):
@@ -185,7 +188,7 @@ def repose_inputs(cfg: dict, *, seed: int):
             "box_hi": np.array(hi), "dt": float(dt), "n_wanted": n_want, "r_max": float(rmax)}
 
 
-def _reference_contact(p, radii, *, height: float) -> dict:
+def _reference_contact(model, radii, *, height: float) -> dict:
     """LAMMPS' reference contact for this bed: the median sphere under the weight of the bed.
 
     LAMMPS' rolling stiffness (and the DMT/JKR stand-in for SJKR) is frozen at
@@ -195,10 +198,11 @@ def _reference_contact(p, radii, *, height: float) -> dict:
     """
     r = float(np.median(radii))
     rstar = r / 2
-    estar = p.effective_youngs_modulus()
-    m = 4.0 / 3.0 * np.pi * r ** 3 * p.density
+    mat = model.materials[0]
+    estar = float(model.tables().youngs[0, 0])
+    m = 4.0 / 3.0 * np.pi * r ** 3 * mat.density
     n_layers = max(1.0, 0.6 * height / (2 * r))
-    force = n_layers * m * max(p.gravity, 1e-12)
+    force = n_layers * m * max(_GRAVITY, 1e-12)
     delta = (3 * force / (4 * estar * np.sqrt(rstar))) ** (2.0 / 3.0)
     return {"reference_radius": r, "reference_overlap": float(min(max(delta / rstar, 1e-5), 0.05))}
 
@@ -237,7 +241,7 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
     engine = effects_dialect(cfg)
     for note in engine.effect_notes():
         log.warning("%s: %s", engine.name, note)
-    p, cm, model = _granular_params(cfg, cohesion)
+    deck_model, cm, model = _deck_model(cfg, cohesion)
     inp = repose_inputs(cfg, seed=seed)
     # a replicate not recorded as finished starts over (no restart of a killed engine run):
     # none of an earlier attempt's dumps or log is mixed into this one
@@ -245,7 +249,8 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
         shutil.rmtree(stage_dir)
     stage_dir.mkdir(parents=True)
     data = write_sphere_data(stage_dir / "initial.data", inp["positions"], inp["radii"],
-                             box_lo=inp["box_lo"], box_hi=inp["box_hi"], density=p.density,
+                             box_lo=inp["box_lo"], box_hi=inp["box_hi"],
+                             density=model.materials[0].density,
                              n_types=2, title=f"bedstruct repose seed {seed}")
     ped = float(rc["pedestal_fraction"])
     slide = L if ped > 0 else float(rc["slide_fraction"]) * L
@@ -255,8 +260,9 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
     sched = ReposeSchedule.from_times(inp["dt"], fill=float(rc["fill_time"]), slide=slide / v,
                                       drain=float(rc["drain_time"]),
                                       n_frames=max(1, int(rc["n_frames"])))
-    ref = _reference_contact(p, inp["radii"], height=float(rc["fill_fraction"]) * H)
-    deck = repose_deck(data, p, engine=engine, geometry=geom, schedule=sched, stl_folder=stage_dir,
+    ref = _reference_contact(model, inp["radii"], height=float(rc["fill_fraction"]) * H)
+    deck = repose_deck(data, deck_model, engine=engine, geometry=geom, schedule=sched,
+                       gravity=_GRAVITY, stl_folder=stage_dir,
                        contacts=bool(cfg["output"]["contacts"]), cohesion_model=cm, **ref)
     deck_path = stage_dir / "in.repose"
     deck_path.write_text(deck)

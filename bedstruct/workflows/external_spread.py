@@ -26,7 +26,7 @@ from ..engines import (BladeGeometry, RollerGeometry, SpreadLayersPlan, dialect,
 from ..errors import BedstructError, ConfigError
 from ._common import german_fit_values, psd_sampler
 from ._rundir import RunLayout
-from .external import (ExternalDecks, _check_effects, _engine_file, _granular_params, _gzip,
+from .external import (_GRAVITY, ExternalDecks, _check_effects, _deck_model, _engine_file, _gzip,
                        _reference_contact, effects_dialect, engine_for)
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, SpreadResult, frame_metrics,
                              measure_layer, spread_result_from_dict)
@@ -96,7 +96,7 @@ def run_spread_external(cfg: dict, *, out=None):
         seed = int(cfg["seed"])
         draw = psd_sampler(cfg)
         rmax = draw.r_max
-        p, cm, model = _granular_params(cfg, None, spreading=True)
+        deck_model, cm, model = _deck_model(cfg, None, spreading=True)
         pile = _run_pile(cfg, layout, seed=seed, draw=draw)   # a resumed run's finished pile
         gz = ".dump.gz" if cfg["output"]["compress"] else ".dump"
         Lplat, W, speed = float(sc["plate_length"]), float(sc["width"]), float(sc["speed"])
@@ -154,15 +154,17 @@ def run_spread_external(cfg: dict, *, out=None):
             landing_intervals=_MAX_LANDING_WAIT, landing_margin=rmax,
             side_walls=bool(sc["side_walls"]))
         data = write_sphere_data(root / "initial.data", X, R_, box_lo=lo, box_hi=hi,
-                                 density=p.density, n_types=2, velocities=np.tile(pv, (K, 1)),
+                                 density=model.materials[0].density, n_types=2,
+                                 velocities=np.tile(pv, (K, 1)),
                                  omegas=np.tile(po, (K, 1)),
                                  title=f"bedstruct spread seed {seed}: {K} piles")
         for k in range(K):
             (root / f"layer{k + 1:02d}").mkdir(parents=True, exist_ok=True)
-        ref = _reference_contact(p, pile.radii, height=pile_top)
+        ref = _reference_contact(model, pile.radii, height=pile_top)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            deck = spread_layers_deck(data, p, engine=engine, plan=plan, stl_folder=root,
+            deck = spread_layers_deck(data, deck_model, engine=engine, plan=plan,
+                                      gravity=_GRAVITY, stl_folder=root,
                                       contacts=bool(cfg["output"]["contacts"]),
                                       cohesion_model=cm, **ref)
         deck_path = root / "in.spread"

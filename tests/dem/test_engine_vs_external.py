@@ -148,7 +148,7 @@ def _tilted_sphere(engine, cohesion, tmp_path):
     p = ce.params(cohesion)
     pos, lo, hi = [[2e-4, 2e-4, R - 2e-8]], [0, 0, 0], [4e-4, 4e-4, 4e-4]
     if engine == "bedstruct":
-        sim = Simulation(Box(lo, hi, boundary="pp pp ff"), ce.engine_model(p),
+        sim = Simulation(Box(lo, hi, boundary="pp pp ff"), p,
                          walls=[Plane((0, 0, 0), (0, 0, 1))], dt=dt, n_threads=1,
                          gravity=(g * math.sin(th), 0, -g * math.cos(th)))
         sim.add_particles(pos, [R])
@@ -197,7 +197,7 @@ def _sliding_sphere(engine, tmp_path, steps=200):
     p = ce.params(0.0)
     pos, lo, hi, vel = [[2e-4, 2e-4, R - 3e-9]], [0, 0, 0], [4e-4, 4e-4, 4e-4], [[0.05, 0, 0]]
     if engine == "bedstruct":
-        sim = Simulation(Box(lo, hi, boundary="pp pp ff"), ce.engine_model(p),
+        sim = Simulation(Box(lo, hi, boundary="pp pp ff"), p,
                          walls=[Plane((0, 0, 0), (0, 0, 1))], dt=dt, n_threads=1)
         sim.add_particles(pos, [R], velocities=vel)
         sim.run(steps)

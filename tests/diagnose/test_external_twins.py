@@ -10,7 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from bedstruct.engines import GranularParams, LiggghtsDialect, LiquidBridges, find_liggghts
+from bedstruct.dem import seed_contact_model
+from bedstruct.engines import LiggghtsDialect, LiquidBridges, find_liggghts
 from bedstruct.errors import ConfigError
 from bedstruct.diagnose.liggghts_law import (easo_bridge_volume, easo_capillary_force,
                                              willett_capillary_force)
@@ -141,9 +142,8 @@ run 16000
 
 
 #: The two spheres' contact model: Hertz, SJKR cohesion, no rolling friction.
-TWO_SPHERE_PARAMS = GranularParams(youngs_modulus=1e7, poisson_ratio=0.3, restitution=0.1,
-                                   friction=0.4, rolling_friction=0.0,
-                                   cohesion_energy_density=3000.0)
+TWO_SPHERE_PARAMS = seed_contact_model(youngs_modulus=1e7, poisson_ratio=0.3, restitution=0.1,
+                                       friction=0.4, rolling_friction=0.0, cohesion=3000.0)
 
 
 def _two_sphere_deck(bridges=None):

@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bedstruct.engines import (EFFECT_KEYS, BladeGeometry, Dialect, GranularParams, LammpsDialect,
+from bedstruct.dem import ContactModel, Material, seed_contact_model
+from bedstruct.engines import (EFFECT_KEYS, BladeGeometry, Dialect, LammpsDialect,
                                LiquidBridges, LiggghtsDialect, ReposeGeometry, ReposeSchedule,
                                RollerGeometry, SpreadLayersPlan, bed_deck, dialect,
                                effect_realisations, impact_deck, liggghts_model_commands,
@@ -86,8 +87,15 @@ thermo_modify norm no
 run 18551
 """
 
-WALLS = GranularParams(wall_friction=0.6, wall_youngs_modulus=2e8, wall_restitution=0.5,
-                       wall_rolling_friction=0.1, wall_cohesion_energy_density=1e4)
+WALLS = seed_contact_model(wall_friction=0.6, wall_material=Material(2e8, 0.3),
+                           wall_restitution=0.5, wall_rolling_friction=0.1, wall_cohesion=1e4)
+
+
+def _fields(model):
+    """The init fields of ``model`` but its materials."""
+    from dataclasses import fields
+    return {f.name: getattr(model, f.name) for f in fields(model)
+            if f.init and f.name not in ("materials", "_tables")}
 
 
 def lines(deck, prefix):
@@ -104,7 +112,7 @@ def bed(tmp_path):
 
 
 def test_impact_decks_are_those_written_before_the_dialects():
-    assert impact_deck(GranularParams(), engine="lammps", dt=1e-9, gap=0.05,
+    assert impact_deck(seed_contact_model(), engine="lammps", dt=1e-9, gap=0.05,
                        thermo_every=3) == IMPACT_LAMMPS
     assert impact_deck(WALLS, engine=LiggghtsDialect(), target="wall", dt=1e-9, gap=0.05,
                        thermo_every=3) == IMPACT_LIGGGHTS_WALL
@@ -134,7 +142,7 @@ def test_bed_deck_key_lines(bed):
     assert lig.endswith("run 10\nwrite_data out.data\n")
     assert lines(lig, "dump dloc") == ["dump dloc all local 10 c.dump "
                                        + " ".join(f"c_cpl[{i}]" for i in range(1, 15))]
-    lmp = bed_deck(bed, GranularParams(rolling_friction=0.0), engine="lammps", steps=10, dt=1e-7,
+    lmp = bed_deck(bed, seed_contact_model(rolling_friction=0.0), engine="lammps", steps=10, dt=1e-7,
                    write_data="out.data", fabric=True)
     assert lines(lmp, "fix wbottom") == [
         "fix wbottom all wall/gran granular hertz/material 10000000 0.1 0.3 damping "
@@ -147,7 +155,7 @@ def test_repose_deck_key_lines(bed, tmp_path):
     g = ReposeGeometry(4e-4, 4e-4, 4e-4, periodic_width=False, ledge_fraction=0.6,
                        plate_speed=0.5, slide=4e-4, wall_thickness=5e-5)
     s = ReposeSchedule.from_times(1e-7, fill=1e-5, slide=8e-4, drain=1e-5, n_frames=3)
-    lig = repose_deck(bed, GranularParams(youngs_modulus=1e6), engine="liggghts", geometry=g,
+    lig = repose_deck(bed, seed_contact_model(youngs_modulus=1e6), engine="liggghts", geometry=g,
                       schedule=s, stl_folder=tmp_path)
     assert lines(lig, "soft_particles") == ["soft_particles yes"]
     assert lines(lig, "fix wmesh") == [
@@ -204,10 +212,10 @@ def test_refusals_name_what_the_engine_cannot_realise(bed):
     with pytest.raises(ConfigError, match="liggghts cannot realise `fabric`"):
         bed_deck(bed, engine="liggghts", steps=1, dt=1e-7, fabric=True)
     with pytest.raises(ConfigError, match="lammps cannot realise `fabric`.*DMT/JKR"):
-        bed_deck(bed, GranularParams(cohesion_energy_density=1e4), engine="lammps", steps=1,
+        bed_deck(bed, seed_contact_model(cohesion=1e4), engine="lammps", steps=1,
                  dt=1e-7, fabric=True, cohesion_model="dmt")
     with pytest.raises(ValueError, match="LAMMPS has no SJKR"):
-        bed_deck(bed, GranularParams(cohesion_energy_density=1e4), engine="lammps", steps=1,
+        bed_deck(bed, seed_contact_model(cohesion=1e4), engine="lammps", steps=1,
                  dt=1e-7)
     for name in ("liggghts", "lammps"):
         d = dialect(name)
@@ -221,11 +229,13 @@ def test_refusals_name_what_the_engine_cannot_realise(bed):
 
 
 def test_cohesion_options_per_engine():
-    p = GranularParams(cohesion_energy_density=1e4)
+    p = seed_contact_model(cohesion=1e4, wall_cohesion=2e4)
     assert dialect("liggghts").cohesion_options(p, "none") == (p, None)
     assert dialect("lammps").cohesion_options(p, "jkr") == (p, "jkr")
     dropped, cm = dialect("lammps").cohesion_options(p, "none")
-    assert cm is None and dropped.cohesion_energy_density == 0.0
+    assert cm is None and dropped.tables().cohesion.max() == 0.0
+    assert dropped == ContactModel(p.materials, **{**_fields(p), "cohesion": 0.0,
+                                                   "wall_cohesion": 0.0})
     blade = BladeGeometry(x0=0.0, z_bottom=0.0, speed=0.1, bevel_deg=10.0)
     assert dialect("liggghts").approximations(tool=blade) == []
     assert "unbevelled" in dialect("lammps").approximations(tool=blade)[0]
@@ -244,9 +254,9 @@ _BRIDGE_LINES = [
 
 
 @pytest.mark.parametrize("params, pair", [
-    (GranularParams(), "pair_style gran model hertz tangential history cohesion "
-                       "easo/capillary/viscous rolling_friction epsd2"),
-    (GranularParams(cohesion_energy_density=1e4, rolling_friction=0.0),
+    (seed_contact_model(), "pair_style gran model hertz tangential history cohesion "
+                           "easo/capillary/viscous rolling_friction epsd2"),
+    (seed_contact_model(cohesion=1e4, rolling_friction=0.0),
      "pair_style gran model hertz tangential history cohesion easo/capillary/viscous")])
 def test_liquid_bridges_are_a_liggghts_option(bed, tmp_path, params, pair):
     # the same deck as the rewriting of a finished deck made (literal lines), written directly
@@ -320,13 +330,13 @@ def test_effects_an_engine_cannot_realise_are_refused_by_name():
 
 
 def test_liggghts_epsd_writes_its_rolling_dashpot():
-    p = GranularParams(rolling_model="epsd", rolling_friction=0.2, rolling_damping=0.3)
+    p = seed_contact_model(rolling_model="epsd", rolling_friction=0.2, rolling_damping=0.3)
     model, _ = liggghts_model_commands(p, n_types=2)
     assert "fix m7 all property/global coefficientRollingViscousDamping peratomtypepair 2 "\
         "0.3 0.3 0.3 0.3" in model
     assert model[-2].endswith("rolling_friction epsd")
     # the EPSD2 and CDT models have no dashpot
-    model2, _ = liggghts_model_commands(GranularParams(rolling_model="epsd2"), n_types=2)
+    model2, _ = liggghts_model_commands(seed_contact_model(rolling_model="epsd2"), n_types=2)
     assert not any("ViscousDamping" in ln for ln in model2)
 
 
@@ -349,47 +359,76 @@ def test_an_option_an_engine_lacks_is_refused_by_name(bed):
     with pytest.raises(ConfigError, match="lammps cannot realise `liquid_bridges`"):
         dialect(LammpsDialect(), liquid_bridges=bridges)
     # a dialect object keeps its options where a writer's are left at None
-    coh = GranularParams(cohesion_energy_density=1e4)
+    coh = seed_contact_model(cohesion=1e4)
     by_object = bed_deck(bed, coh, engine=LammpsDialect(cohesion_model="dmt"), steps=1, dt=1e-7)
     by_name = bed_deck(bed, coh, engine="lammps", cohesion_model="dmt", steps=1, dt=1e-7)
     assert by_object == by_name and "dmt" in lines(by_name, "pair_coeff")[0]
 
 
-def test_a_contact_model_with_embedded_only_effects_is_refused():
-    from bedstruct.dem import ContactModel, Material
-    from bedstruct.engines import as_granular_params
-    base = dict(restitution=0.1, friction=0.4, rolling_friction=0.05)
-    mat = Material(1e7, 0.3, 8300.0)
-    assert as_granular_params(ContactModel(mat, **base)).rolling_friction == 0.05
-    wet = ContactModel(mat, capillary=True, capillary_film_thickness=1e-7, **base)
-    with pytest.raises(ConfigError, match="cannot carry the model's capillary.*Dialect.with_effects"):
-        as_granular_params(wet)
-    assert as_granular_params(ContactModel(mat, rolling_model="cdt", **base)).rolling_model == "cdt"
+def test_a_contact_model_with_embedded_only_effects_is_refused_by_each_dialect(bed, tmp_path):
+    wet = seed_contact_model(capillary=True, capillary_film_thickness=1e-7)
+    with pytest.raises(ConfigError, match="engine 'lammps' cannot realise the ContactModel's "
+                                          "`capillary` .*--engine liggghts"):
+        bed_deck(bed, wet, engine="lammps", steps=1, dt=1e-7)
+    # LIGGGHTS writes bridges as its own model, which the dialect must be given
+    with pytest.raises(ConfigError, match="'liggghts'.*`capillary`.*LiquidBridges"):
+        bed_deck(bed, wet, engine="liggghts", steps=1, dt=1e-7)
+    bridges = LiggghtsDialect(liquid_bridges=LiquidBridges(0.072, 1e-3))
+    assert "easo/capillary/viscous" in lines(bed_deck(bed, wet, engine=bridges, steps=1,
+                                                      dt=1e-7), "pair_style")[0]
+    aged = seed_contact_model(contact_ageing=True, ageing_bond_ratio=0.5)
+    for name in ("liggghts", "lammps"):
+        with pytest.raises(ConfigError, match=f"'{name}'.*`contact_ageing`.*--engine embedded"):
+            bed_deck(bed, aged, engine=name, steps=1, dt=1e-7)
+
+
+def test_the_decks_take_one_particle_type_and_what_they_write(bed):
+    two = ContactModel((Material(1e7, 0.3), Material(2e7, 0.3)), restitution=0.1)
+    for name in ("liggghts", "lammps"):
+        with pytest.raises(ConfigError, match=f"{name} decks take one particle type; the "
+                                              "ContactModel has 2"):
+            bed_deck(bed, two, engine=name, steps=1, dt=1e-7)
+        with pytest.raises(ConfigError, match="`tangential_damping`"):
+            bed_deck(bed, seed_contact_model(tangential_damping=False), engine=name, steps=1,
+                     dt=1e-7)
+        with pytest.raises(ConfigError, match="`limit_force`"):
+            impact_deck(seed_contact_model(limit_force=True), engine=name)
+        with pytest.raises(ConfigError, match="`restitution` and `wall_restitution` > 0"):
+            impact_deck(seed_contact_model(wall_restitution=0.0), engine=name, target="wall")
+        with pytest.raises(TypeError, match="must be a bedstruct.dem ContactModel"):
+            bed_deck(bed, {"restitution": 0.5}, engine=name, steps=1, dt=1e-7)
+        with pytest.raises(ValueError, match="`gravity` must be a magnitude >= 0"):
+            bed_deck(bed, engine=name, steps=1, dt=1e-7, gravity=-9.81)
+    # per-type-pair tables of one type are one value each
+    tab = ContactModel(Material(1e7, 0.3, 8300.0), restitution=[[0.1]], friction=np.array([[0.4]]),
+                       rolling_friction=0.05)
+    assert bed_deck(bed, tab, engine="lammps", steps=1, dt=1e-7) == \
+        bed_deck(bed, engine="lammps", steps=1, dt=1e-7)
 
 
 def test_the_rolling_model_is_an_option_of_the_contact_model():
     from dataclasses import replace
 
-    from bedstruct.dem import ContactModel, Material
-    from bedstruct.engines import (GranularParams, as_granular_params, lammps_granular_coeffs,
-                                   liggghts_model_commands)
-    from bedstruct.errors import ConfigError
+    from bedstruct.engines import lammps_granular_coeffs, liggghts_model_commands
 
-    model = ContactModel(Material(1e7, 0.3, 8300.0), restitution=0.1, friction=0.4,
-                         rolling_friction=0.05, rolling_model="epsd")
-    p = as_granular_params(model)
-    assert p.rolling_model == "epsd"
-    lines, _ = liggghts_model_commands(replace(p, rolling_model="cdt"))
-    assert "pair_style gran model hertz tangential history rolling_friction cdt" in lines
+    model = seed_contact_model(rolling_model="epsd")
+    lines_, _ = liggghts_model_commands(replace(model, rolling_model="cdt"))
+    assert "pair_style gran model hertz tangential history rolling_friction cdt" in lines_
     assert any(line.startswith("fix m5 all property/global coefficientRollingFriction")
-               for line in lines)
-    # epsd2 stays the default, and LAMMPS states no other model
-    assert "rolling_friction epsd2" in liggghts_model_commands(GranularParams())[0][-2]
-    assert "rolling sds" in lammps_granular_coeffs(GranularParams())
+               for line in lines_)
+    # "none" writes no rolling friction, whatever its coefficient
+    assert liggghts_model_commands(replace(model, rolling_model="none"))[0][-2] == \
+        "pair_style gran model hertz tangential history"
+    # epsd2 is the seed's, and LAMMPS states no other model
+    assert "rolling_friction epsd2" in liggghts_model_commands(seed_contact_model())[0][-2]
+    assert "rolling sds" in lammps_granular_coeffs(seed_contact_model())
     with pytest.raises(ConfigError, match="epsd2 only.*'cdt'"):
-        lammps_granular_coeffs(replace(p, rolling_model="cdt"))
-    with pytest.raises(ValueError, match="rolling_model"):
-        GranularParams(rolling_model="spinning")
+        lammps_granular_coeffs(replace(model, rolling_model="cdt"))
+    # LIGGGHTS' EPSD stiffness is its own: another factor is refused, not ignored
+    with pytest.raises(ConfigError, match="`rolling_stiffness_factor` = 3.0.*2.25"):
+        dialect("liggghts").deck_model(replace(model, rolling_stiffness_factor=3.0))
+    dialect("liggghts").deck_model(replace(model, rolling_stiffness_factor=3.0,
+                                           rolling_friction=0.0))
 
 
 def test_the_docs_table_states_what_each_engine_realises():

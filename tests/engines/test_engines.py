@@ -9,16 +9,18 @@ from __future__ import annotations
 
 import math
 from contextlib import nullcontext
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from bedstruct.errors import BedstructWarning
 
-from bedstruct.engines import (BladeGeometry, EngineRunError, GranularParams, as_granular_params,
-                               bed_deck, box_triangles, find_lammps, find_liggghts,
-                               hertz_contact_time, impact_deck, impact_result,
-                               lammps_granular_coeffs, moving_wall_deck, parse_log,
+from bedstruct.dem import ContactModel, Material, seed_contact_model
+from bedstruct.engines import (BladeGeometry, EngineRunError, bed_deck, box_triangles,
+                               find_lammps, find_liggghts, hertz_contact_time, impact_deck,
+                               impact_result, lammps_granular_coeffs, liggghts_model_commands,
+                               moving_wall_deck, parse_log,
                                read_data_header, read_stl_triangles, run_deck, write_sphere_data,
                                write_stl)
 
@@ -118,30 +120,41 @@ def test_parse_log_crashed_run_keeps_rows():
 
 
 # --------------------------------------------------------------------------- parameters
-def test_params_validation_and_wall_defaults():
-    p = GranularParams(restitution=0.5, wall_friction=0.2)
-    assert p.wall("friction") == 0.2 and p.wall("restitution") == 0.5
-    with pytest.raises(ValueError, match="restitution"):
-        GranularParams(restitution=0.0)
-    with pytest.raises(ValueError, match="unknown contact parameter"):
-        as_granular_params({"youngs": 1e7})
+def test_the_seed_contact_model():
+    m = seed_contact_model()
+    assert m.n_types == 1 and m.materials[0] == Material(1e7, 0.3, 8300.0, name="CoCr (soft)")
+    assert (m.restitution, m.friction, m.rolling_friction, m.cohesion, m.rolling_model) == (
+        0.1, 0.4, 0.05, 0.0, "epsd2")
+    assert seed_contact_model(density=4000.0, friction=0.6).materials[0].density == 4000.0
+    with pytest.raises(Exception, match="`youngs_modulus`, `poisson_ratio` and `density`"):
+        seed_contact_model(materials=Material(1e7, 0.3))
 
 
-def test_params_from_engine_contact_model():
-    dem = pytest.importorskip("bedstruct.dem")
-    if not hasattr(dem, "ContactModel"):
-        pytest.skip("bedstruct.dem.ContactModel not available")
-    cm = dem.ContactModel(dem.Material(2e7, 0.25, 7000.0), restitution=0.3, friction=0.5,
-                          rolling_friction=0.1, cohesion=1e4, wall_friction=0.7)
-    p = as_granular_params(cm)
-    assert (p.youngs_modulus, p.poisson_ratio, p.density) == (2e7, 0.25, 7000.0)
-    assert (p.restitution, p.friction, p.rolling_friction, p.cohesion_energy_density) == (
-        0.3, 0.5, 0.1, 1e4)
-    assert p.wall("friction") == 0.7 and p.wall("restitution") == 0.3
+def test_a_contact_model_is_written_per_atom_type_with_the_walls_own():
+    # particles type 1, walls type 2: wall values where exactly one of the pair is a wall
+    cm = ContactModel(Material(2e7, 0.25, 7000.0), restitution=0.3, friction=0.5,
+                      rolling_friction=0.1, cohesion=1e4, wall_friction=0.7,
+                      wall_material=Material(3e8, 0.2))
+    lines, wt = liggghts_model_commands(cm, n_types=2)
+    assert wt == 2 and lines[:6] == [
+        "fix m1 all property/global youngsModulus peratomtype 20000000 300000000",
+        "fix m2 all property/global poissonsRatio peratomtype 0.25 0.2",
+        "fix m3 all property/global coefficientRestitution peratomtypepair 2 0.3 0.3 0.3 0.3",
+        "fix m4 all property/global coefficientFriction peratomtypepair 2 0.5 0.7 0.7 0.5",
+        "fix m5 all property/global coefficientRollingFriction peratomtypepair 2 0.1 0.1 0.1 0.1",
+        "fix m6 all property/global cohesionEnergyDensity peratomtypepair 2 10000 10000 10000 10000"]
+    with pytest.raises(ValueError, match="wall youngs_modulus differs"):
+        liggghts_model_commands(cm, n_types=1)
+    # LAMMPS: one (E, nu) per contact, E chosen so that its E* is the pair's
+    # 1 / ((1 - nu1^2)/E1 + (1 - nu2^2)/E2), written with nu1
+    words = lammps_granular_coeffs(replace(cm, cohesion=0.0), wall=True).split()
+    estar = 1 / ((1 - 0.25 ** 2) / 2e7 + (1 - 0.2 ** 2) / 3e8)
+    assert float(words[1]) == pytest.approx(2 * (1 - 0.25 ** 2) * estar, rel=1e-9)
+    assert words[2:4] == ["0.3", "0.25"] and words[10] == "0.7"
 
 
 def test_lammps_refuses_sjkr_without_mapping():
-    p = GranularParams(cohesion_energy_density=3.2e7)
+    p = seed_contact_model(cohesion=3.2e7)
     with pytest.raises(ValueError, match="no SJKR"):
         lammps_granular_coeffs(p)
     words = lammps_granular_coeffs(p, cohesion_model="dmt")
@@ -151,7 +164,7 @@ def test_lammps_refuses_sjkr_without_mapping():
 def test_lammps_dmt_gamma_matches_sjkr_force_at_reference_overlap():
     # DMT pull-in 4 pi gamma R* must equal SJKR k * pi * a_geo^2 (a_geo^2 = 2 R* delta)
     k, r = 3.2e7, 26e-6
-    p = GranularParams(cohesion_energy_density=k, rolling_friction=0.0)
+    p = seed_contact_model(cohesion=k, rolling_friction=0.0)
     gamma = float(lammps_granular_coeffs(p, cohesion_model="dmt").split()[4])
     rstar = r / 2
     delta = 1e-3 * rstar
@@ -187,7 +200,7 @@ def test_blade_geometry_volume_and_bevel():
 
 # --------------------------------------------------------------------------- engines
 def test_hertz_contact_time_formula():
-    p = GranularParams(youngs_modulus=1e8)
+    p = seed_contact_model(youngs_modulus=1e8)
     t = hertz_contact_time(2e-5, 2e-5, p, speed=1.0)
     m = 4 / 3 * math.pi * (2e-5) ** 3 * 8300
     estar = 1e8 / (2 * (1 - 0.09))
@@ -195,7 +208,7 @@ def test_hertz_contact_time_formula():
 
 
 def _impact(engine, tmp_path, **kw):
-    p = GranularParams(youngs_modulus=1e8, **kw)
+    p = seed_contact_model(youngs_modulus=1e8, **kw)
     deck = tmp_path / f"impact_{engine}.in"
     deck.write_text(impact_deck(p, engine=engine, radius=20e-6, speed=1.0))
     return impact_result(run_deck(deck).log, 20e-6), p
@@ -215,8 +228,9 @@ def test_impact_hertz_contact_time(engine, tmp_path):
     t = hertz_contact_time(20e-6, 20e-6, p, speed=1.0)
     assert res.contact_time == pytest.approx(t, rel=0.02)
     # Hertz maximum overlap (15 m* v^2 / (16 E* sqrt(R*)))^(2/5)
-    m = 4 / 3 * math.pi * (20e-6) ** 3 * p.density / 2
-    dmax = (15 * m * 1.0 / (16 * p.effective_youngs_modulus() * math.sqrt(10e-6))) ** 0.4
+    m = 4 / 3 * math.pi * (20e-6) ** 3 * 8300.0 / 2
+    estar = 1e8 / (2 * (1 - 0.3 ** 2))
+    dmax = (15 * m * 1.0 / (16 * estar * math.sqrt(10e-6))) ** 0.4
     assert res.max_overlap == pytest.approx(dmax, rel=0.01)
 
 
@@ -224,16 +238,17 @@ def test_impact_hertz_contact_time(engine, tmp_path):
 def test_wall_impact_restitution_and_contact_time(engine, tmp_path):
     # a sphere on a stiffer plane: E* mixes particle and wall moduli, m* = m, R* = r
     r = 20e-6
-    p = GranularParams(youngs_modulus=1e8, wall_youngs_modulus=3e8, restitution=0.9,
-                       wall_restitution=1.0)
+    p = seed_contact_model(youngs_modulus=1e8, wall_material=Material(3e8, 0.3), restitution=0.9,
+                           wall_restitution=1.0)
     deck = tmp_path / "wall.in"
     deck.write_text(impact_deck(p, engine=engine, radius=r, speed=1.0, target="wall"))
     res = impact_result(run_deck(deck).log, r, 0.0)
     assert res.restitution == pytest.approx(1.0, abs=1e-4)
     estar = 1 / ((1 - 0.09) / 1e8 + (1 - 0.09) / 3e8)
-    m = 4 / 3 * math.pi * r ** 3 * p.density
+    m = 4 / 3 * math.pi * r ** 3 * 8300.0
     assert res.contact_time == pytest.approx(2.868 * (m ** 2 / (r * estar ** 2)) ** 0.2, rel=0.02)
-    deck.write_text(impact_deck(GranularParams(wall_restitution=0.3), engine=engine, target="wall"))
+    deck.write_text(impact_deck(seed_contact_model(wall_restitution=0.3), engine=engine,
+                                target="wall"))
     assert impact_result(run_deck(deck).log, 20e-6, 0.0).restitution == pytest.approx(0.3, rel=0.02)
 
 
@@ -266,7 +281,7 @@ def _contact_pairs(engine, path):
 def test_bed_deck_runs_and_dumps_are_readable(engine, tmp_path):
     data = _columns_bed(tmp_path)
     steps, dt = 20, 1e-8
-    p = GranularParams(youngs_modulus=1e8, restitution=0.5)
+    p = seed_contact_model(youngs_modulus=1e8, restitution=0.5)
     deck = tmp_path / "bed.in"
     deck.write_text(bed_deck(data, p, engine=engine, steps=steps, dt=dt, thermo_every=10,
                              dump="bed.dump", dump_every=steps, contacts="contacts.dump",
@@ -307,7 +322,7 @@ def test_rolling_resistance_decelerates_a_rolling_sphere(engine, tmp_path):
     data = write_sphere_data(tmp_path / "one.data", [[2 * R, 2 * R, R * (1 - 1e-5)]], [R],
                              box_lo=[0, 0, 0], box_hi=[4 * R, 4 * R, 4 * R], n_types=2,
                              velocities=[[v0, 0, 0]], omegas=[[0, v0 / R, 0]])
-    p = GranularParams(youngs_modulus=1e8, restitution=0.5, friction=0.5, rolling_friction=mur)
+    p = seed_contact_model(youngs_modulus=1e8, restitution=0.5, friction=0.5, rolling_friction=mur)
     deck = tmp_path / "roll.in"
     deck.write_text(bed_deck(data, p, engine=engine, steps=8000, dt=1e-7, thermo_every=500,
                              thermo_variables={"vx1": "vx[1]"}))
@@ -322,7 +337,7 @@ def test_lammps_fabric_of_vertical_columns(tmp_path):
     # every contact is vertical: phi = diag(0, 0, 1); LAMMPS prints (15/2)(phi - I/3)
     data = _columns_bed(tmp_path)
     deck = tmp_path / "fab.in"
-    deck.write_text(bed_deck(data, GranularParams(youngs_modulus=1e8), engine="lammps", steps=5,
+    deck.write_text(bed_deck(data, seed_contact_model(youngs_modulus=1e8), engine="lammps", steps=5,
                              dt=1e-8, thermo_every=5, fabric=True))
     run = run_deck(deck).log.last
     contact = [run.column(f"c_fab[{i}]")[-1] for i in range(1, 7)]
@@ -340,7 +355,7 @@ def test_two_ranks_match_one_rank(engine, tmp_path):
     finals = []
     for np_ in (1, 2):
         deck = tmp_path / f"bed{np_}.in"
-        deck.write_text(bed_deck(data, GranularParams(youngs_modulus=1e8), engine=engine,
+        deck.write_text(bed_deck(data, seed_contact_model(youngs_modulus=1e8), engine=engine,
                                  steps=50, dt=1e-8, thermo_every=50))
         res = run_deck(deck, np=np_)
         assert res.log.last.n_procs == np_
@@ -357,7 +372,7 @@ def test_moving_blade_pushes_particles(engine, tmp_path):
     deck = tmp_path / "blade.in"
     ctx = pytest.warns(BedstructWarning, match="unbevelled") if engine == "lammps" else nullcontext()
     with ctx:
-        text = moving_wall_deck(data, GranularParams(youngs_modulus=1e8), engine=engine,
+        text = moving_wall_deck(data, seed_contact_model(youngs_modulus=1e8), engine=engine,
                                 blade=blade, stl_path=stl, steps=300, dt=1e-7, thermo_every=300)
     deck.write_text(text)
     res = run_deck(deck)
@@ -374,7 +389,7 @@ def _single_sphere_blade(engine, tmp_path, blade, position, *, restitution=0.5, 
     stl = blade.write_stl(tmp_path / "blade.stl", 0.0, 2e-4, caps=False)
     deck = tmp_path / "one_blade.in"
     deck.write_text(moving_wall_deck(
-        data, GranularParams(youngs_modulus=1e8, gravity=0.0, restitution=restitution),
+        data, seed_contact_model(youngs_modulus=1e8, restitution=restitution), gravity=0.0,
         engine=engine, blade=blade, stl_path=stl, steps=steps, dt=1e-8, thermo_every=steps,
         thermo_variables={"vx1": "vx[1]", "vz1": "vz[1]"}))
     log = run_deck(deck).log
@@ -417,7 +432,7 @@ def test_benchmark_external_uses_timed_run(engine, tmp_path):
     from bedstruct.engines import benchmark_external
     data = _columns_bed(tmp_path)
     res = benchmark_external(data, engine=engine, np=1, steps=60, dt=1e-8, warmup_steps=10,
-                             model_params=GranularParams(youngs_modulus=1e8), workdir=tmp_path)
+                             model=seed_contact_model(youngs_modulus=1e8), workdir=tmp_path)
     assert res["n_atoms"] == 27 and res["steps"] == 60 and res["np"] == 1
     assert res["particle_steps_per_s"] == pytest.approx(27 * 60 / res["loop_time_s"])
     assert res["loop_time_s"] < res["wall_time_s"]  # start-up and the warm-up are excluded
@@ -486,8 +501,8 @@ def test_roller_spin_drags_a_sphere_on_top(tmp_path, engine):
                                         spread_layers_deck)
     from bedstruct.io import read_dump
     R, r, W = 5e-4, 5e-5, 4e-4
-    p = GranularParams(youngs_modulus=1e7, restitution=0.3, friction=0.5, rolling_friction=0.0,
-                       density=8000.0)
+    p = seed_contact_model(youngs_modulus=1e7, restitution=0.3, friction=0.5, rolling_friction=0.0,
+                           density=8000.0)
     dt = 2e-7
     x = {}
     for omega in (-100.0, 0.0, 100.0):
@@ -496,7 +511,7 @@ def test_roller_spin_drags_a_sphere_on_top(tmp_path, engine):
         tool = RollerGeometry(x0=1e-3, z_bottom=0.0, radius=R, speed=0.0025, omega=omega)
         data = write_sphere_data(d / "s.data", [[1e-3, 0.5 * W, 2 * R + r - 2e-7]], [r],
                                  box_lo=[0.0, 0.0, -1e-3], box_hi=[3e-3, W, 3e-3],
-                                 density=p.density, n_types=2)
+                                 density=p.materials[0].density, n_types=2)
         plan = SpreadLayersPlan(2e-3, W, (2e-4,), tool, ((1, 1),), (0.0,), (2e-3, 2.5e-3), dt,
                                 speed=0.0025, x_end=1e-3 + 5e-6, settle_time=2e-5, n_frames=2)
         deck = d / "in.deck"
@@ -580,8 +595,8 @@ def test_spread_deck_waits_for_a_thrown_sphere_to_land(tmp_path, engine):
     by the planned step, so this fails if the offset were ignored there)."""
     from bedstruct.engines import landing_offsets, spread_layers_deck
     from bedstruct.io import read_dump
-    p = GranularParams(youngs_modulus=1e7, restitution=0.3, friction=0.5, rolling_friction=0.0,
-                       density=8000.0)
+    p = seed_contact_model(youngs_modulus=1e7, restitution=0.3, friction=0.5, rolling_friction=0.0,
+                           density=8000.0)
     for k in (1, 2):
         (tmp_path / f"layer{k:02d}").mkdir()
     r_big = 4.5e-4   # on the platform its centre is above the blade's lowest point
@@ -589,7 +604,7 @@ def test_spread_deck_waits_for_a_thrown_sphere_to_land(tmp_path, engine):
     data = write_sphere_data(tmp_path / "a.data", [[1e-3, 1e-3, -1.5e-4],
                                                    [1.1e-3, 1e-3, 5e-3 + r_big]],
                              [5e-5, r_big], box_lo=[-1e-3, 0, -1e-3], box_hi=[6e-3, 2e-3, 1.5e-2],
-                             density=p.density, velocities=[[0, 0, 0.4], [0, 0, 0]], n_types=2)
+                             density=p.materials[0].density, velocities=[[0, 0, 0.4], [0, 0, 0]], n_types=2)
     plan = _landing_plan(20)
     deck = tmp_path / "in.deck"
     deck.write_text(spread_layers_deck(data, p, engine=engine, plan=plan, stl_folder=tmp_path,
