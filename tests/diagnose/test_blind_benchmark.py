@@ -10,6 +10,7 @@ import shutil
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from scipy.stats import binomtest
 
@@ -258,6 +259,34 @@ def test_committed_blind_record_rescores_as_its_summary():
         assert s[key] == summary[key], key
     assert s["top1_count"] == [17, 20] and s["null_false_count"] == [0, 10]
     assert s["ooc_count"] == [6, 10] and s["coverage_count"] == [15, 17]
+
+
+def test_committed_liggghts_blind_record_rescores_as_its_summary():
+    """The blind LIGGGHTS batch: sealed truth and twin files, one result per twin (four
+    diagnoses raised an error and count as wrong answers), scored as the docs quote."""
+    from bedstruct.diagnose import blind
+
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-liggghts-2026-12-03"
+    truth = json.loads((rec / "truth.json").read_text())
+    seal = json.loads((rec / "seal.json").read_text())
+    assert seal["truth_sha256"] == _sha(rec / "truth.json")
+    assert truth["commit"].startswith("eb22811") and truth["settings"]["twins_engine"] == "liggghts"
+    for twin, digest in seal["twins_sha256"].items():
+        assert _sha(rec / "twins" / f"{twin}.toml") == digest, twin
+    results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
+    assert set(results) == set(truth["twins"])
+    assert all(r["twin_sha256"] == seal["twins_sha256"][t] for t, r in results.items())
+    errors = sorted(t for t, r in results.items() if r["verdict"] == "error")
+    assert errors == ["twin-010", "twin-016", "twin-026", "twin-038"]
+    s = blind.score_benchmark(truth, results)
+    summary = json.loads((rec / "summary.json").read_text())
+    for key in ("top1_count", "null_false_count", "ooc_count", "coverage_count", "shrink_n",
+                "confusion"):
+        assert s[key] == summary[key], key
+    assert s["top1_count"] == [4, 20] and s["null_false_count"] == [2, 10]
+    assert s["ooc_count"] == [3, 10] and s["coverage_count"] == [1, 4]
+    assert s["shrink_n"] == 11 and abs(s["shrink_median"] - 0.186) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.0573, 0.4366], atol=5e-5)
 
 
 def test_the_cli_hands_its_options_to_the_protocol(tmp_path, monkeypatch, capsys):
