@@ -23,6 +23,7 @@ from .identifiability import assess_fingerprints
 from .fingerprint_runs import compute_fingerprints
 from .fingerprint_runs import simulate_node
 from .replicates import Simulator, simulate_replicates
+from .parameters import parameter_bounds
 from .measurements import MeasurementSet
 from .measurement_io import measurement_from_dict
 from .separation import not_told_apart
@@ -109,6 +110,25 @@ def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):
     return fps, rows, names, y, sm, tuple(notes)
 
 
+def _within_simulator_domain(simulator, nuisance, bounds) -> dict:
+    """``bounds`` of the recalibrated parameters narrowed to the simulator's domain.
+
+    A simulator with a ``parameter_box()`` (an emulator: its run library's design range)
+    answers only inside it, so the recalibration is fitted inside it too; a fit that ends
+    on the box's edge says so, as on any bound.
+    """
+    out = dict(bounds or {})
+    box = getattr(simulator, "parameter_box", None)
+    if box is None:
+        return out
+    physical = parameter_bounds(nuisance, out)
+    for k, (lo, hi) in box().items():
+        if k in physical:
+            plo, phi = physical[k]
+            out[k] = (max(plo, lo), min(phi, hi))
+    return out
+
+
 def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mapping[str, float],
              effects: Sequence[Effect] | None = None,
              nuisance: Sequence[str] = ("cohesion_energy_density",), replicates: int = 4,
@@ -179,6 +199,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
             f"({', '.join(m.name for m in measurements.unmeasured)}); there is nothing to fit "
             f"the recalibration and the effects to")
     name = simulator_name or getattr(simulator, "name", type(simulator).__name__)
+    bounds = _within_simulator_domain(simulator, nuisance, bounds)
     if fingerprints is None:
         design = diagnosis_design(measurements, effects)
         fps = compute_fingerprints(simulator, design, base, effects, nuisance=nuisance,

@@ -336,6 +336,12 @@ class EmulatedSimulator:
     def names(self) -> tuple[str, ...]:
         return self.emulator.names
 
+    def parameter_box(self) -> dict[str, tuple[float, float]]:
+        """The library's design range of each varied base parameter: the emulator's
+        domain, within which a diagnosis keeps its recalibration (:func:`diagnose`)."""
+        emu = self.emulator
+        return {k: (float(emu.lower[i]), float(emu.upper[i])) for i, k in enumerate(emu.varied)}
+
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int) -> Observations:
         y = self.emulator.sample(base, effects, seed)
         out, i = {}, 0

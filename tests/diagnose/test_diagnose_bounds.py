@@ -129,3 +129,46 @@ def test_configured_bounds_narrow_the_physical_ones(tmp_path, fps):
     with pytest.raises(ConfigError, match="outside its bounds"):
         load_sim_config(p)
     assert parameter_bounds(["k"]) == {"k": (-math.inf, math.inf)}
+
+
+class _Boxed:
+    """The toy simulator answering only inside a design range, as an emulator does."""
+
+    name = "boxed"
+
+    def __init__(self, lo, hi):
+        self.lo, self.hi = lo, hi
+        self.asked = []
+
+    def parameter_box(self):
+        return {"cohesion_energy_density": (self.lo, self.hi)}
+
+    def __call__(self, base, effects, seed):
+        k = base["cohesion_energy_density"]
+        self.asked.append(k)
+        if not self.lo * (1 - 1e-9) <= k <= self.hi * (1 + 1e-9):
+            raise ConfigError(f"cohesion_energy_density = {k:.6g} lies outside the design box")
+        return _simulator(base, effects, seed)
+
+
+def test_the_recalibration_stays_inside_the_simulators_domain():
+    """Data that want a cohesion below a run library's range: the recalibration ends on the
+    range's edge and says so, instead of asking the emulator outside its domain."""
+    sim = _Boxed(0.8e7, 2e7)
+    ms = MeasurementSet(tuple(measurement_from_dict(dict(
+        name=n, kind="static_angle", value=v, uncertainty=1.0, role=r))
+        for n, v, r in [("a", 5.0, "calibrate"), ("b", -5.0, "calibrate"),   # cohesion 0.5e7
+                        ("c", 0.0, "validate")]))
+    d = diagnose(ms, sim, base={"cohesion_energy_density": 1e7}, effects=[_EFFECT],
+                 nuisance=("cohesion_energy_density",), replicates=2, refine=1, confirm_rounds=1)
+    assert min(sim.asked) >= 0.8e7 * (1 - 1e-9)
+    rec = d.to_json()["recalibration"]["cohesion_energy_density"]
+    assert rec["at_bound"] is True and rec["value"] == pytest.approx(0.8e7, rel=1e-6)
+    # a configured range wider than the simulator's is narrowed to it; a narrower one is kept
+    from bedstruct.diagnose.diagnosis import _within_simulator_domain
+    nu = ("cohesion_energy_density",)
+    assert _within_simulator_domain(sim, nu, {"cohesion_energy_density": (0.0, 5e7)}) == \
+        {"cohesion_energy_density": (0.8e7, 2e7)}
+    assert _within_simulator_domain(sim, nu, {"cohesion_energy_density": (1e7, 1.5e7)}) == \
+        {"cohesion_energy_density": (1e7, 1.5e7)}
+    assert _within_simulator_domain(_simulator, nu, None) == {}
