@@ -92,7 +92,6 @@ _U32 = np.uint64(32)
 _U53 = np.uint64(53)
 _U63 = np.uint64(63)
 _LOW9 = np.uint64(0x1FF)
-_LOW32 = np.uint64(0xFFFFFFFF)
 _ALL = np.uint64(0xFFFFFFFFFFFFFFFF)
 _B32 = np.uint64(1 << 32)
 _B48 = np.uint64(1 << 48)
@@ -133,21 +132,18 @@ def _zeros(buf, i, e):
     return i
 
 
-@njit(inline="always")
-def _mul128(a, b):
-    """The 128-bit product of two uint64 as (high, low) words, from 32-bit halves."""
-    a0 = a & _LOW32
-    a1 = a >> _U32
-    b0 = b & _LOW32
-    b1 = b >> _U32
-    p00 = a0 * b0
-    p01 = a0 * b1
-    p10 = a1 * b0
-    p11 = a1 * b1
-    mid = (p00 >> _U32) + (p01 & _LOW32) + (p10 & _LOW32)  # < 3 * 2**32: no overflow
-    hi = p11 + (p01 >> _U32) + (p10 >> _U32) + (mid >> _U32)
-    lo = (mid << _U32) | (p00 & _LOW32)
-    return hi, lo
+@intrinsic
+def _mul128(typingctx, a, b):
+    """The 128-bit product of two uint64 as (high, low) words: one 64 x 64 -> 128-bit
+    multiplication."""
+    def codegen(context, builder, sig, args):
+        i64, i128 = ir.IntType(64), ir.IntType(128)
+        x, y = (builder.zext(context.cast(builder, v, t, types.uint64), i128)
+                for v, t in zip(args, sig.args))
+        p = builder.mul(x, y)
+        hi = builder.trunc(builder.lshr(p, ir.Constant(i128, 64)), i64)
+        return context.make_tuple(builder, sig.return_type, [hi, builder.trunc(p, i64)])
+    return types.UniTuple(types.uint64, 2)(a, b), codegen
 
 
 @njit(inline="always")
