@@ -22,13 +22,15 @@ so that the caller re-parses their line with an exact general parser; the
 kernel never guesses.
 
 Two readers of lines share those paths. :func:`parse_lines` walks a span of
-text line by line and reads the short numbers of ``%g`` output (runs of up to
-seven digits) eight characters at a time (:func:`_short_number`); it is serial
-and releases the GIL, so the orchestrators run it on several threads over
-separate spans or pieces of a frame, and it refuses a span with any irregular
-line. :func:`parse_rows` takes lines by their bounds and reports, row by row,
-which are irregular (the exact error messages are built from that). Putting the parsed
-rows in id order is the work of :mod:`bedstruct.io._order_kernels`.
+text token by token: it finds each token's extent from the separators among its
+first 16 characters, reads a token of up to 15 characters (every ``%g`` number)
+from those characters alone (:func:`_short_token`) and longer ones eight
+characters at a time (:func:`_short_number`); it is serial and releases the
+GIL, so the orchestrators run it on several threads over separate spans or
+pieces of a frame, and it refuses a span with any irregular line.
+:func:`parse_rows` takes lines by their bounds and reports, row by row, which
+are irregular (the exact error messages are built from that). Putting the
+parsed rows in id order is the work of :mod:`bedstruct.io._order_kernels`.
 """
 
 from __future__ import annotations
