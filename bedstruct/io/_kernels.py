@@ -22,19 +22,24 @@ so that the caller re-parses their line with an exact general parser; the
 kernel never guesses.
 
 Two readers of lines share those paths. :func:`parse_lines` walks a span of
-text line by line and reads the short numbers of ``%g`` output (runs of up to
-seven digits) eight characters at a time (:func:`_short_number`); it is serial
-and releases the GIL, so the orchestrators run it on several threads over
-separate spans or pieces of a frame, and it refuses a span with any irregular
-line. :func:`parse_rows` takes lines by their bounds and reports, row by row,
-which are irregular (the exact error messages are built from that). Putting the parsed
-rows in id order is the work of :mod:`bedstruct.io._order_kernels`.
+text token by token: it finds each token's extent from the separators among its
+first 16 characters, reads a token of up to 15 characters (every ``%g`` number)
+from those characters alone (:func:`_short_token`) and longer ones eight
+characters at a time (:func:`_short_number`); it is serial and releases the
+GIL, so the orchestrators run it on several threads over separate spans or
+pieces of a frame, and it refuses a span with any irregular line.
+:func:`parse_rows` takes lines by their bounds and reports, row by row, which
+are irregular (the exact error messages are built from that). Putting the
+parsed rows in id order is the work of :mod:`bedstruct.io._order_kernels`.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from llvmlite import ir
+from numba.core import types
 from numba.cpython.unsafe.numbers import trailing_zeros as _trailing_zeros
+from numba.extending import intrinsic
 
 from .._numba import njit, njit_parallel, prange
 
@@ -89,7 +94,6 @@ _U32 = np.uint64(32)
 _U53 = np.uint64(53)
 _U63 = np.uint64(63)
 _LOW9 = np.uint64(0x1FF)
-_LOW32 = np.uint64(0xFFFFFFFF)
 _ALL = np.uint64(0xFFFFFFFFFFFFFFFF)
 _B32 = np.uint64(1 << 32)
 _B48 = np.uint64(1 << 48)
@@ -130,21 +134,18 @@ def _zeros(buf, i, e):
     return i
 
 
-@njit(inline="always")
-def _mul128(a, b):
-    """The 128-bit product of two uint64 as (high, low) words, from 32-bit halves."""
-    a0 = a & _LOW32
-    a1 = a >> _U32
-    b0 = b & _LOW32
-    b1 = b >> _U32
-    p00 = a0 * b0
-    p01 = a0 * b1
-    p10 = a1 * b0
-    p11 = a1 * b1
-    mid = (p00 >> _U32) + (p01 & _LOW32) + (p10 & _LOW32)  # < 3 * 2**32: no overflow
-    hi = p11 + (p01 >> _U32) + (p10 >> _U32) + (mid >> _U32)
-    lo = (mid << _U32) | (p00 & _LOW32)
-    return hi, lo
+@intrinsic
+def _mul128(typingctx, a, b):
+    """The 128-bit product of two uint64 as (high, low) words: one 64 x 64 -> 128-bit
+    multiplication."""
+    def codegen(context, builder, sig, args):
+        i64, i128 = ir.IntType(64), ir.IntType(128)
+        x, y = (builder.zext(context.cast(builder, v, t, types.uint64), i128)
+                for v, t in zip(args, sig.args))
+        p = builder.mul(x, y)
+        hi = builder.trunc(builder.lshr(p, ir.Constant(i128, 64)), i64)
+        return context.make_tuple(builder, sig.return_type, [hi, builder.trunc(p, i64)])
+    return types.UniTuple(types.uint64, 2)(a, b), codegen
 
 
 @njit(inline="always")
@@ -368,6 +369,28 @@ def parse_rows(buf, starts, ends, ncols, out, base, stride, dest, status):
 # reaching the end of the text, more than 19 significant digits, exponents of more than three
 # digits, nan, inf, junk) goes to :func:`_number`.
 
+@intrinsic
+def _byte(typingctx, address, i):
+    """The byte at memory address ``address + i``, as an int64 (no bounds check)."""
+    def codegen(context, builder, sig, args):
+        base = builder.inttoptr(args[0], ir.IntType(8).as_pointer())
+        k = context.cast(builder, args[1], sig.args[1], types.intp)
+        return builder.zext(builder.load(builder.gep(base, [k])), ir.IntType(64))
+    return types.int64(address, i), codegen
+
+
+@intrinsic
+def _word(typingctx, address, i):
+    """The 8 bytes at memory address ``address + i`` as one little-endian uint64 (first
+    byte lowest; an unaligned load, no bounds check)."""
+    def codegen(context, builder, sig, args):
+        base = builder.inttoptr(args[0], ir.IntType(8).as_pointer())
+        k = context.cast(builder, args[1], sig.args[1], types.intp)
+        at = builder.bitcast(builder.gep(base, [k]), ir.IntType(64).as_pointer())
+        return builder.load(at, align=1)
+    return types.uint64(address, i), codegen
+
+
 #: Powers of ten 10**0 .. 10**8 as integers.
 POW10_INT = np.array([10 ** k for k in range(9)], dtype=np.uint64)
 
@@ -385,16 +408,6 @@ _B64_FFFF = np.uint64(0x0000FFFF0000FFFF)
 _MUL1 = np.uint64(2561)             # 10 * 2**8 + 1
 _MUL2 = np.uint64(6553601)          # 100 * 2**16 + 1
 _MUL3 = np.uint64(42949672960001)   # 10000 * 2**32 + 1
-
-
-@njit(inline="always")
-def _load8(buf, i):
-    """The 8 bytes ``buf[i:i + 8]`` as one little-endian uint64 (first byte lowest)."""
-    return (np.uint64(_b(buf, i)) | (np.uint64(_b(buf, i + 1)) << _U8)
-            | (np.uint64(_b(buf, i + 2)) << _U16) | (np.uint64(_b(buf, i + 3)) << np.uint64(24))
-            | (np.uint64(_b(buf, i + 4)) << _U32) | (np.uint64(_b(buf, i + 5)) << np.uint64(40))
-            | (np.uint64(_b(buf, i + 6)) << np.uint64(48))
-            | (np.uint64(_b(buf, i + 7)) << np.uint64(56)))
 
 
 @njit(inline="always")
@@ -418,8 +431,8 @@ def _digit_run(w):
 
 
 @njit(inline="always")
-def _mantissa_run(buf, i, e, m, nd, ns):
-    """Append the digits starting at ``_b(buf, i)`` to ``m`` eight at a time: (m, digits so far,
+def _mantissa_run(address, i, e, m, nd, ns):
+    """Append the digits at ``address + i`` to ``m`` eight at a time: (m, digits so far,
     significant digits so far, index after them, ok). Zeros before the first nonzero digit
     are digits but not significant ones (``0.00123`` has six digits, three significant), so
     that ``m`` holds at most ``ns`` digits. ``ok`` is False when a word would reach past
@@ -427,7 +440,7 @@ def _mantissa_run(buf, i, e, m, nd, ns):
     while True:
         if i + 8 > e:
             return m, nd, ns, i, False
-        w = _load8(buf, i)
+        w = _word(address, i)
         k, v = _digit_run(w)
         if m == _U0:  # the '0' characters that open the word are not significant
             z = w ^ _B64_30
@@ -443,40 +456,41 @@ def _mantissa_run(buf, i, e, m, nd, ns):
 
 
 @njit(inline="always")
-def _short_number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
-    """Parse the token starting at ``_b(buf, i)`` (``i < e``) when it is a short decimal
-    number: (value, index after it, ok); ``ok`` False leaves the token to :func:`_number`.
+def _short_number(address, i, e):
+    """Parse the token at ``address + i`` (``i < e``, the text readable up to ``address +
+    e``) when it is a short decimal number: (value, index after it, ok); ``ok`` False
+    leaves the token to :func:`_number`.
 
     Exact like :func:`_number`: Clinger's one-operation path for a mantissa of at most
     2**53 and a power of ten within 1e22, the Eisel-Lemire path otherwise.
     """
-    c = _b(buf, i)
+    c = _byte(address, i)
     neg = c == 45
     if c == 45 or c == 43:
         i += 1
-    m, nd, ns, i, ok = _mantissa_run(buf, i, e, _U0, 0, 0)
+    m, nd, ns, i, ok = _mantissa_run(address, i, e, _U0, 0, 0)
     if not ok:
         return 0.0, i, False
     exp10 = 0
-    if i < e and _b(buf, i) == 46:
+    if i < e and _byte(address, i) == 46:
         i += 1
-        m, nd, ns, j, ok = _mantissa_run(buf, i, e, m, nd, ns)
+        m, nd, ns, j, ok = _mantissa_run(address, i, e, m, nd, ns)
         if not ok:
             return 0.0, i, False
         exp10 = i - j
         i = j
     if nd == 0 or ns > 19:
         return 0.0, i, False
-    if i < e and (_b(buf, i) == 101 or _b(buf, i) == 69):
+    if i < e and (_byte(address, i) == 101 or _byte(address, i) == 69):
         i += 1
         eneg = False
-        if i < e and (_b(buf, i) == 45 or _b(buf, i) == 43):
-            eneg = _b(buf, i) == 45
+        if i < e and (_byte(address, i) == 45 or _byte(address, i) == 43):
+            eneg = _byte(address, i) == 45
             i += 1
         ex = 0
         t = i
         while i < e and i - t < 4:
-            d = np.int64(_b(buf, i)) - 48
+            d = np.int64(_byte(address, i)) - 48
             if d < 0 or d > 9:
                 break
             ex = ex * 10 + d
@@ -484,9 +498,9 @@ def _short_number(buf, i, e, pow10, pow10_hi, pow10_lo, pow5, pow2):
         if i == t or i - t == 4:
             return 0.0, i, False
         exp10 += -ex if eneg else ex
-    if i < e and _b(buf, i) > 32:
+    if i < e and _byte(address, i) > 32:
         return 0.0, i, False
-    v, ok = _decimal_value(m, exp10, pow10, pow10_hi, pow10_lo, pow5, pow2)
+    v, ok = _decimal_value(m, exp10, POW10, POW10_HI, POW10_LO, POW5, POW2)
     if not ok:
         return 0.0, i, False
     return (-v if neg else v), i, True
@@ -501,30 +515,116 @@ def _count_lines(buf, a, b):
     return n
 
 
+# --- tokens of up to 15 characters: the hot path of parse_lines -----------------------------------
+#
+# A token's extent is found first, from the separators (bytes <= 32) among the 16 characters
+# from its start, and its value is then read from those characters alone: the address of the
+# next token does not wait for the value of this one, so the processor overlaps consecutive
+# tokens. The characters are read through the text's address (:func:`_byte`, :func:`_word`)
+# rather than through the array, so that the inlined helpers add no reference counting to
+# the loop.
+
+_B64_5F = np.uint64(0x5F5F5F5F5F5F5F5F)
+
+
+@njit(inline="always")
+def _separators(w):
+    """0x80 in every byte of the 8 characters ``w`` that is at most 32 (space, tab,
+    newline, ...), 0 in the others."""
+    # (c & 0x7F) + 0x5F sets the high bit from c & 0x7F >= 0x21 on, without a carry out
+    return ~(((w & _B64_7F) + _B64_5F) | w) & _B64_80
+
+
+@njit(inline="always")
+def _token_length(address, i):
+    """Characters before the first separator among the 16 at ``address + i`` (0 to 15);
+    16 when there is none."""
+    s1 = _separators(_word(address, i))
+    s2 = _separators(_word(address, i + 8))
+    n2 = 16 if s2 == _U0 else 8 + (np.int64(_trailing_zeros(s2)) >> 3)
+    return (np.int64(_trailing_zeros(s1)) >> 3) if s1 != _U0 else n2
+
+
+@njit(inline="always")
+def _digits16(address, i, m):
+    """Append the run of up to 16 digits at ``address + i`` to ``m``: (m, digits)."""
+    k, v = _digit_run(_word(address, i))
+    m = m * POW10_INT[k] + v
+    if k == 8:
+        k2, v2 = _digit_run(_word(address, i + 8))
+        m = m * POW10_INT[k2] + v2
+        k += k2
+    return m, k
+
+
+@njit(inline="always")
+def _short_token(address, s, n):
+    """The value of the token of ``n < 16`` characters at ``address + s`` (followed by a
+    separator, 24 readable bytes from ``s`` on): (value, ok). ``ok`` is False for anything
+    but an optional sign, digits with an optional point, and an exponent of one to three
+    digits, and where :func:`_decimal_value` declines; the caller then reads the token with
+    :func:`_short_number` and :func:`_number`."""
+    c = _byte(address, s)
+    neg = c == 45
+    q = s + 1 if (c == 45 or c == 43) else s
+    m, nd = _digits16(address, q, _U0)
+    q += nd
+    exp10 = 0
+    if _byte(address, q) == 46:
+        m, k = _digits16(address, q + 1, m)
+        nd += k
+        exp10 = -k
+        q += 1 + k
+    if nd == 0:
+        return 0.0, False
+    e = s + n
+    if q < e:
+        c = _byte(address, q)
+        if c != 101 and c != 69:
+            return 0.0, False
+        q += 1
+        c = _byte(address, q)
+        eneg = c == 45
+        if c == 45 or c == 43:
+            q += 1
+        k, ex = _digit_run(_word(address, q))
+        if k == 0 or k > 3 or q + k != e:
+            return 0.0, False
+        exp10 += -np.int64(ex) if eneg else np.int64(ex)
+    v, ok = _decimal_value(m, exp10, POW10, POW10_HI, POW10_LO, POW5, POW2)
+    return (-v if neg else v), ok
+
+
 @njit(inline="always")
 def _parse_part(buf, a, b, ncols, out, base, stride, row, pow10, pow10_hi, pow10_lo, pow5,
                 pow2):
     """Parse the whole lines of ``buf[a:b]`` as rows ``row, row + 1, ...``: the row after
     the last one, or -1 when any line is not ``ncols`` numbers the kernel reads exactly."""
+    address = buf.ctypes.data
     i = a
     while i < b:
-        col = 0
-        while True:
-            while i < b and _b(buf, i) <= 32 and _b(buf, i) != 10:
+        for col in range(ncols):
+            while i < b and _byte(address, i) <= 32 and _byte(address, i) != 10:
                 i += 1
-            if i >= b or _b(buf, i) == 10:
-                break
-            if col >= ncols:
+            if i >= b or _byte(address, i) == 10:
                 return -1
-            v, j, ok = _short_number(buf, i, b, pow10, pow10_hi, pow10_lo, pow5, pow2)
+            ok = False
+            if i + 32 <= b:  # a token of up to 15 characters, read from its 16
+                n = _token_length(address, i)
+                if n < 16:
+                    v, ok = _short_token(address, i, n)
+                    j = i + n
             if not ok:
-                v, j, ok = _number(buf, i, b, pow10, pow10_hi, pow10_lo, pow5, pow2)
+                v, j, ok = _short_number(address, i, b)
                 if not ok:
-                    return -1
-            out[np.uint64(base[col] + row * stride[col])] = v
-            col += 1
+                    v, j, ok = _number(buf, i, b, pow10, pow10_hi, pow10_lo, pow5, pow2)
+                    if not ok:
+                        return -1
+            out[base[col] + row * stride[col]] = v
             i = j
-        if col != ncols:
+        while i < b and _byte(address, i) <= 32 and _byte(address, i) != 10:
+            i += 1
+        if i < b and _byte(address, i) != 10:
             return -1
         row += 1
         i += 1

@@ -2,7 +2,9 @@
 
 A :class:`Source` reads byte ranges of the *decompressed* stream of one file;
 compressed streams are read forwards and reopened when a caller seeks
-backwards. :func:`scan_text` finds the byte offset, line number, timestep and
+backwards. A gzip stream resumes from the decompressor's state saved where an
+earlier range began (a frame's start) rather than from the start of the file.
+:func:`scan_text` finds the byte offset, line number, timestep and
 particle count of every frame of a text dump in one pass over the file.
 """
 
@@ -70,11 +72,38 @@ class _GzipMembers:
         self._pending = b""          # decoded bytes, returned from offset _off on
         self._off = 0
         self._read_raw = 0           # compressed bytes consumed
+        self._decoded = 0            # decoded bytes before _pending
+        self._mark = None            # resume point at the start of _pending (see resume_point)
         self._done = False
         self.truncated_at = None
 
+    def resume_point(self):
+        """Where decoding can resume to return the bytes from the start of ``_pending`` on:
+        (decoded offset, compressed offset, copy of the member's decompressor or None at a
+        member boundary), or None when the decompressor cannot be copied."""
+        return self._mark
+
+    def resume(self, point) -> int:
+        """Continue decoding from a :meth:`resume_point` of a reader of the same file: the
+        decoded offset it returns from."""
+        decoded, raw, member = point
+        self._raw.seek(raw)
+        self._read_raw = raw
+        self._member = None if member is None else member.copy()
+        self._pending, self._off, self._decoded = b"", 0, decoded
+        self._mark = point
+        self._done = False
+        self.truncated_at = None
+        return decoded
+
     def _decode_more(self) -> None:
         """Decode the next piece of compressed data (``_pending`` is all returned)."""
+        self._decoded += len(self._pending)
+        try:
+            member = None if self._member is None else self._member.copy()
+            self._mark = (self._decoded, self._read_raw, member)
+        except (AttributeError, ValueError):  # a decompressor without copy()
+            self._mark = None
         data = self._raw.read(self._RAW)
         if not data:
             if self._member is not None and not self._member.eof:
@@ -189,6 +218,7 @@ class Source:
         self.compression = compression_of(self.path)
         self._fh = None
         self._pos = 0
+        self._resume_points = {}  # decoded offset -> resume point of a gzip stream
         #: Byte of the compressed file at which its data end early (a gz file cut while
         #: being written), once a read has reached that end; None otherwise.
         self.stream_truncated_at = None
@@ -254,14 +284,30 @@ class Source:
             self._pos = start + len(data)
             return data
         self._skip_to(start)
+        self._keep_resume_point()
         data = self._read_exact(length)
         self._pos += len(data)
         return data
 
+    #: Resume points kept per gzip file (each holds a decompressor's state, about 40 KB).
+    MAX_RESUME_POINTS = 256
+
+    def _keep_resume_point(self) -> None:
+        """Keep the gzip stream's resume point at or before the current offset (the start
+        of a range read with :meth:`read_range`, such as a frame's header)."""
+        point = getattr(self._fh, "resume_point", lambda: None)()
+        if point is not None and point[0] > 0 and len(self._resume_points) < \
+                self.MAX_RESUME_POINTS:
+            self._resume_points.setdefault(point[0], point)
+
     def _skip_to(self, start: int) -> None:
-        """Move a compressed stream to ``start`` (reopened when it is past it)."""
+        """Move a compressed stream to ``start``: reopened when it is past it, and resumed
+        from the last resume point up to ``start`` when one lies ahead of it."""
         if self._fh is None or start < self._pos:
             self._reopen()
+        best = max((k for k in self._resume_points if self._pos < k <= start), default=None)
+        if best is not None:
+            self._pos = self._fh.resume(self._resume_points[best])
         skip = start - self._pos
         while skip > 0:
             got = self._fh.read(min(skip, _CHUNK))
@@ -311,6 +357,7 @@ class Source:
         state = dict(self.__dict__)
         state["_fh"] = None
         state["_pos"] = 0
+        state["_resume_points"] = {}  # decompressor states do not pickle
         return state
 
 

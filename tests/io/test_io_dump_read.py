@@ -433,3 +433,42 @@ def test_gzip_source_reads_the_plain_bytes_at_any_offset(tmp_path):
         got = src.read_into(start, memoryview(buf)[:size])
         assert bytes(buf[:got]) == want, (start, size)
     src.close()
+
+
+def test_gzip_source_resumes_backward_reads_from_saved_points(tmp_path, monkeypatch):
+    """A range read again after later ones (a frame read a second time) decodes from the
+    point saved where it was first read, not from the start of the file, and gives the
+    same bytes, across member boundaries and after pickling."""
+    import pickle
+
+    from bedstruct.io._source import Source, _GzipMembers
+    monkeypatch.setattr(_GzipMembers, "_RAW", 4096)  # many small decoding steps
+    calls = []
+    decode = _GzipMembers._decode_more
+    monkeypatch.setattr(_GzipMembers, "_decode_more", lambda self: calls.append(1) or decode(self))
+    rng = np.random.default_rng(4)
+    plain = b"".join(rng.integers(0, 10, 400_000).astype(str).astype("S1"))
+    path = tmp_path / "members.gz"
+    with open(path, "wb") as fh:
+        for part in (plain[:100_000], plain[100_000:100_001], plain[100_001:]):
+            fh.write(gzip.compress(part) + b"\0" * 3)
+    src = Source(path)
+    starts = [5, 100_000, 100_001, 250_000, 350_000]
+    for s in starts:
+        assert src.read_range(s, 20_000) == plain[s:s + 20_000]
+    calls.clear()
+    assert src.read_range(0, 100) == plain[:100]
+    from_start = len(calls)  # a reopened stream decodes from the start
+    buf = bytearray(20_000)
+    for s in [350_000, 250_000, 100_001, 100_000, 250_000, 5]:
+        calls.clear()
+        assert src.read_range(s, 20_000) == plain[s:s + 20_000], s
+        assert len(calls) <= from_start + 4, s  # not the 100-350 kB before s again
+        assert src.read_into(s + 7, buf) == 20_000 and bytes(buf) == plain[s + 7:s + 20_007]
+    calls.clear()
+    src.read_range(350_000, 10)
+    assert 0 < len(calls) < 8  # 350 kB from the start would take about 35 steps
+    copy = pickle.loads(pickle.dumps(src))
+    assert copy.read_range(250_000, 50) == plain[250_000:250_050]
+    src.close()
+    copy.close()

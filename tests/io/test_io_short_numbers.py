@@ -3,6 +3,8 @@ gives exactly Python's ``float()``, bit for bit, and the same frames as the exac
 
 from __future__ import annotations
 
+import re
+
 import numba
 import numpy as np
 import pytest
@@ -16,14 +18,13 @@ from bedstruct.io._text import parse_lines_threaded, parse_token
 @numba.njit
 def short_number(text):
     """The short-number path alone on the token at ``text[0]``: (value, end, ok)."""
-    return K._short_number(text, 0, text.shape[0], K.POW10, K.POW10_HI, K.POW10_LO, K.POW5,
-                           K.POW2)
+    return K._short_number(text.ctypes.data, 0, text.shape[0])
 
 
 @numba.njit
 def digit_run(word):
     """(leading digits, their value) of the 8 characters ``word``."""
-    return K._digit_run(K._load8(word, 0))
+    return K._digit_run(K._word(word.ctypes.data, 0))
 
 
 DBL_MIN = 2.2250738585072014e-308
@@ -107,6 +108,69 @@ def test_parse_lines_token_is_float_or_refused(tok):
             continue
         if got != -1:
             assert bits(out[0]) == bits(want), (tok, out[0], want)
+
+
+@numba.njit
+def short_token(text):
+    """The path of tokens of up to 15 characters alone on the token at ``text[0]``:
+    (value, length found, ok)."""
+    address = text.ctypes.data
+    n = K._token_length(address, 0)
+    if n == 16:
+        return 0.0, n, False
+    v, ok = K._short_token(address, 0, n)
+    return v, n, ok
+
+
+_PLAIN = re.compile(r"\A[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]{1,3})?\Z")
+
+
+@settings(max_examples=400, deadline=None)
+@given(tokens)
+def test_short_token_is_float_bit_for_bit(tok):
+    v, n, ok = short_token(as_text(tok + PAD.decode() + "1" * 8))
+    assert n == min(len(tok), 16), tok  # the token ends at the first separator
+    try:
+        want = float(tok)
+    except ValueError:
+        assert not ok, tok
+        return
+    if ok:
+        assert bits(v) == bits(want), (tok, v, want)  # the sign of zero included
+    digits = tok.lstrip("+-").split("e")[0].split("E")[0].replace(".", "")
+    if len(tok) < 16 and _PLAIN.match(tok) and (not digits.strip("0") or
+                                                DBL_MIN < abs(want) < 1e300):
+        assert ok, tok  # every plain decimal token of up to 15 characters takes this path
+
+
+def test_short_token_refuses_what_is_not_a_plain_number():
+    for tok in ["nan", "inf", "-inf", "1e5000", "1e-0300", "1.0.0", "1x", "--1", "1e", "1e+",
+                ".", "-", "+", "e5", "0x10", "1-2", "1e-320", "1.5e+310"]:
+        v, n, ok = short_token(as_text(tok + PAD.decode()))
+        assert n == len(tok) and not ok, tok
+    for tok in ["123456789012345", "-1.234567890e-5", "+.5", "5.", "-0", "900719925474099"]:
+        v, n, ok = short_token(as_text(tok + PAD.decode()))
+        assert ok and n == len(tok) and bits(v) == bits(float(tok)), tok
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(tokens, min_size=1, max_size=6), st.integers(1, 3))
+def test_parse_lines_long_lines_token_is_float_or_refused(toks, spaces):
+    """Lines long enough that every token but the last of the text is read by the path of
+    tokens of up to 15 characters (longer ones by the 19-digit path)."""
+    line = (" " * spaces).join(toks) + " " * 40
+    arr = as_text("\n".join([line] * 3))
+    out = np.full(3 * len(toks), -999.0)
+    got = K.parse_lines(arr, 0, arr.size, len(toks), out, np.arange(len(toks)),
+                        np.full(len(toks), len(toks)), 0)
+    try:
+        want = [parse_token(t) for t in toks] * 3
+    except ValueError:
+        assert got == -1, toks
+        return
+    if got != -1:
+        assert got == 3
+        assert out.view(np.int64).tolist() == np.array(want).view(np.int64).tolist(), toks
 
 
 def test_typical_liggghts_tokens():
