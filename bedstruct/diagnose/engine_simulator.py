@@ -554,7 +554,9 @@ class EngineSimulator:
                   if sp in cached}
         todo = [m for m in self.design if m.name not in values]
         if todo:
-            root = Path(self.workdir) if self.workdir else None
+            root = Path(self.workdir).expanduser() if self.workdir else None
+            if root is not None:
+                root.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=root) as tmp:
                 runs = CallRuns(self, cfg, effects, Path(tmp))
                 for m in todo:

@@ -3,7 +3,9 @@ LIGGGHTS or LAMMPS with MPI ranks, and the catalogue effects an engine cannot re
 refused by name before any run."""
 
 import math
+import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -115,12 +117,24 @@ def test_np_on_the_command_line_reaches_the_runs_and_needs_an_engine(tmp_path, c
 @pytest.mark.slow
 @pytest.mark.skipif(shutil.which("liggghts") is None and shutil.which("lmp_liggghts") is None,
                     reason="liggghts is not installed (.ci/install-engines.sh)")
-def test_the_users_liggghts_model_answers_a_static_angle(tmp_path):
+def test_the_users_liggghts_model_answers_a_static_angle(tmp_path, monkeypatch):
     from bedstruct.engines import find_liggghts
+    from bedstruct.workflows import external
     try:
         find_liggghts()
     except Exception:
         pytest.skip("liggghts is not installed")
+    decks = []
+    real_run_deck = external.run_deck
+
+    def recording_run_deck(deck_path, **kw):
+        deck = Path(deck_path)
+        inputs = "".join(f.read_text() for f in deck.parent.iterdir()
+                         if f.is_file() and f.suffix == ".data")
+        decks.append((deck.read_text(), inputs, kw.get("np")))
+        return real_run_deck(deck_path, **kw)
+
+    monkeypatch.setattr(external, "run_deck", recording_run_deck)
     cfg = load_sim_config(_sim_file(
         tmp_path, f'config = "model.toml"\nengine = "liggghts"\nworkdir = "{tmp_path / "runs"}"',
         '[catalogue]\nexclude = ["contact_ageing", "blade_startup"]'))
@@ -128,8 +142,10 @@ def test_the_users_liggghts_model_answers_a_static_angle(tmp_path):
     obs = sim(cfg.base, {}, 0)
     angle = float(np.asarray(obs["static_angle"]).ravel()[0])
     assert math.isfinite(angle) and 10.0 < angle < 60.0
-    decks = list((tmp_path / "runs").rglob("in.*"))
-    assert decks and any("7900" in d.read_text() for d in decks)   # LIGGGHTS ran the user's powder
+    # LIGGGHTS ran the user's powder (density 7900 kg/m^3) and friction 0.45, on one rank
+    assert decks and all(n == 1 for *_, n in decks)
+    assert any(re.search(r"coefficientFriction peratomtypepair \d 0\.45\b", d) for d, *_ in decks)
+    assert any("7900" in d or "7900" in data for d, data, _ in decks)
 
 
 def test_every_preset_maps_the_seed_cohesion_onto_its_softened_modulus(tmp_path):
