@@ -23,7 +23,7 @@ from ..errors import ConfigError
 
 __all__ = ["WorkflowConfig", "MaterialSection", "ContactSection", "PSDSection", "TimeSection",
            "ReposeSection", "SpreadSection", "CalibrateSection", "ExternalSection",
-           "OutputSection", "typed_config", "defaults_dict", "check_bounds",
+           "OutputSection", "typed_config", "config_dict", "defaults_dict", "check_bounds",
            "config_reference", "SECTIONS"]
 
 #: Largest ``time.safety``: the engine refuses a step above this fraction of the Rayleigh
@@ -263,6 +263,31 @@ def typed_config(cfg: dict) -> WorkflowConfig:
             v = SECTIONS[f.name](**{k: tuple(x) if isinstance(x, list) else x for k, x in v.items()})
         top[f.name] = v
     return WorkflowConfig(**top)
+
+
+def config_dict(cfg: WorkflowConfig) -> dict:
+    """A :class:`WorkflowConfig` as the nested dict :func:`load_config` returns (tuples become
+    lists): what the run folder's ``config.toml`` and the engines' effect checks read.
+
+    The inverse of :func:`typed_config`.
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config
+    >>> from bedstruct.workflows.schema import config_dict, typed_config
+    >>> cfg = load_config(preset="tiny")
+    >>> config_dict(typed_config(cfg)) == cfg
+    True
+    """
+    if not isinstance(cfg, WorkflowConfig):
+        raise TypeError(f"config_dict: expected a WorkflowConfig; got {type(cfg).__name__}")
+    out = {}
+    for f in fields(WorkflowConfig):
+        v = getattr(cfg, f.name)
+        if f.name in SECTIONS:
+            v = {g.name: _plain_default(getattr(v, g.name)) for g in fields(SECTIONS[f.name])}
+        out[f.name] = v
+    return out
 
 
 def _bound_text(meta) -> str:
