@@ -13,10 +13,11 @@ from dataclasses import fields
 import numpy as np
 
 from ..errors import ConfigError
+from .schema import psd_table
 
 log = logging.getLogger(__name__)
 
-__all__ = ["contact_model", "psd_sampler", "psd_table", "tabulated_psd_sampler", "side_walls",
+__all__ = ["contact_model", "psd_sampler", "tabulated_psd_sampler", "side_walls",
            "width_bounds", "check_engine", "tool_motion", "from_plain", "frame_fingerprint",
            "german_fit_values", "progress_bar", "CONTACT_KEYWORDS"]
 
@@ -139,48 +140,6 @@ def side_walls(width: float, *, x_range, z_range, prefix: str = "box") -> list:
     lo = (float(x_range[0]), 0.0, float(z_range[0]))
     hi = (float(x_range[1]), float(width), float(z_range[1]))
     return box_walls(lo, hi, open_top=True, sides=("y",), prefix=prefix)[1:]
-
-
-def psd_table(p: dict):
-    """The tabulated size distribution of a ``psd`` section, checked: ``(diameters, F)``
-    arrays (m, cumulative volume fraction undersize), or None when none is given.
-
-    Raises
-    ------
-    ConfigError
-        Naming ``psd.diameters`` or ``psd.volume_fractions`` and what is expected.
-
-    Examples
-    --------
-    >>> psd_table({"diameters": [], "volume_fractions": []}) is None
-    True
-    >>> psd_table({"diameters": [2e-5, 4e-5], "volume_fractions": [0.0, 1.0]})
-    Traceback (most recent call last):
-    ...
-    bedstruct.errors.ConfigError: config key `psd.diameters` must list at least 3 diameters (m) of the tabulated distribution; got 2
-    """
-    d_raw, f_raw = p.get("diameters"), p.get("volume_fractions")
-    d_raw = () if d_raw is None else d_raw
-    f_raw = () if f_raw is None else f_raw
-    if not len(d_raw) and not len(f_raw):
-        return None
-    d = np.asarray(d_raw, dtype=np.float64)
-    f = np.asarray(f_raw, dtype=np.float64)
-    if d.ndim != 1 or d.size < 3:
-        raise ConfigError("config key `psd.diameters` must list at least 3 diameters (m) of the "
-                          f"tabulated distribution; got {d.size}")
-    if not (np.all(np.isfinite(d)) and d[0] > 0 and np.all(np.diff(d) > 0)):
-        raise ConfigError("config key `psd.diameters` must hold positive diameters (m) in "
-                          f"increasing order; got {[float(x) for x in d_raw]!r}")
-    if f.shape != d.shape:
-        raise ConfigError("config key `psd.volume_fractions` must give one cumulative volume "
-                          f"fraction per diameter of `psd.diameters` ({d.size}); got {f.size}")
-    if not (np.all(np.isfinite(f)) and np.all((f >= 0) & (f <= 1))
-            and np.all(np.diff(f) >= 0) and f[-1] > f[0]):
-        raise ConfigError("config key `psd.volume_fractions` must hold the cumulative volume "
-                          "fraction undersize at each diameter: within [0, 1], not decreasing, "
-                          f"the last above the first; got {[float(x) for x in f_raw]!r}")
-    return d, f
 
 
 def tabulated_psd_sampler(diameters, volume_fractions, *, scale: float = 1.0):

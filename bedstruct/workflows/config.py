@@ -20,8 +20,8 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import ConfigError
-from ._common import psd_table
-from .schema import MAX_SAFETY, WorkflowConfig, check_bounds, defaults_dict, typed_config
+from .schema import (MAX_SAFETY, WorkflowConfig, check_bounds, defaults_dict, psd_table,
+                     typed_config)
 
 __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path", "config_to_toml",
            "available_presets", "validate_config", "workflow_config"]
