@@ -11,7 +11,8 @@ From this one definition come the defaults of :func:`~bedstruct.workflows.load_c
 (:data:`~bedstruct.workflows.DEFAULTS`), the range checks and their messages, the
 configuration reference in ``bedstruct run --help`` and in the docs
 (:func:`config_reference`), and typed, read-only access to a loaded configuration
-(:func:`typed_config`).
+(:func:`typed_config`; :func:`config_dict` gives its dict back). :func:`psd_table` checks a
+tabulated size distribution.
 """
 
 from __future__ import annotations
