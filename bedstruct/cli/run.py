@@ -101,7 +101,7 @@ def _run_status(out) -> str | None:
 
 def run(args) -> int:
     from ..errors import ConfigError
-    from ..workflows import calibrate_cohesion, load_config, run_repose, run_spread
+    from ..workflows import calibrate_cohesion, load_config, run_repose, run_spread, typed_config
     from . import print_json
 
     if args.config is None and args.preset is None:
@@ -123,7 +123,7 @@ def run(args) -> int:
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     overwrite = bool(getattr(args, "overwrite", False))
     before = _run_status(args.out) if not overwrite else None
-    res = func(cfg, out=args.out, progress=progress, overwrite=overwrite)
+    res = func(typed_config(cfg), out=args.out, progress=progress, overwrite=overwrite)
     if before is not None and not cfg["external"]["write_only"]:
         print(f"resumed the {'finished' if before == 'complete' else 'unfinished'} run in "
               f"{args.out} (finished stages reused)", file=sys.stderr)

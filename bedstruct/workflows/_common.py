@@ -13,10 +13,11 @@ from dataclasses import fields
 import numpy as np
 
 from ..errors import ConfigError
+from .schema import psd_table
 
 log = logging.getLogger(__name__)
 
-__all__ = ["contact_model", "psd_sampler", "psd_table", "tabulated_psd_sampler", "side_walls",
+__all__ = ["contact_model", "psd_sampler", "tabulated_psd_sampler", "side_walls",
            "width_bounds", "check_engine", "tool_motion", "from_plain", "frame_fingerprint",
            "german_fit_values", "progress_bar", "CONTACT_KEYWORDS"]
 
@@ -37,9 +38,17 @@ def progress_bar(iterable=None, *, progress: bool, **kwargs):
     return tqdm(iterable, disable=not progress, **kwargs)
 
 
-def check_engine(cfg: dict) -> None:
+def typed(cfg):
+    """``cfg`` as a :class:`~bedstruct.workflows.WorkflowConfig`
+    (:func:`~bedstruct.workflows.config.workflow_config`: a mapping is loaded and checked,
+    a WorkflowConfig is taken as it is)."""
+    from .config import workflow_config
+    return workflow_config(cfg)
+
+
+def check_engine(cfg) -> None:
     """Raise ConfigError when an embedded-engine step is handed another engine's config."""
-    eng = cfg.get("engine", "embedded")
+    eng = typed(cfg).engine
     if eng != "embedded":
         raise ConfigError(f"engine {eng!r}: this step runs the embedded engine only; run "
                           "LIGGGHTS/LAMMPS through run_repose, run_spread or calibrate_cohesion "
@@ -51,7 +60,7 @@ def check_engine(cfg: dict) -> None:
 _CONTACT_OWN = ("cohesion", "wall_friction", "wall_cohesion", "ageing")
 
 
-def contact_model(cfg: dict, *, cohesion: float | None = None):
+def contact_model(cfg, *, cohesion: float | None = None):
     """The :class:`~bedstruct.dem.ContactModel` of a configuration (SI).
 
     Every ``contact`` option named like a field of the contact model is that field
@@ -60,30 +69,31 @@ def contact_model(cfg: dict, *, cohesion: float | None = None):
     ageing is on when ``ageing`` is set with a positive ``ageing_bond_ratio``.
     """
     from ..dem import ContactModel, Material
-    m, c = cfg["material"], cfg["contact"]
-    mat = Material(m["youngs_modulus"], m["poisson_ratio"], m["density"])
-    k = float(c["cohesion"] if cohesion is None else cohesion)
+    cfg = typed(cfg)
+    m, c = cfg.material, cfg.contact
+    mat = Material(m.youngs_modulus, m.poisson_ratio, m.density)
+    k = float(c.cohesion if cohesion is None else cohesion)
     if k < 0:
         raise ConfigError(f"config key `contact.cohesion` must be >= 0; got {k}")
     fields_of_model = {f.name for f in fields(ContactModel)}
-    kw = {name: value for name, value in c.items()
-          if name in fields_of_model and name not in _CONTACT_OWN}
-    if c["wall_friction"] >= 0:
-        kw["wall_friction"] = c["wall_friction"]
-    if c["wall_cohesion"] >= 0:
-        kw["wall_cohesion"] = c["wall_cohesion"]
-    kw["contact_ageing"] = bool(c["ageing"]) and c["ageing_bond_ratio"] > 0.0
+    kw = {f.name: getattr(c, f.name) for f in fields(c)
+          if f.name in fields_of_model and f.name not in _CONTACT_OWN}
+    if c.wall_friction >= 0:
+        kw["wall_friction"] = c.wall_friction
+    if c.wall_cohesion >= 0:
+        kw["wall_cohesion"] = c.wall_cohesion
+    kw["contact_ageing"] = bool(c.ageing) and c.ageing_bond_ratio > 0.0
     return ContactModel(mat, cohesion=k, **kw)
 
 
-def tool_motion(sim, cfg: dict, name: str, velocity, **kw) -> None:
+def tool_motion(sim, cfg, name: str, velocity, **kw) -> None:
     """Start the spreading tool: constant velocity, or the start-up ramp and vibration of
     ``spread.ramp_time`` / ``spread.vibration_*`` when set
     (:meth:`~bedstruct.dem.Simulation.set_wall_program`, vibration along z)."""
-    sp = cfg["spread"]
-    tau = float(sp["ramp_time"])
-    amp = float(sp["vibration_amplitude"])
-    freq = float(sp["vibration_frequency"])
+    sp = typed(cfg).spread
+    tau = float(sp.ramp_time)
+    amp = float(sp.vibration_amplitude)
+    freq = float(sp.vibration_frequency)
     if tau > 0.0 or (amp > 0.0 and freq > 0.0):
         if kw:
             sim.set_wall_motion(name, **kw)
@@ -130,48 +140,6 @@ def side_walls(width: float, *, x_range, z_range, prefix: str = "box") -> list:
     lo = (float(x_range[0]), 0.0, float(z_range[0]))
     hi = (float(x_range[1]), float(width), float(z_range[1]))
     return box_walls(lo, hi, open_top=True, sides=("y",), prefix=prefix)[1:]
-
-
-def psd_table(p: dict):
-    """The tabulated size distribution of a ``psd`` section, checked: ``(diameters, F)``
-    arrays (m, cumulative volume fraction undersize), or None when none is given.
-
-    Raises
-    ------
-    ConfigError
-        Naming ``psd.diameters`` or ``psd.volume_fractions`` and what is expected.
-
-    Examples
-    --------
-    >>> psd_table({"diameters": [], "volume_fractions": []}) is None
-    True
-    >>> psd_table({"diameters": [2e-5, 4e-5], "volume_fractions": [0.0, 1.0]})
-    Traceback (most recent call last):
-    ...
-    bedstruct.errors.ConfigError: config key `psd.diameters` must list at least 3 diameters (m) of the tabulated distribution; got 2
-    """
-    d_raw, f_raw = p.get("diameters"), p.get("volume_fractions")
-    d_raw = () if d_raw is None else d_raw
-    f_raw = () if f_raw is None else f_raw
-    if not len(d_raw) and not len(f_raw):
-        return None
-    d = np.asarray(d_raw, dtype=np.float64)
-    f = np.asarray(f_raw, dtype=np.float64)
-    if d.ndim != 1 or d.size < 3:
-        raise ConfigError("config key `psd.diameters` must list at least 3 diameters (m) of the "
-                          f"tabulated distribution; got {d.size}")
-    if not (np.all(np.isfinite(d)) and d[0] > 0 and np.all(np.diff(d) > 0)):
-        raise ConfigError("config key `psd.diameters` must hold positive diameters (m) in "
-                          f"increasing order; got {[float(x) for x in d_raw]!r}")
-    if f.shape != d.shape:
-        raise ConfigError("config key `psd.volume_fractions` must give one cumulative volume "
-                          f"fraction per diameter of `psd.diameters` ({d.size}); got {f.size}")
-    if not (np.all(np.isfinite(f)) and np.all((f >= 0) & (f <= 1))
-            and np.all(np.diff(f) >= 0) and f[-1] > f[0]):
-        raise ConfigError("config key `psd.volume_fractions` must hold the cumulative volume "
-                          "fraction undersize at each diameter: within [0, 1], not decreasing, "
-                          f"the last above the first; got {[float(x) for x in f_raw]!r}")
-    return d, f
 
 
 def tabulated_psd_sampler(diameters, volume_fractions, *, scale: float = 1.0):
@@ -241,7 +209,7 @@ def tabulated_psd_sampler(diameters, volume_fractions, *, scale: float = 1.0):
     return draw
 
 
-def psd_sampler(cfg: dict):
+def psd_sampler(cfg):
     """A callable ``(n, rng) -> radii`` (m) drawing from the configured, scaled size distribution.
 
     With a tabulated distribution (``psd.diameters`` and ``psd.volume_fractions``,
@@ -251,24 +219,23 @@ def psd_sampler(cfg: dict):
     ``[d_min, d_max]``). Every drawn diameter is multiplied by ``psd.scale``;
     ``psd.fines_mass_fraction`` adds fines below the smallest diameter.
     """
-    p = cfg["psd"]
-    scale = float(p["scale"])
-    phi = float(p["fines_mass_fraction"])
-    table = psd_table(p)
+    p = typed(cfg).psd
+    scale = float(p.scale)
+    phi = float(p.fines_mass_fraction)
+    table = psd_table({"diameters": p.diameters, "volume_fractions": p.volume_fractions})
     if table is not None:
         draw = tabulated_psd_sampler(*table, scale=scale)
         d_cut = float(table[0][0])
     else:
         from ..analysis import psd_from_percentiles
-        fit = psd_from_percentiles(p["d10"], p["d50"], p["d90"], (p["d_min"], p["d_max"]),
-                                   weighting="volume")
+        fit = psd_from_percentiles(p.d10, p.d50, p.d90, (p.d_min, p.d_max), weighting="volume")
 
         def draw(n, rng):
             return scale * fit.sample_radii(int(n), seed=rng)
-        draw.r_min = 0.5 * scale * p["d_min"]
-        draw.r_max = 0.5 * scale * p["d_max"]
+        draw.r_min = 0.5 * scale * p.d_min
+        draw.r_max = 0.5 * scale * p.d_max
         draw.fit = fit
-        d_cut = p["d_min"]
+        d_cut = p.d_min
     if phi <= 0.0:
         return draw
     return _with_fines(draw, phi, p, d_cut=d_cut, scale=scale)
@@ -279,9 +246,9 @@ def _fines_diameters(n, rng, p, d_cut):
     ``fines_median_diameter`` (number median ``d50_v exp(-3 sigma^2)``), truncated to
     ``[fines_min_diameter, d_cut]`` by inverse-CDF sampling (m, unscaled)."""
     from scipy.special import ndtr, ndtri
-    s = float(p["fines_sigma_ln"])
-    mu = math.log(float(p["fines_median_diameter"])) - 3.0 * s * s
-    lo = ndtr((math.log(float(p["fines_min_diameter"])) - mu) / s)
+    s = float(p.fines_sigma_ln)
+    mu = math.log(float(p.fines_median_diameter)) - 3.0 * s * s
+    lo = ndtr((math.log(float(p.fines_min_diameter)) - mu) / s)
     hi = ndtr((math.log(float(d_cut)) - mu) / s)
     if not hi > lo:
         raise ConfigError("config keys `psd.fines_*`: the fines distribution has no mass "
@@ -293,7 +260,7 @@ def _fines_diameters(n, rng, p, d_cut):
 def _with_fines(base, phi, p, *, d_cut, scale):
     """Mix a fines population carrying mass fraction ``phi`` into the sampler ``base``
     (fines below ``d_cut``: ``psd.d_min``, or the tabulated distribution's smallest diameter)."""
-    if float(p["fines_min_diameter"]) >= d_cut:
+    if float(p.fines_min_diameter) >= d_cut:
         raise ConfigError("config key `psd.fines_min_diameter` must lie below the smallest "
                           f"diameter of the size distribution (`psd.d_min`, or the first of "
                           f"`psd.diameters`): {d_cut!r} m")
@@ -308,7 +275,7 @@ def _with_fines(base, phi, p, *, d_cut, scale):
         r = np.concatenate([base(n - k, rng), 0.5 * scale * _fines_diameters(k, rng, p, d_cut)])
         rng.shuffle(r)
         return r
-    draw.r_min = 0.5 * scale * float(p["fines_min_diameter"])
+    draw.r_min = 0.5 * scale * float(p.fines_min_diameter)
     draw.r_max = base.r_max
     draw.fit = base.fit
     draw.fines_number_fraction = p_f

@@ -193,7 +193,7 @@ class Resumable:
             self.path.unlink(missing_ok=True)
 
 
-def resumable_simulation(cfg: dict, checkpoint, box, model, walls, *, min_radius: float, seed,
+def resumable_simulation(cfg, checkpoint, box, model, walls, *, min_radius: float, seed,
                          root=None):
     """A workflow stage's :class:`~bedstruct.dem.Simulation` behind a :class:`Resumable`.
 
@@ -204,10 +204,12 @@ def resumable_simulation(cfg: dict, checkpoint, box, model, walls, *, min_radius
     ``(controller, simulation)``.
     """
     from ..dem import Simulation
-    ctl = Resumable(checkpoint, every=int(cfg["output"].get("checkpoint_every", 0)), root=root)
-    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg["time"]["safety"],
-                                       v_max=cfg["time"]["v_max"], min_radius=min_radius,
-                                       n_threads=cfg["n_threads"], seed=seed),
+    from ._common import typed
+    cfg = typed(cfg)
+    ctl = Resumable(checkpoint, every=int(cfg.output.checkpoint_every), root=root)
+    sim = ctl.start(lambda: Simulation(box, model, walls=walls, safety=cfg.time.safety,
+                                       v_max=cfg.time.v_max, min_radius=min_radius,
+                                       n_threads=cfg.n_threads, seed=seed),
                     lambda path: Simulation.from_checkpoint(path, model, walls=walls))
     return ctl, sim
 

@@ -23,6 +23,7 @@ from .._atomic import atomic_path
 from .._json import plain, write_json_atomic
 from ..errors import ConfigError, RunFolderInUseError
 from .config import _refuse_effects_section, config_to_toml
+from .schema import WorkflowConfig, config_dict
 
 try:
     import fcntl
@@ -215,8 +216,10 @@ class RunLayout:
     ----------
     path : path
         The run folder (created).
-    cfg : dict, optional
-        The resolved configuration. Without it the folder is only created.
+    cfg : dict or WorkflowConfig, optional
+        The resolved configuration (a WorkflowConfig is written as its dict,
+        :func:`~bedstruct.workflows.schema.config_dict`). Without it the folder is only
+        created.
     workflow : str
         ``"repose"``, ``"spread"``, ``"calibrate"`` ("" for callers that do not resume).
     inputs : dict, optional
@@ -244,9 +247,11 @@ class RunLayout:
     configuration.
     """
 
-    def __init__(self, path, cfg: dict | None = None, *, workflow: str = "", inputs=None,
+    def __init__(self, path, cfg=None, *, workflow: str = "", inputs=None,
                  overwrite: bool = False):
         self.path = Path(path)
+        if isinstance(cfg, WorkflowConfig):
+            cfg = config_dict(cfg)
         self.cfg = cfg
         self.workflow = workflow
         self.resumed = False

@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import ConfigError
 from .._json import to_jsonable, write_json_atomic
 from ._rundir import RunLayout
-from .config import validate_config
+from ._common import typed
 from .repose import ReposeResult, run_repose
 
 __all__ = ["CalibrationPoint", "CalibrationResult", "calibrate_cohesion", "inverse_linear"]
@@ -131,7 +131,7 @@ def inverse_linear(x, y, sy, target: float) -> tuple[float, float, float]:
     return float(xstar + xm), math.sqrt(max(var, 0.0)), float(b)
 
 
-def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=None,
+def calibrate_cohesion(cfg, *, target_deg: float | None = None, bracket=None,
                        replicates: int | None = None, max_iter: int | None = None,
                        tolerance_deg: float | None = None, out=None,
                        evaluate=None, progress: bool = False,
@@ -140,8 +140,10 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
 
     Parameters
     ----------
-    cfg : dict
-        Configuration (sections ``repose`` and ``calibrate``).
+    cfg : dict or WorkflowConfig
+        Configuration (sections ``repose`` and ``calibrate``); a dict is loaded and checked
+        once (:func:`~bedstruct.workflows.config.workflow_config`), and every point's repose
+        run reads that one configuration.
     target_deg, bracket, replicates, max_iter, tolerance_deg : optional
         Override the ``calibrate`` section (bracket: ``(low, high)`` J/m^3).
     out : path, optional
@@ -173,15 +175,15 @@ def calibrate_cohesion(cfg: dict, *, target_deg: float | None = None, bracket=No
     >>> round(res.cohesion / 1e7, 3), res.bracketed, res.converged
     (1.3, True, True)
     """
-    validate_config(cfg)
-    cc = cfg["calibrate"]
-    target = float(cc["target_deg"] if target_deg is None else target_deg)
-    lo, hi = (float(v) for v in (cc["cohesion_bracket"] if bracket is None else bracket))
+    cfg = typed(cfg)
+    cc = cfg.calibrate
+    target = float(cc.target_deg if target_deg is None else target_deg)
+    lo, hi = (float(v) for v in (cc.cohesion_bracket if bracket is None else bracket))
     if not 0 <= lo < hi:
         raise ConfigError(f"config key `calibrate.cohesion_bracket` must be 0 <= low < high; got {lo}, {hi}")
-    nrep = int(cc["replicates"] if replicates is None else replicates)
-    nmax = int(cc["max_iter"] if max_iter is None else max_iter)
-    tol = float(cc["tolerance_deg"] if tolerance_deg is None else tolerance_deg)
+    nrep = int(cc.replicates if replicates is None else replicates)
+    nmax = int(cc.max_iter if max_iter is None else max_iter)
+    tol = float(cc.tolerance_deg if tolerance_deg is None else tolerance_deg)
     if nrep < 1:
         raise ConfigError(f"config key `calibrate.replicates` must be >= 1; got {nrep}")
     if not tol > 0:

@@ -16,14 +16,15 @@ import copy
 import difflib
 import math
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import ConfigError
-from ._common import psd_table
-from .schema import MAX_SAFETY, check_bounds, defaults_dict
+from .schema import (MAX_SAFETY, WorkflowConfig, check_bounds, defaults_dict, psd_table,
+                     typed_config)
 
 __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path", "config_to_toml",
-           "available_presets", "validate_config"]
+           "available_presets", "validate_config", "workflow_config"]
 
 #: Default configuration (SI units), from the section dataclasses of
 #: :mod:`bedstruct.workflows.schema`. Presets and user files override it.
@@ -270,10 +271,10 @@ def load_config(source=None, *, preset: str | None = None, overrides=()) -> dict
 
 
 def validate_config(cfg: dict) -> None:
-    """Check the values of a configuration (types are checked by :func:`load_config`).
+    """Check the values of a configuration dict (types are checked by :func:`load_config`).
 
-    Called by :func:`load_config` and again by the workflows before any simulation (a
-    configuration may be changed after loading).
+    :func:`load_config` calls it; a dict changed after loading can be checked again
+    with it. The workflows load a dict given to them once, with :func:`workflow_config`.
 
     Raises
     ------
@@ -290,6 +291,39 @@ def validate_config(cfg: dict) -> None:
     bedstruct.errors.ConfigError: config key `spread.gaps` must list at least one layer gap (m); got []
     """
     _validate(cfg)
+
+
+def workflow_config(cfg) -> WorkflowConfig:
+    """The :class:`~bedstruct.workflows.WorkflowConfig` a workflow runs: ``cfg`` itself when it
+    is one, else the mapping loaded once (:func:`load_config`: defaults, its preset, its
+    keys, every type and value checked) and made read-only (:func:`typed_config`).
+
+    A :class:`WorkflowConfig` is taken as it is: make it with :func:`typed_config` of a
+    loaded configuration, and change it with :func:`dataclasses.replace`.
+
+    Raises
+    ------
+    ConfigError
+        Naming the first key of a mapping that is unknown, of the wrong type or out of range.
+    TypeError
+        ``cfg`` is neither a mapping nor a WorkflowConfig.
+
+    Examples
+    --------
+    >>> cfg = load_config(preset="tiny")
+    >>> workflow_config(cfg).contact.friction == cfg["contact"]["friction"]
+    True
+    >>> workflow_config({"preset": "tiny", "contact": {"friction": -0.1}})
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: config key `contact.friction` must be >= 0 (sliding friction coefficient); got -0.1
+    """
+    if isinstance(cfg, WorkflowConfig):
+        return cfg
+    if isinstance(cfg, Mapping):
+        return typed_config(load_config(dict(cfg)))
+    raise TypeError(f"a workflow configuration must be a mapping (load_config) or a "
+                    f"WorkflowConfig; got {type(cfg).__name__}")
 
 
 def _validate(cfg: dict) -> None:

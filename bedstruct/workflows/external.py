@@ -46,8 +46,9 @@ from .._json import to_jsonable
 from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, dialect, repose_deck,
                        run_deck, write_sphere_data)
 from ..errors import ConfigError
-from ._common import contact_model, psd_sampler
+from ._common import contact_model, psd_sampler, typed
 from ._rundir import RunLayout
+from .schema import config_dict
 from .repose_measure import (ReposeReplicate, _finished_replicate, _record_replicate,
                              combine_replicates, measure_pile, repose_result_from_dict)
 
@@ -83,16 +84,17 @@ class ExternalDecks:
         return {"write_only": True, **to_jsonable(self)}
 
 
-def engine_for(cfg: dict, *, required: bool = True):
-    """The :class:`~bedstruct.engines.EngineInfo` of ``cfg["engine"]``.
+def engine_for(cfg, *, required: bool = True):
+    """The :class:`~bedstruct.engines.EngineInfo` of the configuration's ``engine``.
 
     ``external.exe`` names a user's binary. Raises :class:`ConfigError` when
     the engine is not installed and ``required`` (else returns None).
     """
-    name = cfg["engine"]
+    cfg = typed(cfg)
+    name = cfg.engine
     if name not in ENGINE_NAMES:
         raise ConfigError(f"engine {name!r} is not an external engine (liggghts or lammps)")
-    exe = cfg["external"]["exe"] or None
+    exe = cfg.external.exe or None
     info = dialect(name).find(exe)
     if info is None and required:
         where = f"`external.exe` = {exe!r} was not found" if exe else (
@@ -102,15 +104,16 @@ def engine_for(cfg: dict, *, required: bool = True):
     return info
 
 
-def _check_effects(cfg: dict, *, spreading: bool = False) -> None:
+def _check_effects(cfg, *, spreading: bool = False) -> None:
     """Raise ConfigError for a diagnosis effect the configuration switches on and the engine
-    cannot realise (:meth:`bedstruct.engines.Dialect.check_effects`)."""
-    dialect(cfg["engine"]).check_effects(cfg, spreading=spreading)
+    cannot realise (:meth:`bedstruct.engines.Dialect.check_effects`, which reads the
+    configuration's dict)."""
+    dialect(cfg.engine).check_effects(config_dict(cfg), spreading=spreading)
 
 
-def effects_dialect(cfg: dict, *, spreading: bool = False):
-    """The dialect of ``cfg["engine"]`` that writes the effects the config switches on
-    (:meth:`bedstruct.engines.Dialect.with_effects`).
+def effects_dialect(cfg, *, spreading: bool = False):
+    """The dialect of the configuration's ``engine`` that writes the effects the config
+    switches on (:meth:`bedstruct.engines.Dialect.with_effects`).
 
     An engine's per-particle effect quantity (LIGGGHTS' liquid content from
     ``contact.capillary_film_thickness``) is set at the PSD's volume-weighted median
@@ -124,25 +127,25 @@ def effects_dialect(cfg: dict, *, spreading: bool = False):
     >>> round(effects_dialect(cfg).liquid_bridges.liquid_volume_fraction * 1e6, 4)  # 3 t / r, 52 um
     57.6923
     """
-    r_ref = 0.5 * float(cfg["psd"]["scale"]) * float(cfg["psd"]["d50"])
-    return dialect(cfg["engine"]).with_effects(cfg, reference_radius=r_ref,
-                                               spreading=spreading)
+    cfg = typed(cfg)
+    r_ref = 0.5 * float(cfg.psd.scale) * float(cfg.psd.d50)
+    return dialect(cfg.engine).with_effects(config_dict(cfg), reference_radius=r_ref,
+                                            spreading=spreading)
 
 
-def _deck_model(cfg: dict, cohesion: float, *, spreading: bool = False):
+def _deck_model(cfg, cohesion: float):
     """The ContactModel of ``cfg`` as the engine's decks write it, the LAMMPS cohesion model
     (or None) and the ContactModel of ``cfg``.
 
-    The engine's own models of the effects the model switches on (LIGGGHTS' liquid
+    The effects the configuration switches on are checked once per run, before anything
+    runs (:func:`_check_effects`); the engine's own models of them (LIGGGHTS' liquid
     bridges) are in the dialect of :func:`effects_dialect`."""
-    _check_effects(cfg, spreading=spreading)
     model = contact_model(cfg, cohesion=cohesion)
-    deck_model, cm = dialect(cfg["engine"]).cohesion_options(model,
-                                                             cfg["external"]["cohesion_model"])
+    deck_model, cm = dialect(cfg.engine).cohesion_options(model, cfg.external.cohesion_model)
     return deck_model, cm, model
 
 
-def repose_inputs(cfg: dict, *, seed: int):
+def repose_inputs(cfg, *, seed: int):
     """Spheres, box and time step of one repose replicate of ``cfg`` (SI).
 
     The spheres are those the embedded engine's raindrop insertion places in
@@ -158,32 +161,33 @@ def repose_inputs(cfg: dict, *, seed: int):
     from ..core import Box
     from ..dem import Simulation
 
-    rc = cfg["repose"]
-    L, W, H = (float(v) for v in rc["box"])
+    cfg = typed(cfg)
+    rc = cfg.repose
+    L, W, H = (float(v) for v in rc.box)
     model = contact_model(cfg)
     draw = psd_sampler(cfg)
     rmax = draw.r_max
-    periodic = bool(rc["periodic_width"])
-    depth = float(rc["reservoir_depth"])
+    periodic = bool(rc.periodic_width)
+    depth = float(rc.reservoir_depth)
     margin = 4 * rmax
     lo = [-margin - L, 0.0 if periodic else -margin, -depth]
     hi = [L + margin, W if periodic else W + margin, 2.0 * H]
     box = Box(lo, hi, boundary=("ff", "pp" if periodic else "ff", "ff"))
-    sim = Simulation(box, model, walls=[], safety=cfg["time"]["safety"],
-                     v_max=cfg["time"]["v_max"], min_radius=draw.r_min, n_threads=1, seed=seed)
-    n_want = int(rc["n_particles"])
+    sim = Simulation(box, model, walls=[], safety=cfg.time.safety,
+                     v_max=cfg.time.v_max, min_radius=draw.r_min, n_threads=1, seed=seed)
+    n_want = int(rc.n_particles)
     if n_want <= 0:  # as repose_replicate: fill_fraction of the box at a packing fraction of 0.6
         r = draw(20000, np.random.default_rng(0))
         v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
-        n_want = int(0.6 * L * W * H * float(rc["fill_fraction"]) / v_mean)
+        n_want = int(0.6 * L * W * H * float(rc.fill_fraction) / v_mean)
     sim.insert_raindrop(n_want, draw, region=((0.0, 0.0, 0.0), (L, W, H)))
     if sim.n_particles < n_want:
         sim.insert_raindrop(n_want - sim.n_particles, draw,
                             region=((0.0, 0.0, H + rmax), (L, W, 2.0 * H - 2 * rmax)))
     if sim.n_particles < n_want:
         log.warning("repose: inserted %d of %d particles (box full)", sim.n_particles, n_want)
-    dt = min(cfg["time"]["safety"] * model.rayleigh_time(draw.r_min),
-             0.1 * model.hertz_time(draw.r_min, cfg["time"]["v_max"]))
+    dt = min(cfg.time.safety * model.rayleigh_time(draw.r_min),
+             0.1 * model.hertz_time(draw.r_min, cfg.time.v_max))
     return {"positions": np.array(sim.x), "radii": np.array(sim.rad), "box_lo": np.array(lo),
             "box_hi": np.array(hi), "dt": float(dt), "n_wanted": n_want, "r_max": float(rmax)}
 
@@ -236,8 +240,8 @@ def _engine_file(stage: Path, name: str):
 def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only):
     from ..io import read_dump, write_dump   # numba kernels: imported when a run needs them
 
-    rc = cfg["repose"]
-    L, W, H = (float(v) for v in rc["box"])
+    rc = cfg.repose
+    L, W, H = (float(v) for v in rc.box)
     engine = effects_dialect(cfg)
     for note in engine.effect_notes():
         log.warning("%s: %s", engine.name, note)
@@ -252,35 +256,35 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
                              box_lo=inp["box_lo"], box_hi=inp["box_hi"],
                              density=model.materials[0].density,
                              n_types=2, title=f"bedstruct repose seed {seed}")
-    ped = float(rc["pedestal_fraction"])
-    slide = L if ped > 0 else float(rc["slide_fraction"]) * L
-    v = float(rc["plate_speed"])
-    geom = ReposeGeometry(L, W, H, periodic_width=bool(rc["periodic_width"]), ledge_fraction=ped,
+    ped = float(rc.pedestal_fraction)
+    slide = L if ped > 0 else float(rc.slide_fraction) * L
+    v = float(rc.plate_speed)
+    geom = ReposeGeometry(L, W, H, periodic_width=bool(rc.periodic_width), ledge_fraction=ped,
                           plate_speed=v, slide=slide, wall_thickness=4 * inp["r_max"])
-    sched = ReposeSchedule.from_times(inp["dt"], fill=float(rc["fill_time"]), slide=slide / v,
-                                      drain=float(rc["drain_time"]),
-                                      n_frames=max(1, int(rc["n_frames"])))
-    ref = _reference_contact(model, inp["radii"], height=float(rc["fill_fraction"]) * H)
+    sched = ReposeSchedule.from_times(inp["dt"], fill=float(rc.fill_time), slide=slide / v,
+                                      drain=float(rc.drain_time),
+                                      n_frames=max(1, int(rc.n_frames)))
+    ref = _reference_contact(model, inp["radii"], height=float(rc.fill_fraction) * H)
     deck = repose_deck(data, deck_model, engine=engine, geometry=geom, schedule=sched,
                        gravity=_GRAVITY, stl_folder=stage_dir,
-                       contacts=bool(cfg["output"]["contacts"]), cohesion_model=cm, **ref)
+                       contacts=bool(cfg.output.contacts), cohesion_model=cm, **ref)
     deck_path = stage_dir / "in.repose"
     deck_path.write_text(deck)
     n_inserted = len(inp["radii"])
     if write_only:
         return deck_path
-    timeout = float(cfg["external"]["timeout"]) or None
+    timeout = float(cfg.external.timeout) or None
     t0 = _time.perf_counter()
-    run_deck(deck_path, engine=info, np=int(cfg["external"]["np"]), cwd=stage_dir, timeout=timeout)
+    run_deck(deck_path, engine=info, np=int(cfg.external.np), cwd=stage_dir, timeout=timeout)
     wall = _time.perf_counter() - t0
     traj = read_dump(stage_dir / "frames.dump", units="si")
     frame = traj[len(traj) - 1]
-    write_dump(stage_dir / ("pile.dump.gz" if cfg["output"]["compress"] else "pile.dump"), frame)
-    if cfg["output"]["compress"]:
+    write_dump(stage_dir / ("pile.dump.gz" if cfg.output.compress else "pile.dump"), frame)
+    if cfg.output.compress:
         for name in ("frames.dump", "contacts.dump"):
             if (stage_dir / name).exists():
                 _gzip(stage_dir / name)
-    if not cfg["output"]["frames"]:
+    if not cfg.output.frames:
         for name in ("frames.dump", "frames.dump.gz"):
             (stage_dir / name).unlink(missing_ok=True)
     a, s, left, right, top = measure_pile(frame, cfg, r_max=inp["r_max"])
@@ -291,11 +295,12 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
                            wall_time=wall, stage=stage_dir.name)
 
 
-def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
+def run_repose_external(cfg, *, out=None, cohesion: float | None = None,
                         replicates: int | None = None):
-    """Angle of repose of ``cfg`` on LIGGGHTS or LAMMPS (``cfg["engine"]``).
+    """Angle of repose of ``cfg`` on LIGGGHTS or LAMMPS (its ``engine``).
 
-    Parameters are those of :func:`~bedstruct.workflows.run_repose`; the
+    Parameters are those of :func:`~bedstruct.workflows.run_repose` (a dict is loaded and
+    checked once, :func:`~bedstruct.workflows.config.workflow_config`); the
     section ``external`` (``np``, ``exe``, ``write_only``, ``cohesion_model``,
     ``timeout``) drives the engine. Without ``out`` the run happens in a
     temporary folder that is removed afterwards.
@@ -326,13 +331,14 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
     >>> res.engine, len(res.decks)
     ('liggghts', 1)
     """
-    n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
+    cfg = typed(cfg)
+    n = int(cfg.repose.replicates if replicates is None else replicates)
     if n < 1:
         raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
-    write_only = bool(cfg["external"]["write_only"])
+    write_only = bool(cfg.external.write_only)
     _check_effects(cfg, spreading=False)
     info = engine_for(cfg, required=not write_only)
-    k = float(cfg["contact"]["cohesion"] if cohesion is None else cohesion)
+    k = float(cfg.contact.cohesion if cohesion is None else cohesion)
     tmp = None
     if out is None:
         tmp = tempfile.mkdtemp(prefix="bedstruct-repose-")
@@ -345,7 +351,7 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
                 return res
         reps = []
         for i in range(n):
-            seed, stage = int(cfg["seed"]) + i, f"rep{i:02d}"
+            seed, stage = int(cfg.seed) + i, f"rep{i:02d}"
             rep = None if write_only else _finished_replicate(layout, stage, seed, k)
             if rep is None:
                 rep = _repose_replicate(cfg, seed=seed, cohesion=k, stage_dir=layout.path / stage,
@@ -354,21 +360,21 @@ def run_repose_external(cfg: dict, *, out=None, cohesion: float | None = None,
                     _record_replicate(layout, stage, rep)
             reps.append(rep)
         if write_only:
-            np_ = int(cfg["external"]["np"])
+            np_ = int(cfg.external.np)
             cmds = []
             for d in reps:
                 if info is not None:
                     argv = info.command(["-in", d.name, "-log", "in.log"], np=np_)
                 else:
                     argv = ([] if np_ == 1 else ["mpirun", "-np", str(np_)]) + [
-                        dialect(cfg["engine"]).executable_name, "-in", d.name]
+                        dialect(cfg.engine).executable_name, "-in", d.name]
                 cmds.append(f"cd {d.parent} && " + " ".join(argv))
-            res = ExternalDecks(cfg["engine"], "repose", tuple(str(d) for d in reps), tuple(cmds))
-            layout.write_results({"workflow": "repose", "engine": cfg["engine"], **res.to_dict()})
+            res = ExternalDecks(cfg.engine, "repose", tuple(str(d) for d in reps), tuple(cmds))
+            layout.write_results({"workflow": "repose", "engine": cfg.engine, **res.to_dict()})
             return res
         res = combine_replicates(reps, k)
-        layout.write_results({"workflow": "repose", "engine": cfg["engine"],
-                              "np": int(cfg["external"]["np"]), "executable": info.executable,
+        layout.write_results({"workflow": "repose", "engine": cfg.engine,
+                              "np": int(cfg.external.np), "executable": info.executable,
                               **res.to_dict()})
         return res
     finally:

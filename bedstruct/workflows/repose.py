@@ -22,11 +22,10 @@ import time as _time
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import (check_engine, contact_model, progress_bar, psd_sampler, side_walls,
+from ._common import (check_engine, contact_model, progress_bar, psd_sampler, side_walls, typed,
                       width_bounds)
 from ._resume import resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run
-from .config import validate_config
 from .external import run_repose_external
 from .repose_measure import (ReposeReplicate, ReposeResult, _finished_replicate,
                              _record_replicate, combine_replicates, measure_pile,
@@ -46,7 +45,7 @@ def _record_run(ctl, total_time, writer, n_frames):
     run_in_frames(ctl, total_time, n_frames, lambda: ctl.do(lambda: writer.record(ctl.sim)))
 
 
-def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, layout=None,
+def repose_replicate(cfg, *, seed: int, cohesion: float | None = None, layout=None,
                      stage: str = "") -> ReposeReplicate:
     """Run one angle-of-repose simulation of configuration ``cfg`` (see :func:`run_repose`).
 
@@ -58,15 +57,16 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     from ..core import Box
     from ..dem import Rectangle, box_walls
 
+    cfg = typed(cfg)
     check_engine(cfg)
-    rc = cfg["repose"]
-    L, W, H = (float(v) for v in rc["box"])
+    rc = cfg.repose
+    L, W, H = (float(v) for v in rc.box)
     model = contact_model(cfg, cohesion=cohesion)
     k = float(model.cohesion)
     draw = psd_sampler(cfg)
     rmax = draw.r_max
-    periodic = bool(rc["periodic_width"])
-    depth = float(rc["reservoir_depth"])
+    periodic = bool(rc.periodic_width)
+    depth = float(rc.reservoir_depth)
     margin = 4 * rmax
     ylo, yhi, ybound = width_bounds(W, walls=not periodic, margin=margin)
     box = Box([-margin - L, ylo, -depth], [L + margin, yhi, 2.0 * H],
@@ -78,7 +78,7 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     # the plate: wide enough along y to cover the periodic seam
     plate = walls[0]
     plate.half_sizes = (L / 2, W if periodic else W / 2)
-    ped = float(rc["pedestal_fraction"])
+    ped = float(rc.pedestal_fraction)
     if ped > 0:
         walls.append(Rectangle(center=(L / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
                                half_sizes=(ped * L / 2, W if periodic else W / 2), name="ledge"))
@@ -89,11 +89,11 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     if writer is not None:
         ctl.do(writer.reset)
     t0 = _time.perf_counter()
-    n_want = int(rc["n_particles"])
+    n_want = int(rc.n_particles)
     if n_want <= 0:  # auto: fill_fraction of the box at a packing fraction of 0.6
         r = draw(20000, np.random.default_rng(0))
         v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
-        n_want = int(0.6 * L * W * H * float(rc["fill_fraction"]) / v_mean)
+        n_want = int(0.6 * L * W * H * float(rc.fill_fraction) / v_mean)
     region_top = H * 1.0
     n_inserted = 0   # every particle inserted, also those lost while the box fills
 
@@ -113,21 +113,21 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
             break
         n_inserted += int(got[0])
         region_top = got[1]
-        ctl.run_time(0.5 * rc["fill_time"])
+        ctl.run_time(0.5 * rc.fill_time)
     if n_inserted < n_want and not ctl.replaying:
         log.warning("repose: inserted %d of %d particles (box full)", n_inserted, n_want)
-    ctl.run_time(0.5 * rc["fill_time"])
-    if float(rc["rest_time"]) > 0.0:  # the settled pile rests: its contacts age (no steps)
-        ctl.do(lambda: sim.age_contacts(float(rc["rest_time"])))
+    ctl.run_time(0.5 * rc.fill_time)
+    if float(rc.rest_time) > 0.0:  # the settled pile rests: its contacts age (no steps)
+        ctl.do(lambda: sim.age_contacts(float(rc.rest_time)))
     if writer is not None:
         ctl.do(lambda: writer.record(sim))
-    slide = L if ped > 0 else float(rc["slide_fraction"]) * L
-    v = float(rc["plate_speed"])
+    slide = L if ped > 0 else float(rc.slide_fraction) * L
+    v = float(rc.plate_speed)
     ctl.do(lambda: sim.set_wall_motion("plate", velocity=(-v, 0.0, 0.0)))
-    _record_run(ctl, slide / v, writer, max(1, int(rc["n_frames"]) // 2))
+    _record_run(ctl, slide / v, writer, max(1, int(rc.n_frames) // 2))
     ctl.do(lambda: sim.set_wall_motion("plate", velocity=(0.0, 0.0, 0.0)))
-    _record_run(ctl, float(rc["drain_time"]), writer,
-                max(1, int(rc["n_frames"]) - int(rc["n_frames"]) // 2))
+    _record_run(ctl, float(rc.drain_time), writer,
+                max(1, int(rc.n_frames) - int(rc.n_frames) // 2))
 
     def finish():
         frame = writer.final(sim, "pile") if writer is not None else sim.frame()
@@ -146,15 +146,17 @@ def repose_replicate(cfg: dict, *, seed: int, cohesion: float | None = None, lay
     return rep
 
 
-def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates: int | None = None,
+def run_repose(cfg, *, out=None, cohesion: float | None = None, replicates: int | None = None,
                progress: bool = False, overwrite: bool = False) -> ReposeResult:
     """Static angle of repose of configuration ``cfg`` over replicate seeds.
 
     Parameters
     ----------
-    cfg : dict
+    cfg : dict or WorkflowConfig
         From :func:`~bedstruct.workflows.load_config` (section ``repose``,
-        ``material``, ``contact``, ``psd``).
+        ``material``, ``contact``, ``psd``), or its
+        :func:`~bedstruct.workflows.typed_config`. A dict is loaded and checked once
+        (:func:`~bedstruct.workflows.config.workflow_config`).
     out : path, optional
         Run directory (see :class:`~bedstruct.workflows.RunLayout`); nothing
         is written without it.
@@ -174,7 +176,7 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
     -------
     ReposeResult
         (:class:`~bedstruct.workflows.external.ExternalDecks` for an external
-        engine with ``external.write_only``.) ``cfg["engine"]`` = ``liggghts``
+        engine with ``external.write_only``.) ``engine`` = ``liggghts``
         or ``lammps`` runs :func:`~bedstruct.workflows.external.run_repose_external`.
 
     Examples
@@ -185,15 +187,15 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
     >>> 10 < res.angle_deg < 60                      # doctest: +SKIP
     True
     """
-    validate_config(cfg)
-    if cfg.get("engine", "embedded") != "embedded":
+    cfg = typed(cfg)
+    if cfg.engine != "embedded":
         if overwrite and out is not None:
             clear_run(out)
         return run_repose_external(cfg, out=out, cohesion=cohesion, replicates=replicates)
-    n = int(cfg["repose"]["replicates"] if replicates is None else replicates)
+    n = int(cfg.repose.replicates if replicates is None else replicates)
     if n < 1:
         raise ConfigError(f"config key `repose.replicates` must be >= 1; got {n}")
-    k = float(cfg["contact"]["cohesion"] if cohesion is None else cohesion)
+    k = float(cfg.contact.cohesion if cohesion is None else cohesion)
     if k < 0:
         raise ConfigError(f"config key `contact.cohesion` must be >= 0; got {k}")
     layout = (RunLayout(out, cfg, workflow="repose", inputs={"cohesion": k, "replicates": n},
@@ -203,7 +205,7 @@ def run_repose(cfg: dict, *, out=None, cohesion: float | None = None, replicates
         return res
     reps = []
     for i in progress_bar(range(n), desc="repose", unit="replicate", progress=progress):
-        seed, stage = int(cfg["seed"]) + i, f"rep{i:02d}"
+        seed, stage = int(cfg.seed) + i, f"rep{i:02d}"
         rep = _finished_replicate(layout, stage, seed, k)
         if rep is None:
             rep = repose_replicate(cfg, seed=seed, cohesion=k, layout=layout, stage=stage)

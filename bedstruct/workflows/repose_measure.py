@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .._json import to_jsonable, write_json_atomic
-from ._common import from_plain
+from ._common import from_plain, typed
 
 __all__ = ["ReposeReplicate", "ReposeResult", "measure_pile", "combine_replicates",
            "repose_result_from_dict"]
@@ -126,7 +126,7 @@ def repose_result_from_dict(d: dict) -> ReposeResult:
     return replace(from_plain(ReposeResult, {**d, "replicates": []}), replicates=reps)
 
 
-def measure_pile(frame, cfg: dict, *, r_max: float):
+def measure_pile(frame, cfg, *, r_max: float):
     """Angle of the pile left in ``frame`` (SI) by a repose run of ``cfg``.
 
     The same measurement for every engine and for ``bedstruct report``:
@@ -147,10 +147,10 @@ def measure_pile(frame, cfg: dict, *, r_max: float):
     """
     from ..analysis import pile_angle   # numba kernels: imported when a pile is measured
 
-    rc = cfg["repose"]
-    L, W, _ = (float(v) for v in rc["box"])
-    ped = float(rc["pedestal_fraction"])
-    slide = L if ped > 0 else float(rc["slide_fraction"]) * L
+    rc = typed(cfg).repose
+    L, W, _ = (float(v) for v in rc.box)
+    ped = float(rc.pedestal_fraction)
+    slide = L if ped > 0 else float(rc.slide_fraction) * L
     on_plate = int(np.count_nonzero(frame.positions[:, 2] > -frame.radii))
     if on_plate < 10:
         raise ConfigError(f"repose: only {on_plate} particles remain; no pile to measure "

@@ -11,7 +11,8 @@ From this one definition come the defaults of :func:`~bedstruct.workflows.load_c
 (:data:`~bedstruct.workflows.DEFAULTS`), the range checks and their messages, the
 configuration reference in ``bedstruct run --help`` and in the docs
 (:func:`config_reference`), and typed, read-only access to a loaded configuration
-(:func:`typed_config`).
+(:func:`typed_config`; :func:`config_dict` gives its dict back). :func:`psd_table` checks a
+tabulated size distribution.
 """
 
 from __future__ import annotations
@@ -19,12 +20,14 @@ from __future__ import annotations
 import math
 from dataclasses import MISSING, dataclass, field, fields
 
+import numpy as np
+
 from ..errors import ConfigError
 
 __all__ = ["WorkflowConfig", "MaterialSection", "ContactSection", "PSDSection", "TimeSection",
            "ReposeSection", "SpreadSection", "CalibrateSection", "ExternalSection",
-           "OutputSection", "typed_config", "defaults_dict", "check_bounds",
-           "config_reference", "SECTIONS"]
+           "OutputSection", "typed_config", "config_dict", "defaults_dict", "check_bounds",
+           "config_reference", "psd_table", "SECTIONS"]
 
 #: Largest ``time.safety``: the engine refuses a step above this fraction of the Rayleigh
 #: time (``Simulation(max_rayleigh_fraction=0.3)``, LIGGGHTS' check/timestep/gran advice).
@@ -263,6 +266,74 @@ def typed_config(cfg: dict) -> WorkflowConfig:
             v = SECTIONS[f.name](**{k: tuple(x) if isinstance(x, list) else x for k, x in v.items()})
         top[f.name] = v
     return WorkflowConfig(**top)
+
+
+def config_dict(cfg: WorkflowConfig) -> dict:
+    """A :class:`WorkflowConfig` as the nested dict :func:`load_config` returns (tuples become
+    lists): what the run folder's ``config.toml`` and the engines' effect checks read.
+
+    The inverse of :func:`typed_config`.
+
+    Examples
+    --------
+    >>> from bedstruct.workflows import load_config
+    >>> from bedstruct.workflows.schema import config_dict, typed_config
+    >>> cfg = load_config(preset="tiny")
+    >>> config_dict(typed_config(cfg)) == cfg
+    True
+    """
+    if not isinstance(cfg, WorkflowConfig):
+        raise TypeError(f"config_dict: expected a WorkflowConfig; got {type(cfg).__name__}")
+    out = {}
+    for f in fields(WorkflowConfig):
+        v = getattr(cfg, f.name)
+        if f.name in SECTIONS:
+            v = {g.name: _plain_default(getattr(v, g.name)) for g in fields(SECTIONS[f.name])}
+        out[f.name] = v
+    return out
+
+
+def psd_table(p: dict):
+    """The tabulated size distribution of a ``psd`` section, checked: ``(diameters, F)``
+    arrays (m, cumulative volume fraction undersize), or None when none is given.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``psd.diameters`` or ``psd.volume_fractions`` and what is expected.
+
+    Examples
+    --------
+    >>> from bedstruct.workflows.schema import psd_table
+    >>> psd_table({"diameters": [], "volume_fractions": []}) is None
+    True
+    >>> psd_table({"diameters": [2e-5, 4e-5], "volume_fractions": [0.0, 1.0]})
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: config key `psd.diameters` must list at least 3 diameters (m) of the tabulated distribution; got 2
+    """
+    d_raw, f_raw = p.get("diameters"), p.get("volume_fractions")
+    d_raw = () if d_raw is None else d_raw
+    f_raw = () if f_raw is None else f_raw
+    if not len(d_raw) and not len(f_raw):
+        return None
+    d = np.asarray(d_raw, dtype=np.float64)
+    f = np.asarray(f_raw, dtype=np.float64)
+    if d.ndim != 1 or d.size < 3:
+        raise ConfigError("config key `psd.diameters` must list at least 3 diameters (m) of the "
+                          f"tabulated distribution; got {d.size}")
+    if not (np.all(np.isfinite(d)) and d[0] > 0 and np.all(np.diff(d) > 0)):
+        raise ConfigError("config key `psd.diameters` must hold positive diameters (m) in "
+                          f"increasing order; got {[float(x) for x in d_raw]!r}")
+    if f.shape != d.shape:
+        raise ConfigError("config key `psd.volume_fractions` must give one cumulative volume "
+                          f"fraction per diameter of `psd.diameters` ({d.size}); got {f.size}")
+    if not (np.all(np.isfinite(f)) and np.all((f >= 0) & (f <= 1))
+            and np.all(np.diff(f) >= 0) and f[-1] > f[0]):
+        raise ConfigError("config key `psd.volume_fractions` must hold the cumulative volume "
+                          "fraction undersize at each diameter: within [0, 1], not decreasing, "
+                          f"the last above the first; got {[float(x) for x in f_raw]!r}")
+    return d, f
 
 
 def _bound_text(meta) -> str:

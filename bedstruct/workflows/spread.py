@@ -33,11 +33,10 @@ import numpy as np
 from ..errors import ConfigError
 from .._json import to_jsonable
 from ._common import (check_engine, contact_model, frame_fingerprint, from_plain,
-                      german_fit_values, progress_bar, psd_sampler, side_walls, tool_motion,
+                      german_fit_values, progress_bar, psd_sampler, side_walls, tool_motion, typed,
                       width_bounds)
 from ._resume import as_resumable, resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run
-from .config import validate_config
 from .external_spread import run_spread_external
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, LayerResult, SpreadResult,
                              _subset_contacts, frame_metrics, measure_layer,
@@ -52,17 +51,17 @@ log = logging.getLogger(__name__)
 
 def _tool_walls(cfg, x0, draw):
     from ..dem import Blade, Cylinder
-    sc = cfg["spread"]
-    tool = sc["tool"]
+    sc = cfg.spread
+    tool = sc.tool
     if tool in ("blade", "rake", "plate"):
-        bevel = 0.0 if tool == "plate" else float(sc["bevel_deg"])
-        w = Blade(gap=1e-12, speed=0.0, x0=x0, surface_z=0.0, thickness=float(sc["blade_thickness"]),
-                  bevel_deg=bevel, height=float(sc["blade_height"]), y_center=0.5 * float(sc["width"]),
+        bevel = 0.0 if tool == "plate" else float(sc.bevel_deg)
+        w = Blade(gap=1e-12, speed=0.0, x0=x0, surface_z=0.0, thickness=float(sc.blade_thickness),
+                  bevel_deg=bevel, height=float(sc.blade_height), y_center=0.5 * float(sc.width),
                   name="tool")
         w.velocity = (0.0, 0.0, 0.0)
-        return w, 0.5 * float(sc["blade_thickness"])
-    R = float(sc["roller_radius"])
-    return Cylinder(point=(x0, 0.5 * float(sc["width"]), R), axis=(0, 1, 0), radius=R,
+        return w, 0.5 * float(sc.blade_thickness)
+    R = float(sc.roller_radius)
+    return Cylinder(point=(x0, 0.5 * float(sc.width), R), axis=(0, 1, 0), radius=R,
                     name="tool"), R
 
 
@@ -75,14 +74,16 @@ def _move(ctl, name, velocity, distance, speed):
     ctl.do(lambda: ctl.sim.set_wall_motion(name, velocity=(0.0, 0.0, 0.0)))
 
 
-def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
+def run_spread(cfg, *, out=None, progress: bool = False, pile=None,
                overwrite: bool = False) -> SpreadResult:
     """Spread ``len(spread.gaps)`` layers with the configured tool and measure each.
 
     Parameters
     ----------
-    cfg : dict
-        From :func:`~bedstruct.workflows.load_config` (section ``spread``).
+    cfg : dict or WorkflowConfig
+        From :func:`~bedstruct.workflows.load_config` (section ``spread``), or its
+        :func:`~bedstruct.workflows.typed_config`. A dict is loaded and checked once
+        (:func:`~bedstruct.workflows.config.workflow_config`).
     out : path, optional
         Run directory (see :class:`~bedstruct.workflows.RunLayout`): stage
         ``pile`` (the generated pile) and ``layer01``, ``layer02``... with
@@ -93,7 +94,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         Show progress bars over the pile's generation and the layers (stderr; embedded
         engine).
     pile : Frame, optional
-        The settled pile, as ``generate_pile(cfg, seed=cfg["seed"])[0]`` returns it
+        The settled pile, as ``generate_pile(cfg, seed=seed)[0]`` returns it (``seed``: the
+        configuration's)
         (default: generated here). Runs with the same :func:`pile_key` and seed (for
         example at different speeds) can share one.
     overwrite : bool, optional
@@ -117,8 +119,8 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
     from ..core import Box, Frame
     from ..dem import Plane, Rectangle
 
-    validate_config(cfg)
-    if cfg.get("engine", "embedded") != "embedded":  # one layer on LIGGGHTS/LAMMPS
+    cfg = typed(cfg)
+    if cfg.engine != "embedded":  # every layer on LIGGGHTS/LAMMPS
         if pile is not None:
             raise ConfigError("run_spread: a given pile is for the embedded engine; LIGGGHTS and "
                               "LAMMPS decks generate their own")
@@ -132,7 +134,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
                             f"{type(pile).__name__}")
         if pile.n_particles == 0:
             raise ConfigError("run_spread: the given pile has no particles")
-    sc = cfg["spread"]
+    sc = cfg.spread
     inputs = {} if pile is None else {"pile": frame_fingerprint(pile)}
     layout = (RunLayout(out, cfg, workflow="spread", inputs=inputs, overwrite=overwrite)
               if out is not None else None)
@@ -140,13 +142,13 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
     if res is not None:
         (layout.path / "progress.npz").unlink(missing_ok=True)
         return res
-    seed = int(cfg["seed"])
+    seed = int(cfg.seed)
     draw = psd_sampler(cfg)
     rmax = draw.r_max
-    Lplat, W = float(sc["plate_length"]), float(sc["width"])
-    gaps = [float(g) for g in sc["gaps"]]
-    speed = float(sc["speed"])
-    n_reg = int(sc["regions"])
+    Lplat, W = float(sc.plate_length), float(sc.width)
+    gaps = [float(g) for g in sc.gaps]
+    speed = float(sc.speed)
+    n_reg = int(sc.regions)
     names = _REGION_NAMES.get(n_reg, tuple(f"region{i}" for i in range(n_reg)))
     t_start = _time.perf_counter()
 
@@ -160,16 +162,16 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
     x0 = half + 0.5 * rmax                     # the tool starts just in front of the back wall
     tool, half = _tool_walls(cfg, x0, draw)
     front0 = x0 + half
-    x_end = Lplat + float(sc["stop_margin"]) + half
-    walled = bool(sc["side_walls"])
+    x_end = Lplat + float(sc.stop_margin) + half
+    walled = bool(sc.side_walls)
     ylo, yhi, ybound = width_bounds(W, walls=walled, margin=4 * rmax)
     box = Box([-2 * rmax - 2 * half, ylo, -depth],
-              [x_end + half + 4 * rmax, yhi, max(pile_top * 3, float(sc["blade_height"])) + depth],
+              [x_end + half + 4 * rmax, yhi, max(pile_top * 3, float(sc.blade_height)) + depth],
               boundary=("ff", ybound, "ff"))
     walls = [Rectangle(center=(Lplat / 2, W / 2, 0.0), normal=(0, 0, 1), axis=(1, 0, 0),
                        half_sizes=(Lplat / 2, W), name="platform"),
              Plane((0.0, 0.0, 0.0), (1, 0, 0), name="back"), tool]
-    if sc["chamber"]:
+    if sc.chamber:
         # front wall of the build chamber: from below the lowest platform position up to the
         # tool level (z = 0); the excess is pushed over its top into the overflow
         zc = 0.5 * (depth - 2 * rmax)
@@ -185,12 +187,12 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
     z_plat = 0.0
     # spin about +y; the surface velocity is u + omega e_y x (R e_r), so omega = -speed/R
     # (factor -1) moves the bottom of the roller forwards: counter-rotating
-    omega = float(sc["roller_omega_factor"]) * speed / float(sc["roller_radius"])
+    omega = float(sc.roller_omega_factor) * speed / float(sc.roller_radius)
     layers = []
     f_all, cn_all = [], []
     inserted_total = 0
     clear = 3 * rmax
-    n_frames = int(sc["n_frames"])
+    n_frames = int(sc.n_frames)
     i_mid = max(1, n_frames // 2)
     writer = None
     for k, gap in enumerate(progress_bar(gaps, desc="spread", unit="layer", progress=progress)):
@@ -199,15 +201,15 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
         if writer is not None:
             ctl.do(writer.reset)
         # 1. lower the platform by this layer's gap; the bed follows under gravity
-        _move(ctl, "platform", (0.0, 0.0, -float(sc["lower_speed"])), gap, float(sc["lower_speed"]))
+        _move(ctl, "platform", (0.0, 0.0, -float(sc.lower_speed)), gap, float(sc.lower_speed))
         z_plat -= gap
-        ctl.run_time(min(float(sc["settle_time"]), 2 * gap / float(sc["lower_speed"])))
+        ctl.run_time(min(float(sc.settle_time), 2 * gap / float(sc.lower_speed)))
         # 2. reinsert the pile in front of the tool, above whatever is there once powder
         #    thrown up by the stroke has landed (a pile inserted above particles in flight
         #    would fall from their height onto the bed)
         x_off = front0 + 0.5 * rmax
-        foot_x = (x_off - 2 * rmax, x_off + float(sc["pile_length"]) + 2 * rmax)
-        waited = _land_flyers(ctl, z_plat, foot_x, float(sc["settle_time"]), layer=k + 1)
+        foot_x = (x_off - 2 * rmax, x_off + float(sc.pile_length) + 2 * rmax)
+        waited = _land_flyers(ctl, z_plat, foot_x, float(sc.settle_time), layer=k + 1)
 
         def insert_pile():
             foot = (sim.x[:, 0] > foot_x[0]) & (sim.x[:, 0] < foot_x[1])
@@ -218,10 +220,10 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
             return sim.n_particles - n_before
         n_ins = int(ctl.value(insert_pile))
         inserted_total += n_ins
-        ctl.run_time(float(sc["settle_time"]))
+        ctl.run_time(float(sc.settle_time))
         # 3. spread, recording frames
         def start_tool():
-            if sc["tool"] == "roller":
+            if sc.tool == "roller":
                 tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0), omega=omega)
             else:
                 tool_motion(sim, cfg, "tool", (speed, 0.0, 0.0))
@@ -250,9 +252,9 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
                 seg.append(s_)
         run_in_frames(ctl, (x_end - x0) / speed, n_frames, on_frame)
         tool_force = ctl.value(lambda: sim.wall_load_average()["tool"])
-        stop = {"omega": 0.0} if sc["tool"] == "roller" else {}
+        stop = {"omega": 0.0} if sc.tool == "roller" else {}
         ctl.do(lambda: sim.set_wall_motion("tool", velocity=(0.0, 0.0, 0.0), **stop))
-        ctl.run_time(float(sc["settle_time"]))
+        ctl.run_time(float(sc.settle_time))
 
         # 4. measure the bed
         def measure():
@@ -280,7 +282,7 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
                      layer.bed_height_m, layer.nominal_height, layer.n_bed)
         # 5. return the tool above the bed to its start
         if k + 1 < len(gaps):
-            vr = float(sc["return_speed"])
+            vr = float(sc.return_speed)
             _move(ctl, "tool", (0.0, 0.0, vr), clear, vr)
             back = ctl.value(lambda: float(sim.wall_states()[sim.wall_names.index("tool")]
                                            .origin[0]) - x0)
@@ -288,12 +290,12 @@ def run_spread(cfg: dict, *, out=None, progress: bool = False, pile=None,
             _move(ctl, "tool", (0.0, 0.0, -vr), clear, vr)
         # the layer is done: a resumed run starts after it
         ctl.checkpoint()
-        if writer is not None and cfg["output"]["checkpoint"] and k + 1 < len(gaps):
+        if writer is not None and cfg.output.checkpoint and k + 1 < len(gaps):
             ctl.do(lambda: sim.save_checkpoint(writer.path / "checkpoint.npz"))
     ga, gb, gr = german_fit_values(f_all, cn_all)
     run_info = ctl.value(lambda: {"dt": sim.dt, "steps": sim.step,
                                   "n_particles_final": sim.n_particles})
-    res = SpreadResult(layers=tuple(layers), tool=str(sc["tool"]), speed=speed, regions=tuple(names),
+    res = SpreadResult(layers=tuple(layers), tool=str(sc.tool), speed=speed, regions=tuple(names),
                        n_pile=n_pile, n_inserted_total=inserted_total, german_a=ga, german_b=gb,
                        german_r_squared=gr,
                        extra={"wall_time": _time.perf_counter() - t_start, **run_info})

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .._json import to_jsonable
-from ._common import from_plain
+from ._common import from_plain, typed
 
 __all__ = ["LayerResult", "SpreadResult", "frame_metrics", "measure_layer", "particles_in_flight",
            "mid_layer_segregation", "spread_result_from_dict"]
@@ -195,7 +195,7 @@ def mid_layer_segregation(mfr, mfront: float, plate_length: float, pile) -> tupl
         return float("nan"), float("nan")
 
 
-def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, front0: float,
+def measure_layer(fr, contacts_all, cfg, *, index: int, z_plat: float, front0: float,
                   r_max: float, pile, dyn, cn_series, blade_pos, mid, n_inserted: int,
                   n_removed: int, wall_time: float, segregation_values=None):
     """Measure the bed of spread layer ``index`` in frame ``fr`` (SI) with its contacts.
@@ -207,11 +207,11 @@ def measure_layer(fr, contacts_all, cfg: dict, *, index: int, z_plat: float, fro
     """
     from ..analysis import (coordination, coordination_by_window, packing_along, region_fabric,
                             surface_height_map)
-    sc = cfg["spread"]
+    sc = typed(cfg).spread
     rmax = r_max
-    Lplat, W = float(sc["plate_length"]), float(sc["width"])
-    gaps = [float(g) for g in sc["gaps"]]
-    n_reg = int(sc["regions"])
+    Lplat, W = float(sc.plate_length), float(sc.width)
+    gaps = [float(g) for g in sc.gaps]
+    n_reg = int(sc.regions)
     k = index - 1
     gap = gaps[k]
     n_ins = n_inserted

@@ -9,19 +9,19 @@ The embedded run (:mod:`bedstruct.workflows.spread`) and the external engines'
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 
 import numpy as np
 
-from ._common import contact_model, progress_bar, psd_sampler, side_walls, width_bounds
+from ._common import contact_model, progress_bar, psd_sampler, side_walls, typed, width_bounds
 from ._resume import resumable_simulation
+from .schema import config_dict
 
 __all__ = ["generate_pile", "pile_key"]
 
 
-def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress: bool = False):
+def generate_pile(cfg, *, seed: int, draw=None, checkpoint=None, progress: bool = False):
     """Settle ``spread.pile_particles`` by raindrop insertion in a walled box (x from 0, z from 0).
 
     Across y the box is the spreading run's: periodic over ``spread.width``, or between
@@ -36,15 +36,16 @@ def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress:
     """
     from ..core import Box
     from ..dem import Plane
-    sc = cfg["spread"]
+    cfg = typed(cfg)
+    sc = cfg.spread
     draw = psd_sampler(cfg) if draw is None else draw
-    Lp, W = float(sc["pile_length"]), float(sc["width"])
-    n = int(sc["pile_particles"])
+    Lp, W = float(sc.pile_length), float(sc.width)
+    n = int(sc.pile_particles)
     r = draw(20000, np.random.default_rng(0))
     v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
     h_est = n * v_mean / (0.55 * Lp * W)
     top = 3.0 * h_est + 20 * draw.r_max
-    walled = bool(sc["side_walls"])
+    walled = bool(sc.side_walls)
     ylo, yhi, ybound = width_bounds(W, walls=walled, margin=4 * draw.r_max)
     box = Box([-draw.r_max, ylo, -draw.r_max], [Lp + draw.r_max, yhi, top],
               boundary=("ff", ybound, "ff"))
@@ -73,15 +74,15 @@ def generate_pile(cfg: dict, *, seed: int, draw=None, checkpoint=None, progress:
             bar.update(sim.n_particles - bar.n)
         bar.set_description("pile (settling)")
         # settle: until the fastest particle is slower than 1 mm/s (at most 4 pile_time)
-        t_end = ctl.value(lambda: sim.time) + 4 * float(sc["pile_time"])
-        ctl.run_time(0.25 * float(sc["pile_time"]))
+        t_end = ctl.value(lambda: sim.time) + 4 * float(sc.pile_time)
+        ctl.run_time(0.25 * float(sc.pile_time))
         while ctl.value(lambda: sim.time < t_end and
                         float(np.max(np.linalg.norm(sim.v, axis=1))) > 1e-3):
-            ctl.run_time(0.25 * float(sc["pile_time"]))
+            ctl.run_time(0.25 * float(sc.pile_time))
     return sim.frame(), sim.step
 
 
-def _run_pile(cfg: dict, layout, *, seed: int, draw=None, pile=None, progress: bool = False):
+def _run_pile(cfg, layout, *, seed: int, draw=None, pile=None, progress: bool = False):
     """The pile of a spreading run in ``layout`` (a :class:`RunLayout`, or None).
 
     ``pile`` when given; else, in a resumed run, the finished pile of the folder
@@ -94,7 +95,7 @@ def _run_pile(cfg: dict, layout, *, seed: int, draw=None, pile=None, progress: b
         return pile if pile is not None else generate_pile(cfg, seed=seed, draw=draw,
                                                            progress=progress)[0]
     folder = layout.path / "pile"
-    path = folder / ("pile.dump.gz" if cfg["output"]["compress"] else "pile.dump")
+    path = folder / ("pile.dump.gz" if typed(cfg).output.compress else "pile.dump")
     if layout.resumed and path.is_file():
         if pile is not None:
             return pile
@@ -109,7 +110,7 @@ def _run_pile(cfg: dict, layout, *, seed: int, draw=None, pile=None, progress: b
     return pile
 
 
-def pile_key(cfg: dict) -> str:
+def pile_key(cfg) -> str:
     """What :func:`generate_pile` depends on, as a string: runs with equal keys (and seeds)
     can share one pile.
 
@@ -127,9 +128,10 @@ def pile_key(cfg: dict) -> str:
     False
     """
     from ..dem import Simulation
-    rest = copy.deepcopy(cfg)
+    cfg = typed(cfg)
+    rest = config_dict(cfg)
     del rest["spread"]["speed"]
-    v_max = rest["time"].pop("v_max")
+    del rest["time"]["v_max"]
     rest["time"]["pile_dt"] = Simulation.default_time_step(
-        contact_model(cfg), psd_sampler(cfg).r_min, float(v_max), float(cfg["time"]["safety"]))
+        contact_model(cfg), psd_sampler(cfg).r_min, float(cfg.time.v_max), float(cfg.time.safety))
     return json.dumps(rest, sort_keys=True, default=str)
