@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import ConfigError
-from .schema import (MAX_SAFETY, WorkflowConfig, check_bounds, defaults_dict, psd_table,
+from .schema import (MAX_SAFETY, WorkflowConfig, check_bounds, config_dict, defaults_dict, psd_table,
                      typed_config)
 
 __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path", "config_to_toml",
@@ -298,8 +298,9 @@ def workflow_config(cfg) -> WorkflowConfig:
     is one, else the mapping loaded once (:func:`load_config`: defaults, its preset, its
     keys, every type and value checked) and made read-only (:func:`typed_config`).
 
-    A :class:`WorkflowConfig` is taken as it is: make it with :func:`typed_config` of a
-    loaded configuration, and change it with :func:`dataclasses.replace`.
+    A :class:`WorkflowConfig` (made with :func:`typed_config` of a loaded configuration,
+    changed with :func:`dataclasses.replace`) has each value checked against its field's
+    bounds and choices again, so a replaced value out of range is refused too.
 
     Raises
     ------
@@ -317,8 +318,15 @@ def workflow_config(cfg) -> WorkflowConfig:
     Traceback (most recent call last):
     ...
     bedstruct.errors.ConfigError: config key `contact.friction` must be >= 0 (sliding friction coefficient); got -0.1
+    >>> import dataclasses
+    >>> wc = workflow_config(cfg)
+    >>> workflow_config(dataclasses.replace(wc, contact=dataclasses.replace(wc.contact, restitution=1.5)))
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: config key `contact.restitution` must be > 0 and <= 1 (normal coefficient of restitution); got 1.5
     """
     if isinstance(cfg, WorkflowConfig):
+        check_bounds(config_dict(cfg))
         return cfg
     if isinstance(cfg, Mapping):
         return typed_config(load_config(dict(cfg)))
