@@ -537,8 +537,9 @@ def run_benchmark_command(args) -> int:
                                                     "refine", "top_up", "twin_jobs")
                if getattr(args, n, None) not in (None, False)]
     if ignored:
-        raise ConfigError(f"benchmark: {', '.join(ignored)} do not apply (the protocol's settings "
-                          f"are frozen; see docs/diagnose-validation.md)")
+        raise ConfigError(f"benchmark: {', '.join(ignored)} "
+                          f"{'does' if len(ignored) == 1 else 'do'} not apply (the protocol's "
+                          f"settings are frozen; see docs/diagnose-validation.md)")
     engine, sim = arg("twins_engine", "surrogate"), arg("sim", "surrogate")
     res = run_benchmark(args.out, n=arg("n", 40), seed=arg("seed", 0), twins_engine=engine,
                         preset=arg("preset", "tiny"), sim=sim,

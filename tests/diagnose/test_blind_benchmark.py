@@ -289,6 +289,18 @@ def test_committed_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["top1_ci"], [0.0573, 0.4366], atol=5e-5)
 
 
+@pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
+                                    ["--refine", "1"]])
+def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
+    from bedstruct.cli import main
+    from bedstruct.diagnose import blind
+
+    monkeypatch.setattr(blind, "run_benchmark", lambda *a, **k: pytest.fail("ran"))
+    code = main(["diagnose", "benchmark", "--n", "4", "--out", str(tmp_path / "b"), *option])
+    err = capsys.readouterr().err
+    assert code != 0 and f"benchmark: {option[0]} does not apply" in err
+
+
 def test_the_cli_hands_its_options_to_the_protocol(tmp_path, monkeypatch, capsys):
     from bedstruct.cli import main
     from bedstruct.diagnose import blind
