@@ -237,11 +237,15 @@ def run(args) -> int:
         amortised = diagnose_with_library(
             ms, sim, base=cfg.base, library=args.library, workers=args.workers or 1,
             scheduler=args.scheduler, progress=args.progress, **cfg.library_settings(),
-            **settings)
+            bridge=cfg.bridge or None, engine=cfg.engine, **settings)
         diag = amortised.diagnosis
     elif args.workers is not None or args.scheduler:
         raise UsageError("--workers/--scheduler build a run library: give --library DIR")
     else:
+        if cfg.bridge:
+            from ..diagnose.bridge import engine_bridge
+            settings["bridge"] = engine_bridge(ms, sim, base=cfg.base, bridge=cfg.bridge,
+                                               engine=cfg.engine, progress=args.progress)
         diag = diagnose(ms, sim, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
                         progress=args.progress, **settings)
     out = diag.to_json()

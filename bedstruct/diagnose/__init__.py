@@ -28,6 +28,7 @@ from .answer import answer, compact_answer
 from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_model
 from .blind import BenchmarkResult, run_benchmark
 from .blind_twins import OUT_OF_CATALOGUE
+from .bridge import EngineBridge, engine_bridge
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
                         kelvin_radius)
 from .config import SimConfig, load_sim_config, make_simulator
@@ -86,6 +87,8 @@ __all__ = [
     "design_spec", "build_library", "load_library", "RunLibrary", "StaleLibraryError",
     "fit_emulator", "Emulator", "EmulatedSimulator", "diagnose_with_library",
     "AmortisedDiagnosis",
+    # another engine's baseline
+    "EngineBridge", "engine_bridge",
     # validation
     "PRESETS", "ENGINE_PRESETS", "GOALS", "METHOD_VERSION", "ValidationResult", "score_twins",
     "capped_twins", "capped_summary", "separation", "nearest_imitations", "not_told_apart",

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .answer import _observable_words, quantity_text
+from .bridge import engine_bridge
 from .confirm import RERUN_SEED_STRIDE
 from .diagnosis import diagnose
 from .diagnosis_result import Diagnosis
@@ -175,7 +176,8 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
                           nuisance: Sequence[str] = ("cohesion_energy_density",),
                           vary: Mapping | None = None, n_base: int = 16, n_per_effect: int = 16,
                           library_replicates: int = 3, workers: int = 1, scheduler=None,
-                          confirm_seeds: int = 2, progress: bool = False,
+                          confirm_seeds: int = 2, bridge: Mapping | None = None,
+                          engine: Mapping | None = None, progress: bool = False,
                           **diagnose_kwargs) -> AmortisedDiagnosis:
     """Diagnose on the emulator of a run library, then confirm with the real simulator.
 
@@ -205,6 +207,12 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
         Address of a Dask distributed scheduler (``tcp://...``) for the library's runs.
     confirm_seeds : int
         Seeds of the confirming rerun.
+    bridge : mapping, optional
+        A ``[bridge]`` table (:mod:`bedstruct.diagnose.bridge`): the measurements are
+        compared with that engine's baseline, bridged to the emulator at ``base``; its
+        runs are kept in the table's ``cache``, else in ``library/bridge``.
+    engine : mapping, optional
+        The ``[engine]`` table the bridge runs start from.
     **diagnose_kwargs
         Passed on to :func:`~bedstruct.diagnose.diagnose` (``replicates``, ``alpha``...).
 
@@ -240,6 +248,10 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
                                 n_per_effect=n_per_effect, library_replicates=library_replicates,
                                 workers=workers, scheduler=scheduler, progress=progress)
     emulated = EmulatedSimulator(emulator)
+    if bridge:
+        diagnose_kwargs["bridge"] = engine_bridge(
+            measurements, emulated, base=base, bridge=bridge, engine=engine,
+            cache=bridge.get("cache") or Path(library) / "bridge", progress=progress)
     diag = diagnose(measurements, emulated, base=base, effects=effects, nuisance=nuisance,
                     progress=progress, **diagnose_kwargs)
     sh = diag.shrink

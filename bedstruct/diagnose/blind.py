@@ -16,7 +16,8 @@ that made the twins:
 3. **diagnose** each twin file (:func:`diagnose_file`), its result written atomically to
    ``DIR/results/twin-XXX.json``; a killed run resumes with the finished ones, and a rerun
    into a folder whose truth or seal differ from this one's is refused;
-4. **score** (:func:`score_benchmark`): top-1 among effect twins, false attribution among
+4. **score** (:func:`score_benchmark`): top-1 among effect twins (and among those whose
+   gap the "is there a gap" test finds significant), false attribution among
    null twins, ``unexplained`` among out-of-catalogue twins and magnitude-interval
    coverage, each with its Clopper-Pearson 95 % interval (:func:`proportion_interval`);
    the median held-out gap shrink over the effect twins where the held-out gap before is
@@ -45,6 +46,7 @@ from .._json import to_jsonable, write_json_atomic
 from .._version import __version__
 from ..errors import ConfigError
 from .amortised import library_emulator
+from .bridge import engine_bridge
 from .blind_report import benchmark_html, confusion_figure
 from .blind_twins import (OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design, draw_twins,
                           split_counts, twin_measurements)
@@ -137,7 +139,7 @@ def _finite(x) -> float | None:
 
 
 def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
-                  emulator=None) -> dict:
+                  emulator=None, bridge=None) -> dict:
     """Diagnose one measurement file as ``bedstruct diagnose --sim SIM --real PATH`` does.
 
     ``sim`` is ``"surrogate"`` or a simulation config path (:func:`load_sim_config`);
@@ -147,7 +149,9 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
     library, :func:`~bedstruct.diagnose.amortised.library_emulator`) the diagnosis runs
     on the emulator, as ``--library`` answers, without the confirming rerun. The file is
     read with ``check_range=False`` (a twin's numbers need not lie in a kind's plausible
-    range).
+    range). ``bridge`` (an :class:`~bedstruct.diagnose.bridge.EngineBridge`, made once for
+    the benchmark from the configuration's ``[bridge]``) compares the file with that engine's
+    baseline.
 
     Returns
     -------
@@ -155,8 +159,9 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
         The result record: ``answer`` (leading effects joined by ``+``, or the verdict),
         ``verdict``, ``effects`` (each effect, magnitude, interval, confidence),
         ``magnitude`` and ``interval`` of the leading effect, ``shrink`` (held-out excess
-        gap shrink), ``p_heldout_before``, ``n_heldout``, ``shrink_measured``, ``reason``,
-        ``seconds``.
+        gap shrink), ``p_heldout_before``, ``n_heldout``, ``shrink_measured``,
+        ``gap_significant`` and ``p_gap`` (the "is there a gap" test over all measured
+        observables), ``reason``, ``seconds``.
     """
     t0 = time.perf_counter()
     cfg = _sim_config(sim, settings)
@@ -166,7 +171,7 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
     else:
         simulator = make_simulator(cfg, diagnosis_design(ms, cfg.effects))
     diag = diagnose(ms, simulator, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
-                    **cfg.diagnose_settings())
+                    bridge=bridge, **cfg.diagnose_settings())
     att, sh = diag.attribution, diag.shrink
     effects = [{"effect": e.effect, "magnitude": float(e.magnitude),
                 "interval": [float(v) for v in e.interval], "confidence": _finite(e.confidence)}
@@ -178,6 +183,8 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
             "magnitude": effects[0]["magnitude"] if effects else None,
             "interval": effects[0]["interval"] if effects else None,
             "shrink": shrink, "p_heldout_before": p_before, "n_heldout": int(sh.n_heldout),
+            "gap_significant": bool(diag.where.significant),
+            "p_gap": _finite(diag.where.p_value),
             "shrink_measured": bool(shrink is not None and p_before is not None
                                     and p_before < SHRINK_ALPHA),
             "reason": att.reason, "simulator": diag.simulator,
@@ -216,7 +223,8 @@ class BenchmarkResult:
     def json_line(self) -> dict:
         """The keys the CLI's ``--json`` prints."""
         s = self.summary
-        return {k: s[k] for k in ("n", "top1", "top1_ci", "null_false", "null_false_ci",
+        return {k: s[k] for k in ("n", "top1", "top1_ci", "top1_detected", "top1_detected_ci",
+                                  "null_false", "null_false_ci",
                                   "ooc_unexplained", "ooc_ci", "shrink_median", "shrink_ci",
                                   "shrink_ci_method", "shrink_n", "coverage", "coverage_ci",
                                   "commit", "out")}
@@ -242,6 +250,10 @@ def score_benchmark(truth: dict, results: dict) -> dict:
     ooc = [t for t in twins if twins[t]["kind"] == "out_of_catalogue" and t in results]
     lead = {t: results[t]["answer"].split("+")[0] for t in results}
     k_top1 = sum(lead[t] == twins[t]["effect"] for t in eff)
+    # effect twins whose gap the data show (records made before the gap test was stored
+    # have no such key and are left out of this score)
+    seen = [t for t in eff if results[t].get("gap_significant")]
+    k_seen = sum(lead[t] == twins[t]["effect"] for t in seen)
     k_null = sum(results[t]["verdict"] == "attributed" for t in null)
     k_ooc = sum(results[t]["verdict"] == "unexplained" for t in ooc)
     covered = [t for t in eff if lead[t] == twins[t]["effect"] and results[t]["interval"]]
@@ -264,6 +276,7 @@ def score_benchmark(truth: dict, results: dict) -> dict:
         return (k / n if n else float("nan")), list(proportion_interval(k, n)), [int(k), int(n)]
 
     top1, top1_ci, top1_count = prop(k_top1, len(eff))
+    td, td_ci, td_count = prop(k_seen, len(seen))
     nf, nf_ci, nf_count = prop(k_null, len(null))
     ou, ou_ci, ou_count = prop(k_ooc, len(ooc))
     cv, cv_ci, cv_count = prop(k_cov, len(covered))
@@ -278,6 +291,7 @@ def score_benchmark(truth: dict, results: dict) -> dict:
             "counts": {k: sum(v["kind"] == k for v in twins.values())
                        for k in ("effect", "null", "out_of_catalogue")},
             "top1": top1, "top1_ci": top1_ci, "top1_count": top1_count,
+            "top1_detected": td, "top1_detected_ci": td_ci, "top1_detected_count": td_count,
             "null_false": nf, "null_false_ci": nf_ci, "null_false_count": nf_count,
             "ooc_unexplained": ou, "ooc_ci": ou_ci, "ooc_count": ou_count,
             "coverage": cv, "coverage_ci": cv_ci, "coverage_count": cv_count,
@@ -305,8 +319,15 @@ def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library) -> 
                          "out_of_catalogue_changes": [c.name for c in OUT_OF_CATALOGUE
                                                       if twins_engine in c.realised],
                          "cohesion": "calibrated x (1 + U(-0.02, 0.02))",
-                         "design": benchmark_design(twins_engine).names},
+                         "design": benchmark_design(twins_engine).names,
+                         **_bridge_doc(sim, settings)},
             "twins": {s.twin: s.as_dict() for s in specs}}
+
+
+def _bridge_doc(sim, settings) -> dict:
+    """The diagnosing configuration's ``[bridge]`` (engine and runs), when it has one."""
+    tab = _sim_config(sim, settings).bridge
+    return {"bridge": {k: tab[k] for k in ("engine", "runs", "seed")}} if tab else {}
 
 
 def _library_doc(sim, settings) -> dict:
@@ -324,6 +345,22 @@ def _emulator(sim, settings, design, library, workers, scheduler, progress):
     simulator = make_simulator(cfg, diagnosis_design(design, cfg.effects))
     return library_emulator(simulator, base=cfg.base, library=library, workers=workers,
                             scheduler=scheduler, progress=progress, **cfg.library_settings())
+
+
+def _benchmark_bridge(sim, settings, design, emulator, library, progress):
+    """The diagnosing configuration's engine bridge on the benchmark's design (``None``
+    without a ``[bridge]``): made once, its runs kept in the table's ``cache``, else in the
+    library's folder."""
+    cfg = _sim_config(sim, settings)
+    if not cfg.bridge:
+        return None
+    if emulator is not None:
+        simulator = EmulatedSimulator(emulator)
+    else:
+        simulator = make_simulator(cfg, diagnosis_design(design, cfg.effects))
+    cache = cfg.bridge.get("cache") or (Path(library) / "bridge" if library is not None else None)
+    return engine_bridge(design, simulator, base=cfg.base, bridge=cfg.bridge, engine=cfg.engine,
+                         cache=cache, progress=progress)
 
 
 def _dump(doc) -> bytes:
@@ -443,7 +480,7 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
     rdir = out / "results"
     rdir.mkdir(exist_ok=True)
     results = {}
-    emulator = None
+    emulator, bridge, bridged = None, None, False
     for s in specs:
         rp = rdir / f"{s.twin}.json"
         if rp.exists():
@@ -452,8 +489,14 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
         if library is not None and emulator is None:
             emulator = _emulator(sim, diagnose_settings, benchmark_design(twins_engine),
                                  library, workers, scheduler, progress is not None)
+        if not bridged:
+            bridge = _benchmark_bridge(sim, diagnose_settings, benchmark_design(twins_engine),
+                                       emulator, library, progress is not None)
+            bridged = True
+            if bridge is not None:
+                write_json_atomic(out / "bridge.json", bridge.as_dict())
         rec = diagnose_file(out / "twins" / f"{s.twin}.toml", sim, settings=diagnose_settings,
-                            emulator=emulator)
+                            emulator=emulator, bridge=bridge)
         rec["twin_sha256"] = seal["twins_sha256"][s.twin]
         write_json_atomic(rp, rec)
         results[s.twin] = json.loads(rp.read_text())  # as a resumed run reads it

@@ -73,9 +73,13 @@ def benchmark_html(summary: dict, fig) -> str:
     rows = []
     for label, key, ci, count in (
             ("top-1 among effect twins", "top1", "top1_ci", "top1_count"),
+            ("top-1 among effect twins with a significant gap", "top1_detected",
+             "top1_detected_ci", "top1_detected_count"),
             ("false attribution among null twins", "null_false", "null_false_ci", "null_false_count"),
             ("unexplained among out-of-catalogue twins", "ooc_unexplained", "ooc_ci", "ooc_count"),
             ("magnitude interval coverage", "coverage", "coverage_ci", "coverage_count")):
+        if count not in summary:   # a summary scored before this score existed
+            continue
         lo, hi = summary[ci]
         k, n = summary[count]
         rows.append(f"<tr><td>{e(label)}</td><td>{k} / {n}</td><td>{_fmt(summary[key])}</td>"

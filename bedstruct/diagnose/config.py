@@ -22,6 +22,10 @@ parameters recalibration may change, the catalogue and the statistical levels::
     [catalogue]
     exclude = []
 
+    [bridge]                  # optional: measurements compared with another engine's baseline
+    engine = "liggghts"       # (bedstruct.diagnose.bridge)
+    runs = 6
+
     [diagnosis]
     alpha = 0.05              # level of the 'is there a gap' tests
     select_alpha = 0.01       # family-wise level of the effect selection
@@ -45,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError
+from .bridge import bridge_table
 from .catalogue import Effect, catalogue
 from .measurements import MeasurementSet
 from .parameters import parameter_bounds
@@ -75,6 +80,7 @@ class SimConfig:
     noise: float = 1.0
     engine: dict = field(default_factory=dict)
     library: dict = field(default_factory=dict)
+    bridge: dict = field(default_factory=dict)
     path: str | None = None
 
     def diagnose_settings(self, seed: int | None = None) -> dict[str, Any]:
@@ -105,7 +111,7 @@ class SimConfig:
                 "gof_alpha": self.gof_alpha,
                 "max_effects": self.max_effects, "refine": self.refine,
                 "confirm_rounds": self.confirm_rounds, "library": dict(self.library),
-                "path": self.path}
+                "bridge": dict(self.bridge), "path": self.path}
 
 
 #: Keys of the ``[library]`` table: the size of a run library's design
@@ -162,6 +168,18 @@ def _library_table(doc, p) -> dict:
     return out
 
 
+def _bridge(doc, p, kind) -> dict:
+    tab = doc.get("bridge")
+    if tab is None:
+        return {}
+    if not isinstance(tab, dict):
+        raise ConfigError(f"{p}: key 'bridge': expected a table; got {tab!r}")
+    if kind != "engine":
+        raise ConfigError(f"{p} [bridge]: needs [simulator] kind = \"engine\" (the bridge runs "
+                          f"the engine's workflow on another engine)")
+    return bridge_table(tab, str(p), p.parent)
+
+
 def _get(table, key, typ, where, default):
     if key not in table:
         return default
@@ -197,7 +215,7 @@ def load_sim_config(path) -> SimConfig:
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{p}: not valid TOML ({exc})") from None
     unknown = set(doc) - {"simulator", "base", "recalibrate", "catalogue", "diagnosis", "engine",
-                          "library"}
+                          "library", "bridge"}
     if unknown:
         raise ConfigError(f"{p}: key {sorted(unknown)[0]!r}: unknown table")
     sim = doc.get("simulator", {})
@@ -254,7 +272,7 @@ def load_sim_config(path) -> SimConfig:
                     refine=_get(dg, "refine", int, f"{p} [diagnosis]", 2),
                     confirm_rounds=_get(dg, "confirm_rounds", int, f"{p} [diagnosis]", 2),
                     engine=engine, library=_library_table(doc, p),
-                    path=str(p))
+                    bridge=_bridge(doc, p, kind), path=str(p))
     if cfg.replicates < 2:
         raise ConfigError(f"{p} [simulator]: key 'replicates': need >= 2; got {cfg.replicates}")
     if cfg.top_up < 0:

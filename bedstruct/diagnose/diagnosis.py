@@ -135,7 +135,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
              top_up: int = 0, seed: int = 0, alpha: float = 0.05, select_alpha: float = 0.01,
              gof_alpha: float = 0.01, max_effects: int = 2,
              fingerprints: FingerprintSet | None = None, simulator_name: str | None = None,
-             refine: int = 2, confirm_rounds: int = 2, bounds=None,
+             refine: int = 2, confirm_rounds: int = 2, bounds=None, bridge=None,
              progress: bool = False) -> Diagnosis:
     """Diagnose the gap between a simulator and a measurement set.
 
@@ -185,6 +185,11 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         fit on the calibration observables: the recalibration beyond its finite-difference
         step is re-simulated, or a single effect's rerun becomes a fingerprint node; the
         model is refitted and rerun (see :func:`~bedstruct.diagnose.confirm.confirm_attribution`).
+    bridge : EngineBridge, optional
+        The offset of the user's engine from ``simulator`` at the base point
+        (:func:`~bedstruct.diagnose.bridge.engine_bridge`): the measurements are diagnosed
+        as their gap from that engine's baseline (:meth:`EngineBridge.apply`), and the
+        result says so in its data notes and ``settings["bridge"]``.
 
     Returns
     -------
@@ -199,6 +204,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
             f"({', '.join(m.name for m in measurements.unmeasured)}); there is nothing to fit "
             f"the recalibration and the effects to")
     name = simulator_name or getattr(simulator, "name", type(simulator).__name__)
+    if bridge is not None:
+        measurements = bridge.apply(measurements)
     bounds = _within_simulator_domain(simulator, nuisance, bounds)
     if fingerprints is None:
         design = diagnosis_design(measurements, effects)
@@ -213,6 +220,8 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         fps = fingerprints.subset([e.name for e in effects])
         fps = replace(fps, alpha=select_alpha)
     fps, rows_meas, names, y, sm, data_notes = _measured_vectors(measurements, fps)
+    if bridge is not None:
+        data_notes = (bridge.note(),) + tuple(data_notes)
     # the file's trials without a reading (trial_counts), and the observables the reruns must
     # give for them that the fit does not use (read in no trial)
     trials = file_trials(measurements)
@@ -402,6 +411,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
                 "base": dict(fps.base), "effects": [e.name for e in effects],
                 "refine": refine, "confirm_rounds": confirm_rounds,
                 "data_notes": list(data_notes),
+                "bridge": None if bridge is None else bridge.as_dict(),
                 "missing_runs": dict(fps.meta.get("missing_runs", {})),
                 "uneven_scatter": dict(fps.meta.get("uneven_scatter", {})),
                 "node_scatter": _node_scatter(fps),

@@ -375,3 +375,26 @@ def test_twins_made_in_two_processes_equal_those_made_in_one(bench, tmp_path):
         assert (two / "twins" / p.name).read_bytes() == p.read_bytes()
     assert json.loads((two / "seal.json").read_text())["twins_sha256"] == \
         json.loads((out / "seal.json").read_text())["twins_sha256"]
+
+
+def test_top1_among_twins_with_a_significant_gap_counts_only_those():
+    truth = {"protocol": blind.PROTOCOL, "settings": {}, "twins": {
+        "a": {"kind": "effect", "effect": "missing_fines", "magnitude": 0.05},
+        "b": {"kind": "effect", "effect": "wall_friction", "magnitude": 0.1},
+        "c": {"kind": "effect", "effect": "non_sphericity", "magnitude": 0.2},
+        "d": {"kind": "null", "change": None, "magnitude": None}}}
+
+    def rec(answer, verdict, seen):
+        return {"answer": answer, "verdict": verdict, "interval": None, "magnitude": None,
+                "shrink": None, "shrink_measured": False, "gap_significant": seen}
+
+    results = {"a": rec("missing_fines", "attributed", True), "b": rec("none", "none", False),
+               "c": rec("unexplained", "unexplained", True), "d": rec("none", "none", False)}
+    s = blind.score_benchmark(truth, results)
+    assert s["top1_count"] == [1, 3] and s["top1_detected_count"] == [1, 2]
+    assert s["top1_detected_ci"] == pytest.approx(list(proportion_interval(1, 2)))
+    # records without the gap test leave the score empty rather than counting them
+    for r in results.values():
+        del r["gap_significant"]
+    s = blind.score_benchmark(truth, results)
+    assert s["top1_detected_count"] == [0, 0] and s["top1_count"] == [1, 3]

@@ -1,0 +1,357 @@
+"""The engine bridge: measurements compared with the baseline of the user's own engine.
+
+The diagnosis learns how each catalogue effect moves the observables from the
+diagnosing simulator (the embedded engine, or the emulator of its run library). When
+the user's simulation runs on another code (LIGGGHTS, LAMMPS), the two codes' baselines
+differ by a systematic offset that is no effect of the catalogue: at the same nominal
+parameters one code's bed may be denser at the stroke's start or its surface smoother.
+Read as a gap, that offset is attributed to whichever effect resembles it, or left
+``unexplained``.
+
+A bridge removes it. The user's engine is run ``n`` times at the base point; the offset
+of each observable component is
+
+.. math::
+
+    \\delta = \\bar y_\\text{engine}(\\theta_0) - \\mu_\\text{diagnosing}(\\theta_0),
+
+with :math:`\\mu_\\text{diagnosing}` the emulator's predicted mean (or the mean of as
+many runs of the diagnosing simulator). The measurements are then diagnosed as
+:math:`y - \\delta`, with uncertainty :math:`\\sqrt{u^2 + \\sigma_\\delta^2}`,
+
+.. math::
+
+    \\sigma_\\delta^2 = \\max(s_\\text{engine}^2, s_\\text{diagnosing}^2) / n
+    + \\sigma_\\mu^2,
+
+:math:`s` the run-to-run standard deviations (the larger of the two, as ``n`` runs
+estimate a variance poorly) and :math:`\\sigma_\\mu` the emulator's own uncertainty at
+the base point. This is the first-order (constant-offset) model discrepancy of
+multi-fidelity modelling: the effects' responses and the recalibrated parameters'
+sensitivities still come from the diagnosing simulator, and the offset is taken to be
+the same over the small region the recalibration explores.
+
+In a simulation configuration::
+
+    [bridge]
+    engine = "liggghts"     # the engine whose baseline the measurements are compared with
+    runs = 6                # its runs at the base point (>= 2)
+    seed = 0                # first seed of those runs
+    cache = "bridge-runs"   # optional: folder keeping the runs (relative to the file)
+
+:func:`engine_bridge` makes the runs and the offset; :func:`bridge_offset` computes it
+from runs made elsewhere; :meth:`EngineBridge.apply` translates a measurement set.
+
+.. versionadded:: 0.1
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..errors import ConfigError
+from .measurements import MeasurementSet, Observations
+
+__all__ = ["EngineBridge", "bridge_offset", "engine_bridge", "bridge_runs", "BRIDGE_KEYS",
+           "BRIDGE_SEED_STRIDE"]
+
+#: Keys of the ``[bridge]`` table and their types.
+BRIDGE_KEYS = {"engine": str, "runs": int, "seed": int, "cache": str}
+#: Seeds of the bridge runs start here (plus the table's ``seed``): apart from the
+#: diagnosis' replicate and rerun seeds.
+BRIDGE_SEED_STRIDE = 500_000
+
+
+@dataclass(frozen=True)
+class EngineBridge:
+    """The offset between the user's engine and the diagnosing simulator at the base point.
+
+    Attributes
+    ----------
+    engine : str
+        The bridged engine (``"liggghts"``, ``"lammps"``, ``"embedded"``).
+    offset : dict of str to (k,) ndarray
+        Per observable, engine minus diagnosing simulator (canonical units).
+    offset_sd : dict of str to (k,) ndarray
+        Standard deviation of each offset.
+    n_runs : int
+        Runs of the engine at the base point.
+    base : dict
+        The base point (SI).
+    reference : str
+        What the engine was compared with (``"emulator"`` or ``"simulator, n runs"``).
+    left_out : tuple of str
+        Observables the engine's runs could not observe: no offset, left out of a
+        bridged measurement set.
+    seeds : tuple of int
+        The engine runs' seeds.
+    """
+
+    engine: str
+    offset: dict
+    offset_sd: dict
+    n_runs: int
+    base: dict
+    reference: str
+    left_out: tuple = ()
+    seeds: tuple = ()
+    runs: dict = field(default_factory=dict, repr=False)
+
+    def apply(self, measurements: MeasurementSet) -> MeasurementSet:
+        """The measurement set in the diagnosing simulator's frame: ``y - offset``,
+        uncertainty ``sqrt(u**2 + offset_sd**2)``; observables without an offset are
+        left out (see :meth:`note`).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from bedstruct.diagnose import MeasurementSet, measurement_from_dict
+        >>> from bedstruct.diagnose.bridge import EngineBridge
+        >>> m = measurement_from_dict({"name": "aor", "kind": "static_angle", "value": 33.0,
+        ...                            "uncertainty": 0.3, "unit": "deg"})
+        >>> b = EngineBridge("liggghts", {"aor": np.array([1.0])}, {"aor": np.array([0.4])},
+        ...                  6, {}, "emulator")
+        >>> out = b.apply(MeasurementSet((m,)))
+        >>> float(out["aor"].values[0]), round(float(out["aor"].uncertainty[0]), 3)
+        (32.0, 0.5)
+        """
+        keep = []
+        for m in measurements.measurements:
+            if m.name not in self.offset:
+                continue
+            d = np.asarray(self.offset[m.name], float)
+            s = np.asarray(self.offset_sd[m.name], float)
+            if d.shape != m.values.shape:
+                raise ConfigError(f"bridge: observable {m.name!r} has {m.values.shape[0]} "
+                                  f"components; the {self.engine} runs gave {d.shape[0]}")
+            reps = None if m.replicates is None else np.asarray(m.replicates, float) - d
+            keep.append(replace(m, values=m.values - d, uncertainty=np.hypot(m.uncertainty, s),
+                                replicates=reps))
+        unmeasured = tuple(m for m in measurements.unmeasured if m.name in self.offset)
+        return replace(measurements, measurements=tuple(keep), unmeasured=unmeasured)
+
+    def note(self) -> str:
+        """One sentence for the diagnosis' data notes."""
+        out = (f"measurements compared with the {self.engine} baseline: the offset of "
+               f"{self.n_runs} {self.engine} runs at the base point from the "
+               f"{self.reference} is subtracted and its uncertainty added")
+        if self.left_out:
+            out += (f"; {', '.join(self.left_out)} left out (the {self.engine} runs did not "
+                    f"observe them)")
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (offsets and their standard deviations per observable)."""
+        return {"engine": self.engine, "n_runs": int(self.n_runs), "reference": self.reference,
+                "base": dict(self.base), "seeds": [int(s) for s in self.seeds],
+                "offset": {k: np.asarray(v, float).tolist() for k, v in self.offset.items()},
+                "offset_sd": {k: np.asarray(v, float).tolist() for k, v in self.offset_sd.items()},
+                "left_out": list(self.left_out)}
+
+
+def bridge_offset(engine_runs: Sequence[Observations], reference_mean: Mapping[str, Any],
+                  reference_sd: Mapping[str, Any], reference_noise_sd: Mapping[str, Any], *,
+                  engine: str, base: Mapping[str, float] | None = None,
+                  reference: str = "emulator", seeds: Sequence[int] = ()) -> EngineBridge:
+    """The bridge from ``engine_runs`` (runs of the user's engine at the base point).
+
+    Parameters
+    ----------
+    engine_runs : sequence of Observations
+        At least two runs of the user's engine at the base point.
+    reference_mean, reference_sd, reference_noise_sd : mapping of str to (k,) array_like
+        The diagnosing simulator at the same point: its predicted mean, that mean's own
+        standard deviation (an emulator's :attr:`~bedstruct.diagnose.emulator.Prediction.sd`;
+        see the notes for a mean of runs) and its run-to-run standard deviation.
+    engine : str
+        Name of the user's engine.
+
+    Returns
+    -------
+    EngineBridge
+
+    Notes
+    -----
+    For a reference that is itself a mean of ``m`` runs, pass ``reference_sd`` =
+    ``s / sqrt(m)``. A component that an engine run did not observe (NaN) is averaged
+    over the runs that did; an observable with a component no run observed, or observed
+    by one run only, gets no offset and is listed in :attr:`EngineBridge.left_out`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.diagnose import Observations
+    >>> from bedstruct.diagnose.bridge import bridge_offset
+    >>> runs = [Observations({"aor": [33.0]}), Observations({"aor": [35.0]})]
+    >>> b = bridge_offset(runs, {"aor": [32.0]}, {"aor": [0.0]}, {"aor": [1.0]},
+    ...                   engine="liggghts")
+    >>> float(b.offset["aor"][0]), round(float(b.offset_sd["aor"][0]), 3)
+    (2.0, 1.0)
+    """
+    runs = list(engine_runs)
+    if len(runs) < 2:
+        raise ConfigError(f"bridge: need at least 2 runs of the {engine} engine; got {len(runs)}")
+    offset, sd, left = {}, {}, []
+    for name in reference_mean:
+        mu = np.atleast_1d(np.asarray(reference_mean[name], float))
+        if any(name not in r for r in runs):
+            left.append(name)
+            continue
+        y = np.array([np.atleast_1d(np.asarray(r[name], float)) for r in runs])
+        if y.shape[1] != mu.shape[0]:
+            raise ConfigError(f"bridge: observable {name!r}: the {engine} runs give "
+                              f"{y.shape[1]} components, the diagnosing simulator {mu.shape[0]}")
+        n = np.isfinite(y).sum(axis=0)
+        if np.any(n < 2) or not np.all(np.isfinite(mu)):
+            left.append(name)
+            continue
+        ybar = np.nanmean(y, axis=0)
+        s_eng = np.nanstd(y, axis=0, ddof=1)
+        s_ref = np.atleast_1d(np.asarray(reference_noise_sd[name], float))
+        s_mu = np.atleast_1d(np.asarray(reference_sd[name], float))
+        offset[name] = ybar - mu
+        sd[name] = np.sqrt(np.maximum(s_eng, s_ref) ** 2 / n + s_mu ** 2)
+    if not offset:
+        raise ConfigError(f"bridge: the {engine} runs observed none of "
+                          f"{', '.join(reference_mean)} in two or more runs")
+    return EngineBridge(str(engine), offset, sd, len(runs), dict(base or {}), reference,
+                        tuple(left), tuple(int(s) for s in seeds),
+                        {k: np.array([np.asarray(r[k], float) for r in runs])
+                         for k in offset})
+
+
+def bridge_table(doc: Mapping[str, Any], where: str, folder: Path | None = None) -> dict:
+    """The checked ``[bridge]`` table of a simulation configuration (see the module
+    docstring); ``cache`` made absolute against ``folder``."""
+    tab = dict(doc)
+    for key, v in tab.items():
+        if key not in BRIDGE_KEYS:
+            raise ConfigError(f"{where} [bridge]: key {key!r}: unknown (expected "
+                              f"{', '.join(BRIDGE_KEYS)})")
+        typ = BRIDGE_KEYS[key]
+        if not isinstance(v, typ) or isinstance(v, bool):
+            raise ConfigError(f"{where} [bridge]: key {key!r}: expected {typ.__name__}; got {v!r}")
+    if "engine" not in tab:
+        raise ConfigError(f"{where} [bridge]: key 'engine' is required (the engine whose "
+                          f"baseline the measurements are compared with)")
+    engines = ("embedded", "liggghts", "lammps")
+    if tab["engine"] not in engines:
+        raise ConfigError(f"{where} [bridge]: key 'engine': expected one of "
+                          f"{', '.join(engines)}; got {tab['engine']!r}")
+    tab.setdefault("runs", 6)
+    if tab["runs"] < 2:
+        raise ConfigError(f"{where} [bridge]: key 'runs': need >= 2 runs to know the offset's "
+                          f"uncertainty; got {tab['runs']}")
+    tab.setdefault("seed", 0)
+    if "cache" in tab:
+        c = Path(tab["cache"]).expanduser()
+        tab["cache"] = str(c if c.is_absolute() or folder is None else folder / c)
+    return tab
+
+
+def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str, float],
+                  bridge: Mapping[str, Any], engine: Mapping[str, Any] | None = None,
+                  cache=None, engine_simulator=None, progress: bool = False) -> EngineBridge:
+    """Run the user's engine at the base point and bridge it to ``simulator``.
+
+    Parameters
+    ----------
+    measurements : MeasurementSet
+        The measurement file: its measured observables are the ones run and bridged.
+    simulator : callable
+        The diagnosing simulator. An
+        :class:`~bedstruct.diagnose.emulator.EmulatedSimulator` answers with its
+        emulator's prediction at ``base``; any other is run ``runs`` times there.
+    base : mapping
+        The base point (SI).
+    bridge : mapping
+        The ``[bridge]`` table (:func:`bridge_table`): ``engine``, ``runs``, ``seed``,
+        ``cache``.
+    engine : mapping, optional
+        The ``[engine]`` table of the diagnosing configuration (preset or workflow
+        ``config``, ``overrides``, ``np``); the bridge runs use it with ``engine``
+        replaced by the bridged one.
+    cache : path, optional
+        Folder keeping the bridge runs (overrides the table's ``cache``): a second
+        diagnosis with the same configuration and code reads them back.
+    engine_simulator : callable, optional
+        The user's engine as a simulator, ``sim(base, effects, seed) -> Observations``
+        (default: the ``[engine]`` table on the bridge's ``engine``, :func:`bridge_runs`).
+
+    Returns
+    -------
+    EngineBridge
+    """
+    measured = measurements.select(("calibrate", "validate"))
+    if engine_simulator is None:
+        runs, seeds = bridge_runs(measured, base=base, bridge=bridge, engine=engine, cache=cache,
+                                  progress=progress)
+    else:
+        seeds = [BRIDGE_SEED_STRIDE + int(bridge.get("seed", 0)) + i
+                 for i in range(int(bridge.get("runs", 6)))]
+        runs = [engine_simulator(dict(base), {}, s) for s in seeds]
+    names = measured.names
+    emu = getattr(simulator, "emulator", None)
+    if emu is not None:
+        p = emu.predict(dict(base), {})
+        mean, sd, noise = _split(p.mean, emu), _split(p.sd, emu), _split(p.noise_sd, emu)
+        reference = "emulator"
+    else:
+        ref = [simulator(dict(base), {}, s) for s in seeds]
+        mean, sd, noise = {}, {}, {}
+        for n in names:
+            y = np.array([np.asarray(r[n], float) for r in ref])
+            k = np.isfinite(y).sum(axis=0)
+            mean[n] = np.nanmean(y, axis=0) if np.all(k > 0) else np.full(y.shape[1], np.nan)
+            noise[n] = np.nanstd(y, axis=0, ddof=1) if np.all(k > 1) else np.full(y.shape[1], np.nan)
+            sd[n] = noise[n] / np.sqrt(np.maximum(k, 1))
+        reference = f"{getattr(simulator, 'name', 'diagnosing simulator')}, {len(seeds)} runs"
+    want = {n: mean[n] for n in names if n in mean}
+    return bridge_offset(runs, want, sd, noise, engine=str(bridge["engine"]), base=base,
+                         reference=reference, seeds=seeds)
+
+
+def bridge_runs(design: MeasurementSet, *, base: Mapping[str, float], bridge: Mapping[str, Any],
+                engine: Mapping[str, Any] | None = None, cache=None, seeds=None,
+                progress: bool = False) -> tuple[list[Observations], list[int]]:
+    """Runs of the bridged engine at the base point: ``(observations, seeds)``.
+
+    The ``[engine]`` table with ``engine`` replaced by the bridge's; the runs observe
+    ``design``'s observables and are kept in ``cache`` (else the table's ``cache``), so
+    that processes running some of ``seeds`` each fill the same folder.
+    """
+    from .engine_simulator import diagnosis_simulator
+    tab = dict(bridge)
+    table = {k: v for k, v in dict(engine or {}).items() if k not in ("cache", "jobs")}
+    table["engine"] = tab["engine"]
+    folder = cache if cache is not None else tab.get("cache")
+    if folder is not None:
+        table["cache"] = str(folder)
+    sim = diagnosis_simulator(design, table)
+    if seeds is None:
+        seeds = [BRIDGE_SEED_STRIDE + int(tab.get("seed", 0)) + i for i in range(int(tab["runs"]))]
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(seeds), desc=f"bridge ({tab['engine']})", unit="run")
+    runs = []
+    for s in seeds:
+        runs.append(sim(dict(base), {}, int(s)))
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    return runs, [int(s) for s in seeds]
+
+
+def _split(vec, emu) -> dict:
+    out, i = {}, 0
+    for n in emu.names:
+        k = emu.n_components[n]
+        out[n] = np.asarray(vec[i:i + k], float)
+        i += k
+    return out

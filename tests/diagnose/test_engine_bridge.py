@@ -1,0 +1,144 @@
+"""The engine bridge: measurements from another code diagnosed against that code's baseline.
+
+The user's engine is the surrogate plus a fixed offset shaped like an effect's response
+(two codes that differ at the same nominal parameters the way a catalogue effect would
+move the bed). Without the bridge a null twin of that engine is read as the effect; with
+the bridge, built from the engine's own runs at the base point, it is not, and a real
+effect on top of the offset is still found.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bedstruct.diagnose import (BASE_PARAMETERS, Observations, SurrogateSimulator, catalogue,
+                                compute_fingerprints, diagnose, diagnosis_design,
+                                load_sim_config)
+from bedstruct.diagnose.bridge import EngineBridge, bridge_offset, engine_bridge
+from bedstruct.diagnose.twins import _twin_measurements
+from bedstruct.diagnose.validation_design import twin_design
+from bedstruct.errors import ConfigError
+
+
+class OffsetEngine:
+    """Another code: the surrogate's runs plus a fixed offset per observable."""
+
+    name = "offset engine"
+
+    def __init__(self, sim, offset):
+        self.sim, self.offset = sim, offset
+
+    def __call__(self, base, effects, seed):
+        obs = self.sim(base, effects, seed)
+        return Observations({n: obs[n] + self.offset.get(n, 0.0) for n in obs.names},
+                            source="offset engine")
+
+
+@pytest.fixture(scope="module")
+def setup():
+    eff = catalogue()
+    design = diagnosis_design(twin_design(), eff)
+    sim = SurrogateSimulator(design)
+    fps = compute_fingerprints(sim, design, BASE_PARAMETERS, eff, replicates=3, alpha=0.01)
+    # the offset: blade start-up's response at its prior's top, averaged over seeds
+    top = [e for e in eff if e.name == "blade_startup"][0].prior[1]
+    diff = [{n: sim(BASE_PARAMETERS, {"blade_startup": top}, s)[n]
+             - sim(BASE_PARAMETERS, {}, s)[n] for n in design.names} for s in range(8)]
+    offset = {n: np.mean([d[n] for d in diff], axis=0) for n in design.names}
+    return eff, sim, fps, OffsetEngine(sim, offset), offset
+
+
+def _twin(engine, tmp_path, effects, seed):
+    return _twin_measurements(twin_design(), engine, dict(BASE_PARAMETERS), effects, seed,
+                              tmp_path, seed, engine.sim.noise_sd())
+
+
+def _bridge(setup, ms):
+    eff, sim, fps, engine, _ = setup
+    return engine_bridge(ms, sim, base=BASE_PARAMETERS, bridge={"engine": "liggghts", "runs": 6},
+                         engine_simulator=engine)
+
+
+def test_the_offset_is_the_engines_baseline_minus_the_simulators(setup, tmp_path):
+    eff, sim, fps, engine, offset = setup
+    ms = _twin(engine, tmp_path, {}, 11)
+    b = _bridge(setup, ms)
+    assert b.n_runs == 6 and b.reference.endswith("6 runs") and not b.left_out
+    for n in ms.names:
+        # the estimated offset lies within 4 of its standard deviations of the true one
+        assert np.all(np.abs(b.offset[n] - offset[n]) <= 4 * b.offset_sd[n] + 1e-12), n
+        assert np.all(b.offset_sd[n] > 0)
+    out = b.apply(ms)
+    for m in ms:
+        assert np.allclose(out[m.name].values, m.values - b.offset[m.name])
+        assert np.all(out[m.name].uncertainty > m.uncertainty)
+
+
+def test_a_null_twin_of_another_code_is_no_effect_once_bridged(setup, tmp_path):
+    eff, sim, fps, engine, _ = setup
+    ms = _twin(engine, tmp_path, {}, 21)
+    plain = diagnose(ms, sim, base=BASE_PARAMETERS, effects=eff, fingerprints=fps, refine=0,
+                     seed=5)
+    # without the bridge the code-to-code offset is read as a gap the simulator must close
+    assert plain.attribution.verdict != "none"
+    bridged = diagnose(ms, sim, base=BASE_PARAMETERS, effects=eff, fingerprints=fps, refine=0,
+                       seed=5, bridge=_bridge(setup, ms))
+    assert bridged.attribution.verdict == "none", bridged.attribution.reason
+    assert bridged.settings["bridge"]["engine"] == "liggghts"
+    assert any("liggghts baseline" in n for n in bridged.data_notes())
+
+
+def test_an_effect_on_top_of_the_offset_is_still_found(setup, tmp_path):
+    eff, sim, fps, engine, _ = setup
+    ms = _twin(engine, tmp_path, {"missing_fines": 0.08}, 31)
+    d = diagnose(ms, sim, base=BASE_PARAMETERS, effects=eff, fingerprints=fps, refine=0,
+                 seed=5, bridge=_bridge(setup, ms))
+    assert d.attribution.verdict == "attributed", d.attribution.reason
+    assert d.attribution.selected[0].effect == "missing_fines"
+
+
+def test_an_observable_the_engine_could_not_observe_is_left_out():
+    runs = [Observations({"a": [1.0], "b": [np.nan]}), Observations({"a": [3.0], "b": [2.0]})]
+    b = bridge_offset(runs, {"a": [0.0], "b": [0.0]}, {"a": [0.0], "b": [0.0]},
+                      {"a": [1.0], "b": [1.0]}, engine="lammps")
+    assert b.left_out == ("b",) and float(b.offset["a"][0]) == 2.0
+    # the larger of the two scatters over n: sqrt(2) / sqrt(2)
+    assert float(b.offset_sd["a"][0]) == pytest.approx(1.0)
+    assert "b left out" in b.note()
+    with pytest.raises(ConfigError, match="at least 2 runs"):
+        bridge_offset(runs[:1], {"a": [0.0]}, {"a": [0.0]}, {"a": [1.0]}, engine="lammps")
+
+
+def test_a_bridge_with_components_of_another_shape_is_refused():
+    from bedstruct.diagnose import MeasurementSet, measurement_from_dict
+    m = measurement_from_dict({"name": "a", "kind": "static_angle", "value": 33.0,
+                               "uncertainty": 1.0, "unit": "deg"})
+    b = EngineBridge("lammps", {"a": np.zeros(2)}, {"a": np.ones(2)}, 4, {}, "emulator")
+    with pytest.raises(ConfigError, match="components"):
+        b.apply(MeasurementSet((m,)))
+
+
+@pytest.mark.parametrize("table, message", [
+    ('[bridge]\nengine = "liggghts"\nrun = 4\n', "key 'run': unknown"),
+    ('[bridge]\nruns = 4\n', "key 'engine' is required"),
+    ('[bridge]\nengine = "gromacs"\n', "expected one of embedded, liggghts, lammps"),
+    ('[bridge]\nengine = "liggghts"\nruns = 1\n', "need >= 2 runs"),
+    ('[bridge]\nengine = "liggghts"\nruns = "6"\n', "expected int"),
+])
+def test_the_bridge_table_is_checked(tmp_path, table, message):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nkind = "engine"\n\n[engine]\npreset = "tiny"\n\n' + table)
+    with pytest.raises(ConfigError, match=message):
+        load_sim_config(p)
+
+
+def test_the_bridge_table_needs_an_engine_simulator_and_keeps_its_cache_beside_the_file(tmp_path):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nkind = "surrogate"\n\n[bridge]\nengine = "liggghts"\n')
+    with pytest.raises(ConfigError, match="kind = \"engine\""):
+        load_sim_config(p)
+    p.write_text('[simulator]\nkind = "engine"\n\n[bridge]\nengine = "lammps"\ncache = "runs"\n')
+    cfg = load_sim_config(p)
+    assert cfg.bridge == {"engine": "lammps", "runs": 6, "seed": 0, "cache": str(tmp_path / "runs")}
+    assert cfg.as_dict()["bridge"]["engine"] == "lammps"
