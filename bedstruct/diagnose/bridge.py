@@ -138,7 +138,8 @@ class EngineBridge:
         """One sentence for the diagnosis' data notes."""
         out = (f"measurements compared with the {self.engine} baseline: the offset of "
                f"{self.n_runs} {self.engine} runs at the base point from the "
-               f"{self.reference} is subtracted and its uncertainty added")
+               f"{self.reference} is subtracted (the measured values shown are the "
+               f"measurements less that offset) and its uncertainty added")
         if self.left_out:
             out += (f"; {', '.join(self.left_out)} left out (the {self.engine} runs did not "
                     f"observe them)")
