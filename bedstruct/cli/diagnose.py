@@ -63,6 +63,9 @@ def add_arguments(parser) -> None:
                         default=None, help="benchmark: what makes the twins' data (default surrogate)")
     parser.add_argument("--n", type=int, default=None,
                         help="benchmark: number of twins (>= 4; default 40)")
+    parser.add_argument("--draw", choices=["detectable", "prior"], default=None,
+                        help="benchmark: effect magnitudes the diagnosing model detects "
+                             "(default), or over the whole prior")
     parser.add_argument("--diagnose-setting", action="append", default=None, metavar="KEY=VALUE",
                         help="benchmark: replace a diagnosis setting (tests only; recorded)")
     parser.add_argument("--json", action="store_true", help="print the answer as one JSON line last")

@@ -7,8 +7,13 @@ the diagnosis' frozen default settings, on a diagnosing simulator separate from 
 that made the twins:
 
 1. **draw** ``n`` twins (:func:`~bedstruct.diagnose.blind_twins.draw_twins`): at least half
-   effect twins (catalogue effects at magnitudes over their priors), a quarter null twins,
-   a quarter out-of-catalogue twins (:data:`~bedstruct.diagnose.blind_twins.OUT_OF_CATALOGUE`);
+   effect twins, a quarter null twins, a quarter out-of-catalogue twins
+   (:data:`~bedstruct.diagnose.blind_twins.OUT_OF_CATALOGUE`). Effect magnitudes are drawn
+   uniformly where the diagnosing model detects the effect with 95 % power in a twin's
+   noise (``draw="detectable"``: the diagnosing configuration's fingerprints on the
+   benchmark's design, :func:`~bedstruct.diagnose.blind_twins.detectable_ranges`; an effect
+   it detects nowhere in its prior is not drawn), or over the whole prior
+   (``draw="prior"``); the ranges go into the truth;
 2. **truth first**: ``DIR/truth.json`` (twin id -> kind, effect or change, magnitude; the
    code commit, the bedstruct version, the settings), each twin's file
    ``DIR/twins/twin-XXX.toml`` (nothing of the truth), then ``DIR/seal.json`` (SHA-256 of
@@ -48,20 +53,25 @@ from ..errors import ConfigError
 from .amortised import library_emulator
 from .bridge import engine_bridge
 from .blind_report import benchmark_html, confusion_figure
-from .blind_twins import (OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design, draw_twins,
-                          split_counts, twin_measurements)
+from .blind_twins import (DETECT_POWER, OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design,
+                          detectable_ranges, draw_twins, split_counts, twin_measurements)
 from .catalogue import CATALOGUE
 from .config import load_sim_config, make_simulator
 from .diagnosis import diagnose, diagnosis_design
+from .fingerprint_runs import compute_fingerprints
+from .fingerprints import selection_threshold
 from .emulator import EmulatedSimulator
 from .measurement_io import load_measurements
 
-__all__ = ["PROTOCOL", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
+__all__ = ["PROTOCOL", "DRAWS", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
            "score_benchmark", "proportion_interval", "median_interval", "confusion_figure",
            "add_benchmark_arguments", "run_benchmark_command"]
 
-#: Revision of the protocol, in ``truth.json``.
-PROTOCOL = "bedstruct.blind/1"
+#: Revision of the protocol, in ``truth.json`` (2: the ``draw`` setting, effect magnitudes
+#: where the diagnosing model detects them).
+PROTOCOL = "bedstruct.blind/2"
+#: How effect magnitudes may be drawn (:func:`run_benchmark`).
+DRAWS = ("detectable", "prior")
 #: Level of the held-out gap test before: shrink counts where ``p_before`` is below it.
 SHRINK_ALPHA = 0.05
 
@@ -305,8 +315,17 @@ def score_benchmark(truth: dict, results: dict) -> dict:
             "settings": truth["settings"], "twins": per_twin}
 
 
-def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library) -> dict:
+def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library,
+               draw: str = "prior", ranges=None) -> dict:
     n_eff, n_null, n_ooc = split_counts(n)
+    if draw == "detectable":
+        how = {"effect_magnitudes": (f"uniform over the magnitudes the diagnosing model detects "
+                                     f"with {DETECT_POWER:.0%} power in a twin's noise, the tenth "
+                                     f"of the prior nearest 0 left out"),
+               "detectable_ranges": {k: [list(r) for r in v] for k, v in ranges.items()}}
+    else:
+        how = {"effect_magnitudes": "uniform over the prior, the tenth of its range nearest 0 "
+                                    "left out"}
     return {"protocol": PROTOCOL, "commit": _commit(), "version": __version__,
             "settings": {"n": int(n), "seed": int(seed), "twins_engine": twins_engine,
                          "preset": preset, "sim": str(sim),
@@ -314,8 +333,7 @@ def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library) -> 
                          "diagnosed_on": "simulator" if library is None else
                          {"emulator_of_run_library": _library_doc(sim, settings)},
                          "split": {"effect": n_eff, "null": n_null, "out_of_catalogue": n_ooc},
-                         "effect_magnitudes": "uniform over the prior, the tenth of its range "
-                                              "nearest 0 left out",
+                         "draw": draw, **how,
                          "out_of_catalogue_changes": [c.name for c in OUT_OF_CATALOGUE
                                                       if twins_engine in c.realised],
                          "cohesion": "calibrated x (1 + U(-0.02, 0.02))",
@@ -345,6 +363,18 @@ def _emulator(sim, settings, design, library, workers, scheduler, progress):
     simulator = make_simulator(cfg, diagnosis_design(design, cfg.effects))
     return library_emulator(simulator, base=cfg.base, library=library, workers=workers,
                             scheduler=scheduler, progress=progress, **cfg.library_settings())
+
+
+def _detectable(sim, settings, twins_engine, simulator):
+    """The effects' detectable magnitudes (:func:`detectable_ranges`) on the diagnosing
+    configuration's fingerprints at its base point, on the benchmark's design."""
+    cfg = _sim_config(sim, settings)
+    design = diagnosis_design(benchmark_design(twins_engine), cfg.effects)
+    fps = compute_fingerprints(simulator, design, cfg.base, cfg.effects, nuisance=cfg.nuisance,
+                               replicates=cfg.replicates, seed=cfg.seed, alpha=cfg.select_alpha)
+    return detectable_ranges(fps, threshold=selection_threshold(cfg.select_alpha,
+                                                                len(cfg.effects)),
+                             repeats=1 if twins_engine == "surrogate" else 3)
 
 
 def _benchmark_bridge(sim, settings, design, emulator, library, progress):
@@ -434,7 +464,7 @@ def _prepare(out: Path, truth: dict, specs, twins_engine, preset, progress=None,
 def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surrogate",
                   preset: str = "tiny", sim: str = "surrogate",
                   diagnose_settings: dict | None = None, library=None, workers: int = 1,
-                  scheduler=None, progress=None) -> BenchmarkResult:
+                  scheduler=None, draw: str = "detectable", progress=None) -> BenchmarkResult:
     """Run the blind benchmark into folder ``out`` (see the module docstring).
 
     Parameters
@@ -463,6 +493,11 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
         Local processes making the twins (one twin each), and for the library's runs.
     scheduler : str, optional
         A Dask scheduler address for the library's runs.
+    draw : {"detectable", "prior"}
+        Effect magnitudes drawn where the diagnosing model detects the effect with 95 %
+        power in a twin's noise (its fingerprints at the base point, on the library's
+        emulator when ``library`` is given, which is then built before the twins), or over
+        the whole prior.
     progress : callable, optional
         Called with a line per twin made and per twin diagnosed.
 
@@ -473,14 +508,28 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
     if twins_engine not in TWIN_ENGINES:
         raise ConfigError(f"twins engine: expected one of {', '.join(TWIN_ENGINES)}; "
                           f"got {twins_engine!r}")
+    if draw not in DRAWS:
+        raise ConfigError(f"draw: expected one of {', '.join(DRAWS)}; got {draw!r}")
     out = Path(out)
-    specs = draw_twins(n, seed, twins_engine)
-    truth = _truth_doc(n, seed, twins_engine, preset, sim, diagnose_settings, specs, library)
+    emulator, ranges = None, None
+    if draw == "detectable":
+        if library is not None:
+            emulator = _emulator(sim, diagnose_settings, benchmark_design(twins_engine),
+                                 library, workers, scheduler, progress is not None)
+            simulator = EmulatedSimulator(emulator)
+        else:
+            cfg = _sim_config(sim, diagnose_settings)
+            simulator = make_simulator(cfg, diagnosis_design(benchmark_design(twins_engine),
+                                                             cfg.effects))
+        ranges = _detectable(sim, diagnose_settings, twins_engine, simulator)
+    specs = draw_twins(n, seed, twins_engine, ranges)
+    truth = _truth_doc(n, seed, twins_engine, preset, sim, diagnose_settings, specs, library,
+                       draw, ranges)
     seal = _prepare(out, truth, specs, twins_engine, preset, progress, workers)
     rdir = out / "results"
     rdir.mkdir(exist_ok=True)
     results = {}
-    emulator, bridge, bridged = None, None, False
+    bridge, bridged = None, False
     for s in specs:
         rp = rdir / f"{s.twin}.json"
         if rp.exists():
@@ -543,6 +592,9 @@ def add_benchmark_arguments(parser) -> None:
         help="benchmark: number of twins (>= 4; default 40: 20 effect, 10 null, 10 "
              "out-of-catalogue)")
     add("--seed", type=int, default=0, help="seed of the draw (default 0)")
+    add("--draw", choices=DRAWS, default="detectable",
+        help="benchmark: effect magnitudes where the diagnosing model detects them "
+             "(default) or over the whole prior")
     add("--sim", default="surrogate",
         help="diagnosing simulator: 'surrogate' or a simulation config TOML")
     add("--out", required=True,
@@ -588,7 +640,7 @@ def run_benchmark_command(args) -> int:
                         preset=arg("preset", "tiny"), sim=sim,
                         diagnose_settings=_settings(arg("diagnose_setting", [])) or None,
                         library=arg("library", None), workers=arg("workers", 1),
-                        scheduler=arg("scheduler", None),
+                        scheduler=arg("scheduler", None), draw=arg("draw", "detectable"),
                         progress=None if arg("json", False) else print)
     s = res.summary
 

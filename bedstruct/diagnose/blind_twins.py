@@ -6,7 +6,10 @@ twins from one seed (:func:`draw_twins`):
 - **effect** twins: one catalogue effect at a magnitude drawn uniformly over its prior
   range, the tenth of the range nearest 0 left out (a twin with no effect is a null twin);
   only effects the twin engine realises are drawn (:func:`engine_realises`: LIGGGHTS and
-  LAMMPS state theirs in :func:`bedstruct.engines.effect_realisations`);
+  LAMMPS state theirs in :func:`bedstruct.engines.effect_realisations`). With
+  ``ranges`` (:func:`detectable_ranges`) the magnitudes are drawn only where the
+  diagnosing model detects the effect with 95 % power in a twin's noise, and an effect it
+  detects nowhere in its prior is not drawn;
 - **null** twins: the base model with no effect;
 - **out-of-catalogue** twins: a physical change that the catalogue does not hold at all
   (:data:`OUT_OF_CATALOGUE`), at a magnitude drawn over its stated range.
@@ -46,13 +49,17 @@ from .validation_design import engine_twin_design, twin_design
 
 __all__ = ["TWIN_ENGINES", "OutOfCatalogueChange", "OUT_OF_CATALOGUE", "BENCHMARK_HELDOUT",
            "TwinSpec", "benchmark_design", "draw_twins", "realisation", "engine_realises", "split_counts",
-           "twin_simulator", "twin_measurements", "effect_magnitude_range"]
+           "twin_simulator", "twin_measurements", "effect_magnitude_range", "detectable_ranges",
+           "DETECT_POWER"]
 
 #: Engines that can make the twins' "real" data.
 TWIN_ENGINES = ("surrogate", "embedded", "liggghts", "lammps")
 
 #: Fraction of an effect's prior range, nearest 0, left out of the magnitude draw.
 _NEAR_ZERO = 0.10
+#: Power with which the diagnosing model detects an effect twin at a magnitude of
+#: :func:`detectable_ranges`.
+DETECT_POWER = 0.95
 
 
 @dataclass(frozen=True)
@@ -215,6 +222,65 @@ def effect_magnitude_range(effect) -> tuple[tuple[float, float], ...]:
     return tuple((a, b) for a, b in out if b > a)
 
 
+def detectable_ranges(fps, *, threshold: float, repeats: int = 3,
+                      power: float = DETECT_POWER, grid: int = 129) -> dict[str, tuple]:
+    """Per effect of ``fps``, the magnitudes at which the diagnosing model detects it.
+
+    A twin's gap, with the part recalibration absorbs projected out, is about
+    ``N(g(a), 1)`` in units of its noise, ``g(a)`` the fingerprint's projected gap at
+    magnitude ``a``; the effect is selected when the gap's square exceeds ``threshold``
+    (:func:`~bedstruct.diagnose.fingerprints.selection_threshold`). It is detected with
+    ``power`` where ``g(a) >= sqrt(threshold) + z_power``. The noise is that of a twin of
+    ``repeats`` repeated runs diagnosed against the base runs' mean: the design's reading
+    uncertainty and the run scatter over ``repeats``, plus the base mean's.
+
+    Parameters
+    ----------
+    fps : FingerprintSet
+        Fingerprints of the diagnosing simulator on the benchmark's design.
+    threshold : float
+        The selection's chi-square threshold.
+    repeats : int
+        Runs averaged into a twin's file.
+    power : float
+        Detection probability asked for.
+    grid : int
+        Points per magnitude interval of :func:`effect_magnitude_range` searched.
+
+    Returns
+    -------
+    dict of str to tuple of (float, float)
+        Each effect's intervals (inside its drawable range); empty where no magnitude of
+        its prior is detected with that power.
+    """
+    from scipy.stats import norm
+
+    from .twins import _projected_gap
+    need = math.sqrt(float(threshold)) + float(norm.ppf(power))
+    n = np.maximum(np.sum(np.isfinite(fps.base_samples), axis=0), 1)
+    sigma = np.sqrt(fps.sigma_meas ** 2 + fps.sim_var / int(repeats) + fps.sim_var / n)
+    out = {}
+    for f in fps.fingerprints:
+        gap = _projected_gap(fps, f.name, sigma)
+        parts = []
+        for a, b in effect_magnitude_range(f.effect):
+            xs = np.linspace(a, b, int(grid))
+            ok = np.array([gap(x) >= need for x in xs])
+            k = 0
+            while k < len(xs):
+                if not ok[k]:
+                    k += 1
+                    continue
+                j = k
+                while j + 1 < len(xs) and ok[j + 1]:
+                    j += 1
+                if j > k:
+                    parts.append((float(xs[k]), float(xs[j])))
+                k = j + 1
+        out[f.name] = tuple(parts)
+    return out
+
+
 def realisation(change: OutOfCatalogueChange, engine: str) -> tuple[str, str]:
     """How ``engine`` realises ``change``: ``("base", key)`` or ``("override", key)``.
 
@@ -265,11 +331,14 @@ def engine_realises(effect, engine: str) -> bool:
     return True
 
 
-def draw_twins(n: int, seed: int, engine: str) -> list[TwinSpec]:
+def draw_twins(n: int, seed: int, engine: str,
+               ranges: Mapping[str, tuple] | None = None) -> list[TwinSpec]:
     """The ``n`` twins of a benchmark, drawn from ``seed`` (see the module docstring).
 
     Effects and changes are taken in turn over a shuffled order (each appears about
     equally often), the twins' order is shuffled, and ids are ``twin-000``... in that order.
+    ``ranges`` (effect -> intervals, :func:`detectable_ranges`) replaces each effect's
+    drawable range; an effect with no interval, or missing from it, is not drawn.
     """
     n_eff, n_null, n_ooc = split_counts(n)
     rng = np.random.default_rng([int(seed), 48])
@@ -278,14 +347,20 @@ def draw_twins(n: int, seed: int, engine: str) -> list[TwinSpec]:
     if not changes:  # pragma: no cover - every engine realises the contact changes
         raise ConfigError(f"twins engine {engine!r} realises no out-of-catalogue change")
     effects = [e for e in CATALOGUE if engine_realises(e, engine)]
+    if ranges is not None:
+        effects = [e for e in effects if ranges.get(e.name)]
+        if not effects:
+            raise ConfigError(f"no catalogue effect that twins engine {engine!r} realises is "
+                              f"detected by the diagnosing model at any magnitude of its prior "
+                              f"on this design; there are no effect twins to draw")
     eff_order = rng.permutation(len(effects))
     ooc_order = rng.permutation(len(changes))
     drawn = []
     for i in range(n_eff):
         e = effects[int(eff_order[i % len(effects)])]
-        ranges = effect_magnitude_range(e)
-        widths = np.array([b - a for a, b in ranges])
-        a, b = ranges[int(rng.choice(len(ranges), p=widths / widths.sum()))]
+        parts = effect_magnitude_range(e) if ranges is None else tuple(ranges[e.name])
+        widths = np.array([b - a for a, b in parts])
+        a, b = parts[int(rng.choice(len(parts), p=widths / widths.sum()))]
         drawn.append(("effect", e.name, float(rng.uniform(a, b))))
     drawn += [("null", None, None)] * n_null
     for i in range(n_ooc):

@@ -4,6 +4,7 @@ an end-to-end --n 4 run on the surrogate (library and CLI), stale folders refuse
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 import hashlib
 import json
 import shutil
@@ -314,17 +315,18 @@ def test_the_cli_hands_its_options_to_the_protocol(tmp_path, monkeypatch, capsys
     monkeypatch.setattr(blind, "run_benchmark", fake)
     code = main(["diagnose", "benchmark", "--twins-engine", "surrogate", "--n", "8", "--seed", "3",
                  "--out", str(tmp_path / "b"), "--diagnose-setting", "replicates=2",
-                 "--library", str(tmp_path / "lib"), "--workers", "2"])
+                 "--library", str(tmp_path / "lib"), "--workers", "2", "--draw", "prior"])
     assert code == 1 and "stop here" in capsys.readouterr().err
     assert seen == dict(out=str(tmp_path / "b"), n=8, seed=3, twins_engine="surrogate",
                         preset="tiny", sim="surrogate", diagnose_settings={"replicates": 2},
                         library=str(tmp_path / "lib"), workers=2, scheduler=None,
-                        progress=print)
+                        draw="prior", progress=print)
 
 
 def test_twins_on_a_run_library_emulator(tmp_path):
     """--library: the twins are diagnosed on the emulator of the diagnosing configuration's
-    run library (built once, after the seal), and the truth records its design."""
+    run library, and the truth records its design. The library is built before the twins
+    are drawn: its emulator's fingerprints say which magnitudes the draw may take."""
     lib = {"n_base": 4, "n_per_effect": 4, "replicates": 2}
     out = tmp_path / "lib-run"
     res = run_benchmark(out, n=4, seed=3, diagnose_settings=dict(FAST, library=lib),
@@ -336,8 +338,9 @@ def test_twins_on_a_run_library_emulator(tmp_path):
     recs = [json.loads(p.read_text()) for p in sorted((out / "results").glob("*.json"))]
     assert len(recs) == 4 and all(r["simulator"].startswith("emulator") for r in recs)
     runs = list((tmp_path / "lib" / "runs").glob("*.json"))
-    assert len(runs) > 0 and all(p.stat().st_mtime > (out / "seal.json").stat().st_mtime
+    assert len(runs) > 0 and all(p.stat().st_mtime <= (out / "truth.json").stat().st_mtime
                                  for p in runs)
+    assert truth["settings"]["draw"] == "detectable"
     assert res.n == 4
 
 
@@ -398,3 +401,55 @@ def test_top1_among_twins_with_a_significant_gap_counts_only_those():
         del r["gap_significant"]
     s = blind.score_benchmark(truth, results)
     assert s["top1_detected_count"] == [0, 0] and s["top1_count"] == [1, 3]
+
+
+def test_detectable_draw_takes_magnitudes_the_diagnosing_model_detects():
+    from scipy.stats import norm
+
+    from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue,
+                                    compute_fingerprints, diagnosis_design)
+    from bedstruct.diagnose.blind_twins import benchmark_design, detectable_ranges
+    from bedstruct.diagnose.fingerprints import selection_threshold
+    from bedstruct.diagnose.twins import _projected_gap
+
+    eff = catalogue()
+    design = diagnosis_design(benchmark_design("surrogate"), eff)
+    fps = compute_fingerprints(SurrogateSimulator(design), design, BASE_PARAMETERS, eff,
+                               replicates=3, alpha=0.01)
+    thr = selection_threshold(0.01, len(eff))
+    ranges = detectable_ranges(fps, threshold=thr, repeats=1)
+    need = np.sqrt(thr) + norm.ppf(0.95)
+    n = np.maximum(np.sum(np.isfinite(fps.base_samples), axis=0), 1)
+    sigma = np.sqrt(fps.sigma_meas ** 2 + fps.sim_var + fps.sim_var / n)
+    assert set(ranges) == {e.name for e in eff} and any(ranges.values())
+    for e in eff:
+        gap = _projected_gap(fps, e.name, sigma)
+        for a, b in ranges[e.name]:
+            assert e.prior[0] <= a < b <= e.prior[1]
+            assert gap(a) >= need and gap(b) >= need and gap(0.5 * (a + b)) >= need
+    # a noisier twin (the same runs, less repeated) is detected over less of each prior
+    noisy = detectable_ranges(replace(fps, sigma_meas=3 * fps.sigma_meas), threshold=thr, repeats=1)
+    width = lambda r: sum(b - a for a, b in r)  # noqa: E731
+    assert all(width(noisy[k]) <= width(ranges[k]) + 1e-12 for k in ranges)
+    # the draw keeps to the ranges and leaves out an effect detected nowhere
+    some = dict(ranges, wall_friction=())
+    specs = draw_twins(40, 5, "surrogate", some)
+    drawn = [s for s in specs if s.kind == "effect"]
+    assert len(drawn) == 20 and "wall_friction" not in {s.name for s in drawn}
+    for s in drawn:
+        assert any(a <= s.magnitude <= b for a, b in some[s.name]), s
+    # null and out-of-catalogue twins are drawn as before
+    assert sum(s.kind == "null" for s in specs) == 10
+    with pytest.raises(ConfigError, match="no effect twins to draw"):
+        draw_twins(8, 5, "surrogate", {k: () for k in ranges})
+
+
+def test_the_benchmark_records_how_it_drew_the_magnitudes(bench):
+    out, res, _ = bench
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["protocol"] == "bedstruct.blind/2"
+    st = truth["settings"]
+    assert st["draw"] == "detectable" and "95" in st["effect_magnitudes"]
+    for t in truth["twins"].values():
+        if t["kind"] == "effect":
+            assert any(a <= t["magnitude"] <= b for a, b in st["detectable_ranges"][t["effect"]])
