@@ -299,7 +299,8 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
     emu = getattr(simulator, "emulator", None)
     if emu is not None:
         p = emu.predict(dict(base), {})
-        mean, sd, noise = _split(p.mean, emu), _split(p.sd, emu), _split(p.noise_sd, emu)
+        mean, sd, noise = (emu.by_observable(p.mean), emu.by_observable(p.sd),
+                           emu.by_observable(p.noise_sd))
         reference = "emulator"
     else:
         ref = [simulator(dict(base), {}, s) for s in seeds]
@@ -348,11 +349,3 @@ def bridge_runs(design: MeasurementSet, *, base: Mapping[str, float], bridge: Ma
         bar.close()
     return runs, [int(s) for s in seeds]
 
-
-def _split(vec, emu) -> dict:
-    out, i = {}, 0
-    for n in emu.names:
-        k = emu.n_components[n]
-        out[n] = np.asarray(vec[i:i + k], float)
-        i += k
-    return out

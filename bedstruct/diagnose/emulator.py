@@ -203,6 +203,15 @@ class Emulator:
         x = [b[k] for k in self.varied] + [float(effects.get(e, 0.0)) for e in self.effect_names]
         return (np.asarray(x, float) - self.lower) / (self.upper - self.lower)
 
+    def by_observable(self, vec) -> dict[str, np.ndarray]:
+        """A vector over every component (as :meth:`predict` gives) split by observable."""
+        out, i = {}, 0
+        for n in self.names:
+            k = self.n_components[n]
+            out[n] = np.asarray(vec[i:i + k], float)
+            i += k
+        return out
+
     # ------------------------------------------------------------------ prediction
     def predict(self, base: Mapping[str, float], effects: Mapping[str, float]) -> Prediction:
         """Predicted mean, its uncertainty and the run scatter at one point.
@@ -343,10 +352,5 @@ class EmulatedSimulator:
         return {k: (float(emu.lower[i]), float(emu.upper[i])) for i, k in enumerate(emu.varied)}
 
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int) -> Observations:
-        y = self.emulator.sample(base, effects, seed)
-        out, i = {}, 0
-        for n in self.emulator.names:
-            k = self.emulator.n_components[n]
-            out[n] = y[i:i + k]
-            i += k
-        return Observations(out, source="emulator")
+        return Observations(self.emulator.by_observable(self.emulator.sample(base, effects, seed)),
+                            source="emulator")

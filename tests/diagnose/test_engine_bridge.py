@@ -142,3 +142,24 @@ def test_the_bridge_table_needs_an_engine_simulator_and_keeps_its_cache_beside_t
     cfg = load_sim_config(p)
     assert cfg.bridge == {"engine": "lammps", "runs": 6, "seed": 0, "cache": str(tmp_path / "runs")}
     assert cfg.as_dict()["bridge"]["engine"] == "lammps"
+
+
+def test_on_an_emulator_the_offset_is_taken_from_its_prediction(tmp_path):
+    from bedstruct.diagnose import (EmulatedSimulator, MeasurementSet, build_library,
+                                    design_spec, fit_emulator, measurement_from_dict)
+    m = measurement_from_dict({"name": "aor", "kind": "static_angle", "role": "calibrate",
+                               "uncertainty": 0.5, "value": 33.0})
+    ms = MeasurementSet((m,))
+    sim = SurrogateSimulator(ms)
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=6, n_per_effect=6)
+    emu = fit_emulator(build_library(sim, spec, tmp_path, progress=False))
+    b = engine_bridge(ms, EmulatedSimulator(emu), base=BASE_PARAMETERS,
+                      bridge={"engine": "lammps", "runs": 8},
+                      engine_simulator=OffsetEngine(sim, {"aor": np.array([2.0])}))
+    p = emu.predict(BASE_PARAMETERS, {})
+    assert b.reference == "emulator" and b.n_runs == 8
+    runs = b.runs["aor"][:, 0]
+    assert b.offset["aor"][0] == pytest.approx(runs.mean() - p.mean[0])
+    assert abs(b.offset["aor"][0] - 2.0) < 4 * b.offset_sd["aor"][0]
+    want = np.sqrt(max(runs.std(ddof=1), p.noise_sd[0]) ** 2 / 8 + p.sd[0] ** 2)
+    assert b.offset_sd["aor"][0] == pytest.approx(want)
