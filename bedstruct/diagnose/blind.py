@@ -653,7 +653,9 @@ def run_benchmark_command(args) -> int:
     else:
         k, n = s["top1_count"]
         print(f"blind benchmark: {s['n']} twins on {engine}, diagnosed on {sim}")
-        print(f"  top-1 {k}/{n} ({ci('top1_ci')}); null false {s['null_false_count'][0]}/"
+        kd, nd = s["top1_detected_count"]
+        print(f"  top-1 {k}/{n} ({ci('top1_ci')}; {kd}/{nd} where the gap is significant); "
+              f"null false {s['null_false_count'][0]}/"
               f"{s['null_false_count'][1]} ({ci('null_false_ci')}); out-of-catalogue "
               f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')})")
         print(f"  shrink median {s['shrink_median']:.3g} over {s['shrink_n']} ({ci('shrink_ci')}); "
