@@ -56,7 +56,8 @@ import numpy as np
 from ..errors import ConfigError
 from .measurements import MeasurementSet, Observations
 
-__all__ = ["EngineBridge", "bridge_offset", "engine_bridge", "bridge_runs", "BRIDGE_KEYS",
+__all__ = ["EngineBridge", "bridge_offset", "engine_bridge", "bridge_runs", "bridge_table",
+           "bridge_seeds", "BRIDGE_KEYS",
            "BRIDGE_SEED_STRIDE"]
 
 #: Keys of the ``[bridge]`` table and their types.
@@ -292,8 +293,7 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
         runs, seeds = bridge_runs(measured, base=base, bridge=bridge, engine=engine, cache=cache,
                                   progress=progress)
     else:
-        seeds = [BRIDGE_SEED_STRIDE + int(bridge.get("seed", 0)) + i
-                 for i in range(int(bridge.get("runs", 6)))]
+        seeds = bridge_seeds(bridge)
         runs = [engine_simulator(dict(base), {}, s) for s in seeds]
     names = measured.names
     emu = getattr(simulator, "emulator", None)
@@ -317,6 +317,19 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
                          reference=reference, seeds=seeds)
 
 
+def bridge_seeds(bridge: Mapping[str, Any]) -> list[int]:
+    """The seeds of a ``[bridge]`` table's runs (``runs`` of them, from its ``seed``).
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose.bridge import bridge_seeds
+    >>> bridge_seeds({"engine": "liggghts", "runs": 3, "seed": 10})
+    [500010, 500011, 500012]
+    """
+    return [BRIDGE_SEED_STRIDE + int(bridge.get("seed", 0)) + i
+            for i in range(int(bridge.get("runs", 6)))]
+
+
 def bridge_runs(design: MeasurementSet, *, base: Mapping[str, float], bridge: Mapping[str, Any],
                 engine: Mapping[str, Any] | None = None, cache=None, seeds=None,
                 progress: bool = False) -> tuple[list[Observations], list[int]]:
@@ -335,7 +348,7 @@ def bridge_runs(design: MeasurementSet, *, base: Mapping[str, float], bridge: Ma
         table["cache"] = str(folder)
     sim = diagnosis_simulator(design, table)
     if seeds is None:
-        seeds = [BRIDGE_SEED_STRIDE + int(tab.get("seed", 0)) + i for i in range(int(tab["runs"]))]
+        seeds = bridge_seeds(tab)
     bar = None
     if progress:
         from tqdm import tqdm
