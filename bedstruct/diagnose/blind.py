@@ -365,13 +365,14 @@ def _emulator(sim, settings, design, library, workers, scheduler, progress):
                             scheduler=scheduler, progress=progress, **cfg.library_settings())
 
 
-def _detectable(sim, settings, twins_engine, simulator):
+def _detectable(sim, settings, twins_engine, simulator, progress=False):
     """The effects' detectable magnitudes (:func:`detectable_ranges`) on the diagnosing
     configuration's fingerprints at its base point, on the benchmark's design."""
     cfg = _sim_config(sim, settings)
     design = diagnosis_design(benchmark_design(twins_engine), cfg.effects)
     fps = compute_fingerprints(simulator, design, cfg.base, cfg.effects, nuisance=cfg.nuisance,
-                               replicates=cfg.replicates, seed=cfg.seed, alpha=cfg.select_alpha)
+                               replicates=cfg.replicates, seed=cfg.seed, alpha=cfg.select_alpha,
+                               progress=progress)
     return detectable_ranges(fps, threshold=selection_threshold(cfg.select_alpha,
                                                                 len(cfg.effects)),
                              repeats=1 if twins_engine == "surrogate" else 3)
@@ -521,7 +522,8 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
             cfg = _sim_config(sim, diagnose_settings)
             simulator = make_simulator(cfg, diagnosis_design(benchmark_design(twins_engine),
                                                              cfg.effects))
-        ranges = _detectable(sim, diagnose_settings, twins_engine, simulator)
+        ranges = _detectable(sim, diagnose_settings, twins_engine, simulator,
+                             progress is not None)
     specs = draw_twins(n, seed, twins_engine, ranges)
     truth = _truth_doc(n, seed, twins_engine, preset, sim, diagnose_settings, specs, library,
                        draw, ranges)

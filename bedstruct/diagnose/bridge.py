@@ -90,6 +90,8 @@ class EngineBridge:
         bridged measurement set.
     seeds : tuple of int
         The engine runs' seeds.
+    runs : dict of str to (n_runs, k) ndarray
+        The engine runs' observations of each bridged observable.
     """
 
     engine: str
@@ -104,8 +106,17 @@ class EngineBridge:
 
     def apply(self, measurements: MeasurementSet) -> MeasurementSet:
         """The measurement set in the diagnosing simulator's frame: ``y - offset``,
-        uncertainty ``sqrt(u**2 + offset_sd**2)``; observables without an offset are
-        left out (see :meth:`note`).
+        uncertainty ``sqrt(u**2 + offset_sd**2)``.
+
+        Observables the engine's runs could not observe (:attr:`left_out`) are left out
+        (see :meth:`note`); candidate observables (no values) and those read in no trial
+        pass unchanged.
+
+        Raises
+        ------
+        ConfigError
+            A measured observable the bridge was not made for (its runs did not observe
+            it), or one with another number of components.
 
         Examples
         --------
@@ -122,8 +133,16 @@ class EngineBridge:
         """
         keep = []
         for m in measurements.measurements:
-            if m.name not in self.offset:
+            if m.name in self.left_out:
                 continue
+            if m.name not in self.offset:
+                if m.role == "candidate":
+                    keep.append(m)
+                    continue
+                raise ConfigError(f"bridge: observable {m.name!r} was not run on the "
+                                  f"{self.engine} engine (the bridge holds "
+                                  f"{', '.join(self.offset)}); make the bridge from this "
+                                  f"measurement file")
             d = np.asarray(self.offset[m.name], float)
             s = np.asarray(self.offset_sd[m.name], float)
             if d.shape != m.values.shape:
@@ -132,8 +151,7 @@ class EngineBridge:
             reps = None if m.replicates is None else np.asarray(m.replicates, float) - d
             keep.append(replace(m, values=m.values - d, uncertainty=np.hypot(m.uncertainty, s),
                                 replicates=reps))
-        unmeasured = tuple(m for m in measurements.unmeasured if m.name in self.offset)
-        return replace(measurements, measurements=tuple(keep), unmeasured=unmeasured)
+        return replace(measurements, measurements=tuple(keep))
 
     def note(self) -> str:
         """One sentence for the diagnosis' data notes."""
@@ -303,7 +321,17 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
                            emu.by_observable(p.noise_sd))
         reference = "emulator"
     else:
-        ref = [simulator(dict(base), {}, s) for s in seeds]
+        ref = []
+        bar = None
+        if progress:
+            from tqdm import tqdm
+            bar = tqdm(total=len(seeds), desc="bridge (diagnosing simulator)", unit="run")
+        for s in seeds:
+            ref.append(simulator(dict(base), {}, s))
+            if bar is not None:
+                bar.update(1)
+        if bar is not None:
+            bar.close()
         mean, sd, noise = {}, {}, {}
         for n in names:
             y = np.array([np.asarray(r[n], float) for r in ref])

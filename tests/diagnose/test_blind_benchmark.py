@@ -427,7 +427,7 @@ def test_detectable_draw_takes_magnitudes_the_diagnosing_model_detects():
         for a, b in ranges[e.name]:
             assert e.prior[0] <= a < b <= e.prior[1]
             assert gap(a) >= need and gap(b) >= need and gap(0.5 * (a + b)) >= need
-    # a noisier twin (the same runs, less repeated) is detected over less of each prior
+    # with three times the reading noise an effect is detected over less of its prior
     noisy = detectable_ranges(replace(fps, sigma_meas=3 * fps.sigma_meas), threshold=thr, repeats=1)
     width = lambda r: sum(b - a for a, b in r)  # noqa: E731
     assert all(width(noisy[k]) <= width(ranges[k]) + 1e-12 for k in ranges)

@@ -9,6 +9,8 @@ effect on top of the offset is still found.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -163,3 +165,52 @@ def test_on_an_emulator_the_offset_is_taken_from_its_prediction(tmp_path):
     assert abs(b.offset["aor"][0] - 2.0) < 4 * b.offset_sd["aor"][0]
     want = np.sqrt(max(runs.std(ddof=1), p.noise_sd[0]) ** 2 / 8 + p.sd[0] ** 2)
     assert b.offset_sd["aor"][0] == pytest.approx(want)
+
+
+def test_apply_refuses_an_observable_the_bridge_did_not_run_and_keeps_the_rest(setup, tmp_path):
+    from bedstruct.diagnose import MeasurementSet, measurement_from_dict
+    eff, sim, fps, engine, _ = setup
+    ms = _twin(engine, tmp_path, {}, 41)
+    b = _bridge(setup, ms)
+    extra = measurement_from_dict({"name": "aor_other", "kind": "static_angle", "value": 30.0,
+                                   "uncertainty": 1.0, "unit": "deg"})
+    with pytest.raises(ConfigError, match="'aor_other' was not run on the liggghts engine"):
+        b.apply(MeasurementSet(ms.measurements + (extra,)))
+    # a candidate (no value) passes unchanged; an observable the runs could not see is left out
+    cand = measurement_from_dict({"name": "aor_next", "kind": "static_angle", "role": "candidate",
+                                  "uncertainty": 1.0, "unit": "deg"})
+    first = ms.names[0]
+    seen = replace(b, left_out=(first,), offset={k: v for k, v in b.offset.items() if k != first})
+    out = seen.apply(MeasurementSet(ms.measurements + (cand,)))
+    assert first not in out and "aor_next" in out and len(out) == len(ms)
+
+
+def test_the_cli_diagnoses_through_the_configured_bridge(setup, tmp_path, monkeypatch, capsys):
+    import json
+
+    import bedstruct.diagnose as dg
+    import bedstruct.diagnose.bridge as bridge_module
+    from bedstruct.cli import main
+    eff, sim, fps, engine, offset = setup
+    real = bridge_module.engine_bridge
+    seen = {}
+
+    def on_the_offset_engine(ms, simulator, **kw):
+        seen.update(kw)
+        return real(ms, simulator, base=kw["base"], bridge=kw["bridge"],
+                    engine_simulator=OffsetEngine(simulator, offset))
+
+    monkeypatch.setattr(dg, "make_simulator", lambda cfg, design: SurrogateSimulator(design))
+    monkeypatch.setattr(bridge_module, "engine_bridge", on_the_offset_engine)
+    real_file = _twin(engine, tmp_path, {}, 51).path
+    cfg = tmp_path / "sim.toml"
+    cfg.write_text('[simulator]\nkind = "engine"\n[engine]\npreset = "tiny"\n'
+                   '[bridge]\nengine = "liggghts"\nruns = 6\n')
+    code = main(["diagnose", "--sim", str(cfg), "--real", str(real_file), "--out",
+                 str(tmp_path / "out"), "--refine", "0", "--json"])
+    assert code == 0, capsys.readouterr().err
+    assert seen["bridge"]["engine"] == "liggghts" and seen["engine"] == {"preset": "tiny"}
+    doc = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
+    assert doc["settings"]["bridge"]["n_runs"] == 6
+    assert doc["sim_config"]["bridge"]["engine"] == "liggghts"
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["verdict"] == "none"
