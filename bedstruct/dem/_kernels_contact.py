@@ -4,9 +4,10 @@ Each piece of contact physics is written once here as a small jitted function:
 Hertz stiffness and damping, the normal force, SJKR lens areas, the relative
 tangential velocity, the Mindlin tangential spring with history and Coulomb
 cap, the torques of the tangential force, rolling resistance (CDT, EPSD,
-EPSD2), the Willett capillary bridge and the ageing bond. The pair kernel
-(:mod:`bedstruct.dem._kernels_pairs`, :mod:`bedstruct.dem._kernels_pairs_blocked`) and the
-particle-wall contact (:func:`wall_contact`) are built from them; the pair kernels read
+EPSD2), the Willett capillary bridge and the ageing bond. They are composed
+once into a pair contact (:func:`pair_contact_law`), which both pair passes
+(:mod:`bedstruct.dem._kernels_pairs`, :mod:`bedstruct.dem._kernels_pairs_blocked`) compute,
+and into the particle-wall contact (:func:`wall_contact`); the pair passes read
 their per-type-pair constants from one table (:func:`pair_table`). Each can be tested in pure Python
 through ``.py_func``.
 
@@ -26,6 +27,7 @@ to i; ``Fn > 0`` is repulsive; the force on i is ``Fn en + Ft``.
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 
@@ -34,7 +36,8 @@ from .._numba import njit
 __all__ = ["hertz_stiffness", "hertz_coefficients", "pair_damping", "normal_force",
            "sjkr_area_pair", "sjkr_area_wall", "tangential_velocity", "tangential_history",
            "shear_torques", "rolling_torque", "capillary_force", "ageing_bond",
-           "wall_contact", "ROLL_NONE", "ROLL_CDT", "ROLL_EPSD", "ROLL_EPSD2", "SQRT_5_6",
+           "wall_contact", "pair_contact", "pair_contact_law", "PAIR_PIECES", "STRICT",
+           "ROLL_NONE", "ROLL_CDT", "ROLL_EPSD", "ROLL_EPSD2", "SQRT_5_6",
            "EPSD_STIFFNESS_FACTOR", "pair_table", "TAB_YOUNGS", "TAB_SHEAR", "TAB_DAMPING",
            "TAB_DAMPING_RATIO", "TAB_FRICTION", "TAB_ROLLING_FRICTION", "TAB_COHESION"]
 
@@ -288,6 +291,109 @@ def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v
         t3 -= m3
     return (fn * n1 + f1, fn * n2 + f2, fn * n3 + f3, t1, t2, t3, fn, delta,
             h1, h2, h3, r1, r2, r3)
+
+
+# --- one pair contact: the pieces composed -----------------------------------------------------
+
+def pair_contact_law(**pieces):
+    """The pair contact law as a Python function to jit, composed of this module's pieces
+    or of those given by name (``tangential_history=...``).
+
+    Both pair passes compute a contact with it as :data:`pair_contact`, its pieces
+    inlined and rounded as written; with the pieces' ``py_func`` it runs in the
+    interpreter (the test that the compiled passes round as written). The law is written
+    once (one code object); only the functions its names resolve to differ.
+
+    The returned ``law(dx, dy, dz, r2, ri, rj, mi, mj, vr, oi, oj, ystar, gstar, bcoef, gtr,
+    mu, mur, k_coh, f_bridge, f_bond, s, h, inv_ii, inv_ij, rolling, limit, eta_r, dt,
+    kr_fac)`` takes a touching pair's separation ``(dx, dy, dz) = x_i - x_j`` and
+    ``r2 = |d|^2``, radii, masses, relative velocity ``vr = v_i - v_j`` and angular
+    velocities ``oi``, ``oj`` (3-tuples), the type pair's constants
+    (:func:`pair_table`), the attractive forces the extensions add to SJKR cohesion
+    (``f_bridge`` a liquid bridge, ``f_bond`` an ageing bond; 0 when off), the
+    tangential spring ``s`` and rolling torque ``h`` so far (3-tuples), the inverse moments
+    of inertia (EPSD only) and the rolling model (a compile-time constant); fewer than 31
+    arguments, so that numba can inline its calls. It returns
+    ``(fn, f1, f2, f3, s1, s2, s3, h1, h2, h3, ti1, ti2, ti3, tj1, tj2, tj3, e1, e2, e3,
+    vt1, vt2, vt3)``: the normal force (> 0 repulsive, cohesion and extensions
+    included), the tangential force on i, the new spring and rolling torque (``h``
+    unchanged without rolling resistance), the torques on i and j, the unit normal
+    from j to i and the tangential velocity (which contact ageing needs).
+
+    Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
+    (``tangential_reduce off``) adds cohesion to the force, not to the caps.
+    """
+    return types.FunctionType(_pair_contact.__code__, {**globals(), **pieces}, "pair_contact")
+
+
+def _pair_contact(dx, dy, dz, r2, ri, rj, mi, mj, vr, oi, oj, ystar, gstar, bcoef, gtr, mu, mur,
+                  k_coh, f_bridge, f_bond, s, h, inv_ii, inv_ij, rolling, limit, eta_r, dt, kr_fac):
+    vr1, vr2, vr3 = vr
+    oi1, oi2, oi3 = oi
+    oj1, oj2, oj3 = oj
+    s1, s2, s3 = s
+    h1, h2, h3 = h
+    rs = ri + rj
+    r = math.sqrt(r2)
+    rinv = 1.0 / r
+    e1 = dx * rinv
+    e2 = dy * rinv
+    e3 = dz * rinv
+    delta = rs - r
+    reff = ri * rj / rs
+    meff = mi * mj / (mi + mj)
+    sq = math.sqrt(reff * delta)
+    kn, kt = hertz_stiffness(sq, ystar, gstar)
+    gn, gt = pair_damping(sq, meff, bcoef, gtr)
+    vn = vr1 * e1 + vr2 * e2 + vr3 * e3
+    fn = normal_force(kn, delta, gn, vn, limit)
+    fn_cap = fn
+    if k_coh != 0.0:
+        fn -= k_coh * sjkr_area_pair(r, ri, rj)
+    fn -= f_bridge
+    fn -= f_bond
+    cri = ri - 0.5 * delta
+    crj = rj - 0.5 * delta
+    vt1, vt2, vt3 = tangential_velocity(vr1, vr2, vr3, vn, e1, e2, e3,
+                                        cri * oi1 + crj * oj1,
+                                        cri * oi2 + crj * oj2,
+                                        cri * oi3 + crj * oj3)
+    s1, s2, s3, f1, f2, f3 = tangential_history(s1, s2, s3, vt1, vt2, vt3, e1, e2, e3, kt, gt,
+                                                mu, fn_cap, dt)
+    ti1, ti2, ti3, tj1, tj2, tj3 = shear_torques(e1, e2, e3, f1, f2, f3, cri, crj)
+    if rolling != ROLL_NONE:
+        if mur > 0.0:
+            ieff = 0.0
+            if rolling == ROLL_EPSD:
+                ii = 1.0 / inv_ii + mi * ri * ri
+                ij = 1.0 / inv_ij + mj * rj * rj
+                ieff = ii * ij / (ii + ij)
+            h1, h2, h3, m1, m2, m3 = rolling_torque(
+                rolling, h1, h2, h3, oi1 - oj1, oi2 - oj2, oi3 - oj3, e1, e2, e3, kn, kt,
+                delta, reff, fn_cap, mur, dt, ieff, eta_r, kr_fac)
+            ti1 -= m1
+            ti2 -= m2
+            ti3 -= m3
+            tj1 += m1
+            tj2 += m2
+            tj3 += m3
+    return (fn, f1, f2, f3, s1, s2, s3, h1, h2, h3, ti1, ti2, ti3, tj1, tj2, tj3, e1, e2, e3,
+            vt1, vt2, vt3)
+
+
+#: Fast-math without reassociation or contraction into fused multiply-adds: every operation
+#: rounded as written, so that a result does not depend on where the compiler puts it.
+STRICT = dict(fastmath={"nnan", "ninf", "nsz"})
+
+#: The pieces of the pair contact law as the pair passes compile them: inlined (their loop has
+#: no calls, and LLVM vectorises the blocked pass's) and rounded as written.
+PAIR_PIECES = {f.__name__: njit(inline="always", **STRICT)(f.py_func) for f in (
+    hertz_stiffness, pair_damping, normal_force, sjkr_area_pair, tangential_velocity,
+    tangential_history, shear_torques, rolling_torque)}
+
+#: One pair contact (:func:`pair_contact_law` of :data:`PAIR_PIECES`), inlined into both pair
+#: passes: a contact's bits do not depend on the pass, its place in a block or the loop around it.
+pair_contact = njit(inline="always", **STRICT)(pair_contact_law(**PAIR_PIECES))
 
 
 # --- the pair kernels' per-type-pair constants, and a pair apart ------------------------------

@@ -18,18 +18,18 @@ argument that is either its parameters or ``None``, and numba compiles the
 ``None`` case without the extension's code (a type, so the choice costs no
 dispatch time per call).
 
-Two passes compute the same contact law. The blocked pass (the engine's
-default without capillary bridges and ageing) gathers the touching pairs of
-a block into a small contiguous scratch, runs the contact law over it in a
-loop that LLVM vectorises, and scatters forces, torques and history back in
-pair order. The single loop computes each pair where it finds it; it carries
-the extensions and is the pass whose rounding the reference trajectories
-record. Their results differ in the last bits only: the single loop's
-fast-math lets LLVM reassociate and fuse multiply-adds, the blocked loop
-rounds every operation as written (so a pair's force does not depend on its
-place in a block). The blocked pass is in :mod:`bedstruct.dem._kernels_pairs_blocked`;
-the per-type-pair table ``TAB`` (:func:`~bedstruct.dem._kernels_contact.pair_table`) and
-the clearing of a pair apart are in :mod:`bedstruct.dem._kernels_contact`.
+Two passes compute the same contact law
+(:data:`~bedstruct.dem._kernels_contact.pair_contact`, written once). The blocked pass
+(the engine's default without capillary bridges and ageing) gathers the touching pairs
+of a block into a small contiguous scratch, runs the contact law over it in a loop that
+LLVM vectorises, and scatters forces, torques and history back in pair order. The
+single loop computes each pair where it finds it and carries the extensions. Both
+round every operation as written (no reassociation, no fused multiply-adds) and add
+forces to each particle in pair-list order, so without extensions their results are
+equal bit for bit, and a change of the loops around the law leaves its bits as they
+are. The blocked pass is in :mod:`bedstruct.dem._kernels_pairs_blocked`; the
+per-type-pair table ``TAB`` (:func:`~bedstruct.dem._kernels_contact.pair_table`) and the
+clearing of a pair apart are in :mod:`bedstruct.dem._kernels_contact`.
 """
 
 from __future__ import annotations
@@ -42,10 +42,8 @@ from numba import literally
 from .._numba import njit, prange
 from ._kernels_contact import (EPSD_STIFFNESS_FACTOR, ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE,
                                TAB_COHESION, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION,
-                               TAB_ROLLING_FRICTION, TAB_SHEAR, TAB_YOUNGS, _open_pair,
-                               ageing_bond, capillary_force, hertz_stiffness, normal_force,
-                               pair_damping, rolling_torque, shear_torques, sjkr_area_pair,
-                               tangential_history, tangential_velocity)
+                               STRICT, TAB_ROLLING_FRICTION, TAB_SHEAR, TAB_YOUNGS, _open_pair,
+                               ageing_bond, capillary_force, pair_contact, sjkr_area_pair)
 from ._kernels_pairs_blocked import BLOCKED_BY_ROLLING
 
 __all__ = ["pair_forces"]
@@ -53,7 +51,7 @@ __all__ = ["pair_forces"]
 _FM = dict(fastmath=True)
 _BLOCK = 64  # pairs per block of the two-pass loop
 
-@njit(**_FM)
+@njit(**STRICT)
 def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt, store,
                 fn_out, ft_out, cap, age, kr_fac):
     """Chunk ``t`` of :func:`pair_forces`, compiled for a constant rolling model and
@@ -150,87 +148,65 @@ def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_
                     if store:
                         fn_out[k] = -fcap
                     continue
-            r = math.sqrt(r2)
-            rinv = 1.0 / r
-            e1 = dx * rinv
-            e2 = dy * rinv
-            e3 = dz * rinv
-            delta = rs - r
             ti = np.uint32(ptype[i])
             tj = np.uint32(ptype[j])
-            reff = ri * rj / rs
-            mi = mass[i]
-            mj = mass[j]
-            meff = mi * mj / (mi + mj)
-            sq = math.sqrt(reff * delta)
-            kn, kt = hertz_stiffness(sq, Y[ti, tj], G[ti, tj])
-            gn, gt = pair_damping(sq, meff, B[ti, tj], GTR[ti, tj])
-            vr1 = v[i, 0] - v[j, 0]
-            vr2 = v[i, 1] - v[j, 1]
-            vr3 = v[i, 2] - v[j, 2]
-            vn = vr1 * e1 + vr2 * e2 + vr3 * e3
-            fn = normal_force(kn, delta, gn, vn, limit)
-            # Coulomb and rolling limits use Hertz + damping only: LIGGGHTS' default
-            # (`tangential_reduce off`) adds cohesion to the force, not to the caps.
-            fn_cap = fn
             k_coh = COH[ti, tj]
-            if k_coh != 0.0:
-                fn -= k_coh * sjkr_area_pair(r, ri, rj)
+            f_bridge = 0.0
             if cap is not None:
-                fn -= capillary_force(0.0, reff, cap)
+                f_bridge = capillary_force(0.0, ri * rj / rs, cap)
+            f_bond = 0.0
             if age is not None:
                 if age[0][k, 2] == 0.0 and age[1][0] != 0.0:
-                    fn -= ageing_bond(k_coh, sjkr_area_pair(r, ri, rj), age[0][k, 0], age[1])
-            cri = ri - 0.5 * delta
-            crj = rj - 0.5 * delta
-            vt1, vt2, vt3 = tangential_velocity(vr1, vr2, vr3, vn, e1, e2, e3,
-                                                cri * om[i, 0] + crj * om[j, 0],
-                                                cri * om[i, 1] + crj * om[j, 1],
-                                                cri * om[i, 2] + crj * om[j, 2])
-            if age is not None:
-                # the spring the step would reach without the Coulomb cap (as tangential_history)
-                u1 = ht[k, 0] + vt1 * dt
-                u2 = ht[k, 1] + vt2 * dt
-                u3 = ht[k, 2] + vt3 * dt
-                un = u1 * e1 + u2 * e2 + u3 * e3
-                trial = math.sqrt((u1 - un * e1) ** 2 + (u2 - un * e2) ** 2 + (u3 - un * e3) ** 2)
-            s1, s2, s3, f1, f2, f3 = tangential_history(ht[k, 0], ht[k, 1], ht[k, 2], vt1, vt2, vt3,
-                                                        e1, e2, e3, kt, gt, MU[ti, tj], fn_cap,
-                                                        dt)
+                    f_bond = ageing_bond(k_coh, sjkr_area_pair(math.sqrt(r2), ri, rj),
+                                         age[0][k, 0], age[1])
+            s01 = ht[k, 0]
+            s02 = ht[k, 1]
+            s03 = ht[k, 2]
+            h01 = 0.0
+            h02 = 0.0
+            h03 = 0.0
+            mur = 0.0
+            if rolling != ROLL_NONE:
+                h01 = hr[k, 0]
+                h02 = hr[k, 1]
+                h03 = hr[k, 2]
+                mur = MUR[ti, tj]
+            inv_ii = 0.0
+            inv_ij = 0.0
+            if rolling == ROLL_EPSD:
+                inv_ii = inv_i[i]
+                inv_ij = inv_i[j]
+            (fn, f1, f2, f3, s1, s2, s3, h1, h2, h3, ti1, ti2, ti3, tj1, tj2, tj3, e1, e2, e3,
+             vt1, vt2, vt3) = pair_contact(
+                dx, dy, dz, r2, ri, rj, mass[i], mass[j],
+                (v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], v[i, 2] - v[j, 2]),
+                (om[i, 0], om[i, 1], om[i, 2]), (om[j, 0], om[j, 1], om[j, 2]),
+                Y[ti, tj], G[ti, tj], B[ti, tj], GTR[ti, tj], MU[ti, tj], mur, k_coh, f_bridge,
+                f_bond, (s01, s02, s03), (h01, h02, h03), inv_ii, inv_ij, rolling, limit, eta_r,
+                dt, krf)
             ht[k, 0] = s1
             ht[k, 1] = s2
             ht[k, 2] = s3
+            if rolling != ROLL_NONE:
+                hr[k, 0] = h1
+                hr[k, 1] = h2
+                hr[k, 2] = h3
             if age is not None:
                 hx = age[0]
                 if hx[k, 2] == 0.0:
+                    # the spring this step would reach without the Coulomb cap, and what the cap
+                    # cut off it: sliding, not elastic shear (an elastic tangential displacement
+                    # is recovered; only sliding breaks the bond)
+                    u1 = s01 + vt1 * dt
+                    u2 = s02 + vt2 * dt
+                    u3 = s03 + vt3 * dt
+                    un = u1 * e1 + u2 * e2 + u3 * e3
+                    trial = math.sqrt((u1 - un * e1) ** 2 + (u2 - un * e2) ** 2
+                                      + (u3 - un * e3) ** 2)
                     hx[k, 0] += dt
-                    # sliding, not elastic shear: what the Coulomb cap cut off the spring (an
-                    # elastic tangential displacement is recovered; only sliding breaks the bond)
                     hx[k, 1] += max(trial - math.sqrt(s1 * s1 + s2 * s2 + s3 * s3), 0.0)
                     if hx[k, 1] > age[1][3]:
                         hx[k, 2] = 1.0
-            ti1, ti2, ti3, tj1, tj2, tj3 = shear_torques(e1, e2, e3, f1, f2, f3, cri, crj)
-            if rolling != ROLL_NONE:
-                mur = MUR[ti, tj]
-                if mur > 0.0:
-                    ieff = 0.0
-                    if rolling == ROLL_EPSD:
-                        ii = 1.0 / inv_i[i] + mi * ri * ri
-                        ij = 1.0 / inv_i[j] + mj * rj * rj
-                        ieff = ii * ij / (ii + ij)
-                    h1, h2, h3, m1, m2, m3 = rolling_torque(
-                        rolling, hr[k, 0], hr[k, 1], hr[k, 2], om[i, 0] - om[j, 0],
-                        om[i, 1] - om[j, 1], om[i, 2] - om[j, 2], e1, e2, e3, kn, kt, delta,
-                        reff, fn_cap, mur, dt, ieff, eta_r, krf)
-                    hr[k, 0] = h1
-                    hr[k, 1] = h2
-                    hr[k, 2] = h3
-                    ti1 -= m1
-                    ti2 -= m2
-                    ti3 -= m3
-                    tj1 += m1
-                    tj2 += m2
-                    tj3 += m3
             fx = fn * e1 + f1
             fy = fn * e2 + f2
             fz = fn * e3 + f3

@@ -5,9 +5,10 @@ The engine's default pass without capillary bridges and ageing
 the pair list it gathers the touching pairs' data into a small contiguous scratch
 that stays in the L1 cache, runs the contact law over the scratch in a loop without
 calls or indirect addresses that LLVM vectorises, and scatters forces, torques and
-history back in pair order. The loop rounds every operation as written, so a pair's
-force does not depend on its place in a block; its results differ from the single
-loop's (:mod:`bedstruct.dem._kernels_pairs`) in the last bits only.
+history back in pair order. The contact law is the single loop's
+(:data:`~bedstruct.dem._kernels_contact.pair_contact`), rounded as written, so a pair's
+force does not depend on its place in a block and the results equal the single loop's
+(:mod:`bedstruct.dem._kernels_pairs`) bit for bit.
 
 One compiled kernel per rolling model (:data:`BLOCKED_BY_ROLLING`, indexed by the
 ``ROLL_*`` code), with the EPSD stiffness factor compiled in or passed.
@@ -15,18 +16,14 @@ One compiled kernel per rolling model (:data:`BLOCKED_BY_ROLLING`, indexed by th
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import literally
 
 from .._numba import njit, prange
 from ._kernels_contact import (EPSD_STIFFNESS_FACTOR, ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE,
-                               TAB_COHESION, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION,
+                               STRICT, TAB_COHESION, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION,
                                TAB_ROLLING_FRICTION, TAB_SHEAR, TAB_YOUNGS, _open_pair,
-                               hertz_stiffness, normal_force, pair_damping, rolling_torque,
-                               shear_torques, sjkr_area_pair, tangential_history,
-                               tangential_velocity)
+                               pair_contact)
 
 __all__ = ["BLOCKED_BY_ROLLING"]
 
@@ -44,18 +41,7 @@ _DX, _DY, _DZ, _R2, _RI, _RJ, _MI, _MJ, _VR1, _VR2, _VR3, _OI1, _OI2, _OI3, _OJ1
 _FX, _FY, _FZ, _TI1, _TI2, _TI3, _TJ1, _TJ2, _TJ3, _FN, _F1, _F2, _F3 = range(32, 45)
 _NROW = 45
 
-# The blocked contact loop rounds every operation as written (fast-math without
-# reassociation or contraction into fused multiply-adds): its vectorised body and its scalar
-# remainder then give a pair the same bits whichever lane or position it has in a block.
-_STRICT = dict(fastmath={"nnan", "ninf", "nsz"})
-# the history spring, the rolling torque and the SJKR lens inlined into that loop (the same
-# functions, compiled inline), so that the loop has no calls and LLVM can vectorise it
-_tangential_history = njit(inline="always", **_STRICT)(tangential_history.py_func)
-_rolling_torque = njit(inline="always", **_STRICT)(rolling_torque.py_func)
-_sjkr_area_pair = njit(inline="always", **_STRICT)(sjkr_area_pair.py_func)
-
-
-@njit(**_STRICT)
+@njit(**STRICT)
 def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt,
                         store, fn_out, ft_out, kr_fac):
     """Chunk ``t`` of :func:`pair_forces` in gather-compute-scatter blocks (no capillary
@@ -143,78 +129,41 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
             _open_pair(k, ht, hr, store, fn_out, ft_out)
             if store:
                 fn_out[k] = 0.0
-        # the contact law over the block (the arithmetic of _pair_chunk, pair by pair)
+        # the contact law over the block
         for q in range(nb):
-            dx = S[_DX * _BLOCK_B + q]
-            dy = S[_DY * _BLOCK_B + q]
-            dz = S[_DZ * _BLOCK_B + q]
-            r2 = S[_R2 * _BLOCK_B + q]
-            ri = S[_RI * _BLOCK_B + q]
-            rj = S[_RJ * _BLOCK_B + q]
-            rs = ri + rj
-            r = math.sqrt(r2)
-            rinv = 1.0 / r
-            e1 = dx * rinv
-            e2 = dy * rinv
-            e3 = dz * rinv
-            delta = rs - r
-            reff = ri * rj / rs
-            mi = S[_MI * _BLOCK_B + q]
-            mj = S[_MJ * _BLOCK_B + q]
-            meff = mi * mj / (mi + mj)
-            sq = math.sqrt(reff * delta)
-            kn, kt = hertz_stiffness(sq, S[_Y * _BLOCK_B + q], S[_G * _BLOCK_B + q])
-            gn, gt = pair_damping(sq, meff, S[_B * _BLOCK_B + q], S[_GTR * _BLOCK_B + q])
-            vr1 = S[_VR1 * _BLOCK_B + q]
-            vr2 = S[_VR2 * _BLOCK_B + q]
-            vr3 = S[_VR3 * _BLOCK_B + q]
-            vn = vr1 * e1 + vr2 * e2 + vr3 * e3
-            fn = normal_force(kn, delta, gn, vn, limit)
-            fn_cap = fn
-            k_coh = S[_COH * _BLOCK_B + q]
-            if k_coh != 0.0:
-                fn -= k_coh * _sjkr_area_pair(r, ri, rj)
-            cri = ri - 0.5 * delta
-            crj = rj - 0.5 * delta
-            oi1 = S[_OI1 * _BLOCK_B + q]
-            oi2 = S[_OI2 * _BLOCK_B + q]
-            oi3 = S[_OI3 * _BLOCK_B + q]
-            oj1 = S[_OJ1 * _BLOCK_B + q]
-            oj2 = S[_OJ2 * _BLOCK_B + q]
-            oj3 = S[_OJ3 * _BLOCK_B + q]
-            vt1, vt2, vt3 = tangential_velocity(vr1, vr2, vr3, vn, e1, e2, e3,
-                                                cri * oi1 + crj * oj1,
-                                                cri * oi2 + crj * oj2,
-                                                cri * oi3 + crj * oj3)
-            s1, s2, s3, f1, f2, f3 = _tangential_history(
-                S[_S1 * _BLOCK_B + q], S[_S2 * _BLOCK_B + q], S[_S3 * _BLOCK_B + q], vt1, vt2, vt3,
-                e1, e2, e3, kt, gt, S[_MU * _BLOCK_B + q], fn_cap, dt)
+            mur = 0.0
+            h1 = 0.0
+            h2 = 0.0
+            h3 = 0.0
+            if rolling != ROLL_NONE:
+                mur = S[_MUR * _BLOCK_B + q]
+                h1 = S[_H1 * _BLOCK_B + q]
+                h2 = S[_H2 * _BLOCK_B + q]
+                h3 = S[_H3 * _BLOCK_B + q]
+            inv_ii = 0.0
+            inv_ij = 0.0
+            if rolling == ROLL_EPSD:
+                inv_ii = S[_II * _BLOCK_B + q]
+                inv_ij = S[_IJ * _BLOCK_B + q]
+            (fn, f1, f2, f3, s1, s2, s3, h1, h2, h3, ti1, ti2, ti3, tj1, tj2, tj3, e1, e2, e3,
+             _, _, _) = pair_contact(
+                S[_DX * _BLOCK_B + q], S[_DY * _BLOCK_B + q], S[_DZ * _BLOCK_B + q],
+                S[_R2 * _BLOCK_B + q], S[_RI * _BLOCK_B + q], S[_RJ * _BLOCK_B + q],
+                S[_MI * _BLOCK_B + q], S[_MJ * _BLOCK_B + q],
+                (S[_VR1 * _BLOCK_B + q], S[_VR2 * _BLOCK_B + q], S[_VR3 * _BLOCK_B + q]),
+                (S[_OI1 * _BLOCK_B + q], S[_OI2 * _BLOCK_B + q], S[_OI3 * _BLOCK_B + q]),
+                (S[_OJ1 * _BLOCK_B + q], S[_OJ2 * _BLOCK_B + q], S[_OJ3 * _BLOCK_B + q]),
+                S[_Y * _BLOCK_B + q], S[_G * _BLOCK_B + q], S[_B * _BLOCK_B + q],
+                S[_GTR * _BLOCK_B + q], S[_MU * _BLOCK_B + q], mur, S[_COH * _BLOCK_B + q],
+                0.0, 0.0, (S[_S1 * _BLOCK_B + q], S[_S2 * _BLOCK_B + q], S[_S3 * _BLOCK_B + q]),
+                (h1, h2, h3), inv_ii, inv_ij, rolling, limit, eta_r, dt, krf)
             S[_S1 * _BLOCK_B + q] = s1
             S[_S2 * _BLOCK_B + q] = s2
             S[_S3 * _BLOCK_B + q] = s3
-            ti1, ti2, ti3, tj1, tj2, tj3 = shear_torques(e1, e2, e3, f1, f2, f3, cri, crj)
             if rolling != ROLL_NONE:
-                mur = S[_MUR * _BLOCK_B + q]
-                if mur > 0.0:
-                    ieff = 0.0
-                    if rolling == ROLL_EPSD:
-                        ii = 1.0 / S[_II * _BLOCK_B + q] + mi * ri * ri
-                        ij = 1.0 / S[_IJ * _BLOCK_B + q] + mj * rj * rj
-                        ieff = ii * ij / (ii + ij)
-                    h1, h2, h3, m1, m2, m3 = _rolling_torque(
-                        rolling,
-                        S[_H1 * _BLOCK_B + q], S[_H2 * _BLOCK_B + q], S[_H3 * _BLOCK_B + q],
-                        oi1 - oj1, oi2 - oj2, oi3 - oj3, e1, e2, e3, kn, kt, delta,
-                        reff, fn_cap, mur, dt, ieff, eta_r, krf)
-                    S[_H1 * _BLOCK_B + q] = h1
-                    S[_H2 * _BLOCK_B + q] = h2
-                    S[_H3 * _BLOCK_B + q] = h3
-                    ti1 -= m1
-                    ti2 -= m2
-                    ti3 -= m3
-                    tj1 += m1
-                    tj2 += m2
-                    tj3 += m3
+                S[_H1 * _BLOCK_B + q] = h1
+                S[_H2 * _BLOCK_B + q] = h2
+                S[_H3 * _BLOCK_B + q] = h3
             S[_FX * _BLOCK_B + q] = fn * e1 + f1
             S[_FY * _BLOCK_B + q] = fn * e2 + f2
             S[_FZ * _BLOCK_B + q] = fn * e3 + f3

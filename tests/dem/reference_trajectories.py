@@ -8,8 +8,9 @@ spreading over it (``spread``) or the floor plate of a repose box sliding out
 extension. :func:`run_case` returns the state after the run, the contact forces
 the output path computes and the wall contacts (all arrays).
 
-The runs use the engine's single-loop pair pass (the blocked pass rounds differently in
-the last bits; ``test_engine_speedpaths.py`` compares the two).
+The runs use the engine's single-loop pair pass, which carries the extensions; without
+them the blocked pass (the engine's default) gives the same bits
+(``test_engine_speedpaths.py``).
 
 Run this module as a script to record the digests of this machine's results into
 ``data/reference_trajectories.json`` (and, with ``--npz DIR``, the arrays); ``--cases``
@@ -66,7 +67,7 @@ def run_case(name: str, *, blocked: bool = False) -> dict[str, np.ndarray]:
     """The arrays of one case after its run (see the module docstring).
 
     The digests are those of the engine's single-loop pair pass; ``blocked`` runs the
-    blocked (vectorised) pair pass instead, whose rounding differs in the last bits.
+    blocked (vectorised) pair pass instead, equal bit for bit without the extensions.
     """
     scene, kw = CASES[name]
     model = ContactModel(Material(E, NU, RHO), restitution=0.4, friction=0.5,

@@ -1,8 +1,8 @@
 """The engine's results are bit for bit those recorded in ``data/reference_trajectories.json``.
 
 The runs use the single-loop pair pass (``reference_trajectories.run_case``); the blocked
-pass, the default without capillary bridges and ageing, rounds differently in the last bits
-and is compared with the single loop in ``test_engine_speedpaths.py``.
+pass, the default without capillary bridges and ageing, gives the same bits there
+(``test_engine_speedpaths.py``, and :func:`test_default_pass_bit_identical` here).
 
 The digests were recorded with ``reference_trajectories.py`` on the machine named in the
 file (the bits depend on the CPU and the numba/llvmlite versions, not only on the code);
@@ -56,4 +56,19 @@ def test_trajectory_bit_identical(name):
     if rt.machine() != _REF["machine"]:
         pytest.skip(f"digests recorded on {_REF['machine']}; this is {rt.machine()}")
     arrays = rt.run_case(name)
+    assert rt.digest(arrays) == _REF["digests"][name], _differences(name, arrays)
+
+
+#: Cases without the extensions, which the blocked pass (the engine's default) runs too.
+BLOCKED_CASES = sorted(n for n, (_, kw) in rt.CASES.items()
+                       if not kw.get("capillary") and not kw.get("contact_ageing"))
+
+
+@pytest.mark.parametrize("name", [n if n == "bed-epsd2-coh1" else pytest.param(n, marks=pytest.mark.slow)
+                                  for n in BLOCKED_CASES])
+def test_default_pass_bit_identical(name):
+    # the engine's default pass, run through the same case, gives the single loop's bits
+    if rt.machine() != _REF["machine"]:
+        pytest.skip(f"digests recorded on {_REF['machine']}; this is {rt.machine()}")
+    arrays = rt.run_case(name, blocked=True)
     assert rt.digest(arrays) == _REF["digests"][name], _differences(name, arrays)
