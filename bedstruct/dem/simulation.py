@@ -165,9 +165,9 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         self.n_threads = int(n_threads or _numba.get_num_threads())
         self.serial_below = 5000
         self.yield_when_busy = True
-        # True: the pair pass in gather-compute-scatter blocks (vectorised contact law; agrees
-        # with the single loop to 1e-11 relative, not bit for bit; docs/engine.md)
-        self.blocked_pairs = False
+        # True: the pair pass in gather-compute-scatter blocks where no extension is on
+        # (vectorised contact law, the single loop's bits; docs/engine.md)
+        self.blocked_pairs = True
         if self.n_threads < 1:
             raise ConfigError(f"`n_threads` must be >= 1; got {n_threads}")
         self.rng = np.random.default_rng(seed)

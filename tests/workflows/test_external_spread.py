@@ -99,10 +99,11 @@ def _history_kept(out, width, n, tangential):
 def test_roller_one_layer(tmp_path, engine, embedded_roller):
     """The counter-rotating roller (surface speed = traverse speed) spreads a bed no thicker
     than the gap plus a particle; every sphere is accounted for (bed + heap + removed =
-    inserted); the bed is that of the embedded engine's roller within 40 % in spheres and 50 %
-    in mean height (one pile each; measured, docs/validation.md: mean height 211 / 304 / 193 um
-    on embedded / LIGGGHTS / LAMMPS, and 228 / 293 / 247 um without spin: the faceted STL
-    roller leaves a thicker bed than the analytic cylinders, spin or not)."""
+    inserted); the bed is that of the embedded engine's roller within 40 % in spheres and a
+    factor of 2 in mean height (one pile each; measured, docs/validation.md: mean height
+    211 / 304 / 193 um on embedded / LIGGGHTS / LAMMPS, and 228 / 293 / 247 um without spin:
+    the faceted STL roller leaves a thicker bed than the analytic cylinders, spin or not; one
+    embedded pile alone gives 155, 170, 181 and 251 um over seeds 0-3)."""
     _need(engine)
     res = run_spread(_roller_cfg(engine), out=tmp_path)
     (layer,) = res.layers
@@ -114,7 +115,8 @@ def test_roller_one_layer(tmp_path, engine, embedded_roller):
     assert 0.25 * H < layer.bed_height_m < layer.bed_top_m < H + 140e-6
     assert all(0.2 < f < 0.66 for f in layer.packing_fraction)
     assert layer.n_bed == pytest.approx(ref.n_bed, rel=0.4), (layer.n_bed, ref.n_bed)
-    assert layer.bed_height_m == pytest.approx(ref.bed_height_m, rel=0.5)
+    assert 0.5 < layer.bed_height_m / ref.bed_height_m < 2.0, (layer.bed_height_m,
+                                                               ref.bed_height_m)
     d = json.loads((tmp_path / "results.json").read_text())
     assert d["engine"] == engine and d["tool"] == "roller"
     deck = (tmp_path / "in.spread").read_text()
