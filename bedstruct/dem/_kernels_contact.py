@@ -14,11 +14,10 @@ through ``.py_func``.
 Two kinds: the one-line pieces are inlined into the caller by numba
 (``inline="always"``); the ones with branches (:func:`tangential_history`,
 :func:`rolling_torque`, :func:`hertz_coefficients`, the SJKR areas,
-:func:`capillary_force`) are compiled as functions of their own. Their
-rounding therefore does not depend on the caller: fast-math reassociation in
-a kernel does not reach into them, so the pair and the wall contact round the
-spring, the cap and the rolling torque alike, and a change to a kernel's loop
-leaves their results bit for bit.
+:func:`capillary_force`) are compiled as functions of their own, which the
+particle-wall contact calls. The pair passes inline every piece instead
+(:data:`PAIR_PIECES`), rounded as written (:data:`STRICT`): their loop has no calls,
+and a pair's bits do not depend on the loop around the law.
 
 Conventions (as LIGGGHTS): ``en`` points from the partner (j or the wall)
 to i; ``Fn > 0`` is repulsive; the force on i is ``Fn en + Ft``.
