@@ -37,7 +37,7 @@ __all__ = ["hertz_stiffness", "hertz_coefficients", "pair_damping", "normal_forc
            "shear_torques", "rolling_torque", "capillary_force", "ageing_bond",
            "wall_contact", "pair_contact", "pair_contact_law", "PAIR_PIECES", "STRICT",
            "ROLL_NONE", "ROLL_CDT", "ROLL_EPSD", "ROLL_EPSD2", "SQRT_5_6",
-           "EPSD_STIFFNESS_FACTOR", "pair_table", "TAB_YOUNGS", "TAB_SHEAR", "TAB_DAMPING",
+           "EPSD_STIFFNESS_FACTOR", "pair_table", "law_rows", "TAB_YOUNGS", "TAB_SHEAR", "TAB_DAMPING",
            "TAB_DAMPING_RATIO", "TAB_FRICTION", "TAB_ROLLING_FRICTION", "TAB_COHESION"]
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
@@ -400,6 +400,19 @@ pair_contact = njit(inline="always", **STRICT)(pair_contact_law(**PAIR_PIECES))
 #: Rows of the per-type-pair table ``TAB`` (see :func:`pair_table`).
 TAB_YOUNGS, TAB_SHEAR, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION, TAB_ROLLING_FRICTION, \
     TAB_COHESION = range(7)
+
+
+@njit(inline="always")
+def law_rows(TAB, kr_fac):
+    """The pair law's per-type-pair tables as views of ``TAB`` (``Y*``, ``G*``, ``B``, ``GTR``,
+    ``mu``, ``mu_r``, cohesion; see :func:`pair_table`) and the rolling stiffness factor:
+    ``kr_fac``, or EPSD's :data:`EPSD_STIFFNESS_FACTOR` when it is None."""
+    if kr_fac is None:
+        krf = EPSD_STIFFNESS_FACTOR
+    else:
+        krf = kr_fac
+    return (TAB[TAB_YOUNGS], TAB[TAB_SHEAR], TAB[TAB_DAMPING], TAB[TAB_DAMPING_RATIO],
+            TAB[TAB_FRICTION], TAB[TAB_ROLLING_FRICTION], TAB[TAB_COHESION], krf)
 
 
 def pair_table(youngs, shear, beta, friction, rolling_friction, cohesion, tangential_damping):

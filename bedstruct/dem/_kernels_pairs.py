@@ -40,10 +40,9 @@ import numpy as np
 from numba import literally
 
 from .._numba import njit, prange
-from ._kernels_contact import (EPSD_STIFFNESS_FACTOR, ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE,
-                               TAB_COHESION, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION,
-                               STRICT, TAB_ROLLING_FRICTION, TAB_SHEAR, TAB_YOUNGS, _open_pair,
-                               ageing_bond, capillary_force, pair_contact, sjkr_area_pair)
+from ._kernels_contact import (ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE, STRICT, _open_pair,
+                               ageing_bond, capillary_force, law_rows, pair_contact,
+                               sjkr_area_pair)
 from ._kernels_pairs_blocked import BLOCKED_BY_ROLLING
 
 __all__ = ["pair_forces"]
@@ -60,17 +59,7 @@ def _pair_chunk(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_
     x, v, om, rad, mass, inv_i, ptype = P
     pi, pj, psh = PL
     ht, hr = hist
-    Y = TAB[TAB_YOUNGS]
-    G = TAB[TAB_SHEAR]
-    B = TAB[TAB_DAMPING]
-    GTR = TAB[TAB_DAMPING_RATIO]
-    MU = TAB[TAB_FRICTION]
-    MUR = TAB[TAB_ROLLING_FRICTION]
-    COH = TAB[TAB_COHESION]
-    if kr_fac is None:
-        krf = EPSD_STIFFNESS_FACTOR
-    else:
-        krf = kr_fac
+    Y, G, B, GTR, MU, MUR, COH, krf = law_rows(TAB, kr_fac)
     # scratch of one block: active pairs (tk, with their separation) and the others (tn)
     tk = np.empty(_BLOCK, dtype=np.int64)
     tn = np.empty(_BLOCK, dtype=np.int64)

@@ -20,10 +20,8 @@ import numpy as np
 from numba import literally
 
 from .._numba import njit, prange
-from ._kernels_contact import (EPSD_STIFFNESS_FACTOR, ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE,
-                               STRICT, TAB_COHESION, TAB_DAMPING, TAB_DAMPING_RATIO, TAB_FRICTION,
-                               TAB_ROLLING_FRICTION, TAB_SHEAR, TAB_YOUNGS, _open_pair,
-                               pair_contact)
+from ._kernels_contact import (ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE, STRICT, _open_pair,
+                               law_rows, pair_contact)
 
 __all__ = ["BLOCKED_BY_ROLLING"]
 
@@ -54,17 +52,7 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
     x, v, om, rad, mass, inv_i, ptype = P
     pi, pj, psh = PL
     ht, hr = hist
-    Y = TAB[TAB_YOUNGS]
-    G = TAB[TAB_SHEAR]
-    B = TAB[TAB_DAMPING]
-    GTR = TAB[TAB_DAMPING_RATIO]
-    MU = TAB[TAB_FRICTION]
-    MUR = TAB[TAB_ROLLING_FRICTION]
-    COH = TAB[TAB_COHESION]
-    if kr_fac is None:
-        krf = EPSD_STIFFNESS_FACTOR
-    else:
-        krf = kr_fac
+    Y, G, B, GTR, MU, MUR, COH, krf = law_rows(TAB, kr_fac)
     tk = np.empty(_BLOCK_B, dtype=np.int64)
     tn = np.empty(_BLOCK_B, dtype=np.int64)
     S = np.empty(_NROW * _BLOCK_B)
