@@ -10,8 +10,8 @@ history back in pair order. The contact law is the single loop's
 force does not depend on its place in a block and the results equal the single loop's
 (:mod:`bedstruct.dem._kernels_pairs`) bit for bit.
 
-One compiled kernel per rolling model (:func:`pair_forces_blocked` with the ``ROLL_*``
-code as a literal), with the EPSD stiffness factor compiled in or passed.
+One compiled kernel per rolling model (:data:`BLOCKED_BY_ROLLING`, indexed by the
+``ROLL_*`` code), with the EPSD stiffness factor compiled in or passed.
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ import numpy as np
 from numba import literally
 
 from .._numba import njit, prange
-from ._kernels_contact import (ROLL_EPSD, ROLL_NONE, STRICT, _open_pair,
+from ._kernels_contact import (ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE, STRICT, _open_pair,
                                law_rows, pair_contact)
 
-__all__ = ["pair_forces_blocked"]
+__all__ = ["BLOCKED_BY_ROLLING"]
 
 _FM = dict(fastmath=True)
 
@@ -200,10 +200,37 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
 
 
 @njit(parallel=True, **_FM)
-def pair_forces_blocked(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt,
-                        store, fn_out, ft_out, kr_fac):
-    """The blocked pass over all chunks, compiled once per rolling model (a literal)."""
-    literally(rolling)
+def _pair_forces_blocked_0(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store,
+                           fn_out, ft_out, kr_fac):
     for t in prange(bounds.shape[0] - 1):
-        _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r,
+        _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_NONE, limit, eta_r,
                             dt, store, fn_out, ft_out, kr_fac)
+
+
+@njit(parallel=True, **_FM)
+def _pair_forces_blocked_1(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store,
+                           fn_out, ft_out, kr_fac):
+    for t in prange(bounds.shape[0] - 1):
+        _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_CDT, limit, eta_r,
+                            dt, store, fn_out, ft_out, kr_fac)
+
+
+@njit(parallel=True, **_FM)
+def _pair_forces_blocked_2(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store,
+                           fn_out, ft_out, kr_fac):
+    for t in prange(bounds.shape[0] - 1):
+        _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_EPSD, limit, eta_r,
+                            dt, store, fn_out, ft_out, kr_fac)
+
+
+@njit(parallel=True, **_FM)
+def _pair_forces_blocked_3(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store,
+                           fn_out, ft_out, kr_fac):
+    for t in prange(bounds.shape[0] - 1):
+        _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, ROLL_EPSD2, limit, eta_r,
+                            dt, store, fn_out, ft_out, kr_fac)
+
+
+#: The blocked pass of each rolling model, indexed by its ``ROLL_*`` code.
+BLOCKED_BY_ROLLING = (_pair_forces_blocked_0, _pair_forces_blocked_1, _pair_forces_blocked_2,
+                      _pair_forces_blocked_3)
