@@ -256,11 +256,26 @@ def ageing_bond(k_coh, area, age, AGE):
 
 
 @njit(**_FM)
-def wall_contact(dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mi, inv_ii, v1, v2, v3, w1, w2, w3,
-                 ystar, gstar, beta, mu, mur, kc, rolling, tdamp, limit, eta_r, dt,
-                 h1, h2, h3, r1, r2, r3, kr_fac=EPSD_STIFFNESS_FACTOR):
-    """One particle-wall contact (scalars only): force and torque on the particle,
-    normal force, overlap and the updated tangential (h) and rolling (r) history."""
+def wall_contact(dist, n, u, o, sphere, vel, omega, law, rolling, tdamp, limit, eta_r, dt, h, r,
+                 kr_fac=EPSD_STIFFNESS_FACTOR):
+    """One particle-wall contact: force and torque on the particle, normal force, overlap
+    and the updated tangential (h) and rolling (r) history, as a flat tuple of scalars.
+
+    ``n``: unit normal from the wall to the sphere; ``u``, ``o``: the wall's velocity and
+    angular velocity at the contact; ``sphere = (radius, mass, 1 / moment of inertia)``;
+    ``vel``, ``omega``: the sphere's velocity and angular velocity; ``law = (Y*, G*, beta,
+    mu, mu_r, cohesion energy density)`` of the wall-sphere type pair; ``h``, ``r``: the
+    tangential and rolling history (all 3-vectors as tuples).
+    """
+    n1, n2, n3 = n
+    u1, u2, u3 = u
+    o1, o2, o3 = o
+    ri, mi, inv_ii = sphere
+    v1, v2, v3 = vel
+    w1, w2, w3 = omega
+    ystar, gstar, beta, mu, mur, kc = law
+    h1, h2, h3 = h
+    r1, r2, r3 = r
     delta = ri - dist
     kn, kt, gn, gt = hertz_coefficients(delta, ri, mi, ystar, gstar, beta)
     if not tdamp:

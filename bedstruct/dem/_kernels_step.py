@@ -132,10 +132,10 @@ def finish_step(P, fbuf, tbuf, gravity, bounds, WS, WTAB, rolling, tdamp, limit,
                     q2 = 0.0
                     q3 = 0.0
                 (gx, gy, gz, g1, g2, g3, fnw, delta, h1, h2, h3, q1, q2, q3) = wall_contact(
-                    dist, n1, n2, n3, u1, u2, u3, o1, o2, o3, ri, mass[i], inv_i[i],
-                    v[i, 0], v[i, 1], v[i, 2], om[i, 0], om[i, 1], om[i, 2],
-                    Y[ti, wt], G[ti, wt], B[ti, wt], MU[ti, wt], MUR[ti, wt], COH[ti, wt],
-                    rolling, tdamp, limit, eta_r, dt, h1, h2, h3, q1, q2, q3, kr_fac)
+                    dist, (n1, n2, n3), (u1, u2, u3), (o1, o2, o3), (ri, mass[i], inv_i[i]),
+                    (v[i, 0], v[i, 1], v[i, 2]), (om[i, 0], om[i, 1], om[i, 2]),
+                    (Y[ti, wt], G[ti, wt], B[ti, wt], MU[ti, wt], MUR[ti, wt], COH[ti, wt]),
+                    rolling, tdamp, limit, eta_r, dt, (h1, h2, h3), (q1, q2, q3), kr_fac)
                 if slot >= 0:
                     whist[i, slot, 0] = h1
                     whist[i, slot, 1] = h2
