@@ -29,9 +29,14 @@ def test_angle_rises_with_friction(two_frictions):
     assert high.angle_deg > low.angle_deg + 5.0
     for res in (low, high):
         assert np.isfinite(res.angle_std_deg) and res.angle_std_deg > 0
-        rep = res.replicates[0]
-        # both flanks of the pile on the ledge are fitted
-        assert np.isfinite(rep.left_deg) and np.isfinite(rep.right_deg)
+    # both flanks of the rough pile on the ledge are fitted
+    rep = high.replicates[0]
+    assert np.isfinite(rep.left_deg) and np.isfinite(rep.right_deg)
+    # the nearly frictionless heap is a few grains high, so where its highest grain sits
+    # decides whether one flank is long enough to fit; at least one is, and it is lower
+    rep = low.replicates[0]
+    assert np.isfinite(rep.left_deg) or np.isfinite(rep.right_deg)
+    assert rep.pile_height < high.replicates[0].pile_height
 
 
 def test_particles_conserved_and_plate_drains(two_frictions):
