@@ -37,8 +37,8 @@ __all__ = ["hertz_stiffness", "hertz_coefficients", "pair_damping", "normal_forc
            "shear_torques", "rolling_torque", "capillary_force", "ageing_bond",
            "wall_contact", "pair_contact", "pair_contact_law", "PAIR_PIECES", "STRICT",
            "ROLL_NONE", "ROLL_CDT", "ROLL_EPSD", "ROLL_EPSD2", "SQRT_5_6",
-           "EPSD_STIFFNESS_FACTOR", "pair_table", "law_rows", "TAB_YOUNGS", "TAB_SHEAR", "TAB_DAMPING",
-           "TAB_DAMPING_RATIO", "TAB_FRICTION", "TAB_ROLLING_FRICTION", "TAB_COHESION"]
+           "EPSD_STIFFNESS_FACTOR", "pair_table", "law_rows", "TAB_YOUNGS", "TAB_SHEAR",
+           "TAB_DAMPING", "TAB_DAMPING_RATIO", "TAB_FRICTION", "TAB_ROLLING_FRICTION", "TAB_COHESION"]
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
 

@@ -253,7 +253,8 @@ def _pair_forces_3(P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, st
 # one compiled kernel per rolling model: the model is a compile-time constant there, so
 # the other models' code is gone from the hot loop (~10 % faster than a runtime switch).
 # Written out per model: one wrapper taking the model through `literally` gives the same
-# code but was still compiling after 15 CPU-minutes in a fresh process (about one minute here).
+# code but was still compiling after 15 CPU-minutes in a fresh process; these four compile
+# in about one minute.
 _BY_ROLLING = (_pair_forces_0, _pair_forces_1, _pair_forces_2, _pair_forces_3)
 
 
