@@ -324,6 +324,41 @@ def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["ooc_ci"], [0.0252, 0.5561], atol=5e-5)
 
 
+def test_committed_detectable_liggghts_blind_record_rescores_as_its_summary():
+    """The third blind LIGGGHTS batch (protocol 2, detectable magnitudes): the seal matches
+    the committed truth and twin files, every twin has one result on its sealed file, and
+    the results score as the docs quote."""
+    from bedstruct.diagnose import blind
+
+    rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
+           / "blind-liggghts-detectable-2026-12-04")
+    truth = json.loads((rec / "truth.json").read_text())
+    seal = json.loads((rec / "seal.json").read_text())
+    assert seal["truth_sha256"] == _sha(rec / "truth.json")
+    assert truth["commit"].startswith("bd2bf5b") and truth["settings"]["seed"] == 20261205
+    assert truth["settings"]["draw"] == "detectable"
+    assert truth["settings"]["twins_engine"] == "liggghts"
+    assert truth["settings"]["bridge"]["engine"] == "liggghts"
+    assert set(seal["twins_sha256"]) == set(truth["twins"])
+    for twin, digest in seal["twins_sha256"].items():
+        assert _sha(rec / "twins" / f"{twin}.toml") == digest, twin
+    results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
+    assert set(results) == set(truth["twins"])
+    assert all(r["twin_sha256"] == seal["twins_sha256"][t] for t, r in results.items())
+    assert not any(r["verdict"] == "error" for r in results.values())
+    s = blind.score_benchmark(truth, results)
+    summary = json.loads((rec / "summary.json").read_text())
+    for key in ("top1_count", "top1_detected_count", "null_false_count", "ooc_count",
+                "coverage_count", "shrink_n", "confusion"):
+        assert s[key] == summary[key], key
+    assert s["top1_count"] == [7, 20] and s["top1_detected_count"] == [7, 19]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [1, 10]
+    assert s["coverage_count"] == [3, 7]
+    assert s["shrink_n"] == 17 and abs(s["shrink_median"] - 0.753) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.1539, 0.5922], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.0025, 0.4450], atol=5e-5)
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
