@@ -290,18 +290,17 @@ def test_committed_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["top1_ci"], [0.0573, 0.4366], atol=5e-5)
 
 
-def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
-    """The second blind LIGGGHTS batch (frozen with the engine bridge): the seal matches the
-    committed truth and twin files, every twin has one result on its sealed file, and the
-    results score as the docs quote."""
+def _rescore_sealed_liggghts_record(folder: str, commit: str, seed: int) -> dict:
+    """Check a bridged LIGGGHTS blind record: the seal matches the committed truth and twin
+    files, every twin has one result on its sealed file and no error, and the summary's
+    counts are what the results score. Returns the scores."""
     from bedstruct.diagnose import blind
 
-    rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
-           / "blind-liggghts-bridged-2026-12-04")
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / folder
     truth = json.loads((rec / "truth.json").read_text())
     seal = json.loads((rec / "seal.json").read_text())
     assert seal["truth_sha256"] == _sha(rec / "truth.json")
-    assert truth["commit"].startswith("4c5d76c") and truth["settings"]["seed"] == 20261204
+    assert truth["commit"].startswith(commit) and truth["settings"]["seed"] == seed
     assert truth["settings"]["twins_engine"] == "liggghts"
     assert truth["settings"]["bridge"]["engine"] == "liggghts"
     assert set(seal["twins_sha256"]) == set(truth["twins"])
@@ -316,6 +315,14 @@ def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
     for key in ("top1_count", "top1_detected_count", "null_false_count", "ooc_count",
                 "coverage_count", "shrink_n", "confusion"):
         assert s[key] == summary[key], key
+    s["draw"] = truth["settings"].get("draw")
+    return s
+
+
+def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
+    """The second blind LIGGGHTS batch (frozen with the engine bridge) scores as the docs
+    quote."""
+    s = _rescore_sealed_liggghts_record("blind-liggghts-bridged-2026-12-04", "4c5d76c", 20261204)
     assert s["top1_count"] == [2, 20] and s["top1_detected_count"] == [1, 13]
     assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [2, 10]
     assert s["coverage_count"] == [0, 2]
@@ -325,32 +332,11 @@ def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
 
 
 def test_committed_detectable_liggghts_blind_record_rescores_as_its_summary():
-    """The third blind LIGGGHTS batch (protocol 2, detectable magnitudes): the seal matches
-    the committed truth and twin files, every twin has one result on its sealed file, and
-    the results score as the docs quote."""
-    from bedstruct.diagnose import blind
-
-    rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
-           / "blind-liggghts-detectable-2026-12-04")
-    truth = json.loads((rec / "truth.json").read_text())
-    seal = json.loads((rec / "seal.json").read_text())
-    assert seal["truth_sha256"] == _sha(rec / "truth.json")
-    assert truth["commit"].startswith("bd2bf5b") and truth["settings"]["seed"] == 20261205
-    assert truth["settings"]["draw"] == "detectable"
-    assert truth["settings"]["twins_engine"] == "liggghts"
-    assert truth["settings"]["bridge"]["engine"] == "liggghts"
-    assert set(seal["twins_sha256"]) == set(truth["twins"])
-    for twin, digest in seal["twins_sha256"].items():
-        assert _sha(rec / "twins" / f"{twin}.toml") == digest, twin
-    results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
-    assert set(results) == set(truth["twins"])
-    assert all(r["twin_sha256"] == seal["twins_sha256"][t] for t, r in results.items())
-    assert not any(r["verdict"] == "error" for r in results.values())
-    s = blind.score_benchmark(truth, results)
-    summary = json.loads((rec / "summary.json").read_text())
-    for key in ("top1_count", "top1_detected_count", "null_false_count", "ooc_count",
-                "coverage_count", "shrink_n", "confusion"):
-        assert s[key] == summary[key], key
+    """The third blind LIGGGHTS batch (protocol 2, detectable magnitudes) scores as the docs
+    quote."""
+    s = _rescore_sealed_liggghts_record("blind-liggghts-detectable-2026-12-04", "bd2bf5b",
+                                        20261205)
+    assert s["draw"] == "detectable"
     assert s["top1_count"] == [7, 20] and s["top1_detected_count"] == [7, 19]
     assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [1, 10]
     assert s["coverage_count"] == [3, 7]
