@@ -248,7 +248,8 @@ def run(args) -> int:
         if cfg.bridge:
             from ..diagnose.bridge import engine_bridge
             settings["bridge"] = engine_bridge(ms, sim, base=cfg.base, bridge=cfg.bridge,
-                                               engine=cfg.engine, progress=args.progress)
+                                               engine=cfg.engine, effects=cfg.effects,
+                                               progress=args.progress)
         diag = diagnose(ms, sim, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
                         progress=args.progress, **settings)
     out = diag.to_json()

@@ -251,7 +251,8 @@ def diagnose_with_library(measurements, simulator, *, base: Mapping[str, float],
     if bridge:
         diagnose_kwargs["bridge"] = engine_bridge(
             measurements, emulated, base=base, bridge=bridge, engine=engine,
-            cache=bridge.get("cache") or Path(library) / "bridge", progress=progress)
+            cache=bridge.get("cache") or Path(library) / "bridge", effects=effects,
+            workers=workers, progress=progress)
     diag = diagnose(measurements, emulated, base=base, effects=effects, nuisance=nuisance,
                     progress=progress, **diagnose_kwargs)
     sh = diag.shrink

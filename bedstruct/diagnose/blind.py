@@ -235,7 +235,8 @@ class BenchmarkResult:
         s = self.summary
         return {k: s[k] for k in ("n", "top1", "top1_ci", "top1_detected", "top1_detected_ci",
                                   "null_false", "null_false_ci",
-                                  "ooc_unexplained", "ooc_ci", "shrink_median", "shrink_ci",
+                                  "ooc_unexplained", "ooc_ci", "ooc_detected", "ooc_detected_ci",
+                                  "shrink_median", "shrink_ci",
                                   "shrink_ci_method", "shrink_n", "coverage", "coverage_ci",
                                   "commit", "out")}
 
@@ -266,6 +267,9 @@ def score_benchmark(truth: dict, results: dict) -> dict:
     k_seen = sum(lead[t] == twins[t]["effect"] for t in seen)
     k_null = sum(results[t]["verdict"] == "attributed" for t in null)
     k_ooc = sum(results[t]["verdict"] == "unexplained" for t in ooc)
+    # out-of-catalogue twins whose gap the data show: the only ones "unexplained" can name
+    ooc_seen = [t for t in ooc if results[t].get("gap_significant")]
+    k_ooc_seen = sum(results[t]["verdict"] == "unexplained" for t in ooc_seen)
     covered = [t for t in eff if lead[t] == twins[t]["effect"] and results[t]["interval"]]
     k_cov = sum(results[t]["interval"][0] <= twins[t]["magnitude"] <= results[t]["interval"][1]
                 for t in covered)
@@ -289,6 +293,7 @@ def score_benchmark(truth: dict, results: dict) -> dict:
     td, td_ci, td_count = prop(k_seen, len(seen))
     nf, nf_ci, nf_count = prop(k_null, len(null))
     ou, ou_ci, ou_count = prop(k_ooc, len(ooc))
+    od, od_ci, od_count = prop(k_ooc_seen, len(ooc_seen))
     cv, cv_ci, cv_count = prop(k_cov, len(covered))
     per_twin = []
     for t in sorted(twins):
@@ -304,6 +309,7 @@ def score_benchmark(truth: dict, results: dict) -> dict:
             "top1_detected": td, "top1_detected_ci": td_ci, "top1_detected_count": td_count,
             "null_false": nf, "null_false_ci": nf_ci, "null_false_count": nf_count,
             "ooc_unexplained": ou, "ooc_ci": ou_ci, "ooc_count": ou_count,
+            "ooc_detected": od, "ooc_detected_ci": od_ci, "ooc_detected_count": od_count,
             "coverage": cv, "coverage_ci": cv_ci, "coverage_count": cv_count,
             "shrink_median": float(np.median(shrinks)) if shrinks else float("nan"),
             "shrink_ci": [lo, hi], "shrink_n": len(shrinks),
@@ -345,7 +351,10 @@ def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library,
 def _bridge_doc(sim, settings) -> dict:
     """The diagnosing configuration's ``[bridge]`` (engine and runs), when it has one."""
     tab = _sim_config(sim, settings).bridge
-    return {"bridge": {k: tab[k] for k in ("engine", "runs", "seed")}} if tab else {}
+    if not tab:
+        return {}
+    keys = ("engine", "runs", "seed") + (("probe_runs",) if tab.get("probe_runs") else ())
+    return {"bridge": {k: tab[k] for k in keys}}
 
 
 def _library_doc(sim, settings) -> dict:
@@ -378,7 +387,7 @@ def _detectable(sim, settings, twins_engine, simulator, progress=False):
                              repeats=1 if twins_engine == "surrogate" else 3)
 
 
-def _benchmark_bridge(sim, settings, design, emulator, library, progress):
+def _benchmark_bridge(sim, settings, design, emulator, library, progress, workers=1):
     """The diagnosing configuration's engine bridge on the benchmark's design (``None``
     without a ``[bridge]``): made once, its runs kept in the table's ``cache``, else in the
     library's folder."""
@@ -391,7 +400,18 @@ def _benchmark_bridge(sim, settings, design, emulator, library, progress):
         simulator = make_simulator(cfg, diagnosis_design(design, cfg.effects))
     cache = cfg.bridge.get("cache") or (Path(library) / "bridge" if library is not None else None)
     return engine_bridge(design, simulator, base=cfg.base, bridge=cfg.bridge, engine=cfg.engine,
-                         cache=cache, progress=progress)
+                         effects=cfg.effects, cache=cache, workers=workers, progress=progress)
+
+
+def _bridge_once(out, sim, settings, twins_engine, emulator, library, progress, workers):
+    """The benchmark's engine bridge (:func:`_benchmark_bridge`), written to
+    ``out/bridge.json``."""
+    bridge = _benchmark_bridge(sim, settings, benchmark_design(twins_engine), emulator, library,
+                               progress is not None, workers)
+    if bridge is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(out / "bridge.json", bridge.as_dict())
+    return bridge
 
 
 def _dump(doc) -> bytes:
@@ -513,6 +533,7 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
         raise ConfigError(f"draw: expected one of {', '.join(DRAWS)}; got {draw!r}")
     out = Path(out)
     emulator, ranges = None, None
+    bridge, bridged = None, False
     if draw == "detectable":
         if library is not None:
             emulator = _emulator(sim, diagnose_settings, benchmark_design(twins_engine),
@@ -522,6 +543,12 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
             cfg = _sim_config(sim, diagnose_settings)
             simulator = make_simulator(cfg, diagnosis_design(benchmark_design(twins_engine),
                                                              cfg.effects))
+        if _sim_config(sim, diagnose_settings).bridge.get("probe_runs"):
+            # the effects' responses are the bridged engine's: their detectable magnitudes too
+            bridge = _bridge_once(out, sim, diagnose_settings, twins_engine, emulator, library,
+                                  progress, workers)
+            bridged = True
+            simulator = bridge.simulator(simulator)
         ranges = _detectable(sim, diagnose_settings, twins_engine, simulator,
                              progress is not None)
     specs = draw_twins(n, seed, twins_engine, ranges)
@@ -531,7 +558,6 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
     rdir = out / "results"
     rdir.mkdir(exist_ok=True)
     results = {}
-    bridge, bridged = None, False
     for s in specs:
         rp = rdir / f"{s.twin}.json"
         if rp.exists():
@@ -541,11 +567,9 @@ def run_benchmark(out, *, n: int = 40, seed: int = 0, twins_engine: str = "surro
             emulator = _emulator(sim, diagnose_settings, benchmark_design(twins_engine),
                                  library, workers, scheduler, progress is not None)
         if not bridged:
-            bridge = _benchmark_bridge(sim, diagnose_settings, benchmark_design(twins_engine),
-                                       emulator, library, progress is not None)
+            bridge = _bridge_once(out, sim, diagnose_settings, twins_engine, emulator, library,
+                                  progress, workers)
             bridged = True
-            if bridge is not None:
-                write_json_atomic(out / "bridge.json", bridge.as_dict())
         rec = diagnose_file(out / "twins" / f"{s.twin}.toml", sim, settings=diagnose_settings,
                             emulator=emulator, bridge=bridge)
         rec["twin_sha256"] = seal["twins_sha256"][s.twin]
@@ -659,7 +683,9 @@ def run_benchmark_command(args) -> int:
         print(f"  top-1 {k}/{n} ({ci('top1_ci')}; {kd}/{nd} where the gap is significant); "
               f"null false {s['null_false_count'][0]}/"
               f"{s['null_false_count'][1]} ({ci('null_false_ci')}); out-of-catalogue "
-              f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')})")
+              f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')}; "
+              f"{s['ooc_detected_count'][0]}/{s['ooc_detected_count'][1]} where the gap is "
+              f"significant)")
         print(f"  shrink median {s['shrink_median']:.3g} over {s['shrink_n']} ({ci('shrink_ci')}); "
               f"coverage {s['coverage_count'][0]}/{s['coverage_count'][1]} ({ci('coverage_ci')})")
         print(f"  {Path(args.out) / 'report.html'}")

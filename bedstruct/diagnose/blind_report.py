@@ -77,6 +77,8 @@ def benchmark_html(summary: dict, fig) -> str:
              "top1_detected_ci", "top1_detected_count"),
             ("false attribution among null twins", "null_false", "null_false_ci", "null_false_count"),
             ("unexplained among out-of-catalogue twins", "ooc_unexplained", "ooc_ci", "ooc_count"),
+            ("unexplained among out-of-catalogue twins with a significant gap", "ooc_detected",
+             "ooc_detected_ci", "ooc_detected_count"),
             ("magnitude interval coverage", "coverage", "coverage_ci", "coverage_count")):
         if count not in summary:   # a summary scored before this score existed
             continue

@@ -5,7 +5,7 @@ twins from one seed (:func:`draw_twins`):
 
 - **effect** twins: one catalogue effect at a magnitude drawn uniformly over its prior
   range, the tenth of the range nearest 0 left out (a twin with no effect is a null twin);
-  only effects the twin engine realises are drawn (:func:`engine_realises`: LIGGGHTS and
+  only effects the twin engine realises are drawn (:func:`~bedstruct.diagnose.engine_simulator.engine_realises`: LIGGGHTS and
   LAMMPS state theirs in :func:`bedstruct.engines.effect_realisations`). With
   ``ranges`` (:func:`detectable_ranges`) the magnitudes are drawn only where the
   diagnosing model detects the effect with 95 % power in a twin's noise, and an effect it
@@ -37,18 +37,16 @@ from typing import Mapping
 
 import numpy as np
 
-from ..engines import ENGINE_NAMES, dialect
 from ..errors import ConfigError
 from .catalogue import CATALOGUE
-from ..workflows.config import DEFAULTS
-from .engine_simulator import diagnosis_simulator, effects_config, with_options
+from .engine_simulator import diagnosis_simulator, engine_realises
 from .measurement_io import measurement_from_dict, write_measurements
 from .measurements import MeasurementSet, Observations
 from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
 from .validation_design import engine_twin_design, twin_design
 
 __all__ = ["TWIN_ENGINES", "OutOfCatalogueChange", "OUT_OF_CATALOGUE", "BENCHMARK_HELDOUT",
-           "TwinSpec", "benchmark_design", "draw_twins", "realisation", "engine_realises", "split_counts",
+           "TwinSpec", "benchmark_design", "draw_twins", "realisation", "split_counts",
            "twin_simulator", "twin_measurements", "effect_magnitude_range", "detectable_ranges",
            "DETECT_POWER"]
 
@@ -305,32 +303,6 @@ def realisation(change: OutOfCatalogueChange, engine: str) -> tuple[str, str]:
     return tuple(change.realised[engine])
 
 
-def engine_realises(effect, engine: str) -> bool:
-    """Whether twin engine ``engine`` realises catalogue ``effect`` (an :class:`Effect`).
-
-    The surrogate and the embedded engine realise every effect; an external engine
-    realises it when its dialect accepts the effect's options at the top of its prior
-    (:meth:`bedstruct.engines.Dialect.check_effects`, spreading).
-
-    Examples
-    --------
-    >>> from bedstruct.diagnose import effect
-    >>> engine_realises(effect("contact_ageing"), "liggghts")
-    False
-    >>> engine_realises(effect("capillary_bridges"), "liggghts")
-    True
-    """
-    _check_engine(engine)
-    if engine not in ENGINE_NAMES:
-        return True
-    try:
-        on = effects_config({effect.name: effect.prior[1]}, DEFAULTS)
-        dialect(engine).check_effects(with_options(DEFAULTS, on), spreading=True)
-    except ConfigError:
-        return False
-    return True
-
-
 def draw_twins(n: int, seed: int, engine: str,
                ranges: Mapping[str, tuple] | None = None) -> list[TwinSpec]:
     """The ``n`` twins of a benchmark, drawn from ``seed`` (see the module docstring).
@@ -346,7 +318,7 @@ def draw_twins(n: int, seed: int, engine: str,
     _check_engine(engine)
     if not changes:  # pragma: no cover - every engine realises the contact changes
         raise ConfigError(f"twins engine {engine!r} realises no out-of-catalogue change")
-    effects = [e for e in CATALOGUE if engine_realises(e, engine)]
+    effects = [e for e in CATALOGUE if engine == "surrogate" or engine_realises(e, engine)]
     if ranges is not None:
         effects = [e for e in effects if ranges.get(e.name)]
         if not effects:

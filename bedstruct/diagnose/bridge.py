@@ -31,12 +31,36 @@ multi-fidelity modelling: the effects' responses and the recalibrated parameters
 sensitivities still come from the diagnosing simulator, and the offset is taken to be
 the same over the small region the recalibration explores.
 
+The offset alone assumes that the two codes realise each effect alike. They need not:
+LIGGGHTS' capillary bridges (Soulié) replace the particles' cohesion where the embedded
+engine's (Willett) act on top of it, and the same fraction of missing fines changes a
+coarse layer differently in the two codes. With ``probe_runs`` the user's engine is also
+run at one **probe magnitude** :math:`a_p` of each catalogue effect it realises (the
+effect's larger reference magnitude), on the first ``probe_runs`` seeds of the base runs,
+and the difference of the two codes' responses to it,
+
+.. math::
+
+    \\Delta_e = \\overline{[y_\\text{engine}(a_p) - y_\\text{engine}(0)]}
+    - [\\mu_\\text{diagnosing}(a_p) - \\mu_\\text{diagnosing}(0)],
+
+(the engine's runs paired by seed) corrects the diagnosing simulator wherever that
+effect is on: a run at magnitude :math:`a` returns its own value plus
+:math:`(a / a_p)\\,\\Delta_e` (:meth:`EngineBridge.simulator`), so the fingerprints,
+refinement and reruns of the diagnosis all see the user's engine's response to the
+effect, interpolated linearly in the magnitude between 0 and the probe. The correction's
+standard deviation :math:`\\sigma_\\Delta` (engine scatter of the paired differences over
+the probe runs, plus the emulator's own uncertainty at both points) enters as added
+scatter of the bridged runs, :math:`(a/a_p)\\,\\sigma_\\Delta` per run. Effects the
+user's engine does not realise keep the diagnosing simulator's response.
+
 In a simulation configuration::
 
     [bridge]
     engine = "liggghts"     # the engine whose baseline the measurements are compared with
     runs = 6                # its runs at the base point (>= 2)
     seed = 0                # first seed of those runs
+    probe_runs = 4          # optional: runs at each effect's probe magnitude (0: offset only)
     cache = "bridge-runs"   # optional: folder keeping the runs (relative to the file)
 
 :func:`engine_bridge` makes the runs and the offset; :func:`bridge_offset` computes it
@@ -51,6 +75,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import json
+import zlib
+
 import numpy as np
 
 from ..errors import ConfigError
@@ -58,10 +85,10 @@ from .measurements import MeasurementSet, Observations
 
 __all__ = ["EngineBridge", "bridge_offset", "engine_bridge", "bridge_runs", "bridge_table",
            "bridge_seeds", "BRIDGE_KEYS",
-           "BRIDGE_SEED_STRIDE"]
+           "BRIDGE_SEED_STRIDE", "BridgedSimulator", "effect_probes"]
 
 #: Keys of the ``[bridge]`` table and their types.
-BRIDGE_KEYS = {"engine": str, "runs": int, "seed": int, "cache": str}
+BRIDGE_KEYS = {"engine": str, "runs": int, "seed": int, "cache": str, "probe_runs": int}
 #: Seeds of the bridge runs start here (plus the table's ``seed``): apart from the
 #: diagnosis' replicate and rerun seeds.
 BRIDGE_SEED_STRIDE = 500_000
@@ -92,6 +119,18 @@ class EngineBridge:
         The engine runs' seeds.
     runs : dict of str to (n_runs, k) ndarray
         The engine runs' observations of each bridged observable.
+    probe_magnitudes : dict of str to float
+        Per probed effect, the magnitude the engine was run at (empty: offset only).
+    effect_shift : dict of str to dict
+        Per probed effect and observable, :math:`\\Delta_e`: the engine's response to the
+        probe minus the diagnosing simulator's (canonical units).
+    effect_shift_sd : dict of str to dict
+        Its standard deviation.
+    probe_runs : int
+        Engine runs at each probe magnitude.
+    unprobed : tuple of str
+        Catalogue effects the engine does not realise: the diagnosing simulator's
+        response is used as it is.
     """
 
     engine: str
@@ -103,6 +142,51 @@ class EngineBridge:
     left_out: tuple = ()
     seeds: tuple = ()
     runs: dict = field(default_factory=dict, repr=False)
+    probe_magnitudes: dict = field(default_factory=dict)
+    effect_shift: dict = field(default_factory=dict, repr=False)
+    effect_shift_sd: dict = field(default_factory=dict, repr=False)
+    probe_runs: int = 0
+    unprobed: tuple = ()
+
+    def correction(self, effects: Mapping[str, float]) -> tuple[dict, dict]:
+        """The correction of a diagnosing-simulator run at effect magnitudes ``effects``.
+
+        Returns
+        -------
+        shift, sd : dict of str to (k,) ndarray
+            Per bridged observable, :math:`\\sum_e (a_e / a_{p,e})\\,\\Delta_e` and its
+            standard deviation (the effects' terms independent). Empty without probes
+            or with no probed effect on.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from bedstruct.diagnose.bridge import EngineBridge
+        >>> b = EngineBridge("liggghts", {"aor": np.array([1.0])}, {"aor": np.array([0.4])},
+        ...                  6, {}, "emulator", probe_magnitudes={"capillary_bridges": 0.8},
+        ...                  effect_shift={"capillary_bridges": {"aor": np.array([-2.0])}},
+        ...                  effect_shift_sd={"capillary_bridges": {"aor": np.array([0.5])}})
+        >>> shift, sd = b.correction({"capillary_bridges": 0.4})
+        >>> float(shift["aor"][0]), float(sd["aor"][0])
+        (-1.0, 0.25)
+        """
+        shift, var = {}, {}
+        for e, a in effects.items():
+            if e not in self.effect_shift or float(a) == 0.0:
+                continue
+            r = float(a) / float(self.probe_magnitudes[e])
+            for name, d in self.effect_shift[e].items():
+                shift[name] = shift.get(name, 0.0) + r * np.asarray(d, float)
+                var[name] = var.get(name, 0.0) + (r * np.asarray(self.effect_shift_sd[e][name],
+                                                                  float)) ** 2
+        return shift, {k: np.sqrt(v) for k, v in var.items()}
+
+    def simulator(self, simulator):
+        """``simulator`` corrected by the probed effects' responses (:class:`BridgedSimulator`);
+        ``simulator`` itself when the bridge has no probes."""
+        if not self.effect_shift:
+            return simulator
+        return BridgedSimulator(simulator, self)
 
     def apply(self, measurements: MeasurementSet) -> MeasurementSet:
         """The measurement set in the diagnosing simulator's frame: ``y - offset``,
@@ -162,6 +246,13 @@ class EngineBridge:
         if self.left_out:
             out += (f"; {', '.join(self.left_out)} left out (the {self.engine} runs did not "
                     f"observe them)")
+        if self.effect_shift:
+            probes = ", ".join(f"{e} at {a:g}" for e, a in self.probe_magnitudes.items())
+            out += (f"; the effects' responses are the {self.engine} engine's, from "
+                    f"{self.probe_runs} runs at each probe ({probes})")
+            if self.unprobed:
+                out += (f"; {', '.join(self.unprobed)} keep the diagnosing simulator's response "
+                        f"(the {self.engine} engine does not realise them)")
         return out
 
     def as_dict(self) -> dict[str, Any]:
@@ -170,7 +261,65 @@ class EngineBridge:
                 "base": dict(self.base), "seeds": [int(s) for s in self.seeds],
                 "offset": {k: np.asarray(v, float).tolist() for k, v in self.offset.items()},
                 "offset_sd": {k: np.asarray(v, float).tolist() for k, v in self.offset_sd.items()},
-                "left_out": list(self.left_out)}
+                "left_out": list(self.left_out),
+                **({"probe_runs": int(self.probe_runs),
+                    "probe_magnitudes": {e: float(a) for e, a in self.probe_magnitudes.items()},
+                    "effect_shift": {e: {k: np.asarray(v, float).tolist() for k, v in d.items()}
+                                     for e, d in self.effect_shift.items()},
+                    "effect_shift_sd": {e: {k: np.asarray(v, float).tolist() for k, v in d.items()}
+                                        for e, d in self.effect_shift_sd.items()},
+                    "unprobed": list(self.unprobed)} if self.effect_shift else {})}
+
+
+class BridgedSimulator:
+    """A diagnosing simulator whose runs carry the user's engine's response to each probed
+    effect (:meth:`EngineBridge.simulator`).
+
+    A call at effect magnitudes :math:`a_e` returns the simulator's run plus
+    :math:`\\sum_e (a_e/a_{p,e})\\,\\Delta_e` and a seeded draw of the correction's
+    uncertainty (:meth:`EngineBridge.correction`); other attributes (``names``,
+    ``parameter_box``, ``emulator``...) are the wrapped simulator's.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct.diagnose import Observations
+    >>> from bedstruct.diagnose.bridge import BridgedSimulator, EngineBridge
+    >>> b = EngineBridge("liggghts", {"aor": np.array([0.0])}, {"aor": np.array([0.0])},
+    ...                  6, {}, "emulator", probe_magnitudes={"capillary_bridges": 0.8},
+    ...                  effect_shift={"capillary_bridges": {"aor": np.array([-2.0])}},
+    ...                  effect_shift_sd={"capillary_bridges": {"aor": np.array([0.0])}})
+    >>> sim = BridgedSimulator(lambda base, effects, seed: Observations({"aor": [33.0]}), b)
+    >>> float(sim({}, {"capillary_bridges": 0.8}, 1)["aor"][0]), float(sim({}, {}, 1)["aor"][0])
+    (31.0, 33.0)
+    """
+
+    def __init__(self, simulator, bridge: EngineBridge):
+        self.simulator = simulator
+        self.bridge = bridge
+        self.name = f"{getattr(simulator, 'name', type(simulator).__name__)}+{bridge.engine} effects"
+
+    def __getattr__(self, attr):
+        if attr in ("simulator", "bridge"):
+            raise AttributeError(attr)
+        return getattr(self.simulator, attr)
+
+    def __call__(self, base, effects, seed):
+        obs = self.simulator(base, effects, seed)
+        on = {e: float(a) for e, a in effects.items() if float(a) != 0.0}
+        shift, sd = self.bridge.correction(on)
+        if not shift:
+            return obs
+        tag = zlib.crc32(json.dumps(sorted(on.items())).encode())
+        rng = np.random.default_rng([int(seed), tag, 23])
+        vals = {}
+        for name in obs.names:
+            v = np.asarray(obs[name], float)
+            if name in shift:
+                draw = rng.standard_normal(v.shape[0])
+                v = v + shift[name] + sd[name] * draw
+            vals[name] = v
+        return Observations(vals, source=obs.source)
 
 
 def bridge_offset(engine_runs: Sequence[Observations], reference_mean: Mapping[str, Any],
@@ -267,6 +416,10 @@ def bridge_table(doc: Mapping[str, Any], where: str, folder: Path | None = None)
         raise ConfigError(f"{where} [bridge]: key 'runs': need >= 2 runs to know the offset's "
                           f"uncertainty; got {tab['runs']}")
     tab.setdefault("seed", 0)
+    if tab.get("probe_runs", 0) == 1 or not 0 <= tab.get("probe_runs", 0) <= tab["runs"]:
+        raise ConfigError(f"{where} [bridge]: key 'probe_runs': expected 0 (no probes) or 2 to "
+                          f"'runs' ({tab['runs']}: each probe run is paired with the base run "
+                          f"of its seed); got {tab['probe_runs']}")
     if "cache" in tab:
         c = Path(tab["cache"]).expanduser()
         tab["cache"] = str(c if c.is_absolute() or folder is None else folder / c)
@@ -275,8 +428,10 @@ def bridge_table(doc: Mapping[str, Any], where: str, folder: Path | None = None)
 
 def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str, float],
                   bridge: Mapping[str, Any], engine: Mapping[str, Any] | None = None,
-                  cache=None, engine_simulator=None, progress: bool = False) -> EngineBridge:
-    """Run the user's engine at the base point and bridge it to ``simulator``.
+                  cache=None, engine_simulator=None, effects: Sequence | None = None,
+                  workers: int = 1, progress: bool = False) -> EngineBridge:
+    """Run the user's engine at the base point (and each effect's probe) and bridge it to
+    ``simulator``.
 
     Parameters
     ----------
@@ -290,7 +445,7 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
         The base point (SI).
     bridge : mapping
         The ``[bridge]`` table (:func:`bridge_table`): ``engine``, ``runs``, ``seed``,
-        ``cache``.
+        ``probe_runs``, ``cache``.
     engine : mapping, optional
         The ``[engine]`` table of the diagnosing configuration (preset or workflow
         ``config``, ``overrides``, ``np``); the bridge runs use it with ``engine``
@@ -301,18 +456,23 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
     engine_simulator : callable, optional
         The user's engine as a simulator, ``sim(base, effects, seed) -> Observations``
         (default: the ``[engine]`` table on the bridge's ``engine``, :func:`bridge_runs`).
+    effects : sequence of Effect, optional
+        The diagnosis' catalogue (default: all of it): with ``probe_runs`` in the table,
+        each of them that the bridged engine realises is probed (:func:`effect_probes`).
+    workers : int
+        Local processes running the engine's runs (default 1).
 
     Returns
     -------
     EngineBridge
     """
     measured = measurements.select(("calibrate", "validate"))
+    seeds = bridge_seeds(bridge)
     if engine_simulator is None:
-        runs, seeds = bridge_runs(measured, base=base, bridge=bridge, engine=engine, cache=cache,
-                                  progress=progress)
-    else:
-        seeds = bridge_seeds(bridge)
-        runs = [engine_simulator(dict(base), {}, s) for s in seeds]
+        engine_simulator = _engine_simulator(measured, bridge=bridge, engine=engine, cache=cache,
+                                             workers=workers)
+    runs = _run_all(engine_simulator, [(dict(base), {}, s) for s in seeds], progress,
+                    f"bridge ({bridge['engine']})")
     names = measured.names
     emu = getattr(simulator, "emulator", None)
     if emu is not None:
@@ -321,17 +481,8 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
                            emu.by_observable(p.noise_sd))
         reference = "emulator"
     else:
-        ref = []
-        bar = None
-        if progress:
-            from tqdm import tqdm
-            bar = tqdm(total=len(seeds), desc="bridge (diagnosing simulator)", unit="run")
-        for s in seeds:
-            ref.append(simulator(dict(base), {}, s))
-            if bar is not None:
-                bar.update(1)
-        if bar is not None:
-            bar.close()
+        ref = _run_all(simulator, [(dict(base), {}, s) for s in seeds], progress,
+                       "bridge (diagnosing simulator)")
         mean, sd, noise = {}, {}, {}
         for n in names:
             y = np.array([np.asarray(r[n], float) for r in ref])
@@ -341,8 +492,133 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
             sd[n] = noise[n] / np.sqrt(np.maximum(k, 1))
         reference = f"{getattr(simulator, 'name', 'diagnosing simulator')}, {len(seeds)} runs"
     want = {n: mean[n] for n in names if n in mean}
-    return bridge_offset(runs, want, sd, noise, engine=str(bridge["engine"]), base=base,
-                         reference=reference, seeds=seeds)
+    out = bridge_offset(runs, want, sd, noise, engine=str(bridge["engine"]), base=base,
+                        reference=reference, seeds=seeds)
+    n_probe = int(bridge.get("probe_runs", 0))
+    if n_probe:
+        out = effect_probes(out, engine_simulator, simulator, effects=effects,
+                            n_runs=n_probe, progress=progress)
+    return out
+
+
+def _engine_simulator(design, *, bridge, engine, cache, workers: int = 1):
+    """The ``[engine]`` table on the bridge's engine as a simulator (runs kept in ``cache``,
+    batches run in ``workers`` processes)."""
+    from .engine_simulator import diagnosis_simulator
+    table = {k: v for k, v in dict(engine or {}).items() if k not in ("cache", "jobs")}
+    table["engine"] = bridge["engine"]
+    table["jobs"] = max(int(workers), 1)
+    folder = cache if cache is not None else bridge.get("cache")
+    if folder is not None:
+        table["cache"] = str(folder)
+    return diagnosis_simulator(design, table)
+
+
+def _run_all(simulator, calls, progress, desc) -> list:
+    """Every call of ``simulator``, in order; an engine simulator runs them ahead in its
+    worker processes (``prefetch``)."""
+    if hasattr(simulator, "prefetch"):
+        simulator.prefetch(calls, progress=bool(progress))
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(calls), desc=desc, unit="run")
+    out = []
+    for base, effects, seed in calls:
+        out.append(simulator(base, effects, int(seed)))
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    return out
+
+
+def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
+                  effects: Sequence | None = None, n_runs: int = 4,
+                  progress: bool = False) -> EngineBridge:
+    """The bridge with each realisable effect's response difference :math:`\\Delta_e`.
+
+    The user's engine is run at each effect's probe magnitude (its larger reference
+    magnitude) on the first ``n_runs`` seeds of the bridge's base runs; each probe run is
+    paired with the base run of its seed. The diagnosing simulator's response is the
+    emulator's predicted difference (with its uncertainty at both points), or the mean
+    paired difference of as many of its own runs.
+
+    Parameters
+    ----------
+    bridge : EngineBridge
+        From :func:`bridge_offset` (its :attr:`~EngineBridge.runs` and seeds are the
+        engine's base runs).
+    engine_simulator : callable
+        The user's engine, ``sim(base, effects, seed) -> Observations``.
+    simulator : callable
+        The diagnosing simulator.
+    effects : sequence of Effect, optional
+        Catalogue (default: all); those the engine does not realise are not probed.
+    n_runs : int
+        Probe runs per effect (2 to the bridge's base runs).
+    progress : bool
+        Progress bar over the probe runs.
+
+    Returns
+    -------
+    EngineBridge
+        With :attr:`~EngineBridge.effect_shift`, its standard deviation and the probes.
+
+    Raises
+    ------
+    ConfigError
+        Fewer than 2 probe runs, or more than the base runs they pair with.
+    """
+    from .catalogue import CATALOGUE
+    from .engine_simulator import engine_realises
+    n_runs = int(n_runs)
+    if not 2 <= n_runs <= bridge.n_runs:
+        raise ConfigError(f"bridge: probe_runs must lie in 2..{bridge.n_runs} (the base runs "
+                          f"they pair with); got {n_runs}")
+    effects = tuple(CATALOGUE if effects is None else effects)
+    probed = [e for e in effects if engine_realises(e, bridge.engine)]
+    unprobed = tuple(e.name for e in effects if e not in probed)
+    seeds = list(bridge.seeds[:n_runs])
+    base = dict(bridge.base)
+    mags = {e.name: float(max(e.reference_magnitudes, key=abs)) for e in probed}
+    calls = [(base, {e: a}, s) for e, a in mags.items() for s in seeds]
+    runs = _run_all(engine_simulator, calls, progress, f"bridge probes ({bridge.engine})")
+    emu = getattr(simulator, "emulator", None)
+    p0 = emu.predict(base, {}) if emu is not None else None
+    ref0 = None if emu is not None else _run_all(simulator, [(base, {}, s) for s in seeds],
+                                                 False, "")
+    shift, shift_sd = {}, {}
+    for k, (e, a) in enumerate(mags.items()):
+        eng = runs[k * n_runs:(k + 1) * n_runs]
+        if emu is not None:
+            p = emu.predict(base, {e: a})
+            d_ref = emu.by_observable(p.mean - p0.mean)
+            v_ref = emu.by_observable(p.sd ** 2 + p0.sd ** 2)
+        else:
+            ref = _run_all(simulator, [(base, {e: a}, s) for s in seeds], False, "")
+        shift[e], shift_sd[e] = {}, {}
+        for n in bridge.offset:
+            y0 = np.asarray(bridge.runs[n], float)[:n_runs]
+            dd = np.array([np.asarray(r[n], float) for r in eng]) - y0
+            if emu is None:   # both codes' paired differences on the same seeds
+                dd = dd - np.array([np.asarray(r[n], float) - np.asarray(r0[n], float)
+                                    for r, r0 in zip(ref, ref0)])
+                ref_mean, ref_var = 0.0, 0.0
+            else:
+                ref_mean, ref_var = np.asarray(d_ref[n], float), np.asarray(v_ref[n], float)
+            m = np.isfinite(dd).sum(axis=0)
+            # a component that fewer than two probe runs observed keeps the diagnosing response
+            ok = m >= 2
+            z = np.where(np.isfinite(dd), dd, 0.0)
+            mean = z.sum(axis=0) / np.maximum(m, 1)
+            var = ((z - mean) ** 2 * np.isfinite(dd)).sum(axis=0) / np.maximum(m - 1, 1)
+            delta = mean - ref_mean
+            ok &= np.isfinite(delta)
+            shift[e][n] = np.where(ok, delta, 0.0)
+            shift_sd[e][n] = np.where(ok, np.sqrt(var / np.maximum(m, 1) + ref_var), 0.0)
+    return replace(bridge, probe_magnitudes=mags, effect_shift=shift, effect_shift_sd=shift_sd,
+                   probe_runs=n_runs, unprobed=unprobed)
 
 
 def bridge_seeds(bridge: Mapping[str, Any]) -> list[int]:
@@ -367,26 +643,9 @@ def bridge_runs(design: MeasurementSet, *, base: Mapping[str, float], bridge: Ma
     ``design``'s observables and are kept in ``cache`` (else the table's ``cache``), so
     that processes running some of ``seeds`` each fill the same folder.
     """
-    from .engine_simulator import diagnosis_simulator
-    tab = dict(bridge)
-    table = {k: v for k, v in dict(engine or {}).items() if k not in ("cache", "jobs")}
-    table["engine"] = tab["engine"]
-    folder = cache if cache is not None else tab.get("cache")
-    if folder is not None:
-        table["cache"] = str(folder)
-    sim = diagnosis_simulator(design, table)
+    sim = _engine_simulator(design, bridge=bridge, engine=engine, cache=cache)
     if seeds is None:
-        seeds = bridge_seeds(tab)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(seeds), desc=f"bridge ({tab['engine']})", unit="run")
-    runs = []
-    for s in seeds:
-        runs.append(sim(dict(base), {}, int(s)))
-        if bar is not None:
-            bar.update(1)
-    if bar is not None:
-        bar.close()
+        seeds = bridge_seeds(bridge)
+    runs = _run_all(sim, [(dict(base), {}, s) for s in seeds], progress,
+                    f"bridge ({bridge['engine']})")
     return runs, [int(s) for s in seeds]
-

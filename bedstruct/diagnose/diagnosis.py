@@ -189,7 +189,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         The offset of the user's engine from ``simulator`` at the base point
         (:func:`~bedstruct.diagnose.bridge.engine_bridge`): the measurements are diagnosed
         as their gap from that engine's baseline (:meth:`EngineBridge.apply`), and the
-        result says so in its data notes and ``settings["bridge"]``.
+        result says so in its data notes and ``settings["bridge"]``. A bridge with effect
+        probes also corrects ``simulator``'s response to each probed effect by the
+        engine's (:meth:`EngineBridge.simulator`).
 
     Returns
     -------
@@ -206,6 +208,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     name = simulator_name or getattr(simulator, "name", type(simulator).__name__)
     if bridge is not None:
         measurements = bridge.apply(measurements)
+        simulator = bridge.simulator(simulator)
     bounds = _within_simulator_domain(simulator, nuisance, bounds)
     if fingerprints is None:
         design = diagnosis_design(measurements, effects)

@@ -41,8 +41,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..engines import ENGINE_NAMES, dialect
 from ..errors import ConfigError
-from ..workflows.config import load_config
+from ..workflows.config import DEFAULTS, load_config
 from .catalogue import effect
 from .engine_cache import call_key, code_versions, read_entry, write_entry
 from .engine_runs import CallRuns, _region_index
@@ -51,6 +52,7 @@ from .observables_registry import observable_kind
 from .process_pool import run_calls
 
 __all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "with_options",
+           "engine_realises",
            "setup_config", "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
@@ -157,6 +159,35 @@ def with_options(cfg: Mapping[str, Any], options: Mapping[str, Any]) -> dict:
             raise ConfigError(f"unknown config key `{dotted}`")
         out[section][key] = value
     return out
+
+
+def engine_realises(effect, engine: str) -> bool:
+    """Whether ``engine`` realises catalogue ``effect`` (an :class:`Effect`).
+
+    The embedded engine realises every effect; an external engine (LIGGGHTS, LAMMPS)
+    realises it when its dialect accepts the effect's options at the top of its prior
+    (:meth:`bedstruct.engines.Dialect.check_effects`, spreading).
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import effect
+    >>> from bedstruct.diagnose.engine_simulator import engine_realises
+    >>> engine_realises(effect("contact_ageing"), "liggghts")
+    False
+    >>> engine_realises(effect("capillary_bridges"), "liggghts")
+    True
+    """
+    if engine not in ENGINE_NAMES:
+        if engine != "embedded":
+            raise ConfigError(f"engine: expected 'embedded' or one of {', '.join(ENGINE_NAMES)}; "
+                              f"got {engine!r}")
+        return True
+    try:
+        on = effects_config({effect.name: effect.prior[1]}, DEFAULTS)
+        dialect(engine).check_effects(with_options(DEFAULTS, on), spreading=True)
+    except ConfigError:
+        return False
+    return True
 
 
 def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float = 1.0) -> dict:

@@ -325,6 +325,7 @@ def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
     s = _rescore_sealed_liggghts_record("blind-liggghts-bridged-2026-12-04", "4c5d76c", 20261204)
     assert s["top1_count"] == [2, 20] and s["top1_detected_count"] == [1, 13]
     assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [2, 10]
+    assert s["ooc_detected_count"] == [2, 3]
     assert s["coverage_count"] == [0, 2]
     assert s["shrink_n"] == 14 and abs(s["shrink_median"] - 0.243) < 5e-4
     np.testing.assert_allclose(s["top1_ci"], [0.0123, 0.3170], atol=5e-5)
@@ -339,6 +340,8 @@ def test_committed_detectable_liggghts_blind_record_rescores_as_its_summary():
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [7, 20] and s["top1_detected_count"] == [7, 19]
     assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [1, 10]
+    # the one out-of-catalogue twin whose gap is significant is the one answered unexplained
+    assert s["ooc_detected_count"] == [1, 1]
     assert s["coverage_count"] == [3, 7]
     assert s["shrink_n"] == 17 and abs(s["shrink_median"] - 0.753) < 5e-4
     np.testing.assert_allclose(s["top1_ci"], [0.1539, 0.5922], atol=5e-5)

@@ -214,3 +214,82 @@ def test_the_cli_diagnoses_through_the_configured_bridge(setup, tmp_path, monkey
     assert doc["settings"]["bridge"]["n_runs"] == 6
     assert doc["sim_config"]["bridge"]["engine"] == "liggghts"
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["verdict"] == "none"
+
+
+class SlowFinesEngine:
+    """Another code whose powder answers half as strongly to missing fines."""
+
+    name = "slow-fines engine"
+
+    def __init__(self, sim):
+        self.sim = sim
+
+    def __call__(self, base, effects, seed):
+        eff = dict(effects)
+        if "missing_fines" in eff:
+            eff["missing_fines"] = 0.5 * float(eff["missing_fines"])
+        return Observations(dict(self.sim(base, eff, seed).values), source="slow-fines engine")
+
+
+def test_a_probe_recovers_the_engines_response_difference_exactly():
+    eff = catalogue()
+    design = diagnosis_design(twin_design(), eff)
+    sim = SurrogateSimulator(design)
+    shift = {n: np.full(design[n].n_components, 0.1 * (k + 1)) for k, n in enumerate(design.names)}
+
+    def engine(base, effects, seed):   # the surrogate plus a shift wherever fines are missing
+        obs = sim(base, effects, seed)
+        on = float(effects.get("missing_fines", 0.0)) != 0.0
+        return Observations({n: obs[n] + (shift[n] if on else 0.0) for n in obs.names})
+
+    b = engine_bridge(design, sim, base=BASE_PARAMETERS,
+                      bridge={"engine": "liggghts", "runs": 4, "probe_runs": 3},
+                      engine_simulator=engine, effects=eff)
+    # paired by seed, the diagnosing simulator's own runs cancel: the shift itself
+    assert set(b.effect_shift["missing_fines"]) == set(b.offset)
+    for n in b.offset:
+        assert np.allclose(b.effect_shift["missing_fines"][n], shift[n], atol=1e-12), n
+        assert np.allclose(b.effect_shift["wall_friction"][n], 0.0, atol=1e-12), n
+    # LIGGGHTS realises neither contact ageing nor a blade start-up: not probed
+    assert set(b.unprobed) == {"contact_ageing", "blade_startup"}
+    assert b.probe_magnitudes["missing_fines"] == 0.12 and b.probe_runs == 3
+    bsim = b.simulator(sim)
+    half = bsim(BASE_PARAMETERS, {"missing_fines": 0.06}, 5)
+    plain = sim(BASE_PARAMETERS, {"missing_fines": 0.06}, 5)
+    n0 = next(iter(b.offset))
+    assert np.allclose(half[n0] - plain[n0], 0.5 * shift[n0])
+    assert np.allclose(bsim(BASE_PARAMETERS, {}, 5)[n0], sim(BASE_PARAMETERS, {}, 5)[n0])
+    assert "probe" in b.note() and b.as_dict()["probe_magnitudes"]["missing_fines"] == 0.12
+
+
+def test_probes_let_an_engine_with_another_response_be_sized_in_its_own_terms(setup, tmp_path):
+    eff, sim, fps, _, _ = setup
+    engine = SlowFinesEngine(sim)
+    ms = _twin(engine, tmp_path, {"missing_fines": 0.10}, 41)
+    table = {"engine": "liggghts", "runs": 6}
+    plain = diagnose(ms, sim, base=BASE_PARAMETERS, effects=eff, refine=1, seed=5,
+                     bridge=engine_bridge(ms, sim, base=BASE_PARAMETERS, bridge=table,
+                                          engine_simulator=engine, effects=eff))
+    probed = diagnose(ms, sim, base=BASE_PARAMETERS, effects=eff, refine=1, seed=5,
+                      bridge=engine_bridge(ms, sim, base=BASE_PARAMETERS,
+                                           bridge=dict(table, probe_runs=6),
+                                           engine_simulator=engine, effects=eff))
+    for d in (plain, probed):
+        assert d.attribution.verdict == "attributed", d.attribution.reason
+        assert d.attribution.selected[0].effect == "missing_fines"
+    a_plain = plain.attribution.selected[0]
+    a_probed = probed.attribution.selected[0]
+    # without probes the engine's fines read as half as many; with them, as they are
+    assert a_plain.interval[1] < 0.08
+    assert a_probed.interval[0] <= 0.10 <= a_probed.interval[1], a_probed
+    assert abs(a_probed.magnitude - 0.10) < abs(a_plain.magnitude - 0.10)
+    assert "BridgedSimulator" not in probed.simulator
+
+
+@pytest.mark.parametrize("runs, probes", [(6, 1), (4, 5), (4, -1)])
+def test_probe_runs_pair_with_base_runs(tmp_path, runs, probes):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nkind = "engine"\n\n[engine]\npreset = "tiny"\n\n'
+                 f'[bridge]\nengine = "liggghts"\nruns = {runs}\nprobe_runs = {probes}\n')
+    with pytest.raises(ConfigError, match="probe_runs"):
+        load_sim_config(p)
