@@ -50,9 +50,14 @@ effect is on: a run at magnitude :math:`a` returns its own value plus
 refinement and reruns of the diagnosis all see the user's engine's response to the
 effect, interpolated linearly in the magnitude between 0 and the probe. The correction's
 standard deviation :math:`\\sigma_\\Delta` (engine scatter of the paired differences over
-the probe runs, plus the emulator's own uncertainty at both points) enters as added
-scatter of the bridged runs, :math:`(a/a_p)\\,\\sigma_\\Delta` per run. Effects the
-user's engine does not realise keep the diagnosing simulator's response.
+the probe runs, plus the emulator's own uncertainty at both points) first shrinks each
+component of :math:`\\Delta_e` towards zero (positive-part James-Stein,
+:math:`\\Delta_e \\max(0, 1 - \\sigma_\\Delta^2/\\Delta_e^2)`: a difference within its
+noise adds no response made of scatter); what remains enters as added scatter of the
+bridged runs, :math:`(a/a_p)\\,\\sigma_\\Delta` per run, and, shared by every run, in the
+prediction a confirming rerun is checked against
+(:func:`~bedstruct.diagnose.confirm.confirm_attribution`). Effects the user's engine does
+not realise keep the diagnosing simulator's response.
 
 In a simulation configuration::
 
@@ -614,9 +619,15 @@ def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
             mean = z.sum(axis=0) / np.maximum(m, 1)
             var = ((z - mean) ** 2 * np.isfinite(dd)).sum(axis=0) / np.maximum(m - 1, 1)
             delta = mean - ref_mean
+            sd = np.sqrt(var / np.maximum(m, 1) + ref_var)
             ok &= np.isfinite(delta)
-            shift[e][n] = np.where(ok, delta, 0.0)
-            shift_sd[e][n] = np.where(ok, np.sqrt(var / np.maximum(m, 1) + ref_var), 0.0)
+            # a difference within its own noise is shrunk towards none (positive-part
+            # James-Stein per component): probes of an effect that hardly moves an
+            # observable add no response of their own scatter
+            with np.errstate(invalid="ignore", divide="ignore"):
+                keep = np.where(delta != 0.0, np.clip(1.0 - sd ** 2 / delta ** 2, 0.0, 1.0), 0.0)
+            shift[e][n] = np.where(ok, keep * delta, 0.0)
+            shift_sd[e][n] = np.where(ok, np.sqrt(keep) * sd, 0.0)
     return replace(bridge, probe_magnitudes=mags, effect_shift=shift, effect_shift_sd=shift_sd,
                    probe_runs=n_runs, unprobed=unprobed)
 

@@ -369,6 +369,19 @@ class Confirmation:
         return self.attribution.verdict == "attributed" and all(ok)
 
 
+def _bridge_variance(simulator, mags, names, design) -> np.ndarray:
+    """Variance of an engine bridge's effect correction at magnitudes ``mags`` over the
+    components of ``names`` (zero without a bridge with probes,
+    :meth:`~bedstruct.diagnose.bridge.EngineBridge.correction`)."""
+    n_comp = [design[n].n_components for n in names]
+    bridge = getattr(simulator, "bridge", None)
+    if bridge is None or not mags:
+        return np.zeros(int(sum(n_comp)))
+    _, sd = bridge.correction(mags)
+    return np.concatenate([np.asarray(sd[n], float) ** 2 if n in sd else np.zeros(k)
+                           for n, k in zip(names, n_comp)])
+
+
 def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulator: Simulator, *,
                         y, sigma_meas, names, seed: int = 0, rounds: int = 2,
                         alpha: float = 0.01, max_effects: int = 2,
@@ -476,8 +489,11 @@ def confirm_attribution(att: Attribution, fps: FingerprintSet, residual, simulat
         for j, se_b in enumerate(model.nuisance_stderr):
             pred_var += (fps.sensitivities[:, j] * se_b) ** 2
             runs_var += (fps.sensitivities[:, j] * _or_zero(model.nuisance_stderr_runs, j)) ** 2
-        z_check = np.where(cal, z_of(samples, runs_var[rows_meas], run_var=local),
-                           z_of(samples, pred_var[rows_meas], run_var=local))
+        # an engine bridge's correction of the effects' responses is uncertain as a whole
+        # (one probe for every run), not run by run
+        bridge_var = _bridge_variance(simulator, mags, names, fps.design)
+        z_check = np.where(cal, z_of(samples, runs_var[rows_meas] + bridge_var, run_var=local),
+                           z_of(samples, pred_var[rows_meas] + bridge_var, run_var=local))
         p_cal = p_fit_z(z_check[cal], correlation_among(corr, cal)) if cal.any() else float("nan")
         p_held = p_fit_z(z_check[held], correlation_among(corr, held)) if held.any() else float("nan")
         if not p_cal < att.gof_alpha or k == rounds:

@@ -101,19 +101,8 @@ class EmulatorCheck:
 class _Component:
     """One component's GP (or a constant where the library cannot fit one)."""
 
-    def __init__(self, gp, mu, scale, noise_var, noise_slope=None, noise_centre=None):
+    def __init__(self, gp, mu, scale, noise_var):
         self.gp, self.mu, self.scale, self.noise_var = gp, mu, scale, noise_var
-        self.noise_slope = None if noise_slope is None or not np.any(noise_slope) \
-            else np.asarray(noise_slope, float)
-        self.noise_centre = noise_centre
-
-    def noise_sd(self, u: np.ndarray) -> np.ndarray:
-        """Run-to-run sd (physical units) at normalised inputs ``u`` (k, d): the white-noise
-        level, scaled by the log-linear scatter model where one was fitted."""
-        sd = np.full(len(u), self.scale * math.sqrt(self.noise_var))
-        if self.noise_slope is None:
-            return sd
-        return sd * np.exp(0.5 * (np.asarray(u) - self.noise_centre) @ self.noise_slope)
 
     def predict(self, u: np.ndarray):
         """Mean, latent sd and noise sd (physical units) at normalised inputs ``u`` (k, d)."""
@@ -122,7 +111,7 @@ class _Component:
             return (np.full(k, self.mu), np.zeros(k), np.full(k, math.sqrt(self.noise_var)) * self.scale)
         m, s = self.gp.predict(u, return_std=True)
         latent = np.sqrt(np.maximum(s ** 2 - self.noise_var, 0.0))
-        return self.mu + self.scale * m, self.scale * latent, self.noise_sd(u)
+        return self.mu + self.scale * m, self.scale * latent, np.full(len(u), self.scale * math.sqrt(self.noise_var))
 
 
 class Emulator:
@@ -263,11 +252,7 @@ class Emulator:
             else:
                 mean.append(m[0] + np.sum(m[1:] - m[0]))
                 sd.append(math.sqrt(float(np.sum(s[1:] ** 2) + (len(on) - 1) ** 2 * s[0] ** 2)))
-            if len(on) <= 1:
-                noise.append(nz[0])
-            else:   # each effect's change of the run scatter, added in variance
-                v = float(nz[0] ** 2 + np.sum(nz[1:] ** 2 - nz[0] ** 2))
-                noise.append(math.sqrt(max(v, 1e-4 * float(nz[0] ** 2))))
+            noise.append(nz[0])
         out = Prediction(np.asarray(mean), np.asarray(sd), np.asarray(noise))
         if len(self._memo) < 100_000:
             self._memo[key] = out

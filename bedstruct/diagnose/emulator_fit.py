@@ -48,7 +48,6 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import math
 import warnings
 from dataclasses import dataclass
 
@@ -180,46 +179,6 @@ def _within_run_correlation(devs, n: int) -> np.ndarray:
     corr = (v * np.maximum(w, 1e-6)) @ v.T
     s = np.sqrt(np.diag(corr))
     return corr / np.outer(s, s)
-
-
-#: Ridge penalty on the slopes of the log run-scatter model (per unit of a normalised input).
-NOISE_RIDGE = 2.0
-
-
-def _noise_slopes(u: np.ndarray, y: np.ndarray, points: np.ndarray, noise_var: float) -> np.ndarray:
-    """Slopes ``b`` of the run scatter's log-linear model, ``log var(u) = log v0 + b . (u - ubar)``.
-
-    Fitted by maximum likelihood on the replicate sample variances of the design points
-    (each ``chi2`` with its replicates less one degrees of freedom), ``v0`` the GP's white
-    noise level at the runs' mean input ``ubar``, a ridge penalty :data:`NOISE_RIDGE` on
-    ``b``. Zero slopes where fewer than four points have replicates.
-    """
-    from scipy.optimize import minimize
-    rows, s2, dof = [], [], []
-    for p in np.unique(points):
-        i = np.flatnonzero(points == p)
-        if len(i) < 2:
-            continue
-        rows.append(u[i[0]])
-        s2.append(float(np.var(y[i], ddof=1)))
-        dof.append(len(i) - 1.0)
-    d = u.shape[1]
-    if len(rows) < 4 or noise_var <= 0:
-        return np.zeros(d)
-    X = np.asarray(rows) - u.mean(axis=0)
-    s2, dof = np.asarray(s2), np.asarray(dof)
-    lv0 = math.log(noise_var)
-
-    def nll(b):
-        lv = lv0 + X @ b
-        r = s2 * np.exp(-lv)
-        f = 0.5 * np.sum(dof * (lv + r)) + 0.5 * NOISE_RIDGE * b @ b
-        g = 0.5 * X.T @ (dof * (1.0 - r)) + NOISE_RIDGE * b
-        return f, g
-
-    res = minimize(nll, np.zeros(d), jac=True, method="L-BFGS-B",
-                   bounds=[(-8.0, 8.0)] * d)
-    return np.asarray(res.x, float) if res.success else np.zeros(d)
 
 
 def fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
@@ -357,8 +316,7 @@ def _fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
             gp.fit(u, ys)
         thetas[j] = gp.kernel_.theta.tolist()
         noise_var = float(gp.kernel_.k2.noise_level)
-        slope = _noise_slopes(u, ys, lib.point_index[ok], noise_var)
-        comps.append(_Component(gp, mu, sc, noise_var, slope, u.mean(axis=0)))
+        comps.append(_Component(gp, mu, sc, noise_var))
         zs[np.flatnonzero(ok), j] = _loo_blocks(gp, u, ys, lib.point_index[ok])
     finite = zs[np.isfinite(zs)]
     with np.errstate(invalid="ignore"):

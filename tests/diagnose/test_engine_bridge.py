@@ -293,3 +293,24 @@ def test_probe_runs_pair_with_base_runs(tmp_path, runs, probes):
                  f'[bridge]\nengine = "liggghts"\nruns = {runs}\nprobe_runs = {probes}\n')
     with pytest.raises(ConfigError, match="probe_runs"):
         load_sim_config(p)
+
+
+def test_a_probe_of_an_effect_both_codes_realise_alike_is_shrunk_to_little():
+    eff = catalogue(["missing_fines", "wall_friction"])
+    design = diagnosis_design(twin_design(), eff)
+    sim = SurrogateSimulator(design)
+
+    def engine(base, effects, seed):   # the same physics, its own run-to-run noise
+        return sim(base, effects, seed + 1000)
+
+    b = engine_bridge(design, sim, base=BASE_PARAMETERS,
+                      bridge={"engine": "lammps", "runs": 6, "probe_runs": 6},
+                      engine_simulator=engine, effects=eff)
+    for e in ("missing_fines", "wall_friction"):
+        shift = np.concatenate([b.effect_shift[e][n] for n in b.offset])
+        sd = np.concatenate([b.effect_shift_sd[e][n] for n in b.offset])
+        raw_sd = np.concatenate([np.std(b.runs[n], axis=0, ddof=1) for n in b.offset])
+        # differences within their noise are dropped; what is kept stays within the noise
+        assert np.mean(shift == 0.0) >= 0.4, e
+        assert np.all(np.abs(shift) <= 6 * raw_sd + 1e-12), e
+        assert np.all((shift == 0.0) == (sd == 0.0)), e
