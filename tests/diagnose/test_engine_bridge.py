@@ -314,3 +314,20 @@ def test_a_probe_of_an_effect_both_codes_realise_alike_is_shrunk_to_little():
         assert np.mean(shift == 0.0) >= 0.4, e
         assert np.all(np.abs(shift) <= 6 * raw_sd + 1e-12), e
         assert np.all((shift == 0.0) == (sd == 0.0)), e
+
+
+def test_the_confirming_check_adds_the_probe_correction_variance_once_per_rerun():
+    from bedstruct.diagnose import MeasurementSet, measurement_from_dict
+    from bedstruct.diagnose.bridge import BridgedSimulator
+    from bedstruct.diagnose.confirm import _bridge_variance
+    ms = MeasurementSet((measurement_from_dict({"name": "aor", "kind": "static_angle", "value": 33.0,
+                                                "uncertainty": 0.5, "unit": "deg"}),))
+    b = EngineBridge("liggghts", {"aor": np.zeros(1)}, {"aor": np.zeros(1)}, 6, {}, "emulator",
+                     probe_magnitudes={"capillary_bridges": 0.8},
+                     effect_shift={"capillary_bridges": {"aor": np.array([-2.0])}},
+                     effect_shift_sd={"capillary_bridges": {"aor": np.array([0.4])}})
+    sim = BridgedSimulator(lambda base, effects, seed: Observations({"aor": [33.0]}), b)
+    # at half the probe, the correction's sd is half of 0.4
+    assert np.allclose(_bridge_variance(sim, {"capillary_bridges": 0.4}, ["aor"], ms), [0.04])
+    assert np.allclose(_bridge_variance(sim, {}, ["aor"], ms), [0.0])
+    assert np.allclose(_bridge_variance(lambda *a: None, {"capillary_bridges": 0.4}, ["aor"], ms), [0.0])
