@@ -33,7 +33,9 @@ memory_goal_met=yes|no ...`` (particle-steps per
 second, medians over repeats; bedstruct_steps_per_s is the 2-thread figure;
 ratio_1core is bedstruct over LIGGGHTS epsd2 on one core, ratio_1core_cdt over
 LIGGGHTS cdt; ratio_1core_180k is measured only with ``--particles 180000``,
-nan otherwise). Where numba may use only one thread (``NUMBA_NUM_THREADS=1``,
+nan otherwise). A bed of ``k**2`` x 20,000 spheres is the 20,000-sphere bed
+repeated k x k times in x and y (it is periodic there, so the copies fit together
+at rest); ``--particles 180000`` uses k = 3. Where numba may use only one thread (``NUMBA_NUM_THREADS=1``,
 or one CPU) the "2-thread" run executes its two chunks on one thread: the bench
 prints a warning, reports ``speedup_2threads=nan`` and records
 ``numba_max_threads=1``.
@@ -134,6 +136,32 @@ def settled_bed_data(n: int, cache: Path) -> Path:
     if not data.exists():
         write_data_file(pour(n, cache / f"bedstruct_bed{n}.npz"), data)
     return data
+
+
+def tiled_bed_data(data: Path, k: int, cache: Path) -> Path:
+    """The bed of ``data`` repeated ``k`` x ``k`` times in x and y, as a data file in ``cache``.
+
+    The bed is periodic in x and y, so its copies fit together as one settled bed
+    ``k`` times as wide and long: every sphere keeps its neighbours (those across a
+    periodic face now sit in the next copy), and the bed of ``k**2`` times as many
+    spheres starts at rest without pouring it.
+    """
+    from bedstruct.engines import write_sphere_data
+    out = cache / f"{data.stem}_tiled{k}.data"
+    if out.exists():
+        return out
+    fr = load_bed(data)
+    lo, hi = np.asarray(fr.box.lo, float), np.asarray(fr.box.hi, float)
+    span = hi - lo
+    shifts = np.array([(a * span[0], b * span[1], 0.0) for a in range(k) for b in range(k)])
+    positions = (fr.positions[None, :, :] + shifts[:, None, :]).reshape(-1, 3)
+    radii = np.tile(fr.radii, k * k)
+    velocities = np.tile(fr.velocities, (k * k, 1)) if fr.velocities is not None else None
+    omegas = np.tile(fr.omegas, (k * k, 1)) if fr.omegas is not None else None
+    box_hi = lo + span * np.array([k, k, 1.0])
+    write_sphere_data(out, positions, radii, box_lo=lo, box_hi=box_hi, density=8300.0,
+                      velocities=velocities, omegas=omegas)
+    return out
 
 
 def load_bed(data: Path):
@@ -316,8 +344,12 @@ def main(argv=None) -> int:
     cache.mkdir(parents=True, exist_ok=True)
     data = cache / f"bedstruct_bed{n}.data"
     other = cache / f"bed{n}_seed0.data"  # poured by bedstruct.engines.cached_bed
+    tile = math.isqrt(n // 20000) if n > 20000 and n % 20000 == 0 else 0
     if data.exists():
         origin = "poured by bedstruct"
+    elif tile >= 2 and tile * tile * 20000 == n:  # the 20,000-sphere bed repeated in x and y
+        data = tiled_bed_data(settled_bed_data(20000, cache), tile, cache)
+        origin = f"the 20,000-sphere bed repeated {tile} x {tile} in x and y"
     elif other.exists():
         data, origin = other, "poured by LAMMPS/LIGGGHTS (bedstruct.engines.cached_bed)"
     else:

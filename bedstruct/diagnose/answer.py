@@ -299,6 +299,9 @@ def _headline(diag) -> str:
     if att.verdict == "attributed":
         names = " together with ".join(_lower_first(diag.fingerprints[e.effect].effect.title)
                                        for e in att.selected)
+        if att.partial:
+            return (f"The gap between the measurements and {sim} is explained in large part by "
+                    f"{names}; something else remains.")
         return f"The gap between the measurements and {sim} is explained by {names}."
     if att.verdict == "none":
         return (f"The measurements and {sim} agree within noise once the simulation is "
@@ -314,6 +317,13 @@ def _which(diag) -> str:
         for e in att.selected:
             eff = diag.fingerprints[e.effect].effect
             parts.append(f"{eff.title}: {magnitude_text(eff, e.magnitude, e.interval)}")
+        if att.partial:
+            worst = next((w for w in diag.shrink.rerun_worst if w.get("role") == "validate"),
+                         None)
+            where_ = f", furthest on {_observable_words(worst)}" if worst is not None else ""
+            parts.append("a partial explanation: with it the simulation still misses the "
+                         f"held-out measurements{where_}, so the powder or the machine differs "
+                         "from the simulation in a further way the catalogue does not hold")
         return "; ".join(parts) + "."
     if att.verdict == "none":
         return "No effect is needed: recalibration alone fits the calibration observables."
@@ -441,7 +451,9 @@ def answer_lines(diag, *, n_where: int = 5) -> list[str]:
 def compact_answer(diag) -> dict:
     """The one-line JSON answer of ``bedstruct diagnose --json``.
 
-    Keys: ``verdict``; ``effect`` (name, ``None`` unless attributed); ``magnitude``
+    Keys: ``verdict``; ``partial`` (an attribution that leaves part of the held-out gap,
+    :attr:`~bedstruct.diagnose.attribution.Attribution.partial`); ``effect`` (name, ``None``
+    unless attributed); ``magnitude``
     (``value``, ``interval``, ``unit``, ``name``, or ``None``); ``shrink`` (``value`` and its
     90 % ``interval`` as fractions, ``None`` where there was no held-out gap before, with
     ``n_heldout`` and the p-value of that gap, ``p_heldout_gap_before``); ``where``
@@ -467,7 +479,7 @@ def compact_answer(diag) -> dict:
               "z": fin(round(r["z"], 2))} for r in diag.where.ranked(3)]
     if mag is not None:
         mag["value"] = fin(mag["value"])
-    return {"verdict": att.verdict,
+    return {"verdict": att.verdict, "partial": bool(att.partial),
             "effect": "+".join(e.effect for e in att.selected) if top is not None else None,
             "magnitude": mag, "shrink": shrink, "where": where,
             "at_bound": [k for k, r in diag.recalibration().items() if r["at_bound"]]}

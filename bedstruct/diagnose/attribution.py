@@ -168,6 +168,11 @@ class Attribution:
         Minimum goodness-of-fit p-value of an acceptable model.
     reason : str
         One sentence explaining the verdict.
+    partial : bool
+        An attribution that explains most but not all of the gap: its rerun agrees with the
+        calibration observables, and closes more than the diagnosis' ``partial_shrink`` of
+        the held-out gap, but leaves the held-out observables inconsistent (see
+        :func:`~bedstruct.diagnose.diagnose`).
     """
 
     verdict: str
@@ -179,6 +184,7 @@ class Attribution:
     threshold: float
     gof_alpha: float
     reason: str
+    partial: bool = False
 
     def which(self):
         """The ``which`` JSON field: selected effects, ``"unexplained"`` or ``[]``."""

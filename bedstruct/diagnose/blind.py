@@ -22,7 +22,8 @@ that made the twins:
    ``DIR/results/twin-XXX.json``; a killed run resumes with the finished ones, and a rerun
    into a folder whose truth or seal differ from this one's is refused;
 4. **score** (:func:`score_benchmark`): top-1 among effect twins (and among those whose
-   gap the "is there a gap" test finds significant), false attribution among
+   gap the "is there a gap" test finds significant; ``top1_partial_count``: how many of
+   the top-1 answers are partial explanations), false attribution among
    null twins, ``unexplained`` among out-of-catalogue twins and magnitude-interval
    coverage, each with its Clopper-Pearson 95 % interval (:func:`proportion_interval`);
    the median held-out gap shrink over the effect twins where the held-out gap before is
@@ -167,7 +168,8 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
     -------
     dict
         The result record: ``answer`` (leading effects joined by ``+``, or the verdict),
-        ``verdict``, ``effects`` (each effect, magnitude, interval, confidence),
+        ``verdict``, ``partial`` (an attribution that leaves part of the held-out gap),
+        ``effects`` (each effect, magnitude, interval, confidence),
         ``magnitude`` and ``interval`` of the leading effect, ``shrink`` (held-out excess
         gap shrink), ``p_heldout_before``, ``n_heldout``, ``shrink_measured``,
         ``gap_significant`` and ``p_gap`` (the "is there a gap" test over all measured
@@ -189,7 +191,7 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
     p_before = _finite(sh.p_before)
     shrink = _finite(sh.fraction)
     return {"twin": Path(path).stem, "answer": _answer(diag), "verdict": att.verdict,
-            "effects": effects,
+            "partial": bool(att.partial), "effects": effects,
             "magnitude": effects[0]["magnitude"] if effects else None,
             "interval": effects[0]["interval"] if effects else None,
             "shrink": shrink, "p_heldout_before": p_before, "n_heldout": int(sh.n_heldout),
@@ -261,6 +263,9 @@ def score_benchmark(truth: dict, results: dict) -> dict:
     ooc = [t for t in twins if twins[t]["kind"] == "out_of_catalogue" and t in results]
     lead = {t: results[t]["answer"].split("+")[0] for t in results}
     k_top1 = sum(lead[t] == twins[t]["effect"] for t in eff)
+    # named first, but as a partial explanation (the rerun leaves part of the held-out gap)
+    k_partial = sum(lead[t] == twins[t]["effect"] and bool(results[t].get("partial"))
+                    for t in eff)
     # effect twins whose gap the data show (records made before the gap test was stored
     # have no such key and are left out of this score)
     seen = [t for t in eff if results[t].get("gap_significant")]
@@ -300,12 +305,14 @@ def score_benchmark(truth: dict, results: dict) -> dict:
         r = results.get(t, {})
         per_twin.append({"twin": t, "truth_label": _truth_label(twins[t]),
                          "truth_magnitude": twins[t]["magnitude"], "answer": r.get("answer", "-"),
+                         "partial": bool(r.get("partial")),
                          "magnitude": r.get("magnitude"), "interval": r.get("interval"),
                          "shrink": r.get("shrink"), "shrink_measured": r.get("shrink_measured")})
     return {"protocol": truth["protocol"], "n": len(twins),
             "counts": {k: sum(v["kind"] == k for v in twins.values())
                        for k in ("effect", "null", "out_of_catalogue")},
             "top1": top1, "top1_ci": top1_ci, "top1_count": top1_count,
+            "top1_partial_count": [int(k_partial), int(k_top1)],
             "top1_detected": td, "top1_detected_ci": td_ci, "top1_detected_count": td_count,
             "null_false": nf, "null_false_ci": nf_ci, "null_false_count": nf_count,
             "ooc_unexplained": ou, "ooc_ci": ou_ci, "ooc_count": ou_count,
@@ -680,7 +687,10 @@ def run_benchmark_command(args) -> int:
         k, n = s["top1_count"]
         print(f"blind benchmark: {s['n']} twins on {engine}, diagnosed on {sim}")
         kd, nd = s["top1_detected_count"]
-        print(f"  top-1 {k}/{n} ({ci('top1_ci')}; {kd}/{nd} where the gap is significant); "
+        kp = s.get("top1_partial_count", [0, k])[0]
+        partial = f", {kp} of them partial" if kp else ""
+        print(f"  top-1 {k}/{n} ({ci('top1_ci')}{partial}; {kd}/{nd} where the gap is "
+              f"significant); "
               f"null false {s['null_false_count'][0]}/"
               f"{s['null_false_count'][1]} ({ci('null_false_ci')}); out-of-catalogue "
               f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')}; "

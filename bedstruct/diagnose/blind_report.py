@@ -93,7 +93,7 @@ def benchmark_html(summary: dict, fig) -> str:
                 f"({e(summary['shrink_ci_method'])})</td></tr>")
     twin_rows = "".join(
         f"<tr><td>{e(t['twin'])}</td><td>{e(t['truth_label'])}</td>"
-        f"<td>{_fmt(t['truth_magnitude'])}</td><td>{e(t['answer'])}</td>"
+        f"<td>{_fmt(t['truth_magnitude'])}</td><td>{e(t['answer'])}{' (partial)' if t.get('partial') else ''}</td>"
         f"<td>{_fmt(t.get('magnitude'))}</td><td>{e(str(t.get('interval')))}</td>"
         f"<td>{_fmt(t.get('shrink'))}</td></tr>" for t in summary["twins"])
     settings = e(json.dumps({k: summary[k] for k in ("commit", "version", "settings")}, indent=1,

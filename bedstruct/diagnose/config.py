@@ -33,6 +33,8 @@ parameters recalibration may change, the catalogue and the statistical levels::
     max_effects = 2
     refine = 2                # Gauss-Newton rounds simulating the leading effects at their fits
     confirm_rounds = 2        # refits after a rerun that contradicts the fit
+    partial_shrink = 0.5      # held-out shrink (lower 90 % bound) above which an effect whose
+                              # rerun misses only held-out data is named as partial (1: never)
 
 ``kind = "engine"`` calls
 ``bedstruct.diagnose.engine_simulator.diagnosis_simulator(design, config) -> simulator``
@@ -77,6 +79,7 @@ class SimConfig:
     max_effects: int = 2
     refine: int = 2
     confirm_rounds: int = 2
+    partial_shrink: float = 0.5
     noise: float = 1.0
     engine: dict = field(default_factory=dict)
     library: dict = field(default_factory=dict)
@@ -90,7 +93,8 @@ class SimConfig:
                     seed=self.seed if seed is None else int(seed), alpha=self.alpha,
                     select_alpha=self.select_alpha, gof_alpha=self.gof_alpha,
                     max_effects=self.max_effects, refine=self.refine,
-                    confirm_rounds=self.confirm_rounds, bounds=self.bounds)
+                    confirm_rounds=self.confirm_rounds, partial_shrink=self.partial_shrink,
+                    bounds=self.bounds)
 
     def library_settings(self) -> dict[str, Any]:
         """Keyword arguments of the run library's design
@@ -110,7 +114,8 @@ class SimConfig:
                 "top_up": self.top_up, "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
                 "gof_alpha": self.gof_alpha,
                 "max_effects": self.max_effects, "refine": self.refine,
-                "confirm_rounds": self.confirm_rounds, "library": dict(self.library),
+                "confirm_rounds": self.confirm_rounds, "partial_shrink": self.partial_shrink,
+                "library": dict(self.library),
                 "bridge": dict(self.bridge), "path": self.path}
 
 
@@ -271,6 +276,7 @@ def load_sim_config(path) -> SimConfig:
                     max_effects=_get(dg, "max_effects", int, f"{p} [diagnosis]", 2),
                     refine=_get(dg, "refine", int, f"{p} [diagnosis]", 2),
                     confirm_rounds=_get(dg, "confirm_rounds", int, f"{p} [diagnosis]", 2),
+                    partial_shrink=_get(dg, "partial_shrink", float, f"{p} [diagnosis]", 0.5),
                     engine=engine, library=_library_table(doc, p),
                     bridge=_bridge(doc, p, kind), path=str(p))
     if cfg.replicates < 2:
@@ -285,8 +291,11 @@ def load_sim_config(path) -> SimConfig:
         if getattr(cfg, key) < 0:
             raise ConfigError(f"{p} [diagnosis]: key {key!r}: expected an integer >= 0; "
                               f"got {getattr(cfg, key)}")
+    if not 0 <= cfg.partial_shrink <= 1:
+        raise ConfigError(f"{p} [diagnosis]: key 'partial_shrink' must lie in [0, 1]; "
+                          f"got {cfg.partial_shrink}")
     unknown = set(dg) - {"alpha", "select_alpha", "gof_alpha", "max_effects", "refine",
-                         "confirm_rounds"}
+                         "confirm_rounds", "partial_shrink"}
     if unknown:
         raise ConfigError(f"{p} [diagnosis]: key {sorted(unknown)[0]!r}: unknown")
     unknown = set(sim) - {"kind", "replicates", "top_up", "seed", "noise"}

@@ -136,7 +136,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
              gof_alpha: float = 0.01, max_effects: int = 2,
              fingerprints: FingerprintSet | None = None, simulator_name: str | None = None,
              refine: int = 2, confirm_rounds: int = 2, bounds=None, bridge=None,
-             progress: bool = False) -> Diagnosis:
+             partial_shrink: float = 0.5, progress: bool = False) -> Diagnosis:
     """Diagnose the gap between a simulator and a measurement set.
 
     Parameters
@@ -192,6 +192,13 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         result says so in its data notes and ``settings["bridge"]``. A bridge with effect
         probes also corrects ``simulator``'s response to each probed effect by the
         engine's (:meth:`EngineBridge.simulator`).
+    partial_shrink : float
+        An attribution whose rerun agrees with the calibration observables but not with the
+        held-out ones is kept as a *partial* explanation (``attribution.partial``) when the
+        lower end of the held-out shrink's 90 % interval exceeds this fraction: the effect
+        closes more than this share of the held-out gap (one-sided 95 %) but leaves a
+        remainder beyond noise. Below it the attribution is not confirmed (``unexplained``).
+        ``1`` turns partial explanations off.
 
     Returns
     -------
@@ -390,7 +397,19 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
             failed.append(f"the held-out observables (p = {p_held:.2g}{_worst_text(worst, 'validate')})")
         if trials_failed:
             failed.append(f"the trials without a reading ({chk.text()})")
-        if failed:
+        lo_shrink = float(frac_interval[0])
+        held_out_only = bool(failed) and p_cal >= gof_alpha and not trials_failed
+        if held_out_only and np.isfinite(lo_shrink) and lo_shrink > partial_shrink:
+            # the effect closes most of the held-out gap: named, with the remainder said
+            att = replace(att, partial=True, reason=(
+                (refit_note + "; " if refit_note else "")
+                + f"{att.best.label} fits the calibration observables and closes "
+                f"{100 * frac:.0f} % of the held-out gap (90 % interval {100 * lo_shrink:.0f}-"
+                f"{100 * float(frac_interval[1]):.0f} %), but the rerun at its fitted magnitude "
+                f"leaves the held-out observables inconsistent (p = {p_held:.2g}"
+                f"{_worst_text(worst, 'validate')}): a partial explanation, something else "
+                "remains"))
+        elif failed:
             verdict_note = ((refit_note + "; " if refit_note else "")
                             + f"{att.best.label} fits the calibration observables but the rerun at "
                             f"its fitted magnitude leaves {' and '.join(failed)} inconsistent "

@@ -116,7 +116,7 @@ class Diagnosis:
         return {
             "schema": SCHEMA, "simulator": self.simulator,
             "measurements": self.measurements.path or self.measurements.title,
-            "verdict": att.verdict, "reason": att.reason,
+            "verdict": att.verdict, "partial": bool(att.partial), "reason": att.reason,
             "gap_significant": self.where.significant,
             "gap_chi2": {"chi2": self.where.chi2, "dof": self.where.dof, "p_value": self.where.p_value,
                          "max_abs_z": self.where.max_abs_z, "p_max": self.where.p_max},

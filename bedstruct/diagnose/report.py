@@ -60,8 +60,10 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
                  settings=diag.settings, version=__version__)
 
     def summary(s):
-        s.text = f"{sim_note} Verdict: {j['verdict']}. {j['reason']}."
-        _add(s, "verdict", j["verdict"], "", "attributed / unexplained / none (no gap to explain)")
+        verdict = j["verdict"] + (" (partial)" if j["partial"] else "")
+        s.text = f"{sim_note} Verdict: {verdict}. {j['reason']}."
+        _add(s, "verdict", verdict, "", "attributed / unexplained / none (no gap to explain); "
+             "partial: the effect closes most of the held-out gap but not all of it")
         _add(s, "gap_significant", j["gap_significant"], "",
                      "whether the chi-square or max-|z| test rejects 'no gap' (all measured observables)")
         _add(s, "gap_chi2", j["gap_chi2"]["chi2"], "1", "sum of squared standardised residuals")

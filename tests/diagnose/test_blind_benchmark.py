@@ -348,6 +348,25 @@ def test_committed_detectable_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["ooc_ci"], [0.0025, 0.4450], atol=5e-5)
 
 
+def test_committed_probed_liggghts_blind_record_rescores_as_its_summary():
+    """The fourth blind LIGGGHTS batch (engine bridge with effect probes, detectable
+    magnitudes of the probed model) scores as the docs quote."""
+    s = _rescore_sealed_liggghts_record("blind-liggghts-probed-2026-12-05", "6f93158",
+                                        20261206)
+    truth = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records"
+                        / "blind-liggghts-probed-2026-12-05" / "truth.json").read_text())
+    assert truth["settings"]["bridge"]["probe_runs"] == 6
+    assert s["draw"] == "detectable"
+    assert s["top1_count"] == [8, 20] and s["top1_detected_count"] == [8, 18]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [2, 10]
+    assert s["ooc_detected_count"] == [2, 3]
+    assert s["coverage_count"] == [8, 8]
+    assert s["shrink_n"] == 18 and abs(s["shrink_median"] - 0.821) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.1912, 0.6395], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.0252, 0.5561], atol=5e-5)
+    np.testing.assert_allclose(s["shrink_ci"], [0.5391, 1.0], atol=5e-5)
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):

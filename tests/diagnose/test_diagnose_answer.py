@@ -109,7 +109,7 @@ def test_compact_answer_and_how_far_with_a_held_out_gap():
     sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
     d = diagnose(ms, sim, base=BASE_PARAMETERS, refine=0, confirm_rounds=0, replicates=3)
     j = compact_answer(d)
-    assert set(j) == {"verdict", "effect", "magnitude", "shrink", "where", "at_bound"}
+    assert set(j) == {"verdict", "partial", "effect", "magnitude", "shrink", "where", "at_bound"}
     assert len(j["where"]) == 3 and j["where"][0]["observable"] == "psd_before"
     assert j["magnitude"]["name"] == "fines_mass_fraction"
     assert j["shrink"]["value"] is None and j["shrink"]["n_heldout"] == 3

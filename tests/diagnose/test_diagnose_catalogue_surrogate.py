@@ -135,9 +135,11 @@ def test_sim_config_file_and_engine_hook(tmp_path):
     assert "blade_startup" not in [e.name for e in cfg.effects] and cfg.select_alpha == 0.02
     assert cfg.base["friction"] == BASE_PARAMETERS["friction"]
     assert (cfg.refine, cfg.confirm_rounds) == (2, 2)     # the defaults of diagnose()
-    p.write_text('[diagnosis]\nrefine = 0\nconfirm_rounds = 1\n')
+    assert cfg.diagnose_settings()["partial_shrink"] == 0.5
+    p.write_text('[diagnosis]\nrefine = 0\nconfirm_rounds = 1\npartial_shrink = 1.0\n')
     cfg = load_sim_config(p)
     assert (cfg.refine, cfg.confirm_rounds) == (0, 1) and cfg.as_dict()["confirm_rounds"] == 1
+    assert cfg.diagnose_settings()["partial_shrink"] == 1.0
     p.write_text('[simulator]\nkind = "engine"\n[engine]\npreset = "tiny"\n')
     sim = make_simulator(load_sim_config(p), _design(dict(name="aor", kind="static_angle")))
     assert sim.name == "engine"  # the engine simulator (not run here)
@@ -149,6 +151,7 @@ def test_sim_config_file_and_engine_hook(tmp_path):
                       ('[recalibrate]\nparameters = ["young"]\n', "parameters"),
                       ('[diagnosis]\nalpha = 2.0\n', "alpha"),
                       ('[diagnosis]\nconfirm_rounds = -1\n', "confirm_rounds"),
+                      ('[diagnosis]\npartial_shrink = 1.5\n', "partial_shrink"),
                       ('[diagnosis]\nrefine = 1.5\n', "refine"),
                       ('[base]\nyoung = 1e9\n', "young")):
         p.write_text(text)

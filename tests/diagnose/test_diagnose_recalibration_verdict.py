@@ -3,7 +3,8 @@
 A cohesion calibrated elsewhere gives a large gap that recalibrating it closes on every
 observable, held-out ones included: the answer is ``none`` (no effect needed), said so.
 A gap that recalibration absorbs on the calibration observables but that the held-out
-observables still show stays ``unexplained``.
+observables still show stays ``unexplained``. An attribution that closes most of the held-out
+gap but leaves a remainder beyond noise is named as partial.
 """
 
 from __future__ import annotations
@@ -326,3 +327,60 @@ def test_the_calibration_check_holds_its_level_for_true_models(monkeypatch):
     _without_the_fits_error(monkeypatch)
     p_before = _calibration_check_p(150)
     assert np.mean(p_before < 0.05) >= 0.09          # about 14 %: almost three times its level
+
+
+def _held_out_remainder_case(extra: float, seed: int):
+    """Effect A at 0.6 with a held-out response ``1 + extra`` times A's own: A explains
+    the calibration observables fully and the held-out ones in part."""
+    from bedstruct.diagnose import Observations
+
+    resp = np.r_[3, -3, 3, -3, 3, -3, 0, 0, 0, 3, -3, 3] * 3.0
+    design = toy_design(N, n_validate=3)
+    sim = ToySimulator(design, sens=SENS, effects={"A": resp}, noise_sd=0.0)
+    fps = compute_fingerprints(sim, design, {"k": 1.0}, [toy_effect("A")], nuisance=("k",),
+                               replicates=3, alpha=0.01)
+    y = 0.6 * resp + np.random.default_rng(seed).normal(0.0, 1.0, N)
+    y[-3:] += extra * 0.6 * resp[-3:]
+    real = design.with_values(Observations({f"o{i}": [v] for i, v in enumerate(y)}))
+    return real, sim, fps
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_an_effect_that_closes_most_of_the_held_out_gap_is_named_as_partial(seed):
+    from bedstruct.diagnose.answer import answer, compact_answer
+
+    real, sim, fps = _held_out_remainder_case(0.7, seed)
+    d = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    sh = d.shrink
+    assert sh.p_rerun_calibration >= 0.01 and sh.p_rerun_heldout < 0.01
+    assert sh.fraction_interval[0] > 0.5 and sh.fraction < 0.9
+    assert d.verdict == "attributed" and d.attribution.partial
+    assert d.attribution.selected[0].effect == "A"
+    assert "a partial explanation, something else remains" in d.attribution.reason
+    assert "something else remains" in answer(d).headline
+    assert "a partial explanation" in answer(d).which
+    assert compact_answer(d)["partial"] is True and compact_answer(d)["effect"] == "A"
+    assert d.to_json()["partial"] is True
+    # with partial explanations turned off the same rerun is not confirmed
+    off = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                   refine=0, partial_shrink=1.0)
+    assert off.verdict == "unexplained" and not off.attribution.partial
+    assert "not confirmed" in off.attribution.reason
+
+
+def test_an_effect_that_closes_less_than_half_of_the_held_out_gap_is_not_confirmed():
+    real, sim, fps = _held_out_remainder_case(3.0, 0)
+    d = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    assert d.shrink.fraction_interval[1] < 0.5
+    assert d.verdict == "unexplained" and not d.attribution.partial
+    assert "not confirmed" in d.attribution.reason
+
+
+def test_a_fully_confirmed_attribution_is_not_partial():
+    real, sim, fps = _held_out_remainder_case(0.0, 1)
+    d = diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")], fingerprints=fps,
+                 refine=0)
+    assert d.verdict == "attributed" and not d.attribution.partial
+    assert d.shrink.p_rerun_heldout >= 0.01

@@ -1,15 +1,16 @@
 """In-sample rerun of a committed blind LIGGGHTS record with the engine bridge's effect probes.
 
 Usage (from the repository root):
-    python docs/records/blind-liggghts-detectable-2026-12-04/rerun_probed.py RECORD [PROBE_RUNS]
+    python docs/records/blind-liggghts-detectable-2026-12-04/rerun_probed.py RECORD [PROBE_RUNS [OUT]]
 
 Each twin file of RECORD is diagnosed again, as the benchmark did, on the emulator of the
 record's own run library (read as committed, without the code-version check: it is the
 library the twins were diagnosed on), with the bridge of
 data/measurements/blind-engine-tiny-probed.sim.toml: the record's six LIGGGHTS base runs
 and the LIGGGHTS probe runs kept in docs/records/blind-liggghts-probed-2026-12-05/library/bridge
-(the first PROBE_RUNS seeds, default 6). Writes RECORD/rerun-probed.json. In sample: the
-probes were added to the method after these twins were seen.
+(the first PROBE_RUNS seeds, default 6). Writes RECORD/OUT (default rerun-probed.json) with
+the commit it ran at. In sample: the probes (and the partial explanations of
+rerun-partial.json) were added to the method after these twins were seen.
 """
 import json
 import subprocess
@@ -43,7 +44,7 @@ def _runs(folders):
     return out
 
 
-def main(record: str, probe_runs: int = 6) -> None:
+def main(record: str, probe_runs: int = 6, out: str = "rerun-probed.json") -> None:
     rec = Path(record)
     runs = _runs([rec / "library" / "bridge", PROBES])
 
@@ -65,11 +66,13 @@ def main(record: str, probe_runs: int = 6) -> None:
     keys = ("top1_count", "top1_ci", "top1_detected_count", "null_false_count", "null_false_ci",
             "ooc_count", "ooc_ci", "ooc_detected_count", "coverage_count", "shrink_median",
             "shrink_ci", "shrink_n", "confusion")
-    write_json_atomic(rec / "rerun-probed.json", {
-        "what": "in-sample rerun with the engine bridge's effect probes", "commit": commit,
+    write_json_atomic(rec / out, {
+        "what": "in-sample rerun with the engine bridge's effect probes, by the code of "
+                "the commit below", "commit": commit,
         "sim": SIM, "probe_runs": int(probe_runs), "bridge": bridge.as_dict(),
-        "scores": {k: s[k] for k in keys},
-        "answers": {t: {"answer": r["answer"], "magnitude": r["magnitude"],
+        "scores": {k: s[k] for k in keys + ("top1_partial_count",) if k in s},
+        "answers": {t: {"answer": r["answer"], "partial": r.get("partial", False),
+                        "magnitude": r["magnitude"],
                         "interval": r["interval"], "shrink": r["shrink"]}
                     for t, r in results.items()}})
     print(json.dumps({k: s[k] for k in ("top1_count", "null_false_count", "ooc_count",
@@ -77,4 +80,4 @@ def main(record: str, probe_runs: int = 6) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], *(int(a) for a in sys.argv[2:3]))
+    main(sys.argv[1], *(int(a) for a in sys.argv[2:3]), *sys.argv[3:4])
