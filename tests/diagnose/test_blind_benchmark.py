@@ -367,6 +367,22 @@ def test_committed_probed_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["shrink_ci"], [0.5391, 1.0], atol=5e-5)
 
 
+def test_committed_partial_liggghts_blind_record_rescores_as_its_summary():
+    """The fifth blind LIGGGHTS batch (effect probes and partial explanations) scores as the
+    docs quote."""
+    s = _rescore_sealed_liggghts_record("blind-liggghts-partial-2026-12-05", "2bcbc0c",
+                                        20261207)
+    assert s["draw"] == "detectable"
+    assert s["top1_count"] == [16, 20] and s["top1_partial_count"] == [5, 16]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [4, 10]
+    assert s["ooc_detected_count"] == [4, 4]
+    assert s["coverage_count"] == [10, 16]
+    assert s["shrink_n"] == 20 and abs(s["shrink_median"] - 0.914) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.5634, 0.9427], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.1216, 0.7376], atol=5e-5)
+    np.testing.assert_allclose(s["shrink_ci"], [0.7075, 1.0], atol=5e-5)
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
