@@ -322,8 +322,9 @@ def _which(diag) -> str:
                          None)
             where_ = f", furthest on {_observable_words(worst)}" if worst is not None else ""
             parts.append("a partial explanation: with it the simulation still misses the "
-                         f"held-out measurements{where_}, so the powder or the machine differs "
-                         "from the simulation in a further way the catalogue does not hold")
+                         f"held-out measurements{where_}: either the powder or the machine "
+                         "differs in a further way the catalogue does not hold, or your engine "
+                         "responds to this effect differently from the diagnosing simulator")
         return "; ".join(parts) + "."
     if att.verdict == "none":
         return "No effect is needed: recalibration alone fits the calibration observables."

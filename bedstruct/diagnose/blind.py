@@ -687,7 +687,7 @@ def run_benchmark_command(args) -> int:
         k, n = s["top1_count"]
         print(f"blind benchmark: {s['n']} twins on {engine}, diagnosed on {sim}")
         kd, nd = s["top1_detected_count"]
-        kp = s.get("top1_partial_count", [0, k])[0]
+        kp = s["top1_partial_count"][0]
         partial = f", {kp} of them partial" if kp else ""
         print(f"  top-1 {k}/{n} ({ci('top1_ci')}{partial}; {kd}/{nd} where the gap is "
               f"significant); "
