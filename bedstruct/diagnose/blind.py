@@ -12,8 +12,11 @@ that made the twins:
    uniformly where the diagnosing model detects the effect with 95 % power in a twin's
    noise (``draw="detectable"``: the diagnosing configuration's fingerprints on the
    benchmark's design, :func:`~bedstruct.diagnose.blind_twins.detectable_ranges`; an effect
-   it detects nowhere in its prior is not drawn), or over the whole prior
-   (``draw="prior"``); the ranges go into the truth;
+   it detects nowhere in its prior is not drawn), and out-of-catalogue changes where the
+   twin engine's twins of them were seen to leave a gap
+   (:attr:`~bedstruct.diagnose.blind_twins.OutOfCatalogueChange.visible`); or over the
+   whole prior and the changes' full ranges (``draw="prior"``); the ranges go into the
+   truth;
 2. **truth first**: ``DIR/truth.json`` (twin id -> kind, effect or change, magnitude; the
    code commit, the bedstruct version, the settings), each twin's file
    ``DIR/twins/twin-XXX.toml`` (nothing of the truth), then ``DIR/seal.json`` (SHA-256 of
@@ -69,8 +72,9 @@ __all__ = ["PROTOCOL", "DRAWS", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmar
            "add_benchmark_arguments", "run_benchmark_command"]
 
 #: Revision of the protocol, in ``truth.json`` (2: the ``draw`` setting, effect magnitudes
-#: where the diagnosing model detects them).
-PROTOCOL = "bedstruct.blind/2"
+#: where the diagnosing model detects them; 3: in that draw, out-of-catalogue changes over
+#: the magnitudes where the twin engine's twins of them are seen).
+PROTOCOL = "bedstruct.blind/3"
 #: How effect magnitudes may be drawn (:func:`run_benchmark`).
 DRAWS = ("detectable", "prior")
 #: Level of the held-out gap test before: shrink counts where ``p_before`` is below it.
@@ -335,7 +339,13 @@ def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library,
         how = {"effect_magnitudes": (f"uniform over the magnitudes the diagnosing model detects "
                                      f"with {DETECT_POWER:.0%} power in a twin's noise, the tenth "
                                      f"of the prior nearest 0 left out"),
-               "detectable_ranges": {k: [list(r) for r in v] for k, v in ranges.items()}}
+               "detectable_ranges": {k: [list(r) for r in v] for k, v in ranges.items()},
+               "out_of_catalogue_magnitudes": (
+                   "log-uniform (factors) or uniform over the ranges where the twin engine's "
+                   "twins of the change were seen to leave a gap beyond noise on this design"),
+               "out_of_catalogue_ranges": {
+                   c.name: [list(r) for r in c.drawable(twins_engine, True)]
+                   for c in OUT_OF_CATALOGUE if twins_engine in c.realised}}
     else:
         how = {"effect_magnitudes": "uniform over the prior, the tenth of its range nearest 0 "
                                     "left out"}
@@ -347,8 +357,9 @@ def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library,
                          {"emulator_of_run_library": _library_doc(sim, settings)},
                          "split": {"effect": n_eff, "null": n_null, "out_of_catalogue": n_ooc},
                          "draw": draw, **how,
-                         "out_of_catalogue_changes": [c.name for c in OUT_OF_CATALOGUE
-                                                      if twins_engine in c.realised],
+                         "out_of_catalogue_changes": [
+                             c.name for c in OUT_OF_CATALOGUE if twins_engine in c.realised
+                             and c.drawable(twins_engine, draw == "detectable")],
                          "cohesion": "calibrated x (1 + U(-0.02, 0.02))",
                          "design": benchmark_design(twins_engine).names,
                          **_bridge_doc(sim, settings)},

@@ -12,7 +12,11 @@ twins from one seed (:func:`draw_twins`):
   detects nowhere in its prior is not drawn;
 - **null** twins: the base model with no effect;
 - **out-of-catalogue** twins: a physical change that the catalogue does not hold at all
-  (:data:`OUT_OF_CATALOGUE`), at a magnitude drawn over its stated range.
+  (:data:`OUT_OF_CATALOGUE`), at a magnitude drawn over its stated range. With ``ranges``
+  (the detectable draw) a change is drawn only over the magnitudes where the twin engine's
+  twins of it were seen to differ from the null twins on the benchmark's design
+  (:attr:`OutOfCatalogueChange.visible`), and a change that the design cannot see at any
+  plausible size there is left out; an engine without such a table draws the full ranges.
 
 Every twin also carries the calibrated cohesion off by ``U(-2, 2)`` % (the diagnosis
 recalibrates it), as the validation's twins do. Each change of :data:`OUT_OF_CATALOGUE`
@@ -82,6 +86,17 @@ class OutOfCatalogueChange:
         configuration override of the engine's runs); engines absent here refuse it.
     refused : str
         Why the engines that lack it cannot realise it.
+    visible : mapping
+        Per twin engine, the parts of :attr:`ranges` where that engine's twins of the change
+        were measured to leave a gap beyond a twin's noise on the benchmark's design at
+        ``tiny`` (the "is there a gap" test at 5 %; the measurements are in
+        ``docs/records/ooc-visibility/``). An empty tuple: no plausible size of the change
+        is seen there. Engines absent here have not been measured.
+    same_term : mapping
+        Per twin engine, the catalogue effect that engine realises through the same model
+        term (LIGGGHTS' one rolling model carries both the base rolling friction and the
+        non-sphericity's extra one): there the change is that effect, not one outside the
+        catalogue, and the detectable draw leaves it out.
     """
 
     name: str
@@ -90,13 +105,27 @@ class OutOfCatalogueChange:
     ranges: tuple[tuple[float, float], ...]
     realised: Mapping[str, tuple[str, str]] = field(default_factory=dict)
     refused: str = ""
+    visible: Mapping[str, tuple[tuple[float, float], ...]] = field(default_factory=dict)
+    same_term: Mapping[str, str] = field(default_factory=dict)
 
-    def draw(self, rng: np.random.Generator) -> float:
-        """One magnitude drawn over :attr:`ranges` (width-weighted; log-uniform for factors)."""
+    def drawable(self, engine: str, detectable: bool) -> tuple[tuple[float, float], ...]:
+        """The ranges a twin of ``engine`` is drawn over: in the detectable draw
+        :attr:`visible` for that engine where it was measured and none where the engine
+        realises the change as a catalogue effect (:attr:`same_term`); else :attr:`ranges`."""
+        if detectable and engine in self.same_term:
+            return ()
+        if detectable and engine in self.visible:
+            return tuple(self.visible[engine])
+        return self.ranges
+
+    def draw(self, rng: np.random.Generator, ranges=None) -> float:
+        """One magnitude drawn over ``ranges`` (default :attr:`ranges`; width-weighted,
+        log-uniform for factors)."""
+        ranges = self.ranges if ranges is None else tuple(ranges)
         tr = (lambda x: math.log(x)) if self.quantity == "factor" else (lambda x: x)
-        widths = np.array([tr(b) - tr(a) for a, b in self.ranges])
-        k = int(rng.choice(len(self.ranges), p=widths / widths.sum()))
-        a, b = self.ranges[k]
+        widths = np.array([tr(b) - tr(a) for a, b in ranges])
+        k = int(rng.choice(len(ranges), p=widths / widths.sum()))
+        a, b = ranges[k]
         u = rng.uniform(tr(a), tr(b))
         return float(math.exp(u) if self.quantity == "factor" else u)
 
@@ -116,25 +145,29 @@ def _override(key: str) -> dict:
 OUT_OF_CATALOGUE: tuple[OutOfCatalogueChange, ...] = (
     OutOfCatalogueChange(
         "restitution", "coefficient of restitution off the calibrated 0.1", "value",
-        ((0.3, 0.7),), _contact("restitution")),
+        ((0.3, 0.7),), _contact("restitution"), visible={"liggghts": ()}),
     OutOfCatalogueChange(
         "sliding_friction", "particle-particle sliding friction off the calibrated value",
-        "factor", ((0.5, 0.8), (1.25, 2.0)), _contact("friction")),
+        "factor", ((0.5, 0.8), (1.25, 2.0)), _contact("friction"),
+        visible={"liggghts": ((0.5, 0.65),)}),
     OutOfCatalogueChange(
         "rolling_friction", "rolling friction off the calibrated value", "factor",
-        ((0.3, 0.6), (1.7, 3.0)), _contact("rolling_friction")),
+        ((0.3, 0.6), (1.7, 3.0)), _contact("rolling_friction"),
+        visible={"liggghts": ((2.5, 3.0),)},
+        same_term={"liggghts": "non_sphericity", "lammps": "non_sphericity"}),
     OutOfCatalogueChange(
         "particle_density", "particle density error", "factor", ((0.8, 0.92), (1.08, 1.25)),
         _override("material.density"),
-        refused="the surrogate has no particle density"),
+        refused="the surrogate has no particle density", visible={"liggghts": ()}),
     OutOfCatalogueChange(
         "youngs_modulus", "Young's modulus far from the calibrated one", "factor",
         ((0.1, 0.3), (3.0, 10.0)), _override("material.youngs_modulus"),
-        refused="the surrogate has no Young's modulus"),
+        refused="the surrogate has no Young's modulus", visible={"liggghts": ((0.1, 0.19),)}),
     OutOfCatalogueChange(
         "blade_bevel", "blade bevel angle off the nominal", "factor", ((0.3, 0.6), (1.7, 3.0)),
         _override("spread.bevel_deg"),
-        refused="the surrogate has no blade geometry"),
+        refused="the surrogate has no blade geometry",
+        visible={"liggghts": ((0.34, 0.6), (1.7, 2.6))}),
     OutOfCatalogueChange(
         "second_psd_mode", "a second (coarse) mode in the particle size distribution",
         "value", ((0.05, 0.2),), {},
@@ -310,11 +343,15 @@ def draw_twins(n: int, seed: int, engine: str,
     Effects and changes are taken in turn over a shuffled order (each appears about
     equally often), the twins' order is shuffled, and ids are ``twin-000``... in that order.
     ``ranges`` (effect -> intervals, :func:`detectable_ranges`) replaces each effect's
-    drawable range; an effect with no interval, or missing from it, is not drawn.
+    drawable range; an effect with no interval, or missing from it, is not drawn. With
+    ``ranges`` the out-of-catalogue changes are drawn over their ranges visible in
+    ``engine``'s twins (:meth:`OutOfCatalogueChange.drawable`); a change visible nowhere
+    there is not drawn.
     """
     n_eff, n_null, n_ooc = split_counts(n)
     rng = np.random.default_rng([int(seed), 48])
-    changes = [c for c in OUT_OF_CATALOGUE if engine in c.realised]
+    changes = [c for c in OUT_OF_CATALOGUE
+               if engine in c.realised and c.drawable(engine, ranges is not None)]
     _check_engine(engine)
     if not changes:  # pragma: no cover - every engine realises the contact changes
         raise ConfigError(f"twins engine {engine!r} realises no out-of-catalogue change")
@@ -337,7 +374,8 @@ def draw_twins(n: int, seed: int, engine: str,
     drawn += [("null", None, None)] * n_null
     for i in range(n_ooc):
         c = changes[int(ooc_order[i % len(changes)])]
-        drawn.append(("out_of_catalogue", c.name, c.draw(rng)))
+        drawn.append(("out_of_catalogue", c.name,
+                      c.draw(rng, c.drawable(engine, ranges is not None))))
     order = rng.permutation(len(drawn))
     out = []
     for j, k in enumerate(order):

@@ -97,6 +97,46 @@ def test_draw_split_and_out_of_catalogue_refused_by_name():
     assert twin_point(s, "surrogate")["base"]["friction"] == pytest.approx(0.4 * s.magnitude)
 
 
+def test_the_detectable_draw_takes_out_of_catalogue_changes_where_the_twin_engine_shows_them():
+    effects = {e.name: ((0.5 * e.prior[1], e.prior[1]),) for e in CATALOGUE}
+    specs = draw_twins(40, 7, "liggghts", effects)
+    ooc = [s for s in specs if s.kind == "out_of_catalogue"]
+    assert len(ooc) == 10
+    seen = {c.name for c in OUT_OF_CATALOGUE if "liggghts" in c.realised and c.drawable("liggghts", True)}
+    # rolling friction is seen but is LIGGGHTS' non-sphericity term: not out of catalogue
+    assert seen == {"sliding_friction", "youngs_modulus", "blade_bevel"}
+    assert {s.name for s in ooc} == seen  # ten twins over the changes seen, in turn
+    for s in ooc:
+        c = next(c for c in OUT_OF_CATALOGUE if c.name == s.name)
+        assert any(a <= s.magnitude <= b for a, b in c.visible["liggghts"]), s
+    # the prior draw keeps every change the engine realises over its full ranges
+    prior = [s for s in draw_twins(40, 7, "liggghts") if s.kind == "out_of_catalogue"]
+    assert {"restitution", "particle_density"} <= {s.name for s in prior}
+    # an engine not measured draws the full ranges in both draws
+    emb = [s for s in draw_twins(40, 7, "embedded", effects) if s.kind == "out_of_catalogue"]
+    assert "restitution" in {s.name for s in emb}
+
+
+def test_out_of_catalogue_visible_ranges_agree_with_their_measurements():
+    rec = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records" / "ooc-visibility"
+                      / "visibility.json").read_text())
+    for c in OUT_OF_CATALOGUE:
+        if "liggghts" not in c.visible:
+            continue
+        twins = [t for t in rec["twins"] if t["change"] == c.name]
+        seen = [t["magnitude"] for t in twins if t["gap_significant"]]
+        unseen = [t["magnitude"] for t in twins if not t["gap_significant"]]
+        for a, b in c.visible["liggghts"]:
+            # inside one of the change's ranges, no twin without a gap inside it, and both
+            # ends at a twin that was seen
+            assert any(lo <= a < b <= hi for lo, hi in c.ranges), (c.name, a, b)
+            assert not [m for m in unseen if a <= m <= b], (c.name, a, b)
+            for x in (a, b):
+                assert min(abs(m - x) for m in seen) <= 0.05 * x, (c.name, x)
+        if not c.visible["liggghts"]:
+            assert len(unseen) >= 4 and not seen, c.name
+
+
 @pytest.mark.parametrize("engine", ["embedded", "liggghts", "lammps"])
 def test_engine_twins_realise_changes_in_their_run_config(engine):
     # no engine run: the workflow configuration the engine's simulator would run
@@ -540,9 +580,12 @@ def test_detectable_draw_takes_magnitudes_the_diagnosing_model_detects():
 def test_the_benchmark_records_how_it_drew_the_magnitudes(bench):
     out, res, _ = bench
     truth = json.loads((out / "truth.json").read_text())
-    assert truth["protocol"] == "bedstruct.blind/2"
+    assert truth["protocol"] == "bedstruct.blind/3"
     st = truth["settings"]
     assert st["draw"] == "detectable" and "95" in st["effect_magnitudes"]
     for t in truth["twins"].values():
         if t["kind"] == "effect":
             assert any(a <= t["magnitude"] <= b for a, b in st["detectable_ranges"][t["effect"]])
+        if t["kind"] == "out_of_catalogue":  # the surrogate is not measured: full ranges
+            assert any(a <= t["magnitude"] <= b
+                       for a, b in st["out_of_catalogue_ranges"][t["change"]])
