@@ -48,7 +48,12 @@ and the difference of the two codes' responses to it,
 effect is on: a run at magnitude :math:`a` returns its own value plus
 :math:`(a / a_p)\\,\\Delta_e` (:meth:`EngineBridge.simulator`), so the fingerprints,
 refinement and reruns of the diagnosis all see the user's engine's response to the
-effect, interpolated linearly in the magnitude between 0 and the probe. The correction's
+effect, interpolated linearly in the magnitude between 0 and the probe. With ``probes =
+"reference"`` the engine is also run at the effect's smaller reference magnitude (half the
+prior's top), and the correction is interpolated piecewise-linearly through 0 and both
+probes: an effect whose response in the user's engine is not proportional to its
+magnitude (LIGGGHTS' bridges, which take the place of the cohesion already at a small
+liquid content; a few missing fines) is then followed between the probes. The correction's
 standard deviation :math:`\\sigma_\\Delta` (engine scatter of the paired differences over
 the probe runs, plus the emulator's own uncertainty at both points) first shrinks each
 component of :math:`\\Delta_e` towards zero (positive-part James-Stein,
@@ -66,6 +71,8 @@ In a simulation configuration::
     runs = 6                # its runs at the base point (>= 2)
     seed = 0                # first seed of those runs
     probe_runs = 4          # optional: runs at each effect's probe magnitude (0: offset only)
+    probes = "top"          # optional: probe at the top reference magnitude ("top", default)
+                            # or at both reference magnitudes ("reference")
     cache = "bridge-runs"   # optional: folder keeping the runs (relative to the file)
 
 :func:`engine_bridge` makes the runs and the offset; :func:`bridge_offset` computes it
@@ -93,7 +100,10 @@ __all__ = ["EngineBridge", "bridge_offset", "engine_bridge", "bridge_runs", "bri
            "BRIDGE_SEED_STRIDE", "BridgedSimulator", "effect_probes"]
 
 #: Keys of the ``[bridge]`` table and their types.
-BRIDGE_KEYS = {"engine": str, "runs": int, "seed": int, "cache": str, "probe_runs": int}
+BRIDGE_KEYS = {"engine": str, "runs": int, "seed": int, "cache": str, "probe_runs": int,
+               "probes": str}
+#: Values of the ``[bridge]`` key ``probes``: the reference magnitudes probed.
+PROBE_SETS = ("top", "reference")
 #: Seeds of the bridge runs start here (plus the table's ``seed``): apart from the
 #: diagnosis' replicate and rerun seeds.
 BRIDGE_SEED_STRIDE = 500_000
@@ -133,6 +143,10 @@ class EngineBridge:
         Its standard deviation.
     probe_runs : int
         Engine runs at each probe magnitude.
+    inner_probes : dict of str to tuple
+        Per effect probed below its probe magnitude too (``probes = "reference"``), its
+        inner probes as ``(magnitude, shift, shift_sd)`` in increasing magnitude, shift and
+        its standard deviation per observable as in :attr:`effect_shift`.
     unprobed : tuple of str
         Catalogue effects the engine does not realise: the diagnosing simulator's
         response is used as it is.
@@ -152,6 +166,23 @@ class EngineBridge:
     effect_shift_sd: dict = field(default_factory=dict, repr=False)
     probe_runs: int = 0
     unprobed: tuple = ()
+    inner_probes: dict = field(default_factory=dict, repr=False)
+
+    def _weights(self, e: str, a: float) -> list:
+        """``(weight, shift, sd)`` of each probe of effect ``e`` at magnitude ``a``: the
+        piecewise-linear interpolation through 0, the inner probes and the probe
+        magnitude, the last segment extended beyond it."""
+        knots = [(0.0, None, None)] + list(self.inner_probes.get(e, ())) + [
+            (float(self.probe_magnitudes[e]), self.effect_shift[e], self.effect_shift_sd[e])]
+        k = 1
+        while k < len(knots) - 1 and a > knots[k][0]:
+            k += 1
+        (a0, s0, d0), (a1, s1, d1) = knots[k - 1], knots[k]
+        t = (a - a0) / (a1 - a0)
+        out = [(t, s1, d1)]
+        if s0 is not None:
+            out.append((1.0 - t, s0, d0))
+        return out
 
     def correction(self, effects: Mapping[str, float]) -> tuple[dict, dict]:
         """The correction of a diagnosing-simulator run at effect magnitudes ``effects``.
@@ -179,11 +210,10 @@ class EngineBridge:
         for e, a in effects.items():
             if e not in self.effect_shift or float(a) == 0.0:
                 continue
-            r = float(a) / float(self.probe_magnitudes[e])
-            for name, d in self.effect_shift[e].items():
-                shift[name] = shift.get(name, 0.0) + r * np.asarray(d, float)
-                var[name] = var.get(name, 0.0) + (r * np.asarray(self.effect_shift_sd[e][name],
-                                                                  float)) ** 2
+            for w, sh, sd in self._weights(e, float(a)):
+                for name, d in sh.items():
+                    shift[name] = shift.get(name, 0.0) + w * np.asarray(d, float)
+                    var[name] = var.get(name, 0.0) + (w * np.asarray(sd[name], float)) ** 2
         return shift, {k: np.sqrt(v) for k, v in var.items()}
 
     def simulator(self, simulator):
@@ -252,7 +282,10 @@ class EngineBridge:
             out += (f"; {', '.join(self.left_out)} left out (the {self.engine} runs did not "
                     f"observe them)")
         if self.effect_shift:
-            probes = ", ".join(f"{e} at {a:g}" for e, a in self.probe_magnitudes.items())
+            probes = ", ".join(
+                f"{e} at {' and '.join(f'{m:g}' for m, _, _ in self.inner_probes.get(e, ()))}"
+                f"{' and ' if self.inner_probes.get(e) else ''}{a:g}"
+                for e, a in self.probe_magnitudes.items())
             out += (f"; the effects' responses are the {self.engine} engine's, from "
                     f"{self.probe_runs} runs at each probe ({probes})")
             if self.unprobed:
@@ -273,7 +306,13 @@ class EngineBridge:
                                      for e, d in self.effect_shift.items()},
                     "effect_shift_sd": {e: {k: np.asarray(v, float).tolist() for k, v in d.items()}
                                         for e, d in self.effect_shift_sd.items()},
-                    "unprobed": list(self.unprobed)} if self.effect_shift else {})}
+                    "unprobed": list(self.unprobed)} if self.effect_shift else {}),
+                **({"inner_probes": {
+                    e: [{"magnitude": float(m),
+                         "shift": {k: np.asarray(v, float).tolist() for k, v in sh.items()},
+                         "shift_sd": {k: np.asarray(v, float).tolist() for k, v in sd.items()}}
+                        for m, sh, sd in probes]
+                    for e, probes in self.inner_probes.items()}} if self.inner_probes else {})}
 
 
 class BridgedSimulator:
@@ -425,6 +464,10 @@ def bridge_table(doc: Mapping[str, Any], where: str, folder: Path | None = None)
         raise ConfigError(f"{where} [bridge]: key 'probe_runs': expected 0 (no probes) or 2 to "
                           f"'runs' ({tab['runs']}: each probe run is paired with the base run "
                           f"of its seed); got {tab['probe_runs']}")
+    if tab.get("probes", "top") not in PROBE_SETS:
+        raise ConfigError(f"{where} [bridge]: key 'probes': expected one of "
+                          f"{', '.join(map(repr, PROBE_SETS))} (the reference magnitudes "
+                          f"probed); got {tab['probes']!r}")
     if "cache" in tab:
         c = Path(tab["cache"]).expanduser()
         tab["cache"] = str(c if c.is_absolute() or folder is None else folder / c)
@@ -502,7 +545,8 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
     n_probe = int(bridge.get("probe_runs", 0))
     if n_probe:
         out = effect_probes(out, engine_simulator, simulator, effects=effects,
-                            n_runs=n_probe, progress=progress)
+                            n_runs=n_probe, probes=str(bridge.get("probes", "top")),
+                            progress=progress)
     return out
 
 
@@ -539,15 +583,16 @@ def _run_all(simulator, calls, progress, desc) -> list:
 
 
 def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
-                  effects: Sequence | None = None, n_runs: int = 4,
+                  effects: Sequence | None = None, n_runs: int = 4, probes: str = "top",
                   progress: bool = False) -> EngineBridge:
     """The bridge with each realisable effect's response difference :math:`\\Delta_e`.
 
     The user's engine is run at each effect's probe magnitude (its larger reference
-    magnitude) on the first ``n_runs`` seeds of the bridge's base runs; each probe run is
-    paired with the base run of its seed. The diagnosing simulator's response is the
-    emulator's predicted difference (with its uncertainty at both points), or the mean
-    paired difference of as many of its own runs.
+    magnitude; with ``probes="reference"`` at its smaller one too) on the first ``n_runs``
+    seeds of the bridge's base runs; each probe run is paired with the base run of its
+    seed. The diagnosing simulator's response is the emulator's predicted difference (with
+    its uncertainty at both points), or the mean paired difference of as many of its own
+    runs.
 
     Parameters
     ----------
@@ -561,19 +606,23 @@ def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
     effects : sequence of Effect, optional
         Catalogue (default: all); those the engine does not realise are not probed.
     n_runs : int
-        Probe runs per effect (2 to the bridge's base runs).
+        Probe runs per effect and magnitude (2 to the bridge's base runs).
+    probes : {"top", "reference"}
+        The reference magnitudes probed: the larger, or both.
     progress : bool
         Progress bar over the probe runs.
 
     Returns
     -------
     EngineBridge
-        With :attr:`~EngineBridge.effect_shift`, its standard deviation and the probes.
+        With :attr:`~EngineBridge.effect_shift`, its standard deviation, the probes and,
+        with ``probes="reference"``, :attr:`~EngineBridge.inner_probes`.
 
     Raises
     ------
     ConfigError
-        Fewer than 2 probe runs, or more than the base runs they pair with.
+        Fewer than 2 probe runs, or more than the base runs they pair with; an unknown
+        ``probes``.
     """
     from .catalogue import CATALOGUE
     from .engine_simulator import engine_realises
@@ -581,20 +630,27 @@ def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
     if not 2 <= n_runs <= bridge.n_runs:
         raise ConfigError(f"bridge: probe_runs must lie in 2..{bridge.n_runs} (the base runs "
                           f"they pair with); got {n_runs}")
+    if probes not in PROBE_SETS:
+        raise ConfigError(f"bridge: probes must be one of {', '.join(map(repr, PROBE_SETS))}; "
+                          f"got {probes!r}")
     effects = tuple(CATALOGUE if effects is None else effects)
     probed = [e for e in effects if engine_realises(e, bridge.engine)]
     unprobed = tuple(e.name for e in effects if e not in probed)
     seeds = list(bridge.seeds[:n_runs])
     base = dict(bridge.base)
     mags = {e.name: float(max(e.reference_magnitudes, key=abs)) for e in probed}
-    calls = [(base, {e: a}, s) for e, a in mags.items() for s in seeds]
+    inner = {e.name: tuple(sorted(float(a) for a in e.reference_magnitudes
+                                  if abs(float(a)) < abs(mags[e.name]) and float(a) != 0.0))
+             for e in probed} if probes == "reference" else {}
+    points = [(e, a) for e in mags for a in inner.get(e, ()) + (mags[e],)]
+    calls = [(base, {e: a}, s) for e, a in points for s in seeds]
     runs = _run_all(engine_simulator, calls, progress, f"bridge probes ({bridge.engine})")
     emu = getattr(simulator, "emulator", None)
     p0 = emu.predict(base, {}) if emu is not None else None
     ref0 = None if emu is not None else _run_all(simulator, [(base, {}, s) for s in seeds],
                                                  False, "")
-    shift, shift_sd = {}, {}
-    for k, (e, a) in enumerate(mags.items()):
+    found = {}
+    for k, (e, a) in enumerate(points):
         eng = runs[k * n_runs:(k + 1) * n_runs]
         if emu is not None:
             p = emu.predict(base, {e: a})
@@ -602,7 +658,7 @@ def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
             v_ref = emu.by_observable(p.sd ** 2 + p0.sd ** 2)
         else:
             ref = _run_all(simulator, [(base, {e: a}, s) for s in seeds], False, "")
-        shift[e], shift_sd[e] = {}, {}
+        shift, shift_sd = {}, {}
         for n in bridge.offset:
             y0 = np.asarray(bridge.runs[n], float)[:n_runs]
             dd = np.array([np.asarray(r[n], float) for r in eng]) - y0
@@ -626,10 +682,15 @@ def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
             # observable add no response of their own scatter
             with np.errstate(invalid="ignore", divide="ignore"):
                 keep = np.where(delta != 0.0, np.clip(1.0 - sd ** 2 / delta ** 2, 0.0, 1.0), 0.0)
-            shift[e][n] = np.where(ok, keep * delta, 0.0)
-            shift_sd[e][n] = np.where(ok, np.sqrt(keep) * sd, 0.0)
-    return replace(bridge, probe_magnitudes=mags, effect_shift=shift, effect_shift_sd=shift_sd,
-                   probe_runs=n_runs, unprobed=unprobed)
+            shift[n] = np.where(ok, keep * delta, 0.0)
+            shift_sd[n] = np.where(ok, np.sqrt(keep) * sd, 0.0)
+        found[(e, a)] = (shift, shift_sd)
+    return replace(bridge, probe_magnitudes=mags,
+                   effect_shift={e: found[(e, a)][0] for e, a in mags.items()},
+                   effect_shift_sd={e: found[(e, a)][1] for e, a in mags.items()},
+                   probe_runs=n_runs, unprobed=unprobed,
+                   inner_probes={e: tuple((a, *found[(e, a)]) for a in inner[e])
+                                 for e in inner if inner[e]})
 
 
 def bridge_seeds(bridge: Mapping[str, Any]) -> list[int]:

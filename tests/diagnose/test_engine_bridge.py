@@ -262,6 +262,53 @@ def test_a_probe_recovers_the_engines_response_difference_exactly():
     assert "probe" in b.note() and b.as_dict()["probe_magnitudes"]["missing_fines"] == 0.12
 
 
+def test_probes_at_both_reference_magnitudes_follow_a_response_that_is_not_proportional():
+    eff = catalogue()
+    design = diagnosis_design(twin_design(), eff)
+    sim = SurrogateSimulator(design)
+    unit = {n: np.full(design[n].n_components, 0.1 * (k + 1)) for k, n in enumerate(design.names)}
+
+    def engine(base, effects, seed):   # a shift that jumps on at any fraction, then grows
+        obs = sim(base, effects, seed)
+        a = float(effects.get("missing_fines", 0.0))
+        c = 0.0 if a == 0.0 else 1.0 + 10.0 * a
+        return Observations({n: obs[n] + c * unit[n] for n in obs.names})
+
+    table = {"engine": "liggghts", "runs": 4, "probe_runs": 3}
+    top = engine_bridge(design, sim, base=BASE_PARAMETERS, bridge=table,
+                        engine_simulator=engine, effects=eff)
+    both = engine_bridge(design, sim, base=BASE_PARAMETERS, bridge=dict(table, probes="reference"),
+                         engine_simulator=engine, effects=eff)
+    assert "missing_fines" not in top.inner_probes
+    (a_in, sh_in, _), = both.inner_probes["missing_fines"]
+    assert a_in == 0.06 and both.probe_magnitudes["missing_fines"] == 0.12
+    n0 = next(iter(both.offset))
+    assert np.allclose(sh_in[n0], 1.6 * unit[n0]) and np.allclose(
+        both.effect_shift["missing_fines"][n0], 2.2 * unit[n0])
+    # between the probes the two-probe correction is the engine's own; one probe's is not
+    for a in (0.09, 0.12, 0.06):
+        want = (1.0 + 10.0 * a) * unit[n0]
+        assert np.allclose(both.correction({"missing_fines": a})[0][n0], want), a
+    assert not np.allclose(top.correction({"missing_fines": 0.09})[0][n0], 1.9 * unit[n0])
+    # below the inner probe: through 0; above the top: the last segment extended
+    assert np.allclose(both.correction({"missing_fines": 0.03})[0][n0], 0.8 * unit[n0])
+    assert np.allclose(both.correction({"missing_fines": 0.15})[0][n0], 2.5 * unit[n0])
+    # the uncertainty of an interpolated correction weighs both probes' (zero here)
+    assert np.allclose(both.correction({"missing_fines": 0.09})[1][n0], 0.0)
+    assert "0.06 and 0.12" in both.note()
+    assert both.as_dict()["inner_probes"]["missing_fines"][0]["magnitude"] == 0.06
+
+
+def test_the_bridge_table_names_the_probe_sets(tmp_path):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nkind = "engine"\n\n[engine]\npreset = "tiny"\n\n'
+                 '[bridge]\nengine = "liggghts"\nruns = 4\nprobe_runs = 2\nprobes = "all"\n')
+    with pytest.raises(ConfigError, match="probes.*'top', 'reference'"):
+        load_sim_config(p)
+    p.write_text(p.read_text().replace('"all"', '"reference"'))
+    assert load_sim_config(p).bridge["probes"] == "reference"
+
+
 def test_probes_let_an_engine_with_another_response_be_sized_in_its_own_terms(setup, tmp_path):
     eff, sim, fps, _, _ = setup
     engine = SlowFinesEngine(sim)
