@@ -423,6 +423,23 @@ def test_committed_partial_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["shrink_ci"], [0.7075, 1.0], atol=5e-5)
 
 
+def test_committed_visible_liggghts_blind_record_rescores_as_its_summary():
+    """The sixth blind LIGGGHTS batch (protocol 3: out-of-catalogue changes where LIGGGHTS
+    twins show them) scores as the docs quote."""
+    s = _rescore_sealed_liggghts_record("blind-liggghts-visible-2026-12-05", "5452066",
+                                        20261208)
+    assert s["draw"] == "detectable"
+    assert s["top1_count"] == [10, 20] and s["top1_partial_count"] == [4, 10]
+    assert s["top1_detected_count"] == [10, 18]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [6, 10]
+    assert s["ooc_detected_count"] == [6, 10]
+    assert s["coverage_count"] == [5, 10]
+    assert s["shrink_n"] == 17 and abs(s["shrink_median"] - 0.687) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.2720, 0.7280], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.2624, 0.8784], atol=5e-5)
+    np.testing.assert_allclose(s["shrink_ci"], [0.4815, 0.8818], atol=5e-5)
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
