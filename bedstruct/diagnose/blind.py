@@ -371,7 +371,8 @@ def _bridge_doc(sim, settings) -> dict:
     tab = _sim_config(sim, settings).bridge
     if not tab:
         return {}
-    keys = ("engine", "runs", "seed") + (("probe_runs",) if tab.get("probe_runs") else ())
+    keys = ("engine", "runs", "seed") + (("probe_runs",) if tab.get("probe_runs") else ()) \
+        + (("probes",) if tab.get("probes", "top") != "top" else ())
     return {"bridge": {k: tab[k] for k in keys}}
 
 

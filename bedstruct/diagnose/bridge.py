@@ -191,8 +191,12 @@ class EngineBridge:
         -------
         shift, sd : dict of str to (k,) ndarray
             Per bridged observable, :math:`\\sum_e (a_e / a_{p,e})\\,\\Delta_e` and its
-            standard deviation (the effects' terms independent). Empty without probes
-            or with no probed effect on.
+            standard deviation (the effects' terms independent). With inner probes
+            (:attr:`inner_probes`) each effect's term is the piecewise-linear interpolation
+            through 0 and its probes (the last segment extended beyond the probe
+            magnitude), its variance the weighted sum of the two neighbouring probes'
+            (taken as independent, though both pair with the same base runs). Empty
+            without probes or with no probed effect on.
 
         Examples
         --------
@@ -320,7 +324,8 @@ class BridgedSimulator:
     effect (:meth:`EngineBridge.simulator`).
 
     A call at effect magnitudes :math:`a_e` returns the simulator's run plus
-    :math:`\\sum_e (a_e/a_{p,e})\\,\\Delta_e` and a seeded draw of the correction's
+    :math:`\\sum_e (a_e/a_{p,e})\\,\\Delta_e` (interpolated between the probes where there are
+    inner ones) and a seeded draw of the correction's
     uncertainty (:meth:`EngineBridge.correction`); other attributes (``names``,
     ``parameter_box``, ``emulator``...) are the wrapped simulator's.
 
@@ -468,6 +473,9 @@ def bridge_table(doc: Mapping[str, Any], where: str, folder: Path | None = None)
         raise ConfigError(f"{where} [bridge]: key 'probes': expected one of "
                           f"{', '.join(map(repr, PROBE_SETS))} (the reference magnitudes "
                           f"probed); got {tab['probes']!r}")
+    if "probes" in tab and not tab.get("probe_runs", 0):
+        raise ConfigError(f"{where} [bridge]: key 'probes' needs 'probe_runs' (2 to "
+                          f"{tab['runs']}): without probe runs nothing is probed")
     if "cache" in tab:
         c = Path(tab["cache"]).expanduser()
         tab["cache"] = str(c if c.is_absolute() or folder is None else folder / c)

@@ -606,3 +606,13 @@ def test_the_benchmark_records_how_it_drew_the_magnitudes(bench):
         if t["kind"] == "out_of_catalogue":  # the surrogate is not measured: full ranges
             assert any(a <= t["magnitude"] <= b
                        for a, b in st["out_of_catalogue_ranges"][t["change"]])
+
+
+def test_the_truth_records_the_bridges_probe_set(tmp_path):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nkind = "engine"\n[engine]\npreset = "tiny"\n'
+                 '[bridge]\nengine = "liggghts"\nruns = 4\nprobe_runs = 2\n')
+    assert "probes" not in blind._bridge_doc(str(p), None)["bridge"]
+    p.write_text(p.read_text() + 'probes = "reference"\n')
+    assert blind._bridge_doc(str(p), None)["bridge"] == {
+        "engine": "liggghts", "runs": 4, "seed": 0, "probe_runs": 2, "probes": "reference"}

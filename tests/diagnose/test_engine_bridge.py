@@ -307,6 +307,10 @@ def test_the_bridge_table_names_the_probe_sets(tmp_path):
         load_sim_config(p)
     p.write_text(p.read_text().replace('"all"', '"reference"'))
     assert load_sim_config(p).bridge["probes"] == "reference"
+    # probes without probe runs would probe nothing: refused, not ignored
+    p.write_text(p.read_text().replace("probe_runs = 2\n", ""))
+    with pytest.raises(ConfigError, match="'probes' needs 'probe_runs'"):
+        load_sim_config(p)
 
 
 def test_probes_let_an_engine_with_another_response_be_sized_in_its_own_terms(setup, tmp_path):

@@ -1,7 +1,8 @@
 """Collect which out-of-catalogue twins of LIGGGHTS left a gap beyond noise.
 
-Sources: the out-of-catalogue twins of the blind LIGGGHTS batches whose diagnoses record the
-"is there a gap" test (``gap_significant``, ``p_gap``), and the visibility scan in this
+Sources: the out-of-catalogue twins of the blind LIGGGHTS batches drawn before protocol 3
+(the batches the visible ranges were read from) whose diagnoses record the "is there a gap"
+test (``gap_significant``, ``p_gap``), and the visibility scan in this
 folder (``scan.json``: twins made by ``scan.py`` at the ends of the ranges, diagnosed the
 same way). Writes ``visibility.json``. Run from the repository root::
 
@@ -15,6 +16,8 @@ RECORDS = HERE.parent
 rows = []
 for rec in sorted(RECORDS.glob("blind-liggghts-*")):
     truth = json.loads((rec / "truth.json").read_text())
+    if truth["protocol"] >= "bedstruct.blind/3":  # drawn from the visible ranges
+        continue
     for name, t in truth["twins"].items():
         if t["kind"] != "out_of_catalogue":
             continue

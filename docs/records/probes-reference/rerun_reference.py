@@ -29,14 +29,14 @@ SIM = "data/measurements/blind-engine-tiny-probed.sim.toml"
 
 def main(lib: str, *records: str) -> None:
     lib = Path(lib)
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
     cfg = _sim_config(SIM, None)
     emu = fit_emulator(load_library(lib), reuse=False)
     table = dict(cfg.bridge, probes="reference")
     bridge = engine_bridge(benchmark_design("liggghts"), EmulatedSimulator(emu), base=cfg.base,
                            bridge=table, engine=cfg.engine, cache=lib / "bridge",
                            effects=cfg.effects, workers=2, progress=True)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
     keys = ("top1_count", "top1_ci", "top1_detected_count", "top1_partial_count",
             "null_false_count", "null_false_ci", "ooc_count", "ooc_ci", "ooc_detected_count",
             "coverage_count", "shrink_median", "shrink_ci", "shrink_n", "confusion")
