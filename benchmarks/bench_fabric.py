@@ -1,7 +1,7 @@
 """Benchmark: fabric tensors (ranks 2 and 4, all three kinds) and the real
 spherical-harmonic expansion to l = 8 for 1,000,000 contact normals.
 
-Target (issue 4): under 1 s in total on 2 cores. Run::
+Target: under 1 s in total on 2 cores. Run::
 
     python benchmarks/bench_fabric.py [--n 1000000] [--l-max 8] [--threads 2] [--repeat 3]
 

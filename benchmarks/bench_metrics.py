@@ -2,7 +2,7 @@
 particles in a ``pp pp ff`` box, with OVITO's neighbour finding on the same frame
 (when the ``ovito`` package is installed) for the ratio.
 
-Target (issue 3): the whole chain under 5 s on 2 cores, memory under 2 GB. Run::
+Target: the whole chain under 5 s on 2 cores, memory under 2 GB. Run::
 
     python benchmarks/bench_metrics.py [--n 1000000] [--threads 2] [--repeat 2]
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 from .amortised import AmortisedDiagnosis, diagnose_with_library
 from .answer import answer, compact_answer
 from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_model
-from .blind import BenchmarkResult, run_benchmark
+from .blind import BenchmarkResult, pool_benchmarks, run_benchmark
 from .blind_twins import OUT_OF_CATALOGUE
 from .bridge import EngineBridge, engine_bridge
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
@@ -93,5 +93,5 @@ __all__ = [
     "PRESETS", "ENGINE_PRESETS", "GOALS", "METHOD_VERSION", "ValidationResult", "score_twins",
     "capped_twins", "capped_summary", "separation", "nearest_imitations", "not_told_apart",
     "twin_design", "engine_twin_design", "validate", "LIGGGHTS_PRESETS", "validate_liggghts",
-    "run_benchmark", "BenchmarkResult", "OUT_OF_CATALOGUE",
+    "run_benchmark", "BenchmarkResult", "pool_benchmarks", "OUT_OF_CATALOGUE",
 ]

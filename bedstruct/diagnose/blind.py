@@ -1,4 +1,4 @@
-"""Blind benchmark of the diagnosis: truth drawn and sealed first, then diagnosed (issue #48).
+"""Blind benchmark of the diagnosis: truth drawn and sealed first, then diagnosed.
 
 The validation (:func:`~bedstruct.diagnose.validate.validate`) is in-sample: its rules were
 tuned on its twins. A blind benchmark draws new twins from a seed, writes their truth and a
@@ -34,6 +34,8 @@ that made the twins:
    (:func:`median_interval`); the confusion matrix; written to ``DIR/summary.json`` and
    ``DIR/report.html``.
 
+:func:`pool_benchmarks` scores several sealed batches together (their counts added).
+
 .. versionadded:: 0.1
 """
 
@@ -68,7 +70,7 @@ from .emulator import EmulatedSimulator
 from .measurement_io import load_measurements
 
 __all__ = ["PROTOCOL", "DRAWS", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
-           "score_benchmark", "proportion_interval", "median_interval", "confusion_figure",
+           "score_benchmark", "load_benchmark", "pool_benchmarks", "proportion_interval", "median_interval", "confusion_figure",
            "add_benchmark_arguments", "run_benchmark_command"]
 
 #: Revision of the protocol, in ``truth.json`` (2: the ``draw`` setting, effect magnitudes
@@ -330,6 +332,86 @@ def score_benchmark(truth: dict, results: dict) -> dict:
             "not_diagnosed": sorted(set(twins) - set(results)),
             "commit": truth.get("commit"), "version": truth.get("version"),
             "settings": truth["settings"], "twins": per_twin}
+
+
+def load_benchmark(folder) -> tuple[dict, dict]:
+    """The truth and the results of a benchmark folder.
+
+    Parameters
+    ----------
+    folder : path-like
+        A folder :func:`run_benchmark` wrote (``truth.json``, ``results/twin-XXX.json``).
+
+    Returns
+    -------
+    truth, results : dict
+        ``truth.json`` as read, and twin id -> its result record (twins not yet diagnosed
+        have none).
+
+    Raises
+    ------
+    ConfigError
+        When the folder has no ``truth.json``.
+    """
+    folder = Path(folder)
+    if not (folder / "truth.json").is_file():
+        raise ConfigError(f"{folder}: no truth.json (not a benchmark folder)")
+    truth = json.loads((folder / "truth.json").read_text())
+    results = {p.stem: json.loads(p.read_text())
+               for p in sorted((folder / "results").glob("twin-*.json"))}
+    return truth, results
+
+
+def pool_benchmarks(folders) -> dict:
+    """Scores of several benchmarks taken together, as one batch of all their twins.
+
+    Every twin of every folder is scored once by :func:`score_benchmark` (its id prefixed
+    by its folder's name): the counts add up, each proportion's Clopper-Pearson interval is
+    that of the pooled counts, and the median held-out shrink and its interval are over
+    every shrink measured. Pool batches of one method for that method's rate; pooling
+    batches of different methods (for instance the null twins of every bridged batch)
+    answers a question about all of them, which the caller states.
+
+    Parameters
+    ----------
+    folders : sequence of path-like
+        Benchmark folders (:func:`load_benchmark`).
+
+    Returns
+    -------
+    dict
+        :func:`score_benchmark`'s summary, with ``batches`` (folder names), ``commits``
+        and ``protocols`` (one per batch) in place of the one batch's ``commit``,
+        ``protocol`` and ``settings``.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import bedstruct
+    >>> records = Path(bedstruct.__file__).parents[1] / "docs" / "records"
+    >>> s = pool_benchmarks([records / "blind-liggghts-partial-2026-12-05",
+    ...                      records / "blind-liggghts-visible-2026-12-05"])
+    >>> s["top1_count"], [round(x, 2) for x in s["top1_ci"]]
+    ([26, 40], [0.48, 0.79])
+    """
+    folders = [Path(f) for f in folders]
+    if not folders:
+        raise ConfigError("pool_benchmarks: no benchmark folder given")
+    names = [f.resolve().name for f in folders]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"pool_benchmarks: a folder is given twice ({names})")
+    twins, results, commits, protocols = {}, {}, [], []
+    for name, folder in zip(names, folders):
+        truth, res = load_benchmark(folder)
+        commits.append(truth.get("commit"))
+        protocols.append(truth.get("protocol"))
+        twins.update({f"{name}/{t}": v for t, v in truth["twins"].items()})
+        results.update({f"{name}/{t}": r for t, r in res.items()})
+    pooled = score_benchmark({"twins": twins, "protocol": None, "settings": None}, results)
+    for key in ("protocol", "commit", "version", "settings"):
+        pooled.pop(key, None)
+    pooled.update(batches=names, commits=commits, protocols=protocols)
+    return pooled
 
 
 def _truth_doc(n, seed, twins_engine, preset, sim, settings, specs, library,

@@ -616,3 +616,32 @@ def test_the_truth_records_the_bridges_probe_set(tmp_path):
     p.write_text(p.read_text() + 'probes = "reference"\n')
     assert blind._bridge_doc(str(p), None)["bridge"] == {
         "engine": "liggghts", "runs": 4, "seed": 0, "probe_runs": 2, "probes": "reference"}
+
+
+def test_pooled_blind_records_add_their_counts():
+    """Pooling sealed batches scores every twin once: the counts are the batches' sums, the
+    intervals the pooled counts' exact ones, the shrink median over every measured shrink."""
+    from bedstruct.diagnose import blind
+
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records"
+    names = ["blind-liggghts-bridged-2026-12-04", "blind-liggghts-detectable-2026-12-04",
+             "blind-liggghts-probed-2026-12-05", "blind-liggghts-partial-2026-12-05",
+             "blind-liggghts-visible-2026-12-05"]
+    pooled = blind.pool_benchmarks([rec / n for n in names])
+    singles = [json.loads((rec / n / "summary.json").read_text()) for n in names]
+    for key in ("top1_count", "null_false_count", "ooc_count", "coverage_count"):
+        assert pooled[key] == [sum(s[key][0] for s in singles), sum(s[key][1] for s in singles)]
+    assert pooled["null_false_count"] == [0, 50]
+    np.testing.assert_allclose(pooled["null_false_ci"], blind.proportion_interval(0, 50))
+    assert pooled["shrink_n"] == sum(s["shrink_n"] for s in singles)
+    shrinks = [t["shrink"] for s in singles for t in s["twins"]
+               if t["shrink_measured"] and t["truth_label"] in
+               {"capillary_bridges", "non_sphericity", "missing_fines", "contact_ageing",
+                "wall_friction", "blade_startup"}]
+    assert abs(pooled["shrink_median"] - float(np.median(shrinks))) < 1e-12
+    assert pooled["batches"] == names and len(pooled["commits"]) == 5
+    assert sum(map(sum, pooled["confusion"]["matrix"])) == 200
+    with pytest.raises(ConfigError, match="twice"):
+        blind.pool_benchmarks([rec / names[0], rec / names[0]])
+    with pytest.raises(ConfigError, match="truth.json"):
+        blind.pool_benchmarks([rec])
