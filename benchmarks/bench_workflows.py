@@ -126,7 +126,7 @@ def main(argv=None) -> int:
 def diagnosis_call_timing(preset: str, threads: int) -> int:
     """Time one uncached engine call of the diagnosis (base parameters, seed 1)."""
     from bedstruct.dem import Simulation
-    from bedstruct.diagnose.validation_design import engine_scale_model, engine_twin_design
+    from bedstruct.diagnose.validation.design import engine_scale_model, engine_twin_design
     from bedstruct.diagnose.engine_simulator import diagnosis_simulator
 
     sim = diagnosis_simulator(engine_twin_design(),

@@ -135,7 +135,7 @@ def _run_validate(args) -> int:
             setattr(args, name, default)
     engine = None
     if args.simulator in ("engine", "liggghts"):
-        from ..diagnose.validation_design import engine_scale_model
+        from ..diagnose.validation.design import engine_scale_model
         engine = {"preset": engine_scale_model(args.preset)}
         if args.sim:
             from ..diagnose import load_sim_config
@@ -182,7 +182,7 @@ def _run_validate(args) -> int:
             print(f"  twins with a significant gap only ({det['n_effect_twins_undetected']} effect "
                   f"twin(s) without): top1 {det['top1_accuracy']:.3f}, "
                   f"out-of-catalogue unexplained {det['out_of_catalogue_unexplained']:.3f}")
-        from ..diagnose.validation_scores import capped_summary
+        from ..diagnose.validation.scores import capped_summary
         capped = capped_summary(result.twins, sigma=" sigma")
         if capped:
             print(f"  effect twins held at the prior top below the drawn gap: {capped}")
@@ -195,7 +195,7 @@ def run(args) -> int:
     if args.action == "validate":
         return _run_validate(args)
     if args.action == "benchmark":
-        from ..diagnose.blind import run_benchmark_command
+        from ..diagnose.validation.blind import run_benchmark_command
         return run_benchmark_command(args)
     import dataclasses
 

@@ -14,11 +14,10 @@ The modules, by concept: measurements (``measurements``, ``measurement_io``,
 ``fingerprint_runs``, ``identifiability``, ``noise_correlation``, ``where``, ``attribution``,
 ``profile_interval``, ``separation``, ``confirm``, ``diagnosis``, ``diagnosis_result``); the run
 library and its emulator (``run_design``, ``run_library``, ``emulator``, ``emulator_fit``,
-``amortised``); the answer, report and figures (``answer``, ``report``, ``figures``);
-validation (``validation_design``, ``twins``, ``validation_records``, ``validation_scores``,
-``validate``, ``validate_parallel``, ``validate_liggghts``, ``external_twins``,
-``liggghts_law``, and the blind protocol ``blind``, ``blind_twins``, ``blind_report``).
-Imports point from the later groups to the earlier ones.
+``amortised``); another engine's baseline (``bridge``); the answer, report and figures
+(``answer``, ``report``, ``figures``). Imports point from the later groups to the earlier
+ones. The validation of the method (synthetic and LIGGGHTS twins, the blind protocol) is the
+subpackage :mod:`bedstruct.diagnose.validation`, which uses the method and is not used by it.
 """
 
 from __future__ import annotations
@@ -26,8 +25,6 @@ from __future__ import annotations
 from .amortised import AmortisedDiagnosis, diagnose_with_library
 from .answer import answer, compact_answer
 from .attribution import Attribution, EffectEstimate, ModelFit, attribute, fit_model
-from .blind import BenchmarkResult, pool_benchmarks, run_benchmark
-from .blind_twins import OUT_OF_CATALOGUE
 from .bridge import EngineBridge, engine_bridge
 from .catalogue import (CATALOGUE, Effect, catalogue, effect, engine_hooks, halsey_film_thickness,
                         kelvin_radius)
@@ -53,15 +50,18 @@ from .parameters import PARAMETER_BOUNDS, parameter_bounds
 from .replicates import Simulator, simulate_replicates
 from .run_design import design_spec
 from .run_library import RunLibrary, StaleLibraryError, build_library, load_library
-from .report import diagnosis_report, validation_report
+from .report import diagnosis_report
 from .separation import nearest_imitations, not_told_apart, separation
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
-from .validate import ENGINE_PRESETS, PRESETS, validate
-from .validate_liggghts import LIGGGHTS_PRESETS, validate_liggghts
-from .validation_design import engine_twin_design, twin_design
-from .validation_records import METHOD_VERSION
-from .validation_scores import GOALS, ValidationResult, capped_summary, capped_twins, score_twins
 from .where import GapGroup, Residuals, WhereResult, standardised_residuals, where, where_table
+from .validation.blind import BenchmarkResult, pool_benchmarks, run_benchmark
+from .validation.blind_twins import OUT_OF_CATALOGUE
+from .validation.design import engine_twin_design, twin_design
+from .validation.liggghts import LIGGGHTS_PRESETS, validate_liggghts
+from .validation.records import METHOD_VERSION
+from .validation.report import validation_report
+from .validation.scores import GOALS, ValidationResult, capped_summary, capped_twins, score_twins
+from .validation.validate import ENGINE_PRESETS, PRESETS, validate
 
 __all__ = [
     # measurements and observation operators

@@ -1,4 +1,4 @@
-"""HTML/JSON report of a diagnosis or a validation (built on ``bedstruct.report``).
+"""HTML/JSON report of a diagnosis (built on ``bedstruct.report``).
 
 .. versionadded:: 0.1
 """
@@ -11,9 +11,8 @@ from .._version import __version__
 from .answer import _num, _observable_words, answer, difference_text, quantity_text
 from .diagnosis_result import identification, uneven_scatter_note
 from .separation import nearest_imitations
-from .validation_scores import capped_summary
 
-__all__ = ["diagnosis_report", "validation_report"]
+__all__ = ["diagnosis_report"]
 
 
 _ROLE_WORDS = {"calibrate": "calibration", "validate": "held out", "candidate": "not measured"}
@@ -315,98 +314,4 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
                             *((("emulator", "Appendix: the emulator against the confirming rerun",
                                 emulator_),) if amortised is not None else ())):
         rep.sections.append(run_section(key, title_, fn))
-    return rep
-
-
-def validation_report(result):
-    """A report of a :class:`ValidationResult` (goals, confusion matrix, magnitude recovery)."""
-    from ..report._model import Report, Table, run_section
-    from . import figures as pdg
-
-    rep = Report(f"Diagnosis validation on synthetic twins ({result.preset})",
-                 inputs={"simulator": result.simulator, "preset": result.preset},
-                 settings=result.settings, version=__version__)
-
-    def goals(s):
-        s.text = ("Twins generated and diagnosed with the analytic SURROGATE simulator, not the DEM "
-                  "engine." if result.simulator == "surrogate" else "")
-        for k, g in result.goals.items():
-            over = (f"; over the {g['n_twins']} effect twin(s) with a held-out gap beyond noise "
-                    f"({g['n_no_heldout_gap']} without one)" if "n_no_heldout_gap" in g else "")
-            s.add_number(k, g["value"], "1",
-                         f"goal {g['goal']}: {'met' if g['met'] else 'NOT met'}{over}")
-        s.add_number("null_gap_flagged", result.null_gap_flagged, "1",
-                     "fraction of null twins where 'where' flagged a significant gap")
-        s.add_number("median_gap_shrink_rms", result.median_gap_shrink_rms, "1",
-                     "median shrink of the RMS held-out gap (noise floor included)")
-        s.add_number("magnitude_coverage", result.magnitude_coverage, "1",
-                     "fraction of correct attributions whose 95 % CI holds the true magnitude")
-        s.add_number("magnitude_median_relative_error", result.magnitude_median_relative_error, "1",
-                     "median |fitted - true| / true")
-        ident = result.identifiable
-        if ident.get("not_identifiable"):
-            why = (f"over the twins of identifiable effects only (not identifiable with these "
-                   f"observables: {', '.join(ident['not_identifiable'])})")
-            s.add_number("top1_accuracy_identifiable", ident["top1_accuracy"], "1",
-                         f"{why}; {ident['n_effect_twins']} twin(s)")
-            s.add_number("out_of_catalogue_unexplained_identifiable",
-                         ident["out_of_catalogue_unexplained"], "1",
-                         f"{why}; {ident['n_out_of_catalogue_twins']} twin(s)")
-        det = result.detected
-        if det.get("n_effect_twins_undetected"):
-            why = (f"over the twins whose gap 'where' found significant ("
-                   f"{det['n_effect_twins_undetected']} effect twin(s) carry none: no method can "
-                   "attribute them)")
-            s.add_number("top1_accuracy_detected", det["top1_accuracy"], "1",
-                         f"{why}; {det['n_effect_twins']} twin(s)")
-            s.add_number("out_of_catalogue_unexplained_detected",
-                         det["out_of_catalogue_unexplained"], "1",
-                         f"{why}; {det['n_out_of_catalogue_twins']} twin(s)")
-        capped = capped_summary(result.twins)
-        if capped:
-            s.text += (f" Effect twins held at the top of the prior below the drawn gap: {capped}; "
-                       "the prior range caps how strong a twin of that effect can be.")
-        missing = result.settings.get("missing_runs") or {}
-        dropped = result.settings.get("unobservable") or {}
-        failed = result.settings.get("failed") or []
-        if missing or dropped or failed:
-            s.text += (" Missing data: " + "; ".join(
-                [f"{n} not observed in {k} fingerprint run(s)" for n, k in missing.items()]
-                + [f"{n} dropped ({why})" for n, why in dropped.items()]
-                + [f"twin {f['twin']} ({f['type']}) failed: {f['error'][:120]}" for f in failed]) + ".")
-        uneven = result.settings.get("uneven_scatter") or {}
-        if uneven:
-            s.text += " Scatter: " + "; ".join(uneven_scatter_note(n, u) for n, u in uneven.items()) + "."
-
-    def confusion(s):
-        c = result.confusion
-        s.tables.append(Table(["truth \\ diagnosis", *c["columns"]],
-                              [[r, *row] for r, row in zip(c["rows"], c["matrix"])]))
-        fig, _ = pdg.plot_confusion(result)
-        s.add_figure(fig, "confusion matrix")
-
-    def magnitudes(s):
-        s.tables.append(Table(["effect", "true", "fitted", "95 % CI", "covered"],
-                              [[m["effect"], _fmt(m["true"]), _fmt(m["fitted"]),
-                                f"[{m['interval'][0]:.3g}, {m['interval'][1]:.3g}]", m["covered"]]
-                               for m in result.magnitudes]))
-
-    def twins(s):
-        drawn = next((tuple(t["snr_range"]) for t in result.twins if t.get("snr_range")), None)
-        s.text = ("One row per diagnosis. Twin gap: the effect's gap on the calibration "
-                  "observables after recalibration, in the twin's own noise (drawn "
-                  + (f"from U{drawn}σ, " if drawn else "") + "capped at the prior top), on the "
-                  "response simulated at the magnitude first solved on the fingerprint (each "
-                  "record states that node and its gap: twin_node_magnitude, twin_node_gap_sigma).")
-        s.tables.append(Table(
-            ["twin", "type", "true effect", "true magnitude", "twin gap (σ)", "verdict",
-             "diagnosis", "fitted", "held-out gap shrink", "not told apart from"],
-            [[t["twin"], t["type"], t.get("true_effect") or "", _fmt(t.get("true_magnitude")),
-              _fmt(t.get("twin_gap_sigma"), 2), t["verdict"], t["predicted"],
-              _fmt(t.get("fitted_magnitude")), _fmt(t.get("shrink"), 2),
-              ", ".join(t.get("not_told_apart") or [])] for t in result.twins]))
-
-    for key, t, fn in (("goals", "Goals", goals), ("confusion", "Confusion matrix", confusion),
-                       ("magnitudes", "Magnitude recovery", magnitudes), ("twins", "Twins", twins)):
-        rep.sections.append(run_section(key, t, fn))
     return rep

@@ -5,7 +5,7 @@ Makes the "real" data of the worked example "a layer-by-layer packing experiment
 capillary bridges at a relative humidity of 0.5, an effect the diagnosis is not told. Three
 repetitions of the experiment (seeds 4501, 4501 + 7919, 4501 + 2 x 7919), each reading with
 Gaussian reading noise of the design's stated uncertainty, written by the blind benchmark's
-twin code (bedstruct.diagnose.blind_twins.twin_measurements) as OUT/example-layers.toml;
+twin code (bedstruct.diagnose.validation.blind_twins.twin_measurements) as OUT/example-layers.toml;
 data/measurements/example-layers.toml is that file. OUT/design.toml is the design (its values
 are placeholders; the twin replaces them). About 15 CPU-minutes on one core.
 """
@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from bedstruct.diagnose import load_measurements
-from bedstruct.diagnose.blind_twins import TwinSpec, twin_measurements
+from bedstruct.diagnose.validation.blind_twins import TwinSpec, twin_measurements
 
 DESIGN = '''
 [meta]

@@ -19,7 +19,7 @@ from bedstruct.diagnose.diagnosis import diagnosis_design
 from bedstruct.diagnose.surrogate import BASE_PARAMETERS
 from bedstruct.diagnose.engine_simulator import diagnosis_simulator
 
-V = importlib.import_module("bedstruct.diagnose.validate")
+V = importlib.import_module("bedstruct.diagnose.validation.validate")
 
 POINTS = ([({}, range(6))] + [({"wall_friction": m}, range(6)) for m in (0.2, 0.4)]
           + [({e: m}, range(3)) for e, ms in (("capillary_bridges", (0.4, 0.8)),

@@ -18,7 +18,7 @@ import sys
 import numpy as np
 from scipy import stats
 
-V = importlib.import_module("bedstruct.diagnose.validate")
+V = importlib.import_module("bedstruct.diagnose.validation.validate")
 
 
 def _p_fit(z, dof):

@@ -23,8 +23,8 @@ from bedstruct.diagnose.fingerprint_runs import compute_fingerprints
 from bedstruct.diagnose.fingerprints import selection_threshold
 from bedstruct.diagnose.surrogate import BASE_PARAMETERS
 import importlib
-V = importlib.import_module("bedstruct.diagnose.validate")
-T = importlib.import_module("bedstruct.diagnose.twins")
+V = importlib.import_module("bedstruct.diagnose.validation.validate")
+T = importlib.import_module("bedstruct.diagnose.validation.twins")
 from bedstruct.diagnose.engine_simulator import diagnosis_simulator
 
 cache = sys.argv[1]

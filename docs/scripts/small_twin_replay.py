@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-V = importlib.import_module("bedstruct.diagnose.validate")
+V = importlib.import_module("bedstruct.diagnose.validation.validate")
 
 
 def main(cache, k):

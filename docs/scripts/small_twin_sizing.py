@@ -20,9 +20,9 @@ from dataclasses import replace
 
 import numpy as np
 
-V = importlib.import_module("bedstruct.diagnose.validate")
+V = importlib.import_module("bedstruct.diagnose.validation.validate")
 D = importlib.import_module("bedstruct.diagnose.diagnosis")
-T = importlib.import_module("bedstruct.diagnose.twins")
+T = importlib.import_module("bedstruct.diagnose.validation.twins")
 
 
 #: The validation replayed: preset, repeated experiments per twin, twin seed (set by main).

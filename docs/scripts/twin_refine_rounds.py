@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 
-V = importlib.import_module("bedstruct.diagnose.validate")
+V = importlib.import_module("bedstruct.diagnose.validation.validate")
 D = importlib.import_module("bedstruct.diagnose.diagnosis")
 
 

@@ -16,11 +16,11 @@ import pytest
 from scipy.stats import binomtest
 
 from bedstruct.diagnose import CATALOGUE, load_measurements
-from bedstruct.diagnose import blind
-from bedstruct.diagnose.blind import (median_interval, proportion_interval, run_benchmark,
+from bedstruct.diagnose.validation import blind
+from bedstruct.diagnose.validation.blind import (median_interval, proportion_interval, run_benchmark,
                                       add_benchmark_arguments, run_benchmark_command)
 from bedstruct.diagnose import engine_twin_design
-from bedstruct.diagnose.blind_twins import (OUT_OF_CATALOGUE, TwinSpec, draw_twins, realisation,
+from bedstruct.diagnose.validation.blind_twins import (OUT_OF_CATALOGUE, TwinSpec, draw_twins, realisation,
                                             split_counts, twin_point, twin_simulator)
 from bedstruct.errors import ConfigError
 
@@ -305,7 +305,7 @@ def test_committed_blind_record_rescores_as_its_summary():
 def test_committed_liggghts_blind_record_rescores_as_its_summary():
     """The blind LIGGGHTS batch: sealed truth and twin files, one result per twin (four
     diagnoses raised an error and count as wrong answers), scored as the docs quote."""
-    from bedstruct.diagnose import blind
+    from bedstruct.diagnose.validation import blind
 
     rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-liggghts-2026-12-03"
     truth = json.loads((rec / "truth.json").read_text())
@@ -334,7 +334,7 @@ def _rescore_sealed_liggghts_record(folder: str, commit: str, seed: int) -> dict
     """Check a bridged LIGGGHTS blind record: the seal matches the committed truth and twin
     files, every twin has one result on its sealed file and no error, and the summary's
     counts are what the results score. Returns the scores."""
-    from bedstruct.diagnose import blind
+    from bedstruct.diagnose.validation import blind
 
     rec = Path(__file__).resolve().parents[2] / "docs" / "records" / folder
     truth = json.loads((rec / "truth.json").read_text())
@@ -444,7 +444,7 @@ def test_committed_visible_liggghts_blind_record_rescores_as_its_summary():
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
     from bedstruct.cli import main
-    from bedstruct.diagnose import blind
+    from bedstruct.diagnose.validation import blind
 
     monkeypatch.setattr(blind, "run_benchmark", lambda *a, **k: pytest.fail("ran"))
     code = main(["diagnose", "benchmark", "--n", "4", "--out", str(tmp_path / "b"), *option])
@@ -454,7 +454,7 @@ def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, ca
 
 def test_the_cli_hands_its_options_to_the_protocol(tmp_path, monkeypatch, capsys):
     from bedstruct.cli import main
-    from bedstruct.diagnose import blind
+    from bedstruct.diagnose.validation import blind
 
     seen = {}
 
@@ -558,9 +558,9 @@ def test_detectable_draw_takes_magnitudes_the_diagnosing_model_detects():
 
     from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue,
                                     compute_fingerprints, diagnosis_design)
-    from bedstruct.diagnose.blind_twins import benchmark_design, detectable_ranges
+    from bedstruct.diagnose.validation.blind_twins import benchmark_design, detectable_ranges
     from bedstruct.diagnose.fingerprints import selection_threshold
-    from bedstruct.diagnose.twins import _projected_gap
+    from bedstruct.diagnose.validation.twins import _projected_gap
 
     eff = catalogue()
     design = diagnosis_design(benchmark_design("surrogate"), eff)
@@ -621,7 +621,7 @@ def test_the_truth_records_the_bridges_probe_set(tmp_path):
 def test_pooled_blind_records_add_their_counts():
     """Pooling sealed batches scores every twin once: the counts are the batches' sums, the
     intervals the pooled counts' exact ones, the shrink median over every measured shrink."""
-    from bedstruct.diagnose import blind
+    from bedstruct.diagnose.validation import blind
 
     rec = Path(__file__).resolve().parents[2] / "docs" / "records"
     names = ["blind-liggghts-bridged-2026-12-04", "blind-liggghts-detectable-2026-12-04",

@@ -12,9 +12,9 @@ from bedstruct.cli import main
 from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, compute_fingerprints,
                                 diagnose, diagnosis_design, diagnosis_report, load_measurements,
                                 validate, validation_report)
-from bedstruct.diagnose.validation_scores import capped_twins
-from bedstruct.diagnose.twins import _magnitude_for_snr, _twin_measurements, _twin_sigma
-from bedstruct.diagnose.validation_design import twin_design
+from bedstruct.diagnose.validation.scores import capped_twins
+from bedstruct.diagnose.validation.twins import _magnitude_for_snr, _twin_measurements, _twin_sigma
+from bedstruct.diagnose.validation.design import twin_design
 
 SEED = pathlib.Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
 
@@ -93,7 +93,7 @@ def test_repeated_experiments_state_the_standard_error_of_their_mean(twin_setup,
 
 def test_a_repeat_that_could_not_observe_leaves_the_mean_of_the_others(twin_setup, tmp_path):
     from bedstruct.diagnose import Observations
-    from bedstruct.diagnose.twins import _repeat_seed
+    from bedstruct.diagnose.validation.twins import _repeat_seed
     eff, sim, fps = twin_setup
     design = twin_design()
     name = design.measurements[0].name
@@ -114,7 +114,7 @@ def test_a_repeat_that_could_not_observe_leaves_the_mean_of_the_others(twin_setu
 
 
 def test_records_without_a_newer_key_take_its_old_value(tmp_path):
-    from bedstruct.diagnose.validation_records import METHOD_VERSION, records_done
+    from bedstruct.diagnose.validation.records import METHOD_VERSION, records_done
     sig = {"preset": "tiny", "method_version": METHOD_VERSION}
     rec = tmp_path / "r.jsonl"
     rec.write_text(json.dumps({"twin": 0, "type": "null", **sig}) + "\n")
@@ -126,7 +126,7 @@ def test_records_without_a_newer_key_take_its_old_value(tmp_path):
 def test_records_written_before_the_method_version_are_read_by_their_fields(tmp_path):
     """Records that name their method by the fields used before ``method_version`` (as those
     in docs/records do) are resumed when those fields are the current method's, not else."""
-    from bedstruct.diagnose.validation_records import method_version_of, records_done
+    from bedstruct.diagnose.validation.records import method_version_of, records_done
     sig = {"preset": "tiny", "method_version": 1}
     current = {"twin_rule": 7, "fit_rule": 14, "scatter_rule": 2}
     rec = tmp_path / "r.jsonl"
@@ -246,7 +246,7 @@ def test_tiny_validation_meets_the_goals():
     assert det["n_effect_twins"] == 12 and det["n_effect_twins_undetected"] == 0
     assert det["top1_accuracy"] == r.top1_accuracy
     assert "top1_accuracy_detected" not in goals.numbers
-    from bedstruct.diagnose.validation_scores import score_twins
+    from bedstruct.diagnose.validation.scores import score_twins
     hit = next(t for t in r.twins if t["type"] == "effect" and t["verdict"] == "attributed"
                and t["predicted"] == t["true_effect"])
     weak = [dict(t, gap_significant=False, verdict="none", predicted="none") if t is hit else t
@@ -374,7 +374,7 @@ def test_observable_order_in_the_file_does_not_matter(twin_setup, tmp_path):
 
 def test_the_median_shrink_is_taken_over_twins_with_a_held_out_gap():
     """A twin whose held-out observables show no gap beyond noise has no shrink to score."""
-    from bedstruct.diagnose.validation_scores import score_twins
+    from bedstruct.diagnose.validation.scores import score_twins
 
     def twin(shrink, p):
         t = {"type": "effect", "true_effect": "a", "true_magnitude": 0.5, "predicted": "none",
@@ -399,7 +399,7 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     import importlib
 
     from bedstruct.errors import ConfigError
-    vmod = importlib.import_module("bedstruct.diagnose.validate")
+    vmod = importlib.import_module("bedstruct.diagnose.validation.validate")
     monkeypatch.setitem(PRESETS, "tiny", dict(per_effect=1, null=2, out_of_catalogue=0, replicates=2))
     whole = validate("tiny", refine=0)
     recs = tmp_path / "twins.jsonl"
@@ -499,7 +499,7 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
     lines = recs.read_text().splitlines()
     recs.write_text("".join(json.dumps(dict(json.loads(x), method_version=0)) + "\n"
                             for x in lines))
-    with caplog.at_level("WARNING", logger="bedstruct.diagnose.validate"):
+    with caplog.at_level("WARNING", logger="bedstruct.diagnose.validation"):
         assert validate("tiny", refine=0, records=recs).settings["resumed_twins"] == 0
     # the user is told why nothing was resumed
     assert f"method_version 0 (this run: {vmod.METHOD_VERSION})" in caplog.text
@@ -517,7 +517,7 @@ def test_validation_shards_and_resumes_from_its_records(tmp_path, monkeypatch, c
 
 
 def test_engine_twin_plan_takes_the_effects_in_turn():
-    from bedstruct.diagnose.twins import _twin_plan
+    from bedstruct.diagnose.validation.twins import _twin_plan
     cfg = dict(per_effect=2, null=2, out_of_catalogue=0)
     plan = _twin_plan(["a", "b", "c"], cfg, in_turn=True)
     assert plan == [("null", None)] * 2 + [("effect", e) for e in "abcabc"]
@@ -530,7 +530,7 @@ def test_a_twins_repeated_experiments_are_handed_to_a_parallel_simulator_at_once
                                                                                  tmp_path):
     # on the engine with jobs > 1 the repeats run side by side (three calls of ~4 min each
     # at small), not one after another; the file is the same either way
-    from bedstruct.diagnose.twins import _repeat_seed
+    from bedstruct.diagnose.validation.twins import _repeat_seed
     eff, sim, fps = twin_setup
     batches = []
 
@@ -582,7 +582,7 @@ def test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once(tiny_serial, 
     """A worker's records file starts with what ``records`` holds of its twin, so a twin
     interrupted between its diagnoses is not diagnosed again, and merging writes each line
     once (before, a resumed twin's finished record was redone and then stood twice)."""
-    from bedstruct.diagnose.validate_parallel import run_twins_in_processes
+    from bedstruct.diagnose.validation.parallel import run_twins_in_processes
     lines = tiny_serial[1]
     first = json.loads(lines[0])["twin"]
     other = json.loads(lines[-1])["twin"]
@@ -602,7 +602,7 @@ def test_a_twin_cut_short_resumes_in_its_worker_and_is_merged_once(tiny_serial, 
 
 def test_a_status_line_that_cannot_be_written_does_not_stop_the_twin(tmp_path, monkeypatch):
     """The status line is a courtesy: a disk error writing it leaves the twin's records."""
-    from bedstruct.diagnose import validate_parallel
+    from bedstruct.diagnose.validation import parallel as validate_parallel
 
     def refuse(*args):
         raise OSError(28, "No space left on device")
@@ -617,7 +617,7 @@ def test_a_status_line_that_cannot_be_written_does_not_stop_the_twin(tmp_path, m
 def test_running_twins_say_how_far_they_have_come(tiny_serial, tmp_path):
     """``on_status`` hears which twin runs (its worker process writes that line beside its
     records, where the bar of ``twin_jobs`` reads it); merging the records removes it."""
-    from bedstruct.diagnose.validate_parallel import _append, _one_twin, _read_status
+    from bedstruct.diagnose.validation.parallel import _append, _one_twin, _read_status
     res, _, statuses = tiny_serial
     names = {t["twin"]: t["true_effect"] or "null" for t in res.twins}
     assert statuses == [f"twin {i} ({names[i]})" for i in sorted(names)]

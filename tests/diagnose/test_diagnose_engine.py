@@ -198,7 +198,7 @@ def test_cli_validate_cache_needs_the_engine(capsys):
 def test_scale_models_read_every_layer_the_design_needs_and_validate_picks_its_own():
     """The diagnosis' scale models: a 6 mm platform (a free toe ahead of x1/x2 heaps), no
     dumps, and (small) three layers: layer 3 is the dynamic angle's, nothing reads a fourth."""
-    from bedstruct.diagnose.validation_design import engine_scale_model
+    from bedstruct.diagnose.validation.design import engine_scale_model
     from bedstruct.diagnose.engine_simulator import PRESET_OVERRIDES
     d = dg.engine_twin_design()
     needed = max(int(m.conditions.get("layer", 1)) for m in d)

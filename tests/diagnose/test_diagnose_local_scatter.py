@@ -64,7 +64,7 @@ def test_a_node_keeps_its_own_scatter_where_it_exceeds_the_pooled_one():
     # restricted to some observables, the node's scatter follows
     assert own.restrict(["o0", "o3", "o9"])["A"].scatter_nodes[0][1].shape == (3,)
     # a twin sized there states that scatter as its repeated experiments would
-    from bedstruct.diagnose.twins import _intrinsic_sd
+    from bedstruct.diagnose.validation.twins import _intrinsic_sd
     assert _intrinsic_sd(own, "A", 0.25).vector(["o0"])[0] == pytest.approx(sd[0])
 
 

@@ -16,7 +16,7 @@ from bedstruct.diagnose import (MeasurementSet, Observations, compute_fingerprin
                                 diagnosis_report, standardised_residuals)
 from bedstruct.diagnose.confirm import gap_size
 from bedstruct.diagnose.fingerprints import selection_threshold
-from bedstruct.diagnose.twins import _twin_measurements
+from bedstruct.diagnose.validation.twins import _twin_measurements
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
 
 N = 10

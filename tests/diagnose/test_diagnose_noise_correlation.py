@@ -142,7 +142,7 @@ def test_identifiability_and_twin_sizing_use_the_fit_metric(setup):
     from dataclasses import replace
 
     from bedstruct.diagnose.identifiability import assess_fingerprints
-    from bedstruct.diagnose.twins import _projected_gap
+    from bedstruct.diagnose.validation.twins import _projected_gap
     _, _, fps = setup
     fps0 = assess_fingerprints(replace(fps, meta=dict(fps.meta, correlated_scatter=[])))
     g, g0 = _projected_gap(fps, "A")(1.0), _projected_gap(fps0, "A")(1.0)

@@ -113,10 +113,10 @@ def test_scatter_that_differs_between_parameter_points_is_reported():
     assert 12.0 < noisy.run_sd("A", 1.0)[i] < 50.0 and noisy.run_sd("B", 1.0)[i] < 1.1
     assert noisy.run_sd("A", 0.25)[i] < noisy.run_sd("A", 0.5)[i]
     # a validation twin at A's point states that scatter in its file, one at the base not
-    from bedstruct.diagnose.twins import _intrinsic_sd
+    from bedstruct.diagnose.validation.twins import _intrinsic_sd
     assert _intrinsic_sd(noisy, "A", 1.0)["o2"][0] > 12.0 > 1.1 > _intrinsic_sd(noisy)["o2"][0]
     # ... and is sized in it: A's gap in the noise at its own magnitude is the smaller one
-    from bedstruct.diagnose.twins import _projected_gap, _twin_sigma
+    from bedstruct.diagnose.validation.twins import _projected_gap, _twin_sigma
     at_base = _twin_sigma(noisy, _intrinsic_sd(noisy))
     own = lambda a: _twin_sigma(noisy, _intrinsic_sd(noisy, "A", a))  # noqa: E731
     assert _projected_gap(noisy, "A", own)(0.0) == _projected_gap(noisy, "A", at_base)(0.0) == 0.0
@@ -417,7 +417,7 @@ def test_twins_sized_by_a_noisy_fingerprint_carry_less_than_requested():
     # prediction carries less than requested: the validation's twins
     # are weaker than stated, never stronger. Less that noise, the squared gap is estimated
     # without bias (the toy's true response is known).
-    from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap
+    from bedstruct.diagnose.validation.twins import _magnitude_for_snr, _projected_gap
     design = toy_design(N, n_validate=3)
     effect = {"A": 0.6 * F["A"]}
     sim = ToySimulator(design, sens=J, effects=effect, noise_sd=1.0)
@@ -491,7 +491,7 @@ def test_a_twin_is_sized_on_the_response_simulated_at_its_magnitude():
     # between them is misjudged, and a twin sized on the interpolation alone carries another
     # gap than drawn. The twin's sizing simulates that first magnitude, adds it as a
     # node and solves again.
-    from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap, _size_twin
+    from bedstruct.diagnose.validation.twins import _magnitude_for_snr, _projected_gap, _size_twin
     design = toy_design(N, n_validate=3)
     sim = _StepToy(design, sens=J, effects={"A": F["A"]})
     fps = compute_fingerprints(sim, design, {"k": 1.0}, [EFFECTS[0]], nuisance=("k",),
@@ -522,7 +522,7 @@ def test_a_twin_is_sized_on_the_response_simulated_at_its_magnitude():
 def test_a_twin_magnitude_is_the_first_to_reach_the_drawn_gap():
     # A response that peaks and falls back (as contact ageing's does in the engine): the
     # prior top carries less than the drawn gap, a magnitude below it the drawn gap.
-    from bedstruct.diagnose.twins import _magnitude_for_snr, _projected_gap
+    from bedstruct.diagnose.validation.twins import _magnitude_for_snr, _projected_gap
     design, sim, fps = _setup(effects={"A": F["A"]}, curvature={"A": -0.9 * F["A"]})
     true_gap = _exact_gap(fps, lambda a: F["A"] * (a - 0.9 * a * a))
     peak = max(true_gap(a) for a in np.linspace(0, 1, 201))

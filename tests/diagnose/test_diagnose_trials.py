@@ -16,7 +16,7 @@ import pytest
 from bedstruct.diagnose import (Observations, compute_fingerprints, diagnose, diagnosis_report,
                                 load_measurements)
 from bedstruct.diagnose.measurement_io import write_measurements
-from bedstruct.diagnose.twins import _twin_measurements
+from bedstruct.diagnose.validation.twins import _twin_measurements
 from bedstruct.errors import ConfigError
 from diagnose_helpers import ToySimulator, toy_design, toy_effect
 from test_diagnose_missing_data import Holes

@@ -18,8 +18,8 @@ from bedstruct.diagnose import (BASE_PARAMETERS, Observations, SurrogateSimulato
                                 compute_fingerprints, diagnose, diagnosis_design,
                                 load_sim_config)
 from bedstruct.diagnose.bridge import EngineBridge, bridge_offset, engine_bridge
-from bedstruct.diagnose.twins import _twin_measurements
-from bedstruct.diagnose.validation_design import twin_design
+from bedstruct.diagnose.validation.twins import _twin_measurements
+from bedstruct.diagnose.validation.design import twin_design
 from bedstruct.errors import ConfigError
 
 

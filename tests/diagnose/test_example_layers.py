@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import bedstruct.diagnose as dg
-from bedstruct.diagnose import blind_twins
-from bedstruct.diagnose.blind_twins import TwinSpec, twin_measurements
+from bedstruct.diagnose.validation import blind_twins
+from bedstruct.diagnose.validation.blind_twins import TwinSpec, twin_measurements
 from bedstruct.diagnose.engine_simulator import EngineSimulator
 from bedstruct.diagnose.measurements import Observations
 from bedstruct.diagnose.run_design import design_points, design_spec

@@ -13,9 +13,9 @@ import pytest
 from bedstruct.dem import seed_contact_model
 from bedstruct.engines import LiggghtsDialect, LiquidBridges, find_liggghts
 from bedstruct.errors import ConfigError
-from bedstruct.diagnose.liggghts_law import (easo_bridge_volume, easo_capillary_force,
+from bedstruct.diagnose.validation.liggghts_law import (easo_bridge_volume, easo_capillary_force,
                                              willett_capillary_force)
-from bedstruct.diagnose.external_twins import (effects_label, liggghts_simulator,
+from bedstruct.diagnose.validation.liggghts_twins import (effects_label, liggghts_simulator,
                                                liggghts_twin_design, make_liggghts_twin)
 
 needs_liggghts = pytest.mark.skipif(find_liggghts() is None,
@@ -255,7 +255,7 @@ def test_wall_friction_moves_the_recoater_load_in_liggghts_as_in_the_engine(tmp_
 def test_twin_readings_follow_the_replicate_rule():
     """Mean of the noisy readings; uncertainty sqrt(s^2/n + u^2) (s from the readings), or
     sqrt(scatter^2 + u^2) with one seed."""
-    from bedstruct.diagnose.external_twins import _twin_readings
+    from bedstruct.diagnose.validation.liggghts_twins import _twin_readings
     design = liggghts_twin_design().select(("calibrate", "validate"))
     m = design["packing_fraction_x1_center"]                 # u = 0.005
     raw = {k.name: np.full((3, k.n_components), 0.5) for k in design}
@@ -275,7 +275,7 @@ def test_twin_readings_follow_the_replicate_rule():
 
 def test_unobservable_repetitions_are_repeated_then_kept_as_missing():
     from bedstruct.diagnose import Observations
-    from bedstruct.diagnose.external_twins import _run_seeds, _twin_readings
+    from bedstruct.diagnose.validation.liggghts_twins import _run_seeds, _twin_readings
     calls = []
 
     def sim(base, effects, seed):

@@ -78,3 +78,15 @@ def test_the_public_names_are_a_static_list():
     assert all(isinstance(e, ast.Constant) for e in assigned[0].value.elts)
     assert len(set(dg.__all__)) == len(dg.__all__)
     assert all(hasattr(dg, name) for name in dg.__all__)
+
+
+def test_the_method_never_imports_its_validation():
+    """``bedstruct.diagnose.validation`` uses the method; no module of the method (nor anything
+    else outside the validation, the package's face and the CLI) imports it."""
+    graph = _graph()
+    allowed = ("bedstruct.diagnose.validation", "bedstruct.cli")
+    bad = [(m, t) for m, ts in graph.items() for t in ts
+           if t.startswith("bedstruct.diagnose.validation")
+           and not m.startswith(allowed) and m != "bedstruct.diagnose"]
+    assert bad == []
+    assert any(t.startswith("bedstruct.diagnose.validation") for t in graph["bedstruct.diagnose"])

@@ -14,7 +14,7 @@ import pathlib
 import pytest
 
 from bedstruct.diagnose import catalogue
-from bedstruct.diagnose.validation_scores import score_twins
+from bedstruct.diagnose.validation.scores import score_twins
 
 RECORDS = pathlib.Path(__file__).resolve().parents[2] / "docs" / "records"
 

@@ -11,13 +11,13 @@ import json
 import pytest
 
 import bedstruct.diagnose.engine_simulator as engine_simulator
-import bedstruct.diagnose.external_twins as external_twins
+import bedstruct.diagnose.validation.liggghts_twins as external_twins
 from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator, validate, validation_report
-from bedstruct.diagnose.validation_records import METHOD_VERSION
+from bedstruct.diagnose.validation.records import METHOD_VERSION
 from bedstruct.errors import ConfigError
 
 # the package's ``validate_liggghts`` is the function; the tests patch its module
-vl = importlib.import_module("bedstruct.diagnose.validate_liggghts")
+vl = importlib.import_module("bedstruct.diagnose.validation.liggghts")
 
 #: What each LIGGGHTS twin's options stand for on the surrogate (the capillary twin's
 #: humidity is the stand-in's, as LIGGGHTS' model has none).

@@ -1,6 +1,6 @@
 """Validation twins whose "real" data come from LIGGGHTS, not from bedstruct's own engine.
 
-The synthetic twins of :mod:`bedstruct.diagnose.validate` are made with the
+The synthetic twins of :mod:`bedstruct.diagnose.validation.validate` are made with the
 same simulator the diagnosis uses, so they cannot test what matters most with
 real data: a gap that is partly the two codes' different numerics. A LIGGGHTS
 twin is made like this:
@@ -13,7 +13,7 @@ twin is made like this:
    (e.g. ``{"contact.wall_friction": 0.7}``), which the LIGGGHTS dialect
    writes into the decks as it states
    (:data:`bedstruct.engines.LIGGGHTS_REALISATIONS`): liquid bridges as LIGGGHTS'
-   ``cohesion easo/capillary/viscous`` (its law: :mod:`bedstruct.diagnose.liggghts_law`),
+   ``cohesion easo/capillary/viscous`` (its law: :mod:`bedstruct.diagnose.validation.liggghts_law`),
    rolling and wall friction as contact coefficients. An effect LIGGGHTS cannot
    realise is refused by name before any run.
 3. The runs are observed by the engine simulator's own observation operators
@@ -38,7 +38,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..engines import dialect
+from ...engines import dialect
 
 __all__ = ["effects_label", "liggghts_simulator", "liggghts_twin_design", "LiggghtsTwin",
            "make_liggghts_twin"]
@@ -111,8 +111,8 @@ def liggghts_simulator(design, effects: Mapping[str, Any], *, preset: str = "tin
     """
     import tempfile
 
-    from .engine_simulator import EngineSimulator, with_options
-    from ..workflows.config import load_config
+    from ..engine_simulator import EngineSimulator, with_options
+    from ...workflows.config import load_config
     dialect("liggghts").check_effects(with_options(load_config(), effects), spreading=True)
     root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
     ov = [*overrides, "engine=liggghts", "external.np=1", *_options_overrides(effects)]
@@ -141,8 +141,8 @@ def liggghts_twin_design():
     >>> len(d), [m.name for m in d if m.role == "validate"]
     (9, ['bed_height_layer2', 'packing_fraction_x1_center', 'coordination_x1_center'])
     """
-    from .measurements import MeasurementSet
-    from .measurement_io import measurement_from_dict
+    from ..measurements import MeasurementSet
+    from ..measurement_io import measurement_from_dict
     x1 = dict(speed=_SPEED_X1)
     specs = [
         dict(name="static_angle", kind="static_angle", uncertainty=1.0, role="calibrate"),
@@ -168,7 +168,7 @@ def liggghts_twin_design():
         d = dict(s, value=[0.0] * (2 if s["kind"] == "dynamic_angle_series" else 1))
         ms.append(measurement_from_dict(d))
     return MeasurementSet(tuple(ms), title="LIGGGHTS twin design",
-                          source="bedstruct.diagnose.external_twins.liggghts_twin_design")
+                          source="bedstruct.diagnose.validation.liggghts_twins.liggghts_twin_design")
 
 
 @dataclass(frozen=True)
@@ -276,8 +276,8 @@ def make_liggghts_twin(design, effects: Mapping[str, Any], *, base: Mapping[str,
     -------
     LiggghtsTwin
     """
-    from .measurements import MeasurementSet, Observations
-    from .measurement_io import write_measurements
+    from ..measurements import MeasurementSet, Observations
+    from ..measurement_io import write_measurements
     if not isinstance(effects, Mapping):
         raise TypeError(f"effects: expected a mapping of option values; got "
                         f"{type(effects).__name__}")
@@ -304,7 +304,7 @@ def make_liggghts_twin(design, effects: Mapping[str, Any], *, base: Mapping[str,
     twin = seen.with_values(Observations(values, source="liggghts"),
                             uncertainty=Observations(stated), provenance=prov)
     twin = MeasurementSet(twin.measurements, title="LIGGGHTS twin",
-                          source="bedstruct.diagnose.external_twins (withheld truth)",
+                          source="bedstruct.diagnose.validation.liggghts_twins (withheld truth)",
                           notes=(f"not observed in any repetition: {', '.join(lost)}" if lost else ""))
     path = write_measurements(twin, out / "twin.toml")
     truth = {"effects": effects, "label": effects_label(effects), "base": dict(base),

@@ -5,7 +5,7 @@ and magnitude, plus reading noise, stating the noise a lab would
 (:func:`_twin_measurements`); its magnitude is set so that the effect's gap on the
 calibration observables, after recalibration, is a drawn number of sigma in that noise
 (:func:`_magnitude_for_snr`), on the response simulated at that magnitude
-(:func:`_size_twin`). Split from :mod:`bedstruct.diagnose.validate`, which runs
+(:func:`_size_twin`). Split from :mod:`bedstruct.diagnose.validation.validate`, which runs
 the plan and scores it.
 
 .. versionadded:: 0.1
@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .measurements import MeasurementSet, Observations
-from .measurement_io import load_measurements, write_measurements
+from ..measurements import MeasurementSet, Observations
+from ..measurement_io import load_measurements, write_measurements
 
-log = logging.getLogger("bedstruct.diagnose.validate")
+log = logging.getLogger("bedstruct.diagnose.validation.validate")
 
 
 def _repeat_seed(seed: int, k: int) -> int:
@@ -129,8 +129,8 @@ def _projected_gap(fps, name: str, sigma=None, *, debias: bool = False):
     dominates), so twins sized on it carry more than drawn in a noisy fingerprint, where
     those sized on the prediction carry less; a validation errs on the weak side.
     """
-    from .identifiability import nuisance_projector
-    from .noise_correlation import correlation_matrix, inverse_cholesky, whiten
+    from ..identifiability import nuisance_projector
+    from ..noise_correlation import correlation_matrix, inverse_cholesky, whiten
     cal = fps.rows_calibrate
     fp = fps[name]
     # in the metric the fit uses (components read from one run share their noise)
@@ -187,7 +187,7 @@ def _size_twin(sim, fps, name: str, snr: float, sigma) -> tuple[float, object, d
     """
     from dataclasses import replace
 
-    from .fingerprint_runs import simulate_node
+    from ..fingerprint_runs import simulate_node
     first = _magnitude_for_snr(fps, name, snr, lambda a: sigma(fps, a))
     # a long wait at the engine presets: say what it is for
     log.info("twin sizing: %s simulated at %.4g on %d seeds", name, first, len(fps.seeds))

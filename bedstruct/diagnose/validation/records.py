@@ -2,7 +2,7 @@
 
 A validation appends one record (a JSON object on a line) per diagnosed twin to its records
 file as it goes; a later run with the same settings resumes from them, and
-:func:`~bedstruct.diagnose.validation_scores.score_twins` scores them.
+:func:`~bedstruct.diagnose.validation.scores.score_twins` scores them.
 
 .. versionadded:: 0.1
 """
@@ -13,20 +13,20 @@ import json
 import logging
 from pathlib import Path
 
-from ..errors import ConfigError
-from .._json import to_jsonable
-from .separation import not_told_apart
+from ...errors import ConfigError
+from ..._json import to_jsonable
+from ..separation import not_told_apart
 
 __all__ = ["METHOD_VERSION", "method_version_of", "records_done", "twin_record"]
 
-log = logging.getLogger("bedstruct.diagnose.validate")
+log = logging.getLogger("bedstruct.diagnose.validation.validate")
 
 #: Version of the method a twin record was made by: how twins are made (sized in the
 #: metric of the fit, with the scatter of their own parameter point and the trials their
 #: files state), how the simulation scatter is pooled and how the diagnosis fits, confirms
 #: and checks an attribution. It is in every record and in every LIGGGHTS twin's
 #: ``truth.json``; records and twins of another version are not resumed. Change it whenever
-#: a change to :mod:`~bedstruct.diagnose.twins`, :mod:`~bedstruct.diagnose.diagnosis` or
+#: a change to :mod:`~bedstruct.diagnose.validation.twins`, :mod:`~bedstruct.diagnose.diagnosis` or
 #: the modules they call changes a twin's file or its diagnosis; the validations behind the
 #: documented numbers are kept in ``docs/records`` with the version they were made by.
 METHOD_VERSION = 1

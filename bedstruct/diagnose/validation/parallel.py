@@ -5,7 +5,7 @@ depending on the last (its sizing node, its repeated experiments, the refinement
 reruns), from a quarter of an hour to hours on one core. ``jobs`` in the ``[engine]`` table
 spreads the calls of one batch (the replicate seeds of one point: three) over processes;
 ``twin_jobs`` spreads whole twins, so that N cores stay busy: each worker runs one twin
-(:func:`~bedstruct.diagnose.validate.validate` with ``shard=(i, n_twins)``, the twin's
+(:func:`~bedstruct.diagnose.validation.validate.validate` with ``shard=(i, n_twins)``, the twin's
 magnitude and truth runs those of the whole plan) and takes the next when it finishes.
 
 The fingerprints are computed once, before the twins, in the calling process (its calls
@@ -29,7 +29,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, as_complete
 from pathlib import Path
 from typing import Callable
 
-from .process_pool import _exit_with_parent
+from ..process_pool import _exit_with_parent
 
 log = logging.getLogger(__name__)
 
@@ -70,10 +70,10 @@ def run_twins_in_processes(validate: Callable, kwargs: dict, twins: list[int], n
     Parameters
     ----------
     validate : callable
-        :func:`~bedstruct.diagnose.validate.validate` (passed in: a module-level function, so
+        :func:`~bedstruct.diagnose.validation.validate.validate` (passed in: a module-level function, so
         that the workers unpickle it by name), called with ``kwargs`` and ``shard=(i, n)``.
     kwargs : dict
-        The arguments of :func:`~bedstruct.diagnose.validate.validate` that define the
+        The arguments of :func:`~bedstruct.diagnose.validation.validate.validate` that define the
         validation (preset, seeds, statistics settings, simulator and engine table), without
         ``shard``, ``records``, ``records_only``, ``twin_jobs`` and ``progress``.
     twins : list of int

@@ -1,6 +1,6 @@
 """Twins of the blind benchmark: what is drawn, how each twin engine makes it, and its file.
 
-A blind benchmark (:func:`bedstruct.diagnose.blind.run_benchmark`) draws three kinds of
+A blind benchmark (:func:`bedstruct.diagnose.validation.blind.run_benchmark`) draws three kinds of
 twins from one seed (:func:`draw_twins`):
 
 - **effect** twins: one catalogue effect at a magnitude drawn uniformly over its prior
@@ -41,13 +41,13 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import ConfigError
-from .catalogue import CATALOGUE
-from .engine_simulator import diagnosis_simulator, engine_realises
-from .measurement_io import measurement_from_dict, write_measurements
-from .measurements import MeasurementSet, Observations
-from .surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
-from .validation_design import engine_twin_design, twin_design
+from ...errors import ConfigError
+from ..catalogue import CATALOGUE
+from ..engine_simulator import diagnosis_simulator, engine_realises
+from ..measurement_io import measurement_from_dict, write_measurements
+from ..measurements import MeasurementSet, Observations
+from ..surrogate import BASE_PARAMETERS, SPEED_X1, SurrogateSimulator
+from .design import engine_twin_design, twin_design
 
 __all__ = ["TWIN_ENGINES", "OutOfCatalogueChange", "OUT_OF_CATALOGUE", "BENCHMARK_HELDOUT",
            "TwinSpec", "benchmark_design", "draw_twins", "realisation", "split_counts",
@@ -178,7 +178,7 @@ OUT_OF_CATALOGUE: tuple[OutOfCatalogueChange, ...] = (
 )
 
 #: Held-out observables the benchmark adds to the surrogate's validation design
-#: (:func:`~bedstruct.diagnose.validation_design.twin_design`): wall friction moves none of
+#: (:func:`~bedstruct.diagnose.validation.design.twin_design`): wall friction moves none of
 #: its held-out observables beyond noise at half its prior top (0.2), so its held-out
 #: shrink would go unmeasured; the blade's vertical/horizontal load ratio over a powder
 #: layer (layer 2) moves 2.6 sigma there.
@@ -216,7 +216,7 @@ def benchmark_design(engine: str) -> MeasurementSet:
         d = twin_design()
         extra = tuple(measurement_from_dict(dict(s)) for s in BENCHMARK_HELDOUT)
         return replace(d, measurements=d.measurements + extra, title="blind benchmark twin design",
-                       source="bedstruct.diagnose.blind_twins.benchmark_design")
+                       source="bedstruct.diagnose.validation.blind_twins.benchmark_design")
     return engine_twin_design("seed")
 
 

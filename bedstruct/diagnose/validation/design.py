@@ -3,7 +3,7 @@
 :func:`twin_design` is the surrogate's full experimental campaign; :func:`engine_twin_design`
 the seed's design on the DEM engine, with the catalogue's candidate measurements added for
 ``campaign="full"``; :func:`engine_scale_model` names the engine preset a validation preset
-runs on. Used by :func:`~bedstruct.diagnose.validate.validate`.
+runs on. Used by :func:`~bedstruct.diagnose.validation.validate.validate`.
 
 .. versionadded:: 0.1
 """
@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ..errors import ConfigError
-from .catalogue import catalogue as _catalogue
-from .measurements import MeasurementSet
-from .measurement_io import measurement_from_dict
-from .surrogate import SPEED_X1
+from ...errors import ConfigError
+from ..catalogue import catalogue as _catalogue
+from ..measurements import MeasurementSet
+from ..measurement_io import measurement_from_dict
+from ..surrogate import SPEED_X1
 
 __all__ = ["twin_design", "engine_twin_design", "engine_scale_model"]
 
@@ -74,7 +74,7 @@ def twin_design() -> MeasurementSet:
         d["value"] = [0.0] * (3 if s["kind"] in ("dynamic_angle_series", "psd") else 1)
         ms.append(measurement_from_dict(d))
     return MeasurementSet(tuple(ms), title="validation twin design",
-                          source="bedstruct.diagnose.validate.twin_design")
+                          source="bedstruct.diagnose.validation.validate.twin_design")
 
 
 def engine_twin_design(campaign: str = "seed") -> MeasurementSet:
@@ -130,12 +130,12 @@ def engine_twin_design(campaign: str = "seed") -> MeasurementSet:
         d["value"] = [0.0] * (3 if s["kind"] == "psd" else 1)
         ms.append(measurement_from_dict(d))
     seed_design = MeasurementSet(tuple(ms), title="engine validation twin design",
-                                 source="bedstruct.diagnose.validate.engine_twin_design")
+                                 source="bedstruct.diagnose.validation.validate.engine_twin_design")
     if campaign == "seed":
         return seed_design
-    from .diagnosis import candidate_design
+    from ..diagnosis import candidate_design
     extra = tuple(replace(m, role="calibrate")
                   for m in candidate_design(_catalogue(), seed_design))
     return MeasurementSet(seed_design.measurements + extra,
                           title="engine validation twin design (full campaign)",
-                          source="bedstruct.diagnose.validate.engine_twin_design")
+                          source="bedstruct.diagnose.validation.validate.engine_twin_design")

@@ -14,7 +14,7 @@ Validation runs on the analytic
 (``simulator = "engine"``, :func:`bedstruct.diagnose.engine_simulator.diagnosis_simulator`, on
 :func:`engine_twin_design` with :data:`ENGINE_PRESETS`: minutes to hours), or on
 twins made by LIGGGHTS and diagnosed on the engine (``simulator = "liggghts"``,
-:mod:`bedstruct.diagnose.validate_liggghts`), and every result says which.
+:mod:`bedstruct.diagnose.validation.liggghts`), and every result says which.
 
 .. versionadded:: 0.1
 """
@@ -29,19 +29,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
-from .catalogue import catalogue as _catalogue
-from .diagnosis import diagnose, diagnosis_design
-from .fingerprint_runs import compute_fingerprints
-from .measurements import MeasurementSet
-from .separation import not_told_apart
-from .surrogate import BASE_PARAMETERS, SurrogateSimulator
+from ...errors import ConfigError
+from ..catalogue import catalogue as _catalogue
+from ..diagnosis import diagnose, diagnosis_design
+from ..fingerprint_runs import compute_fingerprints
+from ..measurements import MeasurementSet
+from ..separation import not_told_apart
+from ..surrogate import BASE_PARAMETERS, SurrogateSimulator
 from .twins import (_intrinsic_sd, _projected_gap, _size_twin, _twin_measurements,
                     _twin_plan, _twin_sigma)
-from .validate_parallel import run_twins_in_processes
-from .validation_design import engine_scale_model, engine_twin_design, twin_design
-from .validation_records import METHOD_VERSION, records_done, twin_record
-from .validation_scores import ValidationResult, score_twins
+from .parallel import run_twins_in_processes
+from .design import engine_scale_model, engine_twin_design, twin_design
+from .records import METHOD_VERSION, records_done, twin_record
+from .scores import ValidationResult, score_twins
 
 __all__ = ["PRESETS", "ENGINE_PRESETS", "validate"]
 
@@ -110,7 +110,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         second time with its effect removed from the catalogue (the
         out-of-catalogue twin), which reuses its runs. ``"liggghts"`` makes the twins
         with LIGGGHTS and diagnoses them on the engine
-        (:func:`~bedstruct.diagnose.validate_liggghts.validate_liggghts`; preset
+        (:func:`~bedstruct.diagnose.validation.liggghts.validate_liggghts`; preset
         ``tiny``; with ``engine["cache"]`` the twins are kept in its ``liggghts-twins/``).
     engine : dict, optional
         The ``[engine]`` table (default: the scale model of the same name,
@@ -153,7 +153,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         it in several; each repeat is one more simulator call per twin.
     twin_jobs : int
         Run the twins in this many processes, one twin each at a time
-        (:func:`~bedstruct.diagnose.validate_parallel.run_twins_in_processes`; default 1:
+        (:func:`~bedstruct.diagnose.validation.parallel.run_twins_in_processes`; default 1:
         in this process). The fingerprints are computed first, here; on the engine the
         workers read them back from ``engine["cache"]``, which is then required. Records
         go to ``records`` as each twin finishes (a temporary file without it). Not with
@@ -172,7 +172,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
     """
     if simulator == "liggghts":
         # twins from another code: their own plan and preset table, same records and scores
-        from .validate_liggghts import validate_liggghts
+        from .liggghts import validate_liggghts
         if (campaign != "seed" or shard is not None or twin_repeats != 1 or twin_seed is not None
                 or records_only or top_up is not None or int(twin_jobs) != 1):
             raise ConfigError("simulator='liggghts': campaign, shard, twin_repeats, twin_seed, "
@@ -244,7 +244,7 @@ def validate(preset: str = "tiny", *, seed: int = 0, alpha: float = 0.05, select
         design = diagnosis_design(measured, effects)
         sim = SurrogateSimulator(design)
     elif not offline:
-        from .engine_simulator import diagnosis_simulator
+        from ..engine_simulator import diagnosis_simulator
         measured = engine_twin_design(campaign)
         # with the whole catalogue's candidate measurements (one humid repose more per call),
         # so that a diagnosis of any measurement file of this design finds every run cached

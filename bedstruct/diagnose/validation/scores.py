@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from ...errors import ConfigError
 
 __all__ = ["GOALS", "ValidationResult", "capped_summary", "capped_twins", "score_twins"]
 
-log = logging.getLogger("bedstruct.diagnose.validate")
+log = logging.getLogger("bedstruct.diagnose.validation.validate")
 
 #: Goals of the issue at the small preset.
 GOALS = {"top1_accuracy": (">=", 0.90), "null_false_attribution": ("<=", 0.05),

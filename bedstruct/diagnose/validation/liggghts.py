@@ -1,7 +1,7 @@
 """Validation on twins made with LIGGGHTS: another code's numerics are part of the gap.
 
 :func:`validate_liggghts` is :func:`bedstruct.diagnose.validate` with the "real" data
-made by LIGGGHTS 3.8 (:func:`~bedstruct.diagnose.external_twins.make_liggghts_twin`)
+made by LIGGGHTS 3.8 (:func:`~bedstruct.diagnose.validation.liggghts_twins.make_liggghts_twin`)
 and the diagnosis run on the embedded engine's fingerprints. Each twin's effect is a set
 of configuration option values that the LIGGGHTS dialect writes with LIGGGHTS' own models
 (:data:`bedstruct.engines.LIGGGHTS_REALISATIONS`), not the catalogue's:
@@ -44,16 +44,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
-from .catalogue import catalogue as _catalogue
-from .diagnosis import diagnose, diagnosis_design
-from .external_twins import effects_label, liggghts_twin_design, make_liggghts_twin
+from ...errors import ConfigError
+from ..catalogue import catalogue as _catalogue
+from ..diagnosis import diagnose, diagnosis_design
+from .liggghts_twins import effects_label, liggghts_twin_design, make_liggghts_twin
 from .liggghts_law import easo_effective_contact_angle
-from .fingerprint_runs import compute_fingerprints
-from .measurement_io import load_measurements
-from .surrogate import BASE_PARAMETERS
-from .validation_records import METHOD_VERSION, method_version_of, records_done, twin_record
-from .validation_scores import ValidationResult, score_twins
+from ..fingerprint_runs import compute_fingerprints
+from ..measurement_io import load_measurements
+from ..surrogate import BASE_PARAMETERS
+from .records import METHOD_VERSION, method_version_of, records_done, twin_record
+from .scores import ValidationResult, score_twins
 
 __all__ = ["LIGGGHTS_PRESETS", "LiggghtsTwinSpec", "liggghts_twin_plan", "validate_liggghts"]
 
@@ -214,7 +214,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     About an hour on one core at ``tiny`` (24 engine calls for the fingerprints, 12
     LIGGGHTS runs, the reruns); with a cache a second call reuses every run:
 
-    >>> from bedstruct.diagnose import validate_liggghts
+    >>> from bedstruct.diagnose.validation import liggghts as validate_liggghts
     >>> res = validate_liggghts("tiny", engine={"preset": "tiny", "cache": "runs"},
     ...                         workdir="runs/liggghts-twins")   # doctest: +SKIP
     >>> res.confusion["rows"][:4]                                # doctest: +SKIP
@@ -231,7 +231,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if workdir is not None:   # before any run: twins this version cannot reuse are refused
         for i in range(len(plan)):
             _refuse_rewritten_twin(Path(workdir) / f"twin{i}")
-    from .engine_simulator import diagnosis_simulator
+    from ..engine_simulator import diagnosis_simulator
     cfg = LIGGGHTS_PRESETS[preset]
     t0 = time.perf_counter()
     effects = _catalogue(cfg["effects"])
@@ -266,7 +266,7 @@ def validate_liggghts(preset: str = "tiny", *, seed: int = 0, engine: dict | Non
     if progress:
         from tqdm import tqdm
         steps = tqdm(steps, desc="LIGGGHTS twins")
-    from .engine_cache import _DECK_REVISION
+    from ..engine_cache import _DECK_REVISION
     try:
         for i, spec in steps:
             truth = {"true_effect": spec.true_effect, "true_magnitude": spec.true_magnitude,

@@ -1,20 +1,20 @@
 """Blind benchmark of the diagnosis: truth drawn and sealed first, then diagnosed.
 
-The validation (:func:`~bedstruct.diagnose.validate.validate`) is in-sample: its rules were
+The validation (:func:`~bedstruct.diagnose.validation.validate.validate`) is in-sample: its rules were
 tuned on its twins. A blind benchmark draws new twins from a seed, writes their truth and a
 seal before any diagnosis runs, and then diagnoses each twin's measurement file once, with
 the diagnosis' frozen default settings, on a diagnosing simulator separate from the one
 that made the twins:
 
-1. **draw** ``n`` twins (:func:`~bedstruct.diagnose.blind_twins.draw_twins`): at least half
+1. **draw** ``n`` twins (:func:`~bedstruct.diagnose.validation.blind_twins.draw_twins`): at least half
    effect twins, a quarter null twins, a quarter out-of-catalogue twins
-   (:data:`~bedstruct.diagnose.blind_twins.OUT_OF_CATALOGUE`). Effect magnitudes are drawn
+   (:data:`~bedstruct.diagnose.validation.blind_twins.OUT_OF_CATALOGUE`). Effect magnitudes are drawn
    uniformly where the diagnosing model detects the effect with 95 % power in a twin's
    noise (``draw="detectable"``: the diagnosing configuration's fingerprints on the
-   benchmark's design, :func:`~bedstruct.diagnose.blind_twins.detectable_ranges`; an effect
+   benchmark's design, :func:`~bedstruct.diagnose.validation.blind_twins.detectable_ranges`; an effect
    it detects nowhere in its prior is not drawn), and out-of-catalogue changes where the
    twin engine's twins of them were seen to leave a gap
-   (:attr:`~bedstruct.diagnose.blind_twins.OutOfCatalogueChange.visible`); or over the
+   (:attr:`~bedstruct.diagnose.validation.blind_twins.OutOfCatalogueChange.visible`); or over the
    whole prior and the changes' full ranges (``draw="prior"``); the ranges go into the
    truth;
 2. **truth first**: ``DIR/truth.json`` (twin id -> kind, effect or change, magnitude; the
@@ -53,21 +53,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .._json import to_jsonable, write_json_atomic
-from .._version import __version__
-from ..errors import ConfigError
-from .amortised import library_emulator
-from .bridge import engine_bridge
-from .blind_report import benchmark_html, confusion_figure
+from ..._json import to_jsonable, write_json_atomic
+from ..._version import __version__
+from ...errors import ConfigError
+from ..amortised import library_emulator
+from ..bridge import engine_bridge
+from .report import benchmark_html, confusion_figure
 from .blind_twins import (DETECT_POWER, OUT_OF_CATALOGUE, TWIN_ENGINES, benchmark_design,
                           detectable_ranges, draw_twins, split_counts, twin_measurements)
-from .catalogue import CATALOGUE
-from .config import load_sim_config, make_simulator
-from .diagnosis import diagnose, diagnosis_design
-from .fingerprint_runs import compute_fingerprints
-from .fingerprints import selection_threshold
-from .emulator import EmulatedSimulator
-from .measurement_io import load_measurements
+from ..catalogue import CATALOGUE
+from ..config import load_sim_config, make_simulator
+from ..diagnosis import diagnose, diagnosis_design
+from ..fingerprint_runs import compute_fingerprints
+from ..fingerprints import selection_threshold
+from ..emulator import EmulatedSimulator
+from ..measurement_io import load_measurements
 
 __all__ = ["PROTOCOL", "DRAWS", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
            "score_benchmark", "load_benchmark", "pool_benchmarks", "proportion_interval", "median_interval", "confusion_figure",
