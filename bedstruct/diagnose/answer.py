@@ -288,6 +288,10 @@ class Answer:
     gaps: list = ()
 
 
+#: How an engine of a bridge is named in the answer.
+_ENGINE_WORDS = {"liggghts": "LIGGGHTS", "lammps": "LAMMPS", "embedded": "the embedded engine"}
+
+
 def _lower_first(title: str) -> str:
     return title[:1].lower() + title[1:] if title[1:2].islower() else title
 
@@ -317,6 +321,14 @@ def _which(diag) -> str:
         for e in att.selected:
             eff = diag.fingerprints[e.effect].effect
             parts.append(f"{eff.title}: {magnitude_text(eff, e.magnitude, e.interval)}")
+        bridge = diag.settings.get("bridge") or {}
+        unchecked = [e.effect for e in att.selected if e.effect in bridge.get("unprobed", ())]
+        if unchecked:
+            engine = _ENGINE_WORDS.get(bridge["engine"], bridge["engine"])
+            for e in unchecked:
+                parts.append(f"{_effect_words(diag, e)}: {engine} does not realise it, so its "
+                             "response is the diagnosing simulator's alone, not checked against "
+                             f"your {engine} model")
         if att.partial:
             worst = next((w for w in diag.shrink.rerun_worst if w.get("role") == "validate"),
                          None)

@@ -142,3 +142,24 @@ def test_natural_units():
     assert quantity_text(1.2, "1", "coordination") == "1.2"
     assert conditions_text("relative_humidity=0.3") == "RH 30 %"
     assert conditions_text("-") == ""
+
+
+def test_an_effect_the_bridged_engine_does_not_realise_is_said_unchecked():
+    """Named through a bridge whose engine cannot realise it, an effect's response is the
+    diagnosing simulator's alone: the answer says so; a probed effect carries no such words."""
+    from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnose,
+                                    diagnosis_design)
+    ms = load_measurements(SEED)
+    sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
+    d = diagnose(ms, sim, base=BASE_PARAMETERS, refine=0, confirm_rounds=0, replicates=2)
+    assert d.attribution.verdict == "attributed"
+    named = d.attribution.selected[0].effect
+    plain = answer(d).which
+    unprobed = replace(d, settings={**d.settings, "bridge": {"engine": "liggghts",
+                                                             "unprobed": [named]}})
+    which = answer(unprobed).which
+    assert which.startswith(plain[:-1])
+    assert "LIGGGHTS does not realise it" in which and "not checked against your LIGGGHTS" in which
+    probed = replace(d, settings={**d.settings, "bridge": {"engine": "liggghts",
+                                                           "unprobed": ["blade_startup"]}})
+    assert answer(probed).which == plain
