@@ -440,6 +440,25 @@ def test_committed_visible_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["shrink_ci"], [0.4815, 0.8818], atol=5e-5)
 
 
+def test_committed_twoprobe_liggghts_blind_record_rescores_as_its_summary():
+    """The seventh blind LIGGGHTS batch (the bridge probing at both reference magnitudes,
+    protocol 3) scores as the docs quote."""
+    s = _rescore_sealed_liggghts_record("blind-liggghts-twoprobe-2026-12-05", "b32b725",
+                                        20261209)
+    truth = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records"
+                        / "blind-liggghts-twoprobe-2026-12-05" / "truth.json").read_text())
+    assert truth["settings"]["bridge"]["probes"] == "reference"
+    assert s["draw"] == "detectable"
+    assert s["top1_count"] == [18, 20] and s["top1_partial_count"] == [0, 18]
+    assert s["top1_detected_count"] == [17, 18]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [8, 10]
+    assert s["ooc_detected_count"] == [8, 10]
+    assert s["coverage_count"] == [12, 18]
+    assert s["shrink_n"] == 18 and s["shrink_median"] == 1.0
+    np.testing.assert_allclose(s["top1_ci"], [0.6830, 0.9877], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.4439, 0.9748], atol=5e-5)
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
@@ -641,6 +660,9 @@ def test_pooled_blind_records_add_their_counts():
     assert abs(pooled["shrink_median"] - float(np.median(shrinks))) < 1e-12
     assert pooled["batches"] == names and len(pooled["commits"]) == 5
     assert sum(map(sum, pooled["confusion"]["matrix"])) == 200
+    six = blind.pool_benchmarks([rec / n for n in names]
+                                + [rec / "blind-liggghts-twoprobe-2026-12-05"])
+    assert six["null_false_count"] == [0, 60] and six["null_false_ci"][1] < 0.0597
     with pytest.raises(ConfigError, match="twice"):
         blind.pool_benchmarks([rec / names[0], rec / names[0]])
     with pytest.raises(ConfigError, match="truth.json"):
