@@ -5,6 +5,7 @@
       shrinks, what to measure next (with --library: on a run library's emulator).
   bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
   bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --out DIR
+  bedstruct diagnose benchmark --score DIR [DIR ...]
 
 Details of every option and of the files: docs/diagnose.md.
 """
@@ -68,6 +69,9 @@ def add_arguments(parser) -> None:
                              "(default), or over the whole prior")
     parser.add_argument("--diagnose-setting", action="append", default=None, metavar="KEY=VALUE",
                         help="benchmark: replace a diagnosis setting (tests only; recorded)")
+    parser.add_argument("--score", nargs="+", metavar="DIR", default=None,
+                        help="benchmark: score sealed benchmark folders (together when several); "
+                             "run nothing")
     parser.add_argument("--json", action="store_true", help="print the answer as one JSON line last")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 

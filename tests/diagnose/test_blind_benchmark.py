@@ -667,3 +667,23 @@ def test_pooled_blind_records_add_their_counts():
         blind.pool_benchmarks([rec / names[0], rec / names[0]])
     with pytest.raises(ConfigError, match="truth.json"):
         blind.pool_benchmarks([rec])
+
+
+def test_the_benchmark_command_scores_sealed_folders(capsys):
+    """``bedstruct diagnose benchmark --score DIR ...`` scores committed folders (together
+    when several) and runs nothing; options that would run something are refused."""
+    from bedstruct.cli import main
+
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records"
+    five, six = (str(rec / "blind-liggghts-partial-2026-12-05"),
+                 str(rec / "blind-liggghts-visible-2026-12-05"))
+    assert main(["diagnose", "benchmark", "--score", five, six, "--json"]) == 0
+    line = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert line["top1"] == 26 / 40 and line["null_false"] == 0.0
+    assert line["batches"] == ["blind-liggghts-partial-2026-12-05",
+                               "blind-liggghts-visible-2026-12-05"]
+    assert main(["diagnose", "benchmark", "--score", six]) == 0
+    out = capsys.readouterr().out
+    assert "top-1 10/20 (0.272-0.728, 4 of them partial" in out
+    assert main(["diagnose", "benchmark", "--score", six, "--out", "x"]) != 0
+    assert "--out does not apply" in capsys.readouterr().err

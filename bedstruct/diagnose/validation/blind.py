@@ -724,8 +724,10 @@ def add_benchmark_arguments(parser) -> None:
              "(default) or over the whole prior")
     add("--sim", default="surrogate",
         help="diagnosing simulator: 'surrogate' or a simulation config TOML")
-    add("--out", required=True,
+    add("--out", default=None,
         help="benchmark folder (resumed if it holds this benchmark; another is refused)")
+    add("--score", nargs="+", metavar="DIR", default=None,
+        help="score sealed benchmark folders (together when several); run nothing")
     add("--json", action="store_true", help="print the summary as one line of JSON (last line)")
     add("--library", default=None, metavar="DIR",
         help="diagnose on the emulator of the diagnosing config's run library in DIR")
@@ -753,8 +755,10 @@ def run_benchmark_command(args) -> int:
         v = getattr(args, name, None)
         return default if v is None else v
 
+    if getattr(args, "score", None):
+        return _score_command(args)
     if not getattr(args, "out", None):
-        raise ConfigError("benchmark: --out DIR is required")
+        raise ConfigError("benchmark: --out DIR is required (or --score DIR to score folders)")
     ignored = [f"--{n.replace('_', '-')}" for n in ("real", "np", "jobs", "cache", "records",
                                                     "refine", "top_up", "twin_jobs")
                if getattr(args, n, None) not in (None, False)]
@@ -769,28 +773,55 @@ def run_benchmark_command(args) -> int:
                         library=arg("library", None), workers=arg("workers", 1),
                         scheduler=arg("scheduler", None), draw=arg("draw", "detectable"),
                         progress=None if arg("json", False) else print)
-    s = res.summary
+    if arg("json", False):
+        print(json.dumps(to_jsonable(res.json_line())))
+    else:
+        _print_scores(res.summary, f"blind benchmark: {res.summary['n']} twins on {engine}, "
+                                   f"diagnosed on {sim}")
+        print(f"  {Path(args.out) / 'report.html'}")
+    return 0
+
+
+def _score_command(args) -> int:
+    """``bedstruct diagnose benchmark --score DIR [DIR ...]``: the folders' scores, pooled."""
+    used = [f"--{n.replace('_', '-')}" for n in ("out", "sim", "twins_engine", "n", "library",
+                                                  "workers", "scheduler", "draw")
+            if getattr(args, n, None) not in (None, False, "surrogate", 40, "detectable")]
+    if used:
+        raise ConfigError(f"benchmark --score: {', '.join(used)} "
+                          f"{'does' if len(used) == 1 else 'do'} not apply (scoring runs nothing)")
+    s = pool_benchmarks(args.score)
+    if getattr(args, "json", False):
+        keys = ("n", "top1", "top1_ci", "top1_detected", "top1_detected_ci", "null_false",
+                "null_false_ci", "ooc_unexplained", "ooc_ci", "ooc_detected", "ooc_detected_ci",
+                "shrink_median", "shrink_ci", "shrink_ci_method", "shrink_n", "coverage",
+                "coverage_ci", "batches", "commits")
+        print(json.dumps(to_jsonable({k: s[k] for k in keys})))
+    else:
+        what = (f"{len(s['batches'])} benchmark folders scored together" if len(s["batches"]) > 1
+                else f"benchmark folder {s['batches'][0]}")
+        _print_scores(s, f"{what}: {s['n']} twins")
+    return 0
+
+
+def _print_scores(s: dict, header: str) -> None:
+    """The scores of a summary in plain lines."""
 
     def ci(key):
         lo, hi = s[key]
         return "n/a" if lo is None or not math.isfinite(lo) else f"{lo:.3f}-{hi:.3f}"
 
-    if arg("json", False):
-        print(json.dumps(to_jsonable(res.json_line())))
-    else:
-        k, n = s["top1_count"]
-        print(f"blind benchmark: {s['n']} twins on {engine}, diagnosed on {sim}")
-        kd, nd = s["top1_detected_count"]
-        kp = s["top1_partial_count"][0]
-        partial = f", {kp} of them partial" if kp else ""
-        print(f"  top-1 {k}/{n} ({ci('top1_ci')}{partial}; {kd}/{nd} where the gap is "
-              f"significant); "
-              f"null false {s['null_false_count'][0]}/"
-              f"{s['null_false_count'][1]} ({ci('null_false_ci')}); out-of-catalogue "
-              f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')}; "
-              f"{s['ooc_detected_count'][0]}/{s['ooc_detected_count'][1]} where the gap is "
-              f"significant)")
-        print(f"  shrink median {s['shrink_median']:.3g} over {s['shrink_n']} ({ci('shrink_ci')}); "
-              f"coverage {s['coverage_count'][0]}/{s['coverage_count'][1]} ({ci('coverage_ci')})")
-        print(f"  {Path(args.out) / 'report.html'}")
-    return 0
+    k, n = s["top1_count"]
+    print(header)
+    kd, nd = s["top1_detected_count"]
+    kp = s["top1_partial_count"][0]
+    partial = f", {kp} of them partial" if kp else ""
+    print(f"  top-1 {k}/{n} ({ci('top1_ci')}{partial}; {kd}/{nd} where the gap is "
+          f"significant); "
+          f"null false {s['null_false_count'][0]}/"
+          f"{s['null_false_count'][1]} ({ci('null_false_ci')}); out-of-catalogue "
+          f"unexplained {s['ooc_count'][0]}/{s['ooc_count'][1]} ({ci('ooc_ci')}; "
+          f"{s['ooc_detected_count'][0]}/{s['ooc_detected_count'][1]} where the gap is "
+          f"significant)")
+    print(f"  shrink median {s['shrink_median']:.3g} over {s['shrink_n']} ({ci('shrink_ci')}); "
+          f"coverage {s['coverage_count'][0]}/{s['coverage_count'][1]} ({ci('coverage_ci')})")
