@@ -120,6 +120,10 @@ _VALIDATE_ONLY = {"preset": "tiny", "simulator": "surrogate", "twin_seed": None,
                   "records_only": False, "twin_jobs": 1}
 
 
+#: Options of ``bedstruct diagnose benchmark`` alone (None when not given).
+_BENCHMARK_ONLY = ("twins_engine", "n", "draw", "diagnose_setting", "score")
+
+
 def _misplaced(args, names) -> list[str]:
     return ["--" + n.replace("_", "-") for n in names if getattr(args, n) is not None]
 
@@ -211,7 +215,12 @@ def run(args) -> int:
                          f"--real MEASUREMENTS --out DIR)")
     misplaced = _misplaced(args, _VALIDATE_ONLY)
     if misplaced:
-        raise UsageError(f"{', '.join(misplaced)} apply to 'bedstruct diagnose validate' only")
+        raise UsageError(f"{', '.join(misplaced)} appl{'ies' if len(misplaced) == 1 else 'y'} "
+                         "to 'bedstruct diagnose validate' only")
+    misplaced = _misplaced(args, _BENCHMARK_ONLY)
+    if misplaced:
+        raise UsageError(f"{', '.join(misplaced)} appl{'ies' if len(misplaced) == 1 else 'y'} "
+                         "to 'bedstruct diagnose benchmark' only")
     from ..diagnose import (diagnose, diagnosis_design, diagnosis_report, load_measurements,
                             load_sim_config, make_simulator)
     from ..diagnose.answer import answer_lines, compact_answer

@@ -294,6 +294,10 @@ def test_cli_diagnose_and_validate(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert "--simulator, --shard apply to 'bedstruct diagnose validate' only" in err
     assert not (tmp_path / "e").exists()
+    assert main(["diagnose", "--sim", "surrogate", "--real", str(SEED), "--out", str(tmp_path / "e"),
+                 "--score", str(tmp_path)]) == 2
+    assert "--score applies to 'bedstruct diagnose benchmark' only" in capsys.readouterr().err
+    assert not (tmp_path / "e").exists()
     assert main(["diagnose", "validate", "--real", str(SEED)]) == 2
     assert "--real is for a diagnosis" in capsys.readouterr().err
     assert main(["diagnose", "--sim", "surrogate", "--real", str(tmp_path / "none.toml"),
