@@ -313,6 +313,70 @@ def test_the_bridge_table_names_the_probe_sets(tmp_path):
         load_sim_config(p)
 
 
+def test_engine_response_follows_the_engine_between_the_probes():
+    """With ``engine_response`` the bridged response between the probes is the engine's own
+    mean response interpolated linearly (exact at the probes), whatever the diagnosing
+    simulator's shape there; without it the interpolated difference keeps that shape."""
+    from bedstruct.diagnose.emulator import Prediction
+
+    cap = "capillary_bridges"
+
+    class Emu:   # the diagnosing simulator's mean: convex in the magnitude, 33 + 10 a^2
+        def predict(self, base, effects):
+            a = float(effects.get(cap, 0.0))
+            return Prediction(np.array([33.0 + 10.0 * a * a]), np.zeros(1), np.ones(1))
+
+        def by_observable(self, vec):
+            return {"aor": np.asarray(vec, float)}
+
+    emu = Emu()
+
+    def emulated(base, effects, seed):
+        return Observations({"aor": emu.predict(base, effects).mean})
+
+    emulated.emulator = emu
+    # the engine saturates: 33, 36 and 37 at 0, 0.4 and 0.8
+    engine = {0.0: 33.0, 0.4: 36.0, 0.8: 37.0}
+    shift = {a: {"aor": np.array([engine[a] - emu.predict({}, {cap: a}).mean[0]])}
+             for a in (0.4, 0.8)}
+    zero = {"aor": np.zeros(1)}
+    b = EngineBridge("liggghts", {"aor": np.zeros(1)}, {"aor": np.zeros(1)}, 6, {}, "emulator",
+                     probe_magnitudes={cap: 0.8}, effect_shift={cap: shift[0.8]},
+                     effect_shift_sd={cap: zero}, inner_probes={cap: ((0.4, shift[0.4], zero),)},
+                     engine_response=(cap,))
+    sim = b.simulator(emulated)
+
+    def at(bridge_sim, a):
+        return float(bridge_sim({}, {cap: a}, 1)["aor"][0])
+
+    for a, want in ((0.2, 34.5), (0.4, 36.0), (0.6, 36.5), (0.7, 36.75), (0.8, 37.0)):
+        assert at(sim, a) == pytest.approx(want), a
+    # the difference alone keeps the simulator's convex shape between the probes
+    plain = replace(b, engine_response=()).simulator(emulated)
+    assert at(plain, 0.6) == pytest.approx(36.1) and at(plain, 0.8) == pytest.approx(37.0)
+    assert "follows the liggghts engine's own response" in b.note()
+    assert b.as_dict()["engine_response"] == [cap]
+    # it replaces an emulator's mean response: a simulator without one is refused
+    with pytest.raises(ConfigError, match="needs the emulator of a run library"):
+        b.simulator(lambda base, effects, seed: Observations({"aor": [33.0]}))
+
+
+def test_the_bridge_table_checks_engine_response(tmp_path):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nkind = "engine"\n\n[engine]\npreset = "tiny"\n\n'
+                 '[bridge]\nengine = "liggghts"\nruns = 4\nprobe_runs = 2\n'
+                 'engine_response = ["capillary_bridges"]\n')
+    assert load_sim_config(p).bridge["engine_response"] == ["capillary_bridges"]
+    for bad in ('["moisture"]', '"capillary_bridges"'):
+        p.write_text(p.read_text().replace('["capillary_bridges"]', bad))
+        with pytest.raises(ConfigError, match="engine_response"):
+            load_sim_config(p)
+        p.write_text(p.read_text().replace(bad, '["capillary_bridges"]'))
+    p.write_text(p.read_text().replace("probe_runs = 2\n", ""))
+    with pytest.raises(ConfigError, match="engine_response.*probe_runs"):
+        load_sim_config(p)
+
+
 def test_probes_let_an_engine_with_another_response_be_sized_in_its_own_terms(setup, tmp_path):
     eff, sim, fps, _, _ = setup
     engine = SlowFinesEngine(sim)
