@@ -53,14 +53,7 @@ effect, interpolated linearly in the magnitude between 0 and the probe. With ``p
 prior's top), and the correction is interpolated piecewise-linearly through 0 and both
 probes: an effect whose response in the user's engine is not proportional to its
 magnitude (LIGGGHTS' bridges, which take the place of the cohesion already at a small
-liquid content; a few missing fines) is then followed between the probes. Between two
-probes the *difference* of the two codes' responses is interpolated, so the bridged
-response keeps the diagnosing simulator's shape there; for an effect the user's engine
-realises by another law (LIGGGHTS' Soulié bridges against the embedded engine's Willett
-bridges) that shape is not the engine's. ``engine_response`` names such effects: between
-their probes the bridged response is the user's engine's own mean response, interpolated
-linearly (:meth:`EngineBridge.chord_correction`; it needs the emulator of a run library,
-whose mean response it removes). The correction's
+liquid content; a few missing fines) is then followed between the probes. The correction's
 standard deviation :math:`\\sigma_\\Delta` (engine scatter of the paired differences over
 the probe runs, plus the emulator's own uncertainty at both points) first shrinks each
 component of :math:`\\Delta_e` towards zero (positive-part James-Stein,
@@ -80,8 +73,6 @@ In a simulation configuration::
     probe_runs = 4          # optional: runs at each effect's probe magnitude (0: offset only)
     probes = "top"          # optional: probe at the top reference magnitude ("top", default)
                             # or at both reference magnitudes ("reference")
-    engine_response = []    # optional: probed effects whose response between the probes is
-                            # the engine's own, interpolated (needs a run library)
     cache = "bridge-runs"   # optional: folder keeping the runs (relative to the file)
 
 :func:`engine_bridge` makes the runs and the offset; :func:`bridge_offset` computes it
@@ -110,7 +101,7 @@ __all__ = ["EngineBridge", "bridge_offset", "engine_bridge", "bridge_runs", "bri
 
 #: Keys of the ``[bridge]`` table and their types.
 BRIDGE_KEYS = {"engine": str, "runs": int, "seed": int, "cache": str, "probe_runs": int,
-               "probes": str, "engine_response": list}
+               "probes": str}
 #: Values of the ``[bridge]`` key ``probes``: the reference magnitudes probed.
 PROBE_SETS = ("top", "reference")
 #: Seeds of the bridge runs start here (plus the table's ``seed``): apart from the
@@ -159,10 +150,6 @@ class EngineBridge:
     unprobed : tuple of str
         Catalogue effects the engine does not realise: the diagnosing simulator's
         response is used as it is.
-    engine_response : tuple of str
-        Probed effects whose response between the probes is the engine's own mean response
-        interpolated linearly (:meth:`chord_correction`), not the diagnosing simulator's
-        shape plus the interpolated difference.
     """
 
     engine: str
@@ -180,59 +167,6 @@ class EngineBridge:
     probe_runs: int = 0
     unprobed: tuple = ()
     inner_probes: dict = field(default_factory=dict, repr=False)
-    engine_response: tuple = ()
-
-    def _knots(self, e: str) -> list:
-        """The probe magnitudes of effect ``e`` with 0, in increasing magnitude."""
-        return [0.0] + [float(m) for m, _, _ in self.inner_probes.get(e, ())] + [
-            float(self.probe_magnitudes[e])]
-
-    def chord_correction(self, emulator, base: Mapping[str, float],
-                         effects: Mapping[str, float]) -> dict:
-        """What makes the response to each :attr:`engine_response` effect linear between
-        its probes.
-
-        For such an effect at magnitude ``a`` strictly between two probes ``a0 < a < a1``
-        (0 counting as one), the emulator's mean response :math:`E` at the run's base
-        point is replaced by its chord, :math:`(1-t)E(a_0) + tE(a_1) - E(a)` with
-        :math:`t = (a - a_0)/(a_1 - a_0)`; with :meth:`correction` (the interpolated
-        difference) the bridged response is then the engine's own, interpolated linearly
-        between the probes, where it is exact. Zero at the probes, at and beyond the top
-        probe and for every other effect.
-
-        Parameters
-        ----------
-        emulator : Emulator
-            The diagnosing simulator's emulator (``predict``, ``by_observable``).
-        base : mapping
-            The run's base parameters.
-        effects : mapping
-            Effect magnitudes of the run.
-
-        Returns
-        -------
-        dict of str to (k,) ndarray
-            Per observable, the sum over the effects (empty when none applies).
-        """
-        out: dict = {}
-        for e, a in effects.items():
-            a = float(a)
-            if e not in self.engine_response or e not in self.probe_magnitudes:
-                continue
-            knots = self._knots(e)
-            if not 0.0 < a < knots[-1] or a in knots:
-                continue
-            k = next(i for i in range(1, len(knots)) if a < knots[i])
-            a0, a1 = knots[k - 1], knots[k]
-            t = (a - a0) / (a1 - a0)
-
-            def mean(x):
-                return np.asarray(emulator.predict(base, {e: x} if x else {}).mean, float)
-
-            dev = emulator.by_observable((1.0 - t) * mean(a0) + t * mean(a1) - mean(a))
-            for name, d in dev.items():
-                out[name] = out.get(name, 0.0) + d
-        return out
 
     def _weights(self, e: str, a: float) -> list:
         """``(weight, shift, sd)`` of each probe of effect ``e`` at magnitude ``a``: the
@@ -291,10 +225,6 @@ class EngineBridge:
         ``simulator`` itself when the bridge has no probes."""
         if not self.effect_shift:
             return simulator
-        if self.engine_response and getattr(simulator, "emulator", None) is None:
-            raise ConfigError(f"bridge: engine_response ({', '.join(self.engine_response)}) "
-                              "needs the emulator of a run library (--library DIR): its mean "
-                              "response is what the engine's own response replaces")
         return BridgedSimulator(simulator, self)
 
     def apply(self, measurements: MeasurementSet) -> MeasurementSet:
@@ -362,10 +292,6 @@ class EngineBridge:
                 for e, a in self.probe_magnitudes.items())
             out += (f"; the effects' responses are the {self.engine} engine's, from "
                     f"{self.probe_runs} runs at each probe ({probes})")
-            if self.engine_response:
-                out += (f"; between the probes {', '.join(self.engine_response)} follow"
-                        f"{'s' if len(self.engine_response) == 1 else ''} the {self.engine} "
-                        f"engine's own response, interpolated linearly")
             if self.unprobed:
                 out += (f"; {', '.join(self.unprobed)} keep the diagnosing simulator's response "
                         f"(the {self.engine} engine does not realise them)")
@@ -385,8 +311,6 @@ class EngineBridge:
                     "effect_shift_sd": {e: {k: np.asarray(v, float).tolist() for k, v in d.items()}
                                         for e, d in self.effect_shift_sd.items()},
                     "unprobed": list(self.unprobed)} if self.effect_shift else {}),
-                **({"engine_response": list(self.engine_response)}
-                   if self.engine_response else {}),
                 **({"inner_probes": {
                     e: [{"magnitude": float(m),
                          "shift": {k: np.asarray(v, float).tolist() for k, v in sh.items()},
@@ -435,10 +359,6 @@ class BridgedSimulator:
         shift, sd = self.bridge.correction(on)
         if not shift:
             return obs
-        if self.bridge.engine_response:
-            for name, d in self.bridge.chord_correction(self.simulator.emulator, base,
-                                                        on).items():
-                shift[name] = shift.get(name, 0.0) + d
         tag = zlib.crc32(json.dumps(sorted(on.items())).encode())
         rng = np.random.default_rng([int(seed), tag, 23])
         vals = {}
@@ -556,14 +476,6 @@ def bridge_table(doc: Mapping[str, Any], where: str, folder: Path | None = None)
     if "probes" in tab and not tab.get("probe_runs", 0):
         raise ConfigError(f"{where} [bridge]: key 'probes' needs 'probe_runs' (2 to "
                           f"{tab['runs']}): without probe runs nothing is probed")
-    if "engine_response" in tab:
-        from .catalogue import CATALOGUE
-        names = [e.name for e in CATALOGUE]
-        bad = [e for e in tab["engine_response"] if e not in names]
-        if bad or not tab.get("probe_runs", 0):
-            raise ConfigError(f"{where} [bridge]: key 'engine_response': expected catalogue "
-                              f"effects ({', '.join(names)}) with 'probe_runs' set (their "
-                              f"probes are what is interpolated); got {tab['engine_response']!r}")
     if "cache" in tab:
         c = Path(tab["cache"]).expanduser()
         tab["cache"] = str(c if c.is_absolute() or folder is None else folder / c)
@@ -643,14 +555,6 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
         out = effect_probes(out, engine_simulator, simulator, effects=effects,
                             n_runs=n_probe, probes=str(bridge.get("probes", "top")),
                             progress=progress)
-    follow = tuple(bridge.get("engine_response", ()))
-    if follow:
-        unprobed = [e for e in follow if e not in out.probe_magnitudes]
-        if unprobed:
-            raise ConfigError(f"bridge: engine_response: {', '.join(unprobed)} not probed "
-                              f"(not in the diagnosis' catalogue, or the {out.engine} engine "
-                              f"does not realise it)")
-        out = replace(out, engine_response=follow)
     return out
 
 

@@ -454,8 +454,7 @@ def _bridge_doc(sim, settings) -> dict:
     if not tab:
         return {}
     keys = ("engine", "runs", "seed") + (("probe_runs",) if tab.get("probe_runs") else ()) \
-        + (("probes",) if tab.get("probes", "top") != "top" else ()) \
-        + (("engine_response",) if tab.get("engine_response") else ())
+        + (("probes",) if tab.get("probes", "top") != "top" else ())
     return {"bridge": {k: tab[k] for k in keys}}
 
 
