@@ -318,8 +318,8 @@ def make_simulator(config: SimConfig, design: MeasurementSet):
     # the engine simulator loads the DEM engine (numba): only when asked for
     from .engine_simulator import diagnosis_simulator
     sim = diagnosis_simulator(design, dict(config.engine))
-    refused = [(e.name, e.realisations[sim.engine].refused) for e in config.effects
-               if not e.realisations[sim.engine].realised]
+    refused = [(e.name, why) for e in config.effects
+               if (why := _refusal(sim, e, config.base))]
     if refused:
         where = f"{config.path} [catalogue]" if config.path else "[catalogue]"
         names = ", ".join(repr(n) for n, _ in refused)
@@ -328,3 +328,22 @@ def make_simulator(config: SimConfig, design: MeasurementSet):
                           f"Leave them out (exclude = [{names}]) or diagnose on the embedded "
                           f"engine")
     return sim
+
+
+def _refusal(sim, effect, base) -> str:
+    """Why the engine of ``sim`` cannot realise ``effect`` at the top of its prior (empty
+    when it can): the engine's stated realisation, then its dialect's check of the run
+    configuration the effect gives (e.g. LIGGGHTS' liquid bridges below their volume
+    cut-off)."""
+    r = effect.realisations[sim.engine]
+    if not r.realised:
+        return r.refused
+    if sim.engine == "embedded":
+        return ""
+    from ..engines import dialect
+    try:
+        dialect(sim.engine).check_effects(sim.run_config(base, {effect.name: effect.prior[1]}, 0),
+                                          spreading=True)
+    except ConfigError as exc:
+        return str(exc)
+    return ""

@@ -174,7 +174,9 @@ def engine_realises(effect, engine: str) -> bool:
     >>> from bedstruct.diagnose.engine_simulator import engine_realises
     >>> engine_realises(effect("contact_ageing"), "liggghts")
     False
-    >>> engine_realises(effect("capillary_bridges"), "liggghts")
+    >>> engine_realises(effect("capillary_bridges"), "liggghts")   # films far below its cut-off
+    False
+    >>> engine_realises(effect("non_sphericity"), "liggghts")
     True
     """
     if engine not in ENGINE_NAMES:

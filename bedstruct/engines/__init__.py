@@ -30,8 +30,8 @@ from ._dialect import DUMP_COLUMNS, EFFECT_KEYS, EMBEDDED_REALISATIONS, Dialect,
 from ._lammps import (LAMMPS_REALISATIONS, REFERENCE_OVERLAP, REFERENCE_RADIUS, LammpsDialect,
                       find_lammps, lammps_granular_coeffs)
 from ._launch import EngineInfo, EngineRunError, RunResult, run_deck
-from ._liggghts import (LIGGGHTS_REALISATIONS, LiggghtsDialect, LiquidBridges, find_liggghts,
-                        liggghts_model_commands)
+from ._liggghts import (EASO_MIN_BRIDGE_VOLUME, LIGGGHTS_REALISATIONS, LiggghtsDialect,
+                        LiquidBridges, check_easo_bridges, find_liggghts, liggghts_model_commands)
 from ._logs import EngineLog, ThermoRun, landing_offsets, parse_log, run_finished, tool_loads
 from ._realisations import effect_realisations
 from ._registry import ENGINE_NAMES, dialect
@@ -44,6 +44,7 @@ from ._stl import (BladeGeometry, RollerGeometry, box_triangles, cylinder_triang
 __all__ = [
     # dialects
     "Dialect", "LiggghtsDialect", "LammpsDialect", "LiquidBridges", "dialect", "ENGINE_NAMES",
+    "check_easo_bridges", "EASO_MIN_BRIDGE_VOLUME",
     "find_liggghts", "find_lammps", "liggghts_model_commands", "lammps_granular_coeffs",
     "REFERENCE_RADIUS", "REFERENCE_OVERLAP",
     # the diagnosis' effects on each engine

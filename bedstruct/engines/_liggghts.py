@@ -12,10 +12,11 @@ import math
 import os
 import shutil
 import subprocess
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import ConfigError
+from ..errors import BedstructWarning, ConfigError
 from ._dialect import Dialect, Realisation, effects_on, option, path_word
 from ._launch import EngineInfo
 from ._params import coefficient
@@ -23,6 +24,7 @@ from ._registry import register
 from ._stl import RollerGeometry, _chamber_meshes, repose_wall_stls, write_stl
 
 __all__ = ["LiggghtsDialect", "LiquidBridges", "LIGGGHTS_REALISATIONS", "find_liggghts",
+           "check_easo_bridges", "EASO_MIN_BRIDGE_VOLUME", "easo_equal_bridge_volume",
            "liggghts_model_commands", "liggghts_wall_model"]
 
 _RUN_AS_ROOT = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
@@ -184,6 +186,69 @@ def liggghts_model_commands(model, *, n_types: int = 2) -> tuple[list[str], int]
     return lines, wt
 
 
+#: Smallest bridge LIGGGHTS 3.8's ``easo/capillary/viscous`` acts on, m^3 (SI decks): it
+#: skips a pair whose bridge volume ``V`` has ``1000 V < 1e-14`` (a fixed cut-off in its
+#: source), giving neither capillary nor viscous force, while the model has taken the place
+#: of the particles' SJKR cohesion.
+EASO_MIN_BRIDGE_VOLUME = 1e-17
+
+
+def easo_equal_bridge_volume(radius: float, liquid_volume_fraction: float) -> float:
+    """Bridge volume (m^3) of LIGGGHTS' easo model between two spheres of ``radius``.
+
+    Each sphere gives ``V_p (1 - sqrt(1 - 1/4)) / 2`` of its liquid ``V_p = (4/3) pi r^3
+    liquid_volume_fraction``; the bridge is ``(1 - sqrt(3)/2) V_p``.
+
+    Examples
+    --------
+    >>> from bedstruct.engines._liggghts import easo_equal_bridge_volume
+    >>> v = easo_equal_bridge_volume(26e-6, 1e-3)
+    >>> round(v / (4 / 3 * math.pi * 26e-6 ** 3 * 1e-3), 4)
+    0.134
+    """
+    vp = 4.0 / 3.0 * math.pi * float(radius) ** 3 * float(liquid_volume_fraction)
+    return (1.0 - math.sqrt(0.75)) * vp
+
+
+def check_easo_bridges(film_thickness: float, reference_radius: float) -> None:
+    """Refuse a liquid film whose bridges LIGGGHTS' easo model would skip.
+
+    A film ``t`` on spheres of ``reference_radius`` ``r`` is the liquid volume fraction
+    ``3 t / r``; the bridge between two such spheres must hold at least
+    :data:`EASO_MIN_BRIDGE_VOLUME`, else LIGGGHTS computes no bridge force at all and the
+    particles, whose SJKR cohesion the bridges replace, run without cohesion.
+
+    Raises
+    ------
+    bedstruct.errors.ConfigError
+        With the film's bridge volume, the cut-off and the thinnest film LIGGGHTS acts on.
+
+    Examples
+    --------
+    >>> from bedstruct.engines import check_easo_bridges
+    >>> check_easo_bridges(2e-8, 26e-6)          # 0.23 % liquid: bridges of 2.3e-17 m^3
+    >>> check_easo_bridges(1.5e-14, 26e-6)       # a humidity film: far below the cut-off
+    Traceback (most recent call last):
+    ...
+    bedstruct.errors.ConfigError: engine 'liggghts' cannot realise these liquid bridges: ...
+    """
+    t, r = float(film_thickness), float(reference_radius)
+    c = 3.0 * t / r
+    v = easo_equal_bridge_volume(r, c)
+    if v >= EASO_MIN_BRIDGE_VOLUME:
+        return
+    t_min = t * EASO_MIN_BRIDGE_VOLUME / v if v > 0 else float("inf")
+    raise ConfigError(
+        f"engine 'liggghts' cannot realise these liquid bridges: its easo/capillary/viscous "
+        f"skips a bridge holding less than {EASO_MIN_BRIDGE_VOLUME:.0e} m^3 of liquid (a fixed "
+        f"cut-off) and then exerts no force at all, while the particles' SJKR cohesion is "
+        f"replaced by the bridges; a film of {t:.3g} m on spheres of radius {r:.3g} m (liquid "
+        f"volume fraction {c:.3g}) gives bridges of {v:.3g} m^3. LIGGGHTS acts on films of at "
+        f"least {t_min:.3g} m on these spheres (volume fraction {3 * t_min / r:.3g}); run "
+        f"thinner films, such as humidity's adsorbed layers, with --engine embedded (Willett "
+        f"bridges)")
+
+
 @dataclass(frozen=True)
 class LiquidBridges:
     """Liquid bridges between particles: LIGGGHTS' ``cohesion easo/capillary/viscous`` (SI).
@@ -234,11 +299,16 @@ class LiquidBridges:
         gets ``sqrt(2 contact_angle)`` and the angle LIGGGHTS applies is ``contact_angle``.
         Other keywords are those of the class (viscosity, separation ratios).
 
+        Raises
+        ------
+        bedstruct.errors.ConfigError
+            A film too thin for LIGGGHTS' bridges (:func:`check_easo_bridges`).
+
         Examples
         --------
         >>> b = LiquidBridges.from_film(surface_tension=0.072, contact_angle=0.02,
-        ...                             film_thickness=1e-9, reference_radius=30e-6)
-        >>> round(b.liquid_volume_fraction * 1e4, 10), round(0.5 * b.contact_angle ** 2, 12)
+        ...                             film_thickness=1e-7, reference_radius=30e-6)
+        >>> round(b.liquid_volume_fraction * 1e2, 10), round(0.5 * b.contact_angle ** 2, 12)
         (1.0, 0.02)
         """
         if not (film_thickness > 0 and reference_radius > 0):
@@ -247,6 +317,7 @@ class LiquidBridges:
         if not 0.0 <= contact_angle < 0.5 * math.pi:
             raise ValueError(f"liquid bridges: `contact_angle` must lie in [0, pi/2) rad; got "
                              f"{contact_angle!r}")
+        check_easo_bridges(film_thickness, reference_radius)
         return cls(float(surface_tension), 3.0 * float(film_thickness) / float(reference_radius),
                    contact_angle=math.sqrt(2.0 * float(contact_angle)), **kwargs)
 
@@ -297,7 +368,9 @@ LIGGGHTS_REALISATIONS = {
         "(Soulie's law, LiquidBridges.from_film): surface tension and contact angle from "
         "`contact.capillary_*`, liquid volume fraction 3 t / r from the film thickness t on a sphere of "
         "the PSD's median radius r = psd.scale psd.d50 / 2; they replace the particles' SJKR "
-        "cohesion (one cohesion model per pair style) and walls get none"),
+        "cohesion (one cohesion model per pair style) and walls get none. LIGGGHTS skips a "
+        "bridge holding less than 1e-17 m^3 of liquid (no force at all): films too thin for "
+        "that at the median radius, such as the catalogue's humidity films, are refused"),
     "contact_ageing": Realisation(refused=(
         "LIGGGHTS has no contact model whose bond grows with each contact's rest time; "
         "run it with --engine embedded")),
@@ -352,6 +425,20 @@ class LiggghtsDialect(Dialect):
         return find_liggghts(executable)
 
     def check_effect_options(self, cfg, *, spreading=False):
+        d50 = option(cfg, "psd.d50")
+        if "capillary_bridges" in effects_on(cfg) and d50 is not None:
+            t = float(option(cfg, "contact.capillary_film_thickness", 0.0))
+            scale = float(option(cfg, "psd.scale", 1.0))
+            r_ref = 0.5 * scale * float(d50)
+            check_easo_bridges(t, r_ref)
+            d_min = option(cfg, "psd.d_min")
+            if d_min is not None and easo_equal_bridge_volume(
+                    0.5 * scale * float(d_min), 3.0 * t / r_ref) < EASO_MIN_BRIDGE_VOLUME:
+                warnings.warn(
+                    f"engine 'liggghts': bridges between the smallest spheres (diameter "
+                    f"{scale * float(d_min):.3g} m) hold less than {EASO_MIN_BRIDGE_VOLUME:.0e} "
+                    f"m^3 of liquid: LIGGGHTS' easo model gives them neither a bridge force nor "
+                    f"cohesion", BedstructWarning, stacklevel=2)
         f = float(option(cfg, "contact.rolling_stiffness_factor", _LIGGGHTS_EPSD_STIFFNESS))
         if (option(cfg, "contact.rolling_model") == "epsd"
                 and float(option(cfg, "contact.rolling_friction", 0.0)) > 0.0

@@ -123,9 +123,9 @@ def effects_dialect(cfg, *, spreading: bool = False):
     --------
     >>> from bedstruct.workflows import load_config
     >>> cfg = load_config(preset="tiny", overrides=["engine=liggghts", "contact.capillary=true",
-    ...                                             "contact.capillary_film_thickness=1e-9"])
-    >>> round(effects_dialect(cfg).liquid_bridges.liquid_volume_fraction * 1e6, 4)  # 3 t / r, 52 um
-    57.6923
+    ...                                             "contact.capillary_film_thickness=1e-7"])
+    >>> round(effects_dialect(cfg).liquid_bridges.liquid_volume_fraction * 1e3, 4)  # 3 t / r, 52 um
+    5.7692
     """
     cfg = typed(cfg)
     r_ref = 0.5 * float(cfg.psd.scale) * float(cfg.psd.d50)

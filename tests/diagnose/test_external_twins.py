@@ -198,6 +198,30 @@ def test_two_sphere_capillary_force_matches_the_documented_law(tmp_path, theta_d
 
 
 @needs_liggghts
+def test_liggghts_skips_bridges_below_the_easo_volume_cut_off(tmp_path):
+    """The cut-off the LIGGGHTS dialect refuses thin films by (EASO_MIN_BRIDGE_VOLUME):
+    two 50 um spheres with a liquid fraction 10 % above it are bridged as Soulie's law says;
+    10 % below it LIGGGHTS gives the separating spheres no force at all."""
+    from bedstruct.engines._liggghts import EASO_MIN_BRIDGE_VOLUME, easo_equal_bridge_volume
+    gamma, r = 0.05, 50e-6
+    cut = EASO_MIN_BRIDGE_VOLUME / easo_equal_bridge_volume(r, 1.0)   # the fraction at the cut-off
+    forces = {}
+    for name, frac in (("above", 1.1 * cut), ("below", 0.9 * cut)):
+        bridges = LiquidBridges(gamma, frac, contact_angle=0.0, fluid_viscosity=1e-9,
+                                max_separation_ratio=1.2)
+        (tmp_path / name).mkdir()
+        forces[name] = _two_sphere_forces(tmp_path / name, _two_sphere_deck(bridges))
+    gaps, f_above = forces["above"]
+    law = easo_capillary_force(gaps, r, r, surface_tension=gamma, liquid_volume_fraction=1.1 * cut,
+                               contact_angle=0.0, max_separation_ratio=1.2)
+    bridged = (gaps > 1e-7) & (law > 0)
+    assert bridged.sum() >= 3
+    np.testing.assert_allclose(f_above[bridged], law[bridged], rtol=2e-3)
+    gaps_b, f_below = forces["below"]
+    np.testing.assert_array_equal(f_below[gaps_b > 1e-7], 0.0)
+
+
+@needs_liggghts
 @pytest.mark.slow
 def test_one_tiny_twin_end_to_end(tmp_path):
     import bedstruct.diagnose as dg

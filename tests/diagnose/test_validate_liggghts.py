@@ -75,8 +75,9 @@ def test_plan_covers_null_and_three_liggghts_models():
     assert plan[1].effects == {"contact.rolling_friction": pytest.approx(mu_r + 0.2),
                                "contact.rolling_model": "epsd2"}
     assert plan[3].effects == {"contact.wall_friction": pytest.approx(mu + 0.3)}
-    for t in plan:     # every twin's effect is one LIGGGHTS realises
-        dialect("liggghts").check_effects(with_options(load_config(), t.effects), spreading=True)
+    for t in plan:     # every twin's effect is one LIGGGHTS realises on the tiny preset
+        dialect("liggghts").check_effects(with_options(load_config(preset="tiny"), t.effects),
+                                          spreading=True)
     # the liquid-bridge twin: liquid fraction 5e-4 and 20 degrees per type on the tiny preset
     ov = [f"{k}={v!r}".replace("True", "true") for k, v in plan[2].effects.items()]
     bridges = effects_dialect(load_config(preset="tiny", overrides=["engine=liggghts", *ov])

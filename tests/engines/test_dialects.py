@@ -8,6 +8,8 @@ is needed: decks are text.
 from __future__ import annotations
 
 import numpy as np
+import math
+
 import pytest
 
 from bedstruct.dem import ContactModel, Material, seed_contact_model
@@ -278,14 +280,14 @@ def test_liquid_bridges_are_a_liggghts_option(bed, tmp_path, params, pair):
 
 def _capillary_effects(**kw):
     return {"contact": {"capillary": True, "capillary_surface_tension": 0.072,
-                        "capillary_contact_angle": 0.045, "capillary_film_thickness": 2e-9, **kw}}
+                        "capillary_contact_angle": 0.045, "capillary_film_thickness": 2e-8, **kw}}
 
 
 def test_liggghts_realises_the_capillary_effect_from_the_film():
     d = dialect("liggghts").with_effects(_capillary_effects(), reference_radius=30e-6)
     b = d.liquid_bridges
     # a film t on a sphere of radius r: 4 pi r^2 t of liquid, the fraction 3 t / r
-    assert b.liquid_volume_fraction == pytest.approx(3 * 2e-9 / 30e-6, rel=1e-12)
+    assert b.liquid_volume_fraction == pytest.approx(3 * 2e-8 / 30e-6, rel=1e-12)
     # LIGGGHTS 3.8 applies theta_i theta_j / 2: each type gets sqrt(2 theta)
     assert 0.5 * b.contact_angle ** 2 == pytest.approx(0.045, rel=1e-12)
     assert b.surface_tension == 0.072
@@ -296,6 +298,26 @@ def test_liggghts_realises_the_capillary_effect_from_the_film():
         dialect("liggghts").with_effects(_capillary_effects(capillary_film_thickness=0.0),
                                          reference_radius=30e-6)
     assert "replace the particles' SJKR" in d.approximations()[0]
+
+
+def test_liggghts_refuses_bridges_below_its_easo_volume_cut_off():
+    """LIGGGHTS 3.8's easo model skips a bridge with 1000 V < 1e-14 (m^3): no force at all,
+    the SJKR cohesion gone; such a film is refused, with the thinnest film it acts on."""
+    r = 26e-6
+    v_p = 4 / 3 * math.pi * r ** 3
+    t_min = 1e-17 / ((1 - math.sqrt(0.75)) * v_p) * r / 3   # the film at the cut-off
+    dialect("liggghts").with_effects(_capillary_effects(capillary_film_thickness=1.01 * t_min),
+                                     reference_radius=r)
+    with pytest.raises(ConfigError, match=r"cannot realise these liquid bridges.*1e-17 m\^3.*"
+                                          r"at least 8\.\d+e-09 m.*--engine embedded"):
+        dialect("liggghts").with_effects(_capillary_effects(capillary_film_thickness=0.99 * t_min),
+                                         reference_radius=r)
+    # the check of a configuration (what engine_realises asks) reads the PSD's median radius
+    cfg = {**_capillary_effects(capillary_film_thickness=1.5e-14),
+           "psd": {"d50": 2 * r, "scale": 1.0}}
+    with pytest.raises(ConfigError, match="cannot realise these liquid bridges"):
+        dialect("liggghts").check_effects(cfg)
+    dialect("liggghts").check_effects({**cfg, "contact": _capillary_effects()["contact"]})
 
 
 def test_effects_an_engine_cannot_realise_are_refused_by_name():

@@ -177,14 +177,19 @@ def test_effects_an_engine_lacks_are_refused_not_dropped(tmp_path, engine, effec
 def test_liggghts_writes_the_capillary_effect_as_its_liquid_bridges(tmp_path):
     """contact.capillary on LIGGGHTS: easo bridges from the film on the PSD's median sphere."""
     cfg = _cfg("liggghts", "external.write_only=true", "contact.capillary=true",
-               "contact.capillary_film_thickness=1e-9", "contact.capillary_surface_tension=0.01")
+               "contact.capillary_film_thickness=1e-7", "contact.capillary_surface_tension=0.01")
     deck = open(run_repose(cfg, out=tmp_path).decks[0]).read()
     r = 0.5 * cfg["psd"]["scale"] * cfg["psd"]["d50"]
     frac = float([ln for ln in deck.splitlines() if "surfaceLiquidContentInitial" in ln][0].split()[-1])
-    assert frac == pytest.approx(3e-9 / r, rel=1e-9)
+    assert frac == pytest.approx(3e-7 / r, rel=1e-9)
     assert "fix twc2 all property/global surfaceTension scalar 0.01" in deck
     (pair,) = [ln for ln in deck.splitlines() if ln.startswith("pair_style")]
     assert " cohesion easo/capillary/viscous" in pair and "sjkr" not in pair
+    # a film whose bridges LIGGGHTS would skip (no force, no cohesion) is refused, not written
+    thin = _cfg("liggghts", "external.write_only=true", "contact.capillary=true",
+                "contact.capillary_film_thickness=1e-9")
+    with pytest.raises(ConfigError, match="cannot realise these liquid bridges"):
+        run_repose(thin, out=tmp_path / "thin")
 
 
 def test_blade_start_up_is_refused_for_external_spreading(tmp_path):

@@ -113,9 +113,10 @@ def liggghts_simulator(design, effects: Mapping[str, Any], *, preset: str = "tin
 
     from ..engine_simulator import EngineSimulator, with_options
     from ...workflows.config import load_config
-    dialect("liggghts").check_effects(with_options(load_config(), effects), spreading=True)
-    root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
     ov = [*overrides, "engine=liggghts", "external.np=1", *_options_overrides(effects)]
+    dialect("liggghts").check_effects(with_options(load_config(preset=preset, overrides=ov),
+                                                   effects), spreading=True)
+    root = Path(workdir) if workdir is not None else Path(tempfile.mkdtemp(prefix="bedstruct-lt-"))
     (root / "runs").mkdir(parents=True, exist_ok=True)
     sim = EngineSimulator(design, {"preset": preset, "overrides": ov, "n_threads": 1,
                                    "workdir": str(root / "runs")})
