@@ -2,7 +2,8 @@
 
 Makes the "real" data of the worked example "a layer-by-layer packing experiment"
 (docs/diagnose.md): LIGGGHTS 3.8 runs, at the tiny scale model, of the design below with
-capillary bridges at a relative humidity of 0.5, an effect the diagnosis is not told. Three
+non-sphericity at 0.2 (rolling friction 0.05 + 0.2, EPSD2), an effect the diagnosis is not
+told. Three
 repetitions of the experiment (seeds 4501, 4501 + 7919, 4501 + 2 x 7919), each reading with
 Gaussian reading noise of the design's stated uncertainty, written by the blind benchmark's
 twin code (bedstruct.diagnose.validation.blind_twins.twin_measurements) as OUT/example-layers.toml;
@@ -92,7 +93,7 @@ def main(out) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     (out / "design.toml").write_text(design_text(), encoding="utf-8")
     design = load_measurements(out / "design.toml")
-    spec = TwinSpec("example-layers", "effect", "capillary_bridges", 0.5, 1.0, 4501)
+    spec = TwinSpec("example-layers", "effect", "non_sphericity", 0.2, 1.0, 4501)
     return twin_measurements(spec, "liggghts", design, out / "example-layers.toml", preset="tiny",
                              repeats=3, title=design.title,
                              source="LIGGGHTS 3.8 twin (docs/scripts/example_layers_twin.py)")
