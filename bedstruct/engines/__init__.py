@@ -31,7 +31,8 @@ from ._lammps import (LAMMPS_REALISATIONS, REFERENCE_OVERLAP, REFERENCE_RADIUS, 
                       find_lammps, lammps_granular_coeffs)
 from ._launch import EngineInfo, EngineRunError, RunResult, run_deck
 from ._liggghts import (EASO_MIN_BRIDGE_VOLUME, LIGGGHTS_REALISATIONS, LiggghtsDialect,
-                        LiquidBridges, check_easo_bridges, find_liggghts, liggghts_model_commands)
+                        LiquidBridges, check_easo_bridges, easo_bridge_volume, find_liggghts,
+                        liggghts_model_commands)
 from ._logs import EngineLog, ThermoRun, landing_offsets, parse_log, run_finished, tool_loads
 from ._realisations import effect_realisations
 from ._registry import ENGINE_NAMES, dialect
@@ -44,7 +45,7 @@ from ._stl import (BladeGeometry, RollerGeometry, box_triangles, cylinder_triang
 __all__ = [
     # dialects
     "Dialect", "LiggghtsDialect", "LammpsDialect", "LiquidBridges", "dialect", "ENGINE_NAMES",
-    "check_easo_bridges", "EASO_MIN_BRIDGE_VOLUME",
+    "check_easo_bridges", "easo_bridge_volume", "EASO_MIN_BRIDGE_VOLUME",
     "find_liggghts", "find_lammps", "liggghts_model_commands", "lammps_granular_coeffs",
     "REFERENCE_RADIUS", "REFERENCE_OVERLAP",
     # the diagnosis' effects on each engine

@@ -16,6 +16,8 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import BedstructWarning, ConfigError
 from ._dialect import Dialect, Realisation, effects_on, option, path_word
 from ._launch import EngineInfo
@@ -24,7 +26,7 @@ from ._registry import register
 from ._stl import RollerGeometry, _chamber_meshes, repose_wall_stls, write_stl
 
 __all__ = ["LiggghtsDialect", "LiquidBridges", "LIGGGHTS_REALISATIONS", "find_liggghts",
-           "check_easo_bridges", "EASO_MIN_BRIDGE_VOLUME", "easo_equal_bridge_volume",
+           "check_easo_bridges", "EASO_MIN_BRIDGE_VOLUME", "easo_bridge_volume",
            "liggghts_model_commands", "liggghts_wall_model"]
 
 _RUN_AS_ROOT = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
@@ -193,21 +195,26 @@ def liggghts_model_commands(model, *, n_types: int = 2) -> tuple[list[str], int]
 EASO_MIN_BRIDGE_VOLUME = 1e-17
 
 
-def easo_equal_bridge_volume(radius: float, liquid_volume_fraction: float) -> float:
-    """Bridge volume (m^3) of LIGGGHTS' easo model between two spheres of ``radius``.
+def easo_bridge_volume(r_i, r_j, liquid_volume_fraction: float):
+    """Bridge volume (m^3) of LIGGGHTS 3.8's easo model between spheres of radii ``r_i``, ``r_j``.
 
-    Each sphere gives ``V_p (1 - sqrt(1 - 1/4)) / 2`` of its liquid ``V_p = (4/3) pi r^3
-    liquid_volume_fraction``; the bridge is ``(1 - sqrt(3)/2) V_p``.
+    Each particle gives ``V_p (1 - sqrt(1 - r_o^2 / (r_i + r_j)^2)) / 2`` of its liquid
+    ``V_p = (4/3) pi r^3 liquid_volume_fraction`` (``r_o`` the other radius); between equal
+    spheres the bridge is ``(1 - sqrt(3)/2) V_p``.
 
     Examples
     --------
-    >>> from bedstruct.engines._liggghts import easo_equal_bridge_volume
-    >>> v = easo_equal_bridge_volume(26e-6, 1e-3)
-    >>> round(v / (4 / 3 * math.pi * 26e-6 ** 3 * 1e-3), 4)
+    >>> from bedstruct.engines import easo_bridge_volume
+    >>> v = easo_bridge_volume(1.0, 1.0, 1.0)
+    >>> round(float(v) / (4 / 3 * math.pi), 4)   # 1 - sqrt(3)/2 of one particle's volume
     0.134
     """
-    vp = 4.0 / 3.0 * math.pi * float(radius) ** 3 * float(liquid_volume_fraction)
-    return (1.0 - math.sqrt(0.75)) * vp
+    r_i, r_j = np.asarray(r_i, float), np.asarray(r_j, float)
+    rs = r_i + r_j
+    vi = 4.0 / 3.0 * np.pi * r_i ** 3 * liquid_volume_fraction
+    vj = 4.0 / 3.0 * np.pi * r_j ** 3 * liquid_volume_fraction
+    return (0.5 * vi * (1 - np.sqrt(1 - r_j ** 2 / rs ** 2))
+            + 0.5 * vj * (1 - np.sqrt(1 - r_i ** 2 / rs ** 2)))
 
 
 def check_easo_bridges(film_thickness: float, reference_radius: float) -> None:
@@ -234,7 +241,7 @@ def check_easo_bridges(film_thickness: float, reference_radius: float) -> None:
     """
     t, r = float(film_thickness), float(reference_radius)
     c = 3.0 * t / r
-    v = easo_equal_bridge_volume(r, c)
+    v = float(easo_bridge_volume(r, r, c))
     if v >= EASO_MIN_BRIDGE_VOLUME:
         return
     t_min = t * EASO_MIN_BRIDGE_VOLUME / v if v > 0 else float("inf")
@@ -432,8 +439,8 @@ class LiggghtsDialect(Dialect):
             r_ref = 0.5 * scale * float(d50)
             check_easo_bridges(t, r_ref)
             d_min = option(cfg, "psd.d_min")
-            if d_min is not None and easo_equal_bridge_volume(
-                    0.5 * scale * float(d_min), 3.0 * t / r_ref) < EASO_MIN_BRIDGE_VOLUME:
+            r_min = 0.5 * scale * float(d_min if d_min is not None else d50)
+            if float(easo_bridge_volume(r_min, r_min, 3.0 * t / r_ref)) < EASO_MIN_BRIDGE_VOLUME:
                 warnings.warn(
                     f"engine 'liggghts': bridges between the smallest spheres (diameter "
                     f"{scale * float(d_min):.3g} m) hold less than {EASO_MIN_BRIDGE_VOLUME:.0e} "

@@ -11,10 +11,9 @@ import numpy as np
 import pytest
 
 from bedstruct.dem import seed_contact_model
-from bedstruct.engines import LiggghtsDialect, LiquidBridges, find_liggghts
+from bedstruct.engines import LiggghtsDialect, LiquidBridges, easo_bridge_volume, find_liggghts
 from bedstruct.errors import ConfigError
-from bedstruct.diagnose.validation.liggghts_law import (easo_bridge_volume, easo_capillary_force,
-                                             willett_capillary_force)
+from bedstruct.diagnose.validation.liggghts_law import easo_capillary_force, willett_capillary_force
 from bedstruct.diagnose.validation.liggghts_twins import (effects_label, liggghts_simulator,
                                                liggghts_twin_design, make_liggghts_twin)
 
@@ -202,9 +201,9 @@ def test_liggghts_skips_bridges_below_the_easo_volume_cut_off(tmp_path):
     """The cut-off the LIGGGHTS dialect refuses thin films by (EASO_MIN_BRIDGE_VOLUME):
     two 50 um spheres with a liquid fraction 10 % above it are bridged as Soulie's law says;
     10 % below it LIGGGHTS gives the separating spheres no force at all."""
-    from bedstruct.engines._liggghts import EASO_MIN_BRIDGE_VOLUME, easo_equal_bridge_volume
+    from bedstruct.engines import EASO_MIN_BRIDGE_VOLUME
     gamma, r = 0.05, 50e-6
-    cut = EASO_MIN_BRIDGE_VOLUME / easo_equal_bridge_volume(r, 1.0)   # the fraction at the cut-off
+    cut = EASO_MIN_BRIDGE_VOLUME / float(easo_bridge_volume(r, r, 1.0))  # the fraction at the cut-off
     forces = {}
     for name, frac in (("above", 1.1 * cut), ("below", 0.9 * cut)):
         bridges = LiquidBridges(gamma, frac, contact_angle=0.0, fluid_viscosity=1e-9,
@@ -219,6 +218,8 @@ def test_liggghts_skips_bridges_below_the_easo_volume_cut_off(tmp_path):
     np.testing.assert_allclose(f_above[bridged], law[bridged], rtol=2e-3)
     gaps_b, f_below = forces["below"]
     np.testing.assert_array_equal(f_below[gaps_b > 1e-7], 0.0)
+    assert not np.any(easo_capillary_force(gaps_b, r, r, surface_tension=gamma,
+                                           liquid_volume_fraction=0.9 * cut))   # the law says so
 
 
 @needs_liggghts

@@ -18,7 +18,9 @@ LIGGGHTS 3.8 (Debian) facts:
 - ``surfaceLiquidContentInitial`` is read as a liquid/solid volume *fraction*
   (the manual says per cent), and the bridge volume is
   ``V = sum_i V_i (1 - sqrt(1 - r_j^2 / (r_i + r_j)^2)) / 2`` (the manual says
-  ``0.05 (V_i + V_j)``): :func:`easo_bridge_volume`;
+  ``0.05 (V_i + V_j)``): :func:`bedstruct.engines.easo_bridge_volume`;
+- a bridge holding less than ``1e-17`` m^3 (``1000 V < 1e-14`` in SI) is skipped: no
+  force at all (:data:`bedstruct.engines.EASO_MIN_BRIDGE_VOLUME`);
 - the effective contact angle is ``theta_i theta_j / 2`` (the manual says the
   mean): :func:`easo_effective_contact_angle`.
 
@@ -31,7 +33,9 @@ import math
 
 import numpy as np
 
-__all__ = ["easo_effective_contact_angle", "easo_bridge_volume", "easo_capillary_force",
+from ...engines import EASO_MIN_BRIDGE_VOLUME, easo_bridge_volume
+
+__all__ = ["easo_effective_contact_angle", "easo_capillary_force",
            "willett_capillary_force"]
 
 
@@ -50,25 +54,6 @@ def easo_effective_contact_angle(theta_i: float, theta_j: float) -> float:
     return 0.5 * float(theta_i) * float(theta_j)
 
 
-def easo_bridge_volume(r_i, r_j, liquid_volume_fraction: float):
-    """Bridge volume (m^3) of LIGGGHTS 3.8's easo model between spheres of radii ``r_i``, ``r_j``.
-
-    Each particle gives ``V_p (1 - sqrt(1 - r_o^2 / (r_i + r_j)^2)) / 2`` of its
-    liquid ``V_p = (4/3) pi r^3 liquid_volume_fraction`` (``r_o`` the other radius).
-
-    Examples
-    --------
-    >>> v = easo_bridge_volume(1.0, 1.0, 1.0)
-    >>> round(float(v) / (4 / 3 * math.pi), 4)   # 1 - sqrt(3)/2 of one particle's volume
-    0.134
-    """
-    r_i, r_j = np.asarray(r_i, float), np.asarray(r_j, float)
-    rs = r_i + r_j
-    vi = 4.0 / 3.0 * np.pi * r_i ** 3 * liquid_volume_fraction
-    vj = 4.0 / 3.0 * np.pi * r_j ** 3 * liquid_volume_fraction
-    return 0.5 * vi * (1 - np.sqrt(1 - r_j ** 2 / rs ** 2)) + 0.5 * vj * (1 - np.sqrt(1 - r_i ** 2 / rs ** 2))
-
-
 def easo_capillary_force(gap, r_i: float, r_j: float, *, surface_tension: float,
                          liquid_volume_fraction: float, contact_angle: float = math.radians(20.0),
                          max_separation_ratio: float = 1.1):
@@ -78,8 +63,9 @@ def easo_capillary_force(gap, r_i: float, r_j: float, *, surface_tension: float,
     ``A = -1.1 V*^-0.53``, ``B = (-0.148 ln V* - 0.96) theta^2 - 0.0082 ln V* + 0.48``,
     ``C = 0.0018 ln V* + 0.078``, ``s = max(gap, 0)``, ``theta`` the effective angle
     (:func:`easo_effective_contact_angle` of two equal angles) and ``V``
-    :func:`easo_bridge_volume`; zero beyond the rupture distance
-    ``(1 + theta/2) V^(1/3)`` or the cut-off ``(max_separation_ratio - 1)(r_i + r_j)``.
+    :func:`bedstruct.engines.easo_bridge_volume`; zero beyond the rupture distance
+    ``(1 + theta/2) V^(1/3)`` or the cut-off ``(max_separation_ratio - 1)(r_i + r_j)``, and
+    zero everywhere for a bridge smaller than :data:`bedstruct.engines.EASO_MIN_BRIDGE_VOLUME`.
     (A bridge exists only once the spheres have touched.)
 
     Examples
@@ -99,6 +85,8 @@ def easo_capillary_force(gap, r_i: float, r_j: float, *, surface_tension: float,
     s = np.maximum(gap, 0.0)
     f = math.pi * surface_tension * math.sqrt(r_i * r_j) * (np.exp(a * s / r2 + b) + c)
     rupture = min((1 + 0.5 * theta) * vol ** (1.0 / 3.0), (max_separation_ratio - 1) * (r_i + r_j))
+    if vol < EASO_MIN_BRIDGE_VOLUME:
+        return np.zeros_like(f)
     return np.where(gap < rupture, f, 0.0)
 
 
