@@ -459,6 +459,32 @@ def test_committed_twoprobe_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["ooc_ci"], [0.4439, 0.9748], atol=5e-5)
 
 
+def test_committed_second_twoprobe_liggghts_blind_record_rescores_and_pools():
+    """The eighth blind LIGGGHTS batch (the seventh's frozen commit, a new draw) scores as
+    the docs quote, alone and pooled with the seventh as declared before it existed."""
+    from bedstruct.diagnose.validation import blind
+
+    s = _rescore_sealed_liggghts_record("blind-liggghts-twoprobe2-2026-12-05", "b32b725",
+                                        20261210)
+    assert s["draw"] == "detectable"
+    assert s["top1_count"] == [18, 20] and s["top1_partial_count"] == [3, 18]
+    assert s["top1_detected_count"] == [18, 20]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [6, 10]
+    assert s["ooc_detected_count"] == [6, 9]
+    assert s["coverage_count"] == [11, 18]
+    assert s["shrink_n"] == 17 and s["shrink_median"] == 1.0
+    np.testing.assert_allclose(s["ooc_ci"], [0.2624, 0.8784], atol=5e-5)
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records"
+    pooled = blind.pool_benchmarks([rec / "blind-liggghts-twoprobe-2026-12-05",
+                                    rec / "blind-liggghts-twoprobe2-2026-12-05"])
+    assert pooled["top1_count"] == [36, 40] and pooled["null_false_count"] == [0, 20]
+    assert pooled["ooc_count"] == [14, 20] and pooled["coverage_count"] == [23, 36]
+    assert pooled["shrink_n"] == 35 and pooled["shrink_median"] == 1.0
+    np.testing.assert_allclose(pooled["top1_ci"], [0.7634, 0.9721], atol=5e-5)
+    assert pooled["top1_ci"][0] >= 0.75
+    np.testing.assert_allclose(pooled["ooc_ci"], [0.4572, 0.8811], atol=5e-5)
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
@@ -663,6 +689,10 @@ def test_pooled_blind_records_add_their_counts():
     six = blind.pool_benchmarks([rec / n for n in names]
                                 + [rec / "blind-liggghts-twoprobe-2026-12-05"])
     assert six["null_false_count"] == [0, 60] and six["null_false_ci"][1] < 0.0597
+    seven = blind.pool_benchmarks([rec / n for n in names]
+                                  + [rec / "blind-liggghts-twoprobe-2026-12-05",
+                                     rec / "blind-liggghts-twoprobe2-2026-12-05"])
+    assert seven["null_false_count"] == [0, 70] and seven["null_false_ci"][1] < 0.0514
     with pytest.raises(ConfigError, match="twice"):
         blind.pool_benchmarks([rec / names[0], rec / names[0]])
     with pytest.raises(ConfigError, match="truth.json"):
