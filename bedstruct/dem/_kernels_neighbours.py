@@ -15,7 +15,8 @@ import numpy as np
 from .._numba import njit, prange
 
 __all__ = ["wrap_and_flag", "cell_indices", "counting_sort", "HALF_STENCIL", "pair_build",
-           "pair_keys", "remap_history", "active_history", "raindrop_accept"]
+           "pair_keys", "remap_history", "active_history", "raindrop_accept", "permute_particles",
+           "history_source", "carry_history", "compact_chunks"]
 
 _FM = dict(fastmath=True)
 
@@ -366,3 +367,143 @@ def raindrop_accept(cand, crad, ex, erad, lo, cell_len, ncell, out_mask):
             nxt[cnt] = head[cell]
             head[cell] = cnt
             cnt += 1
+
+
+@njit
+def permute_particles(order, x, v, om, f, tq, rad, mass, inv_m, inv_i, ptype, ids, images,
+                      wslot, whist):
+    """New per-particle arrays holding rows ``order`` of each (the rebuild's sort by cell)."""
+    n = order.shape[0]
+    ns = wslot.shape[1]
+    nh = whist.shape[2]
+    x2 = np.empty((n, 3), dtype=x.dtype)
+    v2 = np.empty((n, 3), dtype=v.dtype)
+    om2 = np.empty((n, 3), dtype=om.dtype)
+    f2 = np.empty((n, 3), dtype=f.dtype)
+    tq2 = np.empty((n, 3), dtype=tq.dtype)
+    rad2 = np.empty(n, dtype=rad.dtype)
+    mass2 = np.empty(n, dtype=mass.dtype)
+    inv_m2 = np.empty(n, dtype=inv_m.dtype)
+    inv_i2 = np.empty(n, dtype=inv_i.dtype)
+    ptype2 = np.empty(n, dtype=ptype.dtype)
+    ids2 = np.empty(n, dtype=ids.dtype)
+    images2 = np.empty((n, 3), dtype=images.dtype)
+    wslot2 = np.empty((n, ns), dtype=wslot.dtype)
+    whist2 = np.empty((n, ns, nh), dtype=whist.dtype)
+    for k in range(n):
+        i = order[k]
+        for c in range(3):
+            x2[k, c] = x[i, c]
+            v2[k, c] = v[i, c]
+            om2[k, c] = om[i, c]
+            f2[k, c] = f[i, c]
+            tq2[k, c] = tq[i, c]
+            images2[k, c] = images[i, c]
+        rad2[k] = rad[i]
+        mass2[k] = mass[i]
+        inv_m2[k] = inv_m[i]
+        inv_i2[k] = inv_i[i]
+        ptype2[k] = ptype[i]
+        ids2[k] = ids[i]
+        for s in range(ns):
+            wslot2[k, s] = wslot[i, s]
+            for c in range(nh):
+                whist2[k, s, c] = whist[i, s, c]
+    return x2, v2, om2, f2, tq2, rad2, mass2, inv_m2, inv_i2, ptype2, ids2, images2, wslot2, whist2
+
+
+@njit
+def history_source(ids, pi, pj, ht, hr, hx, sort_by_key):
+    """The old pairs that carry history (nonzero tangential, rolling or, where ``hx`` has
+    rows, ageing history), for :func:`carry_history`.
+
+    Returns ``(src, keys, sign)``: the pairs' indices in the old list, in index order (or
+    sorted by key with ``sort_by_key``), their keys and signs as :func:`pair_keys` gives.
+    """
+    m = ht.shape[0]
+    use_x = hx.shape[0] == m and m > 0
+    act = np.empty(m, dtype=np.int64)
+    n = 0
+    for k in range(m):
+        on = (ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 or hr[k, 0] != 0.0
+              or hr[k, 1] != 0.0 or hr[k, 2] != 0.0)
+        if not on and use_x:
+            on = hx[k, 0] != 0.0 or hx[k, 1] != 0.0 or hx[k, 2] != 0.0
+        if on:
+            act[n] = k
+            n += 1
+    src = act[:n].copy()
+    keys = np.empty(n, dtype=np.int64)
+    sign = np.empty(n)
+    for q in range(n):
+        a = ids[pi[src[q]]]
+        b = ids[pj[src[q]]]
+        if a < b:
+            keys[q] = a * 2147483648 + b
+            sign[q] = 1.0
+        else:
+            keys[q] = b * 2147483648 + a
+            sign[q] = -1.0
+    if sort_by_key and n:
+        o = np.argsort(keys, kind="mergesort")
+        src = src[o]
+        keys = keys[o]
+        sign = sign[o]
+    return src, keys, sign
+
+
+@njit
+def carry_history(ids, pi, pj, bounds, src, old_keys, old_sign, old_ht, old_hr, old_hx, n_lo,
+                  by_partner, ht, hr, hx):
+    """Carry the old pairs' history (:func:`history_source`) onto the new pair list
+    ``(pi, pj)``: by partner table (:func:`remap_history_csr`) when ``by_partner``, else by
+    binary search of the key-sorted old pairs (:func:`remap_history`). ``ht``, ``hr`` (and
+    ``hx`` where it has rows: ageing history) are written in full."""
+    m = pi.shape[0]
+    keys = np.zeros(m, dtype=np.int64)
+    sign = np.zeros(m)
+    pair_keys(ids, pi, pj, bounds, keys, sign)
+    o_ht = np.empty((src.shape[0], 3))
+    o_hr = np.empty((src.shape[0], 3))
+    for q in range(src.shape[0]):
+        for c in range(3):
+            o_ht[q, c] = old_ht[src[q], c]
+            o_hr[q, c] = old_hr[src[q], c]
+    slots = np.empty(m, dtype=np.int64)
+    if by_partner:
+        start, order = partner_csr(old_keys, n_lo)
+        remap_history_csr(keys, sign, old_keys, old_sign, start, order, o_ht, o_hr, bounds,
+                          ht, hr, slots)
+    else:
+        remap_history(keys, sign, old_keys, old_sign, o_ht, o_hr, bounds, ht, hr)
+        if hx.shape[0]:
+            nq = old_keys.shape[0]
+            for k in range(m):
+                idx = np.searchsorted(old_keys, keys[k])
+                slots[k] = idx if idx < nq and old_keys[idx] == keys[k] else -1
+    if hx.shape[0]:
+        for k in range(m):
+            if slots[k] >= 0:
+                q = src[slots[k]]
+                for c in range(3):
+                    hx[k, c] = old_hx[q, c]
+
+
+@njit
+def compact_chunks(bi, bj, bs, off, cnt):
+    """The pairs written by :func:`pair_build` (``fill=2``) chunk by chunk, as one list."""
+    m = 0
+    for t in range(cnt.shape[0]):
+        m += cnt[t]
+    pi = np.empty(m, dtype=bi.dtype)
+    pj = np.empty(m, dtype=bj.dtype)
+    psh = np.empty((m, 3), dtype=bs.dtype)
+    k = 0
+    for t in range(cnt.shape[0]):
+        for p in range(off[t], off[t] + cnt[t]):
+            pi[k] = bi[p]
+            pj[k] = bj[p]
+            for c in range(3):
+                psh[k, c] = bs[p, c]
+            k += 1
+    return pi, pj, psh

@@ -38,6 +38,15 @@ class _NeighbourList:
 
     def _cell_grid(self):
         rmax = float(self.rad.max(initial=0.0))
+        key = (rmax, self.n_particles, self.skin, self._extra_cutoff(), self._L.tobytes())
+        memo = self.__dict__.get("_grid_memo")
+        if memo is not None and memo[0] == key:
+            return memo[1]
+        grid = self._cell_grid_for(rmax)
+        self._grid_memo = (key, grid)
+        return grid
+
+    def _cell_grid_for(self, rmax):
         cut = 2.0 * rmax + self.skin + self._extra_cutoff()
         nc = np.maximum(1, np.floor(self._L / cut)).astype(np.int64)
         for a in range(3):
@@ -80,43 +89,30 @@ class _NeighbourList:
         if n_bad:
             self._lost_nonfinite(int(n_bad))
             n_out -= n_bad   # a blow-up is not particles leaving the domain
-        # keep old list (for history) keyed by ids before permuting
-        act = K.active_history(self.ht, self.hr)
-        ext = self.model.extension_code
-        if ext & 2:
-            act = np.union1d(act, np.flatnonzero(np.any(self.hx != 0.0, axis=1)))
-        # the old history arrays are replaced, not overwritten, by the new list below
-        old_ht, old_hr, old_hx = self.ht, self.hr, self.hx
-        # the remap looks each new pair up among its lower-id sphere's old partners (ids
-        # dense enough for a table by id), else by binary search in the sorted keys
+        # the old pairs that carry history, keyed by ids before permuting; the remap looks
+        # each new pair up among its lower-id sphere's old partners (ids dense enough for a
+        # table by id), else by binary search in the sorted keys
         n_lo = int(self.ids.max(initial=-1)) + 1
         by_partner = n_lo <= 8 * self.n_particles + 1024
-        src = act  # active old pairs (sorted by key for the binary search)
-        old_keys = np.zeros(0, dtype=np.int64)
-        old_sign = np.zeros(0)
-        if act.size:
-            kk = np.zeros(self.n_pairs, dtype=np.int64)
-            ss = np.zeros(self.n_pairs)
-            K.pair_keys(self.ids, self.pi, self.pj, self._chunks(self.n_pairs), kk, ss)
-            if not by_partner:
-                src = act[np.argsort(kk[act], kind="stable")]
-            old_keys = kk[src]
-            old_sign = ss[src]
+        old_ht, old_hr, old_hx = self.ht, self.hr, self.hx
+        src, old_keys, old_sign = K.history_source(self.ids, self.pi, self.pj, old_ht, old_hr,
+                                                   old_hx, not by_partner)
         if n_out:
             self.n_removed += n_out
             log.info("removed %d particles that left the domain (total %d)", n_out, self.n_removed)
-        keep = np.flatnonzero(~out)
+        keep = np.flatnonzero(~out) if n_out or n_bad else None
         # 2. sort by cell
         nc, cell_len = self._cell_grid()
-        cells = np.zeros(keep.size, dtype=np.int64)
-        xk = np.ascontiguousarray(self.x[keep]) if keep.size != self.n_particles else self.x
+        xk = self.x if keep is None else np.ascontiguousarray(self.x[keep])
+        cells = np.empty(xk.shape[0], dtype=np.int64)
         K.cell_indices(xk, self._lo, cell_len, nc, cells)
-        perm, start = K.counting_sort(cells, int(np.prod(nc)))
-        order = keep[perm]
-        for name in ("x", "v", "om", "f", "tq", "rad", "mass", "inv_m", "inv_i", "ptype", "ids",
-                     "images", "wslot", "whist"):
-            setattr(self, name, np.ascontiguousarray(getattr(self, name)[order]))
-        cells = np.ascontiguousarray(cells[perm])
+        perm, start = K.counting_sort(cells, int(nc[0] * nc[1] * nc[2]))
+        order = perm if keep is None else keep[perm]
+        (self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m, self.inv_i,
+         self.ptype, self.ids, self.images, self.wslot, self.whist) = K.permute_particles(
+            order, self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m,
+            self.inv_i, self.ptype, self.ids, self.images, self.wslot, self.whist)
+        cells = cells[perm]
         n = self.n_particles
         self.x_ref = self.x.copy()
         # 3. pair list: one pass into per-chunk room sized from the last list,
@@ -128,22 +124,20 @@ class _NeighbourList:
         m_prev = getattr(self, "_m_hint", 0)
         done = False
         if m_prev and n:
-            share = np.diff(pb).astype(np.float64) / n
-            cap = (1.25 * m_prev * share + 64 + 8 * np.diff(pb)).astype(np.int64)
+            sizes = np.diff(pb)
+            cap = (1.25 * m_prev * (sizes / n) + 64 + 8 * sizes).astype(np.int64)
             off = np.zeros(T, dtype=np.int64)
             np.cumsum(cap[:-1], out=off[1:])
-            tot = int(cap.sum())
+            tot = int(off[-1] + cap[-1])
             bi = np.empty(tot, dtype=np.int32)
             bj = np.empty(tot, dtype=np.int32)
             bs = np.empty((tot, 3), dtype=np.int8)
             cnt = np.zeros(T, dtype=np.int64)
             K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
                          K.HALF_STENCIL, skin_c, pb, none_i, 2, bi, bj, bs, off, cap, cnt)
-            if np.all(cnt >= 0):
-                sel = np.concatenate([np.arange(o, o + c) for o, c in zip(off, cnt)])
-                self._alloc_pairs(0)
-                self.pi, self.pj, self.psh = bi[sel], bj[sel], bs[sel]
-                m = sel.size
+            if cnt.min() >= 0:
+                self.pi, self.pj, self.psh = K.compact_chunks(bi, bj, bs, off, cnt)
+                m = self.pi.shape[0]
                 self.ht = np.zeros((m, 3))
                 self.hr = np.zeros((m, 3))
                 self.hx = np.zeros((m if self.model.contact_ageing else 0, 3))  # ageing history
@@ -165,27 +159,11 @@ class _NeighbourList:
                          K.HALF_STENCIL, skin_c, pb, offs, 1, self.pi, self.pj, self.psh,
                          z, z, z)
         self._m_hint = m
-        # 4. history remap by sorted key
+        # 4. history remap by pair key
         if old_keys.size and m:
-            keys = np.zeros(m, dtype=np.int64)
-            sign = np.zeros(m)
-            qb = self._chunks(m)
-            K.pair_keys(self.ids, self.pi, self.pj, qb, keys, sign)
-            if by_partner:
-                start, order = K.partner_csr(old_keys, n_lo)
-                slots = np.empty(m, dtype=np.int64)
-                K.remap_history_csr(keys, sign, old_keys, old_sign, start, order, old_ht[src],
-                                    old_hr[src], qb, self.ht, self.hr, slots)
-                if ext & 2:
-                    hit = slots >= 0
-                    self.hx[hit] = old_hx[src[slots[hit]]]
-            else:
-                K.remap_history(keys, sign, old_keys, old_sign, old_ht[src], old_hr[src], qb,
-                                self.ht, self.hr)
-                if ext & 2:
-                    idx = np.minimum(np.searchsorted(old_keys, keys), old_keys.size - 1)
-                    hit = old_keys[idx] == keys
-                    self.hx[hit] = old_hx[src[idx[hit]]]
+            K.carry_history(self.ids, self.pi, self.pj, self._chunks(m), src, old_keys,
+                            old_sign, old_ht, old_hr, old_hx, n_lo, by_partner, self.ht,
+                            self.hr, self.hx)
         self._alloc_buffers()
         self._balance_pairs()
         self._build_wall_list()

@@ -444,6 +444,24 @@ class EngineSimulator:
         cfg["seed"] = int(seed) + self.seed_offset
         return load_config(cfg)  # type checks and validation
 
+    def relative_cost(self, base: Mapping[str, float], effects: Mapping[str, float]) -> float:
+        """Expected cost of one call relative to the base configuration's: the ratio of their
+        time steps (``Simulation.default_time_step`` at the smallest sphere of each size
+        distribution), which sets the number of steps of every run of the call. Fines,
+        for instance, shrink the smallest sphere and the step with it."""
+        from ..dem import Simulation
+        from ..workflows._common import contact_model, psd_sampler, typed
+
+        def step(cfg):
+            t = typed(cfg).time
+            return Simulation.default_time_step(contact_model(cfg), psd_sampler(cfg).r_min,
+                                                float(t.v_max), float(t.safety))
+
+        ref = self.__dict__.get("_step_ref")
+        if ref is None:
+            ref = self._step_ref = step(self.run_config({}, {}, 0))
+        return ref / step(self.run_config(base, effects, 0))
+
     def with_effects(self, cfg: Mapping[str, Any], effects: Mapping[str, float], *,
                      replace=()) -> dict:
         """``cfg`` with the catalogue ``effects`` switched on (scale model).

@@ -272,6 +272,17 @@ def _run_one(simulator, point: DesignPoint, seed: int) -> dict:
             "cpu_s": time.process_time() - c0}
 
 
+def _longest_first(simulator, todo: list) -> list:
+    """The runs ``(index, point, seed)`` in decreasing order of the simulator's estimate of
+    their cost (``relative_cost(base, effects)``; design order among equals and without an
+    estimate), so that no worker is left running a long run alone at the end of a build."""
+    cost = getattr(simulator, "relative_cost", None)
+    if cost is None or len(todo) < 2:
+        return list(todo)
+    rel = {i: float(cost(dict(p.base), dict(p.effects))) for i, p, _ in todo}
+    return sorted(todo, key=lambda t: -rel[t[0]])
+
+
 def _check_key(path: Path, key: str, doc: Mapping, spec: DesignSpec) -> None:
     meta = json.loads((path / "library.json").read_text())
     if meta.get("key") != key:
@@ -296,7 +307,7 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     simulator : callable
         ``simulator(base, effects, seed) -> Observations`` with a ``design`` attribute
         (the observables), e.g. :class:`~bedstruct.diagnose.SurrogateSimulator` or
-        :class:`~bedstruct.workflows.diagnosis_sim.EngineSimulator`. Must be picklable
+        :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator`. Must be picklable
         for ``workers > 1`` or a ``scheduler``.
     design_spec : DesignSpec
         The design (:func:`~bedstruct.diagnose.run_design.design_spec`).
@@ -329,7 +340,10 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     -----
     Each run is written to ``runs/<hash>.json`` as soon as it returns (atomically: a
     file is complete or absent), so a build that is interrupted loses only the runs in
-    flight; called again it runs only the missing ones.
+    flight; called again it runs only the missing ones. With several workers, runs are
+    started longest first where the simulator estimates their cost (a
+    ``relative_cost(base, effects)`` method, as
+    :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` has).
 
     Examples
     --------
@@ -360,6 +374,8 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     points = design_points(spec)
     todo = [(i, p, s) for i, p in enumerate(points) for s in spec.seeds
             if not (out / "runs" / _run_name(key, p, s)).is_file()]
+    if scheduler is not None or int(workers) > 1:
+        todo = _longest_first(simulator, todo)
     bar = None
     if progress and todo:
         from tqdm import tqdm

@@ -115,7 +115,8 @@ def digest(arrays: dict[str, np.ndarray]) -> str:
 
 
 def machine() -> dict[str, str]:
-    """What the bits depend on besides the code: CPU, numba/llvmlite/NumPy versions."""
+    """What the bits depend on besides the code: CPU (its name and LLVM's name for its
+    instruction set), numba/llvmlite/NumPy versions."""
     import llvmlite
     import numba
     cpu = platform.processor() or platform.machine()
@@ -126,8 +127,11 @@ def machine() -> dict[str, str]:
                 break
     except OSError:
         pass
-    return dict(cpu=cpu, numba=numba.__version__, llvmlite=llvmlite.__version__,
-                numpy=np.__version__)
+    from llvmlite import binding
+    # the model name alone does not say which instructions LLVM compiles for ("AMD EPYC"
+    # covers several generations): its host CPU name does
+    return dict(cpu=cpu, llvm_cpu=binding.get_host_cpu_name(), numba=numba.__version__,
+                llvmlite=llvmlite.__version__, numpy=np.__version__)
 
 
 def main(argv=None) -> int:

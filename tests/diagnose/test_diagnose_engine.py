@@ -462,3 +462,29 @@ def test_cli_diagnose_cache_option_replaces_the_configs_cache(tmp_path, capsys):
     rc = main(["diagnose", "--sim", "surrogate", "--real", str(tmp_path / "real.toml"),
                "--out", str(tmp_path / "o2"), "--cache", str(tmp_path / "c2")])
     assert rc != 0 and "--cache needs a simulation config" in capsys.readouterr().err
+
+
+def test_relative_cost_follows_the_time_step_and_orders_a_library_build_longest_first():
+    from bedstruct.diagnose.run_design import DesignPoint
+    from bedstruct.diagnose.run_library import _longest_first
+    from bedstruct.dem import Simulation
+    from bedstruct.workflows._common import contact_model, psd_sampler, typed
+
+    sim = EngineSimulator(_psd_design(), {"preset": "tiny"})
+    base = {"cohesion_energy_density": 3.6e7}
+    assert sim.relative_cost(base, {}) == pytest.approx(1.0)
+    # fines shrink the smallest sphere: the time step shrinks with its Rayleigh time
+    cfg0, cfg1 = sim.run_config(base, {}, 0), sim.run_config(base, {"missing_fines": 0.06}, 0)
+    steps = [Simulation.default_time_step(contact_model(c), psd_sampler(c).r_min,
+                                          typed(c).time.v_max, typed(c).time.safety)
+             for c in (cfg0, cfg1)]
+    fines = sim.relative_cost(base, {"missing_fines": 0.06})
+    assert fines == pytest.approx(steps[0] / steps[1], rel=1e-12)
+    assert fines > 2.0
+    assert sim.relative_cost(base, {"wall_friction": 0.2}) == pytest.approx(1.0)
+    todo = [(0, DesignPoint(base, {}, "base"), 1),
+            (1, DesignPoint(base, {"missing_fines": 0.06}, "missing_fines"), 1),
+            (2, DesignPoint(base, {"wall_friction": 0.2}, "wall_friction"), 1),
+            (3, DesignPoint(base, {"missing_fines": 0.06}, "missing_fines"), 2)]
+    assert [t[0] for t in _longest_first(sim, todo)] == [1, 3, 0, 2]
+    assert _longest_first(object(), todo) == todo     # no estimate: design order
