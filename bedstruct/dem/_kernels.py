@@ -34,7 +34,7 @@ from ._kernels_contact import (EPSD_STIFFNESS_FACTOR, ROLL_CDT, ROLL_EPSD, ROLL_
                                pair_table, rolling_torque, shear_torques, sjkr_area_pair,
                                sjkr_area_wall, tangential_history, tangential_velocity,
                                wall_contact)
-from ._kernels_neighbours import (HALF_STENCIL, active_history, carry_history,  # noqa: F401
+from ._kernels_neighbours import (HALF_STENCIL, carry_history,  # noqa: F401
                                   cell_indices, compact_chunks, counting_sort, history_source,
                                   pair_build, pair_keys, partner_csr, permute_particles,
                                   raindrop_accept, remap_history, remap_history_csr,

@@ -15,7 +15,7 @@ import numpy as np
 from .._numba import njit, prange
 
 __all__ = ["wrap_and_flag", "cell_indices", "counting_sort", "HALF_STENCIL", "pair_build",
-           "pair_keys", "remap_history", "active_history", "raindrop_accept", "permute_particles",
+           "pair_keys", "remap_history", "raindrop_accept", "permute_particles",
            "history_source", "carry_history", "compact_chunks"]
 
 _FM = dict(fastmath=True)
@@ -288,25 +288,6 @@ def remap_history_csr(new_keys, new_sign, old_keys, old_sign, start, order, old_
                         break
             slots[k] = idx
             _carry(k, idx, new_sign, old_sign, old_ht, old_hr, ht, hr)
-
-
-@njit
-def active_history(ht, hr):
-    """Indices of pairs with nonzero history."""
-    m = ht.shape[0]
-    n = 0
-    for k in range(m):
-        if (ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 or hr[k, 0] != 0.0
-                or hr[k, 1] != 0.0 or hr[k, 2] != 0.0):
-            n += 1
-    out = np.empty(n, dtype=np.int64)
-    n = 0
-    for k in range(m):
-        if (ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0 or hr[k, 0] != 0.0
-                or hr[k, 1] != 0.0 or hr[k, 2] != 0.0):
-            out[n] = k
-            n += 1
-    return out
 
 
 @njit
