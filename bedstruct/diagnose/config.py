@@ -331,19 +331,10 @@ def make_simulator(config: SimConfig, design: MeasurementSet):
 
 
 def _refusal(sim, effect, base) -> str:
-    """Why the engine of ``sim`` cannot realise ``effect`` at the top of its prior (empty
-    when it can): the engine's stated realisation, then its dialect's check of the run
-    configuration the effect gives (e.g. LIGGGHTS' liquid bridges below their volume
-    cut-off)."""
-    r = effect.realisations[sim.engine]
-    if not r.realised:
-        return r.refused
-    if sim.engine == "embedded":
-        return ""
-    from ..engines import dialect
-    try:
-        dialect(sim.engine).check_effects(sim.run_config(base, {effect.name: effect.prior[1]}, 0),
-                                          spreading=True)
-    except ConfigError as exc:
-        return str(exc)
-    return ""
+    """Why the engine of ``sim`` cannot realise ``effect`` at the top of its prior in the
+    run configuration of ``sim`` (empty when it can)."""
+    from .engine_simulator import engine_refusal
+    if sim.engine == "embedded" or not effect.realisations[sim.engine].realised:
+        return engine_refusal(effect, sim.engine)   # no run configuration needed
+    return engine_refusal(effect, sim.engine,
+                          sim.run_config(base, {effect.name: effect.prior[1]}, 0))

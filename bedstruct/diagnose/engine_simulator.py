@@ -52,7 +52,7 @@ from .observables_registry import observable_kind
 from .process_pool import run_calls
 
 __all__ = ["diagnosis_simulator", "EngineSimulator", "effects_config", "with_options",
-           "engine_realises",
+           "engine_realises", "engine_refusal",
            "setup_config", "PRESET_OVERRIDES"]
 
 log = logging.getLogger(__name__)
@@ -161,12 +161,45 @@ def with_options(cfg: Mapping[str, Any], options: Mapping[str, Any]) -> dict:
     return out
 
 
-def engine_realises(effect, engine: str) -> bool:
-    """Whether ``engine`` realises catalogue ``effect`` (an :class:`Effect`).
+def engine_refusal(effect, engine: str, cfg: Mapping[str, Any] | None = None) -> str:
+    """Why ``engine`` cannot realise catalogue ``effect`` (an :class:`Effect`) at the top of
+    its prior; empty when it can.
 
-    The embedded engine realises every effect; an external engine (LIGGGHTS, LAMMPS)
-    realises it when its dialect accepts the effect's options at the top of its prior
-    (:meth:`bedstruct.engines.Dialect.check_effects`, spreading).
+    The engine's stated realisation (:attr:`Effect.realisations`) comes first, then its
+    dialect's check (:meth:`bedstruct.engines.Dialect.check_effects`, spreading) of the
+    run configuration ``cfg`` with the effect on (by default the workflow defaults with
+    the effect at the top of its prior): e.g. LIGGGHTS' liquid bridges below its volume
+    cut-off. The embedded engine realises every effect.
+
+    Examples
+    --------
+    >>> from bedstruct.diagnose import effect
+    >>> from bedstruct.diagnose.engine_simulator import engine_refusal
+    >>> engine_refusal(effect("non_sphericity"), "liggghts")
+    ''
+    >>> "rest time" in engine_refusal(effect("contact_ageing"), "lammps")
+    True
+    """
+    if engine not in ENGINE_NAMES:
+        if engine != "embedded":
+            raise ConfigError(f"engine: expected 'embedded' or one of {', '.join(ENGINE_NAMES)}; "
+                              f"got {engine!r}")
+        return ""
+    r = effect.realisations[engine]
+    if not r.realised:
+        return r.refused
+    if cfg is None:
+        cfg = with_options(DEFAULTS, effects_config({effect.name: effect.prior[1]}, DEFAULTS))
+    try:
+        dialect(engine).check_effects(cfg, spreading=True)
+    except ConfigError as exc:
+        return str(exc)
+    return ""
+
+
+def engine_realises(effect, engine: str) -> bool:
+    """Whether ``engine`` realises catalogue ``effect`` (an :class:`Effect`) with the
+    workflow defaults: :func:`engine_refusal` has no reason.
 
     Examples
     --------
@@ -179,17 +212,7 @@ def engine_realises(effect, engine: str) -> bool:
     >>> engine_realises(effect("non_sphericity"), "liggghts")
     True
     """
-    if engine not in ENGINE_NAMES:
-        if engine != "embedded":
-            raise ConfigError(f"engine: expected 'embedded' or one of {', '.join(ENGINE_NAMES)}; "
-                              f"got {engine!r}")
-        return True
-    try:
-        on = effects_config({effect.name: effect.prior[1]}, DEFAULTS)
-        dialect(engine).check_effects(with_options(DEFAULTS, on), spreading=True)
-    except ConfigError:
-        return False
-    return True
+    return not engine_refusal(effect, engine)
 
 
 def setup_config(cfg: Mapping[str, Any], setup, design=(), *, speed_scale: float = 1.0) -> dict:
