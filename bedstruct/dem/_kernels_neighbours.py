@@ -196,20 +196,22 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
             chunk_cnt[t] = -1 if over else tpos - chunk_off[t]
 
 
+@njit(inline="always")
+def _pair_key(a, b):
+    """Key ``min(a, b) * 2^31 + max(a, b)`` of the pair of ids ``(a, b)`` and its sign (+1
+    if ``a < b``)."""
+    if a < b:
+        return a * 2147483648 + b, 1.0
+    return b * 2147483648 + a, -1.0
+
+
 @njit(parallel=True)
 def pair_keys(ids, pi, pj, bounds, keys, sign):
     """Orientation-free key ``min(id) * 2^31 + max(id)`` and sign (+1 if id_i < id_j)."""
     nt = bounds.shape[0] - 1
     for t in prange(nt):
         for k in range(bounds[t], bounds[t + 1]):
-            a = ids[pi[k]]
-            b = ids[pj[k]]
-            if a < b:
-                keys[k] = a * 2147483648 + b
-                sign[k] = 1.0
-            else:
-                keys[k] = b * 2147483648 + a
-                sign[k] = -1.0
+            keys[k], sign[k] = _pair_key(ids[pi[k]], ids[pj[k]])
 
 
 @njit(inline="always")
@@ -417,14 +419,7 @@ def history_source(ids, pi, pj, ht, hr, hx, sort_by_key):
     keys = np.empty(n, dtype=np.int64)
     sign = np.empty(n)
     for q in range(n):
-        a = ids[pi[src[q]]]
-        b = ids[pj[src[q]]]
-        if a < b:
-            keys[q] = a * 2147483648 + b
-            sign[q] = 1.0
-        else:
-            keys[q] = b * 2147483648 + a
-            sign[q] = -1.0
+        keys[q], sign[q] = _pair_key(ids[pi[src[q]]], ids[pj[src[q]]])
     if sort_by_key and n:
         o = np.argsort(keys, kind="mergesort")
         src = src[o]
