@@ -45,6 +45,7 @@ from .._atomic import atomic_path
 from .._json import to_jsonable
 from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, dialect, repose_deck,
                        run_deck, write_sphere_data)
+from ..dem import Simulation
 from ..errors import ConfigError
 from ._common import contact_model, psd_sampler, typed
 from ._rundir import RunLayout
@@ -186,8 +187,7 @@ def repose_inputs(cfg, *, seed: int):
                             region=((0.0, 0.0, H + rmax), (L, W, 2.0 * H - 2 * rmax)))
     if sim.n_particles < n_want:
         log.warning("repose: inserted %d of %d particles (box full)", sim.n_particles, n_want)
-    dt = min(cfg.time.safety * model.rayleigh_time(draw.r_min),
-             0.1 * model.hertz_time(draw.r_min, cfg.time.v_max))
+    dt = Simulation.default_time_step(model, draw.r_min, cfg.time.v_max, cfg.time.safety)
     return {"positions": np.array(sim.x), "radii": np.array(sim.rad), "box_lo": np.array(lo),
             "box_hi": np.array(hi), "dt": float(dt), "n_wanted": n_want, "r_max": float(rmax)}
 

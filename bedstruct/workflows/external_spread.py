@@ -23,6 +23,7 @@ import numpy as np
 
 from ..engines import (BladeGeometry, RollerGeometry, SpreadLayersPlan, dialect, landing_offsets,
                        run_deck, run_finished, spread_layers_deck, tool_loads, write_sphere_data)
+from ..dem import Simulation
 from ..errors import BedstructError
 from ._common import german_fit_values, psd_sampler, typed
 from ._rundir import RunLayout
@@ -141,8 +142,7 @@ def run_spread_external(cfg, *, out=None):
         X = np.concatenate([pile.positions + np.array([x_off, 0.0, (z_plat0 + lift) if k == 0
                                                        else parked[k]]) for k in range(K)])
         R_ = np.tile(pile.radii, K)
-        dt = min(cfg.time.safety * model.rayleigh_time(draw.r_min),
-                 0.1 * model.hertz_time(draw.r_min, cfg.time.v_max))
+        dt = Simulation.default_time_step(model, draw.r_min, cfg.time.v_max, cfg.time.safety)
         plan = SpreadLayersPlan(
             Lplat, W, tuple(gaps), tool, tuple((1 + k * n, (k + 1) * n) for k in range(K)),
             tuple(parked), (x_off - 2 * rmax, x_off + float(sc.pile_length) + 2 * rmax), dt,
