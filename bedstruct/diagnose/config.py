@@ -30,6 +30,7 @@ parameters recalibration may change, the catalogue and the statistical levels::
     alpha = 0.05              # level of the 'is there a gap' tests
     select_alpha = 0.01       # family-wise level of the effect selection
     gof_alpha = 0.01          # goodness of fit below which the answer is 'unexplained'
+    heldout_alpha = 0.1       # level of the rerun's check on the held-out observables
     max_effects = 2
     refine = 2                # Gauss-Newton rounds simulating the leading effects at their fits
     confirm_rounds = 2        # refits after a rerun that contradicts the fit
@@ -76,6 +77,7 @@ class SimConfig:
     alpha: float = 0.05
     select_alpha: float = 0.01
     gof_alpha: float = 0.01
+    heldout_alpha: float = 0.1
     max_effects: int = 2
     refine: int = 2
     confirm_rounds: int = 2
@@ -92,6 +94,7 @@ class SimConfig:
         return dict(replicates=self.replicates, top_up=self.top_up,
                     seed=self.seed if seed is None else int(seed), alpha=self.alpha,
                     select_alpha=self.select_alpha, gof_alpha=self.gof_alpha,
+                    heldout_alpha=self.heldout_alpha,
                     max_effects=self.max_effects, refine=self.refine,
                     confirm_rounds=self.confirm_rounds, partial_shrink=self.partial_shrink,
                     bounds=self.bounds)
@@ -112,7 +115,7 @@ class SimConfig:
                 "bounds": parameter_bounds(self.nuisance, self.bounds),
                 "effects": [e.name for e in self.effects], "replicates": self.replicates,
                 "top_up": self.top_up, "seed": self.seed, "alpha": self.alpha, "select_alpha": self.select_alpha,
-                "gof_alpha": self.gof_alpha,
+                "gof_alpha": self.gof_alpha, "heldout_alpha": self.heldout_alpha,
                 "max_effects": self.max_effects, "refine": self.refine,
                 "confirm_rounds": self.confirm_rounds, "partial_shrink": self.partial_shrink,
                 "library": dict(self.library),
@@ -273,6 +276,7 @@ def load_sim_config(path) -> SimConfig:
                     alpha=_get(dg, "alpha", float, f"{p} [diagnosis]", 0.05),
                     select_alpha=_get(dg, "select_alpha", float, f"{p} [diagnosis]", 0.01),
                     gof_alpha=_get(dg, "gof_alpha", float, f"{p} [diagnosis]", 0.01),
+                    heldout_alpha=_get(dg, "heldout_alpha", float, f"{p} [diagnosis]", 0.1),
                     max_effects=_get(dg, "max_effects", int, f"{p} [diagnosis]", 2),
                     refine=_get(dg, "refine", int, f"{p} [diagnosis]", 2),
                     confirm_rounds=_get(dg, "confirm_rounds", int, f"{p} [diagnosis]", 2),
@@ -284,7 +288,7 @@ def load_sim_config(path) -> SimConfig:
     if cfg.top_up < 0:
         raise ConfigError(f"{p} [simulator]: key 'top_up': expected an integer >= 0; "
                           f"got {cfg.top_up}")
-    for key in ("alpha", "select_alpha", "gof_alpha"):
+    for key in ("alpha", "select_alpha", "gof_alpha", "heldout_alpha"):
         if not 0 < getattr(cfg, key) < 1:
             raise ConfigError(f"{p} [diagnosis]: key {key!r} must lie in (0, 1); got {getattr(cfg, key)}")
     for key in ("refine", "confirm_rounds"):
@@ -294,8 +298,8 @@ def load_sim_config(path) -> SimConfig:
     if not 0 <= cfg.partial_shrink <= 1:
         raise ConfigError(f"{p} [diagnosis]: key 'partial_shrink' must lie in [0, 1]; "
                           f"got {cfg.partial_shrink}")
-    unknown = set(dg) - {"alpha", "select_alpha", "gof_alpha", "max_effects", "refine",
-                         "confirm_rounds", "partial_shrink"}
+    unknown = set(dg) - {"alpha", "select_alpha", "gof_alpha", "heldout_alpha", "max_effects",
+                         "refine", "confirm_rounds", "partial_shrink"}
     if unknown:
         raise ConfigError(f"{p} [diagnosis]: key {sorted(unknown)[0]!r}: unknown")
     unknown = set(sim) - {"kind", "replicates", "top_up", "seed", "noise"}

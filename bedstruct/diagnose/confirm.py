@@ -361,13 +361,6 @@ class Confirmation:
     extra_samples: np.ndarray | None = None
     rerun_seeds: tuple[int, ...] = ()
 
-    @property
-    def confirmed(self) -> bool:
-        """The last rerun fits the calibration and the held-out observables."""
-        ok = [p >= self.attribution.gof_alpha for p in (self.p_calibration, self.p_heldout)
-              if np.isfinite(p)]
-        return self.attribution.verdict == "attributed" and all(ok)
-
 
 def _bridge_variance(simulator, mags, names, design) -> np.ndarray:
     """Variance of an engine bridge's effect correction at magnitudes ``mags`` over the

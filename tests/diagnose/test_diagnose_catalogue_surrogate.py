@@ -136,10 +136,13 @@ def test_sim_config_file_and_engine_hook(tmp_path):
     assert cfg.base["friction"] == BASE_PARAMETERS["friction"]
     assert (cfg.refine, cfg.confirm_rounds) == (2, 2)     # the defaults of diagnose()
     assert cfg.diagnose_settings()["partial_shrink"] == 0.5
-    p.write_text('[diagnosis]\nrefine = 0\nconfirm_rounds = 1\npartial_shrink = 1.0\n')
+    assert cfg.diagnose_settings()["heldout_alpha"] == 0.1
+    p.write_text('[diagnosis]\nrefine = 0\nconfirm_rounds = 1\npartial_shrink = 1.0\n'
+                 'heldout_alpha = 0.01\n')
     cfg = load_sim_config(p)
     assert (cfg.refine, cfg.confirm_rounds) == (0, 1) and cfg.as_dict()["confirm_rounds"] == 1
     assert cfg.diagnose_settings()["partial_shrink"] == 1.0
+    assert cfg.diagnose_settings()["heldout_alpha"] == 0.01 and cfg.as_dict()["heldout_alpha"] == 0.01
     p.write_text('[simulator]\nkind = "engine"\n[engine]\npreset = "tiny"\n')
     sim = make_simulator(load_sim_config(p), _design(dict(name="aor", kind="static_angle")))
     assert sim.name == "engine"  # the engine simulator (not run here)
@@ -152,6 +155,7 @@ def test_sim_config_file_and_engine_hook(tmp_path):
                       ('[diagnosis]\nalpha = 2.0\n', "alpha"),
                       ('[diagnosis]\nconfirm_rounds = -1\n', "confirm_rounds"),
                       ('[diagnosis]\npartial_shrink = 1.5\n', "partial_shrink"),
+                      ('[diagnosis]\nheldout_alpha = 0.0\n', "heldout_alpha"),
                       ('[diagnosis]\nrefine = 1.5\n', "refine"),
                       ('[base]\nyoung = 1e9\n', "young")):
         p.write_text(text)
