@@ -302,6 +302,29 @@ def test_committed_blind_record_rescores_as_its_summary():
     assert s["ooc_count"] == [6, 10] and s["coverage_count"] == [15, 17]
 
 
+def test_committed_second_surrogate_blind_record_rescores_as_its_summary():
+    # frozen with the held-out check's level at 0.1; its comparison file holds the same
+    # twins' answers at 0.01
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-surrogate-2026-12-06"
+    truth = json.loads((rec / "truth.json").read_text())
+    assert json.loads((rec / "seal.json").read_text())["truth_sha256"] == _sha(rec / "truth.json")
+    results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
+    s = blind.score_benchmark(truth, results)
+    summary = json.loads((rec / "summary.json").read_text())
+    for key in ("top1_count", "null_false_count", "ooc_count", "coverage_count", "shrink_n",
+                "confusion"):
+        assert s[key] == summary[key], key
+    assert s["top1_count"] == [18, 20] and s["null_false_count"] == [0, 10]
+    assert s["ooc_count"] == [3, 10] and s["coverage_count"] == [18, 18]
+    assert truth["settings"]["sim"] == "surrogate"
+    cmp = json.loads((rec / "compare-heldout-001.json").read_text())
+    other = blind.score_benchmark(truth, {t: dict(r, shrink_measured=results[t]["shrink_measured"],
+                                                  gap_significant=results[t]["gap_significant"])
+                                          for t, r in cmp["answers"].items()})
+    assert other["top1_count"] == cmp["scores"]["top1_count"] == [19, 20]
+    assert other["ooc_count"] == cmp["scores"]["ooc_count"] == [3, 10]
+
+
 def test_committed_liggghts_blind_record_rescores_as_its_summary():
     """The blind LIGGGHTS batch: sealed truth and twin files, one result per twin (four
     diagnoses raised an error and count as wrong answers), scored as the docs quote."""
