@@ -287,36 +287,32 @@ def test_cli_command_end_to_end_fresh(tmp_path, capsys):
     _cli(tmp_path / "cli", 5, capsys)
 
 
-def test_committed_blind_record_rescores_as_its_summary():
-    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-surrogate-2026-12-03"
-    truth = json.loads((rec / "truth.json").read_text())
-    seal = json.loads((rec / "seal.json").read_text())
-    assert seal["truth_sha256"] == _sha(rec / "truth.json")
-    results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
-    s = blind.score_benchmark(truth, results)
-    summary = json.loads((rec / "summary.json").read_text())
-    for key in ("top1_count", "null_false_count", "ooc_count", "coverage_count", "shrink_n",
-                "confusion"):
-        assert s[key] == summary[key], key
-    assert s["top1_count"] == [17, 20] and s["null_false_count"] == [0, 10]
-    assert s["ooc_count"] == [6, 10] and s["coverage_count"] == [15, 17]
-
-
-def test_committed_second_surrogate_blind_record_rescores_as_its_summary():
-    # frozen with the held-out check's level at 0.1; its comparison file holds the same
-    # twins' answers at 0.01
-    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-surrogate-2026-12-06"
+def _surrogate_record(folder):
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / folder
     truth = json.loads((rec / "truth.json").read_text())
     assert json.loads((rec / "seal.json").read_text())["truth_sha256"] == _sha(rec / "truth.json")
     results = {p.stem: json.loads(p.read_text()) for p in (rec / "results").glob("*.json")}
+    return rec, truth, results
+
+
+@pytest.mark.parametrize("folder, top1, ooc, coverage", [
+    ("blind-surrogate-2026-12-03", [17, 20], [6, 10], [15, 17]),
+    # frozen with the held-out check's level at 0.1
+    ("blind-surrogate-2026-12-06", [18, 20], [3, 10], [18, 18])])
+def test_committed_surrogate_blind_records_rescore_as_their_summaries(folder, top1, ooc, coverage):
+    rec, truth, results = _surrogate_record(folder)
     s = blind.score_benchmark(truth, results)
     summary = json.loads((rec / "summary.json").read_text())
     for key in ("top1_count", "null_false_count", "ooc_count", "coverage_count", "shrink_n",
                 "confusion"):
         assert s[key] == summary[key], key
-    assert s["top1_count"] == [18, 20] and s["null_false_count"] == [0, 10]
-    assert s["ooc_count"] == [3, 10] and s["coverage_count"] == [18, 18]
-    assert truth["settings"]["sim"] == "surrogate"
+    assert s["top1_count"] == top1 and s["null_false_count"] == [0, 10]
+    assert s["ooc_count"] == ooc and s["coverage_count"] == coverage
+
+
+def test_second_surrogate_blind_record_compares_the_held_out_levels():
+    # the same twins' answers with the held-out check at 0.01
+    rec, truth, results = _surrogate_record("blind-surrogate-2026-12-06")
     cmp = json.loads((rec / "compare-heldout-001.json").read_text())
     other = blind.score_benchmark(truth, {t: dict(r, shrink_measured=results[t]["shrink_measured"],
                                                   gap_significant=results[t]["gap_significant"])
