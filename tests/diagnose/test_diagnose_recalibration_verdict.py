@@ -419,11 +419,12 @@ def test_the_held_out_check_fails_true_models_at_about_its_level_and_catches_an_
     # 40 draws each: the true model (A alone, held-out response 1.8 sigma per component)
     # is not confirmed in about 10 % of draws at most; with a held-out offset A does not
     # make, in most
-    true_fail = sum(diagnose(*_held_out_offset_case(s, 0.0, 1.0)[:2], base={"k": 1.0},
-                             effects=[toy_effect("A")],
-                             fingerprints=_held_out_offset_case(s, 0.0, 1.0)[2],
-                             refine=0).verdict != "attributed" for s in range(40))
-    real0, sim, fps = _held_out_offset_case(0)
+    true_fail = 0
+    for s in range(40):
+        real, sim, fps = _held_out_offset_case(s, 0.0, 1.0)
+        true_fail += diagnose(real, sim, base={"k": 1.0}, effects=[toy_effect("A")],
+                              fingerprints=fps, refine=0).verdict != "attributed"
+    _, sim, fps = _held_out_offset_case(0)
     caught = 0
     for s in range(40):
         real, _, _ = _held_out_offset_case(s)
