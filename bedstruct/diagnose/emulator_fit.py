@@ -127,7 +127,11 @@ def _replicate_deviations(lib: RunLibrary, scale: np.ndarray):
         if len(rows) < 2:
             continue
         y = lib.outputs[rows] / scale
-        out.append((lib.seeds[rows], y - np.nanmean(y, axis=0)))
+        ok = np.isfinite(y)
+        n_ok = ok.sum(axis=0)
+        # an observable with no reading in any replicate of the point has no mean (nan)
+        mean = np.where(n_ok > 0, np.where(ok, y, 0.0).sum(axis=0) / np.maximum(n_ok, 1), np.nan)
+        out.append((lib.seeds[rows], y - mean))
     return out
 
 

@@ -289,3 +289,38 @@ def test_engine_simulator_library_key_covers_its_config_and_code():
     assert {"dem", "engines", "workflows", "io", "analysis"} <= set(doc["code"])
     other = library_key_document(diagnosis_simulator(design, {"preset": "small"}), spec)
     assert library_key(other) != library_key(doc)
+
+
+class NoReadingAbove(Smooth):
+    """:class:`Smooth` with a second angle that gives no reading where the wall friction
+    is above 0.2 (every replicate of such a point: a trial that gave no reading)."""
+
+    name = "smooth-no-reading"
+
+    def __init__(self):
+        super().__init__()
+        second = measurement_from_dict({"name": "aor2", "kind": "static_angle",
+                                        "role": "validate", "uncertainty": 0.5, "value": 30.0})
+        self.design = MeasurementSet(self.design.measurements + (second,))
+
+    def __call__(self, base, effects, seed):
+        obs = super().__call__(base, effects, seed)
+        w = effects.get("wall_friction", 0.0)
+        return Observations({"aor": obs["aor"], "aor2": [np.nan if w > 0.2 else obs["aor"][0] - 3.0]})
+
+
+def test_points_whose_replicates_all_gave_no_reading_fit_without_warnings(tmp_path):
+    import warnings
+
+    sim = NoReadingAbove()
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=4, n_per_effect=12,
+                       replicates=2)
+    lib = build_library(sim, spec, tmp_path, progress=False)
+    col = list(lib.names).index("aor2")
+    assert np.isnan(lib.outputs[:, col]).any() and np.isfinite(lib.outputs[:, col]).any()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        emu = fit_emulator(lib)
+    # the runs that read it still teach the emulator the offset of the second angle
+    p = emu.predict({}, {"wall_friction": 0.0})
+    assert p.mean[col] - p.mean[list(lib.names).index("aor")] == pytest.approx(-3.0, abs=0.3)
