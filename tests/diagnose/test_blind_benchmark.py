@@ -736,3 +736,26 @@ def test_the_benchmark_command_scores_sealed_folders(capsys):
     assert "top-1 10/20 (0.272-0.728, 4 of them partial" in out
     assert main(["diagnose", "benchmark", "--score", six, "--out", "x"]) != 0
     assert "--out does not apply" in capsys.readouterr().err
+
+
+def test_twin_run_scatter_is_the_sample_sd_and_zero_where_fewer_than_two_repeats_read():
+    """A DEM twin's run scatter: numpy's sample standard deviation over the repeats that
+    gave a reading, bit for bit, 0 where one or none did, with no RuntimeWarning."""
+    import warnings
+
+    from bedstruct.diagnose.validation.blind_twins import _run_scatter
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        y = rng.normal(30.0, 3.0, (3, 4))
+        y[rng.random((3, 4)) < 0.3] = np.nan
+        n = np.isfinite(y).sum(axis=0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            got = _run_scatter(list(y))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            want = np.where(n >= 2, np.nanstd(y, axis=0, ddof=1), 0.0)
+        np.testing.assert_array_equal(got, want)
+    assert _run_scatter([[1.0, np.nan], [np.nan, np.nan], [3.0, np.nan]]).tolist() == [
+        pytest.approx(np.sqrt(2.0)), 0.0]

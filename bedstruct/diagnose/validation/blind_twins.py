@@ -442,6 +442,18 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
                                         "overrides": [f"engine={engine}", *overrides]})
 
 
+def _run_scatter(readings) -> np.ndarray:
+    """Sample standard deviation of the repeats' readings per component; 0 where fewer
+    than two repeats gave a reading (no scatter can be estimated from one)."""
+    y = np.array([np.atleast_1d(np.asarray(r, float)) for r in readings])
+    ok = np.isfinite(y)
+    n = ok.sum(axis=0)
+    yz = np.where(ok, y, 0.0)
+    mean = yz.sum(axis=0) / np.maximum(n, 1)
+    ss = (np.where(ok, y - mean, 0.0) ** 2).sum(axis=0)
+    return np.where(n >= 2, np.sqrt(ss / np.maximum(n - 1, 1)), 0.0)
+
+
 def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path, *,
                       preset: str = "tiny", repeats: int | None = None,
                       title: str | None = None, source: str = "blind benchmark twin") -> Path:
@@ -451,7 +463,8 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
     engine) plus reading noise, with uncertainty ``sqrt(reading**2 + run_sd**2 / repeats)``
     where ``run_sd`` is the surrogate's replicate scatter at the base point
     (:meth:`SurrogateSimulator.noise_sd`) or, on a DEM engine, the sample standard
-    deviation of the twin's own repeats. The title (default the twin's id) and the file
+    deviation of the twin's own repeats (0 for a component fewer than two repeats read).
+    The title (default the twin's id) and the file
     say nothing of the truth. The design's set-up (its ``[conditions]``: PSD, layers, blade
     speed, platform, side walls), which the DEM engines' runs reproduce, and its notes are
     written to the file; ``source`` is its ``[meta] source`` and every observable's
@@ -465,8 +478,7 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
     if engine == "surrogate":
         run_sd = sim.noise_sd()
     else:
-        run_sd = {m.name: np.nan_to_num(np.nanstd([r[m.name] for r in runs], axis=0, ddof=1))
-                  for m in design}
+        run_sd = {m.name: _run_scatter([r[m.name] for r in runs]) for m in design}
     values, stated = {}, {}
     for m in design:
         vals = np.array([np.asarray(r[m.name], float)
