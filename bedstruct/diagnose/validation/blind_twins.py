@@ -483,7 +483,10 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
     for m in design:
         vals = np.array([np.asarray(r[m.name], float)
                          + m.uncertainty * rng.standard_normal(m.n_components) for r in runs])
-        values[m.name] = np.nanmean(vals, axis=0)
+        n_read = np.isfinite(vals).sum(axis=0)
+        # no value where no repeat gave a reading (the observable is left out below)
+        values[m.name] = np.where(n_read > 0, np.where(np.isfinite(vals), vals, 0.0).sum(axis=0)
+                                  / np.maximum(n_read, 1), np.nan)
         stated[m.name] = np.sqrt(m.uncertainty ** 2 + np.asarray(run_sd[m.name]) ** 2 / repeats)
     bad = [m.name for m in design if not np.all(np.isfinite(values[m.name]))]
     keep = tuple(m for m in design if m.name not in bad)
