@@ -504,6 +504,46 @@ def test_committed_second_twoprobe_liggghts_blind_record_rescores_and_pools():
     np.testing.assert_allclose(pooled["ooc_ci"], [0.4572, 0.8811], atol=5e-5)
 
 
+def test_committed_heldout_liggghts_blind_record_rescores_as_its_summary():
+    """The ninth blind LIGGGHTS batch (the held-out check at its own level, 0.1) scores as
+    the docs quote, and its comparison at 0.01 (made after scoring) rescores too."""
+    s = _rescore_sealed_liggghts_record("blind-liggghts-heldout-2026-12-06", "ac52df9",
+                                        20261211)
+    rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
+           / "blind-liggghts-heldout-2026-12-06")
+    truth = json.loads((rec / "truth.json").read_text())
+    assert truth["settings"]["bridge"]["probes"] == "reference"
+    assert truth["settings"]["diagnose_settings"] == "defaults"
+    assert s["draw"] == "detectable"
+    assert s["top1_count"] == [13, 20] and s["top1_partial_count"] == [4, 13]
+    assert s["top1_detected_count"] == [13, 20]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [8, 10]
+    assert s["ooc_detected_count"] == [8, 9]
+    assert s["coverage_count"] == [8, 13]
+    assert s["shrink_n"] == 20 and abs(s["shrink_median"] - 0.8616) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.4078, 0.8461], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.4439, 0.9748], atol=5e-5)
+    # the confusion by type: non-sphericity 8 of 10, missing fines 5 of 10 named first
+    conf = s["confusion"]
+    row = {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
+    assert row["non_sphericity"]["non_sphericity"] == 8
+    assert row["non_sphericity"]["unexplained"] == 2
+    assert row["missing_fines"]["missing_fines"] == 5 and row["missing_fines"]["unexplained"] == 5
+    assert row["null"]["none"] == 10
+    cmp = json.loads((rec / "compare-heldout-001.json").read_text())
+    from bedstruct.diagnose.validation import blind
+    for label, top1, ooc in (("0.1", [13, 20], [8, 10]), ("0.01", [14, 20], [6, 10])):
+        answers = cmp[label]["answers"]
+        assert set(answers) == set(truth["twins"])
+        res = {t: dict(json.loads((rec / "results" / f"{t}.json").read_text()), **a)
+               for t, a in answers.items()}
+        again = blind.score_benchmark(truth, res)
+        assert again["top1_count"] == top1 and again["ooc_count"] == ooc, label
+        assert again["null_false_count"] == [0, 10], label
+        assert cmp[label]["scores"]["top1_count"] == top1
+        assert cmp[label]["scores"]["ooc_count"] == ooc
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):

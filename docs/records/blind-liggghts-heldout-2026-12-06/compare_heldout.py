@@ -44,8 +44,9 @@ def main(out: str) -> None:
     for label, r in (("0.1", blind), ("0.01", res)):
         s = score_benchmark(truth, r)
         doc[label] = {"scores": {k: s[k] for k in KEYS},
-                      "answers": {t: {"answer": x["answer"], "partial": x["partial"],
-                                      "shrink": x["shrink"]} for t, x in sorted(r.items())}}
+                      "answers": {t: {"answer": x["answer"], "verdict": x["verdict"],
+                                      "partial": x["partial"], "shrink": x["shrink"]}
+                                  for t, x in sorted(r.items())}}
         print(label, json.dumps(doc[label]["scores"]), flush=True)
     Path(out).write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n")
 
