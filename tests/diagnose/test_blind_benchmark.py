@@ -701,7 +701,7 @@ def test_detectable_draw_takes_magnitudes_the_diagnosing_model_detects():
 def test_the_benchmark_records_how_it_drew_the_magnitudes(bench):
     out, res, _ = bench
     truth = json.loads((out / "truth.json").read_text())
-    assert truth["protocol"] == "bedstruct.blind/3"
+    assert truth["protocol"] == "bedstruct.blind/4"
     st = truth["settings"]
     assert st["draw"] == "detectable" and "95" in st["effect_magnitudes"]
     for t in truth["twins"].values():
@@ -799,3 +799,37 @@ def test_twin_run_scatter_is_the_sample_sd_and_zero_where_fewer_than_two_repeats
         np.testing.assert_array_equal(got, want)
     assert _run_scatter([[1.0, np.nan], [np.nan, np.nan], [3.0, np.nan]]).tolist() == [
         pytest.approx(np.sqrt(2.0)), 0.0]
+
+
+def test_a_dem_twin_leaves_out_observables_fewer_than_two_repeats_read(tmp_path, monkeypatch):
+    """A DEM twin's file states an observable only where at least two of its repeats read
+    every component (one reading gives no run scatter); its uncertainty is that of the mean
+    over the repeats that read it."""
+    from bedstruct.diagnose import MeasurementSet, Observations, measurement_from_dict
+    from bedstruct.diagnose.validation import blind_twins as bt
+
+    def m(name, u):
+        return measurement_from_dict({"name": name, "kind": "static_angle", "unit": "deg",
+                                      "role": "calibrate", "uncertainty": u, "value": 30.0})
+
+    design = MeasurementSet((m("all_read", 0.5), m("two_read", 0.5), m("one_read", 0.5),
+                             m("none_read", 0.5)))
+    readings = {"all_read": [30.0, 31.0, 32.0], "two_read": [30.0, np.nan, 34.0],
+                "one_read": [np.nan, 23.0, np.nan], "none_read": [np.nan] * 3}
+
+    class Repeats:
+        calls = 0
+
+        def __call__(self, base, effects, seed):
+            k = Repeats.calls
+            Repeats.calls += 1
+            return Observations({name: [v[k]] for name, v in readings.items()})
+
+    monkeypatch.setattr(bt, "twin_simulator", lambda *a, **k: Repeats())
+    spec = TwinSpec("twin-000", "null", None, None, 1.0, 7)
+    ms = load_measurements(bt.twin_measurements(spec, "liggghts", design, tmp_path / "t.toml"),
+                           check_range=False)
+    assert ms.names == ("all_read", "two_read")
+    got = {x.name: float(np.asarray(x.uncertainty)[0]) for x in ms}
+    assert got["all_read"] == pytest.approx(np.sqrt(0.5 ** 2 + 1.0 ** 2 / 3))
+    assert got["two_read"] == pytest.approx(np.sqrt(0.5 ** 2 + np.std([30.0, 34.0], ddof=1) ** 2 / 2))

@@ -75,8 +75,10 @@ __all__ = ["PROTOCOL", "DRAWS", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmar
 
 #: Revision of the protocol, in ``truth.json`` (2: the ``draw`` setting, effect magnitudes
 #: where the diagnosing model detects them; 3: in that draw, out-of-catalogue changes over
-#: the magnitudes where the twin engine's twins of them are seen).
-PROTOCOL = "bedstruct.blind/3"
+#: the magnitudes where the twin engine's twins of them are seen; 4: a DEM twin's file leaves
+#: out an observable fewer than two of its repeats read, and states the uncertainty of a mean
+#: over the repeats that read it).
+PROTOCOL = "bedstruct.blind/4"
 #: How effect magnitudes may be drawn (:func:`run_benchmark`).
 DRAWS = ("detectable", "prior")
 #: Level of the held-out gap test before: shrink counts where ``p_before`` is below it.

@@ -444,7 +444,8 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
 
 def _run_scatter(readings) -> np.ndarray:
     """Sample standard deviation of the repeats' readings per component; 0 where fewer
-    than two repeats gave a reading (no scatter can be estimated from one)."""
+    than two repeats gave a reading (no scatter can be estimated from one: such a component
+    is left out of a DEM twin's file)."""
     y = np.array([np.atleast_1d(np.asarray(r, float)) for r in readings])
     ok = np.isfinite(y)
     n = ok.sum(axis=0)
@@ -460,11 +461,14 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
     """Make twin ``spec`` on ``engine`` and write its measurement file to ``path``.
 
     The file states the mean of ``repeats`` runs (default 1 on the surrogate, 3 on a DEM
-    engine) plus reading noise, with uncertainty ``sqrt(reading**2 + run_sd**2 / repeats)``
-    where ``run_sd`` is the surrogate's replicate scatter at the base point
-    (:meth:`SurrogateSimulator.noise_sd`) or, on a DEM engine, the sample standard
-    deviation of the twin's own repeats (0 for a component fewer than two repeats read).
-    The title (default the twin's id) and the file
+    engine) plus reading noise, with uncertainty ``sqrt(reading**2 + run_sd**2 / n)`` over
+    the ``n`` runs that gave a reading, where ``run_sd`` is the surrogate's replicate
+    scatter at the base point (:meth:`SurrogateSimulator.noise_sd`) or, on a DEM engine, the
+    sample standard deviation of the twin's own repeats. An observable is left out of the
+    file where no run read a component or, on a DEM engine, fewer than two did: one reading
+    gives no scatter, and the reading noise alone would understate its uncertainty (a single
+    dynamic-angle reading far from the others' typical value, stated to its reading noise,
+    departs from any model by tens of that noise). The title (default the twin's id) and the file
     say nothing of the truth. The design's set-up (its ``[conditions]``: PSD, layers, blade
     speed, platform, side walls), which the DEM engines' runs reproduce, and its notes are
     written to the file; ``source`` is its ``[meta] source`` and every observable's
@@ -484,10 +488,12 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
         vals = np.array([np.asarray(r[m.name], float)
                          + m.uncertainty * rng.standard_normal(m.n_components) for r in runs])
         n_read = np.isfinite(vals).sum(axis=0)
-        # no value where no repeat gave a reading (the observable is left out below)
-        values[m.name] = np.where(n_read > 0, np.where(np.isfinite(vals), vals, 0.0).sum(axis=0)
+        # no value where too few repeats gave a reading (the observable is left out below)
+        enough = n_read >= (1 if engine == "surrogate" else 2)
+        values[m.name] = np.where(enough, np.where(np.isfinite(vals), vals, 0.0).sum(axis=0)
                                   / np.maximum(n_read, 1), np.nan)
-        stated[m.name] = np.sqrt(m.uncertainty ** 2 + np.asarray(run_sd[m.name]) ** 2 / repeats)
+        stated[m.name] = np.sqrt(m.uncertainty ** 2
+                                 + np.asarray(run_sd[m.name]) ** 2 / np.maximum(n_read, 1))
     bad = [m.name for m in design if not np.all(np.isfinite(values[m.name]))]
     keep = tuple(m for m in design if m.name not in bad)
     ms = replace(design, measurements=keep, title=title or spec.twin, source=source, path=None)
