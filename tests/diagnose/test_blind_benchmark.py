@@ -544,6 +544,41 @@ def test_committed_heldout_liggghts_blind_record_rescores_as_its_summary():
         assert cmp[label]["scores"]["ooc_count"] == ooc
 
 
+def test_the_ninth_batchs_missed_missing_fines_twins_state_single_readings():
+    """The docs' account of the ninth batch's missing-fines misses: the six files whose x5
+    dynamic angle has a stated uncertainty equal to the design's reading noise (one LIGGGHTS
+    reading, no scatter) hold the five twins answered `unexplained`; the four files without
+    that angle were named first; no other file states a single reading but one held-out x2
+    angle."""
+    import tomllib
+
+    from bedstruct.diagnose.validation.blind_twins import benchmark_design
+
+    rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
+           / "blind-liggghts-heldout-2026-12-06")
+    truth = json.loads((rec / "truth.json").read_text())["twins"]
+    noise = {m.name: np.atleast_1d(np.asarray(m.uncertainty, float))
+             for m in benchmark_design("liggghts")}
+    single, without_x5 = {}, []
+    for t in sorted(truth):
+        obs = tomllib.loads((rec / "twins" / f"{t}.toml").read_text())["observable"]
+        names = [o["name"] for o in obs]
+        single[t] = [o["name"] for o in obs
+                     if np.any(np.asarray(o["uncertainty"], float) == noise[o["name"]])]
+        if truth[t].get("effect") == "missing_fines" and "dynamic_angle_x5_steady" not in names:
+            without_x5.append(t)
+    answers = {t: json.loads((rec / "results" / f"{t}.json").read_text())["answer"]
+               for t in truth}
+    x5 = sorted(t for t, v in single.items() if "dynamic_angle_x5_steady" in v)
+    assert len(x5) == 6 and all(truth[t]["effect"] == "missing_fines" for t in x5)
+    fines_missed = sorted(t for t in truth if truth[t].get("effect") == "missing_fines"
+                          and answers[t] != "missing_fines")
+    assert len(fines_missed) == 5 and set(fines_missed) <= set(x5)
+    assert len(without_x5) == 4 and all(answers[t] == "missing_fines" for t in without_x5)
+    others = {t: v for t, v in single.items() if v and t not in x5}
+    assert others == {"twin-017": ["dynamic_angle_x2_steady"]}
+
+
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],
                                     ["--refine", "1"]])
 def test_the_benchmark_refuses_options_it_would_ignore(tmp_path, monkeypatch, capsys, option):
