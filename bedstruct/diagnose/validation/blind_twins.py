@@ -442,16 +442,21 @@ def twin_simulator(engine: str, design: MeasurementSet, *, preset: str = "tiny",
                                         "overrides": [f"engine={engine}", *overrides]})
 
 
+def _read_mean(y) -> tuple[np.ndarray, np.ndarray]:
+    """Mean over the rows of ``y`` that gave a reading (finite), per column, and their
+    number (the mean is 0 where none did)."""
+    ok = np.isfinite(y)
+    n = ok.sum(axis=0)
+    return np.where(ok, y, 0.0).sum(axis=0) / np.maximum(n, 1), n
+
+
 def _run_scatter(readings) -> np.ndarray:
     """Sample standard deviation of the repeats' readings per component; 0 where fewer
     than two repeats gave a reading (no scatter can be estimated from one: such a component
     is left out of a DEM twin's file)."""
     y = np.array([np.atleast_1d(np.asarray(r, float)) for r in readings])
-    ok = np.isfinite(y)
-    n = ok.sum(axis=0)
-    yz = np.where(ok, y, 0.0)
-    mean = yz.sum(axis=0) / np.maximum(n, 1)
-    ss = (np.where(ok, y - mean, 0.0) ** 2).sum(axis=0)
+    mean, n = _read_mean(y)
+    ss = (np.where(np.isfinite(y), y - mean, 0.0) ** 2).sum(axis=0)
     return np.where(n >= 2, np.sqrt(ss / np.maximum(n - 1, 1)), 0.0)
 
 
@@ -487,11 +492,9 @@ def twin_measurements(spec: TwinSpec, engine: str, design: MeasurementSet, path,
     for m in design:
         vals = np.array([np.asarray(r[m.name], float)
                          + m.uncertainty * rng.standard_normal(m.n_components) for r in runs])
-        n_read = np.isfinite(vals).sum(axis=0)
+        mean, n_read = _read_mean(vals)
         # no value where too few repeats gave a reading (the observable is left out below)
-        enough = n_read >= (1 if engine == "surrogate" else 2)
-        values[m.name] = np.where(enough, np.where(np.isfinite(vals), vals, 0.0).sum(axis=0)
-                                  / np.maximum(n_read, 1), np.nan)
+        values[m.name] = np.where(n_read >= (1 if engine == "surrogate" else 2), mean, np.nan)
         stated[m.name] = np.sqrt(m.uncertainty ** 2
                                  + np.asarray(run_sd[m.name]) ** 2 / np.maximum(n_read, 1))
     bad = [m.name for m in design if not np.all(np.isfinite(values[m.name]))]
