@@ -549,7 +549,7 @@ def test_the_ninth_batchs_missed_missing_fines_twins_state_single_readings():
     dynamic angle has a stated uncertainty equal to the design's reading noise (one LIGGGHTS
     reading, no scatter) hold the five twins answered `unexplained`; the four files without
     that angle were named first; no other file states a single reading but one held-out x2
-    angle."""
+    angle; and no library run with missing fines at the twins' fractions read that angle."""
     import tomllib
 
     from bedstruct.diagnose.validation.blind_twins import benchmark_design
@@ -577,6 +577,15 @@ def test_the_ninth_batchs_missed_missing_fines_twins_state_single_readings():
     assert len(without_x5) == 4 and all(answers[t] == "missing_fines" for t in without_x5)
     others = {t: v for t, v in single.items() if v and t not in x5}
     assert others == {"twin-017": ["dynamic_angle_x2_steady"]}
+    # the model's side: of the library's runs with missing fines, only those at the lowest
+    # fraction read the x5 angle, so the emulator has no value of it at the twins' fractions
+    runs = [json.loads(p.read_text()) for p in (rec / "library" / "runs").glob("*.json")]
+    fines_runs = [r for r in runs if r["effects"].get("missing_fines", 0.0) > 0.0]
+    read = [r["effects"]["missing_fines"] for r in fines_runs
+            if np.isfinite(r["observations"]["dynamic_angle_x5_steady"][0])]
+    assert len(fines_runs) == 8 and len(read) == 2 and max(read) < 0.02
+    lowest = min(truth[t]["magnitude"] for t in x5)
+    assert lowest > 2 * max(read)
 
 
 @pytest.mark.parametrize("option", [["--np", "2"], ["--jobs", "2"], ["--cache", "C"],

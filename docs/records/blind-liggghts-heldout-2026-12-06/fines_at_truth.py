@@ -6,10 +6,20 @@ not part of the blind score):
     cd /tmp/frozen && PYTHONPATH=/tmp/frozen python \
         /work/main/docs/records/blind-liggghts-heldout-2026-12-06/fines_at_truth.py OUT.json
 
-For each missing-fines twin, the bridged emulator (the batch's run library and LIGGGHTS
-bridge, as the diagnosis reads them) is evaluated at the twin's true fraction and true
-cohesion, and each observable's departure from the twin's measured value is written in units
-of the twin's stated uncertainty: what the diagnosis could not fit even at the truth.
+The diagnosing model is read as the diagnosis reads it: the emulator of the batch's run
+library and the LIGGGHTS bridge. For each missing-fines twin and each observable component:
+
+- ``measured``: the twin's value in the embedded engine's frame (LIGGGHTS' baseline offset
+  taken off, as the diagnosis does: ``EngineBridge.apply``);
+- ``model``: the emulator's mean at the twin's true fraction and cohesion plus the bridge's
+  shift for missing fines (its response in LIGGGHTS), no noise drawn;
+- ``z``: their difference over the uncertainty the diagnosis counts for a known model (the
+  file's stated uncertainty with the bridge's offset and shift uncertainties);
+- ``emulator_sd``: the emulator's uncertainty of its own mean there, which the diagnosis does
+  not count, and ``z_with_emulator_sd``: the difference with it counted.
+
+``library_readings`` gives, per observable, how many of the library's runs with missing fines
+on read it, and ``run_sd_base`` one run's scatter at the base point (the emulator's noise).
 """
 import json
 import sys
@@ -17,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bedstruct.diagnose.emulator import EmulatedSimulator
 from bedstruct.diagnose.measurement_io import load_measurements
 from bedstruct.diagnose.validation.blind import _benchmark_bridge, _emulator, _sim_config
 from bedstruct.diagnose.validation.blind_twins import benchmark_design
@@ -26,15 +35,30 @@ HERE = Path(__file__).resolve().parent
 SIM = "data/measurements/blind-engine-tiny-probed2.sim.toml"
 
 
+def _round(a, nd=3):
+    return [round(float(x), nd) for x in np.atleast_1d(a)]
+
+
 def main(out: str) -> None:
     truth = json.loads((HERE / "truth.json").read_text())["twins"]
     design = benchmark_design("liggghts")
     emu = _emulator(SIM, None, design, HERE / "library", 1, None, False)
     bridge = _benchmark_bridge(SIM, None, design, emu, HERE / "library", False, 1)
     cfg = _sim_config(SIM, None)
-    model = bridge.simulator(EmulatedSimulator(emu))
-    doc = {"what": "z = (measured - bridged model at the true fraction and cohesion) / stated "
-                   "uncertainty, per observable component, for each missing-fines twin",
+    p0 = emu.predict(dict(cfg.base), {})
+    run_sd = emu.by_observable(p0.noise_sd)
+    runs = [json.loads(p.read_text()) for p in sorted((HERE / "library" / "runs").glob("*.json"))]
+    fines_runs = [r for r in runs if r["effects"].get("missing_fines", 0.0) > 0.0]
+    readings = {}
+    for name in emu.names:
+        read = [r["effects"]["missing_fines"] for r in fines_runs
+                if np.all(np.isfinite(np.asarray(r["observations"][name], float)))]
+        readings[name] = {"runs": len(fines_runs), "read": len(read),
+                          "fractions_read": sorted({round(a, 4) for a in read})}
+    doc = {"what": "each missing-fines twin against the bridged model at its true fraction and "
+                   "cohesion (see fines_at_truth.py)",
+           "library_readings": readings,
+           "run_sd_base": {k: _round(v) for k, v in run_sd.items()},
            "twins": {}}
     fines = sorted((t for t, s in truth.items() if s.get("effect") == "missing_fines"),
                    key=lambda t: truth[t]["magnitude"])
@@ -42,18 +66,26 @@ def main(out: str) -> None:
         spec = truth[t]
         base = dict(cfg.base)
         base["cohesion_energy_density"] *= spec["cohesion_factor"]
-        pred = model(base, {"missing_fines": spec["magnitude"]}, 0)
-        ms = load_measurements(HERE / "twins" / f"{t}.toml", check_range=False)
+        effects = {"missing_fines": spec["magnitude"]}
+        p = emu.predict(base, effects)
+        mean, sd = emu.by_observable(p.mean), emu.by_observable(p.sd)
+        shift, shift_sd = bridge.correction(effects)
+        ms = bridge.apply(load_measurements(HERE / "twins" / f"{t}.toml", check_range=False))
         res = json.loads((HERE / "results" / f"{t}.json").read_text())
-        z = {}
+        rows = {}
         for m in ms:
-            v = np.atleast_1d(np.asarray(m.values, float))
-            p = np.atleast_1d(np.asarray(pred[m.name], float))
-            u = np.atleast_1d(np.asarray(m.uncertainty, float))
-            z[m.name] = {"role": m.role, "z": [round(float(x), 2) for x in (v - p) / u]}
+            y = np.atleast_1d(np.asarray(m.values, float))
+            model = mean[m.name] + shift.get(m.name, 0.0)
+            s_known = np.sqrt(np.asarray(m.uncertainty, float) ** 2
+                              + np.asarray(shift_sd.get(m.name, 0.0)) ** 2)
+            rows[m.name] = {"role": m.role, "measured": _round(y), "model": _round(model),
+                            "z": _round((y - model) / s_known, 2),
+                            "emulator_sd": _round(sd[m.name]),
+                            "z_with_emulator_sd": _round((y - model)
+                                                         / np.hypot(s_known, sd[m.name]), 2)}
         doc["twins"][t] = {"magnitude": spec["magnitude"], "answer": res["answer"],
-                           "partial": res["partial"], "z": z}
-        worst = sorted(((abs(c), k) for k, e in z.items() for c in e["z"]), reverse=True)[:3]
+                           "partial": res["partial"], "observables": rows}
+        worst = sorted(((abs(c), k) for k, e in rows.items() for c in e["z"]), reverse=True)[:2]
         print(t, round(spec["magnitude"], 3), res["answer"], [(k, round(c, 1)) for c, k in worst])
     Path(out).write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n")
 
