@@ -544,6 +544,52 @@ def test_committed_heldout_liggghts_blind_record_rescores_as_its_summary():
         assert cmp[label]["scores"]["ooc_count"] == ooc
 
 
+def test_committed_protocol4_liggghts_blind_record_rescores_as_its_summary():
+    """The tenth blind LIGGGHTS batch (the ninth's method, twins made under protocol 4)
+    scores as the docs quote, and no twin file states an observable fewer than two of its
+    repeats read."""
+    import tomllib
+
+    from bedstruct.diagnose.validation.blind_twins import benchmark_design
+
+    s = _rescore_sealed_liggghts_record("blind-liggghts-protocol4-2026-12-06", "79b29f3",
+                                        20261212)
+    rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
+           / "blind-liggghts-protocol4-2026-12-06")
+    truth = json.loads((rec / "truth.json").read_text())
+    assert truth["protocol"] == "bedstruct.blind/4"
+    assert truth["settings"]["bridge"]["probes"] == "reference"
+    assert truth["settings"]["diagnose_settings"] == "defaults"
+    assert s["draw"] == "detectable"
+    assert s["top1_count"] == [16, 20] and s["top1_partial_count"] == [6, 16]
+    assert s["top1_detected_count"] == [16, 20]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [9, 10]
+    assert s["ooc_detected_count"] == [9, 10]
+    assert s["coverage_count"] == [13, 16]
+    assert s["shrink_n"] == 20 and abs(s["shrink_median"] - 0.9272) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.5634, 0.9427], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.5550, 0.9975], atol=5e-5)
+    conf = s["confusion"]
+    row = {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
+    assert row["missing_fines"]["missing_fines"] == 9 and row["missing_fines"]["unexplained"] == 1
+    assert row["non_sphericity"]["non_sphericity"] == 7
+    assert row["non_sphericity"]["unexplained"] == 3
+    assert row["null"]["none"] == 10
+    # protocol 4 on the committed files: a stated uncertainty equal to the design's reading
+    # noise marks a single reading unless the repeats agreed exactly (a region that every
+    # repeat left empty reads 0 with no scatter)
+    noise = {m.name: np.atleast_1d(np.asarray(m.uncertainty, float))
+             for m in benchmark_design("liggghts")}
+    left_out = 0
+    for t in truth["twins"]:
+        obs = tomllib.loads((rec / "twins" / f"{t}.toml").read_text())["observable"]
+        left_out += len(set(noise) - {o["name"] for o in obs})
+        for o in obs:
+            if np.any(np.asarray(o["uncertainty"], float) == noise[o["name"]]):
+                assert o["kind"] == "packing_fraction" and abs(o["value"][0]) < 0.02, (t, o)
+    assert left_out == 11
+
+
 def test_the_ninth_batchs_missed_missing_fines_twins_state_single_readings():
     """The docs' account of the ninth batch's missing-fines misses: the six files whose x5
     dynamic angle has a stated uncertainty equal to the design's reading noise (one LIGGGHTS
