@@ -13,8 +13,8 @@ library and the LIGGGHTS bridge. For each missing-fines twin and each observable
   taken off, as the diagnosis does: ``EngineBridge.apply``);
 - ``model``: the emulator's mean at the twin's true fraction and cohesion plus the bridge's
   shift for missing fines (its response in LIGGGHTS), no noise drawn;
-- ``z``: their difference over the uncertainty the diagnosis counts for a known model (the
-  file's stated uncertainty with the bridge's offset and shift uncertainties);
+- ``z``: their difference over the file's stated uncertainty with the bridge's offset and
+  shift uncertainties (the diagnosis also counts the run scatter of its simulated mean);
 - ``emulator_sd``: the emulator's uncertainty of its own mean there, which the diagnosis does
   not count, and ``z_with_emulator_sd``: the difference with it counted.
 

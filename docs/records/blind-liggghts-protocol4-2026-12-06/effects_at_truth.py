@@ -13,8 +13,8 @@ library and the LIGGGHTS bridge. For each effect twin and each observable compon
   taken off, as the diagnosis does: ``EngineBridge.apply``);
 - ``model``: the emulator's mean at the twin's true magnitude and cohesion plus the bridge's
   shift for that effect (its response in LIGGGHTS), no noise drawn;
-- ``z``: their difference over the uncertainty the diagnosis counts for a known model (the
-  file's stated uncertainty with the bridge's offset and shift uncertainties);
+- ``z``: their difference over the file's stated uncertainty with the bridge's offset and
+  shift uncertainties (the diagnosis also counts the run scatter of its simulated mean);
 - ``emulator_sd``: the emulator's uncertainty of its own mean there.
 
 ``chi2`` sums ``z**2`` over the calibration and over the held-out components (with their
