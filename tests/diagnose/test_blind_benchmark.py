@@ -590,6 +590,50 @@ def test_committed_protocol4_liggghts_blind_record_rescores_as_its_summary():
     assert left_out == 11
 
 
+def test_committed_replicate_liggghts_blind_record_rescores_and_pools_as_the_docs_say():
+    """The eleventh blind LIGGGHTS batch (the tenth's method on a new draw) scores as the
+    docs quote alone and pooled with the tenth, as its README declared; no twin file states
+    an observable at a single reading."""
+    import tomllib
+
+    from bedstruct.diagnose.validation import blind
+    from bedstruct.diagnose.validation.blind_twins import benchmark_design
+
+    s = _rescore_sealed_liggghts_record("blind-liggghts-replicate-2026-12-06", "a4c08e9",
+                                        20261213)
+    records = Path(__file__).resolve().parents[2] / "docs" / "records"
+    rec = records / "blind-liggghts-replicate-2026-12-06"
+    truth = json.loads((rec / "truth.json").read_text())
+    assert truth["protocol"] == "bedstruct.blind/4" and s["draw"] == "detectable"
+    assert s["top1_count"] == [19, 20] and s["top1_partial_count"] == [5, 19]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [7, 10]
+    assert s["coverage_count"] == [12, 19]
+    assert s["shrink_n"] == 20 and s["shrink_median"] == 1.0
+    np.testing.assert_allclose(s["top1_ci"], [0.7513, 0.9987], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.3475, 0.9333], atol=5e-5)
+    conf = s["confusion"]
+    row = {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
+    assert row["missing_fines"]["missing_fines"] == 10
+    assert row["non_sphericity"]["non_sphericity"] == 9
+    assert row["youngs_modulus (out of catalogue)"]["capillary_bridges"] == 1
+    # the pooled scores the docs quote: every twin of the tenth and the eleventh, once
+    p = blind.pool_benchmarks([records / "blind-liggghts-protocol4-2026-12-06", rec])
+    assert p["top1_count"] == [35, 40] and p["null_false_count"] == [0, 20]
+    assert p["ooc_count"] == [16, 20] and p["coverage_count"] == [25, 35]
+    assert p["shrink_n"] == 40 and abs(p["shrink_median"] - 0.948) < 5e-4
+    np.testing.assert_allclose(p["top1_ci"], [0.7320, 0.9581], atol=5e-5)
+    # protocol 4 on the committed files: no single reading; the x5 angle left out of ten
+    noise = {m.name: np.atleast_1d(np.asarray(m.uncertainty, float))
+             for m in benchmark_design("liggghts")}
+    left_out = []
+    for t in truth["twins"]:
+        obs = tomllib.loads((rec / "twins" / f"{t}.toml").read_text())["observable"]
+        left_out += sorted(set(noise) - {o["name"] for o in obs})
+        for o in obs:
+            assert not np.any(np.asarray(o["uncertainty"], float) == noise[o["name"]]), (t, o)
+    assert len(left_out) == 16 and left_out.count("dynamic_angle_x5_steady") == 10
+
+
 def test_the_ninth_batchs_missed_missing_fines_twins_state_single_readings():
     """The docs' account of the ninth batch's missing-fines misses: the six files whose x5
     dynamic angle has a stated uncertainty equal to the design's reading noise (one LIGGGHTS
