@@ -117,6 +117,18 @@ def test_the_detectable_draw_takes_out_of_catalogue_changes_where_the_twin_engin
     assert "restitution" in {s.name for s in emb}
 
 
+def test_lammps_twins_draw_no_blade_bevel_its_moving_blade_has_none():
+    """LAMMPS' moving blade is the unbevelled slab: a blade-bevel twin would be a null twin
+    labelled out of catalogue, so the LAMMPS draw leaves the change out and says why."""
+    bevel = next(c for c in OUT_OF_CATALOGUE if c.name == "blade_bevel")
+    assert set(bevel.realised) == {"embedded", "liggghts"}
+    with pytest.raises(ConfigError, match="unbevelled"):
+        realisation(bevel, "lammps")
+    for seed in range(5):
+        ooc = {s.name for s in draw_twins(40, seed, "lammps") if s.kind == "out_of_catalogue"}
+        assert "blade_bevel" not in ooc and ooc
+
+
 def test_out_of_catalogue_visible_ranges_agree_with_their_measurements():
     rec = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records" / "ooc-visibility"
                       / "visibility.json").read_text())

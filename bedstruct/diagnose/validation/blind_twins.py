@@ -165,8 +165,9 @@ OUT_OF_CATALOGUE: tuple[OutOfCatalogueChange, ...] = (
         refused="the surrogate has no Young's modulus", visible={"liggghts": ((0.1, 0.19),)}),
     OutOfCatalogueChange(
         "blade_bevel", "blade bevel angle off the nominal", "factor", ((0.3, 0.6), (1.7, 3.0)),
-        _override("spread.bevel_deg"),
-        refused="the surrogate has no blade geometry",
+        {e: ("override", "spread.bevel_deg") for e in ("embedded", "liggghts")},
+        refused="the surrogate has no blade geometry, and LAMMPS' moving blade is the "
+                "unbevelled slab (docs/backends.md)",
         visible={"liggghts": ((0.34, 0.6), (1.7, 2.6))}),
     OutOfCatalogueChange(
         "second_psd_mode", "a second (coarse) mode in the particle size distribution",
