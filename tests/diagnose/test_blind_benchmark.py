@@ -361,6 +361,12 @@ def test_committed_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["top1_ci"], [0.0573, 0.4366], atol=5e-5)
 
 
+def _confusion_rows(summary: dict) -> dict:
+    """The summary's confusion matrix as ``{true type: {answer: count}}``."""
+    conf = summary["confusion"]
+    return {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
+
+
 def _rescore_sealed_liggghts_record(folder: str, commit: str, seed: int) -> dict:
     """Check a bridged LIGGGHTS blind record: the seal matches the committed truth and twin
     files, every twin has one result on its sealed file and no error, and the summary's
@@ -536,8 +542,7 @@ def test_committed_heldout_liggghts_blind_record_rescores_as_its_summary():
     np.testing.assert_allclose(s["top1_ci"], [0.4078, 0.8461], atol=5e-5)
     np.testing.assert_allclose(s["ooc_ci"], [0.4439, 0.9748], atol=5e-5)
     # the confusion by type: non-sphericity 8 of 10, missing fines 5 of 10 named first
-    conf = s["confusion"]
-    row = {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
+    row = _confusion_rows(s)
     assert row["non_sphericity"]["non_sphericity"] == 8
     assert row["non_sphericity"]["unexplained"] == 2
     assert row["missing_fines"]["missing_fines"] == 5 and row["missing_fines"]["unexplained"] == 5
@@ -581,8 +586,7 @@ def test_committed_protocol4_liggghts_blind_record_rescores_as_its_summary():
     assert s["shrink_n"] == 20 and abs(s["shrink_median"] - 0.9272) < 5e-4
     np.testing.assert_allclose(s["top1_ci"], [0.5634, 0.9427], atol=5e-5)
     np.testing.assert_allclose(s["ooc_ci"], [0.5550, 0.9975], atol=5e-5)
-    conf = s["confusion"]
-    row = {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
+    row = _confusion_rows(s)
     assert row["missing_fines"]["missing_fines"] == 9 and row["missing_fines"]["unexplained"] == 1
     assert row["non_sphericity"]["non_sphericity"] == 7
     assert row["non_sphericity"]["unexplained"] == 3
@@ -623,8 +627,7 @@ def test_committed_replicate_liggghts_blind_record_rescores_and_pools_as_the_doc
     assert s["shrink_n"] == 20 and s["shrink_median"] == 1.0
     np.testing.assert_allclose(s["top1_ci"], [0.7513, 0.9987], atol=5e-5)
     np.testing.assert_allclose(s["ooc_ci"], [0.3475, 0.9333], atol=5e-5)
-    conf = s["confusion"]
-    row = {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
+    row = _confusion_rows(s)
     assert row["missing_fines"]["missing_fines"] == 10
     assert row["non_sphericity"]["non_sphericity"] == 9
     assert row["youngs_modulus (out of catalogue)"]["capillary_bridges"] == 1
