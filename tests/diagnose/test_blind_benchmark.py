@@ -367,10 +367,12 @@ def _confusion_rows(summary: dict) -> dict:
     return {r: dict(zip(conf["columns"], m)) for r, m in zip(conf["rows"], conf["matrix"])}
 
 
-def _rescore_sealed_liggghts_record(folder: str, commit: str, seed: int) -> dict:
-    """Check a bridged LIGGGHTS blind record: the seal matches the committed truth and twin
-    files, every twin has one result on its sealed file and no error, and the summary's
-    counts are what the results score. Returns the scores."""
+def _rescore_sealed_record(folder: str, commit: str, seed: int,
+                           engine: str = "liggghts") -> dict:
+    """Check a bridged blind record whose twins and bridge runs ``engine`` made: the seal
+    matches the committed truth and twin files, every twin has one result on its sealed
+    file and no error, and the summary's counts are what the results score. Returns the
+    scores."""
     from bedstruct.diagnose.validation import blind
 
     rec = Path(__file__).resolve().parents[2] / "docs" / "records" / folder
@@ -378,8 +380,8 @@ def _rescore_sealed_liggghts_record(folder: str, commit: str, seed: int) -> dict
     seal = json.loads((rec / "seal.json").read_text())
     assert seal["truth_sha256"] == _sha(rec / "truth.json")
     assert truth["commit"].startswith(commit) and truth["settings"]["seed"] == seed
-    assert truth["settings"]["twins_engine"] == "liggghts"
-    assert truth["settings"]["bridge"]["engine"] == "liggghts"
+    assert truth["settings"]["twins_engine"] == engine
+    assert truth["settings"]["bridge"]["engine"] == engine
     assert set(seal["twins_sha256"]) == set(truth["twins"])
     for twin, digest in seal["twins_sha256"].items():
         assert _sha(rec / "twins" / f"{twin}.toml") == digest, twin
@@ -399,7 +401,7 @@ def _rescore_sealed_liggghts_record(folder: str, commit: str, seed: int) -> dict
 def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
     """The second blind LIGGGHTS batch (frozen with the engine bridge) scores as the docs
     quote."""
-    s = _rescore_sealed_liggghts_record("blind-liggghts-bridged-2026-12-04", "4c5d76c", 20261204)
+    s = _rescore_sealed_record("blind-liggghts-bridged-2026-12-04", "4c5d76c", 20261204)
     assert s["top1_count"] == [2, 20] and s["top1_detected_count"] == [1, 13]
     assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [2, 10]
     assert s["ooc_detected_count"] == [2, 3]
@@ -412,7 +414,7 @@ def test_committed_bridged_liggghts_blind_record_rescores_as_its_summary():
 def test_committed_detectable_liggghts_blind_record_rescores_as_its_summary():
     """The third blind LIGGGHTS batch (protocol 2, detectable magnitudes) scores as the docs
     quote."""
-    s = _rescore_sealed_liggghts_record("blind-liggghts-detectable-2026-12-04", "bd2bf5b",
+    s = _rescore_sealed_record("blind-liggghts-detectable-2026-12-04", "bd2bf5b",
                                         20261205)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [7, 20] and s["top1_detected_count"] == [7, 19]
@@ -428,7 +430,7 @@ def test_committed_detectable_liggghts_blind_record_rescores_as_its_summary():
 def test_committed_probed_liggghts_blind_record_rescores_as_its_summary():
     """The fourth blind LIGGGHTS batch (engine bridge with effect probes, detectable
     magnitudes of the probed model) scores as the docs quote."""
-    s = _rescore_sealed_liggghts_record("blind-liggghts-probed-2026-12-05", "6f93158",
+    s = _rescore_sealed_record("blind-liggghts-probed-2026-12-05", "6f93158",
                                         20261206)
     truth = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records"
                         / "blind-liggghts-probed-2026-12-05" / "truth.json").read_text())
@@ -447,7 +449,7 @@ def test_committed_probed_liggghts_blind_record_rescores_as_its_summary():
 def test_committed_partial_liggghts_blind_record_rescores_as_its_summary():
     """The fifth blind LIGGGHTS batch (effect probes and partial explanations) scores as the
     docs quote."""
-    s = _rescore_sealed_liggghts_record("blind-liggghts-partial-2026-12-05", "2bcbc0c",
+    s = _rescore_sealed_record("blind-liggghts-partial-2026-12-05", "2bcbc0c",
                                         20261207)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [16, 20] and s["top1_partial_count"] == [5, 16]
@@ -463,7 +465,7 @@ def test_committed_partial_liggghts_blind_record_rescores_as_its_summary():
 def test_committed_visible_liggghts_blind_record_rescores_as_its_summary():
     """The sixth blind LIGGGHTS batch (protocol 3: out-of-catalogue changes where LIGGGHTS
     twins show them) scores as the docs quote."""
-    s = _rescore_sealed_liggghts_record("blind-liggghts-visible-2026-12-05", "5452066",
+    s = _rescore_sealed_record("blind-liggghts-visible-2026-12-05", "5452066",
                                         20261208)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [10, 20] and s["top1_partial_count"] == [4, 10]
@@ -480,7 +482,7 @@ def test_committed_visible_liggghts_blind_record_rescores_as_its_summary():
 def test_committed_twoprobe_liggghts_blind_record_rescores_as_its_summary():
     """The seventh blind LIGGGHTS batch (the bridge probing at both reference magnitudes,
     protocol 3) scores as the docs quote."""
-    s = _rescore_sealed_liggghts_record("blind-liggghts-twoprobe-2026-12-05", "b32b725",
+    s = _rescore_sealed_record("blind-liggghts-twoprobe-2026-12-05", "b32b725",
                                         20261209)
     truth = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records"
                         / "blind-liggghts-twoprobe-2026-12-05" / "truth.json").read_text())
@@ -501,7 +503,7 @@ def test_committed_second_twoprobe_liggghts_blind_record_rescores_and_pools():
     the docs quote, alone and pooled with the seventh as declared before it existed."""
     from bedstruct.diagnose.validation import blind
 
-    s = _rescore_sealed_liggghts_record("blind-liggghts-twoprobe2-2026-12-05", "b32b725",
+    s = _rescore_sealed_record("blind-liggghts-twoprobe2-2026-12-05", "b32b725",
                                         20261210)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [18, 20] and s["top1_partial_count"] == [3, 18]
@@ -525,7 +527,7 @@ def test_committed_second_twoprobe_liggghts_blind_record_rescores_and_pools():
 def test_committed_heldout_liggghts_blind_record_rescores_as_its_summary():
     """The ninth blind LIGGGHTS batch (the held-out check at its own level, 0.1) scores as
     the docs quote, and its comparison at 0.01 (made after scoring) rescores too."""
-    s = _rescore_sealed_liggghts_record("blind-liggghts-heldout-2026-12-06", "ac52df9",
+    s = _rescore_sealed_record("blind-liggghts-heldout-2026-12-06", "ac52df9",
                                         20261211)
     rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
            / "blind-liggghts-heldout-2026-12-06")
@@ -569,7 +571,7 @@ def test_committed_protocol4_liggghts_blind_record_rescores_as_its_summary():
 
     from bedstruct.diagnose.validation.blind_twins import benchmark_design
 
-    s = _rescore_sealed_liggghts_record("blind-liggghts-protocol4-2026-12-06", "79b29f3",
+    s = _rescore_sealed_record("blind-liggghts-protocol4-2026-12-06", "79b29f3",
                                         20261212)
     rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
            / "blind-liggghts-protocol4-2026-12-06")
@@ -615,7 +617,7 @@ def test_committed_replicate_liggghts_blind_record_rescores_and_pools_as_the_doc
     from bedstruct.diagnose.validation import blind
     from bedstruct.diagnose.validation.blind_twins import benchmark_design
 
-    s = _rescore_sealed_liggghts_record("blind-liggghts-replicate-2026-12-06", "a4c08e9",
+    s = _rescore_sealed_record("blind-liggghts-replicate-2026-12-06", "a4c08e9",
                                         20261213)
     records = Path(__file__).resolve().parents[2] / "docs" / "records"
     rec = records / "blind-liggghts-replicate-2026-12-06"
