@@ -639,6 +639,16 @@ def test_committed_replicate_liggghts_blind_record_rescores_and_pools_as_the_doc
     assert p["ooc_count"] == [16, 20] and p["coverage_count"] == [25, 35]
     assert p["shrink_n"] == 40 and abs(p["shrink_median"] - 0.948) < 5e-4
     np.testing.assert_allclose(p["top1_ci"], [0.7320, 0.9581], atol=5e-5)
+    # the docs' "what an answer is worth": of the 80 twins, 37 named an effect, 35 the true one
+    named = []
+    for folder in (records / "blind-liggghts-protocol4-2026-12-06", rec):
+        twins = json.loads((folder / "truth.json").read_text())["twins"]
+        for t, tr in twins.items():
+            answer = json.loads((folder / "results" / f"{t}.json").read_text())["answer"]
+            if answer not in ("none", "unexplained"):
+                named.append((tr.get("effect"), answer))
+    assert len(named) == 37 and sum(e == a for e, a in named) == 35
+    assert sorted(a for e, a in named if e != a) == ["blade_startup", "capillary_bridges"]
     # protocol 4 on the committed files: no single reading; the x5 angle left out of ten
     noise = {m.name: np.atleast_1d(np.asarray(m.uncertainty, float))
              for m in benchmark_design("liggghts")}
