@@ -415,7 +415,7 @@ def test_committed_detectable_liggghts_blind_record_rescores_as_its_summary():
     """The third blind LIGGGHTS batch (protocol 2, detectable magnitudes) scores as the docs
     quote."""
     s = _rescore_sealed_record("blind-liggghts-detectable-2026-12-04", "bd2bf5b",
-                                        20261205)
+                               20261205)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [7, 20] and s["top1_detected_count"] == [7, 19]
     assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [1, 10]
@@ -431,7 +431,7 @@ def test_committed_probed_liggghts_blind_record_rescores_as_its_summary():
     """The fourth blind LIGGGHTS batch (engine bridge with effect probes, detectable
     magnitudes of the probed model) scores as the docs quote."""
     s = _rescore_sealed_record("blind-liggghts-probed-2026-12-05", "6f93158",
-                                        20261206)
+                               20261206)
     truth = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records"
                         / "blind-liggghts-probed-2026-12-05" / "truth.json").read_text())
     assert truth["settings"]["bridge"]["probe_runs"] == 6
@@ -450,7 +450,7 @@ def test_committed_partial_liggghts_blind_record_rescores_as_its_summary():
     """The fifth blind LIGGGHTS batch (effect probes and partial explanations) scores as the
     docs quote."""
     s = _rescore_sealed_record("blind-liggghts-partial-2026-12-05", "2bcbc0c",
-                                        20261207)
+                               20261207)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [16, 20] and s["top1_partial_count"] == [5, 16]
     assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [4, 10]
@@ -466,7 +466,7 @@ def test_committed_visible_liggghts_blind_record_rescores_as_its_summary():
     """The sixth blind LIGGGHTS batch (protocol 3: out-of-catalogue changes where LIGGGHTS
     twins show them) scores as the docs quote."""
     s = _rescore_sealed_record("blind-liggghts-visible-2026-12-05", "5452066",
-                                        20261208)
+                               20261208)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [10, 20] and s["top1_partial_count"] == [4, 10]
     assert s["top1_detected_count"] == [10, 18]
@@ -483,7 +483,7 @@ def test_committed_twoprobe_liggghts_blind_record_rescores_as_its_summary():
     """The seventh blind LIGGGHTS batch (the bridge probing at both reference magnitudes,
     protocol 3) scores as the docs quote."""
     s = _rescore_sealed_record("blind-liggghts-twoprobe-2026-12-05", "b32b725",
-                                        20261209)
+                               20261209)
     truth = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records"
                         / "blind-liggghts-twoprobe-2026-12-05" / "truth.json").read_text())
     assert truth["settings"]["bridge"]["probes"] == "reference"
@@ -504,7 +504,7 @@ def test_committed_second_twoprobe_liggghts_blind_record_rescores_and_pools():
     from bedstruct.diagnose.validation import blind
 
     s = _rescore_sealed_record("blind-liggghts-twoprobe2-2026-12-05", "b32b725",
-                                        20261210)
+                               20261210)
     assert s["draw"] == "detectable"
     assert s["top1_count"] == [18, 20] and s["top1_partial_count"] == [3, 18]
     assert s["top1_detected_count"] == [18, 20]
@@ -528,7 +528,7 @@ def test_committed_heldout_liggghts_blind_record_rescores_as_its_summary():
     """The ninth blind LIGGGHTS batch (the held-out check at its own level, 0.1) scores as
     the docs quote, and its comparison at 0.01 (made after scoring) rescores too."""
     s = _rescore_sealed_record("blind-liggghts-heldout-2026-12-06", "ac52df9",
-                                        20261211)
+                               20261211)
     rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
            / "blind-liggghts-heldout-2026-12-06")
     truth = json.loads((rec / "truth.json").read_text())
@@ -572,7 +572,7 @@ def test_committed_protocol4_liggghts_blind_record_rescores_as_its_summary():
     from bedstruct.diagnose.validation.blind_twins import benchmark_design
 
     s = _rescore_sealed_record("blind-liggghts-protocol4-2026-12-06", "79b29f3",
-                                        20261212)
+                               20261212)
     rec = (Path(__file__).resolve().parents[2] / "docs" / "records"
            / "blind-liggghts-protocol4-2026-12-06")
     truth = json.loads((rec / "truth.json").read_text())
@@ -618,7 +618,7 @@ def test_committed_replicate_liggghts_blind_record_rescores_and_pools_as_the_doc
     from bedstruct.diagnose.validation.blind_twins import benchmark_design
 
     s = _rescore_sealed_record("blind-liggghts-replicate-2026-12-06", "a4c08e9",
-                                        20261213)
+                               20261213)
     records = Path(__file__).resolve().parents[2] / "docs" / "records"
     rec = records / "blind-liggghts-replicate-2026-12-06"
     truth = json.loads((rec / "truth.json").read_text())
