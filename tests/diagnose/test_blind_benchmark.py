@@ -129,6 +129,30 @@ def test_lammps_twins_draw_no_blade_bevel_its_moving_blade_has_none():
         assert "blade_bevel" not in ooc and ooc
 
 
+def test_lammps_batch_draws_missing_fines_as_its_only_effect():
+    """The LAMMPS record's README: LAMMPS realises non-sphericity (the configuration's EPSD
+    rolling), capillary bridges, contact ageing and blade start-up not at all, and wall
+    friction has no detectable range at `tiny`, so with the record's settings every effect
+    twin the draw makes is a missing-fines twin (read from the settings and the draw, not
+    from the twins' truth entries)."""
+    from bedstruct.diagnose import effect
+    from bedstruct.diagnose.engine_simulator import engine_realises
+
+    realised = {e: engine_realises(effect(e), "lammps")
+                for e in ("non_sphericity", "missing_fines", "wall_friction",
+                          "capillary_bridges", "contact_ageing", "blade_startup")}
+    assert realised == {"non_sphericity": False, "missing_fines": True, "wall_friction": True,
+                        "capillary_bridges": False, "contact_ageing": False,
+                        "blade_startup": False}
+    settings = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records"
+                           / "blind-lammps-2026-12-06" / "truth.json").read_text())["settings"]
+    ranges = {k: [tuple(r) for r in v] for k, v in settings["detectable_ranges"].items()}
+    assert ranges["wall_friction"] == [] and ranges["missing_fines"]
+    specs = draw_twins(settings["n"], settings["seed"], "lammps", ranges)
+    assert {s.name for s in specs if s.kind == "effect"} == {"missing_fines"}
+    assert sum(s.kind == "effect" for s in specs) == settings["split"]["effect"] == 20
+
+
 def test_out_of_catalogue_visible_ranges_agree_with_their_measurements():
     rec = json.loads((Path(__file__).resolve().parents[2] / "docs" / "records" / "ooc-visibility"
                       / "visibility.json").read_text())
