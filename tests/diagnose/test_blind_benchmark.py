@@ -685,6 +685,52 @@ def test_committed_replicate_liggghts_blind_record_rescores_and_pools_as_the_doc
     assert len(left_out) == 16 and left_out.count("dynamic_angle_x5_steady") == 10
 
 
+def test_committed_lammps_blind_record_rescores_as_its_readme_says():
+    """The LAMMPS blind batch scores as its README and the docs quote: every effect twin is
+    missing fines and named first, no null twin attributed, out of catalogue `unexplained`
+    in both twins whose gap is significant (the declared figure) and `none` in the eight
+    whose gap is not; the fitted fractions are low (no interval above its truth); no twin
+    file states an observable at a single reading."""
+    import tomllib
+
+    from bedstruct.diagnose.validation.blind_twins import benchmark_design
+
+    s = _rescore_sealed_record("blind-lammps-2026-12-06", "4dc8653", 20261214,
+                               engine="lammps")
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records" / "blind-lammps-2026-12-06"
+    truth = json.loads((rec / "truth.json").read_text())
+    assert truth["protocol"] == "bedstruct.blind/4" and s["draw"] == "detectable"
+    assert s["top1_count"] == [20, 20] and s["top1_partial_count"] == [7, 20]
+    assert s["null_false_count"] == [0, 10]
+    assert s["ooc_count"] == [2, 10] and s["ooc_detected_count"] == [2, 2]
+    assert s["coverage_count"] == [10, 20]
+    assert s["shrink_n"] == 20 and abs(s["shrink_median"] - 0.9247) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.8316, 1.0], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_detected_ci"], [0.1581, 1.0], atol=5e-5)
+    row = _confusion_rows(s)
+    assert row["missing_fines"]["missing_fines"] == 20
+    assert sum(row["missing_fines"].values()) == 20 and row["null"]["none"] == 10
+    results = {t: json.loads((rec / "results" / f"{t}.json").read_text())
+               for t in truth["twins"]}
+    ooc = {t: r for t, r in results.items() if truth["twins"][t]["kind"] == "out_of_catalogue"}
+    assert sorted((r["gap_significant"], r["answer"]) for r in ooc.values()) == (
+        [(False, "none")] * 8 + [(True, "unexplained")] * 2)
+    fines = [(truth["twins"][t]["magnitude"], r["interval"]) for t, r in results.items()
+             if truth["twins"][t]["kind"] == "effect"]
+    assert not any(lo > m for m, (lo, hi) in fines)
+    assert sum(hi < m for m, (lo, hi) in fines) == 10
+    noise = {m.name: np.atleast_1d(np.asarray(m.uncertainty, float))
+             for m in benchmark_design("lammps")}
+    left_out = []
+    for t in truth["twins"]:
+        obs = tomllib.loads((rec / "twins" / f"{t}.toml").read_text())["observable"]
+        left_out += sorted(set(noise) - {o["name"] for o in obs})
+        for o in obs:
+            assert not np.any(np.asarray(o["uncertainty"], float) == noise[o["name"]]), (t, o)
+    assert left_out.count("dynamic_angle_x5_steady") == 17
+    assert left_out.count("dynamic_angle_x2_steady") == 6 and len(left_out) == 23
+
+
 def test_the_ninth_batchs_missed_missing_fines_twins_state_single_readings():
     """The docs' account of the ninth batch's missing-fines misses: the six files whose x5
     dynamic angle has a stated uncertainty equal to the design's reading noise (one LIGGGHTS
