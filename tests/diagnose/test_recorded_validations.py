@@ -75,3 +75,36 @@ def test_every_record_set_is_listed_in_the_records_index():
     index = (RECORDS / "README.md").read_text(encoding="utf-8")
     for folder in DOCUMENTED:
         assert f"`{folder}`" in index, folder
+
+
+def test_probe_shrinkage_rerun_reproduces_the_committed_answers_and_its_table():
+    """`records/probe-shrinkage`: the rerun with the shrinkage gives every committed answer
+    and magnitude of the three batches again, and the counts of its README's table follow
+    from the two answer files."""
+    rec = RECORDS / "probe-shrinkage"
+    counts = {}
+    for name in ("shrunk", "unshrunk"):
+        doc = json.loads((rec / f"{name}.json").read_text())
+        assert doc["shrink_probe_correction"] == (name == "shrunk")
+        for batch, rows in doc["batches"].items():
+            if name == "shrunk":
+                for t, r in rows.items():
+                    res = json.loads((RECORDS / batch / "results" / f"{t}.json").read_text())
+                    assert (r["answer"], r["magnitude"]) == (res["answer"], res["magnitude"])
+            eff = [r for r in rows.values() if r["kind"] == "effect"]
+            top = [r for r in eff if r["answer"] == r["truth"]]
+            cover = sum(r["interval"][0] <= r["truth_magnitude"] <= r["interval"][1]
+                        for r in top if r["interval"])
+            ooc = sum(r["answer"] == "unexplained" for r in rows.values()
+                      if r["kind"] == "out_of_catalogue")
+            null = sum(r["answer"] != "none" for r in rows.values() if r["kind"] == "null")
+            counts[name, batch] = (len(top), ooc, cover, null)
+    # (top-1 of 20, out of catalogue `unexplained` of 10, intervals covering, null attributed)
+    tenth, eleventh = "blind-liggghts-protocol4-2026-12-06", "blind-liggghts-replicate-2026-12-06"
+    lammps = "blind-lammps-2026-12-06"
+    assert counts["shrunk", tenth] == (16, 9, 13, 0)
+    assert counts["unshrunk", tenth] == (18, 8, 14, 0)
+    assert counts["shrunk", eleventh] == (19, 7, 12, 0)
+    assert counts["unshrunk", eleventh] == (20, 6, 16, 0)
+    assert counts["shrunk", lammps] == (20, 2, 10, 0)
+    assert counts["unshrunk", lammps] == (20, 1, 10, 0)
