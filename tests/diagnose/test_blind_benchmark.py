@@ -685,6 +685,68 @@ def test_committed_replicate_liggghts_blind_record_rescores_and_pools_as_the_doc
     assert len(left_out) == 16 and left_out.count("dynamic_angle_x5_steady") == 10
 
 
+def test_committed_replicate2_liggghts_blind_record_rescores_and_pools_as_the_docs_say():
+    """The twelfth blind LIGGGHTS batch (the tenth and eleventh batches' method on a third
+    draw) scores as the docs quote alone and pooled with the tenth and eleventh, as its
+    README declared; its two missing-fines misses are files that state the x5 dynamic angle,
+    and no twin file states an observable at a single reading."""
+    import tomllib
+
+    from bedstruct.diagnose.validation import blind
+    from bedstruct.diagnose.validation.blind_twins import benchmark_design
+
+    s = _rescore_sealed_record("blind-liggghts-replicate2-2026-12-06", "d28ef0a", 20261215)
+    records = Path(__file__).resolve().parents[2] / "docs" / "records"
+    rec = records / "blind-liggghts-replicate2-2026-12-06"
+    truth = json.loads((rec / "truth.json").read_text())
+    assert truth["protocol"] == "bedstruct.blind/4" and s["draw"] == "detectable"
+    assert s["top1_count"] == [17, 20] and s["top1_partial_count"] == [5, 17]
+    assert s["null_false_count"] == [0, 10] and s["ooc_count"] == [10, 10]
+    assert s["coverage_count"] == [13, 17]
+    assert s["shrink_n"] == 20 and abs(s["shrink_median"] - 0.957) < 5e-4
+    np.testing.assert_allclose(s["top1_ci"], [0.6211, 0.9679], atol=5e-5)
+    np.testing.assert_allclose(s["ooc_ci"], [0.6915, 1.0], atol=5e-5)
+    row = _confusion_rows(s)
+    assert row["missing_fines"]["missing_fines"] == 8 and row["missing_fines"]["unexplained"] == 2
+    assert row["non_sphericity"]["non_sphericity"] == 9 and row["null"]["none"] == 10
+    # the pooled scores the docs quote: every twin of the tenth, eleventh and twelfth, once
+    folders = [records / "blind-liggghts-protocol4-2026-12-06",
+               records / "blind-liggghts-replicate-2026-12-06", rec]
+    p = blind.pool_benchmarks(folders)
+    assert p["top1_count"] == [52, 60] and p["top1_partial_count"] == [16, 52]
+    assert p["null_false_count"] == [0, 30] and p["ooc_count"] == [26, 30]
+    assert p["coverage_count"] == [38, 52]
+    assert p["shrink_n"] == 60 and abs(p["shrink_median"] - 0.957) < 5e-4
+    np.testing.assert_allclose(p["top1_ci"], [0.7541, 0.9406], atol=5e-5)
+    np.testing.assert_allclose(p["ooc_ci"], [0.6928, 0.9624], atol=5e-5)
+    prow = _confusion_rows(p)
+    assert prow["missing_fines"]["missing_fines"] == 27
+    assert prow["non_sphericity"]["non_sphericity"] == 25
+    # the docs' "what an answer is worth": of the 120 twins, 54 named an effect, 52 the true one
+    named = []
+    for folder in folders:
+        twins = json.loads((folder / "truth.json").read_text())["twins"]
+        for t, tr in twins.items():
+            answer = json.loads((folder / "results" / f"{t}.json").read_text())["answer"]
+            if answer not in ("none", "unexplained"):
+                named.append((tr.get("effect"), answer))
+    assert len(named) == 54 and sum(e == a for e, a in named) == 52
+    # the missing-fines twins left unexplained state the x5 angle; the named ones do not
+    noise = {m.name: np.atleast_1d(np.asarray(m.uncertainty, float))
+             for m in benchmark_design("liggghts")}
+    left_out = []
+    for t, tr in truth["twins"].items():
+        obs = tomllib.loads((rec / "twins" / f"{t}.toml").read_text())["observable"]
+        names = {o["name"] for o in obs}
+        left_out += sorted(set(noise) - names)
+        for o in obs:
+            assert not np.any(np.asarray(o["uncertainty"], float) == noise[o["name"]]), (t, o)
+        if tr.get("effect") == "missing_fines":
+            answer = json.loads((rec / "results" / f"{t}.json").read_text())["answer"]
+            assert ("dynamic_angle_x5_steady" in names) == (answer == "unexplained"), t
+    assert len(left_out) == 16 and left_out.count("dynamic_angle_x5_steady") == 8
+
+
 def test_committed_lammps_blind_record_rescores_as_its_readme_says():
     """The LAMMPS blind batch scores as its README and the docs quote: every effect twin is
     missing fines and named first, no null twin attributed, out of catalogue `unexplained`
