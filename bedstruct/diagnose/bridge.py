@@ -55,11 +55,9 @@ probes: an effect whose response in the user's engine is not proportional to its
 magnitude (LIGGGHTS' bridges, which take the place of the cohesion already at a small
 liquid content; a few missing fines) is then followed between the probes. The correction's
 standard deviation :math:`\\sigma_\\Delta` (engine scatter of the paired differences over
-the probe runs, plus the emulator's own uncertainty at both points) first shrinks each
-component of :math:`\\Delta_e` towards zero (positive-part James-Stein,
-:math:`\\Delta_e \\max(0, 1 - \\sigma_\\Delta^2/\\Delta_e^2)`: a difference within its
-noise adds no response made of scatter); what remains enters as added scatter of the
-bridged runs, :math:`(a/a_p)\\,\\sigma_\\Delta` per run, and, shared by every run, in the
+the probe runs, plus the emulator's own uncertainty at both points) is counted in full:
+the correction, kept at its measured value, enters as added scatter of the bridged runs,
+:math:`(a/a_p)\\,\\sigma_\\Delta` per run, and, shared by every run, in the
 prediction a confirming rerun is checked against
 (:func:`~bedstruct.diagnose.confirm.confirm_attribution`). Effects the user's engine does
 not realise keep the diagnosing simulator's response.
@@ -684,14 +682,9 @@ def effect_probes(bridge: EngineBridge, engine_simulator, simulator, *,
             var = ((z - mean) ** 2 * np.isfinite(dd)).sum(axis=0) / np.maximum(m - 1, 1)
             delta = mean - ref_mean
             sd = np.sqrt(var / np.maximum(m, 1) + ref_var)
-            ok &= np.isfinite(delta)
-            # a difference within its own noise is shrunk towards none (positive-part
-            # James-Stein per component): probes of an effect that hardly moves an
-            # observable add no response of their own scatter
-            with np.errstate(invalid="ignore", divide="ignore"):
-                keep = np.where(delta != 0.0, np.clip(1.0 - sd ** 2 / delta ** 2, 0.0, 1.0), 0.0)
-            shift[n] = np.where(ok, keep * delta, 0.0)
-            shift_sd[n] = np.where(ok, np.sqrt(keep) * sd, 0.0)
+            ok &= np.isfinite(delta) & np.isfinite(sd)
+            shift[n] = np.where(ok, delta, 0.0)
+            shift_sd[n] = np.where(ok, sd, 0.0)
         found[(e, a)] = (shift, shift_sd)
     return replace(bridge, probe_magnitudes=mags,
                    effect_shift={e: found[(e, a)][0] for e, a in mags.items()},

@@ -79,7 +79,7 @@ def test_every_record_set_is_listed_in_the_records_index():
 
 def test_probe_shrinkage_rerun_reproduces_the_committed_answers_and_its_table():
     """`records/probe-shrinkage`: the rerun with the shrinkage gives every committed answer
-    and magnitude of the three batches again, and the counts of its README's table follow
+    and magnitude of the four batches again, and the counts of its README's table follow
     from the two answer files."""
     rec = RECORDS / "probe-shrinkage"
     counts = {}
@@ -108,3 +108,6 @@ def test_probe_shrinkage_rerun_reproduces_the_committed_answers_and_its_table():
     assert counts["unshrunk", eleventh] == (20, 6, 16, 0)
     assert counts["shrunk", lammps] == (20, 2, 10, 0)
     assert counts["unshrunk", lammps] == (20, 1, 10, 0)
+    twelfth = "blind-liggghts-replicate2-2026-12-06"
+    assert counts["shrunk", twelfth] == (17, 10, 13, 0)
+    assert counts["unshrunk", twelfth] == (18, 10, 16, 0)

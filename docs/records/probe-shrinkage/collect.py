@@ -1,4 +1,4 @@
-"""Diagnose the committed twin files of three blind batches with and without the shrinkage
+"""Diagnose the committed twin files of four blind batches with and without the shrinkage
 of the bridge's probe correction (NOSHRINK=1), at the LAMMPS batch's frozen commit
 4dc8653 patched as in shrinkage.patch; writes one JSON of answers per setting."""
 import json, os, sys, statistics
@@ -8,7 +8,7 @@ from bedstruct.diagnose.validation.blind_twins import benchmark_design
 RECORDS = Path(sys.argv[1])
 out = {}
 for folder in ("blind-liggghts-protocol4-2026-12-06", "blind-liggghts-replicate-2026-12-06",
-               "blind-lammps-2026-12-06"):
+               "blind-lammps-2026-12-06", "blind-liggghts-replicate2-2026-12-06"):
     here = RECORDS / folder
     truth = json.loads((here / "truth.json").read_text())
     sim = truth["settings"]["sim"]
