@@ -1120,6 +1120,35 @@ def test_the_benchmark_command_scores_sealed_folders(capsys):
     assert "--out does not apply" in capsys.readouterr().err
 
 
+def test_scoring_refuses_an_unsealed_folder_and_says_which_twins_have_no_diagnosis(
+        tmp_path, capsys):
+    """A folder whose twins are still being made (no seal) is refused with a message that
+    says so, not scored as 0 of 0; a sealed folder with twins not yet diagnosed is scored
+    over the diagnosed ones with a warning naming them, and ``--json`` lists them."""
+    from bedstruct.cli import main
+    from bedstruct.diagnose.validation import blind
+
+    rec = Path(__file__).resolve().parents[2] / "docs" / "records"
+    src = rec / "blind-liggghts-visible-2026-12-05"
+    making = tmp_path / "making"
+    (making / "twins").mkdir(parents=True)
+    shutil.copy(src / "truth.json", making / "truth.json")
+    for t in ("twin-000", "twin-001"):
+        shutil.copy(src / "twins" / f"{t}.toml", making / "twins" / f"{t}.toml")
+    with pytest.raises(ConfigError, match=r"not sealed \(2 twin files made"):
+        blind.pool_benchmarks([making])
+    assert main(["diagnose", "benchmark", "--score", str(making)]) != 0
+    assert "not sealed" in capsys.readouterr().err
+    part = tmp_path / "part"
+    shutil.copytree(src, part, ignore=shutil.ignore_patterns("report.html"))
+    (part / "results" / "twin-003.json").unlink()
+    assert main(["diagnose", "benchmark", "--score", str(part), "--json"]) == 0
+    out, err = capsys.readouterr()
+    line = json.loads(out.strip().splitlines()[-1])
+    assert line["not_diagnosed"] == ["part/twin-003"] and line["n"] == 40
+    assert "1 sealed twins have no diagnosis yet" in err and "part/twin-003" in err
+
+
 def test_twin_run_scatter_is_the_sample_sd_and_zero_where_fewer_than_two_repeats_read():
     """A DEM twin's run scatter: numpy's sample standard deviation over the repeats that
     gave a reading, bit for bit, 0 where one or none did, with no RuntimeWarning."""

@@ -45,6 +45,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import sys
 import subprocess
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -353,11 +354,16 @@ def load_benchmark(folder) -> tuple[dict, dict]:
     Raises
     ------
     ConfigError
-        When the folder has no ``truth.json``.
+        When the folder has no ``truth.json``, or no ``seal.json`` (its twins are still
+        being made: a benchmark is scored once, after its seal).
     """
     folder = Path(folder)
     if not (folder / "truth.json").is_file():
         raise ConfigError(f"{folder}: no truth.json (not a benchmark folder)")
+    if not (folder / "seal.json").is_file():
+        made = len(list((folder / "twins").glob("twin-*.toml")))
+        raise ConfigError(f"{folder}: not sealed ({made} twin files made, no seal.json): its "
+                          f"twins are still being made, and a benchmark is scored after its seal")
     truth = json.loads((folder / "truth.json").read_text())
     results = {p.stem: json.loads(p.read_text())
                for p in sorted((folder / "results").glob("twin-*.json"))}
@@ -793,11 +799,15 @@ def _score_command(args) -> int:
         raise ConfigError(f"benchmark --score: {', '.join(used)} "
                           f"{'does' if len(used) == 1 else 'do'} not apply (scoring runs nothing)")
     s = pool_benchmarks(args.score)
+    if s["not_diagnosed"]:
+        print(f"warning: {len(s['not_diagnosed'])} sealed twins have no diagnosis yet and are "
+              f"left out of every score (first: {s['not_diagnosed'][0]}); the benchmark command, run again with "
+              f"that folder's arguments, diagnoses them", file=sys.stderr)
     if getattr(args, "json", False):
         keys = ("n", "top1", "top1_ci", "top1_detected", "top1_detected_ci", "null_false",
                 "null_false_ci", "ooc_unexplained", "ooc_ci", "ooc_detected", "ooc_detected_ci",
                 "shrink_median", "shrink_ci", "shrink_ci_method", "shrink_n", "coverage",
-                "coverage_ci", "batches", "commits")
+                "coverage_ci", "not_diagnosed", "batches", "commits")
         print(json.dumps(to_jsonable({k: s[k] for k in keys})))
     else:
         what = (f"{len(s['batches'])} benchmark folders scored together" if len(s["batches"]) > 1
