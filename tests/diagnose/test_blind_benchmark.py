@@ -1146,7 +1146,16 @@ def test_scoring_refuses_an_unsealed_folder_and_says_which_twins_have_no_diagnos
     out, err = capsys.readouterr()
     line = json.loads(out.strip().splitlines()[-1])
     assert line["not_diagnosed"] == ["part/twin-003"] and line["n"] == 40
-    assert "1 sealed twins have no diagnosis yet" in err and "part/twin-003" in err
+    assert "1 sealed twin has no diagnosis yet" in err and "part/twin-003" in err
+    # a result of a twin file other than the sealed one, or another truth, is refused
+    r = json.loads((part / "results" / "twin-004.json").read_text())
+    (part / "results" / "twin-003.json").write_text(json.dumps(r))
+    with pytest.raises(ConfigError, match="twin-003.json is the diagnosis of a twin file"):
+        blind.pool_benchmarks([part])
+    (part / "results" / "twin-003.json").unlink()
+    (part / "truth.json").write_text((part / "truth.json").read_text() + "\n")
+    with pytest.raises(ConfigError, match="truth.json is not the one seal.json holds"):
+        blind.pool_benchmarks([part])
 
 
 def test_twin_run_scatter_is_the_sample_sd_and_zero_where_fewer_than_two_repeats_read():

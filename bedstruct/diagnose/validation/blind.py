@@ -45,8 +45,8 @@ import dataclasses
 import hashlib
 import json
 import math
-import sys
 import subprocess
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -354,8 +354,9 @@ def load_benchmark(folder) -> tuple[dict, dict]:
     Raises
     ------
     ConfigError
-        When the folder has no ``truth.json``, or no ``seal.json`` (its twins are still
-        being made: a benchmark is scored once, after its seal).
+        When the folder has no ``truth.json``; has no ``seal.json`` (its twins are still
+        being made: a benchmark is scored once, after its seal); or when ``truth.json`` or
+        a result's twin file is not the one the seal holds.
     """
     folder = Path(folder)
     if not (folder / "truth.json").is_file():
@@ -364,9 +365,16 @@ def load_benchmark(folder) -> tuple[dict, dict]:
         made = len(list((folder / "twins").glob("twin-*.toml")))
         raise ConfigError(f"{folder}: not sealed ({made} twin files made, no seal.json): its "
                           f"twins are still being made, and a benchmark is scored after its seal")
+    seal = json.loads((folder / "seal.json").read_text())
+    if seal.get("truth_sha256") != _sha256(folder / "truth.json"):
+        raise ConfigError(f"{folder}: truth.json is not the one seal.json holds; refused")
     truth = json.loads((folder / "truth.json").read_text())
     results = {p.stem: json.loads(p.read_text())
                for p in sorted((folder / "results").glob("twin-*.json"))}
+    for twin, r in results.items():
+        if r.get("twin_sha256") != seal["twins_sha256"].get(twin):
+            raise ConfigError(f"{folder}: results/{twin}.json is the diagnosis of a twin file "
+                              f"other than the sealed one; refused")
     return truth, results
 
 
@@ -799,9 +807,11 @@ def _score_command(args) -> int:
         raise ConfigError(f"benchmark --score: {', '.join(used)} "
                           f"{'does' if len(used) == 1 else 'do'} not apply (scoring runs nothing)")
     s = pool_benchmarks(args.score)
-    if s["not_diagnosed"]:
-        print(f"warning: {len(s['not_diagnosed'])} sealed twins have no diagnosis yet and are "
-              f"left out of every score (first: {s['not_diagnosed'][0]}); the benchmark command, run again with "
+    missing = s["not_diagnosed"]
+    if missing:
+        what = "1 sealed twin has" if len(missing) == 1 else f"{len(missing)} sealed twins have"
+        print(f"warning: {what} no diagnosis yet, left out of every score ({missing[0]}"
+              f"{', ...' if len(missing) > 1 else ''}); the benchmark command, run again with "
               f"that folder's arguments, diagnoses them", file=sys.stderr)
     if getattr(args, "json", False):
         keys = ("n", "top1", "top1_ci", "top1_detected", "top1_detected_ci", "null_false",
