@@ -6,6 +6,7 @@
   bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
   bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --out DIR
   bedstruct diagnose benchmark --score DIR [DIR ...]
+  bedstruct diagnose benchmark --rediagnose DIR [TWIN ...]
 
 Details of every option and of the files: docs/diagnose.md.
 """
@@ -72,6 +73,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--score", nargs="+", metavar="DIR", default=None,
                         help="benchmark: score sealed benchmark folders (together when several); "
                              "run nothing")
+    parser.add_argument("--rediagnose", nargs="+", metavar=("DIR", "TWIN"), default=None,
+                        help="benchmark: diagnose a sealed folder's twins again from its own "
+                             "library, compare with its diagnoses; run nothing")
     parser.add_argument("--json", action="store_true", help="print the answer as one JSON line last")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
@@ -121,7 +125,7 @@ _VALIDATE_ONLY = {"preset": "tiny", "simulator": "surrogate", "twin_seed": None,
 
 
 #: Options of ``bedstruct diagnose benchmark`` alone (None when not given).
-_BENCHMARK_ONLY = ("twins_engine", "n", "draw", "diagnose_setting", "score")
+_BENCHMARK_ONLY = ("twins_engine", "n", "draw", "diagnose_setting", "score", "rediagnose")
 
 
 def _misplaced(args, names) -> list[str]:

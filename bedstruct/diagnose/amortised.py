@@ -28,7 +28,7 @@ from .diagnosis_result import Diagnosis
 from .emulator import EmulatedSimulator, EmulatorCheck
 from .emulator_fit import fit_emulator
 from .run_design import design_spec
-from .run_library import build_library
+from .run_library import build_library, load_library
 
 __all__ = ["AmortisedDiagnosis", "diagnose_with_library", "library_emulator",
            "confirming_runs"]
@@ -148,13 +148,15 @@ def library_emulator(simulator, *, base: Mapping[str, float], library,
                      nuisance: Sequence[str] = ("cohesion_energy_density",),
                      vary: Mapping | None = None, n_base: int = 16, n_per_effect: int = 16,
                      library_replicates: int = 3, workers: int = 1, scheduler=None,
-                     progress: bool = False):
+                     progress: bool = False, replay: bool = False):
     """The emulator of a simulator's run library: built (or resumed, or reused) and fitted.
 
     The library's design varies each ``nuisance`` base parameter over ``vary`` (default
     +-25 %) and each catalogue effect over its prior
     (:func:`~bedstruct.diagnose.run_design.design_spec`). Parameters as
-    :func:`diagnose_with_library`.
+    :func:`diagnose_with_library`; ``replay`` fits the library's runs as recorded when it
+    was made by other code (:func:`~bedstruct.diagnose.run_library.load_library`) and
+    runs nothing: the library must hold the whole design.
 
     Returns
     -------
@@ -166,8 +168,15 @@ def library_emulator(simulator, *, base: Mapping[str, float], library,
         vary = {name: 0.25 for name in nuisance}
     spec = design_spec(dict(base), vary=vary, effects=effects, n_base=n_base,
                        n_per_effect=n_per_effect, replicates=library_replicates)
-    lib = build_library(simulator, spec, Path(library), workers=workers, scheduler=scheduler,
-                        progress=progress)
+    if replay:
+        lib = load_library(Path(library), simulator, replay=True)
+        if lib.spec != spec or not lib.complete:
+            raise ConfigError(f"run library {library}: it does not hold the design asked for "
+                              f"({lib.n_runs} runs; complete: {lib.complete}); a replay runs "
+                              f"nothing")
+    else:
+        lib = build_library(simulator, spec, Path(library), workers=workers,
+                            scheduler=scheduler, progress=progress)
     return fit_emulator(lib, progress=progress)
 
 

@@ -483,7 +483,7 @@ def bridge_table(doc: Mapping[str, Any], where: str, folder: Path | None = None)
 def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str, float],
                   bridge: Mapping[str, Any], engine: Mapping[str, Any] | None = None,
                   cache=None, engine_simulator=None, effects: Sequence | None = None,
-                  workers: int = 1, progress: bool = False) -> EngineBridge:
+                  workers: int = 1, progress: bool = False, replay: bool = False) -> EngineBridge:
     """Run the user's engine at the base point (and each effect's probe) and bridge it to
     ``simulator``.
 
@@ -515,6 +515,9 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
         each of them that the bridged engine realises is probed (:func:`effect_probes`).
     workers : int
         Local processes running the engine's runs (default 1).
+    replay : bool
+        Read the engine's runs from ``cache`` whatever code made them and run none (a run
+        not kept there is an error): the bridge of a validation record, as recorded.
 
     Returns
     -------
@@ -525,6 +528,10 @@ def engine_bridge(measurements: MeasurementSet, simulator, *, base: Mapping[str,
     if engine_simulator is None:
         engine_simulator = _engine_simulator(measured, bridge=bridge, engine=engine, cache=cache,
                                              workers=workers)
+        engine_simulator.replay = bool(replay)
+    elif replay:
+        raise ConfigError("engine_bridge: `replay` reads the bridge's own cache; it cannot be "
+                          "combined with an `engine_simulator`")
     runs = _run_all(engine_simulator, [(dict(base), {}, s) for s in seeds], progress,
                     f"bridge ({bridge['engine']})")
     names = measured.names

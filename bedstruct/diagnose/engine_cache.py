@@ -106,12 +106,13 @@ def call_key(cfg: Mapping[str, Any], *, wide_box: float, speed_scale: float) -> 
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def read_entry(folder: Path | None, key: str, versions: Mapping[str, str]) -> dict:
+def read_entry(folder: Path | None, key: str, versions: Mapping[str, str] | None) -> dict:
     """The cached observations of call ``key`` in ``folder``, by observable spec.
 
     Empty when there is no cache, no entry, an unreadable one (a warning) or one written
     by code whose :func:`code_versions` differ from ``versions`` (a warning naming what
-    differs): such an entry is never reused.
+    differs): such an entry is never reused. ``versions=None`` reads an entry whatever
+    code wrote it (a replay of recorded runs, which never runs the engine).
     """
     if folder is None:
         return {}
@@ -125,7 +126,7 @@ def read_entry(folder: Path | None, key: str, versions: Mapping[str, str]) -> di
     except (OSError, ValueError, AttributeError):
         log.warning("engine cache: unreadable entry %s ignored", f)
         return {}
-    differ = [k for k in versions if have.get(k) != versions[k]]
+    differ = [k for k in (versions or {}) if have.get(k) != versions[k]]
     if differ:
         # observations of other code: never reused, the call is simulated again
         log.warning("engine cache: entry %s refused: written by other code (%s); the call "

@@ -431,6 +431,9 @@ class EngineSimulator:
         self.cache = Path(cfg["cache"]).expanduser() if cfg.get("cache") else None
         #: the code versions this simulator's cache entries are written and read under
         self.versions = code_versions() if self.cache is not None else {}
+        #: read the cache's entries whatever code wrote them and never run the engine (a
+        #: call not in the cache is an error): re-diagnosing a record from its own runs
+        self.replay = False
         self.n_cached = 0
         # calls that ran the engine (here or in a worker), and a hook called after each
         # (``on_call(sim)``: a long validation says how far its twin has come)
@@ -584,7 +587,7 @@ class EngineSimulator:
         ``jobs = 1`` nothing is done (the calls run when asked for). ``progress``
         shows a bar over the batch. Returns the number of calls run.
         """
-        if self.jobs <= 1:
+        if self.jobs <= 1 or self.replay:
             return 0
         todo, seen = [], set()
         for b, e, s in calls:
@@ -612,7 +615,8 @@ class EngineSimulator:
     def _fully_cached(self, base, effects, seed) -> bool:
         if self.cache is None:
             return False
-        cached = read_entry(self.cache, self.cache_key(base, effects, seed), self.versions)
+        cached = read_entry(self.cache, self.cache_key(base, effects, seed),
+                            None if self.replay else self.versions)
         return all(json.dumps(self._spec(m), sort_keys=True) in cached for m in self.design)
 
     def __call__(self, base: Mapping[str, float], effects: Mapping[str, float], seed: int):
@@ -622,11 +626,17 @@ class EngineSimulator:
                                 source="engine")
         cfg = self.run_config(base, effects, seed)
         key = self.cache_key(base, effects, seed) if self.cache is not None else ""
-        cached = read_entry(self.cache, key, self.versions) if key else {}
+        cached = (read_entry(self.cache, key, None if self.replay else self.versions)
+                  if key else {})
         specs = {m.name: json.dumps(self._spec(m), sort_keys=True) for m in self.design}
         values = {n: np.asarray(cached[sp]["value"], float) for n, sp in specs.items()
                   if sp in cached}
         todo = [m for m in self.design if m.name not in values]
+        if todo and self.replay:
+            raise ConfigError(f"replaying the engine cache {self.cache}: the call base="
+                              f"{dict(base)}, effects={dict(effects)}, seed={seed} has no entry "
+                              f"for {', '.join(m.name for m in todo)} (a replay never runs the "
+                              f"engine)")
         if todo:
             root = Path(self.workdir).expanduser() if self.workdir else None
             if root is not None:

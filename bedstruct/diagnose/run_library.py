@@ -298,6 +298,30 @@ def _check_key(path: Path, key: str, doc: Mapping, spec: DesignSpec) -> None:
                           f"{'; '.join(diff)}; build the new design in another folder")
 
 
+#: Sections of a library's key document that a replay lets differ (the code it was made by)
+_REPLAY_SECTIONS = ("code", "bedstruct_version")
+
+
+def _check_replay(path: Path, meta: Mapping, doc: Mapping) -> None:
+    """Refuse a library to be replayed unless its key document equals ``doc`` outside
+    :data:`_REPLAY_SECTIONS`; warn naming the code that differs."""
+    old = dict(meta.get("key_document", {}))
+    if meta.get("key") != library_key(old):
+        raise StaleLibraryError(f"run library {path}: its key is not the hash of its key "
+                                f"document (library.json edited); it cannot be replayed")
+    strip = lambda d: {k: v for k, v in d.items() if k not in _REPLAY_SECTIONS}  # noqa: E731
+    if strip(old) != strip(doc):
+        diff = _differences(strip(old), strip(doc))
+        raise StaleLibraryError(
+            f"run library {path}: made for another simulator, catalogue or design, not only "
+            f"by other code ({'; '.join(diff) or 'its key document'}); it cannot be replayed")
+    diff = _differences({k: old.get(k) for k in _REPLAY_SECTIONS},
+                        {k: doc.get(k) for k in _REPLAY_SECTIONS})
+    if diff:
+        log.warning("run library %s: replayed as recorded, made by other code (%s)", path,
+                    "; ".join(diff))
+
+
 def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int = 1,
                   scheduler=None, progress: bool = True, design=None) -> RunLibrary:
     """Run a design into a library folder (resuming a build that was cut short).
@@ -441,7 +465,8 @@ def _build_dask(simulator, todo, scheduler, save) -> None:
             client.close()
 
 
-def load_library(path, simulator=None, *, design=None, key: str | None = None) -> RunLibrary:
+def load_library(path, simulator=None, *, design=None, key: str | None = None,
+                 replay: bool = False) -> RunLibrary:
     """Read a library folder, refusing it if its key differs from the current one.
 
     Parameters
@@ -455,6 +480,11 @@ def load_library(path, simulator=None, *, design=None, key: str | None = None) -
         Observables, when the simulator has no ``design`` attribute.
     key : str, optional
         An expected key (checked when no simulator is given).
+    replay : bool
+        Read a library that differs from the current key only in the code it was made by
+        (``code``, ``bedstruct_version``): its runs as recorded, for diagnosing again
+        with today's diagnosis what a validation record diagnosed (a warning names the
+        code that differs). Any other difference is refused as without ``replay``.
 
     Returns
     -------
@@ -473,7 +503,10 @@ def load_library(path, simulator=None, *, design=None, key: str | None = None) -
     spec = DesignSpec.from_json(meta["spec"])
     if simulator is not None:
         doc = library_key_document(simulator, spec, design=design)
-        _check_key(path, library_key(doc), doc, spec)
+        if replay:
+            _check_replay(path, meta, doc)
+        else:
+            _check_key(path, library_key(doc), doc, spec)
     elif key is not None and meta["key"] != key:
         raise StaleLibraryError(f"run library {path}: key {meta['key']} differs from {key}")
     lib_key = meta["key"]

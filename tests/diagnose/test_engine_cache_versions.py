@@ -17,6 +17,7 @@ from bedstruct._version import __version__
 from bedstruct.diagnose import MeasurementSet
 from bedstruct.diagnose.engine_cache import code_versions, read_entry
 from bedstruct.diagnose.engine_simulator import EngineSimulator
+from bedstruct.errors import ConfigError
 
 RECORDS = pathlib.Path(__file__).resolve().parents[2] / "docs" / "records"
 
@@ -82,3 +83,26 @@ def test_an_entry_without_versions_is_refused(tmp_path, counted_repose, caplog):
     with caplog.at_level("WARNING", logger="bedstruct.diagnose.engine_cache"):
         assert read_entry(sim.cache, committed.stem, sim.versions) == {}
     assert "engine not stated" in caplog.text and "observation not stated" in caplog.text
+
+
+def test_a_replay_reads_an_entry_of_other_code_as_recorded_and_never_simulates(tmp_path,
+                                                                               counted_repose):
+    """A replay (re-diagnosing a validation record from its own runs) takes an entry whatever
+    code wrote it, and a call it lacks is an error naming the call, not a simulation."""
+    _sim(tmp_path)({}, {}, 0)
+    f = next(tmp_path.glob("*.json"))
+    doc = json.loads(f.read_text())
+    doc["meta"]["versions"]["engine"] = "0123456789abcdef"
+    for entry in doc["observables"].values():     # the recorded answer, whatever it is
+        entry["value"] = [41.0]
+    f.write_text(json.dumps(doc))
+    sim = _sim(tmp_path)
+    sim.replay = True
+    assert sim({}, {}, 0)["static_angle"][0] == 41.0 and len(counted_repose) == 1
+    assert sim.prefetch([({}, {}, 1), ({}, {}, 2)]) == 0
+    with pytest.raises(ConfigError,
+                       match=r"seed=5 has no entry for static_angle \(a replay never runs"):
+        sim({}, {}, 5)
+    assert len(counted_repose) == 1
+    # the entry is left as recorded
+    assert json.loads(f.read_text())["meta"]["versions"]["engine"] == "0123456789abcdef"

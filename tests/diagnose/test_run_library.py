@@ -324,3 +324,49 @@ def test_points_whose_replicates_all_gave_no_reading_fit_without_warnings(tmp_pa
     # the runs that read it still teach the emulator the offset of the second angle
     p = emu.predict({}, {"wall_friction": 0.0})
     assert p.mean[col] - p.mean[list(lib.names).index("aor")] == pytest.approx(-3.0, abs=0.3)
+
+
+def test_a_library_made_by_other_code_is_replayed_only_when_asked_and_only_for_its_code(
+        tmp_path, monkeypatch, caplog):
+    """``replay`` reads a library whose key differs only in the code that made it (its runs
+    as recorded, a warning naming the code), runs nothing, and refuses one made for another
+    simulator configuration or design as a plain load does."""
+    from bedstruct.diagnose import run_library
+    from bedstruct.diagnose.amortised import library_emulator
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    sim = SurrogateSimulator(_one_angle())
+    made = build_library(sim, spec, tmp_path, progress=False)
+    monkeypatch.setattr(run_library, "_code_hash", lambda rel: "f" * 20)  # the code changed
+    with pytest.raises(StaleLibraryError, match=r"code\.diagnose/surrogate\.py"):
+        load_library(tmp_path, sim)
+    with caplog.at_level("WARNING", logger="bedstruct.diagnose.run_library"):
+        lib = load_library(tmp_path, sim, replay=True)
+    assert "replayed as recorded, made by other code (code.diagnose/catalogue.py" in caplog.text
+    assert "code.diagnose/surrogate.py" in caplog.text
+    assert lib.key == made.key and np.array_equal(lib.outputs, made.outputs, equal_nan=True)
+    emu = library_emulator(sim, base=BASE_PARAMETERS, library=tmp_path, effects=["wall_friction"],
+                           n_base=2, n_per_effect=2, library_replicates=2, replay=True)
+    assert emu.n_runs == made.n_runs
+    # a replay fits the recorded runs: the same emulator as before the code changed
+    monkeypatch.undo()
+    same = library_emulator(sim, base=BASE_PARAMETERS, library=tmp_path,
+                            effects=["wall_friction"], n_base=2, n_per_effect=2,
+                            library_replicates=2)
+    x = dict(BASE_PARAMETERS)
+    assert emu.predict(x, {"wall_friction": 0.2}).mean == pytest.approx(
+        same.predict(x, {"wall_friction": 0.2}).mean, rel=1e-12)
+    monkeypatch.setattr(run_library, "_code_hash", lambda rel: "f" * 20)
+    # another configuration is not a code change: refused under replay too
+    with pytest.raises(StaleLibraryError, match=r"not only by other code.*noise: 1\.0 -> 0\.5"):
+        load_library(tmp_path, SurrogateSimulator(_one_angle(), noise=0.5), replay=True)
+    # a design the library does not hold is refused, nothing is run
+    with pytest.raises(ConfigError, match="does not hold the design asked for"):
+        library_emulator(sim, base=BASE_PARAMETERS, library=tmp_path, effects=["wall_friction"],
+                         n_base=3, n_per_effect=2, library_replicates=2, replay=True)
+    # an edited library.json (key not its document's hash) is refused
+    meta = json.loads((tmp_path / "library.json").read_text())
+    meta["key_document"]["catalogue"]["wall_friction"]["prior"] = [0.0, 9.0]
+    (tmp_path / "library.json").write_text(json.dumps(meta))
+    with pytest.raises(StaleLibraryError, match="library.json edited"):
+        load_library(tmp_path, sim, replay=True)

@@ -71,7 +71,7 @@ from ..emulator import EmulatedSimulator
 from ..measurement_io import load_measurements
 
 __all__ = ["PROTOCOL", "DRAWS", "SHRINK_ALPHA", "BenchmarkResult", "run_benchmark", "diagnose_file",
-           "score_benchmark", "load_benchmark", "pool_benchmarks", "proportion_interval", "median_interval", "confusion_figure",
+           "score_benchmark", "load_benchmark", "pool_benchmarks", "rediagnose_benchmark", "proportion_interval", "median_interval", "confusion_figure",
            "add_benchmark_arguments", "run_benchmark_command"]
 
 #: Revision of the protocol, in ``truth.json`` (2: the ``draw`` setting, effect magnitudes
@@ -210,6 +210,100 @@ def diagnose_file(path, sim: str = "surrogate", *, settings: dict | None = None,
                                     and p_before < SHRINK_ALPHA),
             "reason": att.reason, "simulator": diag.simulator,
             "seconds": round(time.perf_counter() - t0, 2)}
+
+
+def rediagnose_benchmark(folder, *, twins=None, sim=None, progress: bool = False) -> dict:
+    """Diagnose a sealed benchmark's twin files again with this code, from the benchmark's
+    own run library and bridge runs as recorded (no simulator run), and compare with the
+    recorded diagnoses.
+
+    What a validation record's answers owe to the diagnosis, apart from the simulator:
+    the library (``DIR/library``) and the bridge's engine runs are read whatever engine code
+    made them (:func:`~bedstruct.diagnose.run_library.load_library` with ``replay``), so
+    the comparison holds after the engine's code changes; a library made for another
+    simulator, catalogue or design is refused.
+
+    Parameters
+    ----------
+    folder : path-like
+        A sealed benchmark folder run with ``--library DIR/library`` (or the library in
+        ``DIR/library``).
+    twins : sequence of str, optional
+        Twin ids (default: every twin of the seal).
+    sim : str, optional
+        The diagnosing simulation config (default: the one ``truth.json`` records,
+        relative to the working directory).
+    progress : bool
+        A bar over the twins.
+
+    Returns
+    -------
+    dict
+        ``n``, ``same`` (twins whose answer and partial flag are the recorded ones),
+        ``differ`` (id -> ``{"recorded": ..., "now": ...}``: answer, partial flag,
+        magnitude, shrink, for the others), ``magnitude_rel_diff`` (the largest relative
+        difference of a leading effect's magnitude where both answers name the same
+        effect; 0.0 where none), ``results`` (id -> this code's record, as
+        :func:`diagnose_file`).
+
+    Notes
+    -----
+    The answers of a twin near a decision threshold, and the magnitudes of a weakly
+    identified fit, can change with the floating-point platform (the BLAS kernels numpy
+    runs on): compare on the platform a record was diagnosed on to see the code's own
+    changes.
+
+    Raises
+    ------
+    ConfigError
+        The folder is not a sealed benchmark, its twins are not all diagnosed, it has no
+        ``library`` folder, or its simulation config cannot be found.
+    """
+    folder = Path(folder)
+    truth, results = load_benchmark(folder)
+    ids = list(twins) if twins is not None else sorted(truth["twins"])
+    unknown = [t for t in ids if t not in truth["twins"]]
+    if unknown:
+        raise ConfigError(f"{folder}: no twin {unknown[0]!r} in truth.json")
+    missing = [t for t in ids if t not in results]
+    if missing:
+        raise ConfigError(f"{folder}: twin {missing[0]} has no recorded diagnosis to compare with")
+    library = folder / "library"
+    if not (library / "library.json").is_file():
+        raise ConfigError(f"{folder}: no run library in {library} (rediagnosing needs the "
+                          f"benchmark's own library)")
+    sim = sim if sim is not None else truth["settings"]["sim"]
+    if sim != "surrogate" and not Path(sim).is_file():
+        raise ConfigError(f"{folder}: its simulation config {sim} is not found from "
+                          f"{Path.cwd()}; pass sim= (or run from the folder it was run in)")
+    settings = _settings_of(truth)
+    design = benchmark_design(truth["settings"]["twins_engine"])
+    emu = _emulator(sim, settings, design, library, 1, None, False, replay=True)
+    bridge = _benchmark_bridge(sim, settings, design, emu, library, False, replay=True)
+    keys = ("answer", "partial", "magnitude", "shrink")
+    now, differ, rel = {}, {}, 0.0
+    it = ids
+    if progress:
+        from tqdm import tqdm
+        it = tqdm(ids, desc="rediagnose", unit="twin")
+    for t in it:
+        r = diagnose_file(folder / "twins" / f"{t}.toml", sim, settings=settings,
+                          emulator=emu, bridge=bridge)
+        now[t] = r
+        was = results[t]
+        if (r["answer"], r["partial"]) != (was["answer"], was["partial"]):
+            differ[t] = {"recorded": {k: was.get(k) for k in keys},
+                         "now": {k: r.get(k) for k in keys}}
+        elif r.get("magnitude") is not None and was.get("magnitude"):
+            rel = max(rel, abs(r["magnitude"] / was["magnitude"] - 1.0))
+    return {"n": len(ids), "same": len(ids) - len(differ), "differ": differ,
+            "magnitude_rel_diff": rel, "results": now}
+
+
+def _settings_of(truth: dict) -> dict | None:
+    """The diagnosis settings a benchmark replaced (``--diagnose-setting``), from its truth."""
+    ds = truth.get("settings", {}).get("diagnose_settings")
+    return dict(ds) if isinstance(ds, dict) and ds else None
 
 
 def _sim_config(sim, settings):
@@ -482,13 +576,15 @@ def _library_doc(sim, settings) -> dict:
     return lib
 
 
-def _emulator(sim, settings, design, library, workers, scheduler, progress):
+def _emulator(sim, settings, design, library, workers, scheduler, progress, replay=False):
     """Build (or resume, or reuse) the diagnosing configuration's run library on the
-    benchmark's measurement design, and fit its emulator."""
+    benchmark's measurement design, and fit its emulator (``replay``: the library's runs
+    as recorded, whatever code made them; nothing is run)."""
     cfg = _sim_config(sim, settings)
     simulator = make_simulator(cfg, diagnosis_design(design, cfg.effects))
     return library_emulator(simulator, base=cfg.base, library=library, workers=workers,
-                            scheduler=scheduler, progress=progress, **cfg.library_settings())
+                            scheduler=scheduler, progress=progress, replay=replay,
+                            **cfg.library_settings())
 
 
 def _detectable(sim, settings, twins_engine, simulator, progress=False):
@@ -504,10 +600,11 @@ def _detectable(sim, settings, twins_engine, simulator, progress=False):
                              repeats=1 if twins_engine == "surrogate" else 3)
 
 
-def _benchmark_bridge(sim, settings, design, emulator, library, progress, workers=1):
+def _benchmark_bridge(sim, settings, design, emulator, library, progress, workers=1,
+                      replay=False):
     """The diagnosing configuration's engine bridge on the benchmark's design (``None``
     without a ``[bridge]``): made once, its runs kept in the table's ``cache``, else in the
-    library's folder."""
+    library's folder (``replay``: read from there whatever code made them; none is run)."""
     cfg = _sim_config(sim, settings)
     if not cfg.bridge:
         return None
@@ -517,7 +614,8 @@ def _benchmark_bridge(sim, settings, design, emulator, library, progress, worker
         simulator = make_simulator(cfg, diagnosis_design(design, cfg.effects))
     cache = cfg.bridge.get("cache") or (Path(library) / "bridge" if library is not None else None)
     return engine_bridge(design, simulator, base=cfg.base, bridge=cfg.bridge, engine=cfg.engine,
-                         effects=cfg.effects, cache=cache, workers=workers, progress=progress)
+                         effects=cfg.effects, cache=cache, workers=workers, progress=progress,
+                         replay=replay)
 
 
 def _bridge_once(out, sim, settings, twins_engine, emulator, library, progress, workers):
@@ -744,6 +842,9 @@ def add_benchmark_arguments(parser) -> None:
         help="benchmark folder (resumed if it holds this benchmark; another is refused)")
     add("--score", nargs="+", metavar="DIR", default=None,
         help="score sealed benchmark folders (together when several); run nothing")
+    add("--rediagnose", nargs="+", metavar=("DIR", "TWIN"), default=None,
+        help="diagnose a sealed folder's twins (all, or the TWINs named) again with this "
+             "code from its own library as recorded, compare with its diagnoses; run nothing")
     add("--json", action="store_true", help="print the summary as one line of JSON (last line)")
     add("--library", default=None, metavar="DIR",
         help="diagnose on the emulator of the diagnosing config's run library in DIR")
@@ -773,6 +874,8 @@ def run_benchmark_command(args) -> int:
 
     if getattr(args, "score", None):
         return _score_command(args)
+    if getattr(args, "rediagnose", None):
+        return _rediagnose_command(args)
     if not getattr(args, "out", None):
         raise ConfigError("benchmark: --out DIR is required (or --score DIR to score folders)")
     ignored = [f"--{n.replace('_', '-')}" for n in ("real", "np", "jobs", "cache", "records",
@@ -824,6 +927,31 @@ def _score_command(args) -> int:
                 else f"benchmark folder {s['batches'][0]}")
         _print_scores(s, f"{what}: {s['n']} twins")
     return 0
+
+
+def _rediagnose_command(args) -> int:
+    """``bedstruct diagnose benchmark --rediagnose DIR``: exit 0 when every answer is the
+    recorded one, 1 otherwise."""
+    used = [f"--{n.replace('_', '-')}" for n in ("out", "twins_engine", "n", "library",
+                                                  "workers", "scheduler", "draw")
+            if getattr(args, n, None) not in (None, False, "surrogate", 40, "detectable")]
+    if used:
+        raise ConfigError(f"benchmark --rediagnose: {', '.join(used)} "
+                          f"{'does' if len(used) == 1 else 'do'} not apply (it reads the "
+                          f"folder's own settings and library)")
+    sim = getattr(args, "sim", None)
+    folder, twins = args.rediagnose[0], args.rediagnose[1:] or None
+    r = rediagnose_benchmark(folder, twins=twins, sim=None if sim in (None, "surrogate") else sim,
+                             progress=not getattr(args, "json", False))
+    if getattr(args, "json", False):
+        print(json.dumps(to_jsonable({k: r[k] for k in ("n", "same", "differ",
+                                                         "magnitude_rel_diff")})))
+    else:
+        print(f"{folder}: {r['same']} of {r['n']} twins given the recorded answer (magnitudes "
+              f"within {100 * r['magnitude_rel_diff']:.3g} % of the recorded ones)")
+        for t, d in r["differ"].items():
+            print(f"  {t}: recorded {d['recorded']['answer']}, now {d['now']['answer']}")
+    return 0 if not r["differ"] else 1
 
 
 def _print_scores(s: dict, header: str) -> None:
