@@ -92,3 +92,39 @@ class ToySimulator:
                 + self.noise_sd * np.random.default_rng([seed, _stable_hash(effects),
                                                         _stable_hash(base)]).standard_normal(n)
         return Observations({m.name: [y[i]] for i, m in enumerate(self.design)}, source="toy")
+
+
+#: The BLAS kernel family the rediagnosis checks of committed records run on: numpy's
+#: OpenBLAS is pinned to it in a child process, so that the check does not depend on the
+#: host's own kernels (borderline answers move with them; docs/records/blas-kernels).
+REFERENCE_KERNEL = "Haswell"
+
+
+def rediagnose_on_reference_kernel(folder, twins, sim) -> dict:
+    """``rediagnose_benchmark(folder, twins=twins, sim=sim)["results"]`` computed in a child
+    process with ``OPENBLAS_CORETYPE`` = :data:`REFERENCE_KERNEL`; skips the calling test
+    where OpenBLAS cannot run that kernel family here (a CPU without AVX2 and FMA, not x86)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    import pytest
+
+    code = (
+        "import json, sys, threadpoolctl\n"
+        "from bedstruct.diagnose.validation.blind import rediagnose_benchmark\n"
+        "arch = [i.get('architecture') for i in threadpoolctl.threadpool_info()\n"
+        "        if i.get('internal_api') == 'openblas']\n"
+        f"r = rediagnose_benchmark({str(folder)!r}, twins={list(twins)!r}, sim={str(sim)!r})\n"
+        "print(json.dumps({'arch': arch[0] if arch else None, 'results': r['results']}))\n")
+    env = dict(os.environ, OPENBLAS_CORETYPE=REFERENCE_KERNEL)
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    if proc.returncode != 0:
+        if proc.returncode < 0 or "Illegal instruction" in proc.stderr:
+            pytest.skip(f"OpenBLAS cannot run its {REFERENCE_KERNEL} kernels on this machine")
+        raise AssertionError(proc.stderr[-3000:])
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    if out["arch"] != REFERENCE_KERNEL:
+        pytest.skip(f"numpy's OpenBLAS runs {out['arch']} here, not {REFERENCE_KERNEL}")
+    return out["results"]

@@ -118,18 +118,18 @@ def test_the_current_bridge_gives_the_unshrunk_answers_of_the_probe_shrinkage_re
     twelfth blind batch's files that the shrinkage changes (from the committed run library
     and bridge runs, no engine run) gives `probe-shrinkage/unshrunk.json`'s answers, and not
     the blind batch's."""
-    from bedstruct.diagnose.validation.blind import rediagnose_benchmark
+    from diagnose_helpers import rediagnose_on_reference_kernel
 
     batch = "blind-liggghts-replicate2-2026-12-06"
     here = RECORDS / batch
     truth = json.loads((here / "truth.json").read_text())
     sim = str(pathlib.Path(__file__).resolve().parents[2] / truth["settings"]["sim"])
     unshrunk = json.loads((RECORDS / "probe-shrinkage" / "unshrunk.json").read_text())
-    # twin-024's answer is the same on every BLAS kernel family tried; twin-001's and
-    # twin-002's, which the shrinkage also changed, change with the kernel too
-    # (records/blas-kernels), so they do not tell the two methods apart everywhere
+    # on the reference BLAS kernels (the record was made on other ones): twin-001's and
+    # twin-002's answers, which the shrinkage also changed, move with the kernels there
+    # (records/blas-kernels), twin-024's does not
     twins = ("twin-024",)
-    now = rediagnose_benchmark(here, twins=twins, sim=sim)["results"]
+    now = rediagnose_on_reference_kernel(here, twins, sim)
     for twin in twins:
         r = now[twin]
         want = unshrunk["batches"][batch][twin]
