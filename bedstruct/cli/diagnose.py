@@ -5,8 +5,7 @@
       shrinks, what to measure next (with --library: on a run library's emulator).
   bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
   bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --out DIR
-  bedstruct diagnose benchmark --score DIR [DIR ...]
-  bedstruct diagnose benchmark --rediagnose DIR [TWIN ...]
+  bedstruct diagnose benchmark --score DIR [DIR ...] | --rediagnose DIR [TWIN ...]
 
 Details of every option and of the files: docs/diagnose.md.
 """
@@ -74,8 +73,7 @@ def add_arguments(parser) -> None:
                         help="benchmark: score sealed benchmark folders (together when several); "
                              "run nothing")
     parser.add_argument("--rediagnose", nargs="+", metavar=("DIR", "TWIN"), default=None,
-                        help="benchmark: diagnose a sealed folder's twins again from its own "
-                             "library, compare with its diagnoses; run nothing")
+                        help="benchmark: rediagnose a sealed folder's twins, compare answers")
     parser.add_argument("--json", action="store_true", help="print the answer as one JSON line last")
     parser.add_argument("--progress", action="store_true", help="show progress bars")
 
