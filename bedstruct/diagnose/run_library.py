@@ -309,9 +309,12 @@ def _check_replay(path: Path, meta: Mapping, doc: Mapping) -> None:
     if meta.get("key") != library_key(old):
         raise StaleLibraryError(f"run library {path}: its key is not the hash of its key "
                                 f"document (library.json edited); it cannot be replayed")
-    strip = lambda d: {k: v for k, v in d.items() if k not in _REPLAY_SECTIONS}  # noqa: E731
-    if strip(old) != strip(doc):
-        diff = _differences(strip(old), strip(doc))
+
+    def beyond_code(d: Mapping) -> dict:
+        return {k: v for k, v in d.items() if k not in _REPLAY_SECTIONS}
+
+    if beyond_code(old) != beyond_code(doc):
+        diff = _differences(beyond_code(old), beyond_code(doc))
         raise StaleLibraryError(
             f"run library {path}: made for another simulator, catalogue or design, not only "
             f"by other code ({'; '.join(diff) or 'its key document'}); it cannot be replayed")
