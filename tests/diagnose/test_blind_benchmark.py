@@ -1310,8 +1310,17 @@ def test_rediagnose_command_compares_a_records_twins_with_its_diagnoses(capsys, 
     assert main(["diagnose", "benchmark", "--rediagnose", rec, "twin-004", "--json"]) == 0
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert out["n"] == 1 and out["differ"] == {}
-    # a recorded answer that this code does not give is reported, with exit status 1
     real = blind.diagnose_file
+    recorded = json.loads((root / rec / "results" / "twin-004.json").read_text())
+
+    def twice_the_magnitude(*a, **k):
+        return dict(real(*a, **k), magnitude=2.0 * recorded["magnitude"])
+    # the same answer at another magnitude: exit 0, the difference reported
+    monkeypatch.setattr(blind, "diagnose_file", twice_the_magnitude)
+    assert main(["diagnose", "benchmark", "--rediagnose", rec, "twin-004", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert out["same"] == 1 and out["magnitude_rel_diff"] == pytest.approx(1.0)
+    # a recorded answer that this code does not give is reported, with exit status 1
 
     def other_answer(*a, **k):
         return dict(real(*a, **k), answer="capillary_bridges")

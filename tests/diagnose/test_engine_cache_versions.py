@@ -96,10 +96,12 @@ def test_a_replay_reads_an_entry_of_other_code_as_recorded_and_never_simulates(t
     for entry in doc["observables"].values():     # the recorded answer, whatever it is
         entry["value"] = [41.0]
     f.write_text(json.dumps(doc))
-    sim = _sim(tmp_path)
+    design = MeasurementSet((dg.engine_twin_design()["static_angle"],))
+    # two worker processes: without the replay, prefetch would run the uncached calls there
+    sim = EngineSimulator(design, {"preset": "tiny", "cache": str(tmp_path), "jobs": 2})
     sim.replay = True
     assert sim({}, {}, 0)["static_angle"][0] == 41.0 and len(counted_repose) == 1
-    assert sim.prefetch([({}, {}, 1), ({}, {}, 2)]) == 0
+    assert sim.prefetch([({}, {}, 1), ({}, {}, 2)]) == 0 and sim.n_calls == 0
     with pytest.raises(ConfigError,
                        match=r"seed=5 has no entry for static_angle \(a replay never runs"):
         sim({}, {}, 5)
