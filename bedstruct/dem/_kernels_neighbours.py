@@ -99,7 +99,9 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
     exclusive offsets): write the pairs ``(i, j, image of j)``. ``fill=2``:
     one pass, chunk t writing its pairs from ``chunk_off[t]`` with room for
     ``chunk_cap[t]``; ``chunk_cnt[t]`` gets the number written, or -1 when
-    the room was too small. Particles must be sorted by cell.
+    the room was too small. Particles must be sorted by cell: the neighbour
+    cells of a cell (their particle ranges and periodic images) are looked up
+    once for all its particles.
     """
     nt = bounds.shape[0] - 1
     ns = stencil.shape[0]
@@ -110,27 +112,26 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
         tpos = chunk_off[t] if fill == 2 else 0
         tend = tpos + chunk_cap[t] if fill == 2 else 0
         over = False
+        # the stencil of the current cell: particle range [j0, j1) and image of each cell
+        sj0 = np.zeros(ns + 1, dtype=np.int64)
+        sj1 = np.zeros(ns + 1, dtype=np.int64)
+        ssh = np.zeros((ns + 1, 3), dtype=np.int64)
+        cprev = -1
         for i in range(bounds[t], bounds[t + 1]):
             if over:
                 break
             c = cells[i]
-            cx = c % nx
-            cy = (c // nx) % ny
-            cz = c // (nx * ny)
-            xi0 = x[i, 0]
-            xi1 = x[i, 1]
-            xi2 = x[i, 2]
-            ri = rad[i] + skin
-            cnt = 0
-            pos = counts[i] if fill == 1 else tpos
-            for s in range(ns + 1):
-                sx = 0
-                sy = 0
-                sz = 0
-                if s == ns:  # own cell, j > i
-                    j0 = i + 1
-                    j1 = start[c + 1]
-                else:
+            if c != cprev:
+                cprev = c
+                cx = c % nx
+                cy = (c // nx) % ny
+                cz = c // (nx * ny)
+                for s in range(ns):
+                    sj0[s] = 0
+                    sj1[s] = 0
+                    sx = 0
+                    sy = 0
+                    sz = 0
                     ox = cx + stencil[s, 0]
                     oy = cy + stencil[s, 1]
                     oz = cz + stencil[s, 2]
@@ -165,8 +166,27 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
                         oz -= nz
                         sz = 1
                     cc = (oz * ny + oy) * nx + ox
-                    j0 = start[cc]
-                    j1 = start[cc + 1]
+                    sj0[s] = start[cc]
+                    sj1[s] = start[cc + 1]
+                    ssh[s, 0] = sx
+                    ssh[s, 1] = sy
+                    ssh[s, 2] = sz
+                sj1[ns] = start[c + 1]  # own cell, j > i
+            sj0[ns] = i + 1
+            xi0 = x[i, 0]
+            xi1 = x[i, 1]
+            xi2 = x[i, 2]
+            ri = rad[i] + skin
+            cnt = 0
+            pos = counts[i] if fill == 1 else tpos
+            for s in range(ns + 1):
+                j0 = sj0[s]
+                j1 = sj1[s]
+                if j0 >= j1:
+                    continue
+                sx = ssh[s, 0]
+                sy = ssh[s, 1]
+                sz = ssh[s, 2]
                 a0 = xi0 - sx * L[0]
                 a1 = xi1 - sy * L[1]
                 a2 = xi2 - sz * L[2]

@@ -216,6 +216,14 @@ class _StateIO:
         sim._wall_speed = meta["wall_speed"]
         sim._programs = dict(meta.get("wall_programs", {}))
         sim._kicked = bool(meta.get("kicked", False))  # saved after an interrupted run()
+        if sim._kicked:
+            # the step under way looks at the displacements since the last build (a rebuild
+            # may be due): as the drift computed them, per chunk
+            d = sim.x - sim.x_ref
+            dd = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+            for t in range(sim.n_threads):
+                part = dd[sim._pbounds[t]:sim._pbounds[t + 1]]
+                sim._disp[t] = part.max(initial=0.0)
         if "wbuf" in data and data["wbuf"].shape == sim._wbuf.shape:
             sim._wbuf = np.ascontiguousarray(data["wbuf"])
         if "wload" in data:

@@ -186,6 +186,37 @@ def test_run_interrupted_between_fused_steps_resumes_exactly(tmp_path):
     np.testing.assert_array_equal(c.v, a.v)
 
 
+def test_checkpoint_between_fused_steps_keeps_a_due_rebuild(tmp_path):
+    # interrupted right after a fused step whose drift made a rebuild due: the resumed run
+    # must still rebuild before that step's pair pass (the displacements come back with it)
+    a = _bed()
+    a.run(300)
+    b = _bed()
+
+    class Stop(Exception):
+        pass
+
+    plain = b._one_step
+
+    def one_step(kick_next=False):
+        plain(kick_next)
+        if b._kicked and b._disp.max() > (0.5 * b.skin) ** 2:
+            raise Stop
+
+    b._one_step = one_step
+    try:
+        b.run(300)
+    except Stop:
+        pass
+    assert b._kicked and 0 < b.step < 300
+    c = Simulation.from_checkpoint(b.save_checkpoint(tmp_path / "due.npz"))
+    rebuilds = c.n_rebuilds
+    c.run(300 - b.step)
+    assert c.n_rebuilds > rebuilds
+    np.testing.assert_array_equal(c.x, a.x)
+    np.testing.assert_array_equal(c.v, a.v)
+
+
 def test_rebuild_kernels_equal_their_numpy_forms():
     # wrap_and_flag replaced a numpy wrap, removal mask and finiteness check; candidate_lists
     # replaced a cumsum/nonzero compaction: both must give the same arrays
