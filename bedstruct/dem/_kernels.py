@@ -11,6 +11,7 @@ The kernels live in focused modules, re-exported here:
   compiled in only when on) and its single-loop pass;
 * :mod:`~bedstruct.dem._kernels_pairs_blocked`: its blocked (vectorised) pass;
 * :mod:`~bedstruct.dem._kernels_step`: the integrator passes;
+* :mod:`~bedstruct.dem._kernels_run`: the step loop that runs them between looks at the state;
 * :mod:`~bedstruct.dem._kernels_neighbours`: cell list, pair list, history remap.
 
 All kernels are pure functions of contiguous arrays and scalars (SI units) and
@@ -39,7 +40,8 @@ from ._kernels_neighbours import (HALF_STENCIL, carry_history,  # noqa: F401
                                   pair_build, pair_keys, partner_csr, permute_particles,
                                   raindrop_accept, remap_history, remap_history_csr,
                                   wrap_and_flag)
-from ._kernels_pairs import pair_forces  # noqa: F401
+from ._kernels_pairs import PAIR_PASSES, pair_forces, pair_pass_call  # noqa: F401
+from ._kernels_run import PROGRAM_NCOL, apply_wall_programs, run_steps  # noqa: F401
 from ._kernels_step import finish_step, kick_drift  # noqa: F401
 from ._kernels_walls import (WALL_CYLINDER, WALL_MESH, WALL_NCOL, WALL_PLANE,  # noqa: F401
                              WALL_PRISM, WALL_RECT, closest_on_triangle, mesh_geometry,

@@ -37,7 +37,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import literally
+from numba import literally, types
+from numba.extending import overload
 
 from .._numba import njit, prange
 from ._kernels_contact import (ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE, STRICT, _open_pair,
@@ -45,7 +46,7 @@ from ._kernels_contact import (ROLL_CDT, ROLL_EPSD, ROLL_EPSD2, ROLL_NONE, STRIC
                                sjkr_area_pair)
 from ._kernels_pairs_blocked import BLOCKED_BY_ROLLING
 
-__all__ = ["pair_forces"]
+__all__ = ["pair_forces", "pair_pass_call", "run_pair_pass", "PAIR_PASSES"]
 
 _FM = dict(fastmath=True)
 _BLOCK = 64  # pairs per block of the two-pass loop
@@ -300,9 +301,40 @@ def pair_forces(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, 
     vectorised loop and adds the forces afterwards, in the same pair order.
     Forces are added to each particle in the order of the pair list in both.
     """
+    variant, args = pair_pass_call(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit,
+                                   eta_r, dt, store, fn_out, ft_out, cap, age, kr_fac, blocked)
+    PAIR_PASSES[variant](*args)
+
+
+#: The compiled pair passes: the blocked pass of each rolling model (``ROLL_*`` code), then
+#: the single loop of each.
+PAIR_PASSES = BLOCKED_BY_ROLLING + _BY_ROLLING
+
+
+def pair_pass_call(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt, store,
+                   fn_out, ft_out, cap=None, age=None, kr_fac=None, blocked=False):
+    """Which pass :func:`pair_forces` runs for these arguments (its index in
+    :data:`PAIR_PASSES`) and the pass's arguments: ``PAIR_PASSES[variant](*args)`` is that
+    call, and :func:`run_pair_pass` makes it from compiled code."""
     if blocked and cap is None and age is None:
-        BLOCKED_BY_ROLLING[rolling](P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt,
-                                    store, fn_out, ft_out, kr_fac)
-        return
-    _BY_ROLLING[rolling](P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store, fn_out,
-                         ft_out, cap, age, kr_fac)
+        return rolling, (P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit, eta_r, dt, store, fn_out,
+                         ft_out, kr_fac)
+    return len(BLOCKED_BY_ROLLING) + rolling, (P, PL, L, hist, bounds, fbuf, tbuf, TAB, limit,
+                                               eta_r, dt, store, fn_out, ft_out, cap, age, kr_fac)
+
+
+def run_pair_pass(variant, args):
+    """``PAIR_PASSES[variant](*args)`` in compiled code, with ``variant`` a compile-time
+    constant (so that a caller compiled per variant can be cached)."""
+    PAIR_PASSES[variant](*args)
+
+
+@overload(run_pair_pass)
+def _run_pair_pass(variant, args):
+    if not isinstance(variant, types.IntegerLiteral):
+        return None
+    kernel = PAIR_PASSES[variant.literal_value]
+
+    def impl(variant, args):
+        kernel(*args)
+    return impl

@@ -33,6 +33,9 @@ __all__ = ["Simulation", "RunStats", "WallState", "NumericalInstabilityError"]
 
 #: Steps between the checks for non-finite positions inside :meth:`Simulation.run`.
 _FINITE_CHECK_EVERY = 64
+#: No wall programs, no wall-load sum (the step loop's empty tables).
+_NO_PROGRAMS = np.zeros((0, K.PROGRAM_NCOL))
+_NO_WLOAD = np.zeros((0, 3))
 
 log = logging.getLogger(__name__)
 
@@ -168,6 +171,9 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         # True: the pair pass in gather-compute-scatter blocks where no extension is on
         # (vectorised contact law, the single loop's bits; docs/engine.md)
         self.blocked_pairs = True
+        # True: run() makes the steps between two looks at the state in one numba loop
+        # (the same kernel calls as _one_step, bit for bit; docs/engine.md)
+        self.fused_loop = True
         if self.n_threads < 1:
             raise ConfigError(f"`n_threads` must be >= 1; got {n_threads}")
         self.rng = np.random.default_rng(seed)
@@ -259,15 +265,21 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         return int(self.pi.shape[0])
 
     # ------------------------------------------------------------- stepping
-    def _pair_pass(self, dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out, hx=None):
+    def _pair_call(self, dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out, hx=None):
+        """The pair pass as ``(variant, args)``: ``K.PAIR_PASSES[variant](*args)`` runs it."""
         m = self.model
         # an extension that is off is passed as None and compiled out of the kernel
-        K.pair_forces((self.x, self.v, self.om, self.rad, self.mass, self.inv_i, self.ptype),
-                      (self.pi, self.pj, self.psh), self._L, (ht, hr), self._qbounds, fbuf, tbuf,
-                      self._pair_tab, m.rolling_code, m.limit_force, float(m.rolling_damping), dt,
-                      store, fn_out, ft_out, self._cap if m.capillary else None,
-                      (self.hx if hx is None else hx, self._age) if m.contact_ageing else None,
-                      self._kr_fac, blocked=self.blocked_pairs)
+        return K.pair_pass_call(
+            (self.x, self.v, self.om, self.rad, self.mass, self.inv_i, self.ptype),
+            (self.pi, self.pj, self.psh), self._L, (ht, hr), self._qbounds, fbuf, tbuf,
+            self._pair_tab, m.rolling_code, m.limit_force, float(m.rolling_damping), dt, store,
+            fn_out, ft_out, self._cap if m.capillary else None,
+            (self.hx if hx is None else hx, self._age) if m.contact_ageing else None,
+            self._kr_fac, blocked=self.blocked_pairs)
+
+    def _pair_pass(self, dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out, hx=None):
+        variant, args = self._pair_call(dt, ht, hr, fbuf, tbuf, store, fn_out, ft_out, hx)
+        K.PAIR_PASSES[variant](*args)
 
     def _finish_pass(self, dt, v, om, f, tq, fbuf, tbuf, wslot, whist, store, wfn, wdel, wnrm,
                      kick_next=False):
@@ -316,6 +328,42 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
                           self.wslot, self.whist, False, self._wfn, self._wdel, self._wnrm,
                           kick_next)
         self._kicked = kick_next
+
+    def _run_fused(self, nmax: int, fuse_last: bool) -> int:
+        """Up to ``nmax`` steps of :meth:`_one_step` in the numba step loop
+        (:func:`~bedstruct.dem._kernels_run.run_steps`), the last fused with the next
+        step's first pass when ``fuse_last``; returns the number done. It stops early,
+        with the next step's drift done, where that step needs a rebuild or a new wall
+        list (:meth:`_one_step` then makes it)."""
+        m = self.model
+        dt = self.dt
+        variant, args = self._pair_call(dt, self.ht, self.hr, self._fbuf, self._tbuf, False,
+                                       self._fn_out, self._ft_out)
+        if self._programs:
+            prog = np.array([[self.wall_names.index(name), p["t0"], *p["origin"], *p["velocity"],
+                              p["ramp_time"], p["amplitude"], p["frequency"], *p["direction"]]
+                             for name, p in self._programs.items()], dtype=np.float64)
+        else:
+            prog = _NO_PROGRAMS
+        wload = self._wload if self._wload is not None else _NO_WLOAD
+        done, time, kicked = K.run_steps(
+            nmax, fuse_last,
+            (self._kicked, self.time, dt, (0.5 * self.skin) ** 2, 0.5 * self.skin,
+             self._wall_speed, self._wall_list_time),
+            (self.x, self.v, self.om, self.f, self.tq, self.inv_m, self.inv_i, self._pbounds),
+            variant, args,
+            ((self.x, self.v, self.om, self.f, self.tq, self.mass, self.inv_m, self.inv_i,
+              self.rad, self.ptype), self._fbuf, self._tbuf, self.gravity, self._fbounds,
+             (self._W, self._tri, self._wstart, self._wcand, self.wslot, self.whist, self._wbuf),
+             self._wall_tab, m.rolling_code, m.tangential_damping, m.limit_force,
+             float(m.rolling_damping), (self._wfn, self._wdel, self._wnrm), self._overflow,
+             self.x_ref, self._disp, float(m.rolling_stiffness_factor)), prog, wload)
+        self.step += done
+        self.time = time
+        self._kicked = kicked
+        if self._wload is not None:
+            self._wload_steps += done
+        return done
 
     def age_contacts(self, seconds: float) -> int:
         """Let the packing rest for ``seconds`` without simulating the rest.
@@ -449,34 +497,49 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
             bar = tqdm(total=nsteps, unit="step")
         reb0, rem0, bad0 = self.n_rebuilds, self.n_removed, self.n_lost_nonfinite
         psteps = 0
+        dump = dump_every if rd is not None and dump_every else 0
+        ckpt = checkpoint_every if rd is not None and checkpoint_every else 0
+
+        def looked_at(step_no: int) -> bool:
+            # a step after which the state is written out
+            return bool((dump and step_no % dump == 0) or (ckpt and step_no % ckpt == 0))
+
         t0 = _time.perf_counter()
         try:
-            for s in range(nsteps):
-                # fuse this step's last pass with the next step's first unless the state
-                # is looked at in between (the last step, callbacks, dumps, checkpoints)
-                nxt = self.step + 1
-                fuse = (s + 1 < nsteps and callback is None
-                        and not (rd is not None and dump_every and nxt % dump_every == 0)
-                        and not (rd is not None and checkpoint_every
-                                 and nxt % checkpoint_every == 0))
+            s = 0
+            while s < nsteps:
+                if (self.fused_loop and callback is None and not self._rebuild_due
+                        and (self._wload is None or self._wbuf.shape[1] == len(self.wall_names))):
+                    # the steps up to the next look at the state, in the numba loop
+                    end = min(nsteps, s + _FINITE_CHECK_EVERY - s % _FINITE_CHECK_EVERY)
+                    if bar is not None:
+                        end = min(end, s + 50 - s % 50)
+                    for every in (dump, ckpt):
+                        if every:
+                            end = min(end, s + every - self.step % every)
+                    fuse_last = end < nsteps and not looked_at(self.step + end - s)
+                    n_now = self.n_particles
+                    done = self._run_fused(end - s, fuse_last)
+                    psteps += done * n_now
+                    s += done
+                    if s == end:
+                        self._check_finite_after(s - 1, nsteps)
+                        self._after_step(s - 1, nsteps, psteps, t0, rd, dump, ckpt, bar)
+                        continue
+                # one step from Python (a rebuild or a new wall list is due, a callback
+                # looks, or fused_loop is off), its last pass fused with the next step's
+                # first unless the state is looked at in between (the last step,
+                # callbacks, dumps, checkpoints)
+                fuse = s + 1 < nsteps and callback is None and not looked_at(self.step + 1)
                 self._one_step(fuse)
-                if s % _FINITE_CHECK_EVERY == _FINITE_CHECK_EVERY - 1 or s + 1 == nsteps:
-                    self._check_finite()
+                self._check_finite_after(s, nsteps)
                 psteps += self.n_particles
                 if self._wload is not None:
                     self._accumulate_wall_loads()
                 if callback is not None:
                     callback(self)
-                if rd is not None and dump_every and self.step % dump_every == 0:
-                    rd.write_output(self)
-                if rd is not None and checkpoint_every and self.step % checkpoint_every == 0:
-                    self.save_checkpoint(rd.path / "checkpoint.npz", extra={"outputs": {
-                        "run_dir": str(rd.path.resolve()), "sizes": rd.output_sizes()}})
-                if bar is not None and (s % 50 == 49 or s == nsteps - 1):
-                    el = _time.perf_counter() - t0
-                    bar.set_postfix_str(f"t={self.time:.4g} s, "
-                                        f"{psteps / max(el, 1e-12) / 1e6:.2f} M p-steps/s")
-                    bar.update(s + 1 - bar.n)
+                self._after_step(s, nsteps, psteps, t0, rd, dump, ckpt, bar)
+                s += 1
         finally:
             _numba.set_num_threads(old_threads)
             if self._kicked:
@@ -492,6 +555,24 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         return RunStats(nsteps, wall, psteps / wall if wall > 0 else float("nan"),
                         self.n_rebuilds - reb0, self.n_removed - rem0,
                         self.n_lost_nonfinite - bad0)
+
+    def _check_finite_after(self, s, nsteps):
+        if s % _FINITE_CHECK_EVERY == _FINITE_CHECK_EVERY - 1 or s + 1 == nsteps:
+            self._check_finite()
+
+    def _after_step(self, s, nsteps, psteps, t0, rd, dump, ckpt, bar):
+        """What :meth:`run` does after its step ``s`` (and the finiteness check): outputs,
+        checkpoints and the progress bar."""
+        if dump and self.step % dump == 0:
+            rd.write_output(self)
+        if ckpt and self.step % ckpt == 0:
+            self.save_checkpoint(rd.path / "checkpoint.npz", extra={"outputs": {
+                "run_dir": str(rd.path.resolve()), "sizes": rd.output_sizes()}})
+        if bar is not None and (s % 50 == 49 or s == nsteps - 1):
+            el = _time.perf_counter() - t0
+            bar.set_postfix_str(f"t={self.time:.4g} s, "
+                                f"{psteps / max(el, 1e-12) / 1e6:.2f} M p-steps/s")
+            bar.update(s + 1 - bar.n)
 
 
 #: this process's wall time, CPU time and the others' load at the last look (_cores_busy)

@@ -33,6 +33,77 @@ def test_fused_steps_equal_plain_steps():
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
+def _spread_bed(fused, seed=7):
+    """A bed with a blade under a start-up ramp and a vibrating floor plate: rebuilds, new
+    wall lists and wall programs inside a run."""
+    from bedstruct.dem import Blade, Rectangle
+    model = ContactModel(Material(E, NU, RHO), restitution=0.3, friction=0.5,
+                         rolling_friction=0.1, rolling_model="epsd2", cohesion=1e4)
+    box = Box([0, 0, -1e-4], [1.2e-3, 0.6e-3, 3e-3], boundary="ff pp ff")
+    walls = [Plane((0, 0, 0), (0, 0, 1), name="floor"),
+             Rectangle((0.6e-3, 0.3e-3, 5e-5), (0, 0, 1), (1, 0, 0), (0.3e-3, 0.3e-3),
+                       name="plate"),
+             Blade(gap=150e-6, speed=0.0, x0=0.1e-3)]
+    sim = Simulation(box, model, walls=walls, n_threads=2, seed=seed)
+    sim.fused_loop = fused
+    sim.insert_raindrop(150, R, region=((0.2e-3, 0, 0), (1.2e-3, 0.6e-3, 1e-3)),
+                        velocity=(0.0, 0, -0.5))
+    return sim
+
+
+def test_step_loop_in_numba_equals_steps_in_python(tmp_path):
+    # run() makes the steps between two looks at the state in one numba loop; the same
+    # runs stepped one by one in Python give the same bits: rebuilds, new wall lists,
+    # wall programs (ramp and vibration), wall-load sums, dumps and checkpoints
+    out = {}
+    for fused in (True, False):
+        sim = _spread_bed(fused)
+        sim.run(700)
+        sim.set_wall_program("blade", velocity=(0.4, 0, 0), ramp_time=2e-4)
+        sim.set_wall_program("plate", velocity=(0, 0, 0), vibration_amplitude=2e-6,
+                             vibration_frequency=3000.0)
+        sim.start_wall_load_average()
+        rd = tmp_path / f"run{int(fused)}"
+        stats = sim.run(900, dump_every=250, run_dir=rd, checkpoint_every=400)
+        load = sim.wall_load_average()
+        out[fused] = (sim, stats, load, (rd / "checkpoint.npz").read_bytes())
+    (a, sa, la, ca), (b, sb, lb, cb) = out[True], out[False]
+    assert sa.n_rebuilds > 5 and sa.n_rebuilds == sb.n_rebuilds
+    assert a.n_particles == b.n_particles > 50
+    for name in ("x", "v", "om", "f", "tq", "ht", "hr", "whist", "wslot", "_W"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    assert a.time == b.time and a.step == b.step
+    for w in la:
+        np.testing.assert_array_equal(la[w], lb[w], err_msg=w)
+    assert np.any(la["blade"] != 0.0) and np.any(la["plate"] != 0.0)
+    za, zb = np.load(tmp_path / "run1" / "checkpoint.npz"), np.load(tmp_path / "run0" / "checkpoint.npz")
+    for k in za.files:
+        if k != "meta":
+            np.testing.assert_array_equal(za[k], zb[k], err_msg=k)
+    dumps = sorted(p.name for p in (tmp_path / "run1").iterdir())
+    assert dumps == sorted(p.name for p in (tmp_path / "run0").iterdir())
+    for name in dumps:
+        if name.endswith((".dump", ".local", ".csv")):
+            assert (tmp_path / "run1" / name).read_bytes() == (tmp_path / "run0" / name).read_bytes()
+
+
+def test_wall_programs_in_numba_equal_their_python_form():
+    sim = _spread_bed(True)
+    sim.set_wall_program("blade", velocity=(0.4, 0.01, 0), ramp_time=2e-4,
+                         vibration_amplitude=1e-6, vibration_frequency=700.0,
+                         vibration_direction=(0, 1, 1))
+    sim.set_wall_program("plate", velocity=(0, 0, 0), vibration_amplitude=2e-6,
+                         vibration_frequency=3000.0)
+    prog = np.array([[sim.wall_names.index(n), p["t0"], *p["origin"], *p["velocity"],
+                      p["ramp_time"], p["amplitude"], p["frequency"], *p["direction"]]
+                     for n, p in sim._programs.items()])
+    for t in (0.0, 1.3e-5, 3.7e-4, 2.1e-3):
+        W = sim._W.copy()
+        K.apply_wall_programs(prog, W, t)
+        sim._apply_programs(t)
+        np.testing.assert_array_equal(W, sim._W)
+
+
 def _pair_call(sim, pi, pj, psh, ht, hr, bounds, fb, tb, fn, ft, blocked=True):
     m = sim.model
     K.pair_forces((sim.x, sim.v, sim.om, sim.rad, sim.mass, sim.inv_i, sim.ptype), (pi, pj, psh),
@@ -159,29 +230,37 @@ def test_blocked_pair_pass_rounds_as_written(monkeypatch):
         assert np.array_equal(a, b), name
 
 
-def test_run_interrupted_between_fused_steps_resumes_exactly(tmp_path):
+@pytest.mark.parametrize("fused_loop", [True, False], ids=["numba-loop", "python-steps"])
+def test_run_interrupted_between_fused_steps_resumes_exactly(tmp_path, fused_loop):
     a = _bed()
     a.run(300)
     b = _bed()
+    b.fused_loop = fused_loop
 
     class Stop(Exception):
         pass
 
-    plain = b._one_step
+    plain_step, plain_loop = b._one_step, b._run_fused
 
     def one_step(kick_next=False):  # an interrupt (e.g. Ctrl-C) right after a fused step
-        plain(kick_next)
-        if b.step == 150:
+        plain_step(kick_next)
+        if b.step >= 150 and b._kicked:
             raise Stop
 
-    b._one_step = one_step
+    def run_fused(nmax, fuse_last):  # or right after the numba loop handed back
+        done = plain_loop(nmax, fuse_last)
+        if b.step >= 150 and b._kicked:
+            raise Stop
+        return done
+
+    b._one_step, b._run_fused = one_step, run_fused
     try:
         b.run(300)
     except Stop:
         pass
-    assert b._kicked
+    assert b._kicked and 150 <= b.step < 300
     c = Simulation.from_checkpoint(b.save_checkpoint(tmp_path / "mid.npz"))
-    c.run(150)
+    c.run(300 - b.step)
     np.testing.assert_array_equal(c.x, a.x)
     np.testing.assert_array_equal(c.v, a.v)
 
@@ -192,6 +271,7 @@ def test_checkpoint_between_fused_steps_keeps_a_due_rebuild(tmp_path):
     a = _bed()
     a.run(300)
     b = _bed()
+    b.fused_loop = False
 
     class Stop(Exception):
         pass
