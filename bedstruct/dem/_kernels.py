@@ -41,7 +41,8 @@ from ._kernels_neighbours import (HALF_STENCIL, carry_history,  # noqa: F401
                                   raindrop_accept, remap_history, remap_history_csr,
                                   wrap_and_flag)
 from ._kernels_pairs import PAIR_PASSES, pair_forces, pair_pass_call  # noqa: F401
-from ._kernels_run import PROGRAM_NCOL, apply_wall_programs, run_steps  # noqa: F401
+from ._kernels_run import (PROGRAM_NCOL, add_wall_loads, apply_wall_programs,  # noqa: F401
+                           run_steps)
 from ._kernels_step import finish_step, kick_drift  # noqa: F401
 from ._kernels_walls import (WALL_CYLINDER, WALL_MESH, WALL_NCOL, WALL_PLANE,  # noqa: F401
                              WALL_PRISM, WALL_RECT, closest_on_triangle, mesh_geometry,

@@ -21,7 +21,7 @@ from .._numba import njit
 from ._kernels_pairs import run_pair_pass
 from ._kernels_step import finish_step, kick_drift
 
-__all__ = ["run_steps", "apply_wall_programs", "PROGRAM_NCOL"]
+__all__ = ["run_steps", "apply_wall_programs", "add_wall_loads", "PROGRAM_NCOL"]
 
 #: Columns of the wall-program table: wall, t0, origin (3), velocity (3), ramp time,
 #: amplitude, frequency, direction (3) (see ``Simulation.set_wall_program``).
@@ -31,12 +31,23 @@ PROGRAM_NCOL = 14
 @njit
 def apply_wall_programs(PROG, W, time):
     """Position and velocity of each programmed wall at ``time`` written into its row of
-    ``W``, with the arithmetic of ``Simulation.wall_program_state`` (rounded as written)."""
+    ``W`` (and ``time`` as the row's reference time).
+
+    With ``s`` the time since the program's start, ``tau`` the ramp time, ``A`` the
+    amplitude, ``f`` the frequency and **d** the unit vibration direction (see
+    ``Simulation.set_wall_program``)::
+
+        x(s) = x(0) + v [s - tau (1 - exp(-s/tau))] + A sin(2 pi f s) d
+        u(s) = v (1 - exp(-s/tau)) + 2 pi f A cos(2 pi f s) d
+
+    (``tau = 0``: ``x = x(0) + v s``, ``u = v``).
+    """
     for p in range(PROG.shape[0]):
         w = int(PROG[p, 0])
         s = time - PROG[p, 1]
         tau = PROG[p, 8]
         e = 0.0
+        ramp = 0.0
         if tau > 0.0:
             e = math.exp(-s / tau)
             ramp = s - tau * (1.0 - e)
@@ -64,6 +75,18 @@ def apply_wall_programs(PROG, W, time):
         W[w, 13] = time
 
 
+@njit
+def add_wall_loads(wbuf, wload):
+    """Add this step's force of the particles on each wall (the sum of the per-chunk
+    buffers ``wbuf[:, w, :3]``, in chunk order) to ``wload``."""
+    for w in range(wload.shape[0]):
+        for c in range(3):
+            acc = wbuf[0, w, c]
+            for b in range(1, wbuf.shape[0]):
+                acc += wbuf[b, w, c]
+            wload[w, c] += acc
+
+
 @njit(inline="always")
 def _run_steps(pair_pass, nmax, fuse_last, clock, KD, PA, FIN, PROG, wload):
     kicked, time, dt, thr2, half_skin, wall_speed, wall_list_time = clock
@@ -71,7 +94,6 @@ def _run_steps(pair_pass, nmax, fuse_last, clock, KD, PA, FIN, PROG, wload):
     (FP, fbuf, tbuf, gravity, fbounds, WG, WTAB, rolling, tdamp, limit, eta_r, wout, overflow,
      x_ref, disp, kr_fac) = FIN
     W, tri, wstart, wcand, wslot, whist, wbuf = WG
-    nb = wbuf.shape[0]
     done = 0
     while done < nmax:
         if not kicked:
@@ -88,12 +110,7 @@ def _run_steps(pair_pass, nmax, fuse_last, clock, KD, PA, FIN, PROG, wload):
                     dt, False, wout, overflow, kick_next, x_ref, disp, kr_fac)
         kicked = kick_next
         if wload.shape[0]:
-            for w in range(wload.shape[0]):
-                for c in range(3):
-                    acc = wbuf[0, w, c]
-                    for b in range(1, nb):
-                        acc += wbuf[b, w, c]
-                    wload[w, c] += acc
+            add_wall_loads(wbuf, wload)
         done += 1
     return done, time, kicked
 

@@ -23,6 +23,13 @@ __all__ = ["WallState"]
 _WALL_SLOTS = 3  # wall-contact history slots per particle
 
 
+def _program_rows(programs) -> np.ndarray:
+    """``(wall index, program)`` pairs as rows of the kernels' wall-program table."""
+    return np.array([[w, p["t0"], *p["origin"], *p["velocity"], p["ramp_time"], p["amplitude"],
+                      p["frequency"], *p["direction"]] for w, p in programs],
+                    dtype=np.float64).reshape(-1, K.PROGRAM_NCOL)
+
+
 @dataclass(frozen=True)
 class WallState:
     """Position and load of one wall at the current time.
@@ -127,31 +134,18 @@ class _WallControl:
     @staticmethod
     def wall_program_state(program: dict, time: float):
         """Position and velocity of a programmed wall at ``time`` (see :meth:`set_wall_program`)."""
-        s = time - program["t0"]
-        v = np.asarray(program["velocity"])
-        tau = program["ramp_time"]
-        if tau > 0.0:
-            e = math.exp(-s / tau)
-            x = np.asarray(program["origin"]) + v * (s - tau * (1.0 - e))
-            u = v * (1.0 - e)
-        else:
-            x = np.asarray(program["origin"]) + v * s
-            u = v.copy()
-        amp = program["amplitude"]
-        if amp > 0.0:
-            om = 2.0 * math.pi * program["frequency"]
-            d = np.asarray(program["direction"])
-            x = x + amp * math.sin(om * s) * d
-            u = u + amp * om * math.cos(om * s) * d
-        return x, u
+        W = np.zeros((1, K.WALL_NCOL))
+        K.apply_wall_programs(_program_rows([(0, program)]), W, float(time))
+        return W[0, 1:4].copy(), W[0, 10:13].copy()
+
+    def _program_table(self) -> np.ndarray:
+        """The wall programs as the kernels' table (``PROGRAM_NCOL`` columns, a row each)."""
+        return _program_rows([(self.wall_names.index(name), prog)
+                              for name, prog in self._programs.items()])
 
     def _apply_programs(self, time):
-        for name, prog in self._programs.items():
-            row = self._W[self.wall_names.index(name)]
-            x, u = self.wall_program_state(prog, time)
-            row[1:4] = x
-            row[10:13] = u
-            row[13] = time
+        if self._programs:
+            K.apply_wall_programs(self._program_table(), self._W, time)
 
     def start_wall_load_average(self) -> None:
         """Average the particles' load on every wall over the steps that follow.
@@ -167,7 +161,7 @@ class _WallControl:
     def _accumulate_wall_loads(self) -> None:
         wb = getattr(self, "_wbuf", None)
         if wb is not None and wb.shape[1] == len(self.wall_names):
-            self._wload += wb[:, :, :3].sum(axis=0)
+            K.add_wall_loads(wb, self._wload)
         self._wload_steps += 1
 
     def wall_load_average(self, *, stop: bool = True) -> dict[str, np.ndarray]:

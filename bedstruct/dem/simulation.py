@@ -33,8 +33,7 @@ __all__ = ["Simulation", "RunStats", "WallState", "NumericalInstabilityError"]
 
 #: Steps between the checks for non-finite positions inside :meth:`Simulation.run`.
 _FINITE_CHECK_EVERY = 64
-#: No wall programs, no wall-load sum (the step loop's empty tables).
-_NO_PROGRAMS = np.zeros((0, K.PROGRAM_NCOL))
+#: No wall-load sum (the step loop's empty table).
 _NO_WLOAD = np.zeros((0, 3))
 
 log = logging.getLogger(__name__)
@@ -339,12 +338,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         dt = self.dt
         variant, args = self._pair_call(dt, self.ht, self.hr, self._fbuf, self._tbuf, False,
                                        self._fn_out, self._ft_out)
-        if self._programs:
-            prog = np.array([[self.wall_names.index(name), p["t0"], *p["origin"], *p["velocity"],
-                              p["ramp_time"], p["amplitude"], p["frequency"], *p["direction"]]
-                             for name, p in self._programs.items()], dtype=np.float64)
-        else:
-            prog = _NO_PROGRAMS
+        prog = self._program_table()
         wload = self._wload if self._wload is not None else _NO_WLOAD
         done, time, kicked = K.run_steps(
             nmax, fuse_last,

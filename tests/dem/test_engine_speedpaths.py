@@ -87,21 +87,46 @@ def test_step_loop_in_numba_equals_steps_in_python(tmp_path):
             assert (tmp_path / "run1" / name).read_bytes() == (tmp_path / "run0" / name).read_bytes()
 
 
-def test_wall_programs_in_numba_equal_their_python_form():
+def _program_by_formula(prog, time):
+    """set_wall_program's formula, written with numpy."""
+    s = time - prog["t0"]
+    v = np.asarray(prog["velocity"])
+    tau = prog["ramp_time"]
+    e = np.exp(-s / tau) if tau > 0 else 1.0
+    x = np.asarray(prog["origin"]) + v * ((s - tau * (1.0 - e)) if tau > 0 else s)
+    u = v * (1.0 - e) if tau > 0 else v.copy()
+    om = 2.0 * np.pi * prog["frequency"]
+    d = np.asarray(prog["direction"])
+    return (x + prog["amplitude"] * np.sin(om * s) * d,
+            u + prog["amplitude"] * om * np.cos(om * s) * d)
+
+
+def test_wall_programs_follow_their_formula():
+    # the programmed walls' rows, written by the kernel every step, against the documented
+    # formula (to round-off) and against their own time derivative (velocity = dx/dt)
     sim = _spread_bed(True)
     sim.set_wall_program("blade", velocity=(0.4, 0.01, 0), ramp_time=2e-4,
                          vibration_amplitude=1e-6, vibration_frequency=700.0,
                          vibration_direction=(0, 1, 1))
     sim.set_wall_program("plate", velocity=(0, 0, 0), vibration_amplitude=2e-6,
                          vibration_frequency=3000.0)
-    prog = np.array([[sim.wall_names.index(n), p["t0"], *p["origin"], *p["velocity"],
-                      p["ramp_time"], p["amplitude"], p["frequency"], *p["direction"]]
-                     for n, p in sim._programs.items()])
     for t in (0.0, 1.3e-5, 3.7e-4, 2.1e-3):
-        W = sim._W.copy()
-        K.apply_wall_programs(prog, W, t)
         sim._apply_programs(t)
-        np.testing.assert_array_equal(W, sim._W)
+        for name, prog in sim._programs.items():
+            row = sim._W[sim.wall_names.index(name)]
+            x, u = _program_by_formula(prog, t)
+            np.testing.assert_allclose(row[1:4], x, rtol=1e-14, atol=1e-18)
+            np.testing.assert_allclose(row[10:13], u, rtol=1e-12, atol=1e-15)
+            assert row[13] == t
+            h = 1e-9
+            xp, _ = sim.wall_program_state(prog, t + h)
+            xm, _ = sim.wall_program_state(prog, t - h)
+            np.testing.assert_allclose((xp - xm) / (2 * h), row[10:13], rtol=1e-5, atol=1e-8)
+    blade = sim._programs["blade"]
+    x0, u0 = sim.wall_program_state(blade, blade["t0"])
+    np.testing.assert_array_equal(x0, blade["origin"])  # starts where it was,
+    np.testing.assert_allclose(u0, 1e-6 * 2 * np.pi * 700.0 * np.asarray(blade["direction"]),
+                               rtol=1e-12)          # the ramp at rest, the vibration at its peak
 
 
 def _pair_call(sim, pi, pj, psh, ht, hr, bounds, fb, tb, fn, ft, blocked=True):
