@@ -12,7 +12,8 @@ The kernels live in focused modules, re-exported here:
 * :mod:`~bedstruct.dem._kernels_pairs_blocked`: its blocked (vectorised) pass;
 * :mod:`~bedstruct.dem._kernels_step`: the integrator passes;
 * :mod:`~bedstruct.dem._kernels_run`: the step loop that runs them between looks at the state;
-* :mod:`~bedstruct.dem._kernels_neighbours`: cell list, pair list, history remap.
+* :mod:`~bedstruct.dem._kernels_neighbours`: cell list, pair list, history remap;
+* :mod:`~bedstruct.dem._kernels_rebuild`: the neighbour rebuild made of them, in one call.
 
 All kernels are pure functions of contiguous arrays and scalars (SI units) and
 write into preallocated outputs. Parallel kernels split their work into
@@ -40,6 +41,7 @@ from ._kernels_neighbours import (HALF_STENCIL, carry_history,  # noqa: F401
                                   pair_build, pair_keys, partner_csr, permute_particles,
                                   raindrop_accept, remap_history, remap_history_csr,
                                   wrap_and_flag)
+from ._kernels_rebuild import pair_list, rebuild_sorted, wall_lists  # noqa: F401
 from ._kernels_pairs import PAIR_PASSES, pair_forces, pair_pass_call  # noqa: F401
 from ._kernels_run import (PROGRAM_NCOL, add_wall_loads, apply_wall_programs,  # noqa: F401
                            run_steps)

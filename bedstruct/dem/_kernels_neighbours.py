@@ -112,10 +112,13 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
         tpos = chunk_off[t] if fill == 2 else 0
         tend = tpos + chunk_cap[t] if fill == 2 else 0
         over = False
-        # the stencil of the current cell: particle range [j0, j1) and image of each cell
+        # the stencil of the current cell as particle ranges [j0, j1) with the image of
+        # their cells: neighbour cells whose ranges follow each other (a row along x, same
+        # image) make one range; the own cell (j > i) comes last
         sj0 = np.zeros(ns + 1, dtype=np.int64)
         sj1 = np.zeros(ns + 1, dtype=np.int64)
         ssh = np.zeros((ns + 1, 3), dtype=np.int64)
+        nr = 0
         cprev = -1
         for i in range(bounds[t], bounds[t + 1]):
             if over:
@@ -126,9 +129,8 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
                 cx = c % nx
                 cy = (c // nx) % ny
                 cz = c // (nx * ny)
+                nr = 0
                 for s in range(ns):
-                    sj0[s] = 0
-                    sj1[s] = 0
                     sx = 0
                     sy = 0
                     sz = 0
@@ -166,20 +168,32 @@ def pair_build(x, rad, cells, start, ncell, periodic, L, stencil, skin, bounds, 
                         oz -= nz
                         sz = 1
                     cc = (oz * ny + oy) * nx + ox
-                    sj0[s] = start[cc]
-                    sj1[s] = start[cc + 1]
-                    ssh[s, 0] = sx
-                    ssh[s, 1] = sy
-                    ssh[s, 2] = sz
-                sj1[ns] = start[c + 1]  # own cell, j > i
-            sj0[ns] = i + 1
+                    j0 = start[cc]
+                    j1 = start[cc + 1]
+                    if j0 >= j1:
+                        continue
+                    if (nr > 0 and sj1[nr - 1] == j0 and ssh[nr - 1, 0] == sx
+                            and ssh[nr - 1, 1] == sy and ssh[nr - 1, 2] == sz):
+                        sj1[nr - 1] = j1
+                        continue
+                    sj0[nr] = j0
+                    sj1[nr] = j1
+                    ssh[nr, 0] = sx
+                    ssh[nr, 1] = sy
+                    ssh[nr, 2] = sz
+                    nr += 1
+                sj1[nr] = start[c + 1]  # own cell, j > i
+                ssh[nr, 0] = 0
+                ssh[nr, 1] = 0
+                ssh[nr, 2] = 0
+            sj0[nr] = i + 1
             xi0 = x[i, 0]
             xi1 = x[i, 1]
             xi2 = x[i, 2]
             ri = rad[i] + skin
             cnt = 0
             pos = counts[i] if fill == 1 else tpos
-            for s in range(ns + 1):
+            for s in range(nr + 1):
                 j0 = sj0[s]
                 j1 = sj1[s]
                 if j0 >= j1:

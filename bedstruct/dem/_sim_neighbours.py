@@ -89,84 +89,49 @@ class _NeighbourList:
         if n_bad:
             self._lost_nonfinite(int(n_bad))
             n_out -= n_bad   # a blow-up is not particles leaving the domain
-        # the old pairs that carry history, keyed by ids before permuting; the remap looks
-        # each new pair up among its lower-id sphere's old partners (ids dense enough for a
-        # table by id), else by binary search in the sorted keys
-        n_lo = int(self.ids.max(initial=-1)) + 1
-        by_partner = n_lo <= 8 * self.n_particles + 1024
-        old_ht, old_hr, old_hx = self.ht, self.hr, self.hx
-        src, old_keys, old_sign = K.history_source(self.ids, self.pi, self.pj, old_ht, old_hr,
-                                                   old_hx, not by_partner)
         if n_out:
             self.n_removed += n_out
             log.info("removed %d particles that left the domain (total %d)", n_out, self.n_removed)
-        keep = np.flatnonzero(~out) if n_out or n_bad else None
-        # 2. sort by cell
-        nc, cell_len = self._cell_grid()
-        xk = self.x if keep is None else np.ascontiguousarray(self.x[keep])
-        cells = np.empty(xk.shape[0], dtype=np.int64)
-        K.cell_indices(xk, self._lo, cell_len, nc, cells)
-        perm, start = K.counting_sort(cells, int(nc[0] * nc[1] * nc[2]))
-        order = perm if keep is None else keep[perm]
-        (self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m, self.inv_i,
-         self.ptype, self.ids, self.images, self.wslot, self.whist) = K.permute_particles(
-            order, self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m,
-            self.inv_i, self.ptype, self.ids, self.images, self.wslot, self.whist)
-        cells = cells[perm]
+        nc, cell_len = self._cell_grid()  # of the particles before any is dropped
+        if n_out or n_bad:
+            self._drop_particles(np.flatnonzero(~out))
+        # 2. sort by cell, pair list, history carried onto it by pair key, wall lists. The
+        #    remap looks each new pair up among its lower-id sphere's old partners (ids dense
+        #    enough for a table by id), else by binary search in the sorted keys
         n = self.n_particles
-        self.x_ref = self.x.copy()
-        # 3. pair list: one pass into per-chunk room sized from the last list,
-        #    two passes (count, fill) on the first build or when the room is short
-        pb = self._chunks(n)
-        T = self.n_threads
-        skin_c = self.skin + self._extra_cutoff()
-        none_i = np.zeros(0, dtype=np.int64)
-        m_prev = getattr(self, "_m_hint", 0)
-        done = False
-        if m_prev and n:
-            sizes = np.diff(pb)
-            cap = (1.25 * m_prev * (sizes / n) + 64 + 8 * sizes).astype(np.int64)
-            off = np.zeros(T, dtype=np.int64)
-            np.cumsum(cap[:-1], out=off[1:])
-            tot = int(off[-1] + cap[-1])
-            bi = np.empty(tot, dtype=np.int32)
-            bj = np.empty(tot, dtype=np.int32)
-            bs = np.empty((tot, 3), dtype=np.int8)
-            cnt = np.zeros(T, dtype=np.int64)
-            K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
-                         K.HALF_STENCIL, skin_c, pb, none_i, 2, bi, bj, bs, off, cap, cnt)
-            if cnt.min() >= 0:
-                self.pi, self.pj, self.psh = K.compact_chunks(bi, bj, bs, off, cnt)
-                m = self.pi.shape[0]
-                self.ht = np.zeros((m, 3))
-                self.hr = np.zeros((m, 3))
-                self.hx = np.zeros((m if self.model.contact_ageing else 0, 3))  # ageing history
-                done = True
-        if not done:
-            counts = np.zeros(n, dtype=np.int64)
-            dummy_i = np.zeros(0, dtype=np.int32)
-            dummy_s = np.zeros((0, 3), dtype=np.int8)
-            z = np.zeros(T, dtype=np.int64)
-            K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
-                         K.HALF_STENCIL, skin_c, pb, counts, 0, dummy_i, dummy_i, dummy_s,
-                         z, z, z)
-            offs = np.zeros(n, dtype=np.int64)
-            if n:
-                np.cumsum(counts[:-1], out=offs[1:])
-            m = int(counts.sum())
-            self._alloc_pairs(m)
-            K.pair_build(self.x, self.rad, cells, start, nc, self._periodic, self._L,
-                         K.HALF_STENCIL, skin_c, pb, offs, 1, self.pi, self.pj, self.psh,
-                         z, z, z)
-        self._m_hint = m
-        # 4. history remap by pair key
-        if old_keys.size and m:
-            K.carry_history(self.ids, self.pi, self.pj, self._chunks(m), src, old_keys,
-                            old_sign, old_ht, old_hr, old_hx, n_lo, by_partner, self.ht,
-                            self.hr, self.hx)
+        n_lo = int(self.ids.max(initial=-1)) + 1
+        parts, pairs, hist, walls = K.rebuild_sorted(
+            (self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m,
+             self.inv_i, self.ptype, self.ids, self.images, self.wslot, self.whist),
+            (self._lo, nc, cell_len), self._L, self._periodic, (self.pi, self.pj, self.psh),
+            (self.ht, self.hr, self.hx), bool(self.model.contact_ageing),
+            n_lo <= 8 * n + 1024, n_lo, self.skin + self._extra_cutoff(), self._chunks(n),
+            getattr(self, "_m_hint", 0), (self._W, self._tri, float(self.time), self.skin))
+        (self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m, self.inv_i,
+         self.ptype, self.ids, self.images, self.wslot, self.whist, self.x_ref) = parts
+        self.pi, self.pj, self.psh = pairs
+        self.ht, self.hr, self.hx = hist
+        self._m_hint = self.n_pairs
         self._alloc_buffers()
         self._balance_pairs()
-        self._build_wall_list()
+        self._build_wall_list(walls)
+
+    def _drop_particles(self, keep):
+        """Keep particles ``keep`` only (in that order), and the pairs between them."""
+        new = np.full(self.n_particles, -1, dtype=np.int64)
+        new[keep] = np.arange(keep.shape[0])
+        (self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m, self.inv_i,
+         self.ptype, self.ids, self.images, self.wslot, self.whist) = K.permute_particles(
+            keep, self.x, self.v, self.om, self.f, self.tq, self.rad, self.mass, self.inv_m,
+            self.inv_i, self.ptype, self.ids, self.images, self.wslot, self.whist)
+        both = (new[self.pi] >= 0) & (new[self.pj] >= 0)
+        self.pi = new[self.pi[both]].astype(np.int32)
+        self.pj = new[self.pj[both]].astype(np.int32)
+        self.psh = np.ascontiguousarray(self.psh[both])
+        self.ht = np.ascontiguousarray(self.ht[both])
+        self.hr = np.ascontiguousarray(self.hr[both])
+        if self.hx.shape[0]:
+            self.hx = np.ascontiguousarray(self.hx[both])
 
     def _lost_nonfinite(self, n_bad: int) -> None:
         """``n_bad`` particles have non-finite positions: count them apart from the
@@ -192,14 +157,14 @@ class _NeighbourList:
                           BedstructWarning, stacklevel=4)
             self._warned_nonfinite = True
 
-    def _build_wall_list(self):
+    def _build_wall_list(self, lists=None):
         """Candidate walls of each particle (closer than r + skin), built at the
-        current time; rebuilt when a wall has moved skin/2 or at pair rebuilds."""
-        n = self.n_particles
-        near = np.zeros((n, self._W.shape[0]), dtype=np.bool_)
-        K.wall_candidates(self.x, self.rad, self._W, self._tri, self.time, self.skin,
-                          self._chunks(n), near, self.wslot, self.whist)
-        self._wstart, self._wcand = K.candidate_lists(near)
+        current time; rebuilt when a wall has moved skin/2 or at pair rebuilds
+        (``lists``: the rebuild's)."""
+        if lists is None:
+            lists = K.wall_lists(self.x, self.rad, self._W, self._tri, self.time, self.skin,
+                                 self._chunks(self.n_particles), self.wslot, self.whist)
+        self._wstart, self._wcand = lists
         self._balance_finish()
         self._wall_list_time = self.time
         # fastest wall surface speed (translation plus roller rim speed), m/s

@@ -164,7 +164,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         self._rebuild_due = False
         self.checkpoint_extra = {}     # what from_checkpoint read besides the state
         self._resume_outputs = None
-        self.n_threads = int(n_threads or _numba.get_num_threads())
+        self._ready = False
+        self.n_threads = n_threads or _numba.get_num_threads()
         self.serial_below = 5000
         self.yield_when_busy = True
         # True: the pair pass in gather-compute-scatter blocks where no extension is on
@@ -173,8 +174,6 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         # True: run() makes the steps between two looks at the state in one numba loop
         # (the same kernel calls as _one_step, bit for bit; docs/engine.md)
         self.fused_loop = True
-        if self.n_threads < 1:
-            raise ConfigError(f"`n_threads` must be >= 1; got {n_threads}")
         self.rng = np.random.default_rng(seed)
         self.seed = seed
         self.time = 0.0
@@ -257,6 +256,24 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
     def n_particles(self) -> int:
         """Number of particles now in the domain."""
         return int(self.x.shape[0])
+
+    @property
+    def n_threads(self) -> int:
+        """Number of chunks the work is split into, one per thread (results depend on it).
+
+        Setting it on a simulation that has run re-chunks the work at once (a neighbour
+        rebuild), so that every per-chunk buffer matches."""
+        return self._n_threads
+
+    @n_threads.setter
+    def n_threads(self, value: int) -> None:
+        value = int(value)
+        if value < 1:
+            raise ConfigError(f"`n_threads` must be >= 1; got {value}")
+        changed = value != getattr(self, "_n_threads", None)
+        self._n_threads = value
+        if changed and self._ready:
+            self._rebuild()
 
     @property
     def n_pairs(self) -> int:

@@ -444,3 +444,102 @@ def test_cores_busy_subtracts_own_use(monkeypatch):
     load["1min"] = 0.2
     clock["wall"] += 10.0
     assert not simulation._cores_busy(2)
+
+
+def _pair_list_by_definition(x, rad, cells, start, nc, periodic, L, cutoff):
+    """The half-stencil pair list in its documented order, written plainly: for each i, the
+    13 forward neighbour cells in ``HALF_STENCIL`` order, then its own cell (j > i), each
+    cell's particles in index order."""
+    out = []
+    for i in range(x.shape[0]):
+        c = int(cells[i])
+        cx, cy, cz = c % nc[0], (c // nc[0]) % nc[1], c // (nc[0] * nc[1])
+        ranges = []
+        for st in K.HALF_STENCIL:
+            o, sh, ok = [cx + st[0], cy + st[1], cz + st[2]], [0, 0, 0], True
+            for a in range(3):
+                if o[a] < 0 or o[a] >= nc[a]:
+                    if not periodic[a]:
+                        ok = False
+                    sh[a] = -1 if o[a] < 0 else 1
+                    o[a] -= sh[a] * nc[a]
+            if ok:
+                cc = (o[2] * nc[1] + o[1]) * nc[0] + o[0]
+                ranges.append((range(start[cc], start[cc + 1]), sh))
+        ranges.append((range(i + 1, start[c + 1]), [0, 0, 0]))
+        for js, sh in ranges:
+            for j in js:
+                d = x[i] - np.asarray(sh) * L - x[j]
+                if d @ d < (rad[i] + cutoff + rad[j]) ** 2:
+                    out.append((i, j, *sh))
+    return np.array(out, dtype=np.int64).reshape(-1, 5)
+
+
+@pytest.mark.parametrize("periodic", [(True, True, False), (False, True, True)])
+def test_pair_list_follows_its_documented_order(periodic):
+    # the build scans a cell's neighbour cells as rows (cells whose particles follow each
+    # other in the sorted order): the same pairs in the same order as cell by cell
+    rng = np.random.default_rng(8)
+    L = np.array([1.0, 0.8, 0.6])
+    nc = np.array([5, 4, 3], dtype=np.int64)
+    x = rng.uniform(0, 1, (600, 3)) * L
+    rad = rng.uniform(0.02, 0.05, 600)
+    cells = np.empty(600, dtype=np.int64)
+    K.cell_indices(x, np.zeros(3), L / nc, nc, cells)
+    perm, start = K.counting_sort(cells, int(nc.prod()))
+    x, rad, cells = x[perm], rad[perm], cells[perm]
+    per = np.array(periodic)
+    want = _pair_list_by_definition(x, rad, cells, start, nc, per, L, 0.01)
+    for chunks, hint in ((1, 0), (3, 0), (3, len(want)), (2, 10)):   # 10: room too short
+        bounds = np.linspace(0, 600, chunks + 1).astype(np.int64)
+        pi, pj, psh = K.pair_list(x, rad, cells, start, nc, per, L, 0.01, bounds, hint)
+        got = np.column_stack([pi, pj, psh]).astype(np.int64)
+        np.testing.assert_array_equal(got, want)
+    assert len(want) > 500 and np.any(want[:, 2:] != 0)
+
+
+def test_rebuild_that_drops_particles_carries_the_others_history():
+    sim = _lattice(n_threads=2, contact_ageing=True, ageing_bond_ratio=1.0,
+                   ageing_time_constant=1e-6, ageing_reference_rest_time=1e-5,
+                   ageing_break_slip=1e-7)
+    sim.run(100)
+
+    def by_key(s):
+        a, b = s.ids[s.pi], s.ids[s.pj]
+        sign = np.where(a < b, 1.0, -1.0)[:, None]
+        keys = np.minimum(a, b) * 2**31 + np.maximum(a, b)
+        return {int(k): (h * sg, r * sg, q) for k, h, r, q, sg in
+                zip(keys, sim.ht, sim.hr, sim.hx, sign) if np.any(h) or np.any(r) or np.any(q)}
+    before = by_key(sim)
+    held = np.flatnonzero(np.any(sim.ht != 0, axis=1))
+    gone = {int(sim.ids[sim.pi[held[0]]]), int(sim.ids[sim.pj[held[-1]]])}
+    assert len(held) > 100 and np.any(sim.hx != 0)
+    for i in np.flatnonzero(np.isin(sim.ids, list(gone))):
+        sim.x[i, 2] = -1.0                       # below the fixed floor face: leaves
+    n = sim.n_particles
+    sim._rebuild()
+    assert sim.n_particles == n - len(gone) and not gone & set(sim.ids.tolist())
+    after = by_key(sim)
+    kept = {k: v for k, v in before.items() if not {k >> 31, k & (2**31 - 1)} & gone}
+    assert kept and set(after) == set(kept)
+    for k, (h, r, q) in kept.items():
+        np.testing.assert_array_equal(after[k][0], h)
+        np.testing.assert_array_equal(after[k][1], r)
+        np.testing.assert_array_equal(after[k][2], q)
+
+
+def test_setting_n_threads_on_a_running_simulation_rechunks_it(tmp_path):
+    # every per-chunk buffer follows the new number of chunks at once (a neighbour
+    # rebuild): the simulation goes on as one loaded from its checkpoint would
+    a = _bed(n_threads=1)
+    a.run(300)
+    a.n_threads = 2
+    assert a._fbuf.shape[0] == 2 and a._wbuf.shape[0] == 2 and len(a._qbounds) == 3
+    a.save_checkpoint(tmp_path / "c.npz")
+    b = Simulation.from_checkpoint(tmp_path / "c.npz")
+    a.run(400)
+    b.run(400)
+    for name in ("x", "v", "om", "ht", "hr"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    with pytest.raises(Exception, match="n_threads"):
+        a.n_threads = 0
