@@ -446,15 +446,22 @@ def pair_table(youngs, shear, beta, friction, rolling_friction, cohesion, tangen
 
 @njit(inline="always", **_FM)
 def _open_pair(k, ht, hr, store, fn_out, ft_out):
-    """A pair apart: its history is cleared (written only when set) and no force stored."""
-    if ht[k, 0] != 0.0 or ht[k, 1] != 0.0 or ht[k, 2] != 0.0:
-        ht[k, 0] = 0.0
-        ht[k, 1] = 0.0
-        ht[k, 2] = 0.0
-    if hr[k, 0] != 0.0 or hr[k, 1] != 0.0 or hr[k, 2] != 0.0:
-        hr[k, 0] = 0.0
-        hr[k, 1] = 0.0
-        hr[k, 2] = 0.0
+    """A pair apart: its history is cleared (where it is not zero; a zero keeps its sign) and
+    no force stored. Written back either way, without a branch on the values."""
+    a0 = ht[k, 0]
+    a1 = ht[k, 1]
+    a2 = ht[k, 2]
+    clear = a0 != 0.0 or a1 != 0.0 or a2 != 0.0
+    ht[k, 0] = 0.0 if clear else a0
+    ht[k, 1] = 0.0 if clear else a1
+    ht[k, 2] = 0.0 if clear else a2
+    b0 = hr[k, 0]
+    b1 = hr[k, 1]
+    b2 = hr[k, 2]
+    clear = b0 != 0.0 or b1 != 0.0 or b2 != 0.0
+    hr[k, 0] = 0.0 if clear else b0
+    hr[k, 1] = 0.0 if clear else b1
+    hr[k, 2] = 0.0 if clear else b2
     if store:
         ft_out[k, 0] = 0.0
         ft_out[k, 1] = 0.0

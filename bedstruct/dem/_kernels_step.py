@@ -189,29 +189,39 @@ def finish_step(P, fbuf, tbuf, gravity, bounds, WS, WTAB, rolling, tdamp, limit,
                 tq[i, 0] = tx
                 tq[i, 1] = ty
                 tq[i, 2] = tz
+            # in locals, each array read and written once (no reloads through possible aliases)
             a = h * inv_m[i]
             ab = h * inv_i[i]
-            v[i, 0] += a * fx
-            v[i, 1] += a * fy
-            v[i, 2] += a * fz
-            om[i, 0] += ab * tx
-            om[i, 1] += ab * ty
-            om[i, 2] += ab * tz
+            v0 = v[i, 0] + a * fx
+            v1 = v[i, 1] + a * fy
+            v2 = v[i, 2] + a * fz
+            o0 = om[i, 0] + ab * tx
+            o1 = om[i, 1] + ab * ty
+            o2 = om[i, 2] + ab * tz
             if kick_next:  # next step's half kick and drift, as kick_drift
-                v[i, 0] += a * fx
-                v[i, 1] += a * fy
-                v[i, 2] += a * fz
-                om[i, 0] += ab * tx
-                om[i, 1] += ab * ty
-                om[i, 2] += ab * tz
-                x[i, 0] += dt * v[i, 0]
-                x[i, 1] += dt * v[i, 1]
-                x[i, 2] += dt * v[i, 2]
-                d0 = x[i, 0] - x_ref[i, 0]
-                d1 = x[i, 1] - x_ref[i, 1]
-                d2 = x[i, 2] - x_ref[i, 2]
+                v0 += a * fx
+                v1 += a * fy
+                v2 += a * fz
+                o0 += ab * tx
+                o1 += ab * ty
+                o2 += ab * tz
+                p0 = x[i, 0] + dt * v0
+                p1 = x[i, 1] + dt * v1
+                p2 = x[i, 2] + dt * v2
+                x[i, 0] = p0
+                x[i, 1] = p1
+                x[i, 2] = p2
+                d0 = p0 - x_ref[i, 0]
+                d1 = p1 - x_ref[i, 1]
+                d2 = p2 - x_ref[i, 2]
                 dd = d0 * d0 + d1 * d1 + d2 * d2
                 if dd > m2:
                     m2 = dd
+            v[i, 0] = v0
+            v[i, 1] = v1
+            v[i, 2] = v2
+            om[i, 0] = o0
+            om[i, 1] = o1
+            om[i, 2] = o2
         if kick_next:
             disp_out[t] = m2

@@ -543,3 +543,25 @@ def test_setting_n_threads_on_a_running_simulation_rechunks_it(tmp_path):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     with pytest.raises(Exception, match="n_threads"):
         a.n_threads = 0
+
+
+def test_a_pair_apart_clears_its_history_and_keeps_a_zero_as_it_is():
+    # the history of a pair apart is written back without a branch on its values: a
+    # history that is not zero becomes +0, one that is zero keeps its bits (a sign flip
+    # at a rebuild can leave -0.0), so the pass writes what the branching form wrote
+    from bedstruct.dem._kernels_contact import _open_pair
+    from bedstruct._numba import njit
+
+    @njit
+    def open_rows(ht, hr, fn, ft):
+        for k in range(ht.shape[0]):
+            _open_pair(k, ht, hr, True, fn, ft)
+
+    ht = np.array([[-0.0, 0.0, -0.0], [0.0, 1e-9, 0.0], [-2.0, -0.0, 3.0]])
+    hr = np.array([[0.0, 0.0, 0.0], [-0.0, -0.0, -0.0], [0.0, 0.0, -1e-12]])
+    want_t = np.array([[-0.0, 0.0, -0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    want_r = np.array([[0.0, 0.0, 0.0], [-0.0, -0.0, -0.0], [0.0, 0.0, 0.0]])
+    ft = np.ones((3, 3))
+    open_rows(ht, hr, np.ones(3), ft)
+    assert ht.tobytes() == want_t.tobytes() and hr.tobytes() == want_r.tobytes()
+    assert not ft.any()
