@@ -43,9 +43,10 @@ _NROW = 45
 def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt,
                         store, fn_out, ft_out, kr_fac):
     """Chunk ``t`` of :func:`pair_forces` in gather-compute-scatter blocks (no capillary
-    bridges, no ageing): per block, the touching pairs' data are gathered into one
-    contiguous scratch (``S[row * _BLOCK_B + q]``) while the block is split (a pair apart
-    is overwritten by the next), the contact law runs over the scratch in a loop without
+    bridges, no ageing): per block, the pairs' separations are computed and the block split
+    into touching pairs and pairs apart (a pair apart is overwritten by the next), the
+    touching pairs' data are gathered into one contiguous scratch
+    (``S[row * _BLOCK_B + q]``), the contact law runs over the scratch in a loop without
     calls or indirect addresses (vectorised by LLVM), and the forces, torques and history
     are scattered back in pair order."""
     literally(rolling)
@@ -75,43 +76,48 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
             S[_DY * _BLOCK_B + nb] = dy
             S[_DZ * _BLOCK_B + nb] = dz
             S[_R2 * _BLOCK_B + nb] = r2
-            ti = np.uint32(ptype[i])
-            tj = np.uint32(ptype[j])
-            S[_RI * _BLOCK_B + nb] = rad[i]
-            S[_RJ * _BLOCK_B + nb] = rad[j]
-            S[_MI * _BLOCK_B + nb] = mass[i]
-            S[_MJ * _BLOCK_B + nb] = mass[j]
-            S[_VR1 * _BLOCK_B + nb] = v[i, 0] - v[j, 0]
-            S[_VR2 * _BLOCK_B + nb] = v[i, 1] - v[j, 1]
-            S[_VR3 * _BLOCK_B + nb] = v[i, 2] - v[j, 2]
-            S[_OI1 * _BLOCK_B + nb] = om[i, 0]
-            S[_OI2 * _BLOCK_B + nb] = om[i, 1]
-            S[_OI3 * _BLOCK_B + nb] = om[i, 2]
-            S[_OJ1 * _BLOCK_B + nb] = om[j, 0]
-            S[_OJ2 * _BLOCK_B + nb] = om[j, 1]
-            S[_OJ3 * _BLOCK_B + nb] = om[j, 2]
-            S[_Y * _BLOCK_B + nb] = Y[ti, tj]
-            S[_G * _BLOCK_B + nb] = G[ti, tj]
-            S[_B * _BLOCK_B + nb] = B[ti, tj]
-            S[_GTR * _BLOCK_B + nb] = GTR[ti, tj]
-            S[_MU * _BLOCK_B + nb] = MU[ti, tj]
-            S[_COH * _BLOCK_B + nb] = COH[ti, tj]
-            S[_S1 * _BLOCK_B + nb] = ht[k, 0]
-            S[_S2 * _BLOCK_B + nb] = ht[k, 1]
-            S[_S3 * _BLOCK_B + nb] = ht[k, 2]
-            if rolling != ROLL_NONE:
-                S[_MUR * _BLOCK_B + nb] = MUR[ti, tj]
-                S[_H1 * _BLOCK_B + nb] = hr[k, 0]
-                S[_H2 * _BLOCK_B + nb] = hr[k, 1]
-                S[_H3 * _BLOCK_B + nb] = hr[k, 2]
-            if rolling == ROLL_EPSD:
-                S[_II * _BLOCK_B + nb] = inv_i[i]
-                S[_IJ * _BLOCK_B + nb] = inv_i[j]
             tk[nb] = k
             tn[nn] = k
             touch = r2 < rs * rs
             nb += 1 if touch else 0
             nn += 0 if touch else 1
+        # the touching pairs' other data, contact by contact
+        for q in range(nb):
+            k = tk[q]
+            i = pi[k]
+            j = pj[k]
+            ti = np.uint32(ptype[i])
+            tj = np.uint32(ptype[j])
+            S[_RI * _BLOCK_B + q] = rad[i]
+            S[_RJ * _BLOCK_B + q] = rad[j]
+            S[_MI * _BLOCK_B + q] = mass[i]
+            S[_MJ * _BLOCK_B + q] = mass[j]
+            S[_VR1 * _BLOCK_B + q] = v[i, 0] - v[j, 0]
+            S[_VR2 * _BLOCK_B + q] = v[i, 1] - v[j, 1]
+            S[_VR3 * _BLOCK_B + q] = v[i, 2] - v[j, 2]
+            S[_OI1 * _BLOCK_B + q] = om[i, 0]
+            S[_OI2 * _BLOCK_B + q] = om[i, 1]
+            S[_OI3 * _BLOCK_B + q] = om[i, 2]
+            S[_OJ1 * _BLOCK_B + q] = om[j, 0]
+            S[_OJ2 * _BLOCK_B + q] = om[j, 1]
+            S[_OJ3 * _BLOCK_B + q] = om[j, 2]
+            S[_Y * _BLOCK_B + q] = Y[ti, tj]
+            S[_G * _BLOCK_B + q] = G[ti, tj]
+            S[_B * _BLOCK_B + q] = B[ti, tj]
+            S[_GTR * _BLOCK_B + q] = GTR[ti, tj]
+            S[_MU * _BLOCK_B + q] = MU[ti, tj]
+            S[_COH * _BLOCK_B + q] = COH[ti, tj]
+            S[_S1 * _BLOCK_B + q] = ht[k, 0]
+            S[_S2 * _BLOCK_B + q] = ht[k, 1]
+            S[_S3 * _BLOCK_B + q] = ht[k, 2]
+            if rolling != ROLL_NONE:
+                S[_MUR * _BLOCK_B + q] = MUR[ti, tj]
+                S[_H1 * _BLOCK_B + q] = hr[k, 0]
+                S[_H2 * _BLOCK_B + q] = hr[k, 1]
+                S[_H3 * _BLOCK_B + q] = hr[k, 2]
+            if rolling == ROLL_EPSD:
+                S[_II * _BLOCK_B + q] = inv_i[i]
+                S[_IJ * _BLOCK_B + q] = inv_i[j]
         for q in range(nn):
             k = tn[q]
             _open_pair(k, ht, hr, store, fn_out, ft_out)
