@@ -76,7 +76,11 @@ class _NeighbourList:
         if bounds is None:
             if len(memo) > 256:
                 memo.clear()
-            bounds = memo[key] = np.linspace(0, n, self.n_threads + 1).astype(np.int64)
+            # np.linspace(0, n, T + 1).astype(np.int64), without its overhead: t * (n / T)
+            # rounded as it rounds, truncated
+            T = self.n_threads
+            bounds = memo[key] = np.array([int(t * (n / T)) for t in range(T)] + [int(n)],
+                                          dtype=np.int64)
         return bounds.copy()
 
     def _rebuild(self):
@@ -210,13 +214,18 @@ class _NeighbourList:
         nw = self._W.shape[0]
         if getattr(self, "_wbuf", None) is None or self._wbuf.shape != (T, nw, 6):
             self._wbuf = np.zeros((T, nw, 6))
-        self._disp = np.zeros(T)
-        self._overflow = np.zeros(T, dtype=np.int64)
+        if getattr(self, "_disp", None) is None or self._disp.shape[0] != T:
+            self._disp = np.zeros(T)
+            self._overflow = np.zeros(T, dtype=np.int64)
+        else:  # displacements and wall-slot overflows count from this build
+            self._disp.fill(0.0)
+            self._overflow.fill(0)
         self._pbounds = self._chunks(n)
         self._fbounds = self._pbounds
         self._qbounds = self._chunks(self.n_pairs)
-        self._fn_out = np.zeros(0)
-        self._ft_out = np.zeros((0, 3))
-        self._wfn = np.zeros((0, _WALL_SLOTS))
-        self._wdel = np.zeros((0, _WALL_SLOTS))
-        self._wnrm = np.zeros((0, _WALL_SLOTS, 3))
+        if getattr(self, "_fn_out", None) is None:  # no outputs: empty, never written
+            self._fn_out = np.zeros(0)
+            self._ft_out = np.zeros((0, 3))
+            self._wfn = np.zeros((0, _WALL_SLOTS))
+            self._wdel = np.zeros((0, _WALL_SLOTS))
+            self._wnrm = np.zeros((0, _WALL_SLOTS, 3))
