@@ -253,23 +253,70 @@ def any_wall_geometry(W, w, tri, px, py, pz, time):
     return hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3
 
 
+@njit
+def prism_boxes(W):
+    """Bounding box ``(u_min, u_max, v_min, v_max)`` of each prism wall's polygon in its
+    own frame (rows of other walls are zero)."""
+    box = np.zeros((W.shape[0], 4))
+    for w in range(W.shape[0]):
+        if int(W[w, 0]) == WALL_PRISM:
+            box[w, 0] = box[w, 1] = W[w, 18]
+            box[w, 2] = box[w, 3] = W[w, 19]
+            for k in range(1, int(W[w, 17])):
+                box[w, 0] = min(box[w, 0], W[w, 18 + 2 * k])
+                box[w, 1] = max(box[w, 1], W[w, 18 + 2 * k])
+                box[w, 2] = min(box[w, 2], W[w, 19 + 2 * k])
+                box[w, 3] = max(box[w, 3], W[w, 19 + 2 * k])
+    return box
+
+
+@njit(inline="always", **_FM)
+def _outside_prism_box(W, w, box, px, py, pz, time, reach):
+    """True when p lies farther than ``reach`` outside prism w's bounding box (its polygon's
+    box in the prism's frame, and its half length along the axis): the prism is then
+    farther than ``reach`` from p."""
+    dt0 = time - W[w, 13]
+    rx = px - (W[w, 1] + W[w, 10] * dt0)
+    ry = py - (W[w, 2] + W[w, 11] * dt0)
+    rz = pz - (W[w, 3] + W[w, 12] * dt0)
+    nx = W[w, 4]
+    ny = W[w, 5]
+    nz = W[w, 6]
+    ux = W[w, 7]
+    uy = W[w, 8]
+    uz = W[w, 9]
+    pu = rx * ux + ry * uy + rz * uz
+    pv = rx * (uy * nz - uz * ny) + ry * (uz * nx - ux * nz) + rz * (ux * ny - uy * nx)
+    se = rx * nx + ry * ny + rz * nz
+    return (pu < box[w, 0] - reach or pu > box[w, 1] + reach or pv < box[w, 2] - reach
+            or pv > box[w, 3] + reach or abs(se) > W[w, 14] + reach)
+
+
 @njit(parallel=True, **_FM)
 def wall_candidates(x, rad, W, tri, time, skin, bounds, near, wslot, whist):
     """Particle-wall candidates: ``near[i, w]`` is True when wall w is closer than ``r + skin``.
 
     One parallel pass over particle chunks (``bounds``); history slots of walls
     that are no longer candidates are freed. The orchestration compacts
-    ``near`` into a CSR list (walls of a particle in increasing order).
+    ``near`` into a CSR list (walls of a particle in increasing order). A prism (the
+    blade) is measured only where the sphere is near its bounding box (within
+    ``r + skin`` and a relative margin of 1e-6 that keeps rounding out of the answer).
     """
     nw = W.shape[0]
     ns = wslot.shape[1]
     nt = bounds.shape[0] - 1
+    box = prism_boxes(W)
     for t in prange(nt):
         for i in range(bounds[t], bounds[t + 1]):
             for w in range(nw):
-                hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = any_wall_geometry(
-                    W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
-                ok = hit and dist < rad[i] + skin and dist > -rad[i] - skin
+                if int(W[w, 0]) == WALL_PRISM and _outside_prism_box(
+                        W, w, box, x[i, 0], x[i, 1], x[i, 2], time,
+                        (rad[i] + skin) * (1.0 + 1e-6)):
+                    ok = False
+                else:
+                    hit, dist, n1, n2, n3, u1, u2, u3, o1, o2, o3 = any_wall_geometry(
+                        W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)
+                    ok = hit and dist < rad[i] + skin and dist > -rad[i] - skin
                 near[i, w] = ok
                 if not ok:
                     for sl in range(ns):

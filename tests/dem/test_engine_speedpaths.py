@@ -565,3 +565,47 @@ def test_a_pair_apart_clears_its_history_and_keeps_a_zero_as_it_is():
     open_rows(ht, hr, np.ones(3), ft)
     assert ht.tobytes() == want_t.tobytes() and hr.tobytes() == want_r.tobytes()
     assert not ft.any()
+
+
+def test_wall_candidates_skip_a_prism_only_where_it_is_out_of_reach():
+    # a prism (the blade) is measured only near its bounding box: the candidates equal
+    # those of measuring every sphere, spheres at the box's edges and inside included
+    from bedstruct._numba import njit
+    from bedstruct.dem import Blade
+    from bedstruct.dem._kernels_walls import any_wall_geometry
+
+    @njit
+    def near_by_measuring(x, rad, W, tri, time, skin):
+        out = np.zeros((x.shape[0], W.shape[0]), dtype=np.bool_)
+        for i in range(x.shape[0]):
+            for w in range(W.shape[0]):
+                hit, dist = any_wall_geometry(W, w, tri, x[i, 0], x[i, 1], x[i, 2], time)[:2]
+                out[i, w] = hit and dist < rad[i] + skin and dist > -rad[i] - skin
+        return out
+
+    sim = Simulation(Box([0, 0, 0], [4e-3, 1e-3, 8e-3], boundary="ff pp ff"),
+                     ContactModel(Material(E, NU, RHO)),
+                     walls=[Plane((0, 0, 0), (0, 0, 1)),
+                            Blade(gap=100e-6, speed=0.05, x0=1e-3, height=2e-3)], n_threads=1)
+    W, tri = sim._W, sim._tri
+    rng = np.random.default_rng(4)
+    n = 20000
+    x = np.column_stack([rng.uniform(-1e-3, 3e-3, n), rng.uniform(0, 1e-3, n),
+                         rng.uniform(-1e-3, 3e-3, n)])
+    rad = rng.uniform(20e-6, 40e-6, n)
+    skin = 6e-6
+    # spheres just inside and just outside reach of the box's faces (blade: x0 +- 0.25 mm,
+    # from its lowest edge up to 2 mm)
+    k = np.arange(4000)
+    face = np.array([1e-3 - 0.25e-3, 1e-3 + 0.25e-3])[k % 2] + np.where(k % 2, 1, -1) * (
+        rad[:4000] + skin) * (1 + rng.uniform(-3e-6, 3e-6, 4000))
+    x[:4000, 0] = face
+    x[:4000, 2] = rng.uniform(0, 2.2e-3, 4000)
+    near = np.zeros((n, W.shape[0]), dtype=np.bool_)
+    wslot = -np.ones((n, 4), dtype=np.int32)
+    whist = np.zeros((n, 4, 6))
+    for time in (0.0, 3e-3):
+        K.wall_candidates(x, rad, W, tri, time, skin, np.array([0, n]), near, wslot, whist)
+        want = near_by_measuring(x, rad, W, tri, time, skin)
+        np.testing.assert_array_equal(near, want)
+        assert 100 < want[:, 1].sum() < n - 100
