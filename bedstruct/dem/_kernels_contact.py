@@ -445,23 +445,24 @@ def pair_table(youngs, shear, beta, friction, rolling_friction, cohesion, tangen
 
 
 @njit(inline="always", **_FM)
-def _open_pair(k, ht, hr, store, fn_out, ft_out):
-    """A pair apart: its history is cleared (where it is not zero; a zero keeps its sign) and
-    no force stored. Written back either way, without a branch on the values."""
-    a0 = ht[k, 0]
-    a1 = ht[k, 1]
-    a2 = ht[k, 2]
+def _clear_row(h, k):
+    """Row ``k`` of a history array set to zero where it is not zero (a zero keeps its
+    sign), written back either way, without a branch on its values."""
+    a0 = h[k, 0]
+    a1 = h[k, 1]
+    a2 = h[k, 2]
     clear = a0 != 0.0 or a1 != 0.0 or a2 != 0.0
-    ht[k, 0] = 0.0 if clear else a0
-    ht[k, 1] = 0.0 if clear else a1
-    ht[k, 2] = 0.0 if clear else a2
-    b0 = hr[k, 0]
-    b1 = hr[k, 1]
-    b2 = hr[k, 2]
-    clear = b0 != 0.0 or b1 != 0.0 or b2 != 0.0
-    hr[k, 0] = 0.0 if clear else b0
-    hr[k, 1] = 0.0 if clear else b1
-    hr[k, 2] = 0.0 if clear else b2
+    h[k, 0] = 0.0 if clear else a0
+    h[k, 1] = 0.0 if clear else a1
+    h[k, 2] = 0.0 if clear else a2
+
+
+@njit(inline="always", **_FM)
+def _open_pair(k, ht, hr, store, fn_out, ft_out):
+    """A pair apart: its tangential and rolling history cleared (:func:`_clear_row`) and no
+    force stored."""
+    _clear_row(ht, k)
+    _clear_row(hr, k)
     if store:
         ft_out[k, 0] = 0.0
         ft_out[k, 1] = 0.0
