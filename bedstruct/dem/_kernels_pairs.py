@@ -296,9 +296,9 @@ def pair_forces(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, 
     separations and splits the block into touching and other pairs without
     branching on the overlap test. The single loop then computes each touching
     pair and adds its forces at once (``_BLOCK`` pairs a block); the blocked
-    pass (``_BLOCK_B`` pairs, its scratch held in the L1 cache) gathers the
-    pairs' data in that first pass, computes the block's contacts in one
-    vectorised loop and adds the forces afterwards, in the same pair order.
+    pass (``_BLOCK_B`` pairs, its scratch held in the L1 cache) then gathers the
+    touching pairs' data, computes the block's contacts in one vectorised loop
+    and adds the forces afterwards, in the same pair order.
     Forces are added to each particle in the order of the pair list in both.
     """
     variant, args = pair_pass_call(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit,

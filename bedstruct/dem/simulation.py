@@ -183,7 +183,6 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         self.wall_overflow = 0
         self.dt = None
         self.skin = None
-        self._ready = False
         self._kicked = False  # True between fused steps inside run() only
         self._next_id = 1
         tabs = model.tables()

@@ -541,7 +541,8 @@ def test_setting_n_threads_on_a_running_simulation_rechunks_it(tmp_path):
     b.run(400)
     for name in ("x", "v", "om", "ht", "hr"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
-    with pytest.raises(Exception, match="n_threads"):
+    from bedstruct.errors import ConfigError
+    with pytest.raises(ConfigError, match="n_threads"):
         a.n_threads = 0
 
 
