@@ -272,14 +272,24 @@ def _run_one(simulator, point: DesignPoint, seed: int) -> dict:
             "cpu_s": time.process_time() - c0}
 
 
-def _longest_first(simulator, todo: list) -> list:
-    """The runs ``(index, point, seed)`` in decreasing order of the simulator's estimate of
-    their cost (``relative_cost(base, effects)``; design order among equals and without an
-    estimate), so that no worker is left running a long run alone at the end of a build."""
+def _run_costs(simulator, todo: list) -> dict[int, float]:
+    """The simulator's estimate of the cost of each design point of ``todo`` (runs
+    ``(index, point, seed)``), by point index: ``relative_cost(base, effects)`` where the
+    simulator has that method, else 1 for every point."""
     cost = getattr(simulator, "relative_cost", None)
-    if cost is None or len(todo) < 2:
+    if cost is None:
+        return {i: 1.0 for i, _, _ in todo}
+    return {i: float(cost(dict(p.base), dict(p.effects))) for i, p, _ in todo}
+
+
+def _longest_first(simulator, todo: list, costs: dict[int, float] | None = None) -> list:
+    """The runs ``(index, point, seed)`` in decreasing order of the simulator's estimate of
+    their cost (:func:`_run_costs`, or ``costs`` by point index; design order among equals
+    and without an estimate), so that no worker is left running a long run alone at the
+    end of a build."""
+    if len(todo) < 2 or (costs is None and getattr(simulator, "relative_cost", None) is None):
         return list(todo)
-    rel = {i: float(cost(dict(p.base), dict(p.effects))) for i, p, _ in todo}
+    rel = _run_costs(simulator, todo) if costs is None else costs
     return sorted(todo, key=lambda t: -rel[t[0]])
 
 
@@ -325,6 +335,31 @@ def _check_replay(path: Path, meta: Mapping, doc: Mapping) -> None:
                     "; ".join(diff))
 
 
+class _CostBar:
+    """A progress bar over a build's runs that advances by each run's estimated cost
+    (:func:`_run_costs`), so that its remaining time holds when the costly runs go first;
+    the runs done are shown beside it (``run library (12/50 runs)``)."""
+
+    def __init__(self, todo: list, costs: dict[int, float]):
+        from tqdm import tqdm
+        self.n = len(todo)
+        self.done = 0
+        self.costs = costs
+        self.bar = tqdm(total=sum(costs[i] for i, _, _ in todo), desc=self._desc(),
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]")
+
+    def _desc(self) -> str:
+        return f"run library ({self.done}/{self.n} runs)"
+
+    def update(self, i: int) -> None:
+        self.done += 1
+        self.bar.set_description_str(self._desc(), refresh=False)
+        self.bar.update(self.costs[i])
+
+    def close(self) -> None:
+        self.bar.close()
+
+
 def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int = 1,
                   scheduler=None, progress: bool = True, design=None) -> RunLibrary:
     """Run a design into a library folder (resuming a build that was cut short).
@@ -347,7 +382,8 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
         the runs go to its workers instead of local processes (requires
         ``dask[distributed]``).
     progress : bool
-        Show a progress bar over the runs still to do (tqdm).
+        Show a progress bar over the runs still to do (tqdm), advancing by each run's
+        estimated cost so that its remaining time holds when the costly runs go first.
     design : MeasurementSet, optional
         The observables, when the simulator has no ``design`` attribute.
 
@@ -401,19 +437,18 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     points = design_points(spec)
     todo = [(i, p, s) for i, p in enumerate(points) for s in spec.seeds
             if not (out / "runs" / _run_name(key, p, s)).is_file()]
-    if scheduler is not None or int(workers) > 1:
-        todo = _longest_first(simulator, todo)
-    bar = None
-    if progress and todo:
-        from tqdm import tqdm
-        bar = tqdm(total=len(todo), desc="run library", unit="run")
+    parallel = scheduler is not None or int(workers) > 1
+    costs = _run_costs(simulator, todo) if todo and (progress or parallel) else {}
+    if parallel:
+        todo = _longest_first(simulator, todo, costs)
+    bar = _CostBar(todo, costs) if progress and todo else None
 
     def save(i, p, s, rec):
         write_json_atomic(out / "runs" / _run_name(key, p, s),
                           {"key": key, "point": i, "group": p.group, "base": p.base,
                            "effects": p.effects, "seed": int(s), **rec}, keep_nan=True)
         if bar is not None:
-            bar.update()
+            bar.update(i)
 
     try:
         if scheduler is not None:

@@ -138,6 +138,42 @@ def test_a_build_cut_short_resumes_without_redoing_a_finished_run(tmp_path):
     np.testing.assert_array_equal(whole.outputs, lib.outputs)
 
 
+class Costly(Flaky):
+    """The surrogate with a cost estimate: a run with wall friction costs 4 runs without."""
+
+    def relative_cost(self, base, effects):
+        return 4.0 if effects.get("wall_friction", 0.0) else 1.0
+
+
+def test_the_progress_bar_advances_by_each_runs_estimated_cost(tmp_path, capsys):
+    from bedstruct.diagnose.run_library import _CostBar, _longest_first, _run_costs
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    sim = Costly(_one_angle())
+    todo = [(i, p, s) for i, p in enumerate(design_points(spec)) for s in spec.seeds]
+    costs = _run_costs(sim, todo)
+    heavy = sum(1 for i, p, _ in todo if p.effects.get("wall_friction", 0.0))
+    assert 0 < heavy < len(todo)
+    assert sorted(costs.values()) == sorted({i: 4.0 if p.effects.get("wall_friction", 0.0)
+                                            else 1.0 for i, p, _ in todo}.values())
+    order = _longest_first(sim, todo, costs)
+    bar = _CostBar(order, costs)
+    for i, _, _ in order[:heavy]:   # the costly runs first: most of the work, few of the runs
+        bar.update(i)
+    done = bar.bar.n / bar.bar.total
+    assert done == pytest.approx(4 * heavy / (4 * heavy + len(todo) - heavy))
+    assert done > heavy / len(todo)
+    for i, _, _ in order[heavy:]:
+        bar.update(i)
+    assert bar.bar.n == pytest.approx(bar.bar.total) and bar.done == len(todo)
+    bar.close()
+    assert _run_costs(Flaky(_one_angle()), todo) == {i: 1.0 for i, _, _ in todo}
+    # a build shows the runs done beside the bar
+    build_library(sim, spec, tmp_path, progress=True)
+    err = capsys.readouterr().err
+    assert f"{len(todo)}/{len(todo)} runs" in err and "100%" in err
+
+
 def test_parallel_builds_give_the_runs_of_a_serial_one(tmp_path):
     spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=3, n_per_effect=3,
                        replicates=2)
