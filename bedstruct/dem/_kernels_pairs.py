@@ -272,7 +272,8 @@ def pair_forces(P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, 
     Parameters
     ----------
     P : tuple
-        Particles ``(x, v, om, rad, mass, inv_i, ptype)``.
+        Particles ``(x, v, om, rad, mass, inv_i, ptype)``; ``x``, ``v`` and ``om`` are
+        C-contiguous (N, 3) arrays (the passes read them as flat views).
     PL : tuple
         Pair list ``(pi, pj, psh)`` (psh: integer periodic image of j).
     L : (3,) box lengths; hist : ``(ht, hr)`` tangential and rolling history (M, 3).
