@@ -276,10 +276,11 @@ def _run_costs(simulator, todo: list) -> dict[int, float]:
     """The simulator's estimate of the cost of each design point of ``todo`` (runs
     ``(index, point, seed)``), by point index: ``relative_cost(base, effects)`` where the
     simulator has that method, else 1 for every point."""
+    points = {i: p for i, p, _ in todo}   # each point once, whatever its seeds
     cost = getattr(simulator, "relative_cost", None)
     if cost is None:
-        return {i: 1.0 for i, _, _ in todo}
-    return {i: float(cost(dict(p.base), dict(p.effects))) for i, p, _ in todo}
+        return dict.fromkeys(points, 1.0)
+    return {i: float(cost(dict(p.base), dict(p.effects))) for i, p in points.items()}
 
 
 def _longest_first(simulator, todo: list, costs: dict[int, float] | None = None) -> list:
