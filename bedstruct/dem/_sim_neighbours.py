@@ -162,12 +162,19 @@ class _NeighbourList:
             self._warned_nonfinite = True
 
     def _build_wall_list(self, lists=None):
-        """Candidate walls of each particle (closer than r + skin), built at the
-        current time; rebuilt when a wall has moved skin/2 or at pair rebuilds
-        (``lists``: the rebuild's)."""
+        """Candidate walls of each particle, built at the current time; rebuilt when a
+        wall has moved skin/2 or at pair rebuilds (``lists``: the rebuild's).
+
+        Until the next rebuild a particle moves at most skin/2 from where it was at the
+        last pair-list build and each wall at most skin/2, so the candidates are the
+        walls closer than r + skin plus the largest displacement since that build (none
+        at a rebuild)."""
         if lists is None:
-            lists = K.wall_lists(self.x, self.rad, self._W, self._tri, self.time, self.skin,
-                                 self._chunks(self.n_particles), self.wslot, self.whist)
+            d = self.x - self.x_ref
+            moved = math.sqrt(float(np.einsum("ij,ij->i", d, d).max(initial=0.0)))
+            lists = K.wall_lists(self.x, self.rad, self._W, self._tri, self.time,
+                                 self.skin + moved, self._chunks(self.n_particles),
+                                 self.wslot, self.whist)
         self._wstart, self._wcand = lists
         self._balance_finish()
         self._wall_list_time = self.time
