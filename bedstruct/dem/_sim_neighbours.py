@@ -165,10 +165,11 @@ class _NeighbourList:
         """Candidate walls of each particle, built at the current time; rebuilt when a
         wall has moved skin/2 or at pair rebuilds (``lists``: the rebuild's).
 
-        Until the next rebuild a particle moves at most skin/2 from where it was at the
-        last pair-list build and each wall at most skin/2, so the candidates are the
-        walls closer than r + skin plus the largest displacement since that build (none
-        at a rebuild)."""
+        Until the next wall-list build each wall moves at most skin/2, and until the next
+        rebuild each particle stays within skin/2 of where it was at the last pair-list
+        build: one that has moved by d since then may still move by d + skin/2 from here.
+        The candidates are therefore the walls closer than r + skin plus the largest such
+        d (none at a rebuild, where the lists come from ``lists``)."""
         if lists is None:
             d = self.x - self.x_ref
             moved = math.sqrt(float(np.einsum("ij,ij->i", d, d).max(initial=0.0)))
