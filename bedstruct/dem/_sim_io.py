@@ -219,8 +219,7 @@ class _StateIO:
         if sim._kicked:
             # the step under way looks at the displacements since the last build (a rebuild
             # may be due): as the drift computed them, per chunk
-            d = sim.x - sim.x_ref
-            dd = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+            dd = sim._displacement2()
             for t in range(sim.n_threads):
                 part = dd[sim._pbounds[t]:sim._pbounds[t + 1]]
                 sim._disp[t] = part.max(initial=0.0)

@@ -161,6 +161,12 @@ class _NeighbourList:
                           BedstructWarning, stacklevel=4)
             self._warned_nonfinite = True
 
+    def _displacement2(self):
+        """Squared displacement of each particle since the last pair-list build, summed as
+        the integrator's displacement test sums it."""
+        d = self.x - self.x_ref
+        return d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+
     def _build_wall_list(self, lists=None):
         """Candidate walls of each particle, built at the current time; rebuilt when a
         wall has moved skin/2 or at pair rebuilds (``lists``: the rebuild's).
@@ -171,8 +177,7 @@ class _NeighbourList:
         The candidates are therefore the walls closer than r + skin plus the largest such
         d (none at a rebuild, where the lists come from ``lists``)."""
         if lists is None:
-            d = self.x - self.x_ref
-            moved = math.sqrt(float(np.einsum("ij,ij->i", d, d).max(initial=0.0)))
+            moved = math.sqrt(float(self._displacement2().max(initial=0.0)))
             lists = K.wall_lists(self.x, self.rad, self._W, self._tri, self.time,
                                  self.skin + moved, self._chunks(self.n_particles),
                                  self.wslot, self.whist)
