@@ -33,6 +33,7 @@ import hashlib
 import inspect
 import json
 import logging
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -275,12 +276,22 @@ def _run_one(simulator, point: DesignPoint, seed: int) -> dict:
 def _run_costs(simulator, todo: list) -> dict[int, float]:
     """The simulator's estimate of the cost of each design point of ``todo`` (runs
     ``(index, point, seed)``), by point index: ``relative_cost(base, effects)`` where the
-    simulator has that method, else 1 for every point."""
+    simulator has that method, else 1 for every point. An estimate that is not a positive
+    finite number is a ConfigError naming the point (it would order the runs and move the
+    progress bar wrongly)."""
     points = {i: p for i, p, _ in todo}   # each point once, whatever its seeds
     cost = getattr(simulator, "relative_cost", None)
     if cost is None:
         return dict.fromkeys(points, 1.0)
-    return {i: float(cost(dict(p.base), dict(p.effects))) for i, p in points.items()}
+    out = {}
+    for i, p in points.items():
+        c = float(cost(dict(p.base), dict(p.effects)))
+        if not (math.isfinite(c) and c > 0.0):
+            raise ConfigError(f"{type(simulator).__name__}.relative_cost gave {c!r} for design "
+                              f"point {i} (effects {dict(p.effects)}): a run's cost estimate "
+                              "must be a positive finite number")
+        out[i] = c
+    return out
 
 
 def _longest_first(simulator, todo: list, costs: dict[int, float] | None = None) -> list:

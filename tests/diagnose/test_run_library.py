@@ -173,6 +173,21 @@ def test_the_progress_bar_advances_by_each_runs_estimated_cost(tmp_path, capsys)
     assert f"{len(todo)}/{len(todo)} runs" in err and "100%" in err
 
 
+class Unpriced(Flaky):
+    """The surrogate with a cost estimate that is no number for runs with wall friction."""
+
+    def relative_cost(self, base, effects):
+        return float("nan") if effects.get("wall_friction", 0.0) else 1.0
+
+
+def test_a_cost_estimate_that_is_no_positive_number_is_refused_before_any_run(tmp_path):
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    with pytest.raises(ConfigError, match="relative_cost gave nan for design point"):
+        build_library(Unpriced(_one_angle()), spec, tmp_path, progress=True)
+    assert not list(tmp_path.glob("runs/*.json"))  # refused before any run was made
+
+
 def test_parallel_builds_give_the_runs_of_a_serial_one(tmp_path):
     spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=3, n_per_effect=3,
                        replicates=2)
