@@ -35,8 +35,8 @@ def wall_geometry(W, w, px, py, pz, time):
     Returns ``(hit, dist, n1, n2, n3, u1, u2, u3, om1, om2, om3)``: signed
     distance from the wall surface to p, unit normal from the wall to p,
     velocity of the wall surface at the contact point and wall angular
-    velocity. ``hit`` is False when the wall cannot touch the sphere
-    (behind a plane, beyond a cylinder end).
+    velocity. ``hit`` is False where the geometry gives no direction (a centre on a
+    cylinder's axis or rim). Beyond a cylinder's end the nearest point is on its rim.
     """
     kind = int(W[w, 0])
     dt0 = time - W[w, 13]
@@ -142,8 +142,6 @@ def wall_geometry(W, w, px, py, pz, time):
         return True, d, gx / d, gy / d, gz / d, u1, u2, u3, 0.0, 0.0, 0.0
     if kind == WALL_CYLINDER:
         se = rx * nx + ry * ny + rz * nz
-        if abs(se) > W[w, 14]:
-            return False, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
         qx = rx - se * nx
         qy = ry - se * ny
         qz = rz - se * nz
@@ -159,6 +157,16 @@ def wall_geometry(W, w, px, py, pz, time):
         s1 = u1 + om * rad * (ny * e3 - nz * e2)
         s2 = u2 + om * rad * (nz * e1 - nx * e3)
         s3 = u3 + om * rad * (nx * e2 - ny * e1)
+        he = W[w, 14]
+        if se > he or se < -he:
+            # beyond an end (open, no cap): the nearest point is on the rim circle
+            de = se - he if se > he else se + he
+            dr = rho - rad
+            d = math.sqrt(dr * dr + de * de)
+            if d == 0.0:
+                return False, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            return (True, d, (dr * e1 + de * nx) / d, (dr * e2 + de * ny) / d,
+                    (dr * e3 + de * nz) / d, s1, s2, s3, om * nx, om * ny, om * nz)
         return True, rho - rad, e1, e2, e3, s1, s2, s3, om * nx, om * ny, om * nz
     return False, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 

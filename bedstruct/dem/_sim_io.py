@@ -156,6 +156,7 @@ class _StateIO:
             arrays["wload"] = self._wload
         meta = dict(version=_CHECKPOINT_VERSION, time=self.time, step=self.step, dt=self.dt,
                     skin=self.skin, n_removed=self.n_removed, n_rebuilds=self.n_rebuilds,
+                    wall_overflow=int(self.wall_overflow + self._overflow.sum()),
                     next_id=self._next_id, n_threads=self.n_threads, wall_names=self.wall_names,
                     rng=self.rng.bit_generator.state, config=self.config(),
                     t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz,
@@ -204,6 +205,7 @@ class _StateIO:
         sim.step = meta["step"]
         sim.n_removed = meta["n_removed"]
         sim.n_rebuilds = meta["n_rebuilds"]
+        sim.wall_overflow = int(meta.get("wall_overflow", 0))
         sim._next_id = meta["next_id"]
         sim.force = cfg["force"]
         sim.rng.bit_generator.state = meta["rng"]

@@ -227,10 +227,13 @@ class _NeighbourList:
         nw = self._W.shape[0]
         if getattr(self, "_wbuf", None) is None or self._wbuf.shape != (T, nw, 6):
             self._wbuf = np.zeros((T, nw, 6))
+        if getattr(self, "_overflow", None) is not None:  # wall-slot overflows since the last build
+            self.wall_overflow += int(self._overflow.sum())
         if getattr(self, "_disp", None) is None or self._disp.shape[0] != T:
             self._disp = np.zeros(T)
             self._overflow = np.zeros(T, dtype=np.int64)
-        else:  # displacements and wall-slot overflows count from this build
+        else:  # displacements and wall-slot overflows count from this build (the overflows
+            # are added up in `wall_overflow`)
             self._disp.fill(0.0)
             self._overflow.fill(0)
         self._pbounds = self._chunks(n)

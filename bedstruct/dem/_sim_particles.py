@@ -18,6 +18,9 @@ from .insertion import raindrop_positions, sample_radii
 
 log = logging.getLogger("bedstruct.dem.simulation")
 
+#: Ids stay below 2^31: the neighbour list keys a pair's history by ``min(id) 2^31 + max(id)``.
+_ID_LIMIT = 2 ** 31
+
 
 class _Particles:
     """Particle insertion of :class:`~bedstruct.dem.Simulation`."""
@@ -35,7 +38,7 @@ class _Particles:
         velocities, omegas : (n, 3) array_like, optional
             m/s and rad/s (default 0).
         ids : (n,) array_like of int, optional
-            Unique positive ids (default: continuing from the largest id).
+            Unique positive ids below 2^31 (default: continuing from the largest id).
         """
         pos = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
         n = pos.shape[0]
@@ -58,6 +61,10 @@ class _Particles:
             new_ids = np.asarray(ids, dtype=np.int64).reshape(-1)
             if new_ids.shape != (n,) or new_ids.min(initial=1) < 1:
                 raise ValueError("`ids` must be n positive integers")
+        if new_ids.max(initial=0) >= _ID_LIMIT:
+            raise ValueError(f"particle ids must be below 2^31 = {_ID_LIMIT} (contact histories "
+                             f"are keyed by pairs of ids); got {int(new_ids.max())}: renumber the "
+                             "particles (e.g. `insert_frame(..., keep_ids=False)`)")
         allids = np.concatenate([self.ids, new_ids])
         if np.unique(allids).size != allids.size:
             raise ValueError("particle ids must be unique (an added id already exists)")

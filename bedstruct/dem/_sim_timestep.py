@@ -35,7 +35,14 @@ class _TimeStep:
         return float(self.rad.min())
 
     def _check_time_settings(self):
-        """``safety``, ``max_rayleigh_fraction`` and ``v_max`` are usable (see the class)."""
+        """``safety``, ``max_rayleigh_fraction``, ``v_max``, ``min_radius`` and ``skin`` are
+        usable (see the class)."""
+        if self.min_radius is not None and not _finite_at_least(self.min_radius, 0.0, strict=True):
+            raise ConfigError("`min_radius` (the smallest radius to plan the time step for) must "
+                              f"be a positive radius in m; got {self.min_radius!r}")
+        if self._skin_user is not None and not _finite_at_least(self._skin_user, 0.0):
+            raise ConfigError("`skin` (the neighbour-list skin) must be a finite distance >= 0 "
+                              f"in m; got {self._skin_user!r}")
         if not (math.isfinite(self.max_rayleigh_fraction) and self.max_rayleigh_fraction > 0):
             raise ConfigError("`max_rayleigh_fraction` must be a positive fraction of the "
                               f"Rayleigh time; got {self.max_rayleigh_fraction!r}")
@@ -102,9 +109,54 @@ class _TimeStep:
                     raise UnsafeTimestepError(msg)
                 log.warning("%s (accepted because force=True)", msg)
         self.dt = dt
+        self._dt_radius = rmin
         if self._skin_user is not None:
             self.skin = float(self._skin_user)
         else:
             self.skin = 0.15 * 2.0 * rmin
         self.t_rayleigh = t_r
         self.t_hertz = t_h
+
+    def _check_dt_present(self):
+        """The step stays within its limits for the smallest sphere present.
+
+        The step is planned at the first run for the smallest sphere then present (or
+        ``min_radius``); a smaller sphere added later, or present below ``min_radius``, is
+        checked against the same limits as a given ``dt`` (:meth:`_choose_dt`): beyond
+        them :class:`~bedstruct.UnsafeTimestepError` unless ``force=True`` (then a warning,
+        once per new smallest radius).
+        """
+        if self.n_particles == 0:
+            return
+        r = float(self.rad.min())
+        planned = getattr(self, "_dt_radius", None)
+        if planned is not None and r >= planned:
+            return
+        t_r = self.model.rayleigh_time(r)
+        t_h = self.model.hertz_time(r, self.v_max)
+        reasons = []
+        if self.dt > self.max_rayleigh_fraction * t_r:
+            reasons.append(f"dt = {self.dt:.3g} s is {self.dt / t_r:.0%} of the Rayleigh time "
+                           f"{t_r:.3g} s of the smallest sphere present (r = {r:.3g} m); the "
+                           f"limit is {self.max_rayleigh_fraction:.0%}")
+        if self.dt > 0.1 * t_h:
+            reasons.append(f"dt = {self.dt:.3g} s exceeds 10% of the Hertz impact time {t_h:.3g} s "
+                           f"of the smallest sphere present (r = {r:.3g} m) at v_max = "
+                           f"{self.v_max} m/s")
+        if reasons:
+            plan = "" if planned is None else f" (the step was planned for r = {planned:.3g} m)"
+            msg = ("unsafe time step: " + "; ".join(reasons) + plan + ". Give `min_radius` = "
+                   "the smallest radius the simulation will hold, a smaller dt, or force=True.")
+            if not self.force:
+                raise UnsafeTimestepError(msg)
+            log.warning("%s (accepted because force=True)", msg)
+        self._dt_radius = r
+
+
+def _finite_at_least(value, lo: float, strict: bool = False) -> bool:
+    """True when ``value`` is a real number, finite and ``>= lo`` (``> lo`` if ``strict``)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return False
+    return math.isfinite(v) and (v > lo if strict else v >= lo)

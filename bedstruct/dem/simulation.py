@@ -310,6 +310,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
     def _setup(self):
         if self.dt is None:
             self._choose_dt()
+        self._check_dt_present()
         self._rebuild()
         # forces at the current state without advancing (dt = 0 leaves history unchanged)
         self._pair_pass(0.0, self.ht, self.hr, self._fbuf, self._tbuf, False, self._fn_out,
@@ -561,7 +562,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         wall = _time.perf_counter() - t0
         if rd is not None and dump_every and self.step % dump_every != 0:
             rd.write_output(self)
-        self.wall_overflow = int(self._overflow.sum())
+        self.wall_overflow += int(self._overflow.sum())
+        self._overflow.fill(0)
         return RunStats(nsteps, wall, psteps / wall if wall > 0 else float("nan"),
                         self.n_rebuilds - reb0, self.n_removed - rem0,
                         self.n_lost_nonfinite - bad0)

@@ -215,7 +215,8 @@ def Blade(*, gap: float, speed: float, x0: float, surface_z: float = 0.0,
 class Cylinder(_Wall):
     """A roller: outer surface of a cylinder spinning at ``omega`` (rad/s) about ``axis``.
 
-    Ends are open (no caps); the roller may also translate with ``velocity``.
+    Ends are open (no caps): a sphere beyond an end touches the rim circle. The roller may
+    also translate with ``velocity``.
     """
 
     point: tuple = (0.0, 0.0, 0.0)

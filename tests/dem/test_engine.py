@@ -208,6 +208,17 @@ def test_wall_geometry_primitives():
     hit, d, n1, n2, n3, u1, u2, u3, *_ = K.wall_geometry(np.array([cyl]), 0, 0, 0, 0.4e-3, 0.0)
     assert d == pytest.approx(1e-4) and n3 == pytest.approx(-1.0)
     assert u1 == pytest.approx(-10.0 * 5e-4)  # omega_y x (0,0,-R) = (-omega R, 0, 0)
+    # beyond a finite roller's open end the nearest point is on the rim circle (the sphere
+    # had no contact there, and its force vanished as its centre crossed the end plane)
+    cyl = Cylinder(point=(0, 0, 0), axis=(0, 1, 0), radius=5e-4, half_length=1e-3).row()
+    hit, d, n1, n2, n3, *_ = K.wall_geometry(np.array([cyl]), 0, 0, 1e-3 + 2e-5, 5e-4 + 2e-5, 0.0)
+    assert hit and d == pytest.approx(math.hypot(2e-5, 2e-5))
+    assert (n1, n2, n3) == pytest.approx((0.0, math.sqrt(0.5), math.sqrt(0.5)))
+    hit, d, *_ = K.wall_geometry(np.array([cyl]), 0, 0, -1e-3 - 3e-5, 5e-4 - 4e-5, 0.0)
+    assert hit and d == pytest.approx(5e-5)
+    hit, d_in, *_ = K.wall_geometry(np.array([cyl]), 0, 0, 1e-3 - 1e-12, 5e-4 + 2e-5, 0.0)
+    hit, d_out, *_ = K.wall_geometry(np.array([cyl]), 0, 0, 1e-3 + 1e-12, 5e-4 + 2e-5, 0.0)
+    assert d_out == pytest.approx(d_in, rel=1e-9)   # continuous across the end plane
     # triangle mesh: one triangle in the plane z = 0
     tri = np.array([[0, 0, 0, 1, 0, 0, 0, 1, 0]], dtype=float)
     row = TriangleMesh(np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], float)).row()

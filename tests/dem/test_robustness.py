@@ -235,3 +235,89 @@ def test_engine_timeout_ends_the_whole_process_group(tmp_path):
     while _alive(child) and time.time() - t0 < 10:
         time.sleep(0.05)
     assert not _alive(child)
+
+
+@pytest.mark.parametrize("kw, key", [({"skin": -5e-6}, "skin"), ({"skin": float("nan")}, "skin"),
+                                     ({"min_radius": 0.0}, "min_radius"),
+                                     ({"min_radius": -1e-5}, "min_radius"),
+                                     ({"min_radius": float("inf")}, "min_radius")])
+def test_skin_and_min_radius_are_checked(kw, key):
+    # a negative skin let two spheres meeting head-on pass through each other; NaN crashed
+    with pytest.raises(ConfigError, match=f"`{key}`"):
+        Simulation(Box([0, 0, 0], [1e-3, 1e-3, 1e-3], boundary="ff ff ff"), MODEL, **kw)
+
+
+def _small_pair(sim, r=5e-6):
+    """Two spheres of radius r closing at 0.1 m/s in the middle of a 4 mm box."""
+    c = 2e-3
+    sim.add_particles([[c - 1.2 * r, c, c], [c + 1.2 * r, c, c]], r,
+                      velocities=[[0.05, 0, 0], [-0.05, 0, 0]])
+
+
+def _free(**kw):
+    return Simulation(Box([0, 0, 0], [4e-3, 4e-3, 4e-3], boundary="ff ff ff"), MODEL,
+                      gravity=(0, 0, 0), n_threads=1, **kw)
+
+
+def test_spheres_smaller_than_the_planned_step_are_refused():
+    # the step was planned for r = 200 um at the first run; 5 um spheres added later were
+    # stepped at 6 Rayleigh times and gained energy
+    sim = _free()
+    sim.add_particles([[0.5e-3, 0.5e-3, 0.5e-3]], 200e-6)
+    sim.run(5)
+    _small_pair(sim)
+    with pytest.raises(UnsafeTimestepError, match="smallest sphere present"):
+        sim.run(5)
+    sim = _free(min_radius=200e-6)      # a min_radius above the spheres present
+    _small_pair(sim)
+    with pytest.raises(UnsafeTimestepError, match="planned for r = 0.0002"):
+        sim.run(5)
+
+
+def test_spheres_within_the_planned_step_limits_run():
+    sim = _free(min_radius=5e-6, v_max=0.05)
+    sim.add_particles([[0.5e-3, 0.5e-3, 0.5e-3]], 200e-6)
+    sim.run(5)
+    _small_pair(sim, r=4e-6)            # smaller than planned, the step still within limits
+    sim.run(5)
+    assert sim.dt < sim.max_rayleigh_fraction * MODEL.rayleigh_time(4e-6)
+    assert sim.dt < 0.1 * MODEL.hertz_time(4e-6, 0.05)
+
+
+def test_a_forced_step_warns_once_for_smaller_spheres(caplog):
+    sim = _free(force=True)
+    sim.add_particles([[0.5e-3, 0.5e-3, 0.5e-3]], 200e-6)
+    sim.run(2)
+    _small_pair(sim)
+    sim.run(2)
+    sim.run(2)
+    assert caplog.text.count("planned for r = 0.0002 m") == 1
+
+
+@pytest.mark.parametrize("ids", [[1, 2 ** 31 + 5], [2 ** 31, 3]])
+def test_ids_that_would_share_a_history_key_are_refused(ids):
+    # pairs (1, 2^31 + 5) and (2, 5) had the same key: one took the other's history
+    sim = _free()
+    with pytest.raises(ValueError, match="below 2\\^31"):
+        sim.add_particles([[1e-3, 1e-3, 1e-3], [3e-3, 3e-3, 3e-3]], 50e-6, ids=ids)
+    sim.add_particles([[1e-3, 1e-3, 1e-3], [3e-3, 3e-3, 3e-3]], 50e-6, ids=[1, 2 ** 31 - 1])
+
+
+def test_wall_overflow_counts_every_step_of_a_run_and_survives_a_checkpoint(tmp_path):
+    # a sphere pressed by four planes has one wall contact without a history slot at each
+    # step; a fast sphere far away forces neighbour rebuilds, which reset the count before
+    r = 50e-6
+    d = r - 2e-6
+    walls = [Plane((0, 0, -d), (0, 0, 1), name="p1"), Plane((-d, 0, 0), (1, 0, 0), name="p2"),
+             Plane((0, -d, 0), (0, 1, 0), name="p3"), Plane((d, 0, 0), (-1, 0, 0), name="p4")]
+    sim = Simulation(Box([-2e-3] * 3, [2e-3] * 3, boundary="ff ff ff"), MODEL, walls=walls,
+                     gravity=(0, 0, 0), n_threads=1)
+    sim.add_particles([[0, 0, 0], [1.5e-3, 1.5e-3, 1.5e-3]], r, velocities=[[0, 0, 0], [0, 0, -1.0]])
+    sim.run(100)
+    assert sim.n_rebuilds > 2
+    assert sim.wall_overflow >= 100
+    sim.run(100)
+    assert sim.wall_overflow >= 200
+    before = sim.wall_overflow
+    sim.save_checkpoint(tmp_path / "c.npz")
+    assert Simulation.from_checkpoint(tmp_path / "c.npz").wall_overflow == before
