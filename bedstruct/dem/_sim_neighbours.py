@@ -184,7 +184,7 @@ class _NeighbourList:
         self._wstart, self._wcand = lists
         self._balance_finish()
         self._wall_list_time = self.time
-        # fastest wall surface speed (translation plus roller rim speed), m/s
+        # fastest wall translation (a roller's spin does not move its surface), m/s
         W = self._W
         sp = np.sqrt((W[:, 10:13] ** 2).sum(axis=1)) if len(W) else np.zeros(0)
         self._wall_speed = float(sp.max(initial=0.0))
