@@ -16,7 +16,10 @@ with a warning naming file, timestep and line; the report lists them.
 
 from __future__ import annotations
 
+import argparse
+import math
 import sys
+import warnings
 
 NAME = "report"
 HELP = "write report.html and report.json for dumps"
@@ -29,15 +32,26 @@ def add_arguments(parser) -> None:
     parser.add_argument("--contacts", metavar="LOCALDUMP", help="LIGGGHTS/LAMMPS dump local contact file")
     parser.add_argument("--contact-keywords", metavar="KW", default=None,
                         help="pair/gran/local keywords of the contact file, e.g. 'pos id force contactArea'")
+    parser.add_argument("--contact-columns", metavar="MAP", default=None, type=_contact_columns,
+                        help="what each column of another contact layout (LAMMPS property/local, "
+                             "pair/local) holds, as COLUMN=MEANING pairs, e.g. "
+                             "'c_1[1]=id1 c_1[2]=id2 c_2[3]=fx c_2[4]=fy c_2[5]=fz'; meanings: "
+                             "id1 id2 (required, or x1 y1 z1 x2 y2 z2), periodic, fx fy fz, "
+                             "fnx fny fnz, ftx fty ftz, area")
     parser.add_argument("--regions", type=int, default=3, help="regions along the bed (default 3)")
     parser.add_argument("--axis", default="x", choices=["x", "y", "z"], help="spreading direction")
     parser.add_argument("--frames", default="-1", metavar="SEL",
                         help="frames: -1 (last, default), all, an index or start:stop:step")
-    parser.add_argument("--radius", type=float, default=None, help="radius when the dump has none")
+    parser.add_argument("--radius", type=_positive, default=None, metavar="R",
+                        help="radius when the dump has none (positive, length unit of the dump)")
+    parser.add_argument("--boundary", type=_boundary, default=None, metavar="FLAGS",
+                        help="boundary of data files, which do not record it: LAMMPS flags per "
+                             "axis, e.g. 'pp pp ff' for a bed under open space (default 'pp pp pp', "
+                             "the LAMMPS default; the report says which it assumed)")
     parser.add_argument("--units", default=None,
                         choices=["si", "cgs", "micro", "nano", "lj", "real", "metal", "electron"],
                         help="LAMMPS unit style of the dump when it does not say")
-    parser.add_argument("--repose-base", type=float, default=None, metavar="Z",
+    parser.add_argument("--repose-base", type=_finite, default=None, metavar="Z",
                         help="height of the plate a pile stands on (length unit of the dump)")
     parser.add_argument("--german-windows", type=int, default=None, metavar="N",
                         help="windows along the bed for the German's-law fit (default 12, the library's "
@@ -45,17 +59,96 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-3d", dest="view_3d", action="store_false",
                         help="leave out the 3-D picture of the bed (the side view is always drawn)")
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
-    parser.add_argument("--heat-length-unit", type=float, default=None, metavar="M",
+    parser.add_argument("--heat-length-unit", type=_positive, default=None, metavar="M",
                         help="metres per dump length unit (heat needs SI when the unit is unknown)")
-    parser.add_argument("--heat-stop-fraction", type=float, default=0.25, metavar="F",
+    parser.add_argument("--heat-stop-fraction", type=_fraction, default=0.25, metavar="F",
                         help="end the heat runs when the hottest particle has cooled to this fraction "
-                             "of the pulse excess (default 0.25)")
+                             "of the pulse excess, between 0 and 1 (default 0.25)")
     parser.add_argument("--lenient", action="store_true",
                         help="read damaged dumps: leave malformed frames out (each named with "
                              "file, timestep and line, and listed in the report)")
     parser.add_argument("--json", action="store_true", help="print the JSON summary as the last line")
     parser.add_argument("--progress", action="store_true", default=None,
                         help="show a progress bar (default: when stderr is a terminal)")
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+
+
+def _finite(text: str) -> float:
+    """A finite number (argparse type)."""
+    value = _number(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number; got {text!r}")
+    return value
+
+
+def _positive(text: str) -> float:
+    """A positive finite number (argparse type)."""
+    value = _finite(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number; got {text!r}")
+    return value
+
+
+def _fraction(text: str) -> float:
+    """A number strictly between 0 and 1 (argparse type)."""
+    value = _finite(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a fraction between 0 and 1 (both "
+                                         f"excluded); got {text!r}")
+    return value
+
+
+def _boundary(text: str) -> str:
+    """LAMMPS boundary flags for the three axes, as ``"pp pp ff"`` (argparse type)."""
+    from ..core import Box
+
+    try:
+        return " ".join(Box([0, 0, 0], [1, 1, 1], boundary=text).boundary)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"{exc} (e.g. 'pp pp ff')") from None
+
+
+def _contact_columns(text: str):
+    """``COLUMN=MEANING`` pairs (a dict), or one meaning per column with ``-`` keeping the
+    header name (a list), separated by spaces or commas (argparse type)."""
+    words = text.replace(",", " ").split()
+    if not words:
+        raise argparse.ArgumentTypeError("expected COLUMN=MEANING pairs, e.g. 'c_1[1]=id1 "
+                                         "c_1[2]=id2'")
+    pairs = [w.partition("=") for w in words]
+    if all(sep for _, sep, _ in pairs):
+        bad = [w for w, (col, _, meaning) in zip(words, pairs) if not col or not meaning]
+        if bad:
+            raise argparse.ArgumentTypeError(f"expected COLUMN=MEANING; got {bad[0]!r}")
+        cols = [col for col, _, _ in pairs]
+        twice = sorted({c for c in cols if cols.count(c) > 1})
+        if twice:
+            raise argparse.ArgumentTypeError(f"column {twice[0]!r} given twice")
+        return {col: meaning for col, _, meaning in pairs}
+    if any(sep for _, sep, _ in pairs):
+        raise argparse.ArgumentTypeError("give either COLUMN=MEANING pairs or one meaning per "
+                                         "column, not both")
+    return [None if w == "-" else w for w in words]
+
+
+def _one_line_warnings(fallback):
+    """A ``warnings.formatwarning`` that writes bedstruct's warnings (about the input) as one
+    ``bedstruct report: warning: ...`` line each; other warnings are formatted by
+    ``fallback``. Replacing the format, not ``showwarning``, leaves warnings recorded by a
+    caller (``warnings.catch_warnings(record=True)``) as they are."""
+    from ..errors import BedstructWarning
+
+    def format_warning(message, category, filename, lineno, line=None):
+        if not issubclass(category, BedstructWarning):
+            return fallback(message, category, filename, lineno, line)
+        return "bedstruct report: warning: " + " ".join(str(message).split()) + "\n"
+    return format_warning
 
 
 def run(args) -> int:
@@ -72,14 +165,25 @@ def run(args) -> int:
         raise UsageError(str(exc)) from None
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     kw = args.contact_keywords.split() if args.contact_keywords else None
-    report, html_path, json_path = report_on_files(
-        args.paths, args.out, contacts=args.contacts, contact_keywords=kw, options=options,
-        radius=args.radius, units=args.units, progress=progress,
-        on_error="skip" if args.lenient else "raise")
+    if args.contact_columns is not None and kw is not None:
+        raise UsageError("give --contact-keywords (LIGGGHTS pair/gran/local) or --contact-columns "
+                         "(other layouts), not both")
+    with warnings.catch_warnings():
+        warnings.formatwarning = _one_line_warnings(warnings.formatwarning)
+        report, html_path, json_path = report_on_files(
+            args.paths, args.out, contacts=args.contacts, contact_keywords=kw, options=options,
+            radius=args.radius, units=args.units, progress=progress,
+            on_error="skip" if args.lenient else "raise", contact_columns=args.contact_columns,
+            boundary=args.boundary)
     state = report.state or {}
     kind = f" (input: {state['kind']}" + (f"; not meaningful for it: {', '.join(state['not_meaningful'])}"
                                         if state.get("not_meaningful") else "") + ")" if state else ""
     print(f"bedstruct report: wrote {html_path} and {json_path}{kind}")
+    if args.boundary is None and report.inputs.get("boundary"):
+        flags = report.inputs["boundary"].split(" (")[0]
+        print(f"bedstruct report: note: boundary {flags!r} assumed for the data file, which "
+              f"does not record it (give --boundary, e.g. 'pp pp ff' for a bed under open space)",
+              file=sys.stderr)
     skipped = report.inputs.get("skipped_frames") or []
     if skipped:   # each one was also warned about as it was read
         print(f"bedstruct report: warning: {len(skipped)} malformed frame(s) left out "

@@ -16,7 +16,11 @@ from ..errors import BedstructWarning, DumpFormatError
 from ._order_kernels import gather_rows
 from ._text import RawFrame, check_unit_style
 
-__all__ = ["frame_from_raw"]
+__all__ = ["frame_from_raw", "SYNTHESISED_IDS_NOTE"]
+
+#: The provenance note of a frame read from a dump without an ``id`` column: its ids are
+#: row numbers, not the particle ids of the simulation.
+SYNTHESISED_IDS_NOTE = "no 'id' column: ids 1..N synthesised in file order"
 
 _POSITION_SETS = (
     (("x", "y", "z"), False, False),
@@ -162,7 +166,7 @@ def frame_from_raw(raw: RawFrame, *, radius=None, units=None, wrap=False, sort_b
         used.add("id")
     else:
         ids = np.arange(1, n + 1, dtype=np.int64)
-        notes.append("no 'id' column: ids 1..N synthesised in file order")
+        notes.append(SYNTHESISED_IDS_NOTE)
     if planned is None:
         cols = _Columns(data, order)
 

@@ -353,6 +353,11 @@ class Source:
             self._fh = None
             self._pos = 0
 
+    def __del__(self):  # the open stream closes with its Source (no ResourceWarning)
+        fh = getattr(self, "_fh", None)
+        if fh is not None:
+            fh.close()
+
     def __getstate__(self):  # picklable: reopen lazily in the other process
         state = dict(self.__dict__)
         state["_fh"] = None

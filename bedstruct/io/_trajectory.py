@@ -339,8 +339,21 @@ class DumpTrajectory(Trajectory):
         """The files read, in the order given."""
         return [f.path for f in self._files]
 
+    def __iter__(self):
+        """The frames in order, one parsed at a time; the files are closed when the
+        iteration ends (exhausted, broken off or failed)."""
+        try:
+            for k in range(len(self)):
+                yield self._read_frame(k)
+        finally:
+            self.close()
+
     def close(self) -> None:
-        """Close the open files (reading again reopens them)."""
+        """Close the open files (reading again reopens them).
+
+        A trajectory also closes its files when an iteration over it ends and
+        when it is garbage collected.
+        """
         for f in self._files:
             f.source.close()
 

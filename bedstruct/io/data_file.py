@@ -21,11 +21,13 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import warnings
 
 import numpy as np
 
 from ..core import Box, Frame, Provenance, Units
+from ..core.box import _normalise_boundary
 from ..errors import BedstructWarning, DumpFormatError
 from ._text import check_unit_style
 
@@ -144,7 +146,7 @@ def _map_atoms(table, names, has_images, rows, path):
     return ids, types, pos, columns, images
 
 
-def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=None) -> Frame:
+def read_data(path, *, atom_style=None, boundary=None, radius=None, units=None) -> Frame:
     """Read a LAMMPS/LIGGGHTS data file of spheres into a :class:`Frame`.
 
     Parameters
@@ -157,8 +159,11 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
         comment, else ``sphere`` (or the LIGGGHTS hybrid layout when bonds are
         declared).
     boundary : str or sequence of 3 str, optional
-        Boundary flags; data files do not store them. Default ``"pp pp pp"``,
-        noted in the provenance.
+        Boundary flags (``"pp pp ff"``, ``("p", "p", "f")``); data files do
+        not record them. Default ``"pp pp pp"`` (the LAMMPS default). For a
+        bed with open space above it, give the bounded axis as ``f``:
+        measured as periodic, the empty space counts in packing fractions.
+        The provenance notes whether the boundary was given or assumed.
     radius : float, optional
         Radius for styles without a diameter column (``atomic``, ``bond/gran``).
     units : str, optional
@@ -167,7 +172,9 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
     Returns
     -------
     Frame
-        Rows sorted by id. ``columns`` holds ``density`` and ``mass``
+        Rows sorted by id; the timestep is the one ``write_data`` states in
+        the title line (``timestep = N``, or bedstruct's ``(timestep N)``),
+        else 0. ``columns`` holds ``density`` and ``mass``
         (density times sphere volume) for sphere styles, ``molecule`` when
         present; ``velocities`` and ``omegas`` come from a ``Velocities``
         section; per-type ``Masses`` are kept as ``type_mass``.
@@ -196,6 +203,8 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
     if not any(line.strip() for line in lines):
         raise DumpFormatError("empty data file (nothing but blank lines); expected a title "
                               "line, then a header with 'N atoms'", path=path, line=1)
+    box_flags = _normalise_boundary(_DEFAULT_BOUNDARY if boundary is None else boundary)
+    timestep = _title_timestep(lines[0])
     counts = {}
     bounds = {}
     tilt = None
@@ -358,15 +367,37 @@ def read_data(path, *, atom_style=None, boundary="pp pp pp", radius=None, units=
     skipped = [s for s in sections if s not in ("Atoms", "Velocities", "Masses")]
     if skipped:
         notes.append("sections not read: " + ", ".join(skipped))
-    bstr = " ".join(boundary) if not isinstance(boundary, str) else boundary
-    notes.append(f"data files do not store boundary flags: boundary {bstr!r} assumed")
+    bstr = " ".join(box_flags)
+    if boundary is None:
+        notes.append(f"data files do not record boundary flags: boundary {bstr!r} assumed "
+                     f"(the LAMMPS default; give boundary=, --boundary on the command line)")
+    else:
+        notes.append(f"boundary {bstr!r} given by the caller (data files do not record it)")
+    if timestep is not None:
+        notes.append(f"timestep {timestep} from the title line")
     lo = [bounds[a][0] for a in "xyz"]
     hi = [bounds[a][1] for a in "xyz"]
-    box = Box(lo, hi, tilt if tilt is not None else np.zeros(3), boundary)
+    box = Box(lo, hi, tilt if tilt is not None else np.zeros(3), box_flags)
     frame = Frame(pos, radii, box=box, ids=ids, types=types, columns=columns,
+                  timestep=0 if timestep is None else timestep,
                   units=Units(None if units is None else units),
                   provenance=Provenance(source=path, frame_index=0, notes=tuple(notes)), **kw)
     return frame.sorted_by_id()
+
+
+_DEFAULT_BOUNDARY = "pp pp pp"
+# the title line of LAMMPS/LIGGGHTS write_data ("..., timestep = 101, units = si") and of
+# bedstruct's write_data ("... (timestep 101)")
+_TITLE_TIMESTEP = (re.compile(r"\btimestep\s*=\s*(\d+)\b"), re.compile(r"\(timestep (\d+)\)"))
+
+
+def _title_timestep(title: str) -> int | None:
+    """The timestep a ``write_data`` title line states, else None."""
+    for pattern in _TITLE_TIMESTEP:
+        found = pattern.search(title)
+        if found:
+            return int(found.group(1))
+    return None
 
 
 def _warn_repeated_ids(ids, rows, path) -> None:

@@ -4,8 +4,9 @@ A ``dump local`` file has one row per contact and no self-describing column
 names (``c_ID[1] c_ID[2] ...``), so the caller says what was dumped: the
 LIGGGHTS keywords (``keywords=``) or a map from column to meaning
 (``columns=``). Contacts are joined by particle id to the atom frame of the
-same timestep; branch vectors come from that frame's positions by the minimum
-image, so contacts across periodic boundaries are kept and flagged.
+same timestep, or by the dumped positions where the ids cannot be used; branch
+vectors come from that frame's positions by the minimum image, so contacts
+across periodic boundaries are kept and flagged.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 
 from ..core import Contacts, Frame, Trajectory
 from ..errors import BedstructWarning, DumpFormatError
+from ._columns import SYNTHESISED_IDS_NOTE
 from ._source import Source, scan_text, stream_cut
 from ._text import (TruncatedFrame, parse_text_frame, skip_or_raise, tail_truncation,
                     truncated)
@@ -47,6 +49,10 @@ _KEYWORD_NAMES = {
     "delta": ("delta",),
     "heatFlux": ("heat_flux",),
 }
+
+
+#: The contact columns of the positions of both particles (LIGGGHTS keyword ``pos``).
+_POSITIONS = (("x1", "y1", "z1"), ("x2", "y2", "z2"))
 
 
 def liggghts_local_columns(keywords, n_columns=None) -> list[str]:
@@ -120,12 +126,19 @@ def _semantic_names(header, keywords, columns, path, line):
         try:
             return liggghts_local_columns(keywords, ncols)
         except ValueError as exc:
-            raise DumpFormatError(str(exc), path=path, line=line) from None
-    if {"id1", "id2"} <= set(header):
+            raise DumpFormatError(f"{exc} (a layout other than LIGGGHTS pair/gran/local needs "
+                                  f"columns=, --contact-columns on the command line)",
+                                  path=path, line=line) from None
+    if {"id1", "id2"} <= set(header) or set(_POSITIONS[0] + _POSITIONS[1]) <= set(header):
         return list(header)
-    raise DumpFormatError("say what the contact file holds: keywords=['pos', 'id', 'force', ...] "
-                          "for LIGGGHTS pair/gran/local, or columns={'c_1[1]': 'id1', "
-                          "'c_1[2]': 'id2', ...} for other layouts", path=path, line=line,
+    first = [h for h in header if h != "index"][:2] or ["c_1[1]", "c_1[2]"]
+    pairs = " ".join(f"{h}=id{k + 1}" for k, h in enumerate(first))
+    raise DumpFormatError("say what the contact file holds: for LIGGGHTS pair/gran/local the "
+                          "keywords of the compute (keywords=['pos', 'id', 'force', ...]; "
+                          "--contact-keywords 'pos id force' on the command line), for other "
+                          "layouts such as LAMMPS property/local what each column is "
+                          f"(columns={{{first[0]!r}: 'id1', ...}}; --contact-columns "
+                          f"'{pairs} ...' on the command line)", path=path, line=line,
                           text=" ".join(header))
 
 
@@ -179,12 +192,19 @@ def read_dump_local(path, *, keywords=None, columns=None, frames=None, radius=No
         For other layouts: a map from header column to meaning, e.g.
         ``{"c_1[1]": "id1", "c_1[2]": "id2", "c_2[1]": "dist", "c_2[3]":
         "fx", "c_2[4]": "fy", "c_2[5]": "fz"}``, or one meaning per column
-        (None to keep the header name). Meanings: ``id1 id2`` (required),
-        ``periodic``, ``fx fy fz`` (force on particle 1), ``fnx fny fnz``,
-        ``ftx fty ftz``, ``area``; anything else is kept in ``columns``.
+        (None to keep the header name). Meanings: ``id1 id2`` (required
+        unless the positions ``x1 y1 z1 x2 y2 z2`` are given), ``periodic``,
+        ``fx fy fz`` (force on particle 1), ``fnx fny fnz``, ``ftx fty ftz``,
+        ``area``; anything else is kept in ``columns``.
     frames : Frame, sequence of Frame, Trajectory or path
         The atom frames (or the atom dump file) to join with; each contact
-        frame needs an atom frame of the same timestep.
+        frame needs an atom frame of the same timestep. Contacts are joined
+        by particle id; when the atom dump had no ``id`` column (its ids 1..N
+        were made up by the reader) or the contact file has no ids, they are
+        matched by the dumped positions (``pos``): each matches the one
+        particle whose centre lies within half the smallest radius, across
+        periodic boundaries too. The contact file's ids are then kept in
+        ``columns``.
     radius : float, optional
         Passed to :func:`read_dump` when ``frames`` is a path.
     strict : bool, optional
@@ -203,8 +223,10 @@ def read_dump_local(path, *, keywords=None, columns=None, frames=None, radius=No
     Raises
     ------
     DumpFormatError
-        For malformed files, unknown particle ids, and column counts that do
-        not match ``keywords``.
+        For malformed files, unknown particle ids, column counts that do not
+        match ``keywords``, ids to join to an atom dump without ids when no
+        positions were dumped, and dumped positions with no particle (or two)
+        under them.
     ValueError
         If no atom frame has the timestep of a contact frame.
 
@@ -232,54 +254,42 @@ def read_dump_local(path, *, keywords=None, columns=None, frames=None, radius=No
     try:
         for p in paths:
             src = Source(p)
-            scan = scan_text(src)
-            stream_cut(src, strict, stacklevel=3)
-            if not scan.starts and scan.cut_line is not None:
-                skip_or_raise(truncated("the file ends inside the header of its first frame",
-                                        path=src.path, line=scan.cut_line), strict,
-                              f"skipping the truncated only frame of {src.path}")
-            for k, start in enumerate(scan.starts):
-                at_eof = k == len(scan.starts) - 1
-                buf = src.read_range(start, scan.end(k) - start)
-                try:
-                    raw = parse_text_frame(buf, path=src.path, line0=scan.lines[k], at_eof=at_eof,
-                                           file_ends_with_newline=scan.ends_with_newline)
-                except TruncatedFrame as exc:
-                    skip_or_raise(exc, strict, f"skipping the truncated last frame of {src.path}")
-                    continue
-                if raw.partial_tail is not None:  # the data before it are complete
-                    skip_or_raise(tail_truncation(raw, buf, scan.lines[k]), strict,
-                                  f"ignoring a cut-off frame header at the end of {src.path}")
-                if raw.kind != "ENTRIES":
-                    raise DumpFormatError("this is an atom dump (ITEM: ATOMS), not a 'dump "
-                                          "local' file; read it with read_dump", path=src.path,
-                                          line=raw.header_line)
-                out[raw.timestep] = _contacts_from_raw(raw, keywords, columns, lookup)
-            src.close()
+            try:
+                scan = scan_text(src)
+                stream_cut(src, strict, stacklevel=3)
+                if not scan.starts and scan.cut_line is not None:
+                    skip_or_raise(truncated("the file ends inside the header of its first frame",
+                                            path=src.path, line=scan.cut_line), strict,
+                                  f"skipping the truncated only frame of {src.path}")
+                for k, start in enumerate(scan.starts):
+                    at_eof = k == len(scan.starts) - 1
+                    buf = src.read_range(start, scan.end(k) - start)
+                    try:
+                        raw = parse_text_frame(buf, path=src.path, line0=scan.lines[k],
+                                               at_eof=at_eof,
+                                               file_ends_with_newline=scan.ends_with_newline)
+                    except TruncatedFrame as exc:
+                        skip_or_raise(exc, strict,
+                                      f"skipping the truncated last frame of {src.path}")
+                        continue
+                    if raw.partial_tail is not None:  # the data before it are complete
+                        skip_or_raise(tail_truncation(raw, buf, scan.lines[k]), strict,
+                                      f"ignoring a cut-off frame header at the end of {src.path}")
+                    if raw.kind != "ENTRIES":
+                        raise DumpFormatError("this is an atom dump (ITEM: ATOMS), not a 'dump "
+                                              "local' file; read it with read_dump", path=src.path,
+                                              line=raw.header_line)
+                    out[raw.timestep] = _contacts_from_raw(raw, keywords, columns, lookup)
+            finally:
+                src.close()
     finally:
         lookup.close()
     return out
 
 
-def _contacts_from_raw(raw, keywords, columns, lookup) -> Contacts:
-    names = _semantic_names(raw.names, keywords, columns, raw.path, raw.header_line)
-    frame = lookup.get(raw.timestep)
-    if frame is None:
-        raise ValueError(f"{raw.path}: no atom frame at timestep {raw.timestep} to join the "
-                         f"contacts to (atom timesteps: {sorted(lookup.index)[:10]}...)")
-    idx = {}
-    for k, name in enumerate(names):
-        if name in idx:
-            raise DumpFormatError(f"column meaning {name!r} given twice", path=raw.path,
-                                  line=raw.header_line)
-        idx[name] = k
-    if not {"id1", "id2"} <= set(idx):
-        raise DumpFormatError("the contact columns must include particle ids 'id1' and 'id2' "
-                              "(LIGGGHTS keyword 'id', or map them with columns=)",
-                              path=raw.path, line=raw.header_line)
-    data = raw.data
+def _rows_by_id(ids, data, idx, raw):
+    """Rows of the atom frame (ids ``ids``) of the ``id1`` and ``id2`` columns."""
     m = raw.n
-    ids = frame.ids
     n_atoms = len(ids)
     if np.all(ids[1:] > ids[:-1]):  # the usual case: a frame read sorted by id
         order, sorted_ids = None, ids
@@ -307,18 +317,111 @@ def _contacts_from_raw(raw, keywords, columns, lookup) -> Contacts:
                 ok &= sorted_ids[pos_c] == as_int
         if m and not ok.all():
             r = int(np.flatnonzero(~ok)[0])
-            raise DumpFormatError(f"contact row {r + 1}: particle id {float(col[r])!r} ({name}) is not "
-                                  f"in the atom frame at timestep {raw.timestep}",
+            raise DumpFormatError(f"contact row {r + 1}: particle id {float(col[r])!r} ({name}) "
+                                  f"is not in the atom frame at timestep {raw.timestep}",
                                   path=raw.path, line=raw.data_line + r, text=raw.row_text(r))
         if not m:
             pos_c = np.zeros(0, dtype=np.int64)
         rows.append(pos_c if order is None else order[pos_c])
-    i, j = rows
+    return rows
+
+
+def _rows_by_position(frame, data, idx, raw):
+    """Rows of the atom frame of the particles at the dumped contact positions.
+
+    A dumped position matches the one particle whose centre lies within half the smallest
+    radius of it (across periodic boundaries: LIGGGHTS dumps the position of a periodic
+    image for contacts across one); no such particle, or two, is an error naming the row.
+    """
+    from scipy.spatial import cKDTree
+
+    m = raw.n
+    n = frame.n_particles
+    if not m:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    if n == 0:
+        raise DumpFormatError(f"the atom frame at timestep {raw.timestep} has no particles to "
+                              f"match the contacts to", path=raw.path, line=raw.header_line)
+    box = frame.box
+    tol = 0.5 * float(frame.radii.min())
+    per = [a for a in range(3) if box.periodic[a] and box.lengths[a] > 0]
+    wrap = box.wrap if len(per) == sum(box.periodic) else (lambda x: np.array(x, dtype=float))
+    points = wrap(frame.positions)
+    owner = np.arange(n)
+    edges = box.matrix.T  # rows: the edge vectors a, b, c
+    for a in per:  # copies of the particles near a periodic face, on its other side
+        if box.is_triclinic:
+            b, c = [k for k in range(3) if k != a]
+            width = abs(box.volume) / float(np.linalg.norm(np.cross(edges[b], edges[c])))
+            s = box.fractional(points)[:, a] * width   # distance from the low face
+        else:
+            width, s = float(box.lengths[a]), points[:, a] - box.lo[a]
+        low, high = s < tol, s > width - tol
+        points = np.concatenate([points, points[low] + edges[a], points[high] - edges[a]])
+        owner = np.concatenate([owner, owner[low], owner[high]])
+    tree = cKDTree(points)
+    rows = []
+    for which, names in enumerate(_POSITIONS):
+        query = np.stack([data[:, idx[c]] for c in names], axis=1)
+        finite = np.all(np.isfinite(query), axis=1)
+        query = wrap(np.where(finite[:, None], query, 0.0))
+        dist, k = tree.query(query, k=2, distance_upper_bound=tol)
+        k = np.minimum(k, len(points) - 1)   # misses (k == len) are reported below
+        found = np.isfinite(dist[:, 0]) & finite
+        second = np.isfinite(dist[:, 1]) & (owner[k[:, 1]] != owner[k[:, 0]])
+        bad = ~found | second
+        if bad.any():
+            r = int(np.flatnonzero(bad)[0])
+            what = ("no particle" if not found[r] else "more than one particle")
+            raise DumpFormatError(f"contact row {r + 1}: {what} of the atom frame at timestep "
+                                  f"{raw.timestep} lies within {tol:.3g} (half the smallest "
+                                  f"radius) of particle {which + 1}'s dumped position "
+                                  f"({' '.join(names)}); the contacts are matched to particles "
+                                  f"by position because the atom ids cannot be used",
+                                  path=raw.path, line=raw.data_line + r, text=raw.row_text(r))
+        rows.append(owner[k[:, 0]])
+    return rows
+
+
+def _contacts_from_raw(raw, keywords, columns, lookup) -> Contacts:
+    names = _semantic_names(raw.names, keywords, columns, raw.path, raw.header_line)
+    frame = lookup.get(raw.timestep)
+    if frame is None:
+        raise ValueError(f"{raw.path}: no atom frame at timestep {raw.timestep} to join the "
+                         f"contacts to (atom timesteps: {sorted(lookup.index)[:10]}...)")
+    idx = {}
+    for k, name in enumerate(names):
+        if name in idx:
+            raise DumpFormatError(f"column meaning {name!r} given twice", path=raw.path,
+                                  line=raw.header_line)
+        idx[name] = k
+    data = raw.data
+    m = raw.n
+    ids = frame.ids
+    has_ids = {"id1", "id2"} <= set(idx)
+    has_pos = all(c in idx for c in _POSITIONS[0] + _POSITIONS[1])
+    made_up = SYNTHESISED_IDS_NOTE in frame.provenance.notes
+    if has_pos and (made_up or not has_ids):
+        i, j = _rows_by_position(frame, data, idx, raw)
+    elif not has_ids:
+        raise DumpFormatError("the contact columns must include particle ids 'id1' and 'id2' "
+                              "(LIGGGHTS keyword 'id', or map them with columns=; "
+                              "--contact-keywords or --contact-columns on the command line)",
+                              path=raw.path, line=raw.header_line)
+    elif made_up:
+        raise DumpFormatError(f"the atom dump has no 'id' column (the reader numbered its "
+                              f"particles 1..N in file order), so the particle ids of the "
+                              f"contacts cannot be matched to particles at timestep "
+                              f"{raw.timestep}; dump the atoms with 'id', or the contact "
+                              f"positions (LIGGGHTS keyword 'pos') to match on",
+                              path=raw.path, line=raw.header_line)
+    else:
+        i, j = _rows_by_id(ids, data, idx, raw)
+    used = {"id1", "id2"} if has_ids and not made_up else set()
     box = frame.box
     raw_d = frame.positions[j] - frame.positions[i]
     branch = box.minimum_image(raw_d)
     periodic = np.any(np.abs(branch - raw_d) > 0.0, axis=1) if m else np.zeros(0, bool)
-    used = {"id1", "id2"}
     if "periodic" in idx:
         periodic = periodic | (data[:, idx["periodic"]] != 0)
         used.add("periodic")

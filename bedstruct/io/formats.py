@@ -83,8 +83,11 @@ def detect_format(path) -> str:
     ------
     FileNotFoundError
         When the file does not exist.
+    IsADirectoryError
+        When the path is a directory.
     DumpFormatError
-        When neither the content nor the suffix says what the file is (for
+        When the path is not a regular file (``/dev/null``, a pipe), or when
+        neither the content nor the suffix says what the file is (for
         example an empty file), naming the file and what was found.
 
     Examples
@@ -97,8 +100,13 @@ def detect_format(path) -> str:
     'dump'
     """
     path = os.fspath(path)
-    if not os.path.isfile(path):
+    if not os.path.exists(path):
         raise FileNotFoundError(f"{path}: no such file")
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"{path}: a directory, not a particle file")
+    if not os.path.isfile(path):
+        raise DumpFormatError(f"{path}: not a regular file (a device, pipe or socket); "
+                              f"bedstruct reads dump, data and HDF5 files")
     head = _head(path)
     if head.startswith(_HDF5_MAGIC):
         return "hdf5"
@@ -119,7 +127,8 @@ def detect_format(path) -> str:
                           f"reads ({what})")
 
 
-def read(path_or_glob, *, radius=None, units=None, on_error="raise", **kwargs) -> Trajectory:
+def read(path_or_glob, *, radius=None, units=None, on_error="raise", boundary=None,
+         **kwargs) -> Trajectory:
     """Read the frames of a particle file, whatever its format.
 
     Dumps (text or binary, plain or compressed, a glob or a list of files),
@@ -140,6 +149,10 @@ def read(path_or_glob, *, radius=None, units=None, on_error="raise", **kwargs) -
         frames out with a warning and lists them in the trajectory's
         ``skipped``. A malformed data or HDF5 file (one frame, or an archive
         written whole) raises either way.
+    boundary : str or sequence of 3 str, optional
+        Boundary flags of data files, which do not record them (``"pp pp
+        ff"``; default ``"pp pp pp"``, see :func:`read_data`). Dumps and
+        HDF5 archives state their own, so giving it for them is an error.
     **kwargs
         Further options of the chosen reader (e.g. ``strict``, ``columns`` for
         dumps, ``atom_style`` for data files).
@@ -171,14 +184,22 @@ def read(path_or_glob, *, radius=None, units=None, on_error="raise", **kwargs) -
         raise DumpFormatError(f"{bad}: a `dump local` contact file, not particles; read it with "
                               "bedstruct.io.read_dump_local (in the CLI: --contacts)")
     if found <= {"dump", "dump-binary"}:
+        if boundary is not None:
+            raise ValueError(f"boundary= (--boundary on the command line) is for data files, "
+                             f"which do not record it; the dump {paths[0]} states its own "
+                             f"(ITEM: BOX BOUNDS)")
         return read_dump(paths if len(paths) > 1 else paths[0], radius=radius, units=units,
                          on_error=on_error, **kwargs)
     if len(found) > 1:
         raise DumpFormatError("files of different formats in one read: " + ", ".join(
             f"{p} ({k})" for p, k in kinds.items()))
     (kind,) = found
+    if boundary is not None and kind != "data":
+        raise ValueError(f"boundary= (--boundary on the command line) is for data files, "
+                         f"which do not record it; {paths[0]} ({kind}) states its own")
     if kind == "data":
-        return FrameList([read_data(p, radius=radius, units=units, **kwargs) for p in paths])
+        return FrameList([read_data(p, radius=radius, units=units, boundary=boundary, **kwargs)
+                          for p in paths])
     frames = []
     for p in paths:
         frames.extend(load_hdf5(p).frames)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bedstruct import Frame, read_data, write_data
+from bedstruct import Frame, read_data, write_data, write_dump
 from bedstruct.errors import DumpFormatError
 
 DATA = """LAMMPS data file # a title with a comment
@@ -53,7 +53,7 @@ def test_granular_style_comments_tabs_tilt(tmp_path):
                                * 4 / 3 * np.pi * np.array([0.2, 0.3, 0.1]) ** 3)
     assert f.columns["type_mass"].tolist() == [1.0, 1.0, 2.0]
     assert f.units.style == "si"
-    assert any("boundary 'pp pp ff' assumed" in n for n in f.provenance.notes)
+    assert any("boundary 'pp pp ff' given" in n for n in f.provenance.notes)
 
 
 def test_atomic_style_needs_radius(tmp_path):
@@ -187,3 +187,52 @@ def test_repeated_atom_ids_warn(tmp_path):
     p.write_text(DATA.replace("2 1 0.6 3000", "1 1 0.6 3000"))
     with pytest.warns(BedstructWarning, match="line 21: atom id 1 appears more than once"):
         read_data(p)
+
+
+@pytest.mark.parametrize("title, timestep", [
+    ("LAMMPS data file via write_data, version 2 Aug 2023, timestep = 101, units = si", 101),
+    ("LAMMPS data file via write_data, version Version LIGGGHTS-PUBLIC 3.8.0, timestep = 0", 0),
+    ("LAMMPS data file written by bedstruct (timestep 2500)", 2500),
+    ("LAMMPS data file # a title with a comment", 0),
+])
+def test_the_timestep_of_the_write_data_title_line_is_read(tmp_path, title, timestep):
+    p = tmp_path / "t.data"
+    p.write_text(title + DATA[DATA.index("\n"):])
+    assert read_data(p).timestep == timestep
+
+
+def test_bedstruct_write_data_keeps_the_timestep(tmp_path):
+    frame = Frame([[1.0, 1.0, 1.0]], [0.5], box=[2, 2, 2], timestep=4200)
+    write_data(tmp_path / "w.data", frame, density=1.0)
+    assert read_data(tmp_path / "w.data").timestep == 4200
+
+
+def test_boundary_of_a_data_file_is_assumed_or_given_and_noted(tmp_path):
+    """Data files do not record boundary flags: pp pp pp (the LAMMPS default) is assumed and
+    noted as assumed; a given boundary is used and noted as given."""
+    from bedstruct.io import read
+    p = tmp_path / "b.data"
+    p.write_text(DATA)
+    frame = read_data(p)
+    assert frame.box.boundary == ("pp", "pp", "pp")
+    assert any("boundary 'pp pp pp' assumed" in n and "--boundary" in n
+               for n in frame.provenance.notes)
+    for given in ("pp pp ff", ("p", "p", "f"), ["pp", "pp", "ff"]):
+        frame = read_data(p, boundary=given)
+        assert frame.box.boundary == ("pp", "pp", "ff") and frame.box.periodic == (True, True, False)
+        assert any("boundary 'pp pp ff' given" in n for n in frame.provenance.notes)
+    assert read(p, boundary="ff ff ff")[0].box.boundary == ("ff", "ff", "ff")
+    with pytest.raises(ValueError, match="boundary flag for z"):
+        read_data(p, boundary="pp pp pf")
+    # a dump states its own boundary
+    dump = tmp_path / "b.dump"
+    write_dump(dump, frame)
+    with pytest.raises(ValueError, match="is for data files.*states its own"):
+        read(dump, boundary="pp pp ff")
+
+
+def test_timestep_of_a_real_liggghts_data_file(realdata):
+    p = realdata / "lexiarlen+LIGGGHTS_SEAICE/lexi_tests/dynamic_forcing/test/test.data"
+    if not p.is_file():
+        pytest.skip(f"{p} not found")
+    assert read_data(p).timestep == 101

@@ -472,3 +472,34 @@ def test_gzip_source_resumes_backward_reads_from_saved_points(tmp_path, monkeypa
     assert copy.read_range(250_000, 50) == plain[250_000:250_050]
     src.close()
     copy.close()
+
+
+@pytest.mark.parametrize("name", ["closing.dump", "closing.dump.gz", "closing.dump.bz2"])
+def test_lazy_trajectories_close_their_files(tmp_path, name):
+    """No file is left open (no ResourceWarning): a trajectory read from and dropped, an
+    iteration run to the end or broken off, and read_dump_local."""
+    import gc
+    import warnings
+    from bedstruct import read, read_dump_local
+    frames = [Frame([[0.5, 0.5, 0.5], [1.4, 0.5, 0.5]], [0.5, 0.5], box=[2, 1, 1], timestep=t)
+              for t in (0, 10)]
+    path = tmp_path / name
+    write_dump(path, frames)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResourceWarning)
+        # a ResourceWarning in a finaliser is reported through sys.unraisablehook
+        with pytest.MonkeyPatch.context() as mp:
+            caught = []
+            mp.setattr("sys.unraisablehook", caught.append)
+            assert read(path)[-1].timestep == 10
+            traj = read(path)
+            assert [f.timestep for f in traj] == [0, 10]
+            assert all(f.source._fh is None for f in traj._files)
+            it = iter(traj)
+            next(it)
+            it.close()
+            assert all(f.source._fh is None for f in traj._files)
+            traj[0]
+            del traj, it
+            gc.collect()
+        assert not caught, [str(c.exc_value) for c in caught]

@@ -92,3 +92,14 @@ def test_third_party_files_are_recognised(realdata):
     }
     assert {p: detect_format(p) for p in expected} == expected
     assert read(realdata / GRAN / "3ps.dat")[0].n_particles == 3
+
+
+def test_a_path_that_is_not_a_regular_file_says_so(tmp_path):
+    """/dev/null exists: it is not a regular file, not a missing one; a folder is a folder."""
+    import os
+    if not os.path.exists(os.devnull) or os.path.isfile(os.devnull):
+        pytest.skip(f"{os.devnull} is not a device here")
+    with pytest.raises(DumpFormatError, match="not a regular file"):
+        read(os.devnull)
+    with pytest.raises(IsADirectoryError, match="a directory"):
+        detect_format(tmp_path)
