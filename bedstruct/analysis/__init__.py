@@ -21,7 +21,10 @@ from .coordination import (
 from .packing import (
     PackingResult, PackingProfile, PackingGrid, packing_fraction, packing_fractions,
     packing_along, packing_sliding, packing_grid, layer_packing, bed_bounds, bed_windows,
-    sphere_box_volume, packing_table,
+    sphere_box_volume, packing_table, disc_rectangle_area, area_fraction, area_fractions,
+)
+from .dimension import (
+    flat_axis,
 )
 from .german import (
     german_cn, GermanFit, fit_german_law, GermanAlongBed, german_law_along, GERMAN_WINDOWS,
@@ -80,7 +83,8 @@ __all__ = [
     "CoordinationSeries", "coordination_series", "coordination_table", "PackingResult",
     "PackingProfile", "PackingGrid", "packing_fraction", "packing_fractions", "packing_along",
     "packing_sliding", "packing_grid", "layer_packing", "bed_bounds", "bed_windows",
-    "sphere_box_volume", "packing_table", "german_cn", "GermanFit", "fit_german_law",
+    "sphere_box_volume", "packing_table", "disc_rectangle_area", "area_fraction", "area_fractions",
+    "flat_axis", "german_cn", "GermanFit", "fit_german_law",
     "GermanAlongBed", "german_law_along", "GERMAN_WINDOWS", "GERMAN_MIN_PARTICLES",
     "PSDResult", "particle_size_distribution", "percentile_diameter", "psd_by_region",
     "psd_series", "PSDFit", "psd_from_percentiles", "psd_table", "PSDComparison",

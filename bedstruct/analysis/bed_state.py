@@ -16,8 +16,9 @@ import numpy as np
 
 from ..core.contacts import Contacts
 from ..core.frame import UNIT_STYLES, _as_frame
+from .dimension import AXIS_NAMES, flat_axis
 
-__all__ = ["BedState", "bed_state", "BED_KINDS"]
+__all__ = ["BedState", "bed_state", "BED_KINDS", "MIN_PARTICLES"]
 
 #: The kinds of input :func:`bed_state` distinguishes.
 BED_KINDS = ("settled bed", "pile", "moving bed", "dilute flow", "empty")
@@ -29,6 +30,27 @@ _MOVING_FROUDE = 0.1              # speed / sqrt(g d50) above which a particle i
 _MIN_SETTLING_COORDINATION = 1.0  # not held, but touching enough to be a bed still settling
 _PILE_PEAK = 0.17                 # peak of the top surface above its mean, over the height
 _PILE_BINS = 8
+#: Fewer particles than this make no packing: fractions, g(r), cells, fits and surfaces of them
+#: describe the particles' own shape, not a bed.
+MIN_PARTICLES = 10
+
+# analyses of spheres in space, each with what it needs that a 2-D run (discs in a plane) lacks
+_THREE_D = {
+    "german": "German's law CN = 2 + 11 phi^2 relates the coordination and packing of spheres in 3-D",
+    "rdf": "g(r) is counted in spherical shells; the particles of a 2-D run lie in one plane",
+    "voronoi": "the radical Voronoi cells are 3-D; the particles of a 2-D run lie in one plane",
+    "surface": "the surface height map is taken along z, across which a 2-D run has no extent",
+    "fabric": "the fabric tensors and roses are those of 3-D contact normals; every normal of a 2-D "
+              "run lies in its plane",
+    "harmonics": "the spherical-harmonic spectrum is that of 3-D contact normals; every normal of a 2-D "
+                 "run lies in its plane",
+    "repose": "the angle of repose is measured on heights along z, across which a 2-D run has no extent",
+    "heat": "contact conduction is modelled between spheres in 3-D",
+}
+# analyses that need more than a handful of particles (MIN_PARTICLES)
+_FEW = ("packing", "rdf", "voronoi", "german", "surface", "fabric", "harmonics", "repose", "heat")
+_ALL = ("packing", "coordination", "german", "rdf", "voronoi", "psd", "surface", "fabric", "harmonics",
+        "repose", "heat")
 
 
 @dataclass(frozen=True)
@@ -39,14 +61,17 @@ class BedState:
     ----------
     kind : str
         One of :data:`BED_KINDS`: ``"settled bed"``, ``"pile"``,
-        ``"moving bed"``, ``"dilute flow"`` or ``"empty"``.
+        ``"moving bed"``, ``"dilute flow"`` or ``"empty"`` (a frame with no
+        particles).
     reason : str
         One sentence giving the evidence for ``kind``.
     n_particles : int
         Number of particles.
     packing_fraction : float
         Particle volume over the volume of the box enclosing all particles
-        (dimensionless).
+        (dimensionless); for a 2-D run, the disc area over the area of the
+        rectangle enclosing all discs. NaN where the enclosing box is not
+        defined (a box tilted along a bounded axis).
     mean_coordination : float
         Mean number of contacts per particle (dimensionless).
     network_fraction : float
@@ -70,9 +95,15 @@ class BedState:
     velocities_used : bool
         Whether the kinetic energy entered the decision.
     not_meaningful : dict of str to str
-        Analyses (``"coordination"``, ``"german"``, ``"surface"``,
-        ``"fabric"``, ``"harmonics"``, ``"repose"``, ``"heat"``) that are not
-        meaningful for this kind of input, each with the reason.
+        Analyses (``"packing"``, ``"coordination"``, ``"german"``, ``"rdf"``,
+        ``"voronoi"``, ``"psd"``, ``"surface"``, ``"fabric"``,
+        ``"harmonics"``, ``"repose"``, ``"heat"``) that are not meaningful for
+        this input, each with the reason.
+    dimension : int
+        3, or 2 for a 2-D run (discs in a plane; see
+        :func:`bedstruct.analysis.flat_axis`).
+    flat_axis : int or None
+        The axis a 2-D run lies flat along (None in 3-D).
     """
 
     kind: str
@@ -88,11 +119,21 @@ class BedState:
     peak: float
     velocities_used: bool
     not_meaningful: dict = field(default_factory=dict)
+    dimension: int = 3
+    flat_axis: int | None = None
 
     @property
     def is_bed(self) -> bool:
         """True for a settled bed or a pile: particles at rest in a contact network."""
         return self.kind in ("settled bed", "pile")
+
+    @property
+    def label(self) -> str:
+        """The kind with its article, for a sentence: ``"a settled bed"``, ``"a 2-D dilute
+        flow"``, ``"an empty frame"``."""
+        if self.kind == "empty":
+            return "an empty frame"
+        return f"a {'2-D ' if self.dimension == 2 else ''}{self.kind}"
 
     def meaningful(self, analysis: str) -> bool:
         """Whether ``analysis`` (e.g. ``"german"``) is meaningful for this input."""
@@ -107,13 +148,13 @@ def _gravity(frame) -> float | None:
     return _G_SI * u["time"] ** 2 / u["length"]
 
 
-def _peak(frame, network: np.ndarray, axis: int) -> float:
-    """How far the top surface along ``axis`` peaks above its mean, over the height."""
+def _peak(frame, network: np.ndarray, axis: int, vertical: int = 2) -> float:
+    """How far the top surface along ``axis`` peaks above its mean, over the height along ``vertical``."""
     if network.sum() < 2 * _PILE_BINS:
         return float("nan")
     pos, r = frame.positions[network], frame.radii[network]
     x = pos[:, axis]
-    top, bottom = pos[:, 2] + r, float(np.min(pos[:, 2] - r))
+    top, bottom = pos[:, vertical] + r, float(np.min(pos[:, vertical] - r))
     edges = np.linspace(x.min(), x.max(), _PILE_BINS + 1)
     k = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, _PILE_BINS - 1)
     h = np.full(_PILE_BINS, np.nan)
@@ -170,6 +211,16 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
        least one contact per particle on average: a ``"moving bed"`` still
        settling. Otherwise: a ``"dilute flow"``.
 
+    A 2-D run (:func:`bedstruct.analysis.flat_axis`: discs in a plane) is
+    judged the same way, with its contacts in the plane, its area fraction
+    and, for the pile test, the in-plane axis across ``axis`` as the height;
+    the analyses of spheres in 3-D (German's law, g(r), Voronoi cells, the
+    surface along z, fabric, harmonics, repose, heat) are marked not
+    meaningful for it. With fewer than :data:`MIN_PARTICLES` particles the
+    packing, g(r), Voronoi cells, German's law, surface, fabric, harmonics,
+    repose and heat are marked not meaningful; an empty frame supports
+    none.
+
     German's law, surface roughness, angle of repose and contact heat
     conduction are static-packing relations: they are marked not meaningful
     for moving beds and dilute flows. A dilute flow has no contact network,
@@ -190,7 +241,7 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
     ('dilute flow', 0.0, False)
     """
     from .coordination import coordination
-    from .packing import packing_fraction
+    from .packing import area_fraction, packing_fraction
     from .surface import largest_cluster
 
     frame = _as_frame(frame)
@@ -200,13 +251,15 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
     nan = float("nan")
     if n == 0:
         return BedState("empty", "the frame has no particles", 0, nan, nan, nan, int(min_contacts),
-                        nan, nan, nan, nan, False,
-                        {k: "the frame has no particles" for k in
-                         ("coordination", "german", "surface", "fabric", "harmonics", "repose", "heat")})
+                        nan, nan, nan, nan, False, {k: "the frame has no particles" for k in _ALL})
+    flat = flat_axis(frame)
     res = coordination(frame, contacts, min_contacts=min_contacts)
     network = ~np.asarray(res.rattlers, dtype=bool)
     network_fraction = float(network.mean())
-    phi = float(packing_fraction(frame).fraction)
+    try:
+        phi = float((packing_fraction(frame) if flat is None else area_fraction(frame)).fraction)
+    except ValueError:      # no enclosing box (tilted along a bounded axis): evidence only
+        phi = nan
 
     median_speed = rms_speed = moving_fraction = nan
     velocities_used = False
@@ -218,7 +271,9 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
         rms_speed = float(np.sqrt(np.sum(mass * speed ** 2) / np.sum(mass)))
         g = _gravity(frame)
         if g is None:
-            speed_note = "velocities not judged: the unit system is unknown (give units)"
+            speed_note = ("velocities not judged: LJ units have no scale for gravity (g is a "
+                          "parameter of the run)" if frame.units.style == "lj" else
+                          "velocities not judged: the unit system is unknown (give units)")
         else:
             threshold = _MOVING_FROUDE * np.sqrt(g * float(np.median(2 * frame.radii)))
             moving_fraction = float(np.mean(speed > threshold))
@@ -227,13 +282,23 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
                           f"= {threshold:.3g} {frame.units.length_unit}/s")
     moving = velocities_used and moving_fraction > _MIN_MOVING_FRACTION
     held = network_fraction > _MIN_NETWORK_FRACTION
+    phi_name = "packing fraction" if flat is None else "area fraction"
     held_note = (f"{network_fraction:.0%} of particles held by the contact network "
-                 f"(mean {res.mean:.2f} contacts per particle, packing fraction {phi:.3f})")
+                 f"(mean {res.mean:.2f} contacts per particle, {phi_name} "
+                 f"{'not defined for this box' if np.isnan(phi) else f'{phi:.3f}'})")
+    if flat is not None:
+        plane = "-".join(AXIS_NAMES[a] for a in range(3) if a != flat)
+        held_note = (f"a 2-D run (every centre at one {AXIS_NAMES[flat]}, periodic or thinner than a "
+                     f"diameter along it): discs in the {plane} plane; {held_note}")
+    if n < MIN_PARTICLES:
+        held_note = f"only {n} particle{'s' if n != 1 else ''}; {held_note}"
+    # height: z, or for a 2-D run flat along z the in-plane axis across the bed
+    vertical = 2 if flat != 2 else (3 - axis - 2 if axis != 2 else 1)
 
     peak = nan
     if held and not moving:
         cluster = largest_cluster(frame) & network
-        peak = _peak(frame, cluster, axis)
+        peak = _peak(frame, cluster, axis, vertical)
         kind = "pile" if peak > _PILE_PEAK else "settled bed"
         shape = (f"its top surface peaks {peak:.0%} of its height above its mean along the bed"
                  if np.isfinite(peak) else "too few particles to judge its shape")
@@ -250,17 +315,25 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
                             "the relation holds for packings at rest",
               "dilute flow": "the particles are not held by a contact network"}
     out: dict[str, str] = {}
+    if n < MIN_PARTICLES:
+        for key in _FEW:
+            out[key] = (f"only {n} particle{'s' if n != 1 else ''} (fewer than {MIN_PARTICLES}): "
+                        f"too few to make a packing")
+    if flat is not None:
+        for key, why in _THREE_D.items():
+            out.setdefault(key, f"a 2-D run (discs in one plane): {why}")
     if kind in static:
         why = static[kind]
-        out["german"] = f"German's law relates coordination to packing at rest: {why}"
-        out["coordination"] = f"contacts of a {kind} are transient: {why}"
-        out["surface"] = f"a {kind} has no settled top surface"
-        out["repose"] = f"an angle of repose needs a pile at rest: {why}"
-        out["heat"] = f"contact conduction needs a settled contact network: {why}"
+        out.setdefault("german", f"German's law relates coordination to packing at rest: {why}")
+        out.setdefault("coordination", f"contacts of a {kind} are transient: {why}")
+        out.setdefault("surface", f"a {kind} has no settled top surface")
+        out.setdefault("repose", f"an angle of repose needs a pile at rest: {why}")
+        out.setdefault("heat", f"contact conduction needs a settled contact network: {why}")
     if kind == "dilute flow":
-        out["fabric"] = "contact fabric needs a contact network: the particles are not held by one"
-        out["harmonics"] = out["fabric"]
+        out.setdefault("fabric", "contact fabric needs a contact network: the particles are not held by one")
+        out.setdefault("harmonics", out["fabric"])
     if kind == "pile":
-        out["surface"] = "the free surface of a pile is its shape, not a roughness"
+        out.setdefault("surface", "the free surface of a pile is its shape, not a roughness")
     return BedState(kind, reason, n, phi, float(res.mean), network_fraction, int(min_contacts),
-                    median_speed, rms_speed, moving_fraction, peak, velocities_used, out)
+                    median_speed, rms_speed, moving_fraction, peak, velocities_used, out,
+                    dimension=2 if flat is not None else 3, flat_axis=flat)

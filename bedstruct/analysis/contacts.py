@@ -17,6 +17,7 @@ import numpy as np
 from ..core.contacts import Contacts, WallContacts
 from ..core.frame import _as_frame
 from . import _contact_kernels as _k
+from .dimension import flat_axis
 
 __all__ = ["find_contacts", "Wall", "ContactMatch", "compare_contacts"]
 
@@ -203,7 +204,9 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
     -------
     Contacts
         One row per contact, sorted by ``(i, j)``, ``i < j`` (``i == j`` only for a sphere touching
-        its own periodic image in a box narrower than two diameters). The
+        its own periodic image in a box narrower than two diameters). In a 2-D
+        run (:func:`~bedstruct.analysis.flat_axis`) the particles are discs in
+        the plane: images across the flat axis are not contacts. The
         ``branch`` vector points from ``i`` to the (image of) ``j``; ``area``
         holds the lens area ``pi a^2`` (0 for non-touching near contacts);
         ``periodic`` marks pairs found through a periodic image after
@@ -259,6 +262,7 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
     cutoff = 2.0 * float(radii.max()) + tol
     if cutoff <= 0:
         raise ValueError(f"`tolerance` ({tol}) leaves no positive cutoff (2 r_max + tolerance)")
+    flat = flat_axis(frame)
     pos, s = _prepare(frame)
     widths = _perpendicular_widths(box)
     ncell, reach, cell = _cell_list(s, periodic, widths, cutoff, n)
@@ -281,6 +285,10 @@ def find_contacts(frame, tolerance: float = 0.0, walls=None, *, parallel: bool =
         set_num_threads(1)
     try:
         i, j, shift = _scan(args, order, jdtype, sdtype)
+        if flat is not None and periodic[flat]:
+            # a disc of a 2-D run does not touch its images across the plane
+            keep = shift[:, flat] == 0
+            i, j, shift = i[keep], j[keep], shift[keep]
         rows = np.argsort(i * np.int64(n) + j, kind="stable")
         i, j, shift = i[rows], j[rows], np.ascontiguousarray(shift[rows])
         branch = np.empty((i.size, 3), dtype=np.float64)

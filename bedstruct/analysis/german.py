@@ -249,7 +249,7 @@ class GermanAlongBed:
 
 def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, axis: int = 0,
                      min_particles: int = GERMAN_MIN_PARTICLES, coordination_result=None,
-                     confidence: float = 0.95) -> GermanAlongBed:
+                     confidence: float = 0.95, check_state: bool = True) -> GermanAlongBed:
     """Fit German's law to the packing and coordination of windows along a bed.
 
     The one definition of a bed's German fit: the bed region
@@ -277,6 +277,11 @@ def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, a
         Per-particle coordination already computed for ``frame``.
     confidence : float, optional
         Level of the fit's confidence intervals (default 0.95).
+    check_state : bool, optional
+        Refuse a frame for which German's law is not meaningful, as
+        :func:`bedstruct.analysis.bed_state` judges it (a moving bed, a
+        dilute flow, a 2-D run, fewer than 10 particles), as ``bedstruct
+        report`` does (default True). False fits whatever the frame shows.
 
     Returns
     -------
@@ -287,7 +292,9 @@ def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, a
     Raises
     ------
     ValueError
-        If ``n_windows`` < 3, ``axis`` is not 0, 1 or 2, or ``min_particles`` < 1.
+        If ``n_windows`` < 3, ``axis`` is not 0, 1 or 2, or ``min_particles``
+        < 1; with ``check_state``, if German's law is not meaningful for the
+        frame (the message says why).
 
     Examples
     --------
@@ -310,6 +317,16 @@ def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, a
         raise ValueError(f"`axis` must be 0, 1 or 2; got {axis!r}")
     if int(min_particles) < 1:
         raise ValueError(f"`min_particles` must be at least 1; got {min_particles}")
+    if check_state:
+        from .bed_state import bed_state
+        from .contacts import find_contacts
+        if contacts is None:
+            contacts = find_contacts(frame)
+        min_contacts = coordination_result.min_contacts if coordination_result is not None else 2
+        state = bed_state(frame, contacts, min_contacts=min_contacts, axis=axis)
+        if not state.meaningful("german"):
+            raise ValueError(f"German's law is not meaningful for this frame ({state.label}): "
+                             f"{state.not_meaningful['german']}; pass check_state=False to fit anyway")
     if coordination_result is None:
         coordination_result = coordination(frame, contacts)
     prof = packing_along(frame, int(n_windows), axis=axis)

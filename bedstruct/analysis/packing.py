@@ -17,7 +17,8 @@ from .contacts import _prepare
 
 __all__ = ["PackingResult", "PackingProfile", "PackingGrid", "packing_fraction",
            "packing_fractions", "packing_along", "packing_sliding", "packing_grid",
-           "layer_packing", "bed_bounds", "bed_windows", "sphere_box_volume", "packing_table"]
+           "layer_packing", "bed_bounds", "bed_windows", "sphere_box_volume", "packing_table",
+           "disc_rectangle_area", "area_fraction", "area_fractions"]
 
 _N_NODES = 16
 
@@ -211,8 +212,23 @@ def sphere_box_volume(centres, radii, lower, upper) -> np.ndarray:
     return out
 
 
+def _tilts_within_periodic(box) -> bool:
+    """Whether every tilt couples two periodic axes (as LAMMPS requires of the second one).
+
+    The box bounds along the periodic axes then span one period of the lattice the tilted
+    edges generate, so an axis-aligned region over them holds every particle once.
+    """
+    per = box.periodic
+    return all(t == 0 or (per[a] and per[b])
+               for t, (a, b) in zip(np.asarray(box.tilt, dtype=float), ((0, 1), (0, 2), (1, 2))))
+
+
 def bed_bounds(frame, *, margin: float = 0.0):
     """The region enclosing all spheres: sphere extents on fixed axes, the box on periodic ones.
+
+    A triclinic box whose tilts couple periodic axes only (``xy`` with x and
+    y periodic, and so on) is bounded by its untilted bounds along the
+    periodic axes: they span one period of the tilted lattice.
 
     Parameters
     ----------
@@ -241,9 +257,9 @@ def bed_bounds(frame, *, margin: float = 0.0):
     hi = (pos + frame.radii[:, None]).max(axis=0) + margin
     per = np.array(box.periodic)
     if per.any():
-        if box.is_triclinic:
-            raise ValueError("the bounding-box definition is ambiguous for periodic triclinic "
-                             "boxes; give explicit windows")
+        if box.is_triclinic and not _tilts_within_periodic(box):
+            raise ValueError("the bounding-box definition is ambiguous for a triclinic box tilted "
+                             "along a bounded axis; give explicit windows")
         lo[per] = box.lo[per]
         hi[per] = box.hi[per]
     return lo, hi
@@ -542,3 +558,212 @@ def packing_table(profile: PackingProfile) -> dict[str, np.ndarray]:
         out[f"{a}_lo"] = profile.lower[:, k]
         out[f"{a}_hi"] = profile.upper[:, k]
     return out
+
+
+# ---------------------------------------------------------------- 2-D runs (discs)
+def _disc_quadrant_area(a, b, r):
+    """Area of the disc of radius ``r`` at the origin with ``x < a`` and ``y < b`` (closed form).
+
+    With ``x = r sin t`` the chord at ``x`` is ``2 r cos t`` long; the part below ``y = b`` has
+    the antiderivatives below on the arcs where ``r cos t`` exceeds ``|b|`` or not.
+    """
+    ta = np.arcsin(np.clip(a / r, -1.0, 1.0))
+    tb = np.arccos(np.clip(np.abs(b) / r, 0.0, 1.0))
+
+    def chord_below(t):       # integral of (b + r cos t) r cos t dt
+        return b * r * np.sin(t) + r * r * (0.5 * t + 0.25 * np.sin(2.0 * t))
+
+    def whole_chord(t):       # integral of 2 r^2 cos^2 t dt
+        return r * r * (t + 0.5 * np.sin(2.0 * t))
+
+    def part(g, t0, t1):
+        return np.where(t1 > t0, g(np.maximum(t1, t0)) - g(t0), 0.0)
+
+    area = part(chord_below, -tb, np.minimum(ta, tb))
+    outer = part(whole_chord, -0.5 * np.pi, np.minimum(ta, -tb)) + part(whole_chord, tb, ta)
+    return area + np.where(b >= 0, outer, 0.0)
+
+
+def disc_rectangle_area(centres, radii, lower, upper) -> np.ndarray:
+    """Exact area of each disc inside one axis-aligned rectangle.
+
+    Parameters
+    ----------
+    centres : (N, 2) array_like of float, length
+        Disc centres in the plane.
+    radii : (N,) array_like of float, length
+    lower, upper : (2,) array_like of float, length
+        Rectangle corners.
+
+    Returns
+    -------
+    (N,) ndarray of float, length^2
+
+    Notes
+    -----
+    Inclusion-exclusion over the rectangle's corners of the closed-form
+    area of a disc below and left of a corner.
+
+    Examples
+    --------
+    >>> a = disc_rectangle_area([[0, 0], [0, 1], [1, 1]], [1, 1, 1], [-1, -1], [1, 1])
+    >>> (a / np.pi).round(12).tolist()       # whole, half, one quarter
+    [1.0, 0.5, 0.25]
+    """
+    c = np.asarray(centres, dtype=np.float64).reshape(-1, 2)
+    r = np.asarray(radii, dtype=np.float64).reshape(-1)
+    if r.shape[0] != c.shape[0]:
+        raise ValueError(f"`radii` must have shape (N,) matching `centres` (N={c.shape[0]}); got {r.shape}")
+    lo = np.asarray(lower, dtype=np.float64).reshape(2)
+    hi = np.asarray(upper, dtype=np.float64).reshape(2)
+    if np.any(hi <= lo):
+        raise ValueError(f"rectangle `upper` must exceed `lower`; got {lo.tolist()}, {hi.tolist()}")
+    x0, x1 = lo[0] - c[:, 0], hi[0] - c[:, 0]
+    y0, y1 = lo[1] - c[:, 1], hi[1] - c[:, 1]
+    f = _disc_quadrant_area
+    out = f(x1, y1, r) - f(x0, y1, r) - f(x1, y0, r) + f(x0, y0, r)
+    return np.clip(out, 0.0, np.pi * r * r)
+
+
+def _plane_axes(frame):
+    """(flat axis, the two in-plane axes) of a 2-D run; refuses a 3-D frame or a tilted box."""
+    from .dimension import flat_axis
+    k = flat_axis(frame)
+    if k is None:
+        raise ValueError("the frame is not a 2-D run (no axis along which every centre lies in one "
+                         "plane, periodic or thinner than a diameter); use packing_fraction")
+    if frame.box.is_triclinic:
+        raise ValueError("area fractions are computed for orthogonal boxes only; this box is tilted")
+    u, v = [a for a in range(3) if a != k]
+    return k, u, v
+
+
+def _disc_areas(frame, lower, upper, u, v) -> np.ndarray:
+    """Disc area (with periodic images in the plane) inside each rectangle, (K,)."""
+    box = frame.box
+    pos = _prepare(frame)[0][:, [u, v]]
+    r = frame.radii
+    rmax = float(r.max())
+    out = np.zeros(lower.shape[0])
+    for w in range(lower.shape[0]):
+        lo, hi = lower[w, [u, v]], upper[w, [u, v]]
+        ranges = []
+        for q, a in enumerate((u, v)):
+            if box.periodic[a]:
+                L = float(box.lengths[a])
+                ranges.append(np.arange(math.ceil((lo[q] - rmax - box.hi[a]) / L),
+                                        math.floor((hi[q] + rmax - box.lo[a]) / L) + 1) * L)
+            else:
+                ranges.append(np.zeros(1))
+        for du in ranges[0]:
+            for dv in ranges[1]:
+                out[w] += float(disc_rectangle_area(pos + [du, dv], r, lo, hi).sum())
+    return out
+
+
+def area_fraction(frame, window=None) -> PackingResult:
+    """Area fraction of a 2-D run: disc area over the area of a rectangle in its plane.
+
+    Parameters
+    ----------
+    frame : Frame
+        A 2-D run (see :func:`bedstruct.analysis.flat_axis`): the particles
+        are discs of their radius in the plane.
+    window : pair of (3,) array_like, optional
+        ``(lower, upper)`` corners of an axis-aligned window (length); the
+        coordinate along the flat axis is ignored. Discs count with the
+        exact area they have inside it, with their periodic images in the
+        plane. None (default): total disc area over the rectangle enclosing
+        all discs (disc extents along bounded axes, the box along periodic
+        ones; as :func:`bed_bounds` in the plane).
+
+    Returns
+    -------
+    PackingResult
+        ``solid_volume`` and ``region_volume`` hold areas (length^2);
+        ``definition`` is ``"bounding-box area"`` or ``"window area"``.
+
+    Raises
+    ------
+    ValueError
+        If the frame is not a 2-D run, has no particles, or its box is tilted.
+
+    Notes
+    -----
+    .. math:: \\phi_{2D} = \\frac{\\sum_i A(D_i \\cap W)}{|W|}
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Box, Frame
+    >>> g = np.stack(np.meshgrid(np.arange(4), np.arange(4), [0.0], indexing="ij"), -1).reshape(-1, 3)
+    >>> square = Frame(g + [0.5, 0.5, 0], np.full(16, 0.5), box=Box([0, 0, -0.25], [4, 4, 0.25]))
+    >>> round(area_fraction(square).fraction / (np.pi / 4), 12)     # touching discs on a square lattice
+    1.0
+    """
+    frame = _as_frame(frame)
+    if frame.n_particles == 0:
+        raise ValueError("the frame has no particles")
+    k, u, v = _plane_axes(frame)
+    if window is None:
+        lo, hi = bed_bounds(frame)
+        lo[k], hi[k] = frame.box.lo[k], frame.box.hi[k]
+        area = float((hi[u] - lo[u]) * (hi[v] - lo[v]))
+        solid = float(np.sum(np.pi * frame.radii ** 2))
+        return PackingResult(solid / area, solid, area, lo, hi, "bounding-box area")
+    try:
+        lower, upper = window
+    except (TypeError, ValueError):
+        raise TypeError("`window` must be a (lower, upper) pair of corner arrays") from None
+    prof = area_fractions(frame, np.atleast_2d(lower), np.atleast_2d(upper))
+    return PackingResult(float(prof.fractions[0]), float(prof.solid_volume[0]), float(prof.window_volume[0]),
+                         prof.lower[0], prof.upper[0], "window area")
+
+
+def area_fractions(frame, lower, upper) -> PackingProfile:
+    """Exact area fractions of K axis-aligned windows in the plane of a 2-D run.
+
+    Parameters
+    ----------
+    frame : Frame
+        A 2-D run (see :func:`bedstruct.analysis.flat_axis`).
+    lower, upper : (K, 3) array_like of float, length
+        Window corners; the coordinate along the flat axis is ignored.
+
+    Returns
+    -------
+    PackingProfile
+        ``solid_volume`` and ``window_volume`` hold areas (length^2).
+
+    Raises
+    ------
+    ValueError
+        As :func:`area_fraction`, or if a window is wider than the periodic
+        box in the plane.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Box, Frame
+    >>> g = np.stack(np.meshgrid(np.arange(6), np.arange(4), [0.0], indexing="ij"), -1).reshape(-1, 3)
+    >>> square = Frame(g + [0.5, 0.5, 0], np.full(24, 0.5), box=Box([0, 0, -0.25], [6, 4, 0.25]))
+    >>> lo, hi = bed_windows(square, 3)
+    >>> (area_fractions(square, lo, hi).fractions / (np.pi / 4)).round(12).tolist()
+    [1.0, 1.0, 1.0]
+    """
+    frame = _as_frame(frame)
+    if frame.n_particles == 0:
+        raise ValueError("the frame has no particles")
+    k, u, v = _plane_axes(frame)
+    lo = np.atleast_2d(np.asarray(lower, dtype=np.float64)).copy()
+    hi = np.atleast_2d(np.asarray(upper, dtype=np.float64)).copy()
+    lo[:, k], hi[:, k] = 0.0, 1.0             # the flat axis does not enter
+    lo, hi = _check_corners(lo, hi)
+    for a in (u, v):
+        if frame.box.periodic[a] and np.any(hi[:, a] - lo[:, a] > frame.box.lengths[a] * (1 + 1e-12)):
+            raise ValueError(f"a window is wider than the periodic box along {'xyz'[a]} "
+                             f"({frame.box.lengths[a]}); area would be counted twice")
+    solid = _disc_areas(frame, lo, hi, u, v)
+    area = (hi[:, u] - lo[:, u]) * (hi[:, v] - lo[:, v])
+    lo[:, k], hi[:, k] = frame.box.lo[k], frame.box.hi[k]
+    return PackingProfile(solid / area, solid, area, lo, hi)

@@ -48,10 +48,14 @@ class RDFResult:
     cutoff: float
 
     @property
-    def first_peak(self) -> tuple[float, float]:
-        """``(r, g)`` of the highest bin (length, dimensionless)."""
-        k = int(np.nanargmax(self.g))
-        return float(self.r[k]), float(self.g[k])
+    def first_peak(self) -> tuple[float, float] | None:
+        """``(r, g)`` of the highest bin (length, dimensionless), or None when no pair lies
+        within the cutoff (every g is 0 or undefined)."""
+        g = np.asarray(self.g, dtype=float)
+        if not np.any(np.isfinite(g) & (g > 0)):
+            return None
+        k = int(np.nanargmax(g))
+        return float(self.r[k]), float(g[k])
 
 
 def _directions(n: int) -> np.ndarray:
@@ -97,6 +101,7 @@ def _pair_counts(pos, lo, lengths, periodic, edges) -> np.ndarray:
     # periodic axes wrap at their length; bounded ones at a length no pair can reach across
     boxsize = np.where(periodic, lengths, 2.0 * lengths + 4.0 * cutoff)
     shifted = np.mod(pos - lo, boxsize)
+    shifted[shifted >= boxsize] = 0.0     # a rounding error below 0 wraps to exactly the length
     tree = cKDTree(shifted, boxsize=boxsize)
     cumulative = tree.count_neighbors(tree, edges).astype(np.int64)    # ordered, with i == j
     return np.diff((cumulative - pos.shape[0]) // 2)

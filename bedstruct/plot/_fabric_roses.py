@@ -242,7 +242,9 @@ def plot_rose_2d(normals, *, weights=None, tensors=None, planes=("xy", "xz", "yz
     (1/radian, both ``n`` and ``-n`` counted); the tensor approximation's
     density of the same angle,
     :func:`~bedstruct.analysis.fabric.projected_density`, is overlaid as a
-    line, so the two agree for a sample well described by its tensors.
+    line, so the two agree for a sample well described by its tensors. A
+    plane on which no normal projects (every one perpendicular to it) gets
+    an empty panel that says so.
 
     Parameters
     ----------
@@ -301,14 +303,19 @@ def plot_rose_2d(normals, *, weights=None, tensors=None, planes=("xy", "xz", "yz
     grid = np.linspace(0.0, 2.0 * math.pi, 361)
     for ax, plane in zip(axes, planes):
         alpha, ww = _projected_angles(arr, plane, w)
+        total = float(alpha.size if ww is None else np.sum(ww))
+        ax.set_title(plane)
+        ax.set_yticklabels([])
+        if not total > 0:      # every normal perpendicular to the plane: nothing to draw
+            ax.text(0.5, 0.5, "no normal projects\non this plane", transform=ax.transAxes,
+                    ha="center", va="center")
+            continue
         hist, _ = np.histogram(alpha, bins=edges, weights=ww, density=True)
         ax.bar(0.5 * (edges[1:] + edges[:-1]), hist, width=np.diff(edges), color=color, alpha=0.55,
                edgecolor="white", linewidth=0.5, label="projected normals")
         if tensors is not None and rank is not None:
             p = projected_density(tensors, grid, plane=plane, rank=rank)
             ax.plot(grid, p, color=line_color, linewidth=1.8, label=f"rank-{rank} tensor")
-        ax.set_title(plane)
-        ax.set_yticklabels([])
     return fig
 
 

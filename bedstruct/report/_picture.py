@@ -32,24 +32,32 @@ _AXES = "xyz"
 
 @dataclass(frozen=True)
 class SizeScale:
-    """Particle diameters to show: ``values`` in ``unit`` (µm when the unit system is known)."""
+    """Particle diameters to show: ``values`` in ``unit`` (µm or mm when the unit system is known)."""
 
     values: np.ndarray
     unit: str
 
 
 def diameters_shown(frame: Frame) -> SizeScale:
-    """The particle diameters in µm, or in the dump's length unit when it is unknown."""
+    """The particle diameters in µm (largest below 1 mm) or mm, as the report's tables show
+    lengths, or in the dump's length unit when it is unknown."""
+    from ._render import _display_unit
     d = 2.0 * np.asarray(frame.radii, dtype=float)
     try:
         to_m = frame.units.to_si("length")
     except ValueError:
         return SizeScale(d, "length unit of the dump")
-    return SizeScale(d * to_m / 1e-6, "µm")
+    factor, unit = _display_unit([float(d.max()) * to_m if d.size else 0.0], "m")
+    return SizeScale(d * to_m * factor, unit)
 
 
-def _view_axes(axis: int) -> tuple[int, int, int]:
-    """(horizontal, vertical, depth) axes of the side view: along the bed, height, across."""
+def _view_axes(axis: int, flat: int | None = None) -> tuple[int, int, int]:
+    """(horizontal, vertical, depth) axes of the side view: along the bed, height, across.
+
+    A 2-D run flat along ``flat`` is seen across its plane.
+    """
+    if flat is not None and flat != axis:
+        return axis, 3 - axis - flat, flat
     vertical = 2 if axis != 2 else 0
     depth = 3 - axis - vertical
     return axis, vertical, depth
@@ -65,7 +73,8 @@ def side_view(frame: Frame, *, axis: int = 0, scale: float = 1.0, unit: str = ""
         The particles.
     axis : int
         The spreading direction (0, 1, 2): horizontal in the picture; height (z,
-        or x when the bed spreads along z) is vertical, the view looks across.
+        or x when the bed spreads along z) is vertical, the view looks across; a
+        2-D run (:func:`bedstruct.analysis.flat_axis`) is seen across its plane.
     scale, unit : optional
         Factor and name of the length unit of the picture's axes.
 
@@ -75,8 +84,9 @@ def side_view(frame: Frame, *, axis: int = 0, scale: float = 1.0, unit: str = ""
     """
     from matplotlib.collections import EllipseCollection
 
+    from ..analysis import flat_axis
     from ..plot._mpl import figure_class
-    h, v, depth = _view_axes(axis)
+    h, v, depth = _view_axes(axis, flat_axis(frame))
     pos = np.asarray(frame.positions, dtype=float) * scale
     r = np.asarray(frame.radii, dtype=float) * scale
     sizes = diameters_shown(frame)

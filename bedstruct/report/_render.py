@@ -37,15 +37,77 @@ _PERCENT_KEYS = ("rattler_fraction", "uncovered_fraction", "network_fraction", "
                  "wall_cell_fraction")
 
 
-def _number(v: float, digits: int = 4) -> str:
-    """A float with ``digits`` significant digits, never in e-notation."""
+#: A number below this fraction of its scale is rounding noise, shown as 0.
+_NOISE = 1e-12
+
+
+def _is_probability(name: str) -> bool:
+    """Whether a quantity or column named ``name`` is a probability or a model weight.
+
+    A tiny probability is a result, not rounding noise, so it is never shown as 0:
+    ``p``, ``p_...``, ``p (...)`` and names ending in ``weight``.
+    """
+    n = name.strip().lower()
+    return n == "p" or n.startswith(("p_", "p (")) or n.endswith("weight")
+
+
+def _number(v: float, digits: int = 4, scale: float | None = None) -> str:
+    """A float with ``digits`` significant digits.
+
+    Parameters
+    ----------
+    v : float
+        The value, in the unit it is shown in.
+    digits : int
+        Significant digits.
+    scale : float, optional
+        The size of the values shown with it (its column, its list): ``v`` below
+        ``1e-12 * scale`` is rounding noise and shown as ``0`` (``0.0``: nothing is).
+
+    Returns
+    -------
+    str
+        Positional notation from 1e-4 to 1e15 (thousands separated from 10 ** digits on,
+        rounded to ``digits`` significant digits), scientific notation (``1.58e-16``)
+        outside that range.
+
+    Examples
+    --------
+    >>> _number(0.0853412), _number(1.58e-16), _number(-2.84e-14, scale=72.6)
+    ('0.08534', '1.58e-16', '0')
+    >>> _number(123456.7), _number(1.3912e12), _number(3.2e16), _number(0.00012345)
+    ('123,500', '1,391,000,000,000', '3.2e+16', '0.0001234')
+    """
     if not math.isfinite(v):
         return "n/a"
-    if v == 0:
+    if v == 0 or (scale is not None and abs(v) < _NOISE * abs(scale)):
         return "0"
+    if abs(v) < 1e-4 or abs(v) >= 1e15:
+        mantissa, exponent = f"{v:.{digits - 1}e}".split("e")
+        if "." in mantissa:
+            mantissa = mantissa.rstrip("0").rstrip(".")
+        return f"{mantissa}e{exponent[0]}{exponent[1:].lstrip('0') or '0'}"
     if abs(v) >= 10 ** digits:
-        return f"{v:,.0f}"
+        return f"{float(f'{v:.{digits}g}'):,.0f}"
     return np.format_float_positional(v, precision=digits, unique=False, fractional=False, trim="-")
+
+
+def _scale(values, factor: float = 1.0) -> float | None:
+    """The largest finite magnitude among ``values`` (nested lists too), times ``factor``."""
+    vals = [abs(v) for v in _finite_values(_flatten(values))]
+    return max(vals) * abs(factor) if vals else None
+
+
+def _flatten(values) -> list:
+    out = []
+    for v in values:
+        if isinstance(v, np.ndarray):
+            v = v.tolist()
+        if isinstance(v, (list, tuple)):
+            out.extend(_flatten(v))
+        else:
+            out.append(v)
+    return out
 
 
 def _finite_values(value):
@@ -76,8 +138,13 @@ def _display_unit(value, unit: str, key: str = "") -> tuple[float, str]:
     return 1.0, unit
 
 
-def _fmt(value, factor: float = 1.0) -> str:
-    """A value for the page: numbers without e-notation, lists as lists, None as n/a."""
+def _fmt(value, factor: float = 1.0, scale: float | None = None) -> str:
+    """A value for the page: numbers by :func:`_number`, lists as lists, None as n/a.
+
+    ``scale`` (in the shown unit) is the size of the values shown together with
+    ``value`` (see :func:`_number`); a list's own largest value is its scale when none
+    is given.
+    """
     if value is None:
         return "n/a"
     if isinstance(value, np.ndarray):
@@ -87,13 +154,25 @@ def _fmt(value, factor: float = 1.0) -> str:
     if isinstance(value, bool):
         return str(value)
     if isinstance(value, int):
-        return f"{value * factor:.4g}" if factor != 1.0 else str(value)
+        return _number(value * factor, scale=scale) if factor != 1.0 else str(value)
     if isinstance(value, float):
-        return _number(value * factor)
+        return _number(value * factor, scale=scale)
     if isinstance(value, (list, tuple)):
-        inner = ", ".join(_fmt(v, factor) for v in value[:12])
+        if scale is None:
+            scale = _scale(value, factor)
+        inner = ", ".join(_fmt(v, factor, scale) for v in value[:12])
         return f"[{inner}{', ...' if len(value) > 12 else ''}]"
     return html.escape(str(value))
+
+
+def _quantity_scale(key: str, value, unit: str, factor: float) -> float | None:
+    """The scale of a reported number: a dimensionless one is of order 1, a list its largest
+    value; a probability is never rounding noise (0.0), a lone number with a unit has none."""
+    if _is_probability(key.rsplit(".", 1)[-1]):
+        return 0.0
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return _scale(value, factor)
+    return abs(factor) if unit == "1" else None
 
 
 def _section_html(s: Section) -> str:
@@ -110,7 +189,8 @@ def _section_html(s: Section) -> str:
         for key, q in s.numbers.items():
             link = (f' <span class="ref">(see {html.escape(q.doc)})</span>' if q.doc else "")
             factor, unit = _display_unit(q.value, q.unit, key)
-            parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value, factor)}</td>'
+            scale = _quantity_scale(key, q.value, q.unit, factor)
+            parts.append(f'<tr><td>{html.escape(key)}</td><td class="num">{_fmt(q.value, factor, scale)}</td>'
                          f'<td>{html.escape(unit)}</td><td class="def">{html.escape(q.definition)}{link}</td></tr>')
         parts.append("</table>")
     for t in s.tables:
@@ -123,9 +203,12 @@ def _section_html(s: Section) -> str:
         parts.append("<tr>" + "".join(
             f"<th>{html.escape(c)}{f' ({html.escape(u)})' if u else ''}</th>"
             for c, (_, u) in zip(t.columns, shown)) + "</tr>")
+        scales = [0.0 if _is_probability(name) else
+                  _scale([row[c] for row in t.rows if c < len(row)], f)
+                  for c, (name, (f, _)) in enumerate(zip(t.columns, shown))]
         for row in t.rows:
-            parts.append("<tr>" + "".join(f'<td class="num">{_fmt(v, f)}</td>'
-                                          for v, (f, _) in zip(row, shown)) + "</tr>")
+            parts.append("<tr>" + "".join(f'<td class="num">{_fmt(v, f, sc)}</td>'
+                                          for v, (f, _), sc in zip(row, shown, scales)) + "</tr>")
         parts.append("</table>")
     for caption, uri in s.figures:
         parts.append(f'<figure><img src="{uri}" alt="{html.escape(caption)}">'

@@ -48,7 +48,10 @@ class _Context:
         self.frame_indices = frame_indices
         self._contacts = contacts
         self._windows = None
+        self._region_fractions = None
         self.state = None
+        from ..analysis import flat_axis
+        self.flat_axis = flat_axis(self.frame)
 
     @property
     def length_unit(self) -> str:
@@ -67,6 +70,13 @@ class _Context:
             from ..analysis import find_contacts
             self._contacts = find_contacts(self.frame, self.options.tolerance)
         return self._contacts
+
+    def region_fractions(self):
+        """Area fractions of the regions of a 2-D run (a PackingProfile)."""
+        if self._region_fractions is None:
+            from ..analysis import area_fractions
+            self._region_fractions = area_fractions(self.frame, *self.windows())
+        return self._region_fractions
 
     def windows(self):
         if self._windows is None:
@@ -97,6 +107,8 @@ def _summary(ctx: _Context, s: Section) -> None:
 def _packing(ctx: _Context, s: Section) -> None:
     from ..analysis import packing_along, packing_fraction
     f, opt = ctx.frame, ctx.options
+    if ctx.flat_axis is not None:
+        return _area_packing(ctx, s)
     seed_def = packing_fraction(f)
     s.add_number("bounding_box_fraction", seed_def.fraction, "1",
                  "total particle volume over the volume of the box enclosing all particles "
@@ -112,6 +124,30 @@ def _packing(ctx: _Context, s: Section) -> None:
     s.add_figure(fig, f"Packing fraction in {len(fine.fractions)} windows along the bed")
 
 
+def _area_packing(ctx: _Context, s: Section) -> None:
+    """The packing section of a 2-D run: area fractions of the discs in their plane."""
+    from ..analysis import area_fraction, area_fractions, bed_windows
+    from ..plot import plot_packing_profile
+    f, opt = ctx.frame, ctx.options
+    plane = "-".join("xyz"[a] for a in range(3) if a != ctx.flat_axis)
+    s.text = (f"A 2-D run: the particles are discs in the {plane} plane, and the packing is their "
+              f"area fraction.")
+    whole = area_fraction(f)
+    s.add_number("bounding_box_area_fraction", whole.fraction, "1",
+                 "total disc area over the area of the rectangle enclosing all discs in their plane "
+                 "(the box along periodic axes)", DOCS + "analysis.md, Packing fraction")
+    if opt.axis_index == ctx.flat_axis:
+        return
+    prof = ctx.region_fractions()
+    for name, value in zip(opt.region_names, prof.fractions):
+        s.add_number(f"area_fraction_{name.replace(' ', '_')}", value, "1",
+                     f"exact disc-rectangle area fraction of the {name} region of the bed")
+    fine = area_fractions(f, *bed_windows(f, max(12, 4 * opt.regions), axis=opt.axis_index))
+    factor, unit = ctx.plot_unit(np.asarray(fine.upper)[:, opt.axis_index])
+    fig = _figure_of(plot_packing_profile(fine, axis=opt.axis_index, unit=unit, scale=factor))
+    s.add_figure(fig, f"Area fraction of the discs in {len(fine.fractions)} windows along the bed")
+
+
 def _coordination(ctx: _Context, s: Section) -> None:
     from ..analysis import coordination, coordination_by_window, german_law_along, packing_along
     f, opt = ctx.frame, ctx.options
@@ -125,7 +161,8 @@ def _coordination(ctx: _Context, s: Section) -> None:
                  "mechanical coordination number: mean contacts after iterative rattler removal")
     s.add_number("rattler_fraction", res.rattler_fraction, "1", "fraction of particles that are rattlers")
     s.add_number("n_contacts", ctx.contacts.n_contacts, "1", f"particle-particle contacts ({ctx.contacts.source})")
-    region = packing_along(f, opt.regions, axis=opt.axis_index)
+    region = packing_along(f, opt.regions, axis=opt.axis_index) if ctx.flat_axis is None \
+        else ctx.region_fractions()
     per_region = coordination_by_window(f, region.lower, region.upper, result=res)
     rows = []
     for k, name in enumerate(opt.region_names):
@@ -133,14 +170,16 @@ def _coordination(ctx: _Context, s: Section) -> None:
         rows.append([name, region.fractions[k], mean_k, float(np.asarray(per_region.mechanical)[k]),
                      int(np.asarray(per_region.n_particles)[k])])
         s.add_number(f"mean_{name.replace(' ', '_')}", mean_k, "1", f"mean coordination in the {name} region")
-    s.tables.append(Table(["region", "packing fraction", "mean CN", "mechanical CN", "particles"], rows,
+    s.tables.append(Table(["region", "packing fraction" if ctx.flat_axis is None else "area fraction",
+                           "mean CN", "mechanical CN", "particles"], rows,
                           caption=f"coordination and packing per region ({_regions_text(region, opt, ctx)})",
                           units=["", "1", "1", "1", "1"]))
     if ctx.state is not None and not ctx.state.meaningful("german"):
         s.text = f"No German's-law fit: {ctx.state.not_meaningful['german']}."
         return
     # German's law: the library's one definition (german_law_along, its default windows)
-    german = german_law_along(f, n_windows=opt.german_windows, axis=opt.axis_index, coordination_result=res)
+    german = german_law_along(f, n_windows=opt.german_windows, axis=opt.axis_index, coordination_result=res,
+                              check_state=False)   # judged above, as for every section
     s.add_number("german_windows", german.n_used, "1", "windows fitted: " + german.definition,
                  DOCS + "analysis.md, German's law")
     fit = german.fit
@@ -168,8 +207,14 @@ def _rdf(ctx: _Context, s: Section) -> None:
         skip(f"{f.n_particles} particles: no pairs")
     if np.any(np.asarray(f.box.tilt) != 0):
         skip("the box is tilted: g(r) is computed for orthogonal boxes only")
+    flat = [k for k in range(3) if not f.box.periodic[k] and np.ptp(f.positions[:, k]) == 0]
+    if flat:
+        skip(f"every particle centre has the same {' and '.join('xyz'[k] for k in flat)} along a bounded "
+             f"axis: the centres span no volume, and g(r) is undefined")
     d50 = float(np.median(2 * f.radii))
     res = radial_distribution(f)
+    if res.first_peak is None:
+        skip(f"no pair of particle centres within the cutoff ({res.cutoff:.4g} {ctx.length_unit})")
     r_peak, g_peak = res.first_peak
     unit = ctx.length_unit
     s.text = ("Pairs of particle centres by distance, over those of an ideal gas of the same density in the "
@@ -458,6 +503,9 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     if not frames:
         raise ValueError("no frames to report on")
     idx = list(frame_indices) if frame_indices is not None else list(range(len(frames)))
+    if frames[-1].n_particles == 0:
+        raise ValueError(f"the frame analysed (timestep {frames[-1].timestep}) has no particles: "
+                         f"nothing to report")
     ctx = _Context(frames, contacts, options, idx)
     report = Report(title="bedstruct report", inputs=dict(inputs or {}),
                     settings=dataclasses.asdict(options),   # every option, so a rerun can match
@@ -470,9 +518,10 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     else:   # tqdm's notebook front end warns where ipywidgets is missing: only for a shown bar
         from tqdm import tqdm
     for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
-        why = ctx.state.not_meaningful.get(key) if ctx.state is not None else None
+        why = report.state["not_meaningful"].get(key)
         if why is not None:
-            report.sections.append(not_meaningful_section(key, title, f"Not meaningful for a {ctx.state.kind}: {why}."))
+            subject = f" for {ctx.state.label}" if ctx.state is not None else ""
+            report.sections.append(not_meaningful_section(key, title, f"Not meaningful{subject}: {why}."))
             continue
         report.sections.append(run_section(key, title, lambda sec, f=func: f(ctx, sec)))
         if report.sections[-1].figures:   # free its figures (reference cycles) now: left to the
@@ -493,16 +542,20 @@ def _state(ctx: _Context) -> dict:
     opt = ctx.options
     try:
         st = bed_state(ctx.frame, ctx.contacts, min_contacts=opt.min_contacts, axis=opt.axis_index)
-    except Exception as exc:   # the sections still run and say what they can
+    except Exception as exc:   # what needs the input's state is not reported without it
         log.debug("bed_state failed", exc_info=True)
         ctx.state = None
+        why = (f"the input could not be judged ({type(exc).__name__}: {exc}), and this analysis "
+               f"means something only for some kinds of input")
         return {"kind": "unknown", "reason": f"could not be judged ({type(exc).__name__}: {exc})",
-                "evidence": {}, "not_meaningful": {}}
+                "evidence": {}, "not_meaningful": {k: why for k in _STATE_DEPENDENT}}
     ctx.state = st
     speed_unit = f"{ctx.length_unit}/s" if ctx.frame.units.style in ("si", "cgs") else "length/time"
     evidence = {
         "packing_fraction": Quantity(st.packing_fraction, "1", "particle volume over the volume of the "
-                                     "box enclosing all particles"),
+                                     "box enclosing all particles" if st.dimension == 3 else
+                                     "2-D run: disc area over the area of the rectangle enclosing all "
+                                     "discs in their plane"),
         "mean_coordination": Quantity(st.mean_coordination, "1", "mean contacts per particle"),
         "network_fraction": Quantity(st.network_fraction, "1", f"fraction of particles held by the contact "
                                      f"network (not rattlers, {st.min_contacts} or more contacts)"),
@@ -513,5 +566,9 @@ def _state(ctx: _Context) -> dict:
                                     "(none without velocities or a known unit system)"),
         "peak": Quantity(st.peak, "1", "top surface peak above its mean over the height (pile test)"),
     }
-    return {"kind": st.kind, "reason": st.reason, "evidence": evidence,
+    return {"kind": st.kind, "dimension": st.dimension, "reason": st.reason, "evidence": evidence,
             "not_meaningful": dict(st.not_meaningful), "doc": DOCS + "analysis.md, What the input is"}
+
+
+#: Sections whose meaning depends on what the input is (see bedstruct.analysis.bed_state).
+_STATE_DEPENDENT = ("coordination", "german", "surface", "fabric", "harmonics", "repose", "heat")

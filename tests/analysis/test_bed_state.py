@@ -63,6 +63,9 @@ def test_velocities_in_an_unknown_unit_system_are_not_judged():
     s = bed_state(_slab(velocity=[0.13, 0, 0], units=None))
     assert s.kind == "settled bed" and not s.velocities_used and np.isnan(s.moving_fraction)
     assert "unit system is unknown" in s.reason
+    # LJ units are known but have no scale for gravity: said as such, not "give units"
+    s = bed_state(_slab(velocity=[0.13, 0, 0], units="lj"))
+    assert not s.velocities_used and "LJ units have no scale for gravity" in s.reason
 
 
 def test_a_dilute_flow_has_no_bed_analyses():

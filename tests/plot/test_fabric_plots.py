@@ -227,3 +227,19 @@ def test_rose_mesh_points_lie_on_the_rose(ti_sample):
     f = 4 * np.pi * fabric_density(t, d.reshape(-1, 3))
     np.testing.assert_allclose(mesh.point_data["f"], f, rtol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(mesh.points, axis=1), np.abs(f), rtol=1e-6)
+
+
+def test_plot_rose_2d_leaves_a_plane_with_no_projected_normal_empty(tmp_path):
+    import warnings
+    normals = np.tile([0.0, 0.0, 1.0], (30, 1))        # every normal perpendicular to xy
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                  # no division by a zero total
+        fig = plot_rose_2d(normals, bins=12)
+        fig.savefig(tmp_path / "rose.png")
+    xy, xz, yz = fig.axes
+    assert not xy.patches and "no normal" in xy.texts[0].get_text()
+    for ax in (xz, yz):
+        heights = [p.get_height() for p in ax.patches]
+        assert len(heights) == 12 and np.all(np.isfinite(heights))
+        # every projection along +-z: all the density in the bins at 90 and 270 degrees
+        assert sum(h > 0 for h in heights) == 2

@@ -675,3 +675,145 @@ def test_3d_view_renders_off_screen_when_pyvista_is_importable():
     # two sizes, two colours of viridis: the 80 um row is yellow-green, the rest dark blue
     colours = pixels[drawn]
     assert (colours[:, 1] > 0.6).any() and ((colours[:, 2] > colours[:, 0]) & (colours[:, 1] < 0.4)).any()
+
+
+def test_html_numbers_are_readable_and_float_noise_shows_as_zero():
+    """Significant digits, scientific notation for very small and very large numbers, and a
+    value that is rounding noise against its scale (its column, its list, 1 for a
+    dimensionless number) shown as 0; a probability is never rounded to 0."""
+    import re
+
+    from bedstruct.report._model import Report, Section, Table
+    from bedstruct.report._render import _number
+
+    assert _number(0.0853412) == "0.08534" and _number(29.84) == "29.84"
+    assert _number(1.62e-17) == "1.62e-17" and _number(-1.2e-7) == "-1.2e-7"
+    assert _number(3.2e16) == "3.2e+16" and _number(123456.7) == "123,500"
+    assert _number(-2.84e-14, scale=72.6) == "0" and _number(2e-5, scale=1.0) == "2e-5"
+    sec = Section("s", "S")
+    sec.add_number("segregation_index", 1.48e-16, "1", "a dimensionless index")
+    sec.add_number("p_gap", 1.6e-17, "1", "a p-value")
+    sec.add_number("p_values", [0.5, 1.6e-17], "1", "two p-values")
+    sec.add_number("box_lo", [-2.7e-20, 2.5e-4, 0.0], "m", "lower box bounds")
+    sec.tables.append(Table(["effect", "magnitude", "dchi2", "p", "BIC weight"],
+                            [["a", 0.0853, 72.6, 1.62e-17, 0.317],
+                             ["b", 3.29e-22, -2.84e-14, 0.5, 7.09e-17]]))
+    page = render_html(Report("t", inputs={}, settings={}, sections=[sec]))
+    assert not re.search(r"0\.0000\d", page), re.search(r"0\.0000\d", page)
+    cells = re.findall(r'<td class="num">([^<]*)</td>', page)
+    assert cells[:4] == ["0", "1.6e-17", "[0.5, 1.6e-17]", "[0, 250, 0]"]
+    assert cells[4:] == ["a", "0.0853", "72.6", "1.62e-17", "0.317",
+                         "b", "0", "0", "0.5", "7.09e-17"]
+
+
+# ------------------------------------------------- 2-D runs, tilted boxes, too few particles
+def _held_discs(nx=24, ny=8, spacing=0.99):
+    """Discs of diameter 1 on a triangular lattice, overlapping by 1 %, at z = 0 in a periodic
+    z box thinner than a diameter (a LAMMPS 2-D run)."""
+    rows = [[(i + 0.5 * (j % 2) + 0.25) * spacing, (j + 0.5) * spacing * np.sqrt(3) / 2, 0.0]
+            for j in range(ny) for i in range(nx)]
+    box = bedstruct.Box([0, 0, -0.28], [nx * spacing, ny * spacing * np.sqrt(3) / 2, 0.28])
+    return bedstruct.Frame(np.array(rows), np.full(nx * ny, 0.5), box=box)
+
+
+def test_a_2d_run_reports_area_fractions_and_no_3d_analysis():
+    with _only("packing", "coordination", "rdf", "voronoi", "surface", "fabric", "harmonics", "repose"):
+        rep = build_report(_held_discs())
+    assert rep.state["dimension"] == 2 and "2-D run" in rep.state["reason"]
+    # the area fraction of the triangular lattice, pi / (2 sqrt 3) over the spacing squared
+    phi = np.pi / (2 * np.sqrt(3)) / 0.99 ** 2
+    pk = rep.section("packing")
+    assert pk.status == "ok" and "bounding_box_fraction" not in pk.numbers
+    assert pk.numbers["bounding_box_area_fraction"].value == pytest.approx(phi, rel=1e-12)
+    for name in ("start", "centre", "end"):    # whole periods of the lattice along x
+        assert pk.numbers[f"area_fraction_{name}"].value == pytest.approx(phi, rel=1e-9)
+    co = rep.section("coordination")
+    assert co.status == "ok" and co.numbers["mean"].value == pytest.approx(6.0)   # in the plane
+    assert "german_a" not in co.numbers and "2-D run" in co.text
+    for key in ("rdf", "voronoi", "surface", "fabric", "harmonics", "repose"):
+        sec = rep.section(key)
+        assert sec.status == "not meaningful" and sec.text.startswith("Not meaningful for a 2-D ")
+        assert not sec.numbers
+
+
+def test_the_lammps_2d_example_is_not_read_as_spheres_touching_their_images(realdata):
+    frame = bedstruct.read(realdata / "ashriva16+granular-force-chains/LAMMPS/examples/visualize.du")[-1]
+    rep = build_report(frame, options=ReportOptions(view_3d=False))
+    assert rep.failed == []
+    assert rep.state["dimension"] == 2
+    # discs 1.1225 apart with diameter 1: no contacts, the area fraction of the 2-D packing
+    assert rep.state["evidence"]["mean_coordination"].value == 0.0
+    assert rep.section("packing").numbers["bounding_box_area_fraction"].value == pytest.approx(0.7198, abs=1e-4)
+    values = rep.summary()["values"]
+    assert not [k for k in values if k.startswith(("coordination.", "fabric.", "harmonics.", "rdf.",
+                                                     "surface.", "voronoi."))]
+
+
+def test_a_tilted_box_is_judged_and_gated_as_its_orthogonal_copy():
+    gas = _falling_gas()
+    tilted = bedstruct.Frame(gas.positions, gas.radii, box=gas.box.replace(tilt=np.array([1e-5, 0, 0])),
+                             velocities=gas.velocities, units=gas.units)
+    with _only("packing", "coordination", "surface", "fabric", "harmonics", "repose"):
+        a, b = build_report(gas), build_report(tilted)
+    assert a.state["kind"] == b.state["kind"] == "dilute flow"
+    assert a.state["not_meaningful"] == b.state["not_meaningful"]
+    assert {s.key: s.status for s in a.sections} == {s.key: s.status for s in b.sections}
+    assert b.section("packing").numbers["bounding_box_fraction"].value == pytest.approx(
+        a.section("packing").numbers["bounding_box_fraction"].value, rel=1e-12)
+
+
+def test_the_side_view_shows_mm_spheres_in_mm():
+    from bedstruct.report._picture import diameters_shown, side_view
+    frame = cubic_lattice((4, 2, 2), spacing=5e-3, radius=2.5e-3, boundary=("pp", "pp", "ff"))
+    frame = bedstruct.Frame(frame.positions, frame.radii, box=frame.box, units="si")
+    sizes = diameters_shown(frame)
+    assert sizes.unit == "mm" and np.allclose(sizes.values, 5.0)
+    fig = side_view(frame, scale=1e3, unit="mm")
+    assert fig.axes[1].get_ylabel() == "particle diameter (mm)"
+    assert diameters_shown(_si_slab()).unit == "µm"          # 50 um spheres stay in um
+
+
+def test_an_empty_frame_is_an_error_not_a_report(tmp_path, capsys):
+    empty = bedstruct.Frame(np.zeros((0, 3)), np.zeros(0), box=[1, 1, 1], timestep=7)
+    with pytest.raises(ValueError, match=r"the frame analysed \(timestep 7\) has no particles"):
+        build_report(empty)
+    path = tmp_path / "empty.dump"
+    bedstruct.write_dump(path, [empty])
+    assert main(["report", str(path), "--no-3d", "--out", str(tmp_path / "r")]) == 1
+    assert "has no particles" in capsys.readouterr().err
+    assert not (tmp_path / "r" / "report.html").exists()
+
+
+def test_centres_on_a_line_skip_the_rdf_with_the_reason():
+    f = bedstruct.Frame([[k + 0.5, 1, 1] for k in range(12)], np.full(12, 0.5),
+                        box=bedstruct.Box([0, 0, 0], [12, 2, 2], boundary="ff ff ff"))
+    with _only("rdf"):
+        sec = build_report(f).section("rdf")
+    assert sec.status == "skipped" and "span no volume" in sec.text
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_a_handful_of_particles_gives_no_packing_or_rdf(n):
+    f = bedstruct.Frame([[1.0 + 3 * k, 1, 1] for k in range(n)], np.full(n, 0.5),
+                        box=bedstruct.Box([0, 0, 0], [10, 2, 2], boundary="ff ff ff"))
+    with _only("packing", "rdf", "voronoi", "psd"):
+        rep = build_report(f)
+    for key in ("packing", "rdf", "voronoi"):
+        sec = rep.section(key)
+        assert sec.status == "not meaningful" and "fewer than 10" in sec.text and not sec.numbers
+    assert rep.section("psd").status == "ok"
+
+
+def test_an_input_that_cannot_be_judged_reports_no_state_dependent_numbers(monkeypatch):
+    import bedstruct.analysis as analysis
+
+    def broken(*a, **k):
+        raise RuntimeError("no judgement")
+    monkeypatch.setattr(analysis, "bed_state", broken)
+    with _only("packing", "coordination", "surface"):
+        rep = build_report(_si_slab())
+    assert rep.state["kind"] == "unknown"
+    for key in ("coordination", "surface"):
+        sec = rep.section(key)
+        assert sec.status == "not meaningful" and "could not be judged" in sec.text and not sec.numbers
+    assert rep.section("packing").status == "ok"
