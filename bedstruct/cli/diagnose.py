@@ -1,85 +1,67 @@
 """Diagnose the gap between a simulation and measurements, or validate the diagnosis.
 
-  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--library LIB]
-      Where the simulation misses the data, which effect explains it, how far the gap
-      shrinks, what to measure next (with --library: on a run library's emulator).
-  bedstruct diagnose validate --preset mini|tiny|small [--simulator surrogate|engine|liggghts]
-  bedstruct diagnose benchmark --twins-engine surrogate|embedded|liggghts|lammps --n N --out DIR
-  bedstruct diagnose benchmark --score DIR [DIR ...] | --rediagnose DIR [TWIN ...]
+  bedstruct diagnose --sim CONFIG --real MEASUREMENTS --out DIR [--library DIR]
+      Where the simulation misses the data, which effect explains it, what to measure next.
+  bedstruct diagnose validate [--preset mini|tiny|small] [--simulator surrogate|engine|liggghts]
+      Score the diagnosis on synthetic twins (options: bedstruct diagnose validate --help).
+  bedstruct diagnose benchmark --out DIR | --score DIR [DIR ...] | --rediagnose DIR [TWIN ...]
+      Run, score or replay the blind benchmark (options: bedstruct diagnose benchmark --help).
 
 Details of every option and of the files: docs/diagnose.md.
 """
 
 from __future__ import annotations
 
+import argparse
+
 NAME = "diagnose"
 HELP = "sim-to-real gap diagnosis (where, which effect, how far, what next) and its validation"
 
+#: The help of each mode: its description and its one line in ``bedstruct diagnose --help``.
+_MODES = {
+    "validate": ("score the diagnosis on synthetic twins",
+                 "Score the diagnosis on synthetic twins whose cause is known.\n\n"
+                 "Details of every option: docs/diagnose-validation.md."),
+    "benchmark": ("run, score or replay the blind benchmark",
+                  "Run the blind benchmark into --out DIR, score sealed benchmark folders\n"
+                  "(--score) or diagnose their twins again (--rediagnose).\n\n"
+                  "Details of every option: docs/diagnose-validation.md (Blind benchmark)."),
+}
 
-def add_arguments(parser) -> None:
-    parser.add_argument("action", nargs="?", choices=["validate", "benchmark"], default=None,
-                        help="'validate': score the diagnosis on synthetic twins; 'benchmark': "
-                             "the blind protocol")
-    parser.add_argument("--sim", metavar="CONFIG", help="simulation config TOML, or 'surrogate'")
-    parser.add_argument("--real", metavar="MEASUREMENTS", help="measurement TOML file")
-    parser.add_argument("--out", metavar="DIR", help="output folder (HTML report and JSON)")
-    parser.add_argument("--preset", choices=["mini", "tiny", "small"], default=None,
-                        help="validation size (default tiny)")
-    parser.add_argument("--simulator", choices=["surrogate", "engine", "liggghts"],
-                        default=None,
-                        help="validate: simulator of the twins (default surrogate)")
-    parser.add_argument("--cache", metavar="DIR",
-                        help="engine: folder caching every run (overrides [engine] cache)")
-    parser.add_argument("--seed", type=int, default=None, help="override the replicate seed")
-    parser.add_argument("--twin-seed", type=int, default=None,
-                        help="validate: seed of the twins only")
-    parser.add_argument("--campaign", choices=["seed", "full"], default=None,
-                        help="validate --simulator engine: the twins' measurement design")
-    parser.add_argument("--jobs", type=int, default=None, metavar="N",
-                        help="engine: run engine calls in N processes")
-    parser.add_argument("--np", type=int, default=None, metavar="N",
-                        help="engine: MPI ranks of each LIGGGHTS or LAMMPS run")
-    parser.add_argument("--records", metavar="FILE",
-                        help="validate: record each twin here and resume from it")
-    parser.add_argument("--records-only", action="store_true", default=None,
-                        help="validate: score the recorded twins, run none")
-    parser.add_argument("--shard", metavar="K/N", type=_shard,
-                        help="validate: run only twins i with i %% N == K")
-    parser.add_argument("--twin-jobs", type=int, default=None, metavar="N",
-                        help="validate: run the twins in N processes")
-    parser.add_argument("--twin-repeats", type=int, default=None, metavar="R",
-                        help="validate: repeated experiments per twin (default 1)")
-    parser.add_argument("--refine", type=_rounds, default=None, metavar="N",
-                        help="rounds simulating the leading effects at their fits (default: config)")
-    parser.add_argument("--top-up", type=_rounds, default=None, metavar="N",
-                        help="seeds added where an effect's identifiability is marginal")
-    parser.add_argument("--library", metavar="DIR",
-                        help="answer on the emulator of a run library in DIR (built once), "
-                             "confirmed by one rerun of the simulator")
-    parser.add_argument("--workers", type=int, default=None, metavar="N",
-                        help="--library: local processes for the library's runs")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="--library: Dask distributed scheduler for the library's runs")
-    parser.add_argument("--twins-engine", choices=["surrogate", "embedded", "liggghts", "lammps"],
-                        default=None, help="benchmark: what makes the twins' data (default surrogate)")
-    parser.add_argument("--n", type=int, default=None,
-                        help="benchmark: number of twins (>= 4; default 40)")
-    parser.add_argument("--draw", choices=["detectable", "prior"], default=None,
-                        help="benchmark: effect magnitudes the diagnosing model detects "
-                             "(default), or over the whole prior")
-    parser.add_argument("--diagnose-setting", action="append", default=None, metavar="KEY=VALUE",
-                        help="benchmark: replace a diagnosis setting (tests only; recorded)")
-    parser.add_argument("--score", nargs="+", metavar="DIR", default=None,
-                        help="benchmark: score sealed benchmark folders (together when several); "
-                             "run nothing")
-    parser.add_argument("--rediagnose", nargs="+", metavar=("DIR", "TWIN"), default=None,
-                        help="benchmark: rediagnose a sealed folder's twins, compare answers")
-    parser.add_argument("--json", action="store_true", help="print the answer as one JSON line last")
-    parser.add_argument("--progress", action="store_true", help="show progress bars")
+
+def _whole(text: str, minimum: int) -> int:
+    """``text`` as a whole number of at least ``minimum``, else an argparse type error."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number >= {minimum}; got {text!r}") from None
+    if n < minimum:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}; got {text!r}")
+    return n
+
+
+def _rounds(text: str) -> int:
+    """A number of rounds or seeds: a whole number >= 0."""
+    return _whole(text, 0)
+
+
+def _seed(text: str) -> int:
+    """A random seed: a whole number >= 0."""
+    return _whole(text, 0)
+
+
+def _count(text: str) -> int:
+    """A number of processes, ranks or repeats: a whole number >= 1."""
+    return _whole(text, 1)
+
+
+def _twins(text: str) -> int:
+    """A number of benchmark twins: a whole number >= 4."""
+    return _whole(text, 4)
 
 
 def _shard(text: str) -> tuple[int, int]:
-    import argparse
     try:
         k, n = (int(x) for x in text.split("/"))
     except ValueError:
@@ -89,15 +71,115 @@ def _shard(text: str) -> tuple[int, int]:
     return k, n
 
 
-def _rounds(text: str) -> int:
-    import argparse
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0; got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0; got {text!r}")
-    return n
+#: Every option: flags, argparse keywords and its help in each mode that uses it. Each
+#: mode's help lists only its own options; every parser accepts them all, and a mode's run
+#: refuses those that do not apply to it (with the reason).
+_OPTIONS = [
+    (("--sim",), dict(metavar="CONFIG"),
+     {"diagnose": "simulation config TOML, or 'surrogate'",
+      "validate": "--simulator engine or liggghts: config of the engine",
+      "benchmark": "diagnosing simulator: 'surrogate' (default) or a simulation config TOML"}),
+    (("--real",), dict(metavar="MEASUREMENTS"), {"diagnose": "measurement TOML file"}),
+    (("--out",), dict(metavar="DIR"),
+     {"diagnose": "output folder (HTML report and JSON)",
+      "validate": "write the validation report and validation.json here",
+      "benchmark": "benchmark folder (resumed if it holds this benchmark; another is refused)"}),
+    (("--library",), dict(metavar="DIR"),
+     {"diagnose": "answer on the emulator of a run library in DIR",
+      "benchmark": "diagnose on the emulator of the diagnosing config's run library in DIR"}),
+    (("--workers",), dict(type=_count, default=None, metavar="N"),
+     {"diagnose": "--library: local processes for the library's runs",
+      "benchmark": "--library: local processes for the library's runs"}),
+    (("--scheduler",), dict(metavar="ADDRESS"),
+     {"diagnose": "--library: Dask scheduler for the library's runs",
+      "benchmark": "--library: Dask scheduler for the library's runs"}),
+    (("--preset",), dict(choices=["mini", "tiny", "small"], default=None),
+     {"validate": "validation size (default tiny)",
+      "benchmark": "workflow preset of a DEM twins engine (default tiny)"}),
+    (("--simulator",), dict(choices=["surrogate", "engine", "liggghts"], default=None),
+     {"validate": "simulator of the twins (default surrogate)"}),
+    (("--twins-engine",), dict(choices=["surrogate", "embedded", "liggghts", "lammps"],
+                               default=None),
+     {"benchmark": "what makes the twins' data (default surrogate)"}),
+    (("--n",), dict(type=_twins, default=None),
+     {"benchmark": "number of twins (>= 4; default 40)"}),
+    (("--draw",), dict(choices=["detectable", "prior"], default=None),
+     {"benchmark": "effect magnitudes the diagnosing model detects (default), or the whole prior"}),
+    (("--seed",), dict(type=_seed, default=None),
+     {"diagnose": "replicate seed (>= 0; default: the config's)",
+      "validate": "seed of the validation (>= 0; default 0)",
+      "benchmark": "seed of the draw (>= 0; default 0)"}),
+    (("--twin-seed",), dict(type=_seed, default=None),
+     {"validate": "seed of the twins only (>= 0)"}),
+    (("--campaign",), dict(choices=["seed", "full"], default=None),
+     {"validate": "--simulator engine: the twins' measurement design (default seed)"}),
+    (("--cache",), dict(metavar="DIR"),
+     {"diagnose": "engine: folder caching every run",
+      "validate": "engine: folder caching every run"}),
+    (("--jobs",), dict(type=_count, default=None, metavar="N"),
+     {"diagnose": "engine: run engine calls in N processes",
+      "validate": "engine: run engine calls in N processes"}),
+    (("--np",), dict(type=_count, default=None, metavar="N"),
+     {"diagnose": "engine: MPI ranks of each LIGGGHTS or LAMMPS run"}),
+    (("--records",), dict(metavar="FILE"),
+     {"validate": "record each twin here and resume from it"}),
+    (("--records-only",), dict(action="store_true", default=None),
+     {"validate": "score the recorded twins, run none"}),
+    (("--shard",), dict(metavar="K/N", type=_shard),
+     {"validate": "run only twins i with i %% N == K"}),
+    (("--twin-jobs",), dict(type=_count, default=None, metavar="N"),
+     {"validate": "run the twins in N processes"}),
+    (("--twin-repeats",), dict(type=_count, default=None, metavar="R"),
+     {"validate": "repeated experiments per twin (default 1)"}),
+    (("--refine",), dict(type=_rounds, default=None, metavar="N"),
+     {"diagnose": "rounds simulating the leading effects at their fits",
+      "validate": "rounds simulating the leading effects at their fits"}),
+    (("--top-up",), dict(type=_rounds, default=None, metavar="N"),
+     {"diagnose": "seeds added where identifiability is marginal",
+      "validate": "seeds added where identifiability is marginal"}),
+    (("--diagnose-setting",), dict(action="append", default=None, metavar="KEY=VALUE"),
+     {"benchmark": "replace a diagnosis setting (tests only; recorded)"}),
+    (("--score",), dict(nargs="+", metavar="DIR", default=None),
+     {"benchmark": "score sealed benchmark folders (together when several); run nothing"}),
+    (("--rediagnose",), dict(nargs="+", metavar=("DIR", "TWIN"), default=None),
+     {"benchmark": "diagnose a sealed folder's twins again and compare; run nothing"}),
+    (("--json",), dict(action="store_true"),
+     {"diagnose": "print the answer as one JSON line last",
+      "validate": "print the scores as one JSON line last",
+      "benchmark": "print the summary as one JSON line last"}),
+    (("--progress",), dict(action="store_true"),
+     {"diagnose": "show progress bars", "validate": "show progress bars"}),
+]
+
+
+def _add_options(parser, mode: str, *, defaults: bool) -> None:
+    """Every option on ``parser``, the help shown for those of ``mode`` only.
+
+    Without ``defaults`` (a mode's subparser) an option not given leaves the value that
+    ``bedstruct diagnose`` parsed before the mode's name, or its default, as it is.
+    """
+    for flags, kw, helps in _OPTIONS:
+        kw = dict(kw, help=helps.get(mode, argparse.SUPPRESS))
+        if not defaults:
+            kw["default"] = argparse.SUPPRESS
+        parser.add_argument(*flags, **kw)
+
+
+def add_arguments(parser) -> None:
+    """The options of ``bedstruct diagnose`` and its modes ``validate`` and ``benchmark``.
+
+    Each mode is a subparser whose help lists its own options; an option given before
+    the mode's name reaches the mode as well.
+    """
+    _add_options(parser, "diagnose", defaults=True)
+    sub = parser.add_subparsers(dest="action", metavar="MODE",
+                                help="without one: the diagnosis")
+    for mode, (line, description) in _MODES.items():
+        p = sub.add_parser(mode, help=line, description=description,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        p.add_argument("--traceback", action="store_true", default=argparse.SUPPRESS,
+                       help="show the full Python traceback on errors")
+        _add_options(p, mode, defaults=False)
 
 
 def _short(v):

@@ -184,12 +184,16 @@ _WINDOW = re.compile(r"^t=([-+0-9.eE]+)-([-+0-9.eE]+)$")
 
 
 def _component_words(label: str) -> str:
-    """A component label in words (a time window ``t=0-0.1`` as ``0 to 0.1 s``).
+    """A component label in words.
+
+    A time window ``t=t0-t1`` holds fractions of the stroke (0: the blade starts, 1: it
+    ends), as :meth:`~bedstruct.diagnose.measurements.Conditions.label` states them; it is
+    said as a percentage of the stroke. Other labels are returned unchanged.
 
     Examples
     --------
-    >>> _component_words("t=0.1-1"), _component_words("d10")
-    ('0.1 to 1 s', 'd10')
+    >>> _component_words("t=0-0.1"), _component_words("t=0.1-1"), _component_words("d10")
+    ('0-10 % of the stroke', '10-100 % of the stroke', 'd10')
     """
     m = _WINDOW.match(label)
     if m is None:
@@ -198,7 +202,7 @@ def _component_words(label: str) -> str:
         lo, hi = float(m.group(1)), float(m.group(2))
     except ValueError:
         return label
-    return f"{_num(lo)} to {_num(hi)} s"
+    return f"{_num(lo * 100)}-{_num(hi * 100)} % of the stroke"
 
 
 def _observable_words(row: dict) -> str:

@@ -6,9 +6,11 @@
 from __future__ import annotations
 
 import math
+import re
 
 from .._version import __version__
-from .answer import _num, _observable_words, answer, difference_text, quantity_text
+from .answer import (_MAGNITUDE_WORDS, _PARAMETER_WORDS, _component_words, _num, _observable_words,
+                     _unit_of, answer, difference_text, quantity_text)
 from .diagnosis_result import identification, uneven_scatter_note
 from .separation import nearest_imitations
 
@@ -22,6 +24,40 @@ def _fmt(v, nd=3):
     if isinstance(v, float):
         return float(f"{v:.{nd}g}") if v == v else None
     return v
+
+
+#: A value below this fraction of its scale is rounding noise (shown and recorded as 0).
+_NOISE = 1e-12
+
+
+def _noise_free(v, scale):
+    """``v``, or 0.0 where it is rounding noise against ``scale`` (e.g. an effect's prior)."""
+    if isinstance(v, float) and math.isfinite(v) and abs(v) < _NOISE * abs(scale):
+        return 0.0
+    return v
+
+
+def _prior_scale(effect) -> float:
+    """The size of an effect's magnitude: the largest end of its prior."""
+    return max((abs(float(b)) for b in effect.prior), default=1.0) or 1.0
+
+
+def _magnitude_unit(effect) -> tuple[float, str]:
+    """The factor and natural unit an effect's magnitude is shown in (%, ms, ...)."""
+    _, f, u, _ = _MAGNITUDE_WORDS.get(effect.magnitude, (None, 1.0, effect.unit, False))
+    return f, (u or "1")
+
+
+def _window_words(text: str) -> str:
+    """``text`` with each time window ``t=t0-t1`` (fractions of the stroke) said in % of the stroke."""
+    return re.sub(r"(?<!\w)t=[0-9.eE+-]+-[0-9.eE+-]+(?![\w.%])",
+                  lambda m: _component_words(m.group(0)), text)
+
+
+def _shift_words(name: str, value: float) -> str:
+    """A recalibration shift of parameter ``name`` in its natural unit (``+2 MJ/m³``)."""
+    _, f, u = _PARAMETER_WORDS.get(name, (name, 1.0, ""))
+    return f"{name} {_num(value * f, signed=True)}{(' ' + u) if u else ''}"
 
 
 def _add(section, key, value, unit, definition) -> None:
@@ -71,8 +107,12 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
                      "BIC weight of models containing the top effect (or of the null model)")
         if isinstance(j["which"], list):
             for e in j["which"]:
-                _add(s, f"magnitude.{e['effect']}", e["magnitude"], e["unit"],
-                             f"fitted magnitude, 95 % CI [{e['interval'][0]:.4g}, {e['interval'][1]:.4g}]")
+                eff = diag.fingerprints[e["effect"]].effect
+                f, u = _magnitude_unit(eff)
+                ref = _prior_scale(eff) * f
+                lo, hi = (_noise_free(v * f, ref) for v in e["interval"])
+                _add(s, f"magnitude.{e['effect']}", _noise_free(e["magnitude"] * f, ref), u,
+                     f"fitted {eff.magnitude}, 95 % CI [{_num(lo)}, {_num(hi)}]")
         _add(s, "shrink", j["shrink"]["fraction"], "1",
                      "1 - excess held-out gap after / before (NaN when there was no held-out gap)")
         if j["next"]:
@@ -82,16 +122,20 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
 
     def where_(s):
         w = diag.where
-        s.text = " | ".join(w.summary[:6])
+        s.text = _window_words(" | ".join(w.summary[:6]))
+        rows = []
+        for r in w.ranked():
+            f, u = _unit_of(r["real"], r["unit"], r["kind"])
+            rows.append([r["observable"], _component_words(r["component"]), r["role"],
+                         r["conditions"], _fmt(r["real"] * f, 4), _fmt(r["simulated"] * f, 4),
+                         _fmt(r["sigma"] * f), u, _fmt(r["z"])])
         s.tables.append(Table(["observable", "component", "role", "conditions", "real", "simulated",
-                               "sigma", "z"],
-                              [[r["observable"], r["component"], r["role"], r["conditions"],
-                                _fmt(r["real"], 5), _fmt(r["simulated"], 5), _fmt(r["sigma"]),
-                                _fmt(r["z"])] for r in w.ranked()],
-                              caption="standardised residuals, largest |z| first"))
+                               "sigma", "unit", "z"], rows,
+                              caption="standardised residuals, largest |z| first; real, "
+                                      "simulated and sigma in the unit of the row"))
         s.tables.append(Table(["group", "key", "n", "chi2", "rms z", "max z", "p"],
-                              [[g.group, g.key, g.n, _fmt(g.chi2), _fmt(g.rms_z), _fmt(g.max_z),
-                                _fmt(g.p_value)] for g in w.groups],
+                              [[g.group, _window_words(g.key), g.n, _fmt(g.chi2), _fmt(g.rms_z),
+                                _fmt(g.max_z), _fmt(g.p_value)] for g in w.groups],
                               caption="aggregates by observable, by kind and time window, by role"))
         fig, _ = pdg.plot_where(w)
         s.add_figure(fig, "largest standardised residuals")
@@ -138,11 +182,19 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
     def which_(s):
         att = diag.attribution
         s.text = att.reason
+        chi2_scale = max((abs(m.chi2) for m in att.models if math.isfinite(m.chi2)), default=1.0)
+        rows = []
+        for e in att.ranking:
+            eff = diag.fingerprints[e.effect].effect
+            f, u = _magnitude_unit(eff)
+            ref = _prior_scale(eff) * f
+            lo, hi = (_noise_free(v * f, ref) for v in e.interval)
+            rows.append([e.effect, _fmt(_noise_free(e.magnitude * f, ref)),
+                         f"[{_num(lo)}, {_num(hi)}]", u,
+                         _fmt(_noise_free(e.scale, 1.0)), _fmt(_noise_free(e.delta_chi2, chi2_scale)),
+                         _fmt(e.p_value), _fmt(e.confidence), e.identifiable])
         s.tables.append(Table(["effect", "magnitude", "95 % CI", "unit", "scale", "dchi2", "p",
-                               "confidence", "identifiable"],
-                              [[e.effect, _fmt(e.magnitude), f"[{e.interval[0]:.3g}, {e.interval[1]:.3g}]",
-                                e.unit, _fmt(e.scale), _fmt(e.delta_chi2), _fmt(e.p_value),
-                                _fmt(e.confidence), e.identifiable] for e in att.ranking],
+                               "confidence", "identifiable"], rows,
                               caption="each effect fitted alone (with recalibration), ranked by "
                                       "chi-square drop; the chosen model's intervals are from the "
                                       "profile of chi-square, the others' the normal approximation"))
@@ -164,7 +216,7 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
         sh = diag.shrink
         if sh.n_heldout == 0:
             skip("no held-out (validate) observables")
-        shifts = ", ".join(f"{k} {v:+.3g}" for k, v in sh.nuisance.items()) or "none"
+        shifts = ", ".join(_shift_words(k, v) for k, v in sh.nuisance.items()) or "none"
         s.text = (f"Rerun of {sh.model} at the magnitude fitted on calibration observables only "
                   f"(recalibration shifts: {shifts}); gaps on held-out observables, in units "
                   "of the noise.")
@@ -208,7 +260,7 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
                 [[r["model"], ", ".join(f"{e} = {a:.3g}" for e, a in r["magnitudes"].items()),
                   _fmt(r["p_fit"]), _fmt(r["p_rerun_calibration"]), _fmt(r["p_rerun_heldout"]),
                   ", ".join(map(str, r["seeds"])),
-                  ("base at " + ", ".join(f"{k} {v:+.3g}" for k, v in r["recalibration"].items())
+                  ("base at " + ", ".join(_shift_words(k, v) for k, v in r["recalibration"].items())
                    if "recalibration" in r else "the rerun as a fingerprint node")]
                  for r in sh.refits],
                 caption="reruns that contradicted the fit on the calibration observables; what "
@@ -219,7 +271,7 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
         if sh.rerun_worst:
             s.tables.append(Table(
                 ["observable", "component", "role", "z (rerun)"],
-                [[w["observable"], w["component"],
+                [[w["observable"], _component_words(w["component"]),
                   "calibration" if w["role"] == "calibrate" else "held out", f"{w['z']:+.2f}"]
                  for w in sh.rerun_worst],
                 caption="where the final rerun departs most from the data (a failed check "

@@ -41,7 +41,8 @@ def test_cli_default_output_answers_in_plain_words_and_natural_units(seed_run):
     # where: measured against simulated, in µm and deg, the gap in words
     assert "psd before, d10" in text and "measured 29.8 ± 0.6 µm, simulated 35 µm" in text
     assert "5.1 µm below the simulation, 8.5× the uncertainty" in text
-    assert "dynamic angle x1 early, 0 to 0.1 s" in text
+    assert "dynamic angle x1 early, 0-10 % of the stroke" in text
+    assert " s  measured" not in text and "0.1 s" not in text
     assert "measured 33 ± 4 deg" in text and "within noise" in text
     # which, with its physical magnitude and interval
     assert "Which effect: Fines missing from the simulated PSD: mass fraction of fines " \
@@ -133,6 +134,57 @@ def test_shrink_interval_brackets_the_shrink():
     assert lo < frac < hi <= 1.0
     assert shrink_interval(zb, za, seed=1) == (lo, hi)           # reproducible
     assert np.isnan(shrink_interval([0.3, -0.5], [0.1, 0.1])[0])  # no gap before: none
+
+
+def test_time_windows_are_said_as_fractions_of_the_stroke(seed_run):
+    """A window ``t=0-0.1`` is the first 10 % of the stroke, not 0 to 0.1 s: the answer's
+    rows say it as the conditions label does, in the text and on the report's first screen."""
+    from bedstruct.diagnose.answer import _component_words
+    assert _component_words("t=0-0.1") == "0-10 % of the stroke"
+    assert _component_words("t=0.1-1") == "10-100 % of the stroke"
+    assert _component_words("t=0.25-0.5") == "25-50 % of the stroke"
+    assert _component_words("d10") == "d10" and _component_words("value") == "value"
+    _, out = seed_run
+    html = (out / "report.html").read_text(encoding="utf-8")
+    answer_html = html[html.index('<section id="answer">'):]
+    answer_html = answer_html[:answer_html.index("</section>")]
+    assert "dynamic angle x1 early, 0-10 % of the stroke" in answer_html
+    assert not re.search(r"\d to \d+(\.\d+)? s\b", answer_html)
+
+
+def test_report_appendix_numbers_are_readable_and_carry_units(seed_run):
+    """The appendix shows significant digits, p-values in scientific notation, fits that are
+    0 up to rounding noise as 0, and every measured value in its natural unit (µm, mm,
+    deg) with a unit column."""
+    _, out = seed_run
+    html = (out / "report.html").read_text(encoding="utf-8")
+    text = re.sub(r'src="data:[^"]*"', 'src=""', html)
+    assert not re.search(r"0\.0000\d", text), re.search(r".{80}0\.0000\d.{20}", text)
+    assert not re.search(r"\d\.\d{9,}", text)
+    rep = json.loads((out / "report.json").read_text())
+    where = rep["sections"]["where"]["tables"][0]
+    assert "unit" in where["columns"]
+    rows = {(r[0], r[1]): dict(zip(where["columns"], r)) for r in where["rows"]}
+    d10 = rows[("psd_before", "d10")]
+    assert d10["unit"] == "µm" and d10["real"] == pytest.approx(29.84)
+    assert d10["sigma"] == pytest.approx(0.605, rel=0.01)
+    assert rows[("static_angle", "value")]["unit"] == "deg"
+    assert {r["unit"] for r in rows.values()} <= {"µm", "mm", "deg"}
+    early = rows[("dynamic_angle_x1_early", "0-10 % of the stroke")]
+    assert early["unit"] == "deg" and early["real"] == pytest.approx(33.0)
+    which = rep["sections"]["which"]["tables"][0]
+    mags = {r[0]: dict(zip(which["columns"], r)) for r in which["rows"]}
+    fines = mags["missing_fines"]
+    assert fines["unit"] == "%" and fines["magnitude"] == pytest.approx(8.53, abs=0.01)
+    assert fines["95 % CI"] == "[6.78, 9.71]"
+    # the p-values: scientific notation, not 0.0000000000000000162
+    which_html = text[text.index('<section id="which">'):]
+    assert re.search(r'<td class="num">\d(\.\d+)?e-1\d</td>', which_html)
+    # magnitudes that are 0 up to rounding noise are 0, in the JSON and on the page
+    for name in ("non_sphericity", "capillary_bridges"):
+        assert mags[name]["magnitude"] == 0.0 and mags[name]["scale"] == 0.0, mags[name]
+        assert mags[name]["dchi2"] == 0.0
+    assert rep["sections"]["summary"]["numbers"]["magnitude.missing_fines"]["unit"] == "%"
 
 
 def test_natural_units():
