@@ -55,7 +55,7 @@ from ..errors import ConfigError
 from .bridge import bridge_table
 from .catalogue import Effect, catalogue
 from .measurements import MeasurementSet
-from .parameters import parameter_bounds
+from .parameters import parameter_bounds, parameter_value_error
 from .surrogate import BASE_PARAMETERS, SurrogateSimulator
 
 __all__ = ["SimConfig", "load_sim_config", "make_simulator"]
@@ -91,6 +91,9 @@ class SimConfig:
     def diagnose_settings(self, seed: int | None = None) -> dict[str, Any]:
         """Keyword arguments of :func:`~bedstruct.diagnose.diagnose` this configuration sets
         (``seed`` replaces the configured replicate seed)."""
+        if seed is not None and (isinstance(seed, bool) or int(seed) != seed or seed < 0):
+            raise ConfigError(f"seed (the replicate seed, --seed): expected an integer >= 0; "
+                              f"got {seed!r}")
         return dict(replicates=self.replicates, top_up=self.top_up,
                     seed=self.seed if seed is None else int(seed), alpha=self.alpha,
                     select_alpha=self.select_alpha, gof_alpha=self.gof_alpha,
@@ -232,10 +235,20 @@ def load_sim_config(path) -> SimConfig:
         raise ConfigError(f"{p} [simulator]: key 'kind': expected 'surrogate' or 'engine'; got {kind!r}")
     engine = _engine_table(doc, p)
     base = dict(BASE_PARAMETERS) if "config" not in engine else _model_base(engine, p)
-    for k, v in doc.get("base", {}).items():
+    given = doc.get("base", {})
+    if not isinstance(given, dict):
+        raise ConfigError(f"{p}: key 'base': expected a table of parameter = value; got {given!r}")
+    for k, v in given.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise ConfigError(f"{p} [base]: key {k!r}: expected a number; got {v!r}")
         base[k] = float(v)
+    for k, v in base.items():   # every base value physical, recalibrated or not
+        why = parameter_value_error(k, v)
+        if why and k in given:
+            raise ConfigError(f"{p} [base]: key {k!r}: {v:g} is outside its bounds: {why}")
+        if why:
+            raise ConfigError(f"{p} [engine]: key 'config': its contact model gives {k} = {v:g}, "
+                              f"outside its bounds: {why}")
     if kind == "surrogate":
         unknown = set(base) - set(BASE_PARAMETERS)
         if unknown:
@@ -285,6 +298,8 @@ def load_sim_config(path) -> SimConfig:
                     bridge=_bridge(doc, p, kind), path=str(p))
     if cfg.replicates < 2:
         raise ConfigError(f"{p} [simulator]: key 'replicates': need >= 2; got {cfg.replicates}")
+    if cfg.seed < 0:
+        raise ConfigError(f"{p} [simulator]: key 'seed': expected an integer >= 0; got {cfg.seed}")
     if cfg.top_up < 0:
         raise ConfigError(f"{p} [simulator]: key 'top_up': expected an integer >= 0; "
                           f"got {cfg.top_up}")

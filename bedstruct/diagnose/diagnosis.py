@@ -129,6 +129,26 @@ def _within_simulator_domain(simulator, nuisance, bounds) -> dict:
     return out
 
 
+def _refused_recalibration(exc: ConfigError, fps, params, names) -> ConfigError:
+    """The simulator's refusal of a recalibrated point, saying it is one (not the base).
+
+    ``params`` are the recalibrated parameters (None: a refit of the effects' models).
+    """
+    if params is None:
+        where = "a refitted model (recalibrated parameters with effects)"
+    else:
+        limits = fps.parameter_bounds()
+        parts = []
+        for n in fps.nuisance:
+            v = float(params[n])
+            lo, hi = limits.get(n, (-np.inf, np.inf))
+            edge = " (at its bound)" if v <= lo or v >= hi else ""
+            parts.append(f"{n} {v:.6g}{edge}, base {float(fps.base[n]):.6g}")
+        where = f"the recalibrated parameters ({'; '.join(parts)})"
+    return ConfigError(f"the simulator refused {where}, fitted to the calibration observables "
+                       f"{', '.join(names)}: {exc}")
+
+
 def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mapping[str, float],
              effects: Sequence[Effect] | None = None,
              nuisance: Sequence[str] = ("cohesion_energy_density",), replicates: int = 4,
@@ -163,7 +183,7 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
         Further seeds for the base and the effects whose identifiability is marginal
         after ``replicates`` seeds (see :func:`compute_fingerprints`).
     seed : int
-        First seed.
+        First seed (>= 0).
     alpha : float
         Level of the "is there a gap" tests (where).
     select_alpha : float
@@ -212,6 +232,9 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     Diagnosis
     """
     effects = tuple(_catalogue() if effects is None else effects)
+    if isinstance(seed, bool) or not isinstance(seed, (int, float, np.integer, np.floating)) \
+            or not (np.isfinite(seed) and seed == int(seed) and seed >= 0):
+        raise ConfigError(f"seed: expected an integer >= 0; got {seed!r}")
     if not any(m.role == "calibrate" for m in measurements) and \
             any(m.role == "calibrate" for m in measurements.unmeasured):
         raise ConfigError(
@@ -297,15 +320,23 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     z_before = wh.residuals.z
     recal_shift = att.null.nuisance   # what the recalibrated rerun simulates
     p_recal = _params_after(fps.base, fps.nuisance, recal_shift)
-    s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds, list(names) + trial_names)
+    try:
+        s_recal = simulate_replicates(simulator, p_recal, {}, rerun_seeds,
+                                      list(names) + trial_names)
+    except ConfigError as exc:
+        raise _refused_recalibration(exc, fps, p_recal, names) from None
     n_meas_cols = int(np.sum(rows_meas))
     s_recal, s_recal_extra = s_recal[:, :n_meas_cols], s_recal[:, n_meas_cols:]
     if bar is not None:
         bar.update(len(rerun_seeds))
     z_recal, _, _ = standardised_residuals(y, sm, s_recal, sim_var=fps.sim_var[rows_meas])
-    conf = confirm_attribution(att, fps, residual, simulator, y=y, sigma_meas=sm, names=names,
-                               seed=seed, rounds=confirm_rounds, alpha=select_alpha,
-                               max_effects=max_effects, progress=bar, extra_names=trial_names)
+    try:
+        conf = confirm_attribution(att, fps, residual, simulator, y=y, sigma_meas=sm,
+                                   names=names, seed=seed, rounds=confirm_rounds,
+                                   alpha=select_alpha, max_effects=max_effects, progress=bar,
+                                   extra_names=trial_names)
+    except ConfigError as exc:
+        raise _refused_recalibration(exc, fps, None, names) from None
     att, fps = conf.attribution, conf.fingerprints
     if conf.samples is not None:
         chk, n_trial_runs = _trial_check(

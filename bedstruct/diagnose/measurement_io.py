@@ -27,7 +27,7 @@ from ..errors import ConfigError
 from .measurement_parse import (_check_plausible, _conditions, _convert, _err, _float_array,
                                 _setup, _string, _table, _trials)
 from .measurement_values import _source_values
-from .measurements import _UNIT, KINDS, ROLES, Measurement, MeasurementSet
+from .measurements import _UNIT, KIND_CONDITIONS, KINDS, ROLES, Measurement, MeasurementSet
 
 __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
 
@@ -92,8 +92,11 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if not isinstance(d, Mapping):
         raise ConfigError(f"{where or 'observable'}: expected a table; got {d!r}")
     name = d.get("name")
-    if not isinstance(name, str) or not name:
+    if not isinstance(name, str) or not name.strip():
         raise _err(where or "observable", f"key 'name': expected a non-empty string; got {name!r}")
+    if name != name.strip():
+        raise _err(where or "observable", f"key 'name': {name!r} begins or ends with white "
+                                          f"space; expected {name.strip()!r}")
     where = f"{where} {name!r}" if where else f"observable {name!r}"
     unknown = set(d) - _ALLOWED
     if unknown:
@@ -113,10 +116,14 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     file_unit = unit
     conversions: list[str] = []
     cond = _conditions(d.get("conditions"), where, conversions)
-    for key, kinds in (("time_window", ("dynamic_angle_series",)), ("stage", ("psd",))):
-        if cond.get(key) is not None and kind not in kinds:
-            raise _err(where, f"key 'conditions.{key}': only a {' or '.join(kinds)} has a "
-                              f"{key.replace('_', ' ')}; this is a {kind}")
+    allowed = KIND_CONDITIONS.get(kind)
+    for key in cond.as_dict() if allowed is not None else ():
+        if key not in allowed:   # a condition the kind does not depend on: never ignored
+            kinds = [k for k, keys in KIND_CONDITIONS.items() if key in keys]
+            raise _err(where, f"key 'conditions.{key}': only a {', '.join(kinds[:-1])}"
+                              f"{' or ' if len(kinds) > 1 else ''}{kinds[-1]} has a "
+                              f"{key.replace('_', ' ')}; this is a {kind} (its conditions: "
+                              f"{', '.join(allowed)})")
     for key in ("note", "provenance"):
         if key in d and not isinstance(d[key], str):
             raise _err(where, f"key {key!r}: expected a string; got {d[key]!r}")
@@ -178,7 +185,7 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if src is not None:
         values, sem, replicates = _source_values(d, src, kind, unit, windows, percentiles,
                                                  base_dir=base_dir, where=where,
-                                                 conversions=conversions)
+                                                 conversions=conversions, check_range=check_range)
     else:  # candidate, or tried in vain
         n = (len(windows) if windows is not None else len(percentiles) if percentiles is not None
              else len(not_measured) if isinstance(not_measured, np.ndarray) else 1)
@@ -204,6 +211,10 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if src is not None and not np.all(np.isfinite(values)):
         raise _err(where, f"key {src!r}: values must be finite numbers")
     # ---- uncertainty: stated (systematic) and/or from replicates/series, in quadrature
+    if "uncertainty" in d and in_no_trial:
+        raise _err(where, f"key 'uncertainty': no reading in any of its {trials} trial(s) "
+                          f"(not_measured = trials), so it has no value and no uncertainty; "
+                          f"give none")
     if "uncertainty" in d:
         unc = _float_array(d["uncertainty"], where, "uncertainty")
         if len(unc) == 1:
@@ -281,11 +292,25 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     labels = tuple(str(x) for x in labels)
     if len(labels) != n:
         raise _err(where, f"key 'labels': {len(labels)} labels but {n} values")
+    twice = sorted({x for x in labels if labels.count(x) > 1})
+    if twice:
+        raise _err(where, f"key 'labels': {twice[0]!r} labels more than one component; each "
+                          f"component needs a label of its own")
     return Measurement(name=name, kind=kind, values=values, uncertainty=unc, labels=labels,
                        conditions=cond, role=role, windows=windows, percentiles=percentiles,
                        replicates=replicates, note=str(d.get("note", "")),
                        provenance=str(d.get("provenance", "measured" if src else "design")),
                        conversions=tuple(conversions), trials=trials, not_measured=not_measured)
+
+
+def _identity(m: Measurement):
+    """What makes two measured observables the same measurement (None for one without values)."""
+    if not np.all(np.isfinite(m.values)):
+        return None
+    extra = tuple(tuple(np.asarray(a, float).round(12).ravel().tolist())
+                  for a in (m.windows, m.percentiles) if a is not None)
+    return (m.kind, repr(sorted(m.conditions.as_dict().items())), tuple(m.values.tolist()),
+            tuple(m.uncertainty.tolist()), extra)
 
 
 def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
@@ -355,11 +380,21 @@ def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:
                                   f"file's conditions give {setup.n_layers} layer(s); expected "
                                   f"1 to {setup.n_layers}")
     first: dict[str, int] = {}
+    same: dict[tuple, int] = {}
     for i, m in enumerate(ms):
         if m.name in first:
             raise ConfigError(f"{path}: observable #{i + 1} {m.name!r}: key 'name': already the "
                               f"name of observable #{first[m.name] + 1}; expected a unique name")
         first[m.name] = i
+        key = _identity(m)
+        if key is not None and key in same:
+            j = same[key]
+            raise ConfigError(f"{path}: observable #{i + 1} {m.name!r}: repeats observable "
+                              f"#{j + 1} {ms[j].name!r} (the same kind, conditions, values and "
+                              f"uncertainty): one measurement would count twice; give it once "
+                              f"(several readings go in 'replicates')")
+        if key is not None:
+            same[key] = i
     try:
         return MeasurementSet(tuple(m for m in ms if not m.measured_in_no_trial),
                               title=str(meta.get("title", path.stem)),
@@ -449,7 +484,7 @@ def write_measurements(mset: MeasurementSet, path) -> Path:
             lines.append(f"callable = {_toml_value(func)}")
         if m.role != "candidate" and not m.measured_in_no_trial:
             lines.append(f"value = {_toml_value(m.values)}")
-        if np.all(np.isfinite(m.uncertainty)):
+        if np.all(np.isfinite(m.uncertainty)) and not m.measured_in_no_trial:
             lines.append(f"uncertainty = {_toml_value(m.uncertainty)}")
         if m.trials is not None:
             lines.append(f"trials = {_toml_value(int(m.trials))}")

@@ -22,8 +22,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..errors import ConfigError
-from .measurements import (_DIM, _KNOWN_CONDITIONS, _UNIT, KINDS, PLAUSIBLE, Conditions,
-                           normalise_region)
+from .measurements import (_DIM, _KNOWN_CONDITIONS, _UNIT, KINDS, NOT_PERCENT, PLAUSIBLE,
+                           PLAUSIBLE_CONDITIONS, Conditions, normalise_region)
 
 
 def _err(where: str, msg: str) -> ConfigError:
@@ -53,6 +53,9 @@ def _float_array(value, where: str, key: str) -> np.ndarray:
         return np.array([float(value)])
     if not isinstance(value, (list, tuple, np.ndarray)):
         raise _err(where, f"key {key!r}: expected a number or a list of numbers; got {value!r}")
+    if len(value) == 0:
+        raise _err(where, f"key {key!r}: expected a number or a list of numbers; got an empty "
+                          f"list")
     for i, x in enumerate(value):
         if isinstance(x, (list, tuple)):
             raise _err(where, f"key {key!r}: expected a flat list of numbers; element {i + 1} is "
@@ -99,6 +102,9 @@ def _convert(values, unit: str, kind: str, where: str) -> tuple[np.ndarray, str 
     if dim != _DIM[canonical]:
         raise _err(where, f"key 'unit': {unit!r} is a {dim} unit but kind {kind!r} needs "
                           f"a {_DIM[canonical]} unit (canonical {canonical!r})")
+    if unit == "%" and kind in NOT_PERCENT:
+        raise _err(where, f"key 'unit': a {kind} is a count per particle, not a fraction: '%' "
+                          f"does not apply; give unit = '1' (or none)")
     arr = np.asarray(values, dtype=float) * factor
     note = None if factor == 1.0 else f"{unit} -> {canonical} (x{factor:g})"
     return arr, note
@@ -121,7 +127,7 @@ def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str
     raw = np.asarray(file_values if file_values is not None else values, dtype=float)
     fits = []
     for u in _UNIT_CHOICES[_DIM[canonical]]:
-        if u == unit:
+        if u == unit or (u == "%" and kind in NOT_PERCENT):
             continue
         alt = raw * _UNIT[u][1]
         if np.all((alt > lo) & (alt < hi)):
@@ -140,11 +146,14 @@ def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str
 def _read_csv(path: Path, where: str, key: str = "csv") -> tuple[list[str], np.ndarray]:
     if not path.is_file():
         raise _err(where, f"key {key!r}: file not found: {path}")
-    with open(path, encoding="utf-8") as fh:
-        header = fh.readline().strip()
-    names = [h.strip() for h in header.split(",")]
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        with open(path, encoding="utf-8") as fh:
+            header = fh.readline().strip()
+        names = [h.strip() for h in header.split(",")]
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise _err(where, f"key {key!r}: {path} is not UTF-8 text (byte {exc.object[exc.start]:#x} "
+                          f"at position {exc.start}); save it as UTF-8") from None
     except ValueError as exc:
         raise _err(where, f"key {key!r}: {path} is not a numeric CSV with a header row ({exc})") from None
     if data.size == 0:
@@ -173,10 +182,12 @@ def _conditions(d: Mapping[str, Any] | None, where: str, conversions: list | Non
     speed = d.get("speed")
     conv: list[str] = conversions if conversions is not None else []
     if speed is not None:
+        plain = _is_number(speed)
         speed = _number(speed, where, "conditions.speed", positive=True, unit="(m/s)") \
-            if _is_number(speed) else \
+            if plain else \
             _scalar_quantity(speed, where, "conditions.speed", _SPEED_UNITS, what="speed",
                              conversions=conv)
+        _check_condition(speed, "speed", where, "conditions.speed", plain)
     layer = d.get("layer")
     if layer is not None and (isinstance(layer, bool) or not isinstance(layer, int) or layer < 1):
         raise _err(where, f"key 'conditions.layer': expected a positive integer (1-based); got {layer!r}")
@@ -201,16 +212,43 @@ def _conditions(d: Mapping[str, Any] | None, where: str, conversions: list | Non
                 if v not in ("before", "after"):
                     raise _err(where, f"key 'conditions.stage': expected 'before' or 'after'; got {v!r}")
             else:
+                plain = _is_number(v)
                 v = _scalar_quantity(v, where, f"conditions.{k}", _LENGTH_UNITS, what="length",
                                      conversions=conv) \
-                    if k == "box_width" and not _is_number(v) else _number(v, where, f"conditions.{k}")
+                    if k == "box_width" and not plain else _number(v, where, f"conditions.{k}")
                 if k == "relative_humidity" and not 0 <= v <= 1:
                     raise _err(where, f"key 'conditions.relative_humidity': expected 0..1 (a "
                                       f"fraction, not %); got {v}")
-                if k in ("rest_time", "box_width") and v < 0:
+                if k == "rest_time" and v < 0:
                     raise _err(where, f"key 'conditions.{k}': must be >= 0; got {v}")
+                if k == "box_width" and not v > 0:
+                    raise _err(where, f"key 'conditions.{k}': must be > 0 (the width of the "
+                                      f"box, m); got {v}")
+                if k in PLAUSIBLE_CONDITIONS:
+                    _check_condition(v, k, where, f"conditions.{k}", plain)
             extra.append((k, v))
     return Conditions(speed, layer, region, tw, tuple(extra))
+
+
+#: Canonical unit of a condition in :data:`PLAUSIBLE_CONDITIONS` and the units a plain number
+#: is most often meant in when it is implausible in the canonical one.
+_CONDITION_UNITS = {"speed": ("m/s", (("cm/s", 1e-2), ("mm/s", 1e-3))),
+                    "box_width": ("m", (("mm", 1e-3),)), "rest_time": ("s", ())}
+
+
+def _check_condition(v: float, name: str, where: str, key: str, plain: bool) -> None:
+    """A condition (SI) inside its plausible range, else an error; a plain number (no unit
+    written) that would fit in another unit gets that unit as a hint."""
+    lo, hi = PLAUSIBLE_CONDITIONS[name]
+    if lo <= v <= hi:
+        return
+    unit, alternatives = _CONDITION_UNITS[name]
+    msg = (f"key {key!r}: implausible {name.replace('_', ' ')} {v:g} {unit}; expected "
+           f"{lo:g} to {hi:g} {unit}")
+    fits = [u for u, f in alternatives if lo <= v * f <= hi] if plain else []
+    if fits:
+        msg += f"; is it in {' or '.join(fits)}? write \"{v:g} {fits[0]}\""
+    raise _err(where, msg)
 
 
 def _windowed(times, series, windows, where, key):
@@ -260,12 +298,13 @@ def _trials(d: Mapping[str, Any], where: str, role: str):
     if role == "candidate":
         raise _err(where, "key 'trials': a candidate (not yet measured) observable has no trials")
     t = d["trials"]
-    if not _is_number(t) or float(t) != int(t) or int(t) < 1:
+    if not _is_number(t) or not math.isfinite(float(t)) or float(t) != int(t) or int(t) < 1:
         raise _err(where, f"key 'trials': expected a whole number >= 1; got {t!r}")
     trials = int(t)
     raw = d.get("not_measured", 0)
     items = raw if isinstance(raw, (list, tuple)) else [raw]
-    if not items or not all(_is_number(k) and float(k) == int(k) for k in items):
+    if not items or not all(_is_number(k) and math.isfinite(float(k)) and float(k) == int(k)
+                            for k in items):
         raise _err(where, f"key 'not_measured': expected a whole number or a list of them (one "
                           f"per component); got {raw!r}")
     counts = np.asarray([int(k) for k in items], dtype=int)
@@ -277,7 +316,8 @@ def _trials(d: Mapping[str, Any], where: str, role: str):
 
 # --------------------------------------------------------------------------- set-up
 
-_SPEED_UNITS = {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3, "um/s": 1e-6, "µm/s": 1e-6}
+_SPEED_UNITS = {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3, "um/s": 1e-6, "µm/s": 1e-6,
+                "μm/s": 1e-6}
 _LENGTH_UNITS = {u: f for u, (dim, f) in _UNIT.items() if dim == "length"}
 _SETUP_KEYS = ("psd", "layers", "layer_thickness", "blade_speed", "platform_length",
                "platform_width", "side_walls", "wall_distance")
@@ -482,6 +522,7 @@ def _setup(d, where: str, base_dir: Path):
     if "blade_speed" in d:
         kw["blade_speed"] = _scalar_quantity(d["blade_speed"], where, "conditions.blade_speed", _SPEED_UNITS,
                                              what="speed", conversions=conv)
+        _check_condition(kw["blade_speed"], "speed", where, "conditions.blade_speed", False)
     for key in ("platform_length", "platform_width", "wall_distance"):
         if key in d:
             kw[key] = _scalar_quantity(d[key], where, f"conditions.{key}", _LENGTH_UNITS, what="length",

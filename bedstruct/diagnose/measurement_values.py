@@ -37,9 +37,46 @@ from .replicates import variance_upper_bound
 __all__: list[str] = []
 
 
+def _check_coverage(t, windows, dur, where: str, name: str) -> None:
+    """Every window inside the series' times, within one sample spacing (a series in seconds
+    read as stroke fractions ends early and would be averaged over part of a window)."""
+    ts = np.unique(t)
+    spacing = float(np.median(np.diff(ts))) if ts.size > 1 else 0.0
+    tol = spacing + 1e-9
+    for t0, t1 in np.atleast_2d(np.asarray(windows, float)):
+        if ts[0] <= t0 + tol and ts[-1] >= t1 - tol:
+            continue
+        how = "times / stroke_duration" if dur is not None else "times"
+        hint = ("" if dur is not None else
+                "; are the times in seconds? give stroke_duration (s) to read them as "
+                "fractions of the stroke")
+        raise _err(where, f"key 'csv': {name}: its {how} run from {ts[0]:g} to {ts[-1]:g} "
+                          f"(stroke fractions), so they do not cover window [{t0:g}, {t1:g}]"
+                          f"{hint}")
+
+
+def _check_samples(t, y, unit: str, where: str, name: str, column: str) -> None:
+    """Every finite angle sample of a series between 0 and 90 deg (a sign or unit mistake
+    otherwise; a window mean could hide it)."""
+    from .measurements import _UNIT
+    dim, factor = _UNIT.get(unit, ("", 1.0))
+    if dim != "angle":
+        return   # the unit's own error comes when the values are converted
+    deg = np.asarray(y, float) * factor
+    bad = np.flatnonzero(np.isfinite(deg) & ((deg < 0.0) | (deg > 90.0)))
+    if bad.size:
+        i = int(bad[0])
+        raise _err(where, f"key 'csv': {name}: column {column!r} holds {y[i]:g} {unit} at time "
+                          f"{t[i]:g} ({bad.size} sample(s) outside 0..90 deg); a heap's angle "
+                          f"lies in 0..90 deg")
+
+
 def _source_values(d: Mapping[str, Any], src: str, kind: str, unit: str, windows, percentiles,
-                   *, base_dir: Path, where: str, conversions: list[str]):
+                   *, base_dir: Path, where: str, conversions: list[str],
+                   check_range: bool = True):
     """The values of an observable from its source key ``src`` of table ``d``.
+
+    ``check_range`` also checks each sample of an angle series (0 to 90 deg).
 
     Returns
     -------
@@ -107,12 +144,23 @@ def _source_values(d: Mapping[str, Any], src: str, kind: str, unit: str, windows
             dur = d.get("stroke_duration")
             if dur is not None:
                 dur = _number(dur, where, "stroke_duration", positive=True, unit="(s)")
+            if not np.all(np.isfinite(x)):
+                row = int(np.flatnonzero(~np.isfinite(x))[0]) + 2
+                raise _err(where, f"key 'csv': {path.name}: time column {cols[0]!r} holds "
+                                  f"{x[row - 2]} on line {row}; every sample needs its time")
             t = x / dur if dur is not None else x
-            if np.nanmax(t) > 1.0 + 1e-9:
+            if np.max(t) > 1.0 + 1e-9:
                 raise _err(where, "key 'stroke_duration': times exceed one stroke; give "
                                   "stroke_duration (s) or times as stroke fractions")
+            _check_coverage(t, windows, dur, where, path.name)
+            if check_range:
+                _check_samples(t, y, unit, where, path.name, cols[1])
             values, sem = _windowed(t, y, windows, where, "csv")
             conversions.append(_SERIES_NOTE)
+            n_missing = int(np.sum(~np.isfinite(y)))
+            if n_missing:
+                conversions.append(f"csv {path.name}: {n_missing} sample(s) without an angle "
+                                   f"(NaN: no heap to read) left out of the window means")
         elif kind == "psd":
             from .observables import psd_percentiles_from_cumulative
             x_conv, note = _convert(x, unit, kind, where)
@@ -139,6 +187,10 @@ def _source_values(d: Mapping[str, Any], src: str, kind: str, unit: str, windows
                 raise _err(where, f"key 'csv': {path.name}: {exc}") from None
         else:  # tool_force_ratio: columns horizontal, vertical load over the stroke
             from .observables import tool_force_ratio
+            if unit not in ("1", ""):
+                raise _err(where, f"key 'unit': a tool_force_ratio read from a CSV is the ratio "
+                                  f"of its two force columns, dimensionless: unit {unit!r} does "
+                                  f"not apply; leave 'unit' out (or give '1')")
             try:
                 ratio, se = tool_force_ratio(x, y)
             except ValueError as exc:

@@ -23,7 +23,8 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["KINDS", "ROLES", "PLAUSIBLE", "normalise_region", "Conditions", "Setup",
+__all__ = ["KINDS", "ROLES", "PLAUSIBLE", "PLAUSIBLE_CONDITIONS", "KIND_CONDITIONS",
+           "normalise_region", "Conditions", "Setup",
            "Measurement", "MeasurementSet", "Observations"]
 
 #: Observable kinds and their canonical unit (the built-in ones, and those added by
@@ -41,21 +42,49 @@ _UNIT = {  # unit -> (dimension, factor to canonical)
     "deg": ("angle", 1.0), "degree": ("angle", 1.0), "degrees": ("angle", 1.0),
     "rad": ("angle", 180.0 / math.pi),
     "m": ("length", 1.0), "mm": ("length", 1e-3), "um": ("length", 1e-6),
-    "µm": ("length", 1e-6), "micron": ("length", 1e-6), "nm": ("length", 1e-9),
+    "µm": ("length", 1e-6), "μm": ("length", 1e-6), "micron": ("length", 1e-6),
+    "nm": ("length", 1e-9),
     "1": ("fraction", 1.0), "": ("fraction", 1.0), "%": ("fraction", 0.01),
 }
 _DIM = {"deg": "angle", "m": "length", "1": "fraction"}
 _KNOWN_CONDITIONS = {"speed", "layer", "region", "time_window", "stage", "relative_humidity",
                      "rest_time", "box_width"}
 
+_SPREAD = ("speed", "layer", "relative_humidity")
+#: The conditions each built-in kind may be taken at (what the simulators vary it with): a
+#: repose test's pile has no speed, layer or region; a spread layer no box or rest time.
+#: A kind of your own (:func:`~bedstruct.diagnose.register_observable`) may take any.
+KIND_CONDITIONS: dict[str, tuple[str, ...]] = {
+    "static_angle": ("box_width", "rest_time", "relative_humidity"),
+    "dynamic_angle_series": _SPREAD + ("time_window", "rest_time"),
+    "bed_height": _SPREAD,
+    "roughness": _SPREAD,
+    "tool_force_ratio": _SPREAD,
+    "packing_fraction": _SPREAD + ("region",),
+    "coordination": _SPREAD + ("region",),
+    "segregation_index": _SPREAD + ("region",),
+    "psd": ("stage",) + _SPREAD + ("region",),
+}
+
 #: Plausible values per kind, canonical units: ``lo < value < hi`` (checked when a
-#: measurement file is read; a value outside is almost always a unit mistake).
-#: ``tool_force_ratio`` (a signed ratio) and ``segregation_index`` (0 for a mixed bed)
-#: are not range-checked.
+#: measurement file is read; a value outside is almost always a unit mistake, e.g. sizes
+#: in mm labelled ``um``). ``tool_force_ratio`` (a signed ratio) and ``segregation_index``
+#: (0 for a mixed bed) are not range-checked.
 PLAUSIBLE: dict[str, tuple[float, float]] = {
     "static_angle": (5.0, 90.0), "dynamic_angle_series": (5.0, 90.0),   # deg
-    "packing_fraction": (0.0, 1.0), "coordination": (0.0, 20.0),
-    "bed_height": (0.0, 0.1), "psd": (0.0, 1e-2), "roughness": (0.0, 1e-3),   # m
+    "packing_fraction": (0.01, 0.9), "coordination": (0.1, 20.0),
+    "bed_height": (1e-6, 0.1), "psd": (1e-6, 1e-2), "roughness": (1e-7, 1e-3),   # m
+}
+
+#: Kinds whose values are counts, not fractions: the unit ``%`` is refused.
+NOT_PERCENT = ("coordination",)
+
+#: Plausible observable conditions, SI: ``lo <= value <= hi`` (a value outside is almost
+#: always a unit mistake: a speed in cm/s, a box width in mm written as metres).
+PLAUSIBLE_CONDITIONS: dict[str, tuple[float, float]] = {
+    "speed": (1e-4, 2.0),          # m/s: 0.1 mm/s to 2 m/s
+    "box_width": (1e-4, 1.0),      # m: 0.1 mm to 1 m
+    "rest_time": (0.0, 1e7),       # s: up to about four months
 }
 
 #: Bed regions (``conditions.region``): accepted spellings (case-insensitive) -> the one kept.

@@ -16,7 +16,7 @@ from typing import Mapping
 
 from ..errors import ConfigError
 
-__all__ = ["PARAMETER_BOUNDS", "PARAMETER_UNITS", "parameter_bounds"]
+__all__ = ["PARAMETER_BOUNDS", "PARAMETER_UNITS", "parameter_bounds", "parameter_value_error"]
 
 #: Physical bounds (lower, upper) of each base parameter, in its SI unit.
 PARAMETER_BOUNDS: dict[str, tuple[float, float]] = {
@@ -25,6 +25,10 @@ PARAMETER_BOUNDS: dict[str, tuple[float, float]] = {
     "rolling_friction": (0.0, math.inf),          # rolling friction coefficient
     "restitution": (0.0, 1.0),                    # coefficient of restitution, (0, 1]
 }
+
+#: Parameters whose lower bound is not a physical value (a restitution of 0, a perfectly
+#: plastic contact, is refused by the engine): only a value above it is a base value.
+OPEN_BELOW = frozenset({"restitution"})
 
 #: Unit of each base parameter (as written in reports).
 PARAMETER_UNITS: dict[str, str] = {"cohesion_energy_density": "J/m³", "friction": "",
@@ -81,3 +85,47 @@ def parameter_bounds(names, overrides: Mapping[str, tuple[float, float]] | None 
             lo, hi = olo, ohi
         out[name] = (float(lo), float(hi))
     return out
+
+
+def parameter_value_error(name: str, value, *, closed: bool = False) -> str:
+    """Why ``value`` is not a physical value of the base parameter ``name`` ('' when it is).
+
+    Parameters
+    ----------
+    name : str
+        A base parameter; one without physical bounds only needs a finite value.
+    value : float
+        Its value (SI).
+    closed : bool
+        Accept the lower bound of a parameter in :data:`OPEN_BELOW` too (a simulator
+        asked at the edge of a recalibration's range).
+
+    Returns
+    -------
+    str
+        Empty when the value is finite and within :data:`PARAMETER_BOUNDS`, else what
+        was expected.
+
+    Examples
+    --------
+    >>> parameter_value_error("friction", 0.0)
+    ''
+    >>> parameter_value_error("restitution", 1.5)
+    'expected 0 < restitution <= 1; got 1.5'
+    >>> parameter_value_error("cohesion_energy_density", float("inf"))
+    'expected a finite number >= 0 J/m³; got inf'
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return f"expected a number; got {value!r}"
+    lo, hi = PARAMETER_BOUNDS.get(name, (-math.inf, math.inf))
+    unit = PARAMETER_UNITS.get(name, "")
+    u = f" {unit}" if unit else ""
+    open_lo = name in OPEN_BELOW and not closed
+    if math.isfinite(v) and (lo < v if open_lo else lo <= v) and v <= hi:
+        return ""
+    if math.isinf(hi):
+        what = "a finite number" if math.isinf(lo) else f"a finite number {'>' if open_lo else '>='} {lo:g}"
+        return f"expected {what}{u}; got {v:g}"
+    return f"expected {lo:g} {'<' if open_lo else '<='} {name} <= {hi:g}{u}; got {v:g}"

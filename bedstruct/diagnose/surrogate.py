@@ -31,6 +31,7 @@ from scipy.special import ndtr
 from ..errors import ConfigError
 from .catalogue import CATALOGUE
 from .measurements import MeasurementSet, Observations, normalise_region
+from .parameters import parameter_value_error
 
 __all__ = ["SurrogateSimulator", "BASE_PARAMETERS", "SPEED_X1", "STROKE_LENGTH"]
 
@@ -50,6 +51,9 @@ STROKE_LENGTH = 18.9e-3    # m
 _K_REF = 3.6e7
 _REGION_X = {"start": 1 / 6, "center": 0.5, "end": 5 / 6}   # keys: normalise_region's spellings
 _LAYERS_UM = (508.0, 508.0, 102.0, 127.0)
+# The friction laws are logarithmic in the coefficient; below these floors a coefficient acts
+# as the floor (a frictionless powder), so every coefficient >= 0 has finite observables.
+_MU_FLOOR, _MU_R_FLOOR = 1e-3, 1e-4
 # Simulated PSD (volume-weighted log-normal, truncated at 28 um diameter) and fines population.
 _PSD_MU, _PSD_SIGMA, _PSD_CUT = math.log(52.5e-6), 0.385, 28e-6
 _FINES_MU, _FINES_SIGMA = math.log(20e-6), 0.25
@@ -101,8 +105,10 @@ class SurrogateSimulator:
     -----
     Call as ``sim(base, effects, seed) -> Observations``, the simulator interface
     the diagnosis uses. ``base`` holds the keys of :data:`BASE_PARAMETERS`
-    (missing ones take their defaults); ``effects`` maps catalogue names to
-    magnitudes.
+    (missing ones take their defaults), each within its physical bounds
+    (:data:`~bedstruct.diagnose.parameters.PARAMETER_BOUNDS`, the bounds included: a
+    cohesionless or frictionless powder is a valid point); ``effects`` maps catalogue
+    names to magnitudes.
 
     Examples
     --------
@@ -170,9 +176,10 @@ class SurrogateSimulator:
                               f"{sorted(BASE_PARAMETERS)}")
         p = dict(BASE_PARAMETERS)
         p.update({k: float(v) for k, v in base.items()})
-        for k in ("cohesion_energy_density", "friction", "rolling_friction"):
-            if not p[k] > 0:
-                raise ConfigError(f"base: key {k!r} must be > 0; got {p[k]}")
+        for k, v in p.items():   # each physical value, the bounds of a recalibration included
+            why = parameter_value_error(k, v, closed=True)
+            if why:
+                raise ConfigError(f"surrogate parameter {k!r}: {why}")
         return p
 
     @staticmethod
@@ -223,8 +230,8 @@ class SurrogateSimulator:
         c = m.conditions
         s = (c.speed or SPEED_X1) / SPEED_X1
         rel_k = p["cohesion_energy_density"] / _K_REF - 1.0
-        lmu = math.log(p["friction"] / 0.4)
-        lmur = math.log(p["rolling_friction"] / 0.05)
+        lmu = math.log(max(p["friction"], _MU_FLOOR) / 0.4)
+        lmur = math.log(max(p["rolling_friction"], _MU_R_FLOOR) / 0.05)
         rh = c.get("relative_humidity")
         cap = _cap(rh if (rh is not None and e["capillary_bridges"] > 0) else e["capillary_bridges"])
         A, R, F, W, T = (e["contact_ageing"], e["non_sphericity"], e["missing_fines"],

@@ -8,6 +8,8 @@ ends on a bound says so in the verdict's reason and the JSON.
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -172,3 +174,124 @@ def test_the_recalibration_stays_inside_the_simulators_domain():
     assert _within_simulator_domain(sim, nu, {"cohesion_energy_density": (1e7, 1.5e7)}) == \
         {"cohesion_energy_density": (1e7, 1.5e7)}
     assert _within_simulator_domain(_simulator, nu, None) == {}
+
+
+# --------------------------------------------------------------------------- at the bound
+
+def test_the_surrogate_takes_every_parameter_at_its_physical_bound():
+    """A cohesionless, frictionless powder is physical: the surrogate gives finite
+    observables there (the bound a recalibration may end on), and refuses values beyond the
+    bounds without blaming the configuration's [base]."""
+    from bedstruct.diagnose import SurrogateSimulator
+    design = MeasurementSet(tuple(measurement_from_dict(d) for d in (
+        dict(name="sa", kind="static_angle", role="candidate", uncertainty=1.0),
+        dict(name="dyn", kind="dynamic_angle_series", role="candidate", uncertainty=1.0,
+             windows=[[0.0, 0.1], [0.1, 1.0]], conditions={"speed": 0.0254, "layer": 3}),
+        dict(name="pf", kind="packing_fraction", role="candidate", uncertainty=0.01,
+             conditions={"speed": 0.0254, "layer": 1, "region": "center"}))))
+    sim = SurrogateSimulator(design, noise=0)
+    at_zero = sim({"cohesion_energy_density": 0.0, "friction": 0.0, "rolling_friction": 0.0},
+                  {}, 0)
+    assert all(np.all(np.isfinite(at_zero[n])) for n in ("sa", "dyn", "pf"))
+    assert at_zero["sa"][0] < sim({}, {}, 0)["sa"][0]
+    # the friction laws saturate below their floor: continuous down to 0
+    tiny = sim({"friction": 1e-9, "rolling_friction": 1e-9}, {}, 0)
+    assert tiny["sa"][0] == pytest.approx(sim({"friction": 0.0, "rolling_friction": 0.0},
+                                              {}, 0)["sa"][0])
+    for key, v in (("cohesion_energy_density", -1.0), ("friction", math.inf),
+                   ("rolling_friction", math.nan), ("restitution", 1.5)):
+        with pytest.raises(ConfigError, match=f"surrogate parameter '{key}'") as info:
+            sim({key: v}, {}, 0)
+        assert "base" not in str(info.value)
+
+
+def test_a_fit_to_zero_cohesion_runs_on_the_surrogate_and_says_so(tmp_path):
+    """The seed file with a static angle of 8 deg (inside its plausible range): the
+    recalibration drives the cohesion to its bound 0, the rerun runs there and the answer
+    says the fit stopped on the bound."""
+    from bedstruct.diagnose import diagnosis_design, load_measurements, make_simulator
+    seed = Path(__file__).resolve().parents[2] / "data" / "measurements" / "seed.toml"
+    text = seed.read_text(encoding="utf-8")
+    assert text.count("value = 33.0\n") >= 1
+    p = tmp_path / "static8.toml"
+    p.write_text(text.replace("value = 33.0\n", "value = 8.0\n", 1), encoding="utf-8")
+    ms = load_measurements(p)
+    assert ms["static_angle"].values[0] == 8.0
+    cfg = load_sim_config("surrogate")
+    sim = make_simulator(cfg, diagnosis_design(ms, cfg.effects))
+    d = diagnose(ms, sim, base=cfg.base, effects=cfg.effects, nuisance=cfg.nuisance,
+                 **cfg.diagnose_settings())
+    rec = d.to_json()["recalibration"]["cohesion_energy_density"]
+    assert rec["at_bound"] is True and rec["value"] == pytest.approx(0.0, abs=1e-6)
+
+
+class _NoZero:
+    """The toy simulator refusing a cohesion of 0, as a simulator with a narrower domain."""
+
+    name = "no-zero"
+
+    def __call__(self, base, effects, seed):
+        if not base["cohesion_energy_density"] > 0:
+            raise ConfigError("key 'cohesion_energy_density' must be > 0; got 0.0")
+        return _simulator(base, effects, seed)
+
+
+def test_a_refused_recalibrated_point_is_named_as_such_not_as_the_base():
+    ms = MeasurementSet(tuple(measurement_from_dict(dict(
+        name=n, kind="static_angle", value=v, uncertainty=1.0, role=r))
+        for n, v, r in [("a", -30.0, "calibrate"), ("b", 30.0, "calibrate"),
+                        ("c", 0.0, "validate")]))
+    with pytest.raises(ConfigError, match=r"refused the recalibrated parameters "
+                                          r"\(cohesion_energy_density 0 \(at its bound\), base "
+                                          r"1e\+07\), fitted to the calibration observables "
+                                          r"a, b.*must be > 0") as info:
+        diagnose(ms, _NoZero(), base={"cohesion_energy_density": 1e7}, effects=[_EFFECT],
+                 nuisance=("cohesion_energy_density",), replicates=2, refine=0,
+                 confirm_rounds=0)
+    assert "[base]" not in str(info.value)
+
+
+# --------------------------------------------------------------------------- [base] values
+
+@pytest.mark.parametrize("line, match", [
+    ("restitution = 1.5", r"\[base\]: key 'restitution': 1\.5 is outside its bounds: "
+                          r"expected 0 < restitution <= 1"),
+    ("restitution = -0.3", r"\[base\]: key 'restitution': -0\.3 is outside its bounds"),
+    ("restitution = 0.0", r"\[base\]: key 'restitution': 0 is outside its bounds"),
+    ("friction = inf", r"\[base\]: key 'friction': inf is outside its bounds: expected a "
+                       r"finite number >= 0"),
+    ("friction = -0.1", r"\[base\]: key 'friction': -0\.1 is outside its bounds"),
+    ("rolling_friction = nan", r"\[base\]: key 'rolling_friction': nan is outside"),
+    ("cohesion_energy_density = -1e7", r"\[base\]: key 'cohesion_energy_density': -1e\+07 is "
+                                       r"outside its bounds: expected a finite number >= 0 J/m³"),
+])
+def test_every_base_value_is_checked_against_its_physical_bounds(tmp_path, line, match):
+    """Recalibrated or not, each [base] value is finite and physical: an error naming the file
+    and the key, before any run."""
+    p = tmp_path / "sim.toml"
+    p.write_text(f'[simulator]\nkind = "surrogate"\n[base]\n{line}\n')
+    with pytest.raises(ConfigError, match=re.escape(str(p)) + " " + match):
+        load_sim_config(p)
+
+
+def test_base_values_on_the_bounds_load(tmp_path):
+    p = tmp_path / "sim.toml"
+    p.write_text('[base]\ncohesion_energy_density = 0.0\nfriction = 0\nrolling_friction = 0.0\n'
+                 'restitution = 1.0\n')
+    assert load_sim_config(p).base == {"cohesion_energy_density": 0.0, "friction": 0.0,
+                                       "rolling_friction": 0.0, "restitution": 1.0}
+
+
+def test_a_negative_seed_is_an_error_naming_its_key(tmp_path):
+    p = tmp_path / "sim.toml"
+    p.write_text('[simulator]\nseed = -3\n')
+    with pytest.raises(ConfigError, match=re.escape(f"{p} [simulator]: key 'seed': expected an "
+                                                    f"integer >= 0; got -3")):
+        load_sim_config(p)
+    with pytest.raises(ConfigError, match=r"seed \(the replicate seed, --seed\): expected an "
+                                          r"integer >= 0; got -3"):
+        load_sim_config("surrogate").diagnose_settings(seed=-3)
+    assert load_sim_config("surrogate").diagnose_settings(seed=5)["seed"] == 5
+    with pytest.raises(ConfigError, match=r"seed: expected an integer >= 0; got -1"):
+        diagnose(_design(), _simulator, base={"cohesion_energy_density": 1e7}, seed=-1,
+                 effects=[_EFFECT])

@@ -19,7 +19,7 @@ HEAD = '[[observable]]\nname = "a"\n'
 
 def _write(tmp_path, text, name="m.toml"):
     p = tmp_path / name
-    p.write_text(text)
+    p.write_text(text, encoding="utf-8")
     return p
 
 
@@ -294,12 +294,13 @@ def test_more_bad_files_name_file_key_and_expectation(tmp_path, text, match):
 
 def test_speeds_and_box_widths_may_carry_units(tmp_path):
     p = tmp_path / "u.toml"
-    p.write_text('[[observable]]\n' + _ONE + '[observable.conditions]\nspeed = "2.54 cm/s"\n'
-                 'box_width = "30 mm"\n')
-    m = load_measurements(p)["a"]
-    assert m.conditions.speed == pytest.approx(0.0254)
-    assert m.conditions.get("box_width") == pytest.approx(0.03)
-    assert any("cm/s -> m/s" in c for c in m.conversions)
+    p.write_text('[[observable]]\n' + _ONE + '[observable.conditions]\nbox_width = "30 mm"\n'
+                 '[[observable]]\nname = "b"\nkind = "bed_height"\nvalue = 5e-4\n'
+                 'uncertainty = 1e-5\n[observable.conditions]\nspeed = "2.54 cm/s"\nlayer = 1\n')
+    ms = load_measurements(p)
+    assert ms["b"].conditions.speed == pytest.approx(0.0254)
+    assert ms["a"].conditions.get("box_width") == pytest.approx(0.03)
+    assert any("cm/s -> m/s" in c for c in ms["b"].conversions)
 
 
 def test_a_measured_series_window_without_a_finite_value_is_named(tmp_path):
@@ -313,3 +314,238 @@ def test_a_measured_series_window_without_a_finite_value_is_named(tmp_path):
                                 'windows = [[0.0, 0.4], [0.5, 1.0]]\n')
     with pytest.raises(ConfigError, match=r"m\.toml.*window \[0, 0\.4\] holds no finite value"):
         load_measurements(f)
+
+
+# --------------------------------------------------------------------------- 7. too small
+
+@pytest.mark.parametrize("body, key, hint", [
+    # sizes in mm labelled um: 1000x too small, refused like those too large
+    ('kind = "psd"\npercentiles = [10, 50, 90]\nvalue = [0.02984, 0.05208, 0.08611]\n'
+     'uncertainty = 0.0006\nunit = "um"', "value", "unit = 'mm'"),
+    ('kind = "bed_height"\nvalue = 0.508\nuncertainty = 0.01\nunit = "um"', "value",
+     "unit = 'mm'"),
+    ('kind = "roughness"\nvalue = 0.012\nuncertainty = 0.001\nunit = "um"', "value",
+     "unit = 'mm'"),
+    ('kind = "packing_fraction"\nvalue = 0.55\nuncertainty = 0.01\nunit = "%"', "value",
+     "unit = '1'"),
+    ('kind = "coordination"\nvalue = 0.05\nuncertainty = 0.01', "value", "0.1 < value < 20"),
+])
+def test_values_too_small_for_their_unit_are_errors_suggesting_the_unit(tmp_path, body, key,
+                                                                         hint):
+    p = _write(tmp_path, HEAD + body + "\n")
+    with pytest.raises(ConfigError, match=_where(p, key) + ".*" + re.escape(hint)):
+        load_measurements(p)
+
+
+def test_a_psd_csv_in_mm_labelled_um_is_refused(tmp_path):
+    np.savetxt(tmp_path / "psd.csv", [[0.01, 0], [0.03, 10], [0.05, 50], [0.09, 90],
+                                      [0.12, 100]], delimiter=",", header="size,pct", comments="")
+    p = _write(tmp_path, HEAD + 'kind = "psd"\npercentiles = [10, 50, 90]\ncsv = "psd.csv"\n'
+                                'unit = "um"\nuncertainty = [0.6, 1.0, 1.7]\n')
+    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*unit = 'mm'"):
+        load_measurements(p)
+
+
+def test_percent_is_refused_where_it_means_nothing(tmp_path):
+    p = _write(tmp_path, HEAD + 'kind = "coordination"\nvalue = 6.0\nuncertainty = 0.2\n'
+                                'unit = "%"\n')
+    with pytest.raises(ConfigError, match=_where(p, "unit") + ".*count per particle.*'%' does "
+                                                              "not apply"):
+        load_measurements(p)
+    t = np.linspace(0, 1, 50)
+    np.savetxt(tmp_path / "f.csv", np.column_stack([t, 10 + 0.1 * np.sin(40 * t),
+                                                    2 + 0.1 * np.cos(30 * t)]),
+               delimiter=",", header="t,force_x,force_z", comments="")
+    body = HEAD + 'kind = "tool_force_ratio"\ncsv = "f.csv"\nuncertainty = 0.01\n{}'
+    p = _write(tmp_path, body.format('unit = "%"\n'))
+    with pytest.raises(ConfigError, match=_where(p, "unit") + ".*ratio of its two force "
+                                                              "columns.*'%' does not apply"):
+        load_measurements(p)
+    assert load_measurements(_write(tmp_path, body.format("")))["a"].values[0] == \
+        pytest.approx(0.2, abs=0.01)
+    assert load_measurements(_write(tmp_path, body.format('unit = "1"\n')))["a"].values[0] == \
+        pytest.approx(0.2, abs=0.01)
+
+
+def test_the_greek_mu_and_the_micro_sign_both_read_as_micro(tmp_path):
+    for mu in ("\u00b5", "\u03bc"):
+        p = _write(tmp_path, HEAD + f'kind = "bed_height"\nvalue = 508.0\nuncertainty = 10.0\n'
+                                    f'unit = "{mu}m"\n[observable.conditions]\nlayer = 1\n'
+                                    f'speed = "25400 {mu}m/s"\n')
+        m = load_measurements(p)["a"]
+        assert m.values[0] == pytest.approx(508e-6)
+        assert m.conditions.speed == pytest.approx(0.0254)
+
+
+# --------------------------------------------------------------------------- 8. conditions
+
+@pytest.mark.parametrize("cond, key, hint", [
+    ("speed = 2.54", "conditions.speed", 'is it in cm/s or mm/s? write "2.54 cm/s"'),
+    ("speed = 12.7", "conditions.speed", 'write "12.7 cm/s"'),
+    ('speed = "254 cm/s"', "conditions.speed", "implausible speed 2.54 m/s; expected 0.0001 to 2"),
+    ("speed = 1e-6", "conditions.speed", "implausible speed 1e-06 m/s"),
+])
+def test_implausible_speeds_are_errors_with_a_unit_hint(tmp_path, cond, key, hint):
+    p = _write(tmp_path, HEAD + 'kind = "bed_height"\nvalue = 5e-4\nuncertainty = 1e-5\n'
+                                f'[observable.conditions]\nlayer = 1\n{cond}\n')
+    with pytest.raises(ConfigError, match=_where(p, key) + ".*" + re.escape(hint)):
+        load_measurements(p)
+
+
+@pytest.mark.parametrize("cond, hint", [
+    ("box_width = 30", 'implausible box width 30 m; expected 0.0001 to 1 m; is it in mm? '
+                       'write "30 mm"'),
+    ("box_width = 0.0", "must be > 0"),
+    ('box_width = "3 m"', "implausible box width 3 m"),
+    ("rest_time = 1e9", "implausible rest time 1e+09 s"),
+])
+def test_implausible_boxes_and_rest_times_are_errors(tmp_path, cond, hint):
+    p = _write(tmp_path, HEAD + f'kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\n'
+                                f'[observable.conditions]\n{cond}\n')
+    key = "conditions." + cond.split(" =")[0]
+    with pytest.raises(ConfigError, match=_where(p, key) + ".*" + re.escape(hint)):
+        load_measurements(p)
+
+
+def test_an_implausible_blade_speed_of_the_set_up_is_an_error(tmp_path):
+    p = _write(tmp_path, '[conditions]\nblade_speed = "254 cm/s"\n[[observable]]\nname = "a"\n'
+                         'kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\n')
+    with pytest.raises(ConfigError, match=re.escape(f"{p}: key 'conditions.blade_speed': "
+                                                    f"implausible speed 2.54 m/s")):
+        load_measurements(p)
+
+
+@pytest.mark.parametrize("kind, extra, cond, key, applies", [
+    ("static_angle", "", 'region = "end"', "region",
+     "only a packing_fraction, coordination, segregation_index or psd has a region"),
+    ("static_angle", "", "speed = 0.5", "speed", "has a speed; this is a static_angle (its "
+                                                 "conditions: box_width, rest_time, "
+                                                 "relative_humidity)"),
+    ("static_angle", "", "layer = 4", "layer", "has a layer; this is a static_angle"),
+    ("packing_fraction", "", "box_width = 0.03", "box_width",
+     "only a static_angle has a box width; this is a packing_fraction"),
+    ("bed_height", "", 'region = "start"', "region", "this is a bed_height (its conditions: "
+                                                     "speed, layer, relative_humidity)"),
+])
+def test_conditions_that_mean_nothing_for_the_kind_are_errors(tmp_path, kind, extra, cond, key,
+                                                             applies):
+    value = {"static_angle": "33.0", "packing_fraction": "0.5", "bed_height": "5e-4"}[kind]
+    p = _write(tmp_path, HEAD + f'kind = "{kind}"\nvalue = {value}\nuncertainty = 0.01\n{extra}'
+                                f'[observable.conditions]\n{cond}\n')
+    with pytest.raises(ConfigError, match=_where(p, f"conditions.{key}") + ".*"
+                       + re.escape(applies)):
+        load_measurements(p)
+
+
+# --------------------------------------------------------------------------- 9. no traceback
+
+@pytest.mark.parametrize("body, key", [
+    ('kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\ntrials = inf', "trials"),
+    ('kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\ntrials = nan', "trials"),
+    ('kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\ntrials = 3\nnot_measured = inf',
+     "not_measured"),
+    ('kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\ntrials = 3\n'
+     'not_measured = [nan]', "not_measured"),
+    ('kind = "static_angle"\nvalue = []\nuncertainty = 1.0', "value"),
+    ('kind = "static_angle"\nvalue = 33.0\nuncertainty = []', "uncertainty"),
+])
+def test_non_finite_counts_and_empty_lists_are_errors_not_tracebacks(tmp_path, body, key):
+    p = _write(tmp_path, HEAD + body + "\n")
+    with pytest.raises(ConfigError, match=_where(p, key)):
+        load_measurements(p)
+
+
+def test_a_csv_that_is_not_utf8_is_an_error_naming_the_key(tmp_path):
+    (tmp_path / "s.csv").write_bytes("t,angle (°)\n0,30\n0.5,31\n1,30\n".encode("latin-1"))
+    p = _write(tmp_path, HEAD + 'kind = "dynamic_angle_series"\ncsv = "s.csv"\n'
+                                'windows = [[0, 1]]\nuncertainty = 1.0\n')
+    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*s.csv is not UTF-8 text"):
+        load_measurements(p)
+
+
+# --------------------------------------------------------------------------- 10. coverage
+
+def _series(tmp_path, t, y, extra=""):
+    np.savetxt(tmp_path / "s.csv", np.column_stack([t, y]), delimiter=",", header="t,angle",
+               comments="")
+    return _write(tmp_path, HEAD + 'kind = "dynamic_angle_series"\ncsv = "s.csv"\n'
+                                   f'windows = [[0.0, 0.5], [0.5, 1.0]]\n{extra}')
+
+
+def test_a_series_that_does_not_cover_its_windows_is_refused(tmp_path):
+    """Times in seconds of a 0.744 s stroke, read as stroke fractions: the second window
+    would be averaged over half of itself."""
+    t = np.linspace(0.0, 0.744, 200)
+    y = 30.0 + 4.0 * t + np.random.default_rng(0).normal(0, 0.5, t.size)
+    p = _series(tmp_path, t, y)
+    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*run from 0 to 0.744.*do not "
+                                                             "cover window \\[0.5, 1\\].*"
+                                                             "stroke_duration"):
+        load_measurements(p)
+    m = load_measurements(_series(tmp_path, t, y, "stroke_duration = 0.744\n"))["a"]
+    assert m.values == pytest.approx([30.0 + 4 * 0.744 * 0.25, 30.0 + 4 * 0.744 * 0.75],
+                                     abs=0.2)
+    # a series sampled up to one spacing short of a window's end covers it
+    t = np.linspace(0.0, 0.98, 50)
+    assert load_measurements(_series(tmp_path, t, 30.0 + t))["a"].n_components == 2
+
+
+def test_samples_of_a_series_without_an_angle_are_noted_and_bad_ones_refused(tmp_path):
+    t = np.linspace(0.0, 1.0, 200)
+    y = 30.0 + np.random.default_rng(1).normal(0, 0.5, t.size)
+    y[[10, 150]] = np.nan
+    m = load_measurements(_series(tmp_path, t, y))["a"]
+    assert any("2 sample(s) without an angle (NaN" in c for c in m.conversions)
+    y[150] = -40.0
+    p = _series(tmp_path, t, y)
+    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*holds -40 deg at time "
+                                                             ".*outside 0..90 deg"):
+        load_measurements(p)
+    t[20] = np.nan
+    p = _series(tmp_path, t, y)
+    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*time column 't' holds nan"):
+        load_measurements(p)
+
+
+# --------------------------------------------------------------------------- 11. duplicates
+
+def test_names_with_surrounding_white_space_are_refused(tmp_path):
+    p = _write(tmp_path, '[[observable]]\nname = "static_angle "\nkind = "static_angle"\n'
+                         'value = 33.0\nuncertainty = 1.0\n')
+    with pytest.raises(ConfigError, match=re.escape(f"{p}: observable #1: key 'name': "
+                                                    f"'static_angle ' begins or ends with white "
+                                                    f"space; expected 'static_angle'")):
+        load_measurements(p)
+
+
+def test_the_same_measurement_twice_is_refused(tmp_path):
+    one = ('kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\n'
+           '[observable.conditions]\nbox_width = 0.03\n')
+    p = _write(tmp_path, HEAD + one + '[[observable]]\nname = "b"\n' + one)
+    with pytest.raises(ConfigError, match=re.escape(f"{p}: observable #2 'b': repeats "
+                                                    f"observable #1 'a'")):
+        load_measurements(p)
+    # another box: another measurement
+    p = _write(tmp_path, HEAD + one + '[[observable]]\nname = "b"\n'
+               + one.replace("0.03", "0.003"))
+    assert load_measurements(p).names == ("a", "b")
+
+
+def test_duplicate_labels_are_refused(tmp_path):
+    p = _write(tmp_path, HEAD + 'kind = "psd"\npercentiles = [10, 50, 90]\n'
+                                'value = [30, 52, 86]\nunit = "um"\nuncertainty = 1.0\n'
+                                'labels = ["a", "a", "b"]\n')
+    with pytest.raises(ConfigError, match=_where(p, "labels") + ".*'a' labels more than one"):
+        load_measurements(p)
+
+
+def test_an_observable_read_in_no_trial_has_no_uncertainty(tmp_path):
+    p = _write(tmp_path, HEAD + 'kind = "static_angle"\ntrials = 3\nnot_measured = 3\n'
+                                'uncertainty = 1.0\n')
+    with pytest.raises(ConfigError, match=_where(p, "uncertainty") + ".*no reading in any of "
+                                                                     "its 3 trial"):
+        load_measurements(p)
+    p = _write(tmp_path, HEAD + 'kind = "static_angle"\ntrials = 3\nnot_measured = 3\n'
+                                '[[observable]]\nname = "b"\nkind = "static_angle"\n'
+                                'value = 33.0\nuncertainty = 1.0\n')
+    assert [m.name for m in load_measurements(p).unmeasured] == ["a"]
