@@ -270,6 +270,10 @@ class PileAngle:
         Particles the profile was taken from.
     n_left_out : int
         Particles left out (other clusters, below the plate, outside ``bounds``).
+    shape : {"wedge", "cone"}
+        How the free surface was taken: the median height across the other
+        horizontal axis (a wedge) or the silhouette, the highest point across
+        it (a cone).
     """
 
     repose: ReposeResult
@@ -277,6 +281,7 @@ class PileAngle:
     base_found: bool
     n_particles: int
     n_left_out: int
+    shape: str = "wedge"
 
     @property
     def angle_deg(self) -> float:
@@ -290,7 +295,7 @@ class PileAngle:
 
 
 def pile_angle(frame, *, axis: int = 0, base: float | None = None, bounds=None,
-               flanks: str = "both") -> PileAngle:
+               flanks: str = "both", shape: str = "auto") -> PileAngle:
     """Static angle of repose of a settled pile: the one measurement of a pile.
 
     ``bedstruct report`` uses it, and a repose run measures its piles the
@@ -315,6 +320,16 @@ def pile_angle(frame, *, axis: int = 0, base: float | None = None, bounds=None,
         the box across ``axis`` when that direction is periodic.
     flanks : {"both", "left", "right"}, optional
         Flanks to fit (one for a wedge against a wall).
+    shape : {"auto", "wedge", "cone"}, optional
+        ``"wedge"``: a pile uniform across the other horizontal axis (a
+        slot between side walls, a periodic box); its free surface is the
+        median height across that axis. ``"cone"``: a heap that falls off in
+        every direction; its free surface is the silhouette, the highest
+        point across (what a side camera sees; the median across a cone lies
+        below its flank line and gives an angle ~5 deg too low). ``"auto"``
+        (default): a wedge when the other axis is periodic; otherwise a cone
+        when the silhouette across the other axis has flanks at least half
+        as steep as along ``axis``, else a wedge.
 
     Returns
     -------
@@ -328,10 +343,11 @@ def pile_angle(frame, *, axis: int = 0, base: float | None = None, bounds=None,
     Notes
     -----
     Particles centred above ``base - r`` form the pile; its free surface is
-    the median height across the other horizontal axis of the top-surface
-    map on a grid of half the median radius, and each flank is fitted
-    between 20 % and 80 % of the pile height (:func:`angle_of_repose`,
-    ``statistic="median"``). The ``±`` of one pile is the fit uncertainty of
+    the median height (a wedge) or the highest point (a cone) across the
+    other horizontal axis of the top-surface map on a grid of half the
+    median radius, and each flank is fitted between 20 % and 80 % of the
+    pile height (:func:`angle_of_repose`, ``statistic="median"`` or
+    ``"max"``). The ``±`` of one pile is the fit uncertainty of
     the mean of its flanks; a scatter between piles needs replicates.
 
     Examples
@@ -350,6 +366,8 @@ def pile_angle(frame, *, axis: int = 0, base: float | None = None, bounds=None,
     frame = _as_frame(frame)
     if axis not in (0, 1):
         raise ValueError(f"`axis` must be a horizontal axis, 0 or 1; got {axis!r}")
+    if shape not in ("auto", "wedge", "cone"):
+        raise ValueError(f"`shape` must be 'auto', 'wedge' or 'cone'; got {shape!r}")
     n0 = frame.n_particles
     pile = frame
     found = base is None
@@ -378,9 +396,28 @@ def pile_angle(frame, *, axis: int = 0, base: float | None = None, bounds=None,
             else:
                 ext.append((float(c.min()) - pad, float(c.max()) + pad))
         bounds = tuple(ext)
+    spacing = 0.5 * float(np.median(pile.radii))
+    if shape == "auto":
+        shape = "wedge" if pile.box.periodic[1 - axis] else _pile_shape(pile, axis, float(base),
+                                                                          bounds, spacing)
     res = angle_of_repose(pile, axis=axis, base=float(base), flanks=flanks, bounds=bounds,
-                          statistic="median", spacing=0.5 * float(np.median(pile.radii)))
-    return PileAngle(res, float(base), found, pile.n_particles, n0 - pile.n_particles)
+                          statistic="median" if shape == "wedge" else "max", spacing=spacing)
+    return PileAngle(res, float(base), found, pile.n_particles, n0 - pile.n_particles, shape)
+
+
+def _pile_shape(pile, axis: int, base: float, bounds, spacing: float) -> str:
+    """``"cone"`` when the pile's silhouette across the other horizontal axis has flanks at
+    least half as steep as its silhouette along ``axis``, else ``"wedge"``."""
+    angles = []
+    for a in (axis, 1 - axis):
+        try:
+            r = angle_of_repose(pile, axis=a, base=base, bounds=bounds, statistic="max",
+                                spacing=spacing)
+        except ValueError:      # a flat profile: no flank that way
+            return "wedge"
+        angles.append(r.angle_deg)
+    along, across = angles
+    return "cone" if np.isfinite(along) and np.isfinite(across) and across >= 0.5 * along else "wedge"
 
 
 def dynamic_angle_of_repose(frame, blade_position: float, *, direction: int = 1, axis: int = 0,

@@ -391,12 +391,14 @@ def _repose(ctx: _Context, s: Section) -> None:
         skip(f"no pile found: one sloped flank on a layer {aspect:.2f} times as high as long "
              f"(a spread layer, not a heap)")
     unit = ctx.length_unit
+    surface = ("median free surface (a wedge)" if pa.shape == "wedge" else
+               "silhouette, the highest point (a cone: the median would lie below its flanks),")
     where = ("above the plate height given (--repose-base)" if not pa.base_found else
              "on the largest cluster of touching particles, above the plate its bottom layer rests on "
              "(give --repose-base to set the plate height)")
     s.text = (f"Measured by analysis.pile_angle {where}: {pa.n_particles} of {f.n_particles} particles "
-              f"({pa.n_left_out} left out: other clusters, below the plate); median free surface across "
-              f"the width, flanks fitted robustly between 20 % and 80 % of the pile height. One pile: "
+              f"({pa.n_left_out} left out: other clusters, below the plate); "
+              f"{surface} across the width, flanks fitted robustly between 20 % and 80 % of the pile height. One pile: "
               f"the +- is the fit uncertainty of its mean angle, not a scatter between piles "
               f"(that needs replicates, as bedstruct run repose makes).")
     s.add_number("angle_deg", res.angle_deg, "deg", "static angle of repose: mean of the fitted flank angles",

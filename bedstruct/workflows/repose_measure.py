@@ -161,7 +161,8 @@ def measure_pile(frame, cfg, *, r_max: float):
     bounds = ((x_lo - pad, x_hi + pad), (0.0, W))
     flanks = "both" if ped > 0 else "right"
     try:
-        res = pile_angle(frame, axis=0, base=0.0, bounds=bounds, flanks=flanks).repose
+        res = pile_angle(frame, axis=0, base=0.0, bounds=bounds, flanks=flanks,
+                         shape="wedge").repose
         return (float(res.angle_deg), float(res.angle_std_deg), float(res.left_deg),
                 float(res.right_deg), float(res.top))
     except ValueError as exc:
