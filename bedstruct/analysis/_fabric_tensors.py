@@ -57,6 +57,16 @@ class FabricTensors:
         :math:`\\sqrt{D_{ijkl} D_{ijkl}}`, the Frobenius norm of the rank-4
         deviator.
 
+    Notes
+    -----
+    A finite set of directions is anisotropic by sampling alone: ``M``
+    independent isotropic directions give :math:`E[a^2] = 225 / (4 M)` and
+    :math:`E[a_4^2] = 2835 / (8 M)` (:attr:`anisotropy_noise`,
+    :attr:`anisotropy_rank4_noise`), since :math:`a^2 = \\tfrac{45}{4} P_2/P_0`
+    and :math:`a_4^2 = \\tfrac{315}{8} P_4/P_0` with :math:`E[P_l/P_0] = (2l+1)/M`
+    (:func:`~bedstruct.analysis.harmonic_expansion`). An anisotropy within about
+    twice its noise says nothing about the fabric.
+
     .. versionadded:: 0.1
     """
 
@@ -103,6 +113,24 @@ class FabricTensors:
                    eigenvalues=_readonly(w), eigenvectors=_readonly(v),
                    anisotropy=float(math.sqrt(1.5 * float(np.sum(d2 * d2)))),
                    anisotropy_rank4=float(math.sqrt(float(np.sum(d4 * d4)))))
+
+    @property
+    def anisotropy_noise(self) -> float:
+        """RMS :attr:`anisotropy` of ``n_contacts`` isotropic random directions,
+        :math:`7.5/\\sqrt{M}` (NaN without contacts; a weighted set counts fewer).
+
+        Examples
+        --------
+        >>> round(fabric_tensors(np.eye(3)).anisotropy_noise, 3)
+        4.33
+        """
+        return 7.5 / math.sqrt(self.n_contacts) if self.n_contacts > 0 else math.nan
+
+    @property
+    def anisotropy_rank4_noise(self) -> float:
+        """RMS :attr:`anisotropy_rank4` of ``n_contacts`` isotropic random directions,
+        :math:`\\sqrt{2835/(8 M)}` (NaN without contacts)."""
+        return math.sqrt(2835.0 / (8.0 * self.n_contacts)) if self.n_contacts > 0 else math.nan
 
     def density(self, directions, *, rank: int = 4) -> np.ndarray:
         """Shortcut for :func:`fabric_density` ``(self, directions, rank=rank)``."""

@@ -320,14 +320,19 @@ def _fabric(ctx: _Context, s: Section) -> None:
     s.add_number("eigenvalues_N2", whole.eigenvalues, "1", "eigenvalues of the moment tensor N_ij (sum 1)",
                  DOCS + "fabric.md")
     s.add_number("anisotropy", whole.anisotropy, "1", "rank-2 anisotropy of the contact normals")
+    s.add_number("anisotropy_noise", whole.anisotropy_noise, "1",
+                 "rank-2 anisotropy that as many isotropic random normals give by sampling alone "
+                 "(RMS, 7.5/sqrt(contacts)): an anisotropy within about twice it says nothing")
     s.add_number("anisotropy_rank4", whole.anisotropy_rank4, "1", "rank-4 anisotropy of the contact normals")
     reg = region_fabric(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
     rows = []
     for name, t in zip(opt.region_names, reg.tensors):
-        rows.append([name, int(t.n_contacts), *(float(v) for v in t.eigenvalues), float(t.anisotropy)])
-    s.tables.append(Table(["region", "contacts", "λ1", "λ2", "λ3", "anisotropy"], rows,
+        rows.append([name, int(t.n_contacts), *(float(v) for v in t.eigenvalues), float(t.anisotropy),
+                     float(t.anisotropy_noise)])
+    s.tables.append(Table(["region", "contacts", "λ1", "λ2", "λ3", "anisotropy", "isotropic noise"], rows,
                           caption=f"moment-tensor eigenvalues per region: {len(opt.region_names)} equal slabs "
-                                  f"along {opt.axis} by contact point", units=["", "1", "1", "1", "1", "1"]))
+                                  f"along {opt.axis} by contact point; isotropic noise: the RMS anisotropy "
+                                  f"of as many isotropic random normals", units=["", "1", "1", "1", "1", "1", "1"]))
     s.add_figure(plot_rose_grid(reg.tensors, names=opt.region_names),
                  "3-D rose diagrams per region: rank 2, rank 4 and their difference")
     if opt.regions >= 2:
@@ -349,18 +354,23 @@ def _harmonics(ctx: _Context, s: Section) -> None:
     for l in degrees[1:]:
         s.add_number(f"power_l{l}", whole.power[l] / whole.power[0], "1",
                      f"rotation-invariant power of degree {l} over that of degree 0, P_{l}/P_0 "
-                     f"(0 for isotropic contact normals)", DOCS + "fabric.md")
+                     f"(0 for isotropic contact normals; {2 * l + 1}/contacts = "
+                     f"{(2 * l + 1) / c.n_contacts:.2g} from sampling {c.n_contacts} isotropic normals)",
+                     DOCS + "fabric.md")
     labels, edges = contact_regions(c, ctx.frame, axis=opt.axis_index, n_regions=opt.regions)
     present = [k for k in range(opt.regions) if np.any(labels == k)]
     names = [opt.region_names[k] for k in present]
     exps = [harmonic_expansion(c.normals[labels == k], opt.l_max) for k in present]
     unit = ctx.length_unit
-    rows = [[n, float(edges[k]), float(edges[k + 1])] + [float(e.power[l] / e.power[0]) for l in degrees[1:]]
-            for k, n, e in zip(present, names, exps)]
-    s.tables.append(Table(["region", f"{opt.axis} from", f"{opt.axis} to"] + [f"P_{l}/P_0" for l in degrees[1:]],
+    counts = [int(np.count_nonzero(labels == k)) for k in present]
+    rows = [[n, float(edges[k]), float(edges[k + 1]), m] + [float(e.power[l] / e.power[0]) for l in degrees[1:]]
+            for k, n, e, m in zip(present, names, exps, counts)]
+    s.tables.append(Table(["region", f"{opt.axis} from", f"{opt.axis} to", "contacts"]
+                          + [f"P_{l}/P_0" for l in degrees[1:]],
                           rows, caption=f"rotation-invariant harmonic power per degree over P_0, per region along "
-                                        f"{opt.axis} (contacts by contact point)",
-                          units=["", unit, unit] + ["1"] * len(degrees[1:])))
+                                        f"{opt.axis} (contacts by contact point); M isotropic random normals give "
+                                        f"P_l/P_0 = (2l+1)/M by sampling alone",
+                          units=["", unit, unit, "1"] + ["1"] * len(degrees[1:])))
     fig = plot_harmonic_power(exps, degrees=degrees[1:], labels=names, relative=True,
                               xlabel=f"region along {opt.axis} (bounds in the table)")
     s.add_figure(_figure_of(fig), "Spherical-harmonic power P_l/P_0 per degree, per region along the bed "

@@ -470,3 +470,27 @@ def test_lattice_neighbour_shells_analytic_values():
         assert t.D4[0, 0, 0, 0] == pytest.approx(d4xxxx, abs=1e-13)
         assert t.D4[0, 0, 1, 1] == pytest.approx(d4xxyy, abs=1e-13)
         assert t.D4[2, 2, 2, 2] == pytest.approx(d4xxxx, abs=1e-13)
+
+
+def test_the_anisotropy_of_isotropic_samples_is_their_stated_noise():
+    # M isotropic normals: E[a^2] = 225/(4M), E[a4^2] = 2835/(8M), E[P2/P0] = 5/M, E[P4/P0] = 9/M
+    from bedstruct.analysis import fabric_tensors, harmonic_expansion
+    rng = np.random.default_rng(7)
+    M, reps = 200, 400
+    a2, a42, p2, p4 = [], [], [], []
+    for _ in range(reps):
+        n = rng.normal(size=(M, 3))
+        n /= np.linalg.norm(n, axis=1)[:, None]
+        t = fabric_tensors(n)
+        e = harmonic_expansion(n, 4)
+        a2.append(t.anisotropy ** 2)
+        a42.append(t.anisotropy_rank4 ** 2)
+        p2.append(e.power[2] / e.power[0])
+        p4.append(e.power[4] / e.power[0])
+    assert np.sqrt(np.mean(a2)) == pytest.approx(t.anisotropy_noise, rel=0.06)
+    assert np.sqrt(np.mean(a42)) == pytest.approx(t.anisotropy_rank4_noise, rel=0.06)
+    assert np.mean(p2) * M == pytest.approx(5.0, rel=0.1)
+    assert np.mean(p4) * M == pytest.approx(9.0, rel=0.1)
+    # the identities behind them hold for any sample
+    assert t.anisotropy ** 2 == pytest.approx(45 / 4 * p2[-1], rel=1e-9)
+    assert t.anisotropy_rank4 ** 2 == pytest.approx(315 / 8 * p4[-1], rel=1e-9)

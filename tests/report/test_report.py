@@ -415,13 +415,18 @@ def test_harmonic_figure_plots_the_table_with_region_names(bed_dump, bed_report)
     assert sec.status == "ok", sec.text
     table = sec.tables[0]
     assert table.columns[:3] == ["region", "x from", "x to"] and table.units[1:3] == ["unknown", "unknown"]
-    assert table.columns[3:] == ["P_2/P_0", "P_4/P_0", "P_6/P_0", "P_8/P_0"]
+    assert table.columns[3:] == ["contacts", "P_2/P_0", "P_4/P_0", "P_6/P_0", "P_8/P_0"]
     assert [row[1] for row in table.rows][1:] == [row[2] for row in table.rows][:-1]     # adjoining regions
+    # the contacts of the regions, against which the sampling floor (2l + 1)/M is read
+    from bedstruct.analysis import contact_regions
+    ctx = build_mod._Context([bedstruct.read_dump(bed_dump)[-1]], None, ReportOptions(), [0])
+    labels, _ = contact_regions(ctx.contacts.touching(), ctx.frame, axis=0, n_regions=3)
+    assert [row[3] for row in table.rows] == [int(np.count_nonzero(labels == k)) for k in range(3)]
     (fig,) = [f for key, f in shown if key == "harmonics"]
     ax = fig.axes[0]
     assert [t.get_text() for t in ax.get_xticklabels()] == [row[0] for row in table.rows] == ["start", "centre", "end"]
     lines = {ln.get_label(): ln.get_ydata() for ln in ax.get_lines()}
-    for c, col in enumerate(table.columns[3:], start=3):
+    for c, col in enumerate(table.columns[4:], start=4):
         l = col.split("/")[0][2:]
         np.testing.assert_array_equal(lines[f"l = {l}"], [row[c] for row in table.rows])
     # the headline numbers are the same normalisation: P_l/P_0 of all contacts, not P_l
