@@ -332,19 +332,31 @@ class ConductivityTensor:
     eigenvectors : (3, 3) ndarray
         Principal directions as columns, in the order of ``eigenvalues``.
     affine : (3, 3) ndarray, W/(m K)
-        Uniform-gradient (Voigt) bound ``(1/V) sum G l l^T``.
+        Uniform-gradient (Voigt) estimate: ``K`` with ``theta = 0``, that is
+        ``(1/V_beta) sum w G l l_beta`` per column with the weights and
+        volumes of ``tensor`` (symmetric part); ``(1/V) sum G l l^T`` for a
+        region with no faces.
     fabric : (3, 3) ndarray
-        Normal fabric tensor ``N_ij = <n_i n_j>`` of the conducting contacts.
+        Normal fabric tensor ``N_ij = <n_i n_j>`` of the conducting contacts
+        (weighted by ``w``).
     fabric_eigenvalues : (3,) ndarray
     fabric_eigenvectors : (3, 3) ndarray
     volume : float, m^3
+        Volume of the region: box length along periodic axes it spans,
+        window faces, and one contact radius beyond the outermost conducting
+        centres at free surfaces.
     n_particles, n_contacts, n_fixed : int
-        Particles and conducting contacts in the region, and particles held
-        in the boundary slabs.
+        Particles in the region; conducting contacts with at least part of
+        their branch inside; distinct particles held at the affine
+        temperature for at least one gradient (slab particles at free
+        surfaces normal to the gradient, and outside neighbours across
+        window faces normal to it).
     asymmetry : float
         ``|K - K^T| / |K|`` of the raw tensor (0 with periodic boundaries).
-    boundary : str
-        Per axis ``"periodic"`` or ``"slabs"``.
+    boundary : tuple of str
+        Per axis ``"periodic"``, ``"window"`` (faces crossed by contacts),
+        ``"surface"`` (faces crossed by none), or ``"window/surface"`` /
+        ``"surface/window"`` (lower/upper face) when the two differ.
     """
 
     tensor: np.ndarray
@@ -374,43 +386,116 @@ def _eig_desc(t):
     return w[o], v[:, o]
 
 
+def _segment_fraction(start, vec, t_end, lo, hi):
+    """Length fraction of ``start + t vec``, ``t in [0, t_end]``, with the coordinate in ``[lo, hi]``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ta = (lo - start) / vec
+        tb = (hi - start) / vec
+    t0 = np.where(vec != 0, np.minimum(ta, tb), np.where((start >= lo) & (start <= hi), -np.inf, np.inf))
+    t1 = np.where(vec != 0, np.maximum(ta, tb), np.where((start >= lo) & (start <= hi), np.inf, -np.inf))
+    return np.clip(np.minimum(t1, t_end) - np.maximum(t0, 0.0), 0.0, None)
+
+
 def conductivity_tensor(network: ThermalNetwork, *, region=None, boundary_width=None,
                         volume=None) -> ConductivityTensor:
-    """Effective conductivity tensor of a bed region from imposed gradients.
+    """Effective conductivity tensor of a bed region under mixed boundary conditions.
 
-    For each axis a unit temperature gradient is imposed, ``T = g.x +
-    theta`` with ``theta`` periodic along axes where the box is periodic and
-    the region spans it, and ``theta = 0`` in slabs of particles at the
-    region's faces along the other axes. The steady network equations give
-    ``theta``; the mean flux of the region is
+    For each axis ``beta`` a unit temperature gradient ``g = e_beta`` is
+    imposed, ``T = g.x + theta``, and the steady network equations give
+    ``theta`` with mixed boundary conditions:
 
-    .. math:: \\langle q \\rangle = -\\frac{1}{V} \\sum_c G_c (T_j - T_i)\\, l_c
-              = -K g
+    - *periodic* along axes where the box is periodic and the region spans
+      it;
+    - *held* (``theta = 0``) on the two faces normal to ``beta``;
+    - *insulated* on the other (lateral) faces.
 
-    with ``l_c`` the branch vector, which yields one column of ``K`` per
-    gradient. The normal fabric tensor ``N = <n n>`` of the same contacts is
-    returned beside it.
+    Each non-periodic face of the region is either a *window* face, crossed
+    by contacts to particles outside the region, or a *surface* face, crossed
+    by none (a free surface of the bed, or a window face beyond the bed):
+
+    - A window face normal to ``beta`` is held by its outside neighbours: a
+      contact from an inside particle to one outside joins it to a node at
+      the affine temperature ``g.x`` of the outside end.
+    - A surface face normal to ``beta`` is held in a slab: the particles whose
+      centres lie within ``boundary_width`` of the outermost centre have
+      ``theta = 0``, and the held plane is the slab's inner face.
+    - A lateral surface face is insulated: nothing crosses it.
+    - A lateral window face is insulated for the fluctuation, without
+      cutting its contacts: the outside end of a crossing contact follows
+      the inside end (``theta_out = theta_in``, the discrete
+      ``d theta / dn = 0``), so the contact carries the affine flux
+      ``G g.l`` of its branch. A lattice is then neither truncated nor
+      constrained at the face, and a homogeneous medium of any orientation
+      keeps its uniform gradient. A connected cluster with no held node (a
+      gradient along a periodic axis) must have zero net heat in steady
+      state; the mean of its crossing fluxes is subtracted.
+
+    The mean flux over the sample is
+
+    .. math:: \\langle q \\rangle = -\\frac{1}{V_\\beta}
+              \\sum_c w_c\\, G_c (T_{out} - T_{in})\\, l_c = -K g
+
+    with ``l_c`` the branch vector and ``w_c`` the fraction of the branch
+    inside the sample: 1 for contacts inside, the part up to the face for
+    contacts that cross a window face, and only the part between the held
+    planes along ``beta``. With this weighting the sum equals the heat
+    through the held planes times their distance (discrete divergence
+    theorem), so ``K_{beta beta}`` is the flux density through the sample
+    per unit gradient. ``V_beta`` is the product of:
+
+    - along periodic axes spanned by the region: the box length;
+    - along ``beta`` when not periodic: the distance between the held planes
+      (window faces, or the inner faces of the slabs);
+    - along the other non-periodic axes: from face to face, where a window
+      face is the region's face and a surface face lies one *contact radius*
+      beyond the outermost conducting centre: the distance from a
+      particle's centre to its contact planes, averaged over its contacts
+      with weights ``|n_a|`` (``n`` the contact normal). It is the radius
+      for touching spheres, close to it for a random bed, and ``s_a/2`` on a
+      lattice of spacing ``s_a``, so overlapping spheres are not counted
+      twice.
+
+    One column of ``K`` follows per gradient; the raw tensor need not be
+    symmetric with held faces, and its symmetric part is returned. The
+    affine estimate is the same average with ``theta = 0``. The
+    normal fabric tensor ``N = <n n>`` of the same contacts (weighted by
+    ``w``) is returned beside it.
 
     Parameters
     ----------
     network : ThermalNetwork
     region : ((3,), (3,)) array_like, optional, m
         ``(lo, hi)`` of a box; particles whose centres lie inside take part.
-        Default all particles.
+        Default all particles (every non-periodic face is then a surface
+        face).
     boundary_width : float, optional, m
-        Thickness of the held slabs; default the largest particle diameter.
+        Thickness of the held slabs at surface faces normal to the gradient;
+        default the largest particle diameter. It is reduced to a quarter of
+        the span between the two faces' outermost centres (or window faces)
+        when larger, so that a thin bed keeps a sample between the slabs.
     volume : float, optional, m^3
-        Volume for the mean flux; default the region (periodic axes: the
-        box length; otherwise the particles' extent, centres +- radii).
+        If given, used as ``V_beta`` for every column and for the affine
+        bound instead of the volumes above.
 
     Returns
     -------
     ConductivityTensor
+        ``volume`` is the volume of the region (the lateral rule on every
+        non-periodic axis); ``n_fixed`` counts the distinct particles held
+        for at least one gradient (slab particles and outside neighbours
+        across window faces); ``boundary`` names each axis ``"periodic"``,
+        ``"window"``, ``"surface"``, or ``"window/surface"`` and
+        ``"surface/window"`` (lower/upper face) when the faces differ.
 
     Notes
     -----
-    For a periodic simple cubic lattice of spacing ``s`` with conductance
-    ``G`` per contact, ``K = (G / s) I``.
+    The contacts are counted by the part of their branch inside the sample,
+    so a simple cubic lattice of spacing ``s`` with conductance ``G`` per
+    contact gives ``K = (G / s) I`` in a periodic box, in a box with free
+    surfaces, and in any window whose faces lie between lattice planes; a
+    face-centred cubic lattice with nearest-neighbour distance ``s`` gives
+    ``2 sqrt(2) G / s I``. A thin bed with insulated top and bottom is not
+    pinned to the affine field: ``K`` relaxes as in the free slab.
 
     .. versionadded:: 0.1
 
@@ -438,112 +523,214 @@ def conductivity_tensor(network: ThermalNetwork, *, region=None, boundary_width=
     net = network
     pos, radii = net.positions, net.radii
     n_all = net.n_particles
+    box_len = net.box_hi - net.box_lo
     if region is None:
         inside = np.ones(n_all, dtype=bool)
-        lo_r = hi_r = None
+        lo_w, hi_w = np.full(3, -np.inf), np.full(3, np.inf)
     else:
-        lo_r, hi_r = (np.asarray(v, dtype=np.float64).reshape(3) for v in region)
-        if np.any(hi_r <= lo_r):
+        lo_w, hi_w = (np.asarray(v, dtype=np.float64).reshape(3) for v in region)
+        if np.any(hi_w <= lo_w):
             raise ValueError(f"`region` must be (lo, hi) with hi > lo (m); got {region!r}")
-        inside = np.all((pos >= lo_r) & (pos <= hi_r), axis=1)
+        inside = np.all((pos >= lo_w) & (pos <= hi_w), axis=1)
     idx = np.flatnonzero(inside)
     if idx.size < 2:
         raise ValueError(f"the region holds {idx.size} particles; need at least 2")
-    box_len = net.box_hi - net.box_lo
     through = []
     for ax in range(3):
-        spans = region is None or (lo_r[ax] <= net.box_lo[ax] + 1e-12 * box_len[ax]
-                                   and hi_r[ax] >= net.box_hi[ax] - 1e-12 * box_len[ax])
+        spans = region is None or (lo_w[ax] <= net.box_lo[ax] + 1e-12 * box_len[ax]
+                                   and hi_w[ax] >= net.box_hi[ax] - 1e-12 * box_len[ax])
         through.append(bool(net.periodic[ax] and spans))
-    # contacts inside the region, conducting, not wrapping along a non-through axis
-    rowmap = np.full(n_all, -1, dtype=np.int64)
-    rowmap[idx] = np.arange(idx.size)
-    ci, cj = rowmap[net.i], rowmap[net.j]
-    keep = (ci >= 0) & (cj >= 0) & (net.conductance > 0)
-    wrap = np.abs(pos[net.j] - pos[net.i] - net.branch)
-    for ax in range(3):
-        if not through[ax]:
-            keep &= wrap[:, ax] <= 1e-9 * max(box_len[ax], 1e-300) + 1e-300
-    ci, cj, G, l = ci[keep], cj[keep], net.conductance[keep], net.branch[keep]
+    bounded = [ax for ax in range(3) if not through[ax]]
     n = idx.size
     p = pos[idx]
-    # held slabs
+    rowmap = np.full(n_all, -1, dtype=np.int64)
+    rowmap[idx] = np.arange(n)
+
+    # conducting contacts with at least one end inside
+    sel = (net.conductance > 0) & ((rowmap[net.i] >= 0) | (rowmap[net.j] >= 0))
+    cid = np.flatnonzero(sel)
+    ri, rj = rowmap[net.i[cid]], rowmap[net.j[cid]]
+    Gc, lc = net.conductance[cid], net.branch[cid]
+    dist = np.linalg.norm(lc, axis=1)
+    rad_i, rad_j = radii[net.i[cid]], radii[net.j[cid]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h_i = np.where(dist > 0, (dist ** 2 + rad_i ** 2 - rad_j ** 2) / (2.0 * dist), 0.0)
+    h_i = np.clip(h_i, 0.0, dist)                 # centre of i to the contact plane
+    h_j = dist - h_i
+
+    def _exit(start, vec):
+        """Parameter, axis and side (1: upper) where ``start + t vec`` leaves the region."""
+        t = np.full((len(start), 3), np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for ax in bounded:
+                v = vec[:, ax]
+                t[:, ax] = np.where(v > 0, (hi_w[ax] - start[:, ax]) / v,
+                                    np.where(v < 0, (lo_w[ax] - start[:, ax]) / v, np.inf))
+        a = np.argmin(t, axis=1)
+        te = t[np.arange(len(start)), a]
+        side = (vec[np.arange(len(start)), a] > 0).astype(np.int64)
+        return te, a, side
+
+    t_i, ax_i, sd_i = _exit(pos[net.i[cid]], lc)
+    t_j, ax_j, sd_j = _exit(pos[net.j[cid]], -lc)
+    tol = 1.0 - 1e-12
+    internal = (ri >= 0) & (rj >= 0) & (t_i >= tol)
+    x_i = (ri >= 0) & ~internal & (t_i < tol)       # crossing edges from the i end
+    x_j = (rj >= 0) & ~internal & (t_j < tol)       # ... from the j end
+    # internal contacts (rows a -> b, branch l)
+    ia, ib, Gi, li = ri[internal], rj[internal], Gc[internal], lc[internal]
+    # crossing edges: inside node, outward branch, exit fraction, face
+    e_node = np.concatenate([ri[x_i], rj[x_j]])
+    e_vec = np.concatenate([lc[x_i], -lc[x_j]])
+    e_G = np.concatenate([Gc[x_i], Gc[x_j]])
+    e_t = np.concatenate([t_i[x_i], t_j[x_j]])
+    e_ax = np.concatenate([ax_i[x_i], ax_j[x_j]])
+    e_side = np.concatenate([sd_i[x_i], sd_j[x_j]])
+    e_out = np.concatenate([net.j[cid][x_i], net.i[cid][x_j]])
+    n_contacts = int(np.count_nonzero(internal | x_i | x_j))
+
+    # contact radius of each conducting particle along each axis: the distance from its centre
+    # to its contact planes, averaged over its contacts with weights |n_a|
+    na = np.abs(lc) / np.where(dist > 0, dist, 1.0)[:, None]
+    ends = [(ia, h_i[internal], na[internal]), (ib, h_j[internal], na[internal]),
+            (ri[x_i], h_i[x_i], na[x_i]), (rj[x_j], h_j[x_j], na[x_j])]
+    hsum, hw = np.zeros((n, 3)), np.zeros((n, 3))
+    for node, h, w in ends:
+        for ax in range(3):
+            hsum[:, ax] += np.bincount(node, h * w[:, ax], minlength=n)
+            hw[:, ax] += np.bincount(node, w[:, ax], minlength=n)
+    cond = np.bincount(np.concatenate([e[0] for e in ends]), minlength=n) > 0
+    if cond.any():
+        hmean = np.zeros(n)
+        for node, h, _ in ends:
+            hmean += np.bincount(node, h, minlength=n)
+        hmean[cond] /= np.bincount(np.concatenate([e[0] for e in ends]), minlength=n)[cond]
+        rho = np.where(hw > 0, hsum / np.where(hw > 0, hw, 1.0), hmean[:, None])[cond]
+        pc = p[cond]
+    else:
+        pc, rho = p, np.repeat(radii[idx][:, None], 3, axis=1)
+
+    # faces: "window" if a crossing edge leaves through it, else "surface"
+    window = np.zeros((3, 2), dtype=bool)
+    for ax in bounded:
+        for s in (0, 1):
+            window[ax, s] = bool(np.any((e_ax == ax) & (e_side == s)))
+    L_mat = box_len.astype(np.float64).copy()
+    c_lo, c_hi = pc.min(axis=0), pc.max(axis=0)
+    for ax in bounded:
+        lo_f = lo_w[ax] if window[ax, 0] else float(np.min(pc[:, ax] - rho[:, ax]))
+        hi_f = hi_w[ax] if window[ax, 1] else float(np.max(pc[:, ax] + rho[:, ax]))
+        L_mat[ax] = hi_f - lo_f
+    V_mat = float(np.prod(L_mat)) if volume is None else float(volume)
+    if not V_mat > 0:
+        raise ValueError(f"`volume` must be positive (m^3); got {V_mat!r}")
     if boundary_width is None:
         boundary_width = 2.0 * float(np.max(radii[idx]))
-    held = np.zeros(n, dtype=bool)
-    ext = np.empty(3)
-    for ax in range(3):
-        if through[ax]:
-            ext[ax] = box_len[ax]
-            continue
-        lo_a = p[:, ax].min() if lo_r is None else lo_r[ax]
-        hi_a = p[:, ax].max() if hi_r is None else hi_r[ax]
-        held |= (p[:, ax] <= lo_a + boundary_width) | (p[:, ax] >= hi_a - boundary_width)
-        ext[ax] = ((hi_r[ax] - lo_r[ax]) if lo_r is not None
-                   else float(np.max(p[:, ax] + radii[idx]) - np.min(p[:, ax] - radii[idx])))
-    V = float(np.prod(ext)) if volume is None else float(volume)
-    if not V > 0:
-        raise ValueError(f"`volume` must be positive (m^3); got {V!r}")
-    W = sp.coo_matrix((np.concatenate([G, G]), (np.concatenate([ci, cj]), np.concatenate([cj, ci]))),
+
+    W = sp.coo_matrix((np.concatenate([Gi, Gi]), (np.concatenate([ia, ib]), np.concatenate([ib, ia]))),
                       shape=(n, n)).tocsr()
-    # gauge: one held node per component without held nodes
+    wsum = np.asarray(W.sum(axis=1)).ravel()
     ncomp, comp = connected_components(W, directed=False)
-    has_held = np.zeros(ncomp, dtype=bool)
-    has_held[comp[held]] = True
-    first = np.full(ncomp, -1, dtype=np.int64)
     order = np.arange(n)[::-1]
+    first = np.full(ncomp, -1, dtype=np.int64)
     first[comp[order]] = order
-    pin = first[~has_held]
-    fixed = held.copy()
-    fixed[pin] = True
-    free = np.flatnonzero(~fixed)
+
     K = np.zeros((3, 3))
-    if free.size:
-        L = (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
-        Lff = L[free][:, free].tocsc()
-        B = np.zeros((n, 3))
-        for beta in range(3):
-            gl = G * l[:, beta]
-            B[:, beta] = np.bincount(ci, gl, minlength=n) - np.bincount(cj, gl, minlength=n)
-        if free.size <= _STEADY_DIRECT_MAX:
-            from scipy.sparse.linalg import splu
-            theta_f = splu(Lff).solve(np.ascontiguousarray(B[free]))
-        else:
+    Kaff = np.zeros((3, 3))
+    held_any = np.zeros(n, dtype=bool)
+    held_out = []
+    for beta in range(3):
+        held = np.zeros(n, dtype=bool)
+        P_lo, P_hi = -np.inf, np.inf
+        if not through[beta]:
+            ref_lo = lo_w[beta] if window[beta, 0] else c_lo[beta]
+            ref_hi = hi_w[beta] if window[beta, 1] else c_hi[beta]
+            w = min(float(boundary_width), 0.25 * float(ref_hi - ref_lo))
+            P_lo = ref_lo if window[beta, 0] else ref_lo + w
+            P_hi = ref_hi if window[beta, 1] else ref_hi - w
+            if not window[beta, 0]:
+                held |= p[:, beta] <= P_lo
+            if not window[beta, 1]:
+                held |= p[:, beta] >= P_hi
+        dirich = e_ax == beta
+        if through[beta]:
+            dirich[:] = False
+        neum = ~dirich
+        held_any |= held
+        held_out.append(e_out[dirich])
+        anchored = np.zeros(ncomp, dtype=bool)
+        anchored[comp[held]] = True
+        anchored[comp[e_node[dirich]]] = True
+        # lateral window faces: theta_out = theta_in; a cluster with no held node must have
+        # zero net heat in steady state, so its mean crossing flux is subtracted
+        gl_e = e_G * e_vec[:, beta]
+        mu = np.zeros(e_G.size)
+        sub = neum & ~anchored[comp[e_node]]
+        if np.any(sub):
+            cs = comp[e_node[sub]]
+            mu[sub] = -(np.bincount(cs, gl_e[sub], minlength=ncomp)[cs]
+                        / np.bincount(cs, e_G[sub], minlength=ncomp)[cs])
+        gl = Gi * li[:, beta]
+        B = (np.bincount(ia, gl, minlength=n) - np.bincount(ib, gl, minlength=n)
+             + np.bincount(e_node, gl_e + e_G * mu * neum, minlength=n))
+        dg = wsum + np.bincount(e_node[dirich], e_G[dirich], minlength=n)
+        # gauge: one pinned node per cluster without held nodes or held edges
+        fixed = held.copy()
+        fixed[first[~anchored]] = True
+        free = np.flatnonzero(~fixed)
+        theta = np.zeros(n)
+        if free.size:
             Wf = W[free][:, free].tocsr()
-            Wf.sort_indices()
-            d = np.asarray(L.diagonal())[free]
-            wrow = np.asarray(Wf.sum(axis=1)).ravel()
-            theta_f = np.zeros((free.size, 3))
-            nf = free.size
-            bounds = _k.chunk_bounds(nf, 64)
-            work = [np.empty(nf) for _ in range(4)]
-            tol = 1e-10 * float(np.max(box_len))
-            for beta in range(3):
+            if free.size <= _STEADY_DIRECT_MAX:
+                from scipy.sparse.linalg import splu
+                A = (sp.diags(dg[free]) - Wf).tocsc()
+                theta[free] = splu(A).solve(np.ascontiguousarray(B[free]))
+            else:
+                Wf.sort_indices()
+                wrow = np.asarray(Wf.sum(axis=1)).ravel()
+                nf = free.size
+                bounds = _k.chunk_bounds(nf, 64)
+                work = [np.empty(nf) for _ in range(4)]
                 x = np.zeros(nf)
                 it = _k.pcg_solve(Wf.indptr.astype(np.int64), Wf.indices.astype(np.int32),
-                                  Wf.data.astype(np.float64), d, wrow,
-                                  np.ascontiguousarray(B[free, beta]), x, tol, 20 * nf, bounds,
-                                  *work, np.empty(64), np.empty(64), np.zeros(1))
+                                  Wf.data.astype(np.float64), np.ascontiguousarray(dg[free]), wrow,
+                                  np.ascontiguousarray(B[free]), x, 1e-10 * float(np.max(L_mat)),
+                                  20 * nf, bounds, *work, np.empty(64), np.empty(64), np.zeros(1))
                 if it > 20 * nf:
                     raise RuntimeError("conductivity_tensor: CG did not converge")
-                theta_f[:, beta] = x
-        theta = np.zeros((n, 3))
-        theta[free] = theta_f
-    else:
-        theta = np.zeros((n, 3))
-    for beta in range(3):
-        dT = l[:, beta] + theta[cj, beta] - theta[ci, beta]
-        K[:, beta] = (G * dT) @ l / V
+                theta[free] = x
+        # weighted flux: internal contacts, then crossing edges
+        dT_i = li[:, beta] + theta[ib] - theta[ia]
+        dT_e = np.where(dirich, e_vec[:, beta] - theta[e_node], e_vec[:, beta] + mu)
+        if through[beta]:
+            w_i, w_e = np.ones(Gi.size), e_t
+        else:
+            w_i = _segment_fraction(p[ia, beta], li[:, beta], 1.0, P_lo, P_hi)
+            w_e = _segment_fraction(p[e_node, beta], e_vec[:, beta], e_t, P_lo, P_hi)
+        V_b = V_mat
+        if volume is None and not through[beta]:
+            V_b = V_mat / L_mat[beta] * (P_hi - P_lo)
+        K[:, beta] = ((w_i * Gi * dT_i) @ li + (w_e * e_G * dT_e) @ e_vec) / V_b
+        Kaff[:, beta] = ((w_i * Gi * li[:, beta]) @ li + (w_e * e_G * e_vec[:, beta]) @ e_vec) / V_b
     asym = float(np.linalg.norm(K - K.T) / np.linalg.norm(K)) if np.any(K) else 0.0
     Ks = 0.5 * (K + K.T)
-    affine = (l * G[:, None]).T @ l / V
-    dist = np.linalg.norm(l, axis=1)
-    nrm = l / np.where(dist > 0, dist, 1.0)[:, None]
-    fabric = nrm.T @ nrm / max(nrm.shape[0], 1)
+    affine = 0.5 * (Kaff + Kaff.T)
+    wl = np.concatenate([np.ones(Gi.size), e_t])
+    lall = np.concatenate([li, e_vec])
+    d_all = np.linalg.norm(lall, axis=1)
+    nrm = lall / np.where(d_all > 0, d_all, 1.0)[:, None]
+    fabric = (nrm * wl[:, None]).T @ nrm / max(float(wl.sum()), 1e-300)
     kw, kv = _eig_desc(Ks)
     fw, fv = _eig_desc(fabric)
+    n_fixed = int(held_any.sum()) + int(np.unique(np.concatenate(held_out)).size)
+    names = []
+    for ax in range(3):
+        if through[ax]:
+            names.append("periodic")
+        else:
+            lo_n, hi_n = ("window" if window[ax, s] else "surface" for s in (0, 1))
+            names.append(lo_n if lo_n == hi_n else f"{lo_n}/{hi_n}")
     return ConductivityTensor(tensor=Ks, eigenvalues=kw, eigenvectors=kv, affine=affine, fabric=fabric,
-                              fabric_eigenvalues=fw, fabric_eigenvectors=fv, volume=V,
-                              n_particles=int(n), n_contacts=int(G.size), n_fixed=int(held.sum()),
-                              asymmetry=asym,
-                              boundary=tuple("periodic" if t else "slabs" for t in through))
+                              fabric_eigenvalues=fw, fabric_eigenvectors=fv, volume=V_mat,
+                              n_particles=int(n), n_contacts=n_contacts, n_fixed=n_fixed,
+                              asymmetry=asym, boundary=tuple(names))
