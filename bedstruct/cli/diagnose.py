@@ -355,17 +355,22 @@ def run(args) -> int:
         out["emulator"] = amortised.to_json()
     html, js = write_report(diagnosis_report(diag, amortised=amortised), args.out)
     _write_json(f"{args.out}/diagnosis.json", out)
+    caveat = None if amortised is None else amortised.caveat
     if args.json:
         extra = {} if amortised is None else {
+            "emulator_trusted": amortised.trusted,
+            "emulator_loo_rmse_sigma": _short(amortised.loo_rmse_sigma),
+            "emulator_loo_within_2sigma": _short(amortised.loo_within_2sigma),
             "emulator_confirm_rmse_sigma": _short(amortised.check.rmse_sigma),
             "emulator_confirm_within_2sigma": _short(amortised.check.within_2sigma),
             "library_runs": amortised.library_runs}
-        print_json(to_jsonable(dict(compact_answer(diag), simulator=diag.simulator,
+        print_json(to_jsonable(dict(compact_answer(diag, caveat), simulator=diag.simulator,
                                report=str(html), **extra)))
     else:
-        for line in answer_lines(diag):
+        for line in answer_lines(diag, caveat=caveat):
             print(line)
         if amortised is not None:
+            print(amortised.emulator_line())
             print(amortised.summary_line())
         print(f"Report: {html} (statistics in its appendix; full answer in "
               f"{args.out}/diagnosis.json)")

@@ -31,7 +31,14 @@ from .run_design import design_spec
 from .run_library import build_library, load_library
 
 __all__ = ["AmortisedDiagnosis", "diagnose_with_library", "library_emulator",
-           "confirming_runs"]
+           "confirming_runs", "UNTRUSTED_LOO_RMSE_SIGMA", "UNTRUSTED_CONFIRM_RMSE_SIGMA"]
+
+#: An emulator whose leave-one-point-out error (RMS of the standardised errors, 1 when
+#: its stated uncertainty is right) is above this is overconfident: its answer is not to
+#: be trusted.
+UNTRUSTED_LOO_RMSE_SIGMA = 3.0
+#: Likewise for the RMS of the standardised errors of its prediction of the confirming rerun.
+UNTRUSTED_CONFIRM_RMSE_SIGMA = 3.0
 
 
 @dataclass(frozen=True)
@@ -103,11 +110,43 @@ class AmortisedDiagnosis:
                 i += 1
         return rows
 
+    @property
+    def caveat(self) -> str | None:
+        """Why the answer is not to be trusted, or ``None``: the emulator is overconfident
+        when its leave-one-point-out error is above :data:`UNTRUSTED_LOO_RMSE_SIGMA` or
+        its prediction of the confirming rerun is off by more than
+        :data:`UNTRUSTED_CONFIRM_RMSE_SIGMA` (RMS, in units of its stated uncertainty)."""
+        why = []
+        if np.isfinite(self.loo_rmse_sigma) and self.loo_rmse_sigma > UNTRUSTED_LOO_RMSE_SIGMA:
+            why.append(f"its leave-one-out error is {self.loo_rmse_sigma:.3g} times its stated "
+                       "uncertainty")
+        rz = float(self.check.rmse_sigma)
+        if np.isfinite(rz) and rz > UNTRUSTED_CONFIRM_RMSE_SIGMA:
+            why.append(f"it missed the confirming rerun by {rz:.3g} times its stated "
+                       "uncertainty (RMS)")
+        if not why:
+            return None
+        return ("the emulator is overconfident (" + "; ".join(why) + "): rebuild the run "
+                "library (more runs, or a narrower design) or diagnose without --library")
+
+    @property
+    def trusted(self) -> bool:
+        """Whether the emulator's answer may be trusted (no :attr:`caveat`)."""
+        return self.caveat is None
+
+    def emulator_line(self) -> str:
+        """One plain line: the emulator's leave-one-point-out error."""
+        v = self.loo_rmse_sigma
+        figure = f"{v:.0f}" if v >= 10 else f"{v:.2f}"
+        return (f"Emulator: leave-one-out error {figure} of its stated uncertainty "
+                f"({100 * self.loo_within_2sigma:.0f} % within 2 sigma)")
+
     def to_json(self) -> dict:
         """The emulator's part of a diagnosis' JSON (the ``emulator`` block)."""
         return {"library": str(self.library), "library_runs": int(self.library_runs),
                 "loo_rmse_sigma": float(self.loo_rmse_sigma),
                 "loo_within_2sigma": float(self.loo_within_2sigma),
+                "trusted": self.trusted, "caveat": self.caveat,
                 "confirm_point": dict(self.point), "confirm_magnitudes": dict(self.magnitudes),
                 "confirm_runs": int(self.check.n_runs),
                 "confirm_rmse_sigma": float(self.check.rmse_sigma),

@@ -450,10 +450,12 @@ def answer(diag) -> Answer:
                   _next(diag), gap_rows(diag))
 
 
-def answer_lines(diag, *, n_where: int = 5) -> list[str]:
-    """The CLI's default output: the answer, one statement per line."""
+def answer_lines(diag, *, n_where: int = 5, caveat: str | None = None) -> list[str]:
+    """The CLI's default output: the answer, one statement per line (``caveat``: why the
+    answer is not to be trusted, said first)."""
     a = answer(diag)
-    out = [a.headline, "", "Where the simulation misses the measurements (largest first):"]
+    head = a.headline if caveat is None else f"NOT TO BE TRUSTED: {caveat}. {a.headline}"
+    out = [head, "", "Where the simulation misses the measurements (largest first):"]
     width = max((len(r["what"]) for r in a.where[:n_where]), default=0)
     for r in a.where[:n_where]:
         out.append(f"  {r['what']:<{width}}  measured {r['measured']}, simulated "
@@ -465,7 +467,7 @@ def answer_lines(diag, *, n_where: int = 5) -> list[str]:
     return out
 
 
-def compact_answer(diag) -> dict:
+def compact_answer(diag, caveat: str | None = None) -> dict:
     """The one-line JSON answer of ``bedstruct diagnose --json``.
 
     Keys: ``verdict``; ``partial`` (an attribution that leaves part of the held-out gap,
@@ -475,7 +477,8 @@ def compact_answer(diag) -> dict:
     90 % ``interval`` as fractions, ``None`` where there was no held-out gap before, with
     ``n_heldout`` and the p-value of that gap, ``p_heldout_gap_before``); ``where``
     (the three largest gaps: ``observable``, ``component``, ``measured``, ``simulated``,
-    ``unit``, ``z``); ``at_bound`` (recalibrated parameters that ended on a bound).
+    ``unit``, ``z``); ``at_bound`` (recalibrated parameters that ended on a bound); with
+    ``caveat`` (why the answer is not to be trusted) also ``trusted`` (false) and ``caveat``.
     """
     att, sh = diag.attribution, diag.shrink
 
@@ -496,7 +499,10 @@ def compact_answer(diag) -> dict:
               "z": fin(round(r["z"], 2))} for r in diag.where.ranked(3)]
     if mag is not None:
         mag["value"] = fin(mag["value"])
-    return {"verdict": att.verdict, "partial": bool(att.partial),
-            "effect": "+".join(e.effect for e in att.selected) if top is not None else None,
-            "magnitude": mag, "shrink": shrink, "where": where,
-            "at_bound": [k for k, r in diag.recalibration().items() if r["at_bound"]]}
+    out = {"verdict": att.verdict, "partial": bool(att.partial),
+           "effect": "+".join(e.effect for e in att.selected) if top is not None else None,
+           "magnitude": mag, "shrink": shrink, "where": where,
+           "at_bound": [k for k, r in diag.recalibration().items() if r["at_bound"]]}
+    if caveat is not None:
+        out.update(trusted=False, caveat=caveat)
+    return out

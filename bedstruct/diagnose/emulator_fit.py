@@ -200,8 +200,9 @@ def fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
         Further starts of the hyperparameter optimiser per component.
     reuse : bool
         Reuse the hyperparameters stored in the library folder by an earlier fit of the
-        same runs (``emulator.json``; then only the kernel matrices are factorised), and
-        store them after a fit.
+        same runs with the same settings (``emulator.json``: the same ``nu`` and
+        ``max_fit_runs``, and at least as many ``restarts``; then only the kernel matrices
+        are factorised), and store them after a fit.
     progress : bool
         Progress bar over the components.
     max_fit_runs : int
@@ -280,7 +281,8 @@ def _fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
         try:
             doc = json.loads(cache.read_text())
             if (doc.get("runs") == rh and doc.get("nu") == nu and doc.get("version") == _FIT_VERSION
-                    and doc.get("max_fit_runs") == max_fit_runs):
+                    and doc.get("max_fit_runs") == max_fit_runs
+                    and int(doc.get("restarts", 0)) >= int(restarts)):
                 stored = {int(k): np.asarray(v, float) for k, v in doc["theta"].items()}
         except (OSError, ValueError, KeyError):
             stored = {}
@@ -334,7 +336,7 @@ def _fit_emulator(library: RunLibrary, *, nu: float = 2.5, restarts: int = 0,
     if reuse and thetas and set(thetas) != set(stored):
         try:
             write_json_atomic(cache, {"version": _FIT_VERSION, "key": lib.key, "runs": rh, "nu": nu,
-                                      "max_fit_runs": max_fit_runs,
+                                      "max_fit_runs": max_fit_runs, "restarts": int(restarts),
                                       "theta": {str(k): v for k, v in thetas.items()}})
         except OSError:   # a read-only library is still usable
             log.info("emulator: could not store hyperparameters in %s", cache)

@@ -39,6 +39,17 @@ def _exit_with_parent(parent: int, interval: float = 2.0) -> None:
     threading.Thread(target=watch, name="bedstruct-parent-watch", daemon=True).start()
 
 
+def _init_worker(parent: int, ignore_interrupt: bool = False) -> None:
+    """Worker initializer: exit with the parent process ``parent``
+    (:func:`_exit_with_parent`) and, with ``ignore_interrupt``, ignore Ctrl-C (SIGINT),
+    which a terminal sends to every process of the group: the parent then decides
+    whether the runs in flight finish."""
+    _exit_with_parent(parent)
+    if ignore_interrupt:
+        import signal
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def run_calls(worker: Callable, calls: Sequence[tuple], jobs: int, *, progress: bool = False):
     """Run ``worker(*args)`` for each ``args`` of ``calls`` in ``jobs`` worker processes.
 

@@ -20,20 +20,33 @@ bedstruct version and a hash of the source code of the engine and the observatio
 operators. A library whose key differs from the current one is refused with a message
 naming what differs (:class:`StaleLibraryError`), never reused.
 
-Runs execute in local worker processes (:class:`concurrent.futures.ProcessPoolExecutor`)
+The simulator's part of the key: the settings of
+:class:`~bedstruct.diagnose.SurrogateSimulator` and
+:class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` (and of their subclasses);
+for any other simulator what its ``library_identity()`` method returns (JSON data: every
+setting its runs depend on; an optional ``library_code`` attribute names package source
+files they depend on), else its public attributes (a :func:`functools.partial`'s function
+and arguments; attributes named ``_...`` are internal state, left out), which must then
+have a JSON form: a simulator whose state has none is refused, asking for
+``library_identity()``. The source file that defines a simulator outside the package is
+hashed into the key's ``code``.
+
+Runs execute in local worker processes (``spawn``-ed, exiting with the build's process)
 or, with ``scheduler="tcp://host:port"`` (or a :class:`distributed.Client`), on a Dask
-distributed cluster.
+distributed cluster. One build works in a folder at a time (``build.lock``).
 
 .. versionadded:: 0.1
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import inspect
 import json
 import logging
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -86,38 +99,142 @@ def _code_hash(rel: str) -> str:
     return h.hexdigest()[:20]
 
 
-def _simulator_identity(simulator) -> tuple[dict, tuple[str, ...]]:
-    """The simulator's identity document and the source it depends on (package-relative)."""
+class _Unkeyable(Exception):
+    """A part of a simulator's state with no JSON form (its path and type)."""
+
+
+def _file_hash(path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:20]
+
+
+def _source_file(obj) -> Path | None:
+    """The source file that defines ``obj`` (a function, or the class of an object)."""
+    target = obj if inspect.isfunction(obj) or inspect.isclass(obj) else type(obj)
+    try:
+        f = inspect.getsourcefile(target)
+    except (OSError, TypeError):
+        return None
+    return Path(f).resolve() if f and Path(f).is_file() else None
+
+
+def _source_code(obj) -> dict[str, str]:
+    """``{"simulator_source": hash}`` of the file defining ``obj`` when that file lies
+    outside the package (the package's own code is keyed by its relative paths)."""
+    f = _source_file(obj)
+    if f is None or _ROOT in f.parents:
+        return {}
+    return {"simulator_source": _file_hash(f)}
+
+
+def _is_simulator(obj) -> bool:
+    from .engine_simulator import EngineSimulator
+    from .surrogate import SurrogateSimulator
+    return (isinstance(obj, (SurrogateSimulator, EngineSimulator, functools.partial))
+            or getattr(obj, "library_identity", None) is not None)
+
+
+def _state(value, where: str):
+    """The JSON form of a piece of a simulator's state, for its library key."""
+    from .measurements import MeasurementSet
+    if isinstance(value, MeasurementSet):
+        return "observables"   # keyed in the key document's own section
+    if _is_simulator(value):
+        return _simulator_identity(value)[0]
+    if isinstance(value, Mapping):
+        return {str(k): _state(v, f"{where}[{k!r}]") for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_state(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if inspect.isfunction(value) or inspect.isbuiltin(value):
+        return _function_identity(value)
+    try:
+        return to_jsonable(value, keep_nonfinite=True)
+    except (TypeError, ValueError) as exc:
+        raise _Unkeyable(f"{where} (a {type(value).__name__})") from exc
+
+
+def _function_identity(fn) -> dict:
+    ident: dict[str, Any] = {"function": f"{getattr(fn, '__module__', '')}."
+                                         f"{getattr(fn, '__qualname__', repr(fn))}"}
+    try:
+        ident["source"] = hashlib.sha256(inspect.getsource(fn).encode()).hexdigest()[:20]
+    except (OSError, TypeError):
+        ident["source"] = None
+    return ident
+
+
+def _instance_state(obj, skip: Sequence[str] = ()) -> dict:
+    """The public attributes of ``obj`` (but its ``design``, ``name`` and ``skip``) as JSON
+    (an attribute whose name starts with ``_`` is internal state, not a setting)."""
+    attrs = getattr(obj, "__dict__", None)
+    if attrs is None:
+        slots = [n for c in type(obj).__mro__ for n in getattr(c, "__slots__", ())]
+        attrs = {n: getattr(obj, n) for n in slots if hasattr(obj, n)}
+    return {k: _state(v, k) for k, v in sorted(attrs.items())
+            if k not in ("design", "name", *skip) and not k.startswith("_")}
+
+
+def _simulator_identity(simulator) -> tuple[dict, tuple[str, ...], dict[str, str]]:
+    """The simulator's identity document, the package source its runs depend on
+    (package-relative paths) and the hashes of its own source outside the package.
+
+    A simulator states its identity with a ``library_identity()`` method (JSON data:
+    every setting its runs depend on) and, optionally, ``library_code`` (package-relative
+    source paths). :class:`~bedstruct.diagnose.SurrogateSimulator` and
+    :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` (and their subclasses)
+    are keyed by their settings. A :func:`functools.partial` is keyed by its function and
+    arguments; any other callable by its attributes, which must then have a JSON form.
+    The file that defines the simulator is hashed when it lies outside the package.
+    """
+    from .engine_simulator import EngineSimulator
+    from .surrogate import SurrogateSimulator
     cls = type(simulator)
     ident: dict[str, Any] = {"name": getattr(simulator, "name", cls.__name__),
                              "class": f"{cls.__module__}.{cls.__qualname__}"}
-    own = getattr(simulator, "library_identity", None)
-    if own is not None:   # a simulator that states its own identity
-        ident["config"] = to_jsonable(own())
-        code = tuple(getattr(simulator, "library_code", ()))
-        return ident, code
-    if cls.__name__ == "SurrogateSimulator":
-        ident["config"] = {"noise": simulator.noise, "correlation": simulator.correlation}
-        return ident, _CODE["surrogate"]
-    if cls.__name__ == "EngineSimulator":
-        from . import engine_cache
-        ident["config"] = {
-            "preset": simulator.preset, "overrides": list(simulator.overrides),
-            "resolved_config": to_jsonable(simulator.base_cfg, keep_nonfinite=False),
-            "scales": {k: getattr(simulator, k) for k in (
-                "cohesion_scale", "speed_scale", "ageing_time_scale", "blade_time_scale",
-                "capillary_scale", "fines_scale", "wide_box", "seed_offset")},
-            "cache_schema": engine_cache._CACHE_SCHEMA,
-            "model_revisions": dict(engine_cache._MODEL_REVISIONS),
-            "deck_revision": engine_cache._DECK_REVISION}
-        return ident, tuple(engine_cache._CODE["engine"]) + tuple(engine_cache._CODE["observation"])
-    # any other callable: its own source file stands for its code
     try:
-        src = inspect.getsource(cls if not inspect.isfunction(simulator) else simulator)
-        ident["source"] = hashlib.sha256(src.encode()).hexdigest()[:20]
-    except (OSError, TypeError):
-        ident["source"] = None
-    return ident, ("diagnose/catalogue.py",)
+        own = getattr(simulator, "library_identity", None)
+        if own is not None:   # a simulator that states its own identity
+            ident["config"] = to_jsonable(own())
+            return ident, tuple(getattr(simulator, "library_code", ())), _source_code(simulator)
+        if isinstance(simulator, SurrogateSimulator):
+            ident["config"] = {"noise": simulator.noise, "correlation": simulator.correlation}
+            if cls is not SurrogateSimulator:
+                ident["state"] = _instance_state(simulator, ("noise", "correlation"))
+            return ident, _CODE["surrogate"], _source_code(simulator)
+        if isinstance(simulator, EngineSimulator):
+            from . import engine_cache
+            ident["config"] = {
+                "preset": simulator.preset, "overrides": list(simulator.overrides),
+                "resolved_config": to_jsonable(simulator.base_cfg, keep_nonfinite=False),
+                "scales": {k: getattr(simulator, k) for k in (
+                    "cohesion_scale", "speed_scale", "ageing_time_scale", "blade_time_scale",
+                    "capillary_scale", "fines_scale", "wide_box", "seed_offset")},
+                "cache_schema": engine_cache._CACHE_SCHEMA,
+                "model_revisions": dict(engine_cache._MODEL_REVISIONS),
+                "deck_revision": engine_cache._DECK_REVISION}
+            if simulator.options:   # options set on every call (none: the key as without)
+                ident["config"]["options"] = to_jsonable(simulator.options, keep_nonfinite=True)
+            return (ident, tuple(engine_cache._CODE["engine"])
+                    + tuple(engine_cache._CODE["observation"]), _source_code(simulator))
+        if isinstance(simulator, functools.partial):
+            inner, code, own_code = _simulator_identity(simulator.func)
+            ident["function"] = inner
+            ident["args"] = _state(list(simulator.args), "args")
+            ident["keywords"] = _state(dict(simulator.keywords), "keywords")
+            ident["state"] = _instance_state(simulator)
+            return ident, code, own_code
+        if inspect.isfunction(simulator):
+            ident.update(_function_identity(simulator))
+            return ident, ("diagnose/catalogue.py",), _source_code(simulator)
+        # any other callable: its class's source and its attributes
+        ident["source"] = _function_identity(cls)["source"]
+        ident["state"] = _instance_state(simulator)
+        return ident, ("diagnose/catalogue.py",), _source_code(simulator)
+    except _Unkeyable as exc:
+        raise ConfigError(
+            f"run library: the simulator {ident['name']!r} ({ident['class']}) cannot be keyed: "
+            f"its state {exc} has no JSON form, so a library of other settings could be "
+            f"reused for it; give it a library_identity() method that returns every setting "
+            f"its runs depend on (see bedstruct.diagnose.run_library.build_library)") from None
 
 
 def _observables_document(design) -> dict:
@@ -160,14 +277,14 @@ def library_key_document(simulator, spec: DesignSpec, *, design=None) -> dict:
     design = design if design is not None else getattr(simulator, "design", None)
     if design is None:
         raise ConfigError("library key: the simulator has no `design` attribute; pass design=")
-    ident, code = _simulator_identity(simulator)
+    ident, code, own_code = _simulator_identity(simulator)
     cat = {}
     for e in _catalogue(spec.effects):
         cat[e.name] = {"magnitude": e.magnitude, "unit": e.unit, "prior": list(e.prior),
                        "signed": e.signed, "engine_map": to_jsonable(e.engine_map)}
     return {"schema": LIBRARY_SCHEMA, "simulator": ident, "catalogue": cat,
             "observables": _observables_document(design), "bedstruct_version": __version__,
-            "code": {rel: _code_hash(rel) for rel in code}}
+            "code": {**{rel: _code_hash(rel) for rel in code}, **own_code}}
 
 
 def library_key(document: Mapping) -> str:
@@ -305,8 +422,25 @@ def _longest_first(simulator, todo: list, costs: dict[int, float] | None = None)
     return sorted(todo, key=lambda t: -rel[t[0]])
 
 
+def _read_meta(path: Path) -> dict:
+    """A library folder's ``library.json``; a ConfigError naming it when it is unreadable."""
+    f = path / "library.json"
+    try:
+        meta = json.loads(f.read_text())
+        if not isinstance(meta, dict) or not all(k in meta for k in ("key", "key_document",
+                                                                     "spec")):
+            raise ValueError("no key, key_document or spec")
+        DesignSpec.from_json(meta["spec"])
+        meta["key_document"]["observables"]
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+        raise ConfigError(f"run library {path}: {f} is unreadable ({type(exc).__name__}: "
+                          f"{exc}); it holds the library's key and design, so the runs cannot "
+                          f"be used without it: remove the folder and build it again") from None
+    return meta
+
+
 def _check_key(path: Path, key: str, doc: Mapping, spec: DesignSpec) -> None:
-    meta = json.loads((path / "library.json").read_text())
+    meta = _read_meta(path)
     if meta.get("key") != key:
         diff = _differences(meta.get("key_document", {}), doc)
         raise StaleLibraryError(
@@ -382,7 +516,9 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
         ``simulator(base, effects, seed) -> Observations`` with a ``design`` attribute
         (the observables), e.g. :class:`~bedstruct.diagnose.SurrogateSimulator` or
         :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator`. Must be picklable
-        for ``workers > 1`` or a ``scheduler``.
+        for ``workers > 1`` or a ``scheduler``. Its settings are part of the library key:
+        a simulator of another kind states them with a ``library_identity()`` method
+        (see the module's description).
     design_spec : DesignSpec
         The design (:func:`~bedstruct.diagnose.run_design.design_spec`).
     out_dir : path-like
@@ -392,7 +528,7 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     scheduler : str or distributed.Client, optional
         Address of a Dask distributed scheduler (``"tcp://host:port"``) or a client:
         the runs go to its workers instead of local processes (requires
-        ``dask[distributed]``).
+        ``dask[distributed]``). Not contacted when no run is missing.
     progress : bool
         Show a progress bar over the runs still to do (tqdm), advancing by each run's
         estimated cost so that its remaining time holds when the costly runs go first.
@@ -409,13 +545,20 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     StaleLibraryError
         The folder holds a library of another key (the message names what differs).
     ConfigError
-        The folder holds another design.
+        The folder holds another design; another build runs in it (the message names its
+        process); its ``library.json`` is unreadable; the simulator's settings cannot be
+        keyed; the scheduler cannot be reached (the message names the address).
 
     Notes
     -----
     Each run is written to ``runs/<hash>.json`` as soon as it returns (atomically: a
-    file is complete or absent), so a build that is interrupted loses only the runs in
-    flight; called again it runs only the missing ones. With several workers, runs are
+    file is complete or absent); called again a build runs only the missing ones, and
+    redoes a run whose file cannot be read (moved aside as ``<name>.unreadable``). With
+    several workers, at most one run per worker is handed out at a time: Ctrl-C (or a
+    failed run) starts nothing more, and the runs in flight finish and are saved (a
+    warning names them; a second Ctrl-C stops them, and they are lost). The workers are
+    started with ``spawn`` (a script must build under ``if __name__ == "__main__":``),
+    ignore Ctrl-C and exit when the build's process is killed. With several workers, runs are
     started longest first where the simulator estimates their cost (a
     ``relative_cost(base, effects)`` method, as
     :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` has).
@@ -440,20 +583,41 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     doc = library_key_document(simulator, spec, design=design)
     key = library_key(doc)
     (out / "runs").mkdir(parents=True, exist_ok=True)
-    if (out / "library.json").is_file():
-        _check_key(out, key, doc, spec)
-    else:
-        write_json_atomic(out / "library.json", {"schema": LIBRARY_SCHEMA, "key": key,
-                                                 "key_document": doc, "spec": spec.to_json(),
-                                                 "source": getattr(simulator, "name", "")})
+    meta = {"schema": LIBRARY_SCHEMA, "key": key, "key_document": doc, "spec": spec.to_json(),
+            "source": getattr(simulator, "name", "")}
+    if not _create_exclusive(out / "library.json", meta):
+        _check_key(out, key, doc, spec)   # made by an earlier (or a concurrent) build
     points = design_points(spec)
-    todo = [(i, p, s) for i, p in enumerate(points) for s in spec.seeds
-            if not (out / "runs" / _run_name(key, p, s)).is_file()]
+
+    def missing() -> list:
+        return [(i, p, s) for i, p in enumerate(points) for s in spec.seeds
+                if not _usable_run(out, _run_name(key, p, s), key)]
+
+    todo = missing()
+    lock = None
+    if todo:
+        lock = _BuildLock(out)
+        todo = missing()   # another build may have finished some runs meanwhile
+    try:
+        _run_todo(simulator, todo, out, key, workers=workers, scheduler=scheduler,
+                  progress=progress)
+    finally:
+        if lock is not None:
+            lock.release()
+    lib = load_library(out, key=key)   # the key checked above, whatever the runs changed
+    return _replace_stats(lib, n_new=len(todo), wall_s=time.perf_counter() - t0)
+
+
+def _run_todo(simulator, todo: list, out: Path, key: str, *, workers, scheduler,
+              progress) -> None:
+    """Run ``todo`` (``(index, point, seed)``) into ``out/runs``, each run saved as it returns."""
+    if not todo:
+        return
     parallel = scheduler is not None or int(workers) > 1
-    costs = _run_costs(simulator, todo) if todo and (progress or parallel) else {}
+    costs = _run_costs(simulator, todo) if progress or parallel else {}
     if parallel:
         todo = _longest_first(simulator, todo, costs)
-    bar = _CostBar(todo, costs) if progress and todo else None
+    bar = _CostBar(todo, costs) if progress else None
 
     def save(i, p, s, rec):
         write_json_atomic(out / "runs" / _run_name(key, p, s),
@@ -466,26 +630,211 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
         if scheduler is not None:
             _build_dask(simulator, todo, scheduler, save)
         elif int(workers) > 1 and len(todo) > 1:
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-            pool = ProcessPoolExecutor(int(workers))
-            try:
-                # the simulator travels with each run (small: its configuration, not its state)
-                futs = {pool.submit(_run_one, simulator, p, s): (i, p, s) for i, p, s in todo}
-                for f in as_completed(futs):
-                    save(*futs[f], f.result())
-            except BaseException:
-                # interrupted: drop the runs not started, do not wait for those in flight
-                pool.shutdown(wait=False, cancel_futures=True)
-                raise
-            pool.shutdown()
+            _build_local(simulator, todo, int(workers), save, out)
         else:
             for i, p, s in todo:
                 save(i, p, s, _run_one(simulator, p, s))
     finally:
         if bar is not None:
             bar.close()
-    lib = load_library(out, simulator, design=design)
-    return _replace_stats(lib, n_new=len(todo), wall_s=time.perf_counter() - t0)
+
+
+def _create_exclusive(path: Path, document: Mapping) -> bool:
+    """Write ``document`` to ``path`` unless the file exists (complete or absent, never
+    overwritten: of two builds starting together only one creates it); whether it did."""
+    if path.exists():
+        return False
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(to_jsonable(document), indent=1))
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        return False
+    except OSError:   # no hard links here: an exclusive create
+        try:
+            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            return False
+        with os.fdopen(fd, "w") as fh:
+            fh.write(tmp.read_text())
+    finally:
+        tmp.unlink(missing_ok=True)
+    return True
+
+
+class _BuildLock:
+    """``build.lock`` in a library folder while a build runs there: a second build of the
+    folder is refused, naming the process that holds the lock. A lock left by a process
+    of this host that is gone is taken over."""
+
+    NAME = "build.lock"
+
+    def __init__(self, folder: Path):
+        import socket
+        self.path = folder / self.NAME
+        self.mine = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.time()}
+        for _ in range(3):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+            except FileExistsError:
+                other = self._holder()
+                if other is not None and other.get("host") == self.mine["host"] \
+                        and not _alive(other.get("pid")):
+                    log.warning("run library %s: %s was left by process %s, which is gone; "
+                                "taken over", folder, self.NAME, other.get("pid"))
+                    self.path.unlink(missing_ok=True)
+                    continue
+                who = ("another process" if other is None else
+                       f"process {other.get('pid')} on {other.get('host')}")
+                raise ConfigError(
+                    f"run library {folder}: another build is running in this folder ({who}, "
+                    f"{self.path}); wait for it to finish, or remove {self.NAME} if no build "
+                    f"runs there") from None
+            with os.fdopen(fd, "w") as fh:
+                json.dump(self.mine, fh)
+            return
+        raise ConfigError(f"run library {folder}: could not take {self.path}")
+
+    def _holder(self) -> dict | None:
+        try:
+            return json.loads(self.path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def release(self) -> None:
+        if self._holder() == self.mine:
+            self.path.unlink(missing_ok=True)
+
+
+def _alive(pid) -> bool:
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, TypeError, ValueError, OverflowError):
+        return True
+    try:   # a zombie has finished
+        return " Z " not in Path(f"/proc/{int(pid)}/stat").read_text().split(")", 1)[1][:4]
+    except (OSError, IndexError):
+        return True
+
+
+#: Fields every run file has.
+_RUN_FIELDS = ("key", "point", "base", "effects", "seed", "observations")
+
+
+def _read_run(f: Path) -> dict:
+    """A run file's record; ValueError naming what is wrong when it is unreadable."""
+    try:
+        rec = json.loads(f.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ValueError(str(exc)) from None
+    if not isinstance(rec, dict):
+        raise ValueError("not a JSON object")
+    lacking = [k for k in _RUN_FIELDS if k not in rec]
+    if lacking:
+        raise ValueError(f"no {', '.join(lacking)}")
+    if not isinstance(rec["observations"], dict) or not isinstance(rec["base"], dict) \
+            or not isinstance(rec["effects"], dict):
+        raise ValueError("its observations, base or effects are not tables")
+    return rec
+
+
+def _usable_run(out: Path, name: str, key: str) -> bool:
+    """Whether ``out/runs/name`` holds a run; an unreadable one is moved aside
+    (``<name>.unreadable``) so that the build redoes that run."""
+    f = out / "runs" / name
+    if not f.is_file():
+        return False
+    try:
+        _read_run(f)
+    except ValueError as exc:
+        aside = f.with_name(f.name + ".unreadable")
+        f.replace(aside)
+        log.warning("run library %s: run file %s is unreadable (%s); moved to %s and run again",
+                    out, name, exc, aside.name)
+        return False
+    return True
+
+
+def _run_label(i: int, p: DesignPoint, s: int) -> str:
+    eff = ", ".join(f"{k} {v:.3g}" for k, v in p.effects.items()) or "no effect"
+    return f"design point {i} ({eff}), seed {s}"
+
+
+def _build_local(simulator, todo: list, workers: int, save, out: Path) -> None:
+    """Run ``todo`` in ``workers`` local processes, each run saved as it returns.
+
+    At most ``workers`` runs are handed to the processes at a time, so that an interrupt
+    (Ctrl-C) or a failed run starts nothing more: the runs in flight are waited for (the
+    warning names them) and saved; a second Ctrl-C stops them at once (they are lost).
+    The processes are started with ``spawn``, ignore Ctrl-C (the build decides) and exit
+    when the build's process is gone (:mod:`bedstruct.diagnose.process_pool`).
+    """
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    from .process_pool import _init_worker
+
+    n = min(workers, len(todo))
+    pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_init_worker, initargs=(os.getpid(), True))
+    queue, running = list(todo), {}
+    try:
+        try:
+            while queue or running:
+                while queue and len(running) < n:
+                    i, p, s = queue.pop(0)
+                    # the simulator travels with each run (its configuration, not its state)
+                    running[pool.submit(_run_one, simulator, p, s)] = (i, p, s, time.time())
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for f in done:
+                    i, p, s, _ = running.pop(f)
+                    save(i, p, s, f.result())
+        except BrokenProcessPool as exc:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise ConfigError(
+                f"run library {out}: a worker process of the build stopped ({exc}); the runs "
+                f"go to processes started with spawn, which import the main module again, so "
+                f"a script that builds with workers > 1 must do so under "
+                f"`if __name__ == \"__main__\":` (the runs saved so far are kept)") from None
+        except BaseException as exc:
+            _finish_in_flight(running, save, out, exc)
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+    except KeyboardInterrupt:
+        for proc in list((getattr(pool, "_processes", None) or {}).values()):
+            proc.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _finish_in_flight(running: dict, save, out: Path, why: BaseException) -> None:
+    """Wait for the runs in flight after an interrupt or a failed run and save each
+    (a KeyboardInterrupt while waiting is passed on: the runs left are lost)."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+    if not running:
+        return
+    now = time.time()
+    what = "; ".join(f"{_run_label(i, p, s)}, handed out {now - t0:.0f} s ago"
+                     for i, p, s, t0 in running.values())
+    cause = "interrupted" if isinstance(why, KeyboardInterrupt) else f"a run failed ({why!r})"
+    log.warning("run library %s: %s; nothing more is started. Waiting for the %d run(s) in "
+                "flight to finish and be saved: %s. Press Ctrl-C again to stop them now "
+                "(they are then lost)", out, cause, len(running), what)
+    while running:
+        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        for f in done:
+            i, p, s, _ = running.pop(f)
+            try:
+                rec = f.result()
+            except BaseException as exc:  # noqa: BLE001 - that run is lost, the others kept
+                log.warning("run library %s: %s failed (%r); not saved", out,
+                            _run_label(i, p, s), exc)
+                continue
+            save(i, p, s, rec)
 
 
 def _replace_stats(lib: RunLibrary, **kw) -> RunLibrary:
@@ -500,7 +849,15 @@ def _build_dask(simulator, todo, scheduler, save) -> None:
         raise ImportError("scheduler=: running a library on Dask needs dask[distributed] "
                           "(pip install 'bedstruct[dask]')") from exc
     own = not hasattr(scheduler, "submit")
-    client = Client(scheduler) if own else scheduler
+    if own:
+        try:
+            client = Client(scheduler)
+        except Exception as exc:  # noqa: BLE001 - any failure to reach it: named
+            raise ConfigError(f"--scheduler (scheduler=) {scheduler!r}: no Dask scheduler "
+                              f"could be reached at that address ({type(exc).__name__}: "
+                              f"{exc}); give tcp://host:port of a running scheduler") from None
+    else:
+        client = scheduler
     try:
         sim = client.scatter(simulator, broadcast=True)
         futs = {client.submit(_run_one, sim, p, s, pure=False): (i, p, s) for i, p, s in todo}
@@ -544,12 +901,19 @@ def load_library(path, simulator=None, *, design=None, key: str | None = None,
     ------
     StaleLibraryError
         Library key differs from the current one (the message names what differs), or
-        a run file of another key is found.
+        a run file of the design holds another key.
+    ConfigError
+        ``library.json`` or a run file of the design cannot be read (the message names it).
+
+    Notes
+    -----
+    Only the run files of the stored design's points and seeds are read; any other file
+    in ``runs`` is ignored, with a warning.
     """
     path = Path(path)
     if not (path / "library.json").is_file():
         raise ConfigError(f"run library {path}: no library.json (not a run library)")
-    meta = json.loads((path / "library.json").read_text())
+    meta = _read_meta(path)
     spec = DesignSpec.from_json(meta["spec"])
     if simulator is not None:
         doc = library_key_document(simulator, spec, design=design)
@@ -563,23 +927,45 @@ def load_library(path, simulator=None, *, design=None, key: str | None = None,
     points = design_points(spec)
     names = list(meta["key_document"]["observables"])
     ncomp = {n: int(v["n_components"]) for n, v in meta["key_document"]["observables"].items()}
+    # the design's runs, by file name: any other file is not read
+    expected = {_run_name(lib_key, p, s): (i, p, s) for i, p in enumerate(points)
+                for s in spec.seeds}
+    files = sorted((path / "runs").glob("*.json"))
+    foreign = [f.name for f in files if f.name not in expected]
+    if foreign:
+        log.warning("run library %s: %d run file(s) not of its design ignored (%s%s)", path,
+                    len(foreign), ", ".join(foreign[:3]), ", ..." if len(foreign) > 3 else "")
     rows, pidx, seeds, ys, walls, cpus = [], [], [], [], [], []
     inputs = spec.input_names
-    for f in sorted((path / "runs").glob("*.json")):
-        rec = json.loads(f.read_text())
+    for f in files:
+        if f.name not in expected:
+            continue
+        i, point, seed = expected[f.name]
+        try:
+            rec = _read_run(f)
+        except ValueError as exc:
+            raise ConfigError(f"run library {path}: run file {f.name} is unreadable ({exc}); "
+                              f"remove it, and a build runs it again") from None
         if rec.get("key") != lib_key:
             raise StaleLibraryError(f"run library {path}: run file {f.name} has key "
                                     f"{rec.get('key')}, the library {lib_key}; not reused")
-        x = [float(rec["base"].get(k, spec.base.get(k, 0.0))) for k in spec.varied]
-        x += [float(rec["effects"].get(e, 0.0)) for e in spec.effects]
+        try:
+            x = [float(rec["base"].get(k, spec.base.get(k, 0.0))) for k in spec.varied]
+            x += [float(rec["effects"].get(e, 0.0)) for e in spec.effects]
+            obs = rec["observations"]
+            y = []
+            for n in names:
+                v = obs.get(n)
+                y += ([np.nan] * ncomp[n] if v is None
+                      else [np.nan if a is None else float(a) for a in v])
+            if len(y) != sum(ncomp.values()):
+                raise ValueError("observations of other sizes than the library's observables")
+        except (TypeError, ValueError, AttributeError) as exc:
+            raise ConfigError(f"run library {path}: run file {f.name} is unreadable ({exc}); "
+                              f"remove it, and a build runs it again") from None
         rows.append(x)
-        pidx.append(int(rec["point"]))
-        seeds.append(int(rec["seed"]))
-        obs = rec["observations"]
-        y = []
-        for n in names:
-            v = obs.get(n)
-            y += [np.nan] * ncomp[n] if v is None else [np.nan if a is None else float(a) for a in v]
+        pidx.append(int(i))
+        seeds.append(int(seed))
         ys.append(y)
         walls.append(float(rec.get("wall_s", np.nan)))
         cpus.append(float(rec.get("cpu_s", np.nan)))

@@ -420,3 +420,293 @@ def test_a_library_made_by_other_code_is_replayed_only_when_asked_and_only_for_i
     (tmp_path / "library.json").write_text(json.dumps(meta))
     with pytest.raises(StaleLibraryError, match="library.json edited"):
         load_library(tmp_path, sim, replay=True)
+
+
+# ----------------------------------------------------------------------------- keys of any simulator
+class Shifted:
+    """The surrogate without noise, its output shifted by ``offset`` (a setting in its state)."""
+
+    name = "shifted"
+
+    def __init__(self, design, offset):
+        self.design = design
+        self.offset = offset
+        self.sim = SurrogateSimulator(design, noise=0.0)
+
+    def __call__(self, base, effects, seed):
+        obs = self.sim(base, effects, seed)
+        return Observations({k: np.asarray(v) + self.offset for k, v in obs.values.items()})
+
+
+class NoisySub(SurrogateSimulator):
+    """A subclass of the surrogate (its settings are the surrogate's)."""
+
+
+def _shifted(base, effects, seed, offset=0.0):
+    obs = SurrogateSimulator(_one_angle(), noise=0.0)(base, effects, seed)
+    return Observations({k: np.asarray(v) + offset for k, v in obs.values.items()})
+
+
+def test_a_simulators_settings_are_in_its_library_key_whatever_its_class(tmp_path):
+    """A user simulator is keyed by its attributes, a surrogate subclass by the surrogate's
+    settings, a partial by its function and arguments, each with the file that defines it;
+    one whose state has no JSON form is refused, naming the ``library_identity`` hook."""
+    import functools
+    import threading
+
+    from bedstruct.diagnose.run_library import library_key, library_key_document
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    build_library(Shifted(_one_angle(), 0.0), spec, tmp_path / "a", progress=False)
+    with pytest.raises(StaleLibraryError, match=r"simulator\.state\.offset: 0\.0 -> 100\.0"):
+        build_library(Shifted(_one_angle(), 100.0), spec, tmp_path / "a", progress=False)
+    build_library(NoisySub(_one_angle(), noise=0.0), spec, tmp_path / "b", progress=False)
+    with pytest.raises(StaleLibraryError, match=r"simulator\.config\.noise: 0\.0 -> 5\.0"):
+        build_library(NoisySub(_one_angle(), noise=5.0), spec, tmp_path / "b", progress=False)
+    docs = []
+    for offset in (0.0, 50.0):
+        p = functools.partial(_shifted, offset=offset)
+        p.design = _one_angle()
+        docs.append(library_key_document(p, spec))
+    assert library_key(docs[0]) != library_key(docs[1])
+    assert docs[0]["simulator"]["keywords"] == {"offset": 0.0}
+    assert docs[0]["simulator"]["function"]["function"].endswith("._shifted")
+    # the file defining a simulator outside the package is part of its code
+    assert "simulator_source" in docs[0]["code"]
+    assert "simulator_source" in library_key_document(Shifted(_one_angle(), 0.0), spec)["code"]
+    assert "simulator_source" not in library_key_document(SurrogateSimulator(_one_angle()),
+                                                          spec)["code"]
+    odd = Shifted(_one_angle(), 0.0)
+    odd._lock = threading.Lock()     # internal state (a leading underscore): not a setting
+    assert library_key(library_key_document(odd, spec)) == \
+        library_key(library_key_document(Shifted(_one_angle(), 0.0), spec))
+    odd.lock = threading.Lock()
+    with pytest.raises(ConfigError, match=r"state lock \(a lock\) has no JSON form.*"
+                                          r"library_identity\(\)"):
+        build_library(odd, spec, tmp_path / "c", progress=False)
+    assert not (tmp_path / "c").exists()
+
+
+def test_an_engine_simulators_options_are_in_its_library_key():
+    from bedstruct.diagnose.engine_simulator import EngineSimulator
+    from bedstruct.diagnose.run_library import library_key, library_key_document
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2)
+    plain = EngineSimulator(_one_angle(), {"preset": "tiny"})
+    other = EngineSimulator(_one_angle(), {"preset": "tiny"})
+    other.options = {"contact.friction": 0.9}
+    a, b = library_key_document(plain, spec), library_key_document(other, spec)
+    assert "options" not in a["simulator"]["config"]   # none set: the key as before
+    assert b["simulator"]["config"]["options"] == {"contact.friction": 0.9}
+    assert library_key(a) != library_key(b)
+
+
+# ----------------------------------------------------------------------------- interrupts
+_SLOW_BUILD = """
+import os, sys, time
+sys.path[:0] = {paths!r}
+from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator
+from bedstruct.diagnose.run_design import design_spec
+from bedstruct.diagnose.run_library import build_library
+from test_run_library import _one_angle
+
+
+class Slow:
+    name = "slow"
+
+    def __init__(self, marks, delay):
+        self.design = _one_angle()
+        self.marks = marks
+        self.delay = delay
+
+    def __call__(self, base, effects, seed):
+        open(os.path.join(self.marks, f"{{os.getpid()}}-{{time.time_ns()}}"), "w").close()
+        time.sleep(self.delay)
+        return SurrogateSimulator(self.design)(base, effects, seed)
+
+
+if __name__ == "__main__":
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=4, n_per_effect=4,
+                       replicates=2)
+    build_library(Slow(sys.argv[2], float(sys.argv[3])), spec, sys.argv[1], workers=2,
+                  progress=False)
+"""
+
+
+def _slow_build(tmp_path, delay):
+    """A build of slow runs in 2 worker processes, in a process of its own, once both
+    workers have started a run: the process, the folder of run-start marks, the library."""
+    import os
+    import subprocess
+    import sys
+    import time
+    script = tmp_path / "slow_build.py"
+    script.write_text(_SLOW_BUILD.format(paths=[str(Path(__file__).parent), str(ROOT)]))
+    marks, lib = tmp_path / "marks", tmp_path / "lib"
+    marks.mkdir()
+    err = tmp_path / "stderr.txt"
+    with err.open("w") as fh:   # a file: a worker that outlives the build holds no pipe open
+        proc = subprocess.Popen([sys.executable, str(script), str(lib), str(marks), str(delay)],
+                                stderr=fh, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    t0 = time.time()
+    while len(list(marks.iterdir())) < 2:
+        assert proc.poll() is None, err.read_text()
+        assert time.time() - t0 < 120, "the workers started no run"
+        time.sleep(0.05)
+    return proc, marks, lib
+
+
+def _gone(pid) -> bool:
+    import os
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True
+
+
+def test_ctrl_c_during_a_parallel_build_saves_the_runs_in_flight_and_starts_no_more(tmp_path):
+    import signal
+    import time
+    delay = 2.0
+    proc, marks, lib = _slow_build(tmp_path, delay)
+    proc.send_signal(signal.SIGINT)
+    t0 = time.time()
+    proc.wait(timeout=60)
+    err = (tmp_path / "stderr.txt").read_text()
+    assert proc.returncode != 0 and "KeyboardInterrupt" in err
+    assert time.time() - t0 < delay + 5.0            # no run queued behind them was waited for
+    assert len(list(marks.iterdir())) == 2           # nothing started after the interrupt
+    assert len(list((lib / "runs").glob("*.json"))) == 2   # both runs in flight were saved
+    assert "Waiting for the 2 run(s) in flight to finish and be saved" in err
+    assert not (lib / "build.lock").exists()
+
+
+def test_a_killed_parallel_build_leaves_no_worker_processes(tmp_path):
+    import os
+    import signal
+    import time
+    proc, marks, lib = _slow_build(tmp_path, 1.0)
+    pids = {int(m.name.split("-")[0]) for m in marks.iterdir()}
+    assert len(pids) == 2 and proc.pid not in pids
+    proc.send_signal(signal.SIGTERM)
+    t0 = time.time()
+    try:
+        proc.wait(timeout=30)
+        while not all(_gone(p) for p in pids) and time.time() - t0 < 15:
+            time.sleep(0.2)
+        assert all(_gone(p) for p in pids), "worker processes outlived their build"
+    finally:
+        for p in pids:   # the workers of this test only
+            if not _gone(p):
+                os.kill(p, signal.SIGKILL)
+
+
+# ----------------------------------------------------------------------------- one folder, one build
+def test_a_folder_takes_one_build_at_a_time_and_only_its_designs_runs(tmp_path, caplog):
+    import os
+    import shutil
+    import subprocess
+    import sys
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    sim = SurrogateSimulator(_one_angle())
+    lib = build_library(sim, spec, tmp_path / "a", progress=False)
+    own = sorted((tmp_path / "a" / "runs").glob("*.json"))
+    # runs of another design with the same key dropped into the folder are not read
+    other = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=4, n_per_effect=3,
+                        replicates=2)
+    build_library(sim, other, tmp_path / "b", progress=False)
+    for f in (tmp_path / "b" / "runs").glob("*.json"):
+        if not (tmp_path / "a" / "runs" / f.name).exists():
+            shutil.copy(f, tmp_path / "a" / "runs" / f.name)
+    with caplog.at_level("WARNING", logger="bedstruct.diagnose.run_library"):
+        again = load_library(tmp_path / "a", sim)
+    assert "not of its design ignored" in caplog.text
+    assert again.n_runs == lib.n_runs and again.complete
+    assert again.point_index.max() < len(again.points)
+    np.testing.assert_array_equal(again.outputs, lib.outputs)
+    # a build running in a folder (its lock) refuses a second one, naming its process
+    own[0].unlink()
+    import socket
+    lock = tmp_path / "a" / "build.lock"
+    lock.write_text(json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "started": 0}))
+    with pytest.raises(ConfigError, match=rf"another build is running in this folder \(process "
+                                          rf"{os.getpid()} on "):
+        build_library(sim, spec, tmp_path / "a", progress=False)
+    # a lock left by a process that is gone is taken over
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    lock.write_text(json.dumps({"pid": int(dead), "host": socket.gethostname(), "started": 0}))
+    assert build_library(sim, spec, tmp_path / "a", progress=False).n_new == 1
+    assert not lock.exists()
+    # of two builds creating library.json together one creates it, the other checks it
+    from bedstruct.diagnose.run_library import _create_exclusive
+    assert not _create_exclusive(tmp_path / "a" / "library.json", {"key": "other"})
+    assert json.loads((tmp_path / "a" / "library.json").read_text())["key"] == lib.key
+    assert _create_exclusive(tmp_path / "new.json", {"key": "x"})
+    assert not _create_exclusive(tmp_path / "new.json", {"key": "y"})
+    assert json.loads((tmp_path / "new.json").read_text()) == {"key": "x"}
+
+
+# ----------------------------------------------------------------------------- unreadable files
+def test_unreadable_run_files_are_named_and_redone_by_a_build(tmp_path):
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    sim = SurrogateSimulator(_one_angle())
+    lib = build_library(sim, spec, tmp_path, progress=False)
+    files = sorted((tmp_path / "runs").glob("*.json"))
+    files[0].write_text(files[0].read_text()[:100])           # cut short
+    files[1].write_text("")                                  # empty
+    rec = json.loads(files[2].read_text())
+    del rec["observations"]
+    files[2].write_text(json.dumps(rec))                     # a field missing
+    for f in files[:3]:
+        with pytest.raises(ConfigError, match=rf"run file {f.name} is unreadable .*remove it"):
+            load_library(tmp_path, sim)
+        f.rename(f.with_suffix(".keep"))
+    for f in files[:3]:
+        f.with_suffix(".keep").rename(f)
+    again = build_library(sim, spec, tmp_path, progress=False)
+    assert again.n_new == 3 and again.complete
+    np.testing.assert_array_equal(again.outputs, lib.outputs)
+    assert len(list((tmp_path / "runs").glob("*.unreadable"))) == 3
+    # an unreadable library.json is named, for a load and a build
+    (tmp_path / "library.json").write_text((tmp_path / "library.json").read_text()[:50])
+    for call in (lambda: load_library(tmp_path, sim),
+                 lambda: build_library(sim, spec, tmp_path, progress=False)):
+        with pytest.raises(ConfigError, match=r"library\.json is unreadable .*build it again"):
+            call()
+
+
+# ----------------------------------------------------------------------------- scheduler
+def test_a_complete_library_needs_no_scheduler_and_a_bad_address_is_named(tmp_path):
+    pytest.importorskip("distributed")
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2,
+                       replicates=2)
+    sim = SurrogateSimulator(_one_angle())
+    lib = build_library(sim, spec, tmp_path, progress=False)
+    bad = "tcp://host:notaport"
+    again = build_library(sim, spec, tmp_path, scheduler=bad, progress=False)
+    assert again.n_new == 0 and again.complete
+    next(iter((tmp_path / "runs").glob("*.json"))).unlink()
+    with pytest.raises(ConfigError, match=rf"--scheduler .*'{bad}'"):
+        build_library(sim, spec, tmp_path, scheduler=bad, progress=False)
+    assert lib.complete
+
+
+# ----------------------------------------------------------------------------- emulator cache
+def test_stored_hyperparameters_are_reused_only_for_as_many_restarts(tmp_path):
+    spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=4, n_per_effect=6,
+                       replicates=2)
+    lib = build_library(Smooth(), spec, tmp_path, progress=False)
+    cache = tmp_path / "emulator.json"
+    fit_emulator(lib)
+    assert json.loads(cache.read_text())["restarts"] == 0
+    fit_emulator(lib, restarts=2)     # not the stored fit of no restarts
+    assert json.loads(cache.read_text())["restarts"] == 2
+    stamp = cache.stat().st_mtime_ns
+    fit_emulator(lib, restarts=1)     # a fit of more restarts serves fewer
+    assert cache.stat().st_mtime_ns == stamp
