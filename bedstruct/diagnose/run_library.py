@@ -47,6 +47,7 @@ import json
 import logging
 import math
 import os
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -762,14 +763,29 @@ def _run_label(i: int, p: DesignPoint, s: int) -> str:
     return f"design point {i} ({eff}), seed {s}"
 
 
+def _spawn_can_load(simulator) -> bool:
+    """False when ``simulator`` refers to objects of a main module that a ``spawn``-ed
+    process cannot import (one without a file: a notebook, ``python -c``)."""
+    import pickle
+    main = sys.modules.get("__main__")
+    if main is None or getattr(main, "__file__", None):
+        return True
+    try:
+        return b"__main__" not in pickle.dumps(simulator)
+    except Exception:       # not picklable at all: spawn reports it by name
+        return True
+
+
 def _build_local(simulator, todo: list, workers: int, save, out: Path) -> None:
     """Run ``todo`` in ``workers`` local processes, each run saved as it returns.
 
     At most ``workers`` runs are handed to the processes at a time, so that an interrupt
     (Ctrl-C) or a failed run starts nothing more: the runs in flight are waited for (the
     warning names them) and saved; a second Ctrl-C stops them at once (they are lost).
-    The processes are started with ``spawn``, ignore Ctrl-C (the build decides) and exit
-    when the build's process is gone (:mod:`bedstruct.diagnose.process_pool`).
+    The processes are started with ``spawn`` (``fork`` for a simulator defined in a main
+    module that a new process cannot import, e.g. a notebook's), ignore Ctrl-C (the build
+    decides) and exit when the build's process is gone
+    (:mod:`bedstruct.diagnose.process_pool`).
     """
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -778,7 +794,8 @@ def _build_local(simulator, todo: list, workers: int, save, out: Path) -> None:
     from .process_pool import _init_worker
 
     n = min(workers, len(todo))
-    pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"),
+    method = "spawn" if _spawn_can_load(simulator) else "fork"
+    pool = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context(method),
                                initializer=_init_worker, initargs=(os.getpid(), True))
     queue, running = list(todo), {}
     try:

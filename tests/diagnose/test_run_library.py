@@ -710,3 +710,25 @@ def test_stored_hyperparameters_are_reused_only_for_as_many_restarts(tmp_path):
     stamp = cache.stat().st_mtime_ns
     fit_emulator(lib, restarts=1)     # a fit of more restarts serves fewer
     assert cache.stat().st_mtime_ns == stamp
+
+
+def test_a_simulator_defined_in_a_notebook_builds_in_parallel(tmp_path):
+    # a class defined in a main module without a file (a notebook, python -c) cannot be
+    # loaded by spawn-ed processes: such a build runs in forked ones
+    import subprocess
+    import sys
+    code = f"""
+from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnosis_design, load_measurements
+from bedstruct.diagnose.run_design import design_spec
+from bedstruct.diagnose.run_library import build_library
+class MySim(SurrogateSimulator):
+    pass
+ms = load_measurements({str(Path(__file__).parents[2] / "data" / "measurements" / "seed.toml")!r})
+sim = MySim(diagnosis_design(ms, catalogue(["wall_friction"])))
+spec = design_spec(BASE_PARAMETERS, effects=["wall_friction"], n_base=2, n_per_effect=2, replicates=2)
+lib = build_library(sim, spec, {str(tmp_path / "lib")!r}, workers=2, progress=False)
+print("runs", lib.n_runs)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=240)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split()[-1] == str(len(list((tmp_path / "lib" / "runs").glob("*.json")))) != "0"
