@@ -76,6 +76,7 @@ def _summary(workflow, res) -> dict:
         d = res.to_dict()
         return {"workflow": "repose", "angle_deg": d["angle_deg"], "angle_std_deg": d["angle_std_deg"],
                 "spread_deg": d["spread_deg"], "cohesion": d["cohesion"],
+                "n_measured": d["n_measured"], "unmeasured": d["unmeasured"],
                 "replicates": d["replicates"]}
     if workflow == "calibrate":
         return {"workflow": "calibrate", **res.to_dict()}
@@ -137,13 +138,9 @@ def run(args) -> int:
     summary = _summary(args.workflow, res)
     if cfg["engine"] != "embedded":
         summary["engine"] = cfg["engine"]
+    rc = 0
     if args.workflow == "repose":
-        n = len(res.replicates)
-        what = ("one pile; +- is the flank-fit uncertainty, not a scatter between piles"
-                if n == 1 else f"mean of {n} piles; +- its standard uncertainty, scatter "
-                f"between piles {res.spread_deg:.2f} deg")
-        print(f"angle of repose: {res.angle_deg:.2f} +- {res.angle_std_deg:.2f} deg ({what}; "
-              f"cohesion {res.cohesion:.4g} J/m^3)")
+        rc = _print_repose(res)
     elif args.workflow == "calibrate":
         print(f"calibrated cohesion: {res.cohesion:.4g} +- {res.cohesion_std:.2g} J/m^3 for "
               f"{res.target_deg:.1f} deg (bracketed: {res.bracketed}, converged: {res.converged})")
@@ -164,6 +161,32 @@ def run(args) -> int:
         _write_summary_page(args)
     if args.json:
         print_json(summary)
+    return rc
+
+
+def _print_repose(res) -> int:
+    """Print the angle of repose of ``res`` (stdout) and why piles could not be measured
+    (stderr); 1 when no pile could be measured, else 0."""
+    n, m = len(res.replicates), res.n_measured
+    why = "; ".join(f"{stage}: {reason}" for stage, reason in res.unmeasured.items())
+    if m == 0:
+        print(f"angle of repose: not measurable ({'no pile' if n == 1 else f'none of {n} piles'}"
+              f" could be measured; cohesion {res.cohesion:.4g} J/m^3)")
+        print(f"bedstruct run: error: no pile could be measured: {why}", file=sys.stderr)
+        return 1
+    if m == n:
+        what = ("one pile; +- is the flank-fit uncertainty, not a scatter between piles"
+                if n == 1 else f"mean of {n} piles; +- its standard uncertainty, scatter "
+                f"between piles {res.spread_deg:.2f} deg")
+    else:
+        what = (f"mean of {m} of {n} piles ({n - m} could not be measured: {why}); "
+                + ("+- is the flank-fit uncertainty of the one pile measured" if m == 1 else
+                   f"+- its standard uncertainty, scatter between piles {res.spread_deg:.2f} deg"))
+    print(f"angle of repose: {res.angle_deg:.2f} +- {res.angle_std_deg:.2f} deg ({what}; "
+          f"cohesion {res.cohesion:.4g} J/m^3)")
+    if m < n:
+        print(f"bedstruct run: warning: {n - m} of {n} piles could not be measured: {why}",
+              file=sys.stderr)
     return 0
 
 

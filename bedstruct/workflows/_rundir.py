@@ -12,6 +12,7 @@ states of one stage. Resuming a stage from its checkpoint, bit for bit, is
 from __future__ import annotations
 
 import copy
+import functools
 import json
 import logging
 import os
@@ -32,7 +33,7 @@ except ImportError:  # no flock (Windows): runs in one folder are not guarded ag
 
 log = logging.getLogger("bedstruct.workflows._common")
 
-__all__ = ["RunLayout", "StageWriter", "clear_run", "RUN_MARKER", "RUN_LOCK"]
+__all__ = ["RunLayout", "StageWriter", "clear_run", "code_identity", "RUN_MARKER", "RUN_LOCK"]
 
 
 def _write_dump_atomic(path, frame, **kw) -> None:
@@ -49,9 +50,43 @@ def _write_local_atomic(path, frame, contacts) -> None:
         write_dump_local(tmp, frame, contacts)
 
 
-#: The marker of a run folder: workflow, configuration and inputs of the run, and its status
-#: ("running" until results.json is written, then "complete").
+#: The marker of a run folder: workflow, configuration and inputs of the run, the code that
+#: made it (:func:`code_identity`) and its status ("running" until results.json is written,
+#: then "complete"; "failed", with the error, when the run stopped on an error).
 RUN_MARKER = "run.json"
+
+#: The parts of the package whose code decides a run's results (hashed by
+#: :func:`code_identity`): the workflows, the engine, the decks of the external engines, the
+#: measurements and the file formats.
+_CODE_PARTS = ("workflows", "dem", "engines", "analysis", "core", "io")
+
+
+@functools.lru_cache(maxsize=1)
+def code_identity() -> dict:
+    """The code that makes a run: ``{"bedstruct": version, "source": hash}``.
+
+    ``source`` is a SHA-256 (16 hex digits) of the Python sources of the parts of the
+    package that decide a run's results (:data:`_CODE_PARTS` and the package's top-level
+    private modules), so that a development build edited between two runs differs too.
+    Computed once per process.
+    """
+    import hashlib
+    from .._version import __version__
+    root = Path(__file__).resolve().parent.parent
+    files = sorted(root.glob("_*.py"))
+    for part in _CODE_PARTS:
+        files += sorted((root / part).rglob("*.py"))
+    h = hashlib.sha256()
+    for f in files:
+        h.update(f.relative_to(root).as_posix().encode() + b"\0")
+        h.update(f.read_bytes() + b"\0")
+    return {"bedstruct": str(__version__), "source": h.hexdigest()[:16]}
+
+
+def _code_text(code) -> str:
+    if not isinstance(code, dict):
+        return "code not recorded"
+    return f"bedstruct {code.get('bedstruct', '?')}, code {code.get('source', '?')}"
 
 #: Configuration keys a run may be resumed with other values of (they change what is
 #: written, or whether an external engine run is given time to finish, not the results).
@@ -192,8 +227,9 @@ class RunLayout:
 
     Layout::
 
-        OUT/run.json               workflow, configuration, inputs and status of the run
-                                   ("running" until the results are written, then "complete")
+        OUT/run.json               workflow, configuration, inputs, code and status of the
+                                   run ("running" until the results are written, then
+                                   "complete"; "failed" with the error)
         OUT/config.toml            the resolved configuration
         OUT/results.json           results (written atomically, last; removed when a run starts)
         OUT/progress.npz           spreading: the resume checkpoint (removed at the end)
@@ -231,7 +267,8 @@ class RunLayout:
     ------
     ConfigError
         The folder holds a run of another workflow, configuration or inputs (the message
-        lists the differences) and ``overwrite`` is false.
+        lists the differences), or one made by other code (another bedstruct version or
+        source, :func:`code_identity`; finished or not), and ``overwrite`` is false.
     RunFolderInUseError
         Another process is writing a run in the folder (it holds the folder's lock,
         ``.bedstruct.lock``, until its run ends, fails or is killed).
@@ -239,7 +276,7 @@ class RunLayout:
     Notes
     -----
     A folder that holds a run of the same workflow, configuration (``output.checkpoint``,
-    ``output.checkpoint_every`` and ``external.timeout`` aside) and inputs is resumed:
+    ``output.checkpoint_every`` and ``external.timeout`` aside), inputs and code is resumed:
     :attr:`resumed` is true and the workflow reuses what was finished (:attr:`complete`:
     all of it, with :attr:`previous_results`; :meth:`reuse_results`). Either way
     ``results.json`` is removed before anything runs and ``run.json`` says ``"running"``
@@ -258,6 +295,7 @@ class RunLayout:
         self.complete = False
         self.previous_results = None
         self._lock = None
+        self._written = False
         if cfg is None:
             self.path.mkdir(parents=True, exist_ok=True)
             return
@@ -299,6 +337,16 @@ class RunLayout:
                                      {"inputs": self._identity["inputs"]})
                 shown = "; ".join(diff[:6]) + (f"; and {len(diff) - 6} more" if len(diff) > 6 else "")
                 raise ConfigError(f"{self.path} holds another run ({shown}).{hint}")
+            if old.get("code") != code_identity():
+                done = status == "complete"
+                raise ConfigError(
+                    f"{self.path} holds {'a finished' if done else 'an unfinished'} run of this "
+                    f"configuration made by other code ({_code_text(old.get('code'))} in the "
+                    f"folder; {_code_text(code_identity())} now): "
+                    + ("its results are not this code's. " if done else
+                       "resuming it would mix stages of both. ")
+                    + "Pass --overwrite (overwrite=True) to run it again with this code, or "
+                    "choose another --out.")
             self.resumed = True
             self.complete = status == "complete"
             res = self.path / "results.json"
@@ -332,9 +380,17 @@ class RunLayout:
             log.info("%s: an earlier run of this configuration (without resume data) is "
                      "replaced", self.path)
 
-    def _mark(self, status: str) -> None:
-        write_json_atomic(self.path / RUN_MARKER, {"status": status, **self._identity},
+    def _mark(self, status: str, **extra) -> None:
+        write_json_atomic(self.path / RUN_MARKER, {"status": status, **self._identity,
+                                                   "code": code_identity(), **extra},
                           keep_nan=True)
+
+    def fail(self, error) -> None:
+        """Mark the run failed (``run.json``: status ``"failed"`` and the error) and release
+        the folder. Running it again resumes it, as an unfinished run."""
+        if self.cfg is not None and not self._written:
+            self._mark("failed", error=f"{type(error).__name__}: {error}")
+        self.release()
 
     def reuse_results(self, from_dict):
         """The result of the complete run resumed here, or None.
@@ -364,6 +420,7 @@ class RunLayout:
         p = write_json_atomic(self.path / "results.json", data)
         if self.cfg is not None:
             self._mark("complete")
+            self._written = True
         self.release()
         return p
 

@@ -36,12 +36,14 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class CalibrationPoint:
-    """One point of the angle-cohesion curve: cohesion (J/m^3), mean angle and uncertainty (deg)."""
+    """One point of the angle-cohesion curve: cohesion (J/m^3), mean angle and uncertainty (deg);
+    ``note`` says why the angle is NaN (no pile could be measured at this cohesion)."""
 
     cohesion: float
     angle_deg: float
     angle_std_deg: float
     replicate_angles_deg: tuple
+    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -202,6 +204,7 @@ def calibrate_cohesion(cfg, *, target_deg: float | None = None, bracket=None,
         nonlocal n_runs
         if k in pts:
             return pts[k]
+        note = ""
         if evaluate is not None:
             a, s, reps = evaluate(k)
         else:
@@ -209,7 +212,12 @@ def calibrate_cohesion(cfg, *, target_deg: float | None = None, bracket=None,
             r: ReposeResult = run_repose(cfg, cohesion=k, replicates=nrep, out=sub)
             a, s, reps = r.angle_deg, r.angle_std_deg, tuple(x.angle_deg for x in r.replicates)
             n_runs += len(r.replicates)
-        p = CalibrationPoint(float(k), float(a), float(s), tuple(float(v) for v in reps))
+            if r.unmeasured:
+                where = f" ({sub})" if sub is not None else ""
+                note = "; ".join(f"{st}: {why}" for st, why in r.unmeasured.items())
+                log.warning("calibrate: cohesion %.4g J/m^3%s: %d of %d piles could not be "
+                            "measured: %s", k, where, len(r.unmeasured), len(r.replicates), note)
+        p = CalibrationPoint(float(k), float(a), float(s), tuple(float(v) for v in reps), note)
         pts[k] = p
         log.info("calibrate: cohesion %.4g -> %.2f +- %.2f deg", k, a, s)
         bar.update(1)
@@ -220,7 +228,34 @@ def calibrate_cohesion(cfg, *, target_deg: float | None = None, bracket=None,
                                "points": sorted(pts.values(), key=lambda q: q.cohesion)})
         return p
 
+    try:
+        return _search(ev, pts, lo, hi, target=target, nmax=nmax, tol=tol, layout=layout,
+                       bar=bar, n_runs=lambda: n_runs)
+    except Exception as exc:   # the folder says the calibration failed, and why (it resumes)
+        if layout is not None:
+            layout.fail(exc)
+        raise
+
+
+def _no_point_measured(pts, layout) -> ConfigError:
+    """The error of a calibration none of whose points gave an angle: each point, its folder
+    and why."""
+    rows = "; ".join(
+        f"k = {p.cohesion:.4g} J/m^3"
+        + (f" ({layout.path / f'k{p.cohesion:.4g}'})" if layout is not None else "")
+        + f": {p.note or 'no angle'}" for p in sorted(pts.values(), key=lambda q: q.cohesion))
+    return ConfigError("calibrate: no pile could be measured at any cohesion of the bracket "
+                       f"({rows}). Choose a `calibrate.cohesion_bracket` on the scale of the "
+                       "material's Young's modulus: SJKR pull-in scales as k^3 / E^2, so the "
+                       "seed's 3.0e7-3.6e7 J/m^3 at 1e7 Pa is about 1e3-1e4 J/m^3 at the "
+                       "tiny and small presets' 1e6 Pa (--set \"calibrate.cohesion_bracket=[1e3, 1e4]\")")
+
+
+def _search(ev, pts, lo, hi, *, target, nmax, tol, layout, bar, n_runs) -> CalibrationResult:
+    """The bracketing search of :func:`calibrate_cohesion` over ``ev(cohesion)``."""
     p_lo, p_hi = ev(lo), ev(hi)
+    if not any(math.isfinite(p.angle_deg) for p in pts.values()):
+        raise _no_point_measured(pts, layout)
     it = 2
     # widen until bracketed (angle assumed to rise with cohesion)
     monotonic = p_hi.angle_deg > p_lo.angle_deg
@@ -269,7 +304,7 @@ def calibrate_cohesion(cfg, *, target_deg: float | None = None, bracket=None,
                                 target_deg=target, slope_deg_per_unit=float("nan"),
                                 converged=bool(abs(best.angle_deg - target) <= tol), bracketed=False,
                                 curve=tuple(sorted(pts.values(), key=lambda p: p.cohesion)),
-                                n_runs=n_runs)
+                                n_runs=n_runs())
         log.warning("calibrate: target %.2f deg not bracketed; closest %.2f deg at %.4g J/m^3",
                     target, best.angle_deg, best.cohesion)
         if layout is not None:
@@ -300,7 +335,7 @@ def calibrate_cohesion(cfg, *, target_deg: float | None = None, bracket=None,
     res = CalibrationResult(cohesion=float(kstar), cohesion_std=float(sk), target_deg=target,
                             slope_deg_per_unit=float(slope),
                             converged=bool(abs(best.angle_deg - target) <= tol), bracketed=bracketed,
-                            curve=tuple(sorted(pts.values(), key=lambda p: p.cohesion)), n_runs=n_runs)
+                            curve=tuple(sorted(pts.values(), key=lambda p: p.cohesion)), n_runs=n_runs())
     if layout is not None:
         layout.write_results({"workflow": "calibrate", **res.to_dict()})
     bar.close()

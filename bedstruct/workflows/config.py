@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import copy
 import difflib
+import logging
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -24,7 +26,7 @@ from .schema import (MAX_SAFETY, WorkflowConfig, check_bounds, config_dict, defa
                      typed_config)
 
 __all__ = ["DEFAULTS", "PRESETS", "load_config", "apply_override", "preset_path", "config_to_toml",
-           "available_presets", "validate_config", "workflow_config"]
+           "available_presets", "validate_config", "workflow_config", "check_run_geometry"]
 
 #: Default configuration (SI units), from the section dataclasses of
 #: :mod:`bedstruct.workflows.schema`. Presets and user files override it.
@@ -55,6 +57,12 @@ _MOVED_EFFECT_KEYS = {
     "blade_vibration_amplitude": "spread.vibration_amplitude",
     "blade_vibration_frequency": "spread.vibration_frequency",
 }
+
+log = logging.getLogger(__name__)
+
+#: A tabulated size distribution that leaves out more than this volume fraction at an end
+#: (and at most ``schema.PSD_END_MAX_MISSING``) is loaded with a logged warning.
+_PSD_CUT_QUIET = 1e-3
 
 #: Names of the bundled presets.
 PRESETS = ("tiny", "small", "seed")
@@ -188,7 +196,8 @@ def apply_override(config: dict, assignment: str) -> dict:
     Raises
     ------
     ConfigError
-        Unknown key, or a value of the wrong type (the message names the key).
+        Unknown key, a value of the wrong type (the message names the key), or the key
+        ``preset`` (a preset is chosen with ``load_config(preset=...)``, ``--preset``).
 
     Examples
     --------
@@ -204,6 +213,10 @@ def apply_override(config: dict, assignment: str) -> dict:
         raise ConfigError(f"override must look like section.key=value; got {assignment!r}")
     key, text = assignment.split("=", 1)
     key = key.strip()
+    if key == "preset":
+        raise ConfigError("the preset cannot be set by an override (it would only change the "
+                          "label, not the values): choose it with --preset NAME, or with "
+                          '`preset = "NAME"` in the configuration file')
     parts = key.split(".")
     node = {}
     leaf = node
@@ -239,7 +252,10 @@ def load_config(source=None, *, preset: str | None = None, overrides=()) -> dict
     Raises
     ------
     ConfigError
-        Unknown preset or key, wrong value type, unreadable TOML.
+        Unknown preset or key, wrong value type, a value out of range or inconsistent
+        with another (a layer gap thinner than the smallest particle, a box narrower
+        than a few particles...), unreadable TOML. The message names the key and
+        where its value came from: the file, ``preset NAME (path)`` or ``--set KEY=VALUE``.
 
     Examples
     --------
@@ -249,25 +265,75 @@ def load_config(source=None, *, preset: str | None = None, overrides=()) -> dict
     >>> load_config(preset="tiny", overrides=["spread.sped=1"])
     Traceback (most recent call last):
     ...
-    bedstruct.errors.ConfigError: unknown config key `spread.sped` (did you mean speed?)
+    bedstruct.errors.ConfigError: --set spread.sped=1: unknown config key `spread.sped` (did you mean speed?)
     """
     cfg = copy.deepcopy(DEFAULTS)
     user = {}
+    user_label = None
     if source is not None:
-        user = copy.deepcopy(dict(source)) if isinstance(source, dict) else _read_toml(source)
+        if isinstance(source, dict):
+            user = copy.deepcopy(dict(source))
+        else:
+            user = _read_toml(source)
+            user_label = str(source)
+    origin: dict[str, str] = {}
     name = preset or user.get("preset") or None
     if name:
         if not isinstance(name, str):
-            raise ConfigError(f"config key `preset` must be a string; got {name!r}")
-        _merge(cfg, _read_toml(preset_path(name)))
+            raise ConfigError(_sourced(f"config key `preset` must be a string; got {name!r}",
+                                       user_label))
+        path = preset_path(name)
+        _merge_from(cfg, _read_toml(path), f"preset {name} ({path})", origin)
         cfg["preset"] = name
-    _merge(cfg, user)
+    _merge_from(cfg, user, user_label, origin)
     if name:
         cfg["preset"] = name
     for a in overrides or ():
-        apply_override(cfg, a)
-    _validate(cfg)
+        label = f"--set {a}"
+        try:
+            apply_override(cfg, a)
+        except ConfigError as exc:
+            raise ConfigError(_sourced(str(exc), label)) from None
+        origin[str(a).split("=", 1)[0].strip()] = label
+    try:
+        _validate(cfg)
+    except ConfigError as exc:
+        raise ConfigError(_sourced(str(exc), *_origins(str(exc), origin))) from None
     return cfg
+
+
+def _sourced(message: str, *labels) -> str:
+    """``message`` prefixed with where its values came from (a file, a preset, ``--set``)."""
+    labels = [lb for lb in dict.fromkeys(labels) if lb]
+    return f"{'; '.join(labels)}: {message}" if labels else message
+
+
+def _leaf_keys(tree: dict, prefix: str = ""):
+    for k, v in tree.items():
+        if isinstance(v, dict):
+            yield from _leaf_keys(v, f"{prefix}{k}.")
+        else:
+            yield f"{prefix}{k}"
+
+
+def _merge_from(cfg: dict, new: dict, label, origin: dict) -> None:
+    """Merge ``new`` into ``cfg``; a refused key is named with ``label``, and ``origin``
+    records ``label`` as the source of every key of ``new``."""
+    try:
+        _merge(cfg, new)
+    except ConfigError as exc:
+        raise ConfigError(_sourced(str(exc), label)) from None
+    if label:
+        for k in _leaf_keys(new):
+            origin[k] = label
+
+
+_KEY_NAME = re.compile(r"\b([a-z_]+\.[a-z_0-9]+)\b")
+
+
+def _origins(message: str, origin: dict) -> list:
+    """The sources (``origin``) of the keys a message names, in the order it names them."""
+    return [origin[k] for k in _KEY_NAME.findall(message) if k in origin]
 
 
 def validate_config(cfg: dict) -> None:
@@ -348,7 +414,13 @@ def _validate(cfg: dict) -> None:
                           "expected impact speed, which bounds the time step by the Hertz "
                           f"contact time; got {t['v_max']!r}")
     p = cfg["psd"]
-    psd_table(p)
+    table = psd_table(p)
+    if table is not None:
+        below, above = float(table[1][0]), 1.0 - float(table[1][-1])
+        if max(below, above) > _PSD_CUT_QUIET:
+            log.warning("config key `psd.volume_fractions`: the table leaves out %.3g of the "
+                        "volume below its first diameter and %.3g above its last; the draws "
+                        "are renormalised to the table's range", below, above)
     if not p["d_min"] < p["d10"] < p["d50"] < p["d90"] < p["d_max"]:
         raise ConfigError("config keys `psd.d_min < psd.d10 < psd.d50 < psd.d90 < psd.d_max` must "
                           f"increase; got {p['d_min']}, {p['d10']}, {p['d50']}, {p['d90']}, {p['d_max']}")
@@ -360,6 +432,92 @@ def _validate(cfg: dict) -> None:
     if len(b) != 2 or not b[0] < b[1]:
         raise ConfigError(f"config key `calibrate.cohesion_bracket` must be [low, high] with "
                           f"low < high; got {b!r}")
+    _validate_geometry(cfg)
+
+
+def _diameter_range(p: dict) -> tuple[float, float]:
+    """Smallest and largest particle diameter (m, scaled) of a checked ``psd`` section
+    (the tabulated distribution's ends, else ``d_min`` and ``d_max``; fines aside)."""
+    table = psd_table(p)
+    lo, hi = (float(table[0][0]), float(table[0][-1])) if table is not None else (
+        float(p["d_min"]), float(p["d_max"]))
+    return lo * float(p["scale"]), hi * float(p["scale"])
+
+
+def _validate_geometry(cfg: dict) -> None:
+    """Cross-key checks of lengths against the particle sizes and each other (m)."""
+    d_lo, d_hi = _diameter_range(cfg["psd"])
+    psd_keys = ("`psd.diameters` x `psd.scale`" if psd_table(cfg["psd"]) is not None
+                else "`psd.d_min`/`psd.d_max` x `psd.scale`")
+    sizes = f"particles of {d_lo * 1e6:.4g}-{d_hi * 1e6:.4g} um ({psd_keys})"
+    # at load: room for two of the largest particles across (a run checks the neighbour
+    # cells of its own box before it writes anything: check_run_geometry)
+    min_width = 2.0 * d_hi
+    sp = cfg["spread"]
+    gaps = [float(g) for g in sp["gaps"]]
+    thin = [g for g in gaps if g < d_lo]
+    if thin:
+        raise ConfigError(f"config key `spread.gaps` holds a layer gap thinner than the smallest "
+                          f"particle: {thin[0] * 1e6:.4g} um against {sizes}; every gap must be "
+                          "at least the smallest diameter (check the units: metres)")
+    if float(sp["width"]) < min_width:
+        raise ConfigError(f"config key `spread.width` ({sp['width']!r} m) is too narrow for "
+                          f"{sizes}: it must be at least {min_width:.4g} m (2 largest diameters; "
+                          "check the units: metres)")
+    for name in ("plate_length", "pile_length"):
+        if float(sp[name]) < 3.0 * d_hi:
+            raise ConfigError(f"config key `spread.{name}` ({sp[name]!r} m) must be at least 3 "
+                              f"largest particle diameters for {sizes} (check the units: metres)")
+    if float(sp["pile_length"]) > float(sp["plate_length"]):
+        raise ConfigError(f"config key `spread.pile_length` ({sp['pile_length']!r} m) is longer "
+                          f"than the platform, `spread.plate_length` ({sp['plate_length']!r} m): "
+                          "the pile would be inserted over the front wall and fall into the "
+                          "overflow")
+    if sp["tool"] in ("blade", "rake", "plate") and \
+            not float(sp["blade_height"]) > float(sp["blade_thickness"]):
+        raise ConfigError(f"config key `spread.blade_height` ({sp['blade_height']!r} m) must "
+                          f"exceed `spread.blade_thickness` ({sp['blade_thickness']!r} m)")
+    rp = cfg["repose"]
+    L, W, H = (float(v) for v in rp["box"])
+    if W < min_width:
+        raise ConfigError(f"config key `repose.box` width {W!r} m is too narrow for {sizes}: it "
+                          f"must be at least {min_width:.4g} m (2 largest diameters; check the "
+                          "units: metres)")
+    if min(L, H) < 3.0 * d_hi:
+        raise ConfigError(f"config key `repose.box` ({rp['box']!r} m) must be at least 3 "
+                          f"largest particle diameters long and high for {sizes} (check the "
+                          "units: metres)")
+    if float(rp["pedestal_fraction"]) == 0.0 and float(rp["slide_fraction"]) * L < d_hi:
+        raise ConfigError(f"config key `repose.slide_fraction` ({rp['slide_fraction']!r}) slides "
+                          f"the plate {float(rp['slide_fraction']) * L * 1e6:.4g} um, less than "
+                          f"the largest particle ({d_hi * 1e6:.4g} um): no powder can drain and "
+                          "no pile forms; slide it further or use a ledge "
+                          "(`repose.pedestal_fraction`)")
+
+
+def check_run_geometry(cfg, workflow: str) -> None:
+    """Check that the periodic width of a ``workflow`` run (``"spread"``, ``"repose"``) holds
+    the engine's neighbour cells: 3 cells of the largest diameter plus the neighbour skin
+    (0.15 of the smallest) across it. The workflows call it before they write anything.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``spread.width`` or ``repose.box`` and the least width.
+    """
+    c = cfg if isinstance(cfg, dict) else config_dict(cfg)
+    d_lo, d_hi = _diameter_range(c["psd"])
+    need = 3.0 * (d_hi + 0.15 * d_lo)
+    if workflow == "spread" and not c["spread"]["side_walls"]:
+        key, width = "spread.width", float(c["spread"]["width"])
+    elif workflow == "repose" and c["repose"]["periodic_width"]:
+        key, width = "repose.box", float(c["repose"]["box"][1])
+    else:
+        return
+    if width < need:
+        raise ConfigError(f"config key `{key}`: the periodic width {width!r} m must hold 3 "
+                          f"neighbour cells of the largest particle ({d_hi * 1e6:.4g} um) and "
+                          f"the skin: at least {need:.4g} m (or use side walls)")
 
 
 def _validate_options(c: dict) -> None:

@@ -29,7 +29,8 @@ from ._common import german_fit_values, psd_sampler, typed
 from ._rundir import RunLayout
 from .external import (_GRAVITY, ExternalDecks, _check_effects, _deck_model, _engine_file, _gzip,
                        _reference_contact, effects_dialect, engine_for)
-from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, SpreadResult, frame_metrics,
+from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, SpreadResult, bed_mask,
+                             frame_metrics,
                              measure_layer, spread_result_from_dict)
 from .spread_pile import _run_pile
 
@@ -227,8 +228,7 @@ def run_spread_external(cfg, *, out=None):
                         _gzip(stage / name)
             # the same layout as the embedded engine's: the bed on the platform after the
             # layer, and the whole state after the last layer
-            on_bed = ((np.asarray(final.positions)[:, 0] < Lplat)
-                      & (np.asarray(final.positions)[:, 2] > z_plat - rmax))
+            on_bed = bed_mask(final, Lplat, z_plat, rmax)
             write_dump(stage / f"bed{gz}", final.select(on_bed))
             if k == K - 1:
                 write_dump(stage / f"final{gz}", final)

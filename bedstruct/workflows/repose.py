@@ -26,10 +26,11 @@ from ._common import (check_engine, contact_model, progress_bar, psd_sampler, si
                       width_bounds)
 from ._resume import resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run
+from .config import check_run_geometry
 from .external import run_repose_external
 from .repose_measure import (ReposeReplicate, ReposeResult, _finished_replicate,
                              _record_replicate, combine_replicates, measure_pile,
-                             repose_result_from_dict)
+                             repose_result_from_dict, unmeasured_reason)
 
 __all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile",
            "repose_result_from_dict"]
@@ -131,14 +132,26 @@ def repose_replicate(cfg, *, seed: int, cohesion: float | None = None, layout=No
 
     def finish():
         frame = writer.final(sim, "pile") if writer is not None else sim.frame()
-        a, s, left, right, top = measure_pile(frame, cfg, r_max=rmax)
+        why = []
+        try:
+            a, s, left, right, top = measure_pile(frame, cfg, r_max=rmax, reasons=why)
+            note = ""
+        except ConfigError as exc:   # (almost) nothing left in the box
+            a = s = left = right = top = float("nan")
+            note = str(exc)
+        if not np.isfinite(a) and not note:
+            note = unmeasured_reason(n_inserted, int(frame.n_particles), int(sim.n_removed),
+                                     "; ".join(why))
+        if note:
+            log.warning("repose: replicate %s (seed %d): %s", stage or "", int(seed), note)
         lost = int(sim.n_lost_nonfinite)
         if lost:
             log.warning("repose: %d particle(s) were lost to non-finite positions (a blow-up)",
                         lost)
         return dict(angle_deg=float(a), angle_std_deg=float(s), left_deg=float(left),
                     right_deg=float(right), n_remaining=int(frame.n_particles),
-                    n_fallen=int(sim.n_removed), n_lost_nonfinite=lost, pile_height=float(top))
+                    n_fallen=int(sim.n_removed), n_lost_nonfinite=lost, pile_height=float(top),
+                    note=note)
     m = ctl.value(finish)
     rep = ReposeReplicate(seed=int(seed), cohesion=k, n_inserted=n_inserted,
                           wall_time=_time.perf_counter() - t0,
@@ -198,20 +211,26 @@ def run_repose(cfg, *, out=None, cohesion: float | None = None, replicates: int 
     k = float(cfg.contact.cohesion if cohesion is None else cohesion)
     if k < 0:
         raise ConfigError(f"config key `contact.cohesion` must be >= 0; got {k}")
+    check_run_geometry(cfg, "repose")
     layout = (RunLayout(out, cfg, workflow="repose", inputs={"cohesion": k, "replicates": n},
                         overwrite=overwrite) if out is not None else None)
     res = layout.reuse_results(repose_result_from_dict) if layout is not None else None
     if res is not None:
         return res
     reps = []
-    for i in progress_bar(range(n), desc="repose", unit="replicate", progress=progress):
-        seed, stage = int(cfg.seed) + i, f"rep{i:02d}"
-        rep = _finished_replicate(layout, stage, seed, k)
-        if rep is None:
-            rep = repose_replicate(cfg, seed=seed, cohesion=k, layout=layout, stage=stage)
-            if layout is not None:  # finished: recorded, its checkpoint no longer needed
-                _record_replicate(layout, stage, rep)
-        reps.append(rep)
+    try:
+        for i in progress_bar(range(n), desc="repose", unit="replicate", progress=progress):
+            seed, stage = int(cfg.seed) + i, f"rep{i:02d}"
+            rep = _finished_replicate(layout, stage, seed, k)
+            if rep is None:
+                rep = repose_replicate(cfg, seed=seed, cohesion=k, layout=layout, stage=stage)
+                if layout is not None:  # finished: recorded, its checkpoint no longer needed
+                    _record_replicate(layout, stage, rep)
+            reps.append(rep)
+    except Exception as exc:   # the folder says the run failed, and why (it resumes)
+        if layout is not None:
+            layout.fail(exc)
+        raise
     res = combine_replicates(reps, k)
     if layout is not None:
         layout.write_results({"workflow": "repose", **res.to_dict()})

@@ -20,7 +20,7 @@ from ..errors import ConfigError
 from .._json import to_jsonable, write_json_atomic
 from ._common import from_plain, typed
 
-__all__ = ["ReposeReplicate", "ReposeResult", "measure_pile", "combine_replicates",
+__all__ = ["ReposeReplicate", "ReposeResult", "measure_pile", "combine_replicates", "unmeasured_reason",
            "repose_result_from_dict"]
 
 log = logging.getLogger(__name__)
@@ -50,6 +50,9 @@ class ReposeReplicate:
     n_lost_nonfinite : int
         Particles dropped for non-finite positions (a numerical blow-up; 0 unless the
         engine was told to drop them rather than raise).
+    note : str
+        Why the pile could not be measured (empty when it was): no pile formed, too few
+        particles left, flanks that could not be fitted.
     """
 
     seed: int
@@ -65,6 +68,7 @@ class ReposeReplicate:
     wall_time: float
     stage: str = ""
     n_lost_nonfinite: int = 0
+    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -74,7 +78,8 @@ class ReposeResult:
     Attributes
     ----------
     angle_deg : float, degrees
-        Mean over replicates (and flanks).
+        Mean over the replicates whose pile could be measured (and their flanks); NaN
+        when none could (:attr:`n_measured` is 0, :attr:`unmeasured` says why).
     angle_std_deg : float, degrees
         Standard uncertainty of that mean: the replicate standard error
         combined with the mean flank-fit uncertainty (root sum of squares).
@@ -90,9 +95,25 @@ class ReposeResult:
     cohesion: float
     replicates: tuple = field(default_factory=tuple)
 
+    @property
+    def n_measured(self) -> int:
+        """Replicates whose pile was measured (the mean is over these)."""
+        return sum(1 for r in self.replicates if math.isfinite(r.angle_deg))
+
+    @property
+    def unmeasured(self) -> dict:
+        """``{stage or "rep<i>": why}`` for each replicate whose pile could not be measured."""
+        return {(r.stage or f"rep{i:02d}"): (r.note or "the pile could not be measured")
+                for i, r in enumerate(self.replicates) if not math.isfinite(r.angle_deg)}
+
     def to_dict(self) -> dict:
-        """JSON-ready summary (``angle_deg``, ``angle_std_deg``, replicates...)."""
-        return to_jsonable(self)
+        """JSON-ready summary (``angle_deg``, ``angle_std_deg``, replicates..., and
+        ``n_measured``, ``unmeasured``: how many piles the mean is over, why the others
+        could not be measured)."""
+        d = to_jsonable(self)
+        d["n_measured"] = self.n_measured
+        d["unmeasured"] = self.unmeasured
+        return d
 
 
 def _finished_replicate(layout, stage: str, seed: int, cohesion: float):
@@ -126,13 +147,45 @@ def repose_result_from_dict(d: dict) -> ReposeResult:
     return replace(from_plain(ReposeResult, {**d, "replicates": []}), replicates=reps)
 
 
-def measure_pile(frame, cfg, *, r_max: float):
+def unmeasured_reason(n_inserted: int, n_remaining: int, n_fallen: int, detail: str = "") -> str:
+    """Why a repose replicate's pile could not be measured, from its particle counts.
+
+    Hardly any particle drained (fewer than 2 % of those inserted, or 10): no pile formed,
+    the powder did not flow. Otherwise the flanks could not be fitted (``detail``: what
+    the fit said).
+
+    Examples
+    --------
+    >>> unmeasured_reason(797, 796, 1)[:38]
+    'no pile formed: 1 of 797 particles dra'
+    """
+    if n_fallen < max(10, 0.02 * n_inserted):
+        return (f"no pile formed: {n_fallen} of {n_inserted} particles drained when the plate "
+                "slid out; the powder did not flow (a cohesive block that did not fail, or a "
+                "plate that slid too little: lower contact.cohesion or contact.friction, or "
+                "raise repose.slide_fraction)")
+    what = f": {detail}" if detail else ""
+    return (f"the pile's flanks could not be fitted ({n_remaining} particles remain, "
+            f"{n_fallen} of {n_inserted} drained){what}")
+
+
+def measure_pile(frame, cfg, *, r_max: float, reasons: list | None = None):
     """Angle of the pile left in ``frame`` (SI) by a repose run of ``cfg``.
 
     The same measurement for every engine and for ``bedstruct report``:
     :func:`bedstruct.analysis.pile_angle` on the spheres above the plate level,
     within the ledge (or the part of the floor left after the slide) plus a
     pad of ``2 r_max`` (both flanks with a ledge, else the flank facing the opening).
+
+    Parameters
+    ----------
+    frame : Frame
+    cfg : dict or WorkflowConfig
+    r_max : float, m
+        Largest particle radius.
+    reasons : list, optional
+        Gets why the pile could not be fitted appended (when the angles are NaN because
+        the fit failed).
 
     Returns
     -------
@@ -153,8 +206,13 @@ def measure_pile(frame, cfg, *, r_max: float):
     slide = L if ped > 0 else float(rc.slide_fraction) * L
     on_plate = int(np.count_nonzero(frame.positions[:, 2] > -frame.radii))
     if on_plate < 10:
-        raise ConfigError(f"repose: only {on_plate} particles remain; no pile to measure "
-                          "(raise cohesion/friction or use a ledge: repose.pedestal_fraction)")
+        raise ConfigError(f"repose: only {on_plate} particles remain in the box; no pile to "
+                          "measure. The powder drained or was thrown out of the box: with too "
+                          "little cohesion or friction it all flows out (raise contact.cohesion "
+                          "or contact.friction, or use a ledge: repose.pedestal_fraction); a "
+                          "cohesion far too high for the Young's modulus makes the packing "
+                          "explode (lower contact.cohesion; the presets' comments give its "
+                          "scale)")
     x_lo = (L - ped * L) / 2 if ped > 0 else 0.0
     x_hi = (L + ped * L) / 2 if ped > 0 else L - slide
     pad = 2 * r_max
@@ -167,6 +225,8 @@ def measure_pile(frame, cfg, *, r_max: float):
                 float(res.right_deg), float(res.top))
     except ValueError as exc:
         log.warning("repose: pile could not be measured: %s", exc)
+        if reasons is not None:
+            reasons.append(str(exc))
         nan = float("nan")
         x = frame.positions[:, 0]
         keep = (frame.positions[:, 2] > -frame.radii) & (x > x_lo - pad) & (x < x_hi + pad)

@@ -29,6 +29,11 @@ __all__ = ["WorkflowConfig", "MaterialSection", "ContactSection", "PSDSection", 
            "OutputSection", "typed_config", "config_dict", "defaults_dict", "check_bounds",
            "config_reference", "psd_table", "SECTIONS"]
 
+#: Largest volume fraction a tabulated size distribution (``psd.volume_fractions``) may
+#: leave out below its first diameter or above its last (a measured table cut off in its
+#: tails); the draws are renormalised to the table's range. More is refused.
+PSD_END_MAX_MISSING = 0.1
+
 #: Largest ``time.safety``: the engine refuses a step above this fraction of the Rayleigh
 #: time (``Simulation(max_rayleigh_fraction=0.3)``, LIGGGHTS' check/timestep/gran advice).
 MAX_SAFETY = 0.3
@@ -168,7 +173,7 @@ class SpreadSection:
 class CalibrateSection:
     """Calibration of the cohesion energy density against an angle of repose."""
 
-    target_deg: float = key(33.0, "deg", "angle of repose to reproduce")
+    target_deg: float = key(33.0, "deg", "angle of repose to reproduce", gt=0, lt=90)
     cohesion_bracket: tuple = key((3.0e7, 3.6e7), "J/m^3", "[low, high] cohesion search bracket", gt=0)
     replicates: int = key(2, "", "repose replicates per point", gt=0)
     max_iter: int = key(4, "", "largest number of search steps", ge=0)
@@ -333,6 +338,15 @@ def psd_table(p: dict):
         raise ConfigError("config key `psd.volume_fractions` must hold the cumulative volume "
                           "fraction undersize at each diameter: within [0, 1], not decreasing, "
                           f"the last above the first; got {[float(x) for x in f_raw]!r}")
+    below, above = float(f[0]), 1.0 - float(f[-1])
+    if below > PSD_END_MAX_MISSING or above > PSD_END_MAX_MISSING:
+        raise ConfigError("config key `psd.volume_fractions` must cover the distribution: "
+                          f"{below:.3g} of the volume lies below the first of `psd.diameters` "
+                          f"and {above:.3g} above the last (at most {PSD_END_MAX_MISSING:g} "
+                          "each; the draws are renormalised to the table's range, so the "
+                          "missing volume would shift every percentile). Give the cumulative "
+                          "fraction undersize (0 to 1) and the diameters where it reaches 0 "
+                          f"and 1; got {[float(x) for x in f_raw]!r}")
     return d, f
 
 

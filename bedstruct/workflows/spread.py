@@ -37,9 +37,10 @@ from ._common import (check_engine, contact_model, frame_fingerprint, from_plain
                       width_bounds)
 from ._resume import as_resumable, resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run
+from .config import check_run_geometry
 from .external_spread import run_spread_external
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, LayerResult, SpreadResult,
-                             _subset_contacts, frame_metrics, measure_layer,
+                             _subset_contacts, bed_mask, frame_metrics, measure_layer,
                              mid_layer_segregation, particles_in_flight, spread_result_from_dict)
 from .spread_pile import _run_pile, generate_pile, pile_key
 
@@ -116,8 +117,7 @@ def run_spread(cfg, *, out=None, progress: bool = False, pile=None,
     >>> [round(h * 1e6) for h in res.bed_height_m]      # doctest: +SKIP
     [...]
     """
-    from ..core import Box, Frame
-    from ..dem import Plane, Rectangle
+    from ..core import Frame
 
     cfg = typed(cfg)
     if cfg.engine != "embedded":  # every layer on LIGGGHTS/LAMMPS
@@ -128,16 +128,45 @@ def run_spread(cfg, *, out=None, progress: bool = False, pile=None,
             clear_run(out)
         return run_spread_external(cfg, out=out)
     check_engine(cfg)
+    check_run_geometry(cfg, "spread")
     if pile is not None:
         if not isinstance(pile, Frame):
             raise TypeError(f"run_spread: `pile` must be a Frame (from generate_pile); got "
                             f"{type(pile).__name__}")
         if pile.n_particles == 0:
             raise ConfigError("run_spread: the given pile has no particles")
-    sc = cfg.spread
     inputs = {} if pile is None else {"pile": frame_fingerprint(pile)}
     layout = (RunLayout(out, cfg, workflow="spread", inputs=inputs, overwrite=overwrite)
               if out is not None else None)
+    _warn_pile_overhang(cfg, psd_sampler(cfg).r_max)
+    try:
+        return _spread_layers(cfg, layout, pile=pile, progress=progress)
+    except Exception as exc:   # the folder says the run failed, and why (it resumes)
+        if layout is not None:
+            layout.fail(exc)
+        raise
+
+
+def _warn_pile_overhang(cfg, r_max: float) -> None:
+    """Log a warning when the pile, inserted in front of the tool, reaches past the platform."""
+    sc = cfg.spread
+    half = (0.5 * float(sc.blade_thickness) if sc.tool in ("blade", "rake", "plate")
+            else float(sc.roller_radius))
+    x_off = 2 * half + r_max
+    over = x_off + float(sc.pile_length) - float(sc.plate_length)
+    if over > 0:
+        log.warning("spread: the pile (spread.pile_length %.4g m), inserted in front of the "
+                    "tool at x = %.4g m, reaches %.4g m past the platform end "
+                    "(spread.plate_length %.4g m): that part falls into the overflow before "
+                    "the tool moves", float(sc.pile_length), x_off, over,
+                    float(sc.plate_length))
+
+
+def _spread_layers(cfg, layout, *, pile, progress) -> SpreadResult:
+    """The embedded spreading run of :func:`run_spread` into ``layout`` (or None)."""
+    from ..core import Box
+    from ..dem import Plane, Rectangle
+    sc = cfg.spread
     res = layout.reuse_results(spread_result_from_dict) if layout is not None else None
     if res is not None:
         (layout.path / "progress.npz").unlink(missing_ok=True)
@@ -261,8 +290,7 @@ def run_spread(cfg, *, out=None, progress: bool = False, pile=None,
             fr = sim.frame()
             contacts_all = sim.contacts()
             if writer is not None:
-                on_plat = fr.positions[:, 0] < Lplat
-                keep = on_plat & (fr.positions[:, 2] > z_plat - rmax)
+                keep = bed_mask(fr, Lplat, z_plat, rmax)
                 writer.write_frame("bed", fr.select(keep), _subset_contacts(contacts_all, keep))
             layer, pack, cnw = measure_layer(
                 fr, contacts_all, cfg, index=k + 1, z_plat=z_plat, front0=front0, r_max=rmax,

@@ -16,7 +16,8 @@ import numpy as np
 from .._json import to_jsonable
 from ._common import from_plain, typed
 
-__all__ = ["LayerResult", "SpreadResult", "frame_metrics", "measure_layer", "particles_in_flight",
+__all__ = ["LayerResult", "SpreadResult", "bed_mask", "frame_metrics", "measure_layer",
+           "particles_in_flight",
            "mid_layer_segregation", "spread_result_from_dict"]
 
 # the spreading workflow's logger: these messages belong to its run
@@ -67,8 +68,9 @@ class LayerResult:
         (> 0: coarse particles enriched in the heap).
     segregation_index : float
     n_inserted, n_bed, n_heap, n_removed : int
-        Particles inserted this layer; in the bed (on the platform), still in
-        the domain beyond it, and removed so far (cumulative).
+        Particles inserted this layer; in the bed (on the platform, powder in the air
+        left out: :func:`bed_mask`), the others still in the domain (the heap beyond the
+        platform, powder in the air), and removed so far (cumulative).
     wall_time : float, s
     landing_wait : float, s
         Settling added before the pile was reinserted, while powder thrown up
@@ -151,6 +153,47 @@ def particles_in_flight(fr, z_plat: float, x_range, *, gravity=(0.0, 0.0, -9.81)
     return free & ~grounded_particles(fr, z_plat)
 
 
+def bed_mask(fr, plate_length: float, z_plat: float, r_max: float, *,
+             tool_level: float = 0.0) -> np.ndarray:
+    """The particles of the bed in a spreading frame (SI) after a layer.
+
+    The bed is what lies over the platform (``x < plate_length``) above the platform less
+    the largest radius (``z > z_plat - r_max``), except powder in the air: a particle
+    whose lowest point is above the tool's lowest point (``z - r > tool_level``), after
+    the tool has passed, and that does not rest on the platform through touching
+    particles (:func:`bedstruct.analysis.grounded_particles`) was thrown up (squeezed
+    under the tool) and is not part of the bed. A particle at that height resting on the
+    bed is.
+
+    Parameters
+    ----------
+    fr : Frame
+    plate_length, z_plat, r_max : float, m
+        Platform length, platform height and largest particle radius.
+    tool_level : float, m, optional
+        Height of the tool's lowest point (the workflows keep it at z = 0).
+
+    Returns
+    -------
+    (N,) ndarray of bool
+
+    Examples
+    --------
+    >>> from bedstruct import Frame
+    >>> f = Frame([[1e-4, 1e-4, -3e-4], [2e-4, 1e-4, -2e-4], [3e-4, 1e-4, 2e-3]],
+    ...           [5e-5, 5e-5, 5e-5], box=([0, 0, -1e-3], [1e-3, 1e-3, 3e-3]))
+    >>> bed_mask(f, 1e-3, -3.5e-4, 5e-5).tolist()    # the third is in the air
+    [True, True, False]
+    """
+    p, r = np.asarray(fr.positions, float), np.asarray(fr.radii, float)
+    keep = (p[:, 0] < float(plate_length)) & (p[:, 2] > float(z_plat) - float(r_max))
+    high = keep & (p[:, 2] - r > float(tool_level))
+    if high.any():   # the usual case is none: no contact search needed
+        from ..analysis import grounded_particles
+        keep &= ~(high & ~grounded_particles(fr, float(z_plat)))
+    return keep
+
+
 def frame_metrics(fr, contacts, front: float, *, plate_length: float, z_plat: float, r_max: float):
     """Dynamic angle of the heap in front of the tool (degrees, NaN when not measurable) and mean
     coordination ``2 N_c / N`` of one spreading frame (SI).
@@ -200,6 +243,8 @@ def measure_layer(fr, contacts_all, cfg, *, index: int, z_plat: float, front0: f
                   n_removed: int, wall_time: float, segregation_values=None):
     """Measure the bed of spread layer ``index`` in frame ``fr`` (SI) with its contacts.
 
+    The bed is :func:`bed_mask` of the frame: powder thrown into the air is left out.
+
     The same measurement for every engine (see :func:`run_spread`). ``mid`` is a list
     holding the ``(frame, tool front)`` of the middle of the layer (or empty), or give
     ``segregation_values``, :func:`mid_layer_segregation` of it. Returns
@@ -215,8 +260,7 @@ def measure_layer(fr, contacts_all, cfg, *, index: int, z_plat: float, front0: f
     k = index - 1
     gap = gaps[k]
     n_ins = n_inserted
-    on_plat = fr.positions[:, 0] < Lplat
-    bed = fr.select(on_plat & (fr.positions[:, 2] > z_plat - rmax))
+    bed = fr.select(bed_mask(fr, Lplat, z_plat, rmax))
     n_bed = bed.n_particles
     n_heap = fr.n_particles - n_bed
     H_k = sum(gaps[:k + 1])

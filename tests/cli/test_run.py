@@ -147,3 +147,55 @@ def test_sigterm_then_the_same_command_resumes(tmp_path):
         d.pop("extra")
         d["layers"][0].pop("wall_time")
     assert a == b
+
+
+def _fake_replicates(monkeypatch, angles):
+    from bedstruct.workflows import repose
+    from bedstruct.workflows.repose_measure import ReposeReplicate
+
+    def fake(cfg, *, seed, cohesion, layout=None, stage=""):
+        a = angles[seed - 1]
+        note = "" if a == a else "no pile formed: 1 of 797 particles drained"
+        return ReposeReplicate(seed=seed, cohesion=cohesion, angle_deg=a, angle_std_deg=1.0,
+                               left_deg=a, right_deg=a, n_inserted=797, n_remaining=796,
+                               n_fallen=1, pile_height=1e-3, wall_time=0.0, stage=stage,
+                               note=note)
+    monkeypatch.setattr(repose, "repose_replicate", fake)
+
+
+def test_repose_without_any_pile_says_why_and_fails(tmp_path, capsys, monkeypatch):
+    _fake_replicates(monkeypatch, [float("nan")])
+    rc = main(["run", "repose", "--preset", "tiny", "--out", str(tmp_path), "--json", "--no-3d"])
+    captured = capsys.readouterr()
+    assert rc == 1
+    assert "no pile formed: 1 of 797 particles drained" in captured.err
+    assert "nan" not in captured.out.splitlines()[0]
+    d = json.loads(captured.out.strip().splitlines()[-1])
+    assert d["n_measured"] == 0 and "rep00" in d["unmeasured"]
+
+
+def test_repose_mean_says_how_many_piles_it_is_over(tmp_path, capsys, monkeypatch):
+    nan = float("nan")
+    _fake_replicates(monkeypatch, [30.0, nan, nan])
+    rc = main(["run", "repose", "--preset", "tiny", "--set", "repose.replicates=3",
+               "--out", str(tmp_path), "--json", "--no-3d"])
+    captured = capsys.readouterr()
+    assert rc == 0
+    line = captured.out.splitlines()[0]
+    assert "mean of 1 of 3 piles (2 could not be measured: rep01: no pile formed" in line
+    d = json.loads(captured.out.strip().splitlines()[-1])
+    assert d["n_measured"] == 1 and sorted(d["unmeasured"]) == ["rep01", "rep02"]
+
+
+@pytest.mark.parametrize("assignment, key", [
+    ("spread.blade_height=1e-4", "spread.blade_height"),
+    ("spread.width=1e-4", "spread.width"),
+    ("psd.d_max=70", "psd.d_max"),
+    ("preset=small", "--preset"),
+])
+def test_bad_geometry_is_refused_before_anything_is_written(tmp_path, capsys, assignment, key):
+    out = tmp_path / "run"
+    assert main(["run", "spread", "--preset", "tiny", "--set", assignment, "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert key in err and f"--set {assignment}" in err
+    assert not out.exists()

@@ -30,7 +30,7 @@ def _text(page: str) -> str:
 
 
 REPOSE = {"workflow": "repose", "angle_deg": 31.25, "angle_std_deg": 0.75, "spread_deg": 1.5,
-          "cohesion": 3000.0,
+          "cohesion": 3000.0, "n_measured": 2, "unmeasured": {},
           "replicates": [{"stage": f"rep0{k}", "seed": k + 1, "angle_deg": a, "angle_std_deg": 2.0,
                           "left_deg": a - 1, "right_deg": a + 1, "n_remaining": 600 + k,
                           "pile_height": 4.5e-4} for k, a in enumerate((30.25, 32.25))]}
@@ -96,7 +96,8 @@ def test_run_prints_where_it_wrote_the_summary(tmp_path, capsys, monkeypatch):
         reps = [types.SimpleNamespace(**r) for r in REPOSE["replicates"]]
         return types.SimpleNamespace(to_dict=lambda: REPOSE, replicates=reps,
                                      **{k: REPOSE[k] for k in ("angle_deg", "angle_std_deg",
-                                                               "spread_deg", "cohesion")})
+                                                               "spread_deg", "cohesion", "n_measured",
+                                                               "unmeasured")})
     monkeypatch.setattr(wf, "run_repose", fake)
     out = tmp_path / "run"
     assert main(["run", "repose", "--preset", "tiny", "--out", str(out), "--no-3d"]) == 0
