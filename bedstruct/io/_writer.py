@@ -6,19 +6,20 @@ Implementation module of :mod:`bedstruct.io.lammps_dump` (import from there).
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 import numpy as np
 
+from .._atomic import atomic_path
 from ..core import Box, Frame
 
 __all__ = ["write_dump"]
 
 
-def _open_write(path, append=False):
-    path = os.fspath(path)
-    mode = "ab" if append else "wb"
-    low = path.lower()
+def _compressed_writer(path, target, mode):
+    """A binary writer of ``path``, compressed as the name ``target`` says."""
+    low = target.lower()
     if low.endswith((".gz", ".gzip")):
         import gzip
         return gzip.open(path, mode, compresslevel=6)
@@ -26,9 +27,48 @@ def _open_write(path, append=False):
         import bz2
         return bz2.open(path, mode)
     if low.endswith((".zst", ".zstd")):
-        import zstandard
+        try:
+            import zstandard
+        except ImportError:
+            raise ImportError(f"{target}: writing .zst files needs the 'zstandard' package "
+                              "(pip install zstandard)") from None
         return zstandard.open(path, mode)
     return open(path, mode)
+
+
+@contextlib.contextmanager
+def _open_write(path, append=False):
+    """A binary writer of ``path`` (compressed by its extension) that never leaves a
+    half-written file when the writing stops on an exception.
+
+    A new file is written beside ``path`` and moved into place when the ``with`` block
+    ends without an error, so an existing file is kept until then. When appending, an
+    error cuts the file back to the size it had before.
+    """
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"{path}: a directory; give the path of the file to write")
+    if not append and os.path.exists(path) and not os.path.isfile(path):
+        with _compressed_writer(path, path, "wb") as fh:  # a pipe or device: write through
+            yield fh
+        return
+    if not append:
+        with atomic_path(path, suffix=".tmp") as tmp:
+            with _compressed_writer(tmp, path, "wb") as fh:
+                yield fh
+        return
+    size = os.path.getsize(path) if os.path.exists(path) else None
+    try:
+        with _compressed_writer(path, path, "ab") as fh:
+            yield fh
+    except BaseException:
+        if size is None:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+        else:
+            with open(path, "r+b") as raw:
+                raw.truncate(size)
+        raise
 
 
 def _frame_table(frame: Frame, columns=None):
@@ -47,12 +87,20 @@ def _frame_table(frame: Frame, columns=None):
                 table[c] = arr[:, k]
     table["radius"] = frame.radii
     for name, arr in frame.columns.items():
+        if arr.dtype.kind not in "biuf":
+            raise ValueError(f"column {name!r} holds {arr.dtype} values; a dump holds numbers "
+                             f"only (leave it out with `columns=`)")
         if arr.ndim == 1:
-            table[name] = arr
+            parts = {name: arr}
         else:
             flat = arr.reshape(arr.shape[0], -1)
-            for k in range(flat.shape[1]):
-                table[f"{name}[{k + 1}]"] = flat[:, k]
+            parts = {f"{name}[{k + 1}]": flat[:, k] for k in range(flat.shape[1])}
+        for key, values in parts.items():
+            if key in table:
+                raise ValueError(f"column {name!r} would be written as {key!r}, which this "
+                                 f"frame already writes (from its ids, types, positions, "
+                                 f"vectors or radii); rename the column")
+            table[key] = values
     if columns is not None:
         columns = list(columns.split() if isinstance(columns, str) else columns)
         missing = [c for c in columns if c not in table]
@@ -61,7 +109,8 @@ def _frame_table(frame: Frame, columns=None):
                              f"available: {list(table)}")
         table = {c: table[c] for c in columns}
     for name in table:
-        if not name or any(ch.isspace() for ch in name):
+        if not name or not name.isascii() or not name.isprintable() or any(
+                ch.isspace() for ch in name):
             raise ValueError(f"column name {name!r} cannot be written to a dump header")
     names = list(table)
     arrays = [np.asarray(table[c]) for c in names]
@@ -76,7 +125,7 @@ def _format_rows(arrays, n) -> bytes:
     for a in arrays:
         if a.dtype.kind in "iub":
             fmts.append("%d")
-            cols.append(a.astype(np.int64).tolist())
+            cols.append(a.astype(np.uint64 if a.dtype.kind == "u" else np.int64).tolist())
         else:
             fmts.append("%r")
             cols.append(a.astype(np.float64).tolist())
@@ -116,6 +165,11 @@ def write_dump(path, frames_or_frame, *, columns=None, append=False, units_item=
         written as ``name[1] .. name[k]``).
     append : bool, optional
         Append to an existing file instead of replacing it.
+
+        A new file is written beside ``path`` and moved into place when
+        complete, so an error (or interruption) while writing leaves the
+        previous file untouched; when appending, an error cuts the file back
+        to its previous size.
     units_item, time_item : bool, optional
         Also write ``ITEM: UNITS`` / ``ITEM: TIME`` before each frame (LAMMPS
         ``dump_modify units yes`` / ``time yes``). Off by default because
@@ -140,6 +194,9 @@ def write_dump(path, frames_or_frame, *, columns=None, append=False, units_item=
     1 1 0.1 0.2 0.3 0.05
     """
     frames = [frames_or_frame] if isinstance(frames_or_frame, Frame) else frames_or_frame
+    if isinstance(frames, (str, bytes)) or not hasattr(frames, "__iter__"):
+        raise TypeError(f"expected a Frame or an iterable of Frame objects; got "
+                        f"{type(frames_or_frame).__name__}")
     with _open_write(path, append) as fh:
         for frame in frames:
             if not isinstance(frame, Frame):

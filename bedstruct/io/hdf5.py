@@ -59,14 +59,41 @@ class HDF5Contents:
     bedstruct_version: str
 
 
-def _dataset(group, name, arr):
+def _dataset(group, name, arr, what=None):
+    """Store ``arr`` as dataset ``name``; booleans and strings are marked so that
+    :func:`_value` gives them back with their dtype."""
     arr = np.asarray(arr)
+    kind = None
     if arr.dtype == bool:
-        arr = arr.astype(np.uint8)
+        arr, kind = arr.astype(np.uint8), "bool"
+    elif arr.dtype.kind in "US":
+        import h5py
+        kind = "str" if arr.dtype.kind == "U" else "bytes"
+        arr = np.char.encode(arr, "utf-8") if kind == "str" else arr
+        arr = arr.astype(h5py.string_dtype("utf-8" if kind == "str" else "ascii"))
+    elif arr.dtype.kind not in "iuf":
+        raise ValueError(f"{what or repr(name)} holds {arr.dtype} values, which bedstruct's "
+                         f"HDF5 files do not store (numbers, booleans or strings)")
     if arr.size >= 64:
-        return group.create_dataset(name, data=arr, chunks=True, compression="gzip",
-                                    compression_opts=4, shuffle=True)
-    return group.create_dataset(name, data=arr)
+        ds = group.create_dataset(name, data=arr, chunks=True, compression="gzip",
+                                  compression_opts=4, shuffle=True)
+    else:
+        ds = group.create_dataset(name, data=arr)
+    if kind is not None:
+        ds.attrs["bedstruct_dtype"] = kind
+    return ds
+
+
+def _value(ds):
+    """The array of a dataset written by :func:`_dataset`, with its original dtype."""
+    kind = ds.attrs.get("bedstruct_dtype")
+    if kind == "bool":
+        return ds[()].astype(bool)
+    if kind == "str":
+        return np.asarray(ds.asstr()[()], dtype=str)
+    if kind == "bytes":
+        return np.asarray(ds[()], dtype=bytes)
+    return ds[()]
 
 
 def _write_arrays(g, obj, names):
@@ -78,17 +105,17 @@ def _write_arrays(g, obj, names):
             _dataset(g, name, arr)
     cols = g.create_group("columns")
     for k, (name, arr) in enumerate(obj.columns.items()):
-        ds = _dataset(cols, str(k), arr)
+        ds = _dataset(cols, str(k), arr, what=f"column {name!r}")
         ds.attrs["name"] = name
 
 
 def _read_arrays(g, names):
     """(arrays by name, columns by name) as written by :func:`_write_arrays`."""
-    kw = {name: g[name][()] for name in names if name in g}
+    kw = {name: _value(g[name]) for name in names if name in g}
     cols = {}
     for key in sorted(g["columns"], key=int):
         ds = g["columns"][key]
-        cols[str(ds.attrs["name"])] = ds[()]
+        cols[str(ds.attrs["name"])] = _value(ds)
     return kw, cols
 
 
@@ -144,26 +171,44 @@ def _read_contacts(g) -> Contacts:
                     columns=cols, **kw)
 
 
-def _write_results(g, results: dict):
+def _write_results(g, results: dict, where=""):
     for name, value in results.items():
         name = str(name)
         if "/" in name:
             raise ValueError(f"result names cannot contain '/': {name!r}")
+        what = f"result {where + name!r}"
         if isinstance(value, dict):
-            _write_results(g.create_group(name), value)
+            _write_results(g.create_group(name), value, where + name + "/")
         elif value is None:
             g.attrs[name] = "__none__"
-        elif isinstance(value, str):
+        elif isinstance(value, str) and value != "__none__":
             g.attrs[name] = value
-        elif np.ndim(value) == 0 and not isinstance(value, np.ndarray):
+        elif isinstance(value, (bool, np.bool_)):
+            g.attrs[name] = np.bool_(value)
+        elif isinstance(value, (int, np.integer)) and not -2 ** 63 <= int(value) < 2 ** 63:
+            _json_attr(g, name, int(value), what)
+        elif isinstance(value, (int, float, complex, bytes, np.number)):
             g.attrs[name] = value
         else:
-            arr = np.asarray(value)
-            if arr.dtype.kind in "OUS":
-                g.attrs[name] = json.dumps(np.asarray(value).tolist())
-                g.attrs[name + "__json__"] = True
+            try:
+                arr = np.asarray(value)
+            except ValueError:  # ragged nesting
+                arr = np.asarray(None, dtype=object)
+            if isinstance(value, (list, tuple, str)) and arr.dtype.kind in "OUS":
+                _json_attr(g, name, value, what)
+            elif arr.dtype.kind == "U" and arr.ndim:
+                _json_attr(g, name, arr.tolist(), what)
             else:
-                _dataset(g, name, arr)
+                _dataset(g, name, arr, what=what)
+
+
+def _json_attr(g, name, value, what):
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what} cannot be stored in HDF5: {exc}") from None
+    g.attrs[name] = text
+    g.attrs[name + "__json__"] = True
 
 
 def _read_results(g) -> dict:
@@ -182,7 +227,7 @@ def _read_results(g) -> dict:
         else:
             out[name] = value
     for name, item in g.items():
-        out[name] = _read_results(item) if hasattr(item, "keys") else item[()]
+        out[name] = _read_results(item) if hasattr(item, "keys") else _value(item)
     return out
 
 
@@ -255,8 +300,11 @@ def load_hdf5(path) -> HDF5Contents:
 
     Raises
     ------
+    FileNotFoundError
+        If the file does not exist.
     ValueError
-        If the file is not a bedstruct HDF5 file.
+        If the file is not a bedstruct HDF5 file (not HDF5 at all, or HDF5
+        written by something else).
 
     Examples
     --------
@@ -272,7 +320,13 @@ def load_hdf5(path) -> HDF5Contents:
     """
     import h5py
 
-    with h5py.File(os.fspath(path), "r") as h:
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"{path}: no such file")
+    if os.path.isfile(path) and os.access(path, os.R_OK) and not h5py.is_hdf5(path):
+        raise ValueError(f"{path}: not an HDF5 file (bedstruct.io.read reads dump and data "
+                         f"files)")
+    with h5py.File(path, "r") as h:
         if h.attrs.get("format") != _FORMAT:
             raise ValueError(f"{path}: not a bedstruct HDF5 file (format attribute "
                              f"{h.attrs.get('format')!r})")

@@ -1,17 +1,18 @@
 """Exchange with MDAnalysis and PyVista.
 
-MDAnalysis stores positions and box lengths as float32 and has no box origin;
-:func:`to_universe` therefore also keeps the exact box (``lo``, ``hi``,
-``tilt``, boundary flags) and the timestep in ``universe.trajectory.ts.data``
-so that :func:`from_universe` restores them; positions come back rounded to
-float32.
+MDAnalysis stores positions and box lengths as float32, has no box origin and
+no unit style of its own; :func:`to_universe` therefore also keeps the exact box
+(``lo``, ``hi``, ``tilt``, boundary flags), the timestep, the time, the unit
+style, angular velocities, image flags and extra columns in
+``universe.trajectory.ts.data`` so that :func:`from_universe` restores them;
+positions come back rounded to float32.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..core import Box, Contacts, Frame, Provenance
+from ..core import Box, Contacts, Frame, Provenance, Units
 
 __all__ = ["to_universe", "from_universe", "to_pyvista"]
 
@@ -65,6 +66,11 @@ def to_universe(frame: Frame):
     ts.data["step"] = frame.timestep
     ts.data["bedstruct_box"] = {"lo": frame.box.lo.copy(), "hi": frame.box.hi.copy(),
                                 "tilt": frame.box.tilt.copy(), "boundary": frame.box.boundary}
+    ts.data["bedstruct_frame"] = {
+        "n_atoms": n, "units": frame.units, "time": frame.time,
+        "omegas": None if frame.omegas is None else frame.omegas.copy(),
+        "images": None if frame.images is None else frame.images.copy(),
+        "columns": {k: v.copy() for k, v in frame.columns.items()}}
     return u
 
 
@@ -96,11 +102,17 @@ def from_universe(universe, *, radius=None, boundary=None) -> Frame:
 
     .. versionadded:: 0.1
     """
+    if not hasattr(universe, "atoms") or not hasattr(universe.atoms, "universe"):
+        raise TypeError(f"expected an MDAnalysis Universe or AtomGroup; got "
+                        f"{type(universe).__name__}")
     atoms = universe.atoms
     u = atoms.universe
     ts = u.trajectory.ts
     n = len(atoms)
     notes = []
+    extra = ts.data.get("bedstruct_frame")
+    if extra is not None and extra.get("n_atoms") != u.atoms.n_atoms:
+        extra = None
     radii = None
     if hasattr(atoms, "radii"):
         r = np.asarray(atoms.radii, dtype=np.float64)
@@ -124,20 +136,45 @@ def from_universe(universe, *, radius=None, boundary=None) -> Frame:
                   boundary or "pp pp pp")
         notes.append("box from MDAnalysis dimensions (origin at 0)")
     try:
-        types = np.asarray(atoms.types).astype(np.int64)
-    except (ValueError, TypeError, AttributeError):
-        names = np.asarray(getattr(atoms, "types", np.full(n, "1")))
+        names = np.asarray(atoms.types)
+    except (AttributeError, ValueError):  # MDAnalysis' NoDataError is both
+        names = None
+        types = np.ones(n, dtype=np.int64)
+        notes.append("the universe has no atom types: all 1")
+    try:
+        if names is not None:
+            types = names.astype(np.int64)
+    except (ValueError, TypeError):
         uniq, inv = np.unique(names, return_inverse=True)
         types = inv + 1
         notes.append("non-numeric MDAnalysis types mapped to 1..k: " + " ".join(map(str, uniq)))
+    try:
+        ids = np.asarray(atoms.ids)
+    except (AttributeError, ValueError):  # MDAnalysis' NoDataError is both
+        ids = np.asarray(atoms.indices) + 1
+        notes.append("the universe has no atom ids: ids are the atom indices + 1")
     kw = {}
     if ts.has_velocities:
         kw["velocities"] = atoms.velocities.astype(np.float64)
     if ts.has_forces:
         kw["forces"] = atoms.forces.astype(np.float64)
+    if extra is not None:
+        rows = np.asarray(atoms.indices)
+        units = extra["units"]
+        time = extra["time"]
+        for name in ("omegas", "images"):
+            if extra[name] is not None:
+                kw[name] = extra[name][rows]
+        kw["columns"] = {k: v[rows] for k, v in extra["columns"].items()}
+    else:
+        units = Units(None)
+        time = None
+        notes.append("unit style unknown (MDAnalysis works in angstrom and ps); set it with "
+                     "frame.with_units()")
     notes.append("positions from MDAnalysis (float32 precision)")
     frame = Frame(atoms.positions.astype(np.float64), radii, box=box,
-                  timestep=int(ts.data.get("step", ts.frame)), ids=atoms.ids, types=types,
+                  timestep=int(ts.data.get("step", ts.frame)), ids=ids, types=types,
+                  time=time, units=units,
                   provenance=Provenance(source=str(getattr(u, "filename", None) or "MDAnalysis"),
                                         frame_index=int(ts.frame), notes=tuple(notes)), **kw)
     return frame.sorted_by_id()

@@ -19,6 +19,7 @@ __all__ = ["summarise", "summarise_all", "format_summary"]
 _HEAD = 4096
 _DATA_ATOMS = re.compile(rb"(?m)^[ \t]*\d+[ \t]+atoms[ \t]*(#.*)?\r?$")
 _ITEM_LINE = re.compile(rb"(?m)^ITEM:")
+_HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 
 
 def _box_dict(box) -> dict:
@@ -40,6 +41,9 @@ def _kind(path) -> tuple[str, str | None]:
     finally:
         src.close()
     comp = src.compression
+    if head.startswith(_HDF5_MAGIC):
+        raise DumpFormatError("an HDF5 file, not a LAMMPS/LIGGGHTS dump or data file: load it "
+                              "with bedstruct.io.load_hdf5 or bedstruct.io.read", path=str(path))
     if not head.strip() and len(head) < _HEAD:
         return "empty", comp
     if head.lstrip().startswith(b"ITEM:"):
