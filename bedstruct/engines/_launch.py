@@ -215,6 +215,7 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
     for key, value in (variables or {}).items():
         args += ["-var", str(key), str(value)]
     cmd = info.command(args, np=np)
+    log_path.unlink(missing_ok=True)   # an engine that fails to start leaves no stale log
     log.info("running %s in %s", " ".join(shlex.quote(c) for c in cmd), cwd)
     t0 = time.perf_counter()
     try:
@@ -236,9 +237,12 @@ def run_deck(deck_path, *, engine=None, np: int = 1, exe: str | None = None, cwd
                  if ln.strip() and ln not in text][-15:]
         if extra:
             tail = (tail + "\n--- engine stdout ---\n" if tail else "") + "\n".join(extra)
+        errors = parsed.errors or [ln.strip() for ln in extra if ln.strip().startswith("ERROR")]
+        what = f": {errors[-1]}" if errors else ""
         raise EngineRunError(
-            f"{info.name} failed on {deck_path.name} (exit code {returncode}, "
-            f"np={np}, cwd={cwd})", returncode=returncode, log_path=str(log_path), tail=tail)
+            f"{info.name} failed on {deck_path} (exit code {returncode}, np={np}, cwd={cwd}; "
+            f"log {log_path if text else 'not written'}){what}", returncode=returncode,
+            log_path=str(log_path), tail=tail)
     return RunResult(parsed, log_path, cwd, tuple(cmd), wall)
 
 

@@ -93,7 +93,8 @@ class EngineLog:
     errors : tuple of str
         Lines starting with ``ERROR``.
     warnings : tuple of str
-        Lines starting with ``WARNING``.
+        Lines starting with ``WARNING``. A message whose text is on the indented lines
+        below it (LIGGGHTS' ``WARNING:`` paragraphs) is joined into one line.
     """
 
     engine: str
@@ -187,8 +188,15 @@ def parse_log(source) -> EngineLog:
         pending = run if loop is not None else None
         cols, rows = None, []
 
+    cont = None   # the message list and index of an ERROR/WARNING whose text follows it
     for raw in text.splitlines():
         line = raw.strip()
+        if cont is not None:
+            if line and raw[:1].isspace():   # LIGGGHTS: "WARNING: " then indented lines
+                msgs, i = cont
+                msgs[i] = f"{msgs[i]} {line}"
+                continue
+            cont = None
         if not line:
             continue
         if not engine:
@@ -198,11 +206,11 @@ def parse_log(source) -> EngineLog:
             if line.startswith("LAMMPS ("):
                 engine, version = "lammps", line
                 continue
-        if line.startswith("ERROR"):
-            errors.append(line)
-            continue
-        if line.startswith("WARNING"):
-            warnings_.append(line)
+        if line.startswith(("ERROR", "WARNING")):
+            msgs = errors if line.startswith("ERROR") else warnings_
+            msgs.append(line)
+            if line.endswith(":"):
+                cont = (msgs, len(msgs) - 1)
             continue
         m = _LOOP_RE.match(line)
         if m:

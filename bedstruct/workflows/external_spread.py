@@ -21,14 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engines import (BladeGeometry, RollerGeometry, SpreadLayersPlan, dialect, landing_offsets,
+from ..engines import (BladeGeometry, RollerGeometry, SpreadLayersPlan, landing_offsets,
                        run_deck, run_finished, spread_layers_deck, tool_loads, write_sphere_data)
 from ..dem import Simulation
 from ..errors import BedstructError
 from ._common import german_fit_values, psd_sampler, typed
 from ._rundir import RunLayout
 from .external import (_GRAVITY, ExternalDecks, _check_effects, _deck_model, _engine_file, _gzip,
-                       _reference_contact, effects_dialect, engine_for)
+                       _reference_contact, _shell_command, effects_dialect, engine_for)
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, SpreadResult, bed_mask,
                              frame_metrics,
                              measure_layer, spread_result_from_dict)
@@ -87,6 +87,7 @@ def run_spread_external(cfg, *, out=None):
     if out is None:
         tmp = tempfile.mkdtemp(prefix="bedstruct-spread-")
         out = tmp
+    layout = None
     try:
         layout = RunLayout(out, cfg, workflow="spread")
         if not write_only:
@@ -172,10 +173,8 @@ def run_spread_external(cfg, *, out=None):
         deck_path.write_text(deck)
         np_ = int(cfg.external.np)
         if write_only:
-            argv = (info.command(["-in", deck_path.name, "-log", "in.log"], np=np_) if info else
-                    [dialect(cfg.engine).executable_name, "-in", deck_path.name])
             res = ExternalDecks(cfg.engine, "spread", (str(deck_path),),
-                                (f"cd {root} && " + " ".join(argv),))
+                                (_shell_command(cfg, info, deck_path),))
             layout.write_results({"workflow": "spread", "engine": cfg.engine, **res.to_dict()})
             return res
         contacts = bool(cfg.output.contacts)
@@ -255,6 +254,10 @@ def run_spread_external(cfg, *, out=None):
         layout.write_results({"workflow": "spread", "engine": cfg.engine, "np": np_,
                               **res.to_dict()})
         return res
+    except Exception as exc:   # the folder says the run failed, and why (it resumes)
+        if layout is not None:
+            layout.fail(exc)
+        raise
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
