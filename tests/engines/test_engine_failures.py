@@ -126,3 +126,26 @@ def test_a_write_only_command_runs_the_deck_with_the_engines_environment(tmp_pat
     subprocess.run(["sh", "-c", cmd], check=True, env={**env, "LD_LIBRARY_PATH": "/usr/old"})
     seen = (tmp_path / "run" / "rep00" / "seen.txt").read_text().strip()
     assert seen == f"{lib}:/usr/old|1|-in in.repose -log in.log"
+
+
+def test_an_engine_run_that_leaves_no_pile_is_a_noted_replicate(tmp_path):
+    # the powder of an external run all drained: the replicate says why (as the embedded
+    # engine's does), the run counts it as unmeasured, and no exception escapes
+    exe = tmp_path / "bin" / "liggghts"
+    exe.parent.mkdir()
+    exe.write_text("\n".join([
+        "#!/bin/sh",
+        'log=""', 'while [ $# -gt 0 ]; do [ "$1" = "-log" ] && log="$2"; shift; done',
+        'echo "LIGGGHTS (Version LIGGGHTS-PUBLIC 3.8.0)" > "$log"',
+        "cat > frames.dump <<'DUMP'",
+        "ITEM: TIMESTEP", "100", "ITEM: NUMBER OF ATOMS", "2",
+        "ITEM: BOX BOUNDS ff ff ff", "-0.01 0.01", "-0.01 0.01", "-0.01 0.01",
+        "ITEM: ATOMS id type x y z radius",
+        "1 1 0.001 0.0001 0.0001 0.0001", "2 1 0.002 0.0001 0.0001 0.0001",
+        "DUMP", "exit 0", ""]))
+    exe.chmod(0o755)
+    res = run_repose(_tiny("liggghts", exe), out=tmp_path / "run")
+    (rep,) = res.replicates
+    assert rep.angle_deg != rep.angle_deg                      # NaN
+    assert "only 2 particles remain" in rep.note
+    assert res.n_measured == 0 and "rep00" in res.unmeasured
