@@ -93,21 +93,8 @@ class _TimeStep:
             dt = float(self._dt_user)
             if not dt > 0:
                 raise ConfigError(f"`dt` must be positive; got {dt}")
-            reasons = []
-            if dt > self.max_rayleigh_fraction * t_r:
-                reasons.append(f"dt = {dt:.3g} s is {dt / t_r:.0%} of the Rayleigh time "
-                               f"{t_r:.3g} s of the smallest sphere (r = {rmin:.3g} m); the limit "
-                               f"is {self.max_rayleigh_fraction:.0%}")
-            if dt > 0.1 * t_h:
-                reasons.append(f"dt = {dt:.3g} s exceeds 10% of the Hertz impact time "
-                               f"{t_h:.3g} s at v_max = {self.v_max} m/s (a collision would span "
-                               f"fewer than 10 steps)")
-            if reasons:
-                msg = "unsafe time step: " + "; ".join(reasons) + \
-                      ". Use a smaller dt, a softer Young's modulus, or force=True."
-                if not self.force:
-                    raise UnsafeTimestepError(msg)
-                log.warning("%s (accepted because force=True)", msg)
+            self._refuse_unsafe(self._step_limits(dt, rmin, "smallest sphere"),
+                                "Use a smaller dt, a softer Young's modulus, or force=True.")
         self.dt = dt
         self._dt_radius = rmin
         if self._skin_user is not None:
@@ -132,25 +119,39 @@ class _TimeStep:
         planned = getattr(self, "_dt_radius", None)
         if planned is not None and r >= planned:
             return
+        reasons = self._step_limits(self.dt, r, "smallest sphere present")
+        if reasons and planned is not None:
+            reasons[-1] += f" (the step was planned for r = {planned:.3g} m)"
+        self._refuse_unsafe(reasons, "Give `min_radius` = the smallest radius the simulation "
+                                     "will hold, a smaller dt, or force=True.")
+        self._dt_radius = r
+
+    def _step_limits(self, dt: float, r: float, which: str) -> list[str]:
+        """Why ``dt`` is unsafe for spheres of radius ``r`` (empty when it is not): above
+        ``max_rayleigh_fraction`` of their Rayleigh time, or a tenth of their Hertz impact
+        time at ``v_max``."""
         t_r = self.model.rayleigh_time(r)
         t_h = self.model.hertz_time(r, self.v_max)
         reasons = []
-        if self.dt > self.max_rayleigh_fraction * t_r:
-            reasons.append(f"dt = {self.dt:.3g} s is {self.dt / t_r:.0%} of the Rayleigh time "
-                           f"{t_r:.3g} s of the smallest sphere present (r = {r:.3g} m); the "
-                           f"limit is {self.max_rayleigh_fraction:.0%}")
-        if self.dt > 0.1 * t_h:
-            reasons.append(f"dt = {self.dt:.3g} s exceeds 10% of the Hertz impact time {t_h:.3g} s "
-                           f"of the smallest sphere present (r = {r:.3g} m) at v_max = "
-                           f"{self.v_max} m/s")
-        if reasons:
-            plan = "" if planned is None else f" (the step was planned for r = {planned:.3g} m)"
-            msg = ("unsafe time step: " + "; ".join(reasons) + plan + ". Give `min_radius` = "
-                   "the smallest radius the simulation will hold, a smaller dt, or force=True.")
-            if not self.force:
-                raise UnsafeTimestepError(msg)
-            log.warning("%s (accepted because force=True)", msg)
-        self._dt_radius = r
+        if dt > self.max_rayleigh_fraction * t_r:
+            reasons.append(f"dt = {dt:.3g} s is {dt / t_r:.0%} of the Rayleigh time {t_r:.3g} s "
+                           f"of the {which} (r = {r:.3g} m); the limit is "
+                           f"{self.max_rayleigh_fraction:.0%}")
+        if dt > 0.1 * t_h:
+            reasons.append(f"dt = {dt:.3g} s exceeds 10% of the Hertz impact time {t_h:.3g} s of "
+                           f"the {which} (r = {r:.3g} m) at v_max = {self.v_max} m/s (a "
+                           f"collision would span fewer than 10 steps)")
+        return reasons
+
+    def _refuse_unsafe(self, reasons: list[str], advice: str) -> None:
+        """:class:`~bedstruct.UnsafeTimestepError` for ``reasons``, or with ``force`` a
+        warning."""
+        if not reasons:
+            return
+        msg = "unsafe time step: " + "; ".join(reasons) + ". " + advice
+        if not self.force:
+            raise UnsafeTimestepError(msg)
+        log.warning("%s (accepted because force=True)", msg)
 
 
 def _finite_at_least(value, lo: float, strict: bool = False) -> bool:
