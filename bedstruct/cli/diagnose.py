@@ -71,9 +71,10 @@ def _shard(text: str) -> tuple[int, int]:
     return k, n
 
 
-#: Every option: flags, argparse keywords and its help in each mode that uses it. Each
-#: mode's help lists only its own options; every parser accepts them all, and a mode's run
-#: refuses those that do not apply to it (with the reason).
+#: Every option: flags, argparse keywords and its help in each mode that uses it (one help
+#: shared by several modes: ``dict.fromkeys(modes, help)``). Each mode's help lists only its
+#: own options; every parser accepts them all, and a mode's run refuses those that do not
+#: apply to it (with the reason).
 _OPTIONS = [
     (("--sim",), dict(metavar="CONFIG"),
      {"diagnose": "simulation config TOML, or 'surrogate'",
@@ -88,11 +89,9 @@ _OPTIONS = [
      {"diagnose": "answer on the emulator of a run library in DIR",
       "benchmark": "diagnose on the emulator of the diagnosing config's run library in DIR"}),
     (("--workers",), dict(type=_count, default=None, metavar="N"),
-     {"diagnose": "--library: local processes for the library's runs",
-      "benchmark": "--library: local processes for the library's runs"}),
+     dict.fromkeys(("diagnose", "benchmark"), "--library: local processes for the library's runs")),
     (("--scheduler",), dict(metavar="ADDRESS"),
-     {"diagnose": "--library: Dask scheduler for the library's runs",
-      "benchmark": "--library: Dask scheduler for the library's runs"}),
+     dict.fromkeys(("diagnose", "benchmark"), "--library: Dask scheduler for the library's runs")),
     (("--preset",), dict(choices=["mini", "tiny", "small"], default=None),
      {"validate": "validation size (default tiny)",
       "benchmark": "workflow preset of a DEM twins engine (default tiny)"}),
@@ -114,11 +113,9 @@ _OPTIONS = [
     (("--campaign",), dict(choices=["seed", "full"], default=None),
      {"validate": "--simulator engine: the twins' measurement design (default seed)"}),
     (("--cache",), dict(metavar="DIR"),
-     {"diagnose": "engine: folder caching every run",
-      "validate": "engine: folder caching every run"}),
+     dict.fromkeys(("diagnose", "validate"), "engine: folder caching every run")),
     (("--jobs",), dict(type=_count, default=None, metavar="N"),
-     {"diagnose": "engine: run engine calls in N processes",
-      "validate": "engine: run engine calls in N processes"}),
+     dict.fromkeys(("diagnose", "validate"), "engine: run engine calls in N processes")),
     (("--np",), dict(type=_count, default=None, metavar="N"),
      {"diagnose": "engine: MPI ranks of each LIGGGHTS or LAMMPS run"}),
     (("--records",), dict(metavar="FILE"),
@@ -132,11 +129,10 @@ _OPTIONS = [
     (("--twin-repeats",), dict(type=_count, default=None, metavar="R"),
      {"validate": "repeated experiments per twin (default 1)"}),
     (("--refine",), dict(type=_rounds, default=None, metavar="N"),
-     {"diagnose": "rounds simulating the leading effects at their fits",
-      "validate": "rounds simulating the leading effects at their fits"}),
+     dict.fromkeys(("diagnose", "validate"),
+                   "rounds simulating the leading effects at their fits")),
     (("--top-up",), dict(type=_rounds, default=None, metavar="N"),
-     {"diagnose": "seeds added where identifiability is marginal",
-      "validate": "seeds added where identifiability is marginal"}),
+     dict.fromkeys(("diagnose", "validate"), "seeds added where identifiability is marginal")),
     (("--diagnose-setting",), dict(action="append", default=None, metavar="KEY=VALUE"),
      {"benchmark": "replace a diagnosis setting (tests only; recorded)"}),
     (("--score",), dict(nargs="+", metavar="DIR", default=None),
@@ -148,7 +144,7 @@ _OPTIONS = [
       "validate": "print the scores as one JSON line last",
       "benchmark": "print the summary as one JSON line last"}),
     (("--progress",), dict(action="store_true"),
-     {"diagnose": "show progress bars", "validate": "show progress bars"}),
+     dict.fromkeys(("diagnose", "validate"), "show progress bars")),
 ]
 
 

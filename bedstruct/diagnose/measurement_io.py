@@ -169,9 +169,11 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
         if sources:
             raise _err(where, f"key {sources[0]!r}: a candidate (not yet measured) observable has no values")
     elif in_no_trial:
-        if sources:
-            raise _err(where, f"key {sources[0]!r}: no reading in any of its {trials} trial(s) "
-                              f"(not_measured = trials), so it has no value; give none")
+        given = sources + ["uncertainty"] * ("uncertainty" in d)
+        if given:
+            raise _err(where, f"key {given[0]!r}: no reading in any of its {trials} trial(s) "
+                              f"(not_measured = trials), so it has no value and no "
+                              f"uncertainty; give neither")
     elif len(sources) != 1:
         raise _err(where, "key 'value': give exactly one of 'value', 'replicates', 'csv', 'image', "
                           f"'images'; got {sources or 'none'}")
@@ -211,10 +213,6 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if src is not None and not np.all(np.isfinite(values)):
         raise _err(where, f"key {src!r}: values must be finite numbers")
     # ---- uncertainty: stated (systematic) and/or from replicates/series, in quadrature
-    if "uncertainty" in d and in_no_trial:
-        raise _err(where, f"key 'uncertainty': no reading in any of its {trials} trial(s) "
-                          f"(not_measured = trials), so it has no value and no uncertainty; "
-                          f"give none")
     if "uncertainty" in d:
         unc = _float_array(d["uncertainty"], where, "uncertainty")
         if len(unc) == 1:

@@ -113,6 +113,19 @@ def _convert(values, unit: str, kind: str, where: str) -> tuple[np.ndarray, str 
 _UNIT_CHOICES = {"angle": ("deg", "rad"), "length": ("m", "mm", "um", "nm"), "fraction": ("1", "%")}
 
 
+def _units_that_fit(raw, lo: float, hi: float, units, *, closed: bool = False) -> list[str]:
+    """The units of ``units`` (pairs: name, factor to the canonical unit) in which every number
+    of ``raw`` would lie in the plausible range (``lo < x < hi``, or ``lo <= x <= hi`` when
+    ``closed``): the unit an implausible number was most likely meant in."""
+    raw = np.asarray(raw, dtype=float)
+    fits = []
+    for u, factor in units:
+        x = raw * factor
+        if np.all((x >= lo) & (x <= hi) if closed else (x > lo) & (x < hi)):
+            fits.append(u)
+    return fits
+
+
 def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str, key: str,
                      file_values=None) -> None:
     """Values (canonical unit) inside the kind's plausible range, else an error with the likely unit."""
@@ -124,14 +137,9 @@ def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str
     if not np.any(bad):
         return
     canonical = KINDS[kind]
-    raw = np.asarray(file_values if file_values is not None else values, dtype=float)
-    fits = []
-    for u in _UNIT_CHOICES[_DIM[canonical]]:
-        if u == unit or (u == "%" and kind in NOT_PERCENT):
-            continue
-        alt = raw * _UNIT[u][1]
-        if np.all((alt > lo) & (alt < hi)):
-            fits.append(u)
+    fits = _units_that_fit(file_values if file_values is not None else values, lo, hi,
+                           [(u, _UNIT[u][1]) for u in _UNIT_CHOICES[_DIM[canonical]]
+                            if u != unit and not (u == "%" and kind in NOT_PERCENT)])
     shown = ", ".join(f"{x:g}" for x in v[bad][:3])
     u = "" if canonical == "1" else f" {canonical}"
     how = f"unit {unit!r}" if stated_unit else f"no 'unit' given, read in {unit!r}"
@@ -245,7 +253,7 @@ def _check_condition(v: float, name: str, where: str, key: str, plain: bool) -> 
     unit, alternatives = _CONDITION_UNITS[name]
     msg = (f"key {key!r}: implausible {name.replace('_', ' ')} {v:g} {unit}; expected "
            f"{lo:g} to {hi:g} {unit}")
-    fits = [u for u, f in alternatives if lo <= v * f <= hi] if plain else []
+    fits = _units_that_fit(v, lo, hi, alternatives, closed=True) if plain else []
     if fits:
         msg += f"; is it in {' or '.join(fits)}? write \"{v:g} {fits[0]}\""
     raise _err(where, msg)

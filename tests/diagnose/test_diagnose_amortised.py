@@ -28,13 +28,14 @@ refine = 0
 n_base = 6
 n_per_effect = 6
 replicates = 2
-vary = 0.2
 """
+#: The same library, its recalibrated parameters varied by 20 % (not the default 25 %).
+SIM_VARY = SIM + "vary = 0.2\n"
 
 
 def test_diagnose_on_a_library_then_reuse_it(tmp_path, capsys):
     sim = tmp_path / "sim.toml"
-    sim.write_text(SIM)
+    sim.write_text(SIM_VARY)
     lib = tmp_path / "lib"
     argv = ["diagnose", "--sim", str(sim), "--real", str(SEED), "--library", str(lib), "--json"]
     assert main([*argv, "--out", str(tmp_path / "a")]) == 0
@@ -64,9 +65,42 @@ def test_diagnose_on_a_library_then_reuse_it(tmp_path, capsys):
     assert len(check) == 1 and "within 2 standard deviations of what the emulator" in check[0]
     assert "sigma" not in check[0] and "t=" not in check[0]
     # another design of the library is refused by name, not reused
-    sim.write_text(SIM.replace("n_base = 6", "n_base = 7"))
+    sim.write_text(SIM_VARY.replace("n_base = 6", "n_base = 7"))
     assert main([*argv, "--out", str(tmp_path / "c")]) == 1
     assert "library" in capsys.readouterr().err
+
+
+def test_an_emulators_leave_one_out_error_is_shown_and_an_overconfident_one_is_not_trusted(
+        tmp_path, capsys):
+    """The plain output has a line with the emulator's leave-one-out error and the --json
+    line ``emulator_loo_rmse_sigma``; an emulator far more confident than its runs allow
+    (LOO error above 3) gives its answer with a caveat first and ``emulator_trusted`` false."""
+    sim = tmp_path / "sim.toml"
+    sim.write_text(SIM)
+    lib = tmp_path / "lib"
+    argv = ["diagnose", "--sim", str(sim), "--real", str(SEED), "--library", str(lib)]
+    assert main([*argv, "--out", str(tmp_path / "a"), "--json"]) == 0
+    good = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert 0.3 < good["emulator_loo_rmse_sigma"] < 3 and 0 < good["emulator_loo_within_2sigma"] <= 1
+    assert good["emulator_trusted"] is True and "caveat" not in good
+    # overconfident hyperparameters for the same runs: no noise, long length scales
+    fit = json.loads((lib / "emulator.json").read_text())
+    fit["theta"] = {k: [np.log(1e-3)] + [np.log(100.0)] * (len(v) - 2) + [np.log(1e-8)]
+                    for k, v in fit["theta"].items()}
+    (lib / "emulator.json").write_text(json.dumps(fit))
+    assert main([*argv, "--out", str(tmp_path / "b")]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[0].startswith("NOT TO BE TRUSTED: the emulator is overconfident (its "
+                               "leave-one-out error is ")
+    loo = [ln for ln in lines if ln.startswith("Emulator: leave-one-out error ")]
+    assert len(loo) == 1 and "of its stated uncertainty (" in loo[0]
+    assert main([*argv, "--out", str(tmp_path / "c"), "--json"]) == 0
+    bad = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert bad["emulator_loo_rmse_sigma"] > 3
+    assert bad["emulator_trusted"] is False and bad["trusted"] is False
+    assert bad["caveat"].startswith("the emulator is overconfident")
+    full = json.loads((tmp_path / "c" / "diagnosis.json").read_text())["emulator"]
+    assert full["trusted"] is False and full["caveat"] == bad["caveat"]
 
 
 def test_library_options_are_checked(tmp_path, capsys):

@@ -28,6 +28,13 @@ def _where(path, key):
     return re.escape(f"{path}: observable #1 'a': key '{key}'")
 
 
+def _refused(path, key, message=""):
+    """Reading ``path`` is an error naming the file, observable #1 'a' and ``key``, and then
+    matching ``message`` (a regular expression)."""
+    with pytest.raises(ConfigError, match=_where(path, key) + ".*" + message):
+        load_measurements(path)
+
+
 def _heap(angle, *, nr=300, nc=600, two=False):
     """A binary side view: flat top at 20 % of the rows, a flank at ``angle``, toe at 90 %."""
     r, c = np.mgrid[0:nr, 0:nc].astype(float)
@@ -333,8 +340,7 @@ def test_a_measured_series_window_without_a_finite_value_is_named(tmp_path):
 def test_values_too_small_for_their_unit_are_errors_suggesting_the_unit(tmp_path, body, key,
                                                                          hint):
     p = _write(tmp_path, HEAD + body + "\n")
-    with pytest.raises(ConfigError, match=_where(p, key) + ".*" + re.escape(hint)):
-        load_measurements(p)
+    _refused(p, key, re.escape(hint))
 
 
 def test_a_psd_csv_in_mm_labelled_um_is_refused(tmp_path):
@@ -342,25 +348,20 @@ def test_a_psd_csv_in_mm_labelled_um_is_refused(tmp_path):
                                       [0.12, 100]], delimiter=",", header="size,pct", comments="")
     p = _write(tmp_path, HEAD + 'kind = "psd"\npercentiles = [10, 50, 90]\ncsv = "psd.csv"\n'
                                 'unit = "um"\nuncertainty = [0.6, 1.0, 1.7]\n')
-    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*unit = 'mm'"):
-        load_measurements(p)
+    _refused(p, "csv", "unit = 'mm'")
 
 
 def test_percent_is_refused_where_it_means_nothing(tmp_path):
     p = _write(tmp_path, HEAD + 'kind = "coordination"\nvalue = 6.0\nuncertainty = 0.2\n'
                                 'unit = "%"\n')
-    with pytest.raises(ConfigError, match=_where(p, "unit") + ".*count per particle.*'%' does "
-                                                              "not apply"):
-        load_measurements(p)
+    _refused(p, "unit", "count per particle.*'%' does not apply")
     t = np.linspace(0, 1, 50)
     np.savetxt(tmp_path / "f.csv", np.column_stack([t, 10 + 0.1 * np.sin(40 * t),
                                                     2 + 0.1 * np.cos(30 * t)]),
                delimiter=",", header="t,force_x,force_z", comments="")
     body = HEAD + 'kind = "tool_force_ratio"\ncsv = "f.csv"\nuncertainty = 0.01\n{}'
     p = _write(tmp_path, body.format('unit = "%"\n'))
-    with pytest.raises(ConfigError, match=_where(p, "unit") + ".*ratio of its two force "
-                                                              "columns.*'%' does not apply"):
-        load_measurements(p)
+    _refused(p, "unit", "ratio of its two force columns.*'%' does not apply")
     assert load_measurements(_write(tmp_path, body.format("")))["a"].values[0] == \
         pytest.approx(0.2, abs=0.01)
     assert load_measurements(_write(tmp_path, body.format('unit = "1"\n')))["a"].values[0] == \
@@ -388,8 +389,7 @@ def test_the_greek_mu_and_the_micro_sign_both_read_as_micro(tmp_path):
 def test_implausible_speeds_are_errors_with_a_unit_hint(tmp_path, cond, key, hint):
     p = _write(tmp_path, HEAD + 'kind = "bed_height"\nvalue = 5e-4\nuncertainty = 1e-5\n'
                                 f'[observable.conditions]\nlayer = 1\n{cond}\n')
-    with pytest.raises(ConfigError, match=_where(p, key) + ".*" + re.escape(hint)):
-        load_measurements(p)
+    _refused(p, key, re.escape(hint))
 
 
 @pytest.mark.parametrize("cond, hint", [
@@ -403,8 +403,7 @@ def test_implausible_boxes_and_rest_times_are_errors(tmp_path, cond, hint):
     p = _write(tmp_path, HEAD + f'kind = "static_angle"\nvalue = 33.0\nuncertainty = 1.0\n'
                                 f'[observable.conditions]\n{cond}\n')
     key = "conditions." + cond.split(" =")[0]
-    with pytest.raises(ConfigError, match=_where(p, key) + ".*" + re.escape(hint)):
-        load_measurements(p)
+    _refused(p, key, re.escape(hint))
 
 
 def test_an_implausible_blade_speed_of_the_set_up_is_an_error(tmp_path):
@@ -432,9 +431,7 @@ def test_conditions_that_mean_nothing_for_the_kind_are_errors(tmp_path, kind, ex
     value = {"static_angle": "33.0", "packing_fraction": "0.5", "bed_height": "5e-4"}[kind]
     p = _write(tmp_path, HEAD + f'kind = "{kind}"\nvalue = {value}\nuncertainty = 0.01\n{extra}'
                                 f'[observable.conditions]\n{cond}\n')
-    with pytest.raises(ConfigError, match=_where(p, f"conditions.{key}") + ".*"
-                       + re.escape(applies)):
-        load_measurements(p)
+    _refused(p, f"conditions.{key}", re.escape(applies))
 
 
 # --------------------------------------------------------------------------- 9. no traceback
@@ -451,16 +448,14 @@ def test_conditions_that_mean_nothing_for_the_kind_are_errors(tmp_path, kind, ex
 ])
 def test_non_finite_counts_and_empty_lists_are_errors_not_tracebacks(tmp_path, body, key):
     p = _write(tmp_path, HEAD + body + "\n")
-    with pytest.raises(ConfigError, match=_where(p, key)):
-        load_measurements(p)
+    _refused(p, key)
 
 
 def test_a_csv_that_is_not_utf8_is_an_error_naming_the_key(tmp_path):
     (tmp_path / "s.csv").write_bytes("t,angle (°)\n0,30\n0.5,31\n1,30\n".encode("latin-1"))
     p = _write(tmp_path, HEAD + 'kind = "dynamic_angle_series"\ncsv = "s.csv"\n'
                                 'windows = [[0, 1]]\nuncertainty = 1.0\n')
-    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*s.csv is not UTF-8 text"):
-        load_measurements(p)
+    _refused(p, "csv", "s.csv is not UTF-8 text")
 
 
 # --------------------------------------------------------------------------- 10. coverage
@@ -478,10 +473,8 @@ def test_a_series_that_does_not_cover_its_windows_is_refused(tmp_path):
     t = np.linspace(0.0, 0.744, 200)
     y = 30.0 + 4.0 * t + np.random.default_rng(0).normal(0, 0.5, t.size)
     p = _series(tmp_path, t, y)
-    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*run from 0 to 0.744.*do not "
-                                                             "cover window \\[0.5, 1\\].*"
-                                                             "stroke_duration"):
-        load_measurements(p)
+    _refused(p, "csv", "run from 0 to 0.744.*do not cover window \\[0.5, 1\\].*"
+                       "stroke_duration")
     m = load_measurements(_series(tmp_path, t, y, "stroke_duration = 0.744\n"))["a"]
     assert m.values == pytest.approx([30.0 + 4 * 0.744 * 0.25, 30.0 + 4 * 0.744 * 0.75],
                                      abs=0.2)
@@ -498,13 +491,10 @@ def test_samples_of_a_series_without_an_angle_are_noted_and_bad_ones_refused(tmp
     assert any("2 sample(s) without an angle (NaN" in c for c in m.conversions)
     y[150] = -40.0
     p = _series(tmp_path, t, y)
-    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*holds -40 deg at time "
-                                                             ".*outside 0..90 deg"):
-        load_measurements(p)
+    _refused(p, "csv", "holds -40 deg at time .*outside 0..90 deg")
     t[20] = np.nan
     p = _series(tmp_path, t, y)
-    with pytest.raises(ConfigError, match=_where(p, "csv") + ".*time column 't' holds nan"):
-        load_measurements(p)
+    _refused(p, "csv", "time column 't' holds nan")
 
 
 # --------------------------------------------------------------------------- 11. duplicates
@@ -535,16 +525,13 @@ def test_duplicate_labels_are_refused(tmp_path):
     p = _write(tmp_path, HEAD + 'kind = "psd"\npercentiles = [10, 50, 90]\n'
                                 'value = [30, 52, 86]\nunit = "um"\nuncertainty = 1.0\n'
                                 'labels = ["a", "a", "b"]\n')
-    with pytest.raises(ConfigError, match=_where(p, "labels") + ".*'a' labels more than one"):
-        load_measurements(p)
+    _refused(p, "labels", "'a' labels more than one")
 
 
 def test_an_observable_read_in_no_trial_has_no_uncertainty(tmp_path):
     p = _write(tmp_path, HEAD + 'kind = "static_angle"\ntrials = 3\nnot_measured = 3\n'
                                 'uncertainty = 1.0\n')
-    with pytest.raises(ConfigError, match=_where(p, "uncertainty") + ".*no reading in any of "
-                                                                     "its 3 trial"):
-        load_measurements(p)
+    _refused(p, "uncertainty", "no reading in any of its 3 trial")
     p = _write(tmp_path, HEAD + 'kind = "static_angle"\ntrials = 3\nnot_measured = 3\n'
                                 '[[observable]]\nname = "b"\nkind = "static_angle"\n'
                                 'value = 33.0\nuncertainty = 1.0\n')
