@@ -117,7 +117,8 @@ class FabricTensors:
     @property
     def anisotropy_noise(self) -> float:
         """RMS :attr:`anisotropy` of ``n_contacts`` isotropic random directions,
-        :math:`7.5/\\sqrt{M}` (NaN without contacts; a weighted set counts fewer).
+        :math:`7.5/\\sqrt{M}` (NaN without contacts). For weighted directions the noise is
+        larger: they count as :math:`(\\sum w)^2 / \\sum w^2 \\le M` directions.
 
         Examples
         --------

@@ -599,12 +599,13 @@ def conductivity_tensor(network: ThermalNetwork, *, region=None, boundary_width=
         for ax in range(3):
             hsum[:, ax] += np.bincount(node, h * w[:, ax], minlength=n)
             hw[:, ax] += np.bincount(node, w[:, ax], minlength=n)
-    cond = np.bincount(np.concatenate([e[0] for e in ends]), minlength=n) > 0
+    n_ends = np.bincount(np.concatenate([e[0] for e in ends]), minlength=n)
+    cond = n_ends > 0
     if cond.any():
         hmean = np.zeros(n)
         for node, h, _ in ends:
             hmean += np.bincount(node, h, minlength=n)
-        hmean[cond] /= np.bincount(np.concatenate([e[0] for e in ends]), minlength=n)[cond]
+        hmean[cond] /= n_ends[cond]
         rho = np.where(hw > 0, hsum / np.where(hw > 0, hw, 1.0), hmean[:, None])[cond]
         pc = p[cond]
     else:

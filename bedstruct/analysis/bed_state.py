@@ -293,7 +293,7 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
     if n < MIN_PARTICLES:
         held_note = f"only {n} particle{'s' if n != 1 else ''}; {held_note}"
     # height: z, or for a 2-D run flat along z the in-plane axis across the bed
-    vertical = 2 if flat != 2 else (3 - axis - 2 if axis != 2 else 1)
+    vertical = 2 if flat != 2 else (3 - axis - flat if axis != flat else 1)
 
     peak = nan
     if held and not moving:

@@ -657,7 +657,10 @@ def _disc_areas(frame, lower, upper, u, v) -> np.ndarray:
                 ranges.append(np.zeros(1))
         for du in ranges[0]:
             for dv in ranges[1]:
-                out[w] += float(disc_rectangle_area(pos + [du, dv], r, lo, hi).sum())
+                c = pos + [du, dv]
+                near = np.all((c + r[:, None] > lo) & (c - r[:, None] < hi), axis=1)   # the rest add 0
+                if near.any():
+                    out[w] += float(disc_rectangle_area(c[near], r[near], lo, hi).sum())
     return out
 
 

@@ -397,27 +397,33 @@ def pile_angle(frame, *, axis: int = 0, base: float | None = None, bounds=None,
                 ext.append((float(c.min()) - pad, float(c.max()) + pad))
         bounds = tuple(ext)
     spacing = 0.5 * float(np.median(pile.radii))
+    res = None
     if shape == "auto":
-        shape = "wedge" if pile.box.periodic[1 - axis] else _pile_shape(pile, axis, float(base),
-                                                                          bounds, spacing)
-    res = angle_of_repose(pile, axis=axis, base=float(base), flanks=flanks, bounds=bounds,
-                          statistic="median" if shape == "wedge" else "max", spacing=spacing)
+        shape, silhouette = (("wedge", None) if pile.box.periodic[1 - axis] else
+                             _pile_shape(pile, axis, float(base), bounds, spacing))
+        if shape == "cone" and flanks == "both":
+            res = silhouette            # the fit below, already made to judge the shape
+    if res is None:
+        res = angle_of_repose(pile, axis=axis, base=float(base), flanks=flanks, bounds=bounds,
+                              statistic="median" if shape == "wedge" else "max", spacing=spacing)
     return PileAngle(res, float(base), found, pile.n_particles, n0 - pile.n_particles, shape)
 
 
-def _pile_shape(pile, axis: int, base: float, bounds, spacing: float) -> str:
-    """``"cone"`` when the pile's silhouette across the other horizontal axis has flanks at
-    least half as steep as its silhouette along ``axis``, else ``"wedge"``."""
-    angles = []
+def _pile_shape(pile, axis: int, base: float, bounds, spacing: float):
+    """``("cone", fit)`` when the pile's silhouette across the other horizontal axis has flanks
+    at least half as steep as its silhouette along ``axis``, else ``("wedge", None)``; ``fit``
+    is the silhouette's :func:`angle_of_repose` along ``axis`` (both flanks)."""
+    fits = []
     for a in (axis, 1 - axis):
         try:
-            r = angle_of_repose(pile, axis=a, base=base, bounds=bounds, statistic="max",
-                                spacing=spacing)
+            fits.append(angle_of_repose(pile, axis=a, base=base, bounds=bounds, statistic="max",
+                                        spacing=spacing))
         except ValueError:      # a flat profile: no flank that way
-            return "wedge"
-        angles.append(r.angle_deg)
-    along, across = angles
-    return "cone" if np.isfinite(along) and np.isfinite(across) and across >= 0.5 * along else "wedge"
+            return "wedge", None
+    along, across = (r.angle_deg for r in fits)
+    if np.isfinite(along) and np.isfinite(across) and across >= 0.5 * along:
+        return "cone", fits[0]
+    return "wedge", None
 
 
 def dynamic_angle_of_repose(frame, blade_position: float, *, direction: int = 1, axis: int = 0,

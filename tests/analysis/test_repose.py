@@ -171,11 +171,15 @@ def test_pile_angle_of_a_lattice_heap_and_errors():
 
 
 def test_pile_angle_of_a_cone_is_its_silhouette_and_a_wedge_keeps_the_median():
-    # the median height across a cone lies below its flank line (it gave 27.9 deg for 33)
+    # the median height across a cone lies below its flank line (27.9 deg for 33)
     from bedstruct.analysis import pile_angle
     cone = wedge_pile(33.0, half_width=20.0, cone=True, seed=3)
     p = pile_angle(cone, base=0.0)
     assert p.shape == "cone" and p.angle_deg == pytest.approx(33.0, abs=0.7)
+    # "auto" reports the same fit as asking for the cone
+    c = pile_angle(cone, base=0.0, shape="cone").repose
+    assert (p.repose.left_deg, p.repose.right_deg) == (c.left_deg, c.right_deg)
+    np.testing.assert_array_equal(p.repose.profile_h, c.profile_h)
     assert pile_angle(cone, base=0.0, shape="wedge").angle_deg < 30.0
     # a wedge across a periodic width, and the bundled repose run's pile between side walls
     wedge = wedge_pile(33.0, seed=33)

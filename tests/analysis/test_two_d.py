@@ -100,6 +100,19 @@ def test_bed_state_of_a_2d_run_uses_the_area_fraction_and_refuses_3d_analyses():
     assert st.meaningful("coordination") and st.meaningful("packing") and st.meaningful("psd")
 
 
+def test_bed_state_of_a_2d_heap_finds_a_pile_by_its_in_plane_height():
+    # a triangular heap of discs in the x-y plane (flat along z): its height is along y, so
+    # its top surface peaks; heights along z (all at one z) would show a flat top
+    from bedstruct.analysis import bed_state
+    a, nx = 0.99, 30
+    rows = [[(i + 0.5 * j + 0.5) * a, (j + 0.5) * a * np.sqrt(3) / 2, 0.0] for j in range(nx) for i in range(nx - j)]
+    heap = Frame(np.array(rows), np.full(len(rows), 0.5),
+                 box=Box([0, 0, -0.28], [nx * a + 2, 27 * a, 0.28], boundary="ff ff pp"))
+    st = bed_state(heap)
+    assert st.flat_axis == 2 and st.kind == "pile" and st.peak > 0.3
+    assert bed_state(_hexagonal_discs(gap=-0.01)).peak == pytest.approx(0.0, abs=1e-12)   # flat top
+
+
 def test_bed_state_judges_a_tilted_box_as_its_orthogonal_copy():
     from bedstruct.analysis import bed_state
     rng = np.random.default_rng(0)
