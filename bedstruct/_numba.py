@@ -24,7 +24,7 @@ import numba
 from numba import prange
 
 __all__ = ["njit", "njit_parallel", "prange", "set_num_threads", "get_num_threads",
-           "THREADING_LAYER_PRIORITY", "CACHE_DIR", "kernel_source_hash"]
+           "THREADING_LAYER_PRIORITY", "CACHE_DIR", "kernel_source_hash", "source_hash"]
 
 #: Numba threading layers in bedstruct's order of preference. TBB comes last: with the TBB
 #: layer a process that ran a parallel kernel from a thread other than the main one can hang
@@ -36,19 +36,37 @@ if not (os.environ.get("NUMBA_THREADING_LAYER", "default") != "default"
         or "NUMBA_THREADING_LAYER_PRIORITY" in os.environ):
     numba.config.THREADING_LAYER_PRIORITY = list(THREADING_LAYER_PRIORITY)
 
+
+def source_hash(parts=("",), *, root=None, suffixes=(".py",), keep=None, salt: bytes = b"") -> str:
+    """SHA-256 (16 hex digits) of the source files of ``parts`` of the package.
+
+    Each part is a path relative to ``root`` (default: the bedstruct package): a folder
+    stands for the files under it whose names end in one of ``suffixes`` (sorted), a file
+    for itself. Each file's relative path and bytes are hashed, after ``salt``; ``keep``
+    (a function of the bytes) leaves out the files it says no to. It names the numba cache
+    folder (:func:`kernel_source_hash`) and the code a workflow run was made by.
+    """
+    root = Path(__file__).resolve().parent if root is None else Path(root)
+    h = hashlib.sha256(salt)
+    for part in parts:
+        p = root / part
+        files = sorted(f for f in p.rglob("*") if f.suffix in suffixes and f.is_file()
+                       and "__pycache__" not in f.parts) if p.is_dir() else [p]
+        for f in files:
+            data = f.read_bytes()
+            if keep is None or keep(data):
+                h.update(f.relative_to(root).as_posix().encode() + b"\0")
+                h.update(data + b"\0")
+    return h.hexdigest()[:16]
+
+
 def kernel_source_hash(root=None) -> str:
     """Hash of the numba version and of every source file under ``root`` that uses numba.
 
     ``root`` defaults to the bedstruct package.
     """
-    root = Path(__file__).resolve().parent if root is None else Path(root)
-    h = hashlib.sha256(numba.__version__.encode())
-    for path in sorted(root.rglob("*.py")):
-        data = path.read_bytes()
-        if b"numba" in data or b"njit" in data:
-            h.update(path.relative_to(root).as_posix().encode())
-            h.update(data)
-    return h.hexdigest()[:16]
+    return source_hash(root=root, salt=numba.__version__.encode(),
+                       keep=lambda data: b"numba" in data or b"njit" in data)
 
 
 def _cache_dir() -> str | None:

@@ -168,13 +168,16 @@ def run(args) -> int:
     if args.contact_columns is not None and kw is not None:
         raise UsageError("give --contact-keywords (LIGGGHTS pair/gran/local) or --contact-columns "
                          "(other layouts), not both")
-    with warnings.catch_warnings():
-        warnings.formatwarning = _one_line_warnings(warnings.formatwarning)
+    fallback = warnings.formatwarning   # restored after: catch_warnings() does not keep it
+    warnings.formatwarning = _one_line_warnings(fallback)
+    try:
         report, html_path, json_path = report_on_files(
             args.paths, args.out, contacts=args.contacts, contact_keywords=kw, options=options,
             radius=args.radius, units=args.units, progress=progress,
             on_error="skip" if args.lenient else "raise", contact_columns=args.contact_columns,
             boundary=args.boundary)
+    finally:
+        warnings.formatwarning = fallback
     state = report.state or {}
     kind = f" (input: {state['kind']}" + (f"; not meaningful for it: {', '.join(state['not_meaningful'])}"
                                         if state.get("not_meaningful") else "") + ")" if state else ""

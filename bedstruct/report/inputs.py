@@ -98,10 +98,11 @@ def _data_file_boundaries(trajectories, boundary) -> str | None:
     it): ``"pp pp ff (given)"`` or ``"pp pp pp (assumed: ...)"``; None without data files."""
     seen = []
     for t in trajectories:
-        if isinstance(t, FrameList) and len(t) == 1:
-            notes = t[0].provenance.notes
-            if any("data files do not record" in n for n in notes):
-                flags = " ".join(t[0].box.boundary)
+        if not isinstance(t, FrameList):   # data files are read into a FrameList
+            continue
+        for frame in t:
+            if any("data files do not record" in n for n in frame.provenance.notes):
+                flags = " ".join(frame.box.boundary)
                 if flags not in seen:
                     seen.append(flags)
     if not seen:

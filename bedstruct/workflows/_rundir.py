@@ -20,7 +20,6 @@ import re
 import weakref
 from pathlib import Path
 
-from .._atomic import atomic_path
 from .._json import plain, write_json_atomic
 from ..errors import ConfigError, RunFolderInUseError
 from .config import _refuse_effects_section, config_to_toml
@@ -34,20 +33,6 @@ except ImportError:  # no flock (Windows): runs in one folder are not guarded ag
 log = logging.getLogger("bedstruct.workflows._common")
 
 __all__ = ["RunLayout", "StageWriter", "clear_run", "code_identity", "RUN_MARKER", "RUN_LOCK"]
-
-
-def _write_dump_atomic(path, frame, **kw) -> None:
-    from ..io import write_dump
-    path = Path(path)
-    with atomic_path(path, suffix="".join(path.suffixes)) as tmp:
-        write_dump(tmp, frame, **kw)
-
-
-def _write_local_atomic(path, frame, contacts) -> None:
-    from ..io import write_dump_local
-    path = Path(path)
-    with atomic_path(path, suffix="".join(path.suffixes)) as tmp:
-        write_dump_local(tmp, frame, contacts)
 
 
 #: The marker of a run folder: workflow, configuration and inputs of the run, the code that
@@ -67,26 +52,21 @@ def code_identity() -> dict:
 
     ``source`` is a SHA-256 (16 hex digits) of the Python sources of the parts of the
     package that decide a run's results (:data:`_CODE_PARTS` and the package's top-level
-    private modules), so that a development build edited between two runs differs too.
-    Computed once per process.
+    private modules; :func:`bedstruct._numba.source_hash`), so that a development build
+    edited between two runs differs too. Computed once per process.
     """
-    import hashlib
+    from .._numba import source_hash
     from .._version import __version__
     root = Path(__file__).resolve().parent.parent
-    files = sorted(root.glob("_*.py"))
-    for part in _CODE_PARTS:
-        files += sorted((root / part).rglob("*.py"))
-    h = hashlib.sha256()
-    for f in files:
-        h.update(f.relative_to(root).as_posix().encode() + b"\0")
-        h.update(f.read_bytes() + b"\0")
-    return {"bedstruct": str(__version__), "source": h.hexdigest()[:16]}
+    top = [f.name for f in sorted(root.glob("_*.py"))]
+    return {"bedstruct": str(__version__), "source": source_hash((*top, *_CODE_PARTS))}
 
 
 def _code_text(code) -> str:
     if not isinstance(code, dict):
         return "code not recorded"
     return f"bedstruct {code.get('bedstruct', '?')}, code {code.get('source', '?')}"
+
 
 #: Configuration keys a run may be resumed with other values of (they change what is
 #: written, or whether an external engine run is given time to finish, not the results).
@@ -468,10 +448,12 @@ class StageWriter:
         write_walls(self.walls_path, sim)
 
     def write_frame(self, name: str, frame, contacts=None) -> None:
-        """Write ``<name>.dump.gz`` (and ``<name>_contacts.dump.gz``) atomically."""
-        _write_dump_atomic(self.path / f"{name}{self._ext}", frame, units_item=True)
+        """Write ``<name>.dump.gz`` (and ``<name>_contacts.dump.gz``) atomically (as
+        :func:`bedstruct.io.write_dump` writes every file)."""
+        from ..io import write_dump, write_dump_local
+        write_dump(self.path / f"{name}{self._ext}", frame, units_item=True)
         if contacts is not None:
-            _write_local_atomic(self.path / f"{name}_contacts{self._ext}", frame, contacts)
+            write_dump_local(self.path / f"{name}_contacts{self._ext}", frame, contacts)
 
     def final(self, sim, name: str = "final"):
         """Write the final state (atoms and contacts) and a checkpoint when configured."""

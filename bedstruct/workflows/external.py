@@ -52,8 +52,8 @@ from ._common import contact_model, psd_sampler, typed
 from ._rundir import RunLayout
 from .schema import config_dict
 from .repose_measure import (ReposeReplicate, _finished_replicate, _record_replicate,
-                             combine_replicates, measure_pile, repose_result_from_dict,
-                             unmeasured_reason)
+                             combine_replicates, measure_replicate_pile,
+                             repose_result_from_dict)
 
 __all__ = ["ExternalDecks", "engine_for", "effects_dialect", "run_repose_external", "repose_inputs"]
 
@@ -310,18 +310,10 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
     if not cfg.output.frames:
         for name in ("frames.dump", "frames.dump.gz"):
             (stage_dir / name).unlink(missing_ok=True)
-    why = []
-    try:    # as the embedded engine's replicate: a pile that cannot be measured is a note
-        a, s, left, right, top = measure_pile(frame, cfg, r_max=inp["r_max"], reasons=why)
-        note = ""
-    except ConfigError as exc:   # (almost) nothing left in the box
-        a = s = left = right = top = float("nan")
-        note = str(exc)
     n_fallen = int(n_inserted - frame.n_particles)
-    if not np.isfinite(a) and not note:
-        note = unmeasured_reason(n_inserted, int(frame.n_particles), n_fallen, "; ".join(why))
-    if note:
-        log.warning("repose: replicate %s (seed %d): %s", stage_dir.name, int(seed), note)
+    a, s, left, right, top, note = measure_replicate_pile(
+        frame, cfg, r_max=inp["r_max"], n_inserted=n_inserted, n_fallen=n_fallen,
+        label=f"{stage_dir.name} (seed {int(seed)})")
     return ReposeReplicate(seed=int(seed), cohesion=float(model.cohesion), angle_deg=a,
                            angle_std_deg=s, left_deg=left, right_deg=right, n_inserted=n_inserted,
                            n_remaining=int(frame.n_particles), n_fallen=n_fallen,

@@ -30,8 +30,7 @@ from ._rundir import RunLayout
 from .external import (_GRAVITY, ExternalDecks, _check_effects, _deck_model, _engine_file, _gzip,
                        _reference_contact, _shell_command, effects_dialect, engine_for)
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, SpreadResult, bed_mask,
-                             frame_metrics,
-                             measure_layer, spread_result_from_dict)
+                             frame_metrics, measure_layer, spread_result_from_dict)
 from .spread_pile import _run_pile
 
 __all__ = ["run_spread_external"]
@@ -234,7 +233,7 @@ def run_spread_external(cfg, *, out=None):
             layer, pack, cnw = measure_layer(
                 final, find_contacts(final), cfg, index=k + 1, z_plat=z_plat, front0=front0,
                 r_max=rmax, pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid,
-                n_inserted=n, n_removed=n_active - final.n_particles,
+                bed=on_bed, n_inserted=n, n_removed=n_active - final.n_particles,
                 wall_time=(wall_run * (ls.end - ls.start) / total_steps
                            + _time.perf_counter() - t_layer))
             wait = offsets[k] - (offsets[k - 1] if k else 0)

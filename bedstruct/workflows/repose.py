@@ -30,7 +30,7 @@ from .config import check_run_geometry
 from .external import run_repose_external
 from .repose_measure import (ReposeReplicate, ReposeResult, _finished_replicate,
                              _record_replicate, combine_replicates, measure_pile,
-                             repose_result_from_dict, unmeasured_reason)
+                             measure_replicate_pile, repose_result_from_dict)
 
 __all__ = ["ReposeReplicate", "ReposeResult", "run_repose", "repose_replicate", "measure_pile",
            "repose_result_from_dict"]
@@ -132,18 +132,9 @@ def repose_replicate(cfg, *, seed: int, cohesion: float | None = None, layout=No
 
     def finish():
         frame = writer.final(sim, "pile") if writer is not None else sim.frame()
-        why = []
-        try:
-            a, s, left, right, top = measure_pile(frame, cfg, r_max=rmax, reasons=why)
-            note = ""
-        except ConfigError as exc:   # (almost) nothing left in the box
-            a = s = left = right = top = float("nan")
-            note = str(exc)
-        if not np.isfinite(a) and not note:
-            note = unmeasured_reason(n_inserted, int(frame.n_particles), int(sim.n_removed),
-                                     "; ".join(why))
-        if note:
-            log.warning("repose: replicate %s (seed %d): %s", stage or "", int(seed), note)
+        a, s, left, right, top, note = measure_replicate_pile(
+            frame, cfg, r_max=rmax, n_inserted=n_inserted, n_fallen=int(sim.n_removed),
+            label=f"{stage or ''} (seed {int(seed)})")
         lost = int(sim.n_lost_nonfinite)
         if lost:
             log.warning("repose: %d particle(s) were lost to non-finite positions (a blow-up)",

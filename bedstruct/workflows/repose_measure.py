@@ -20,8 +20,8 @@ from ..errors import ConfigError
 from .._json import to_jsonable, write_json_atomic
 from ._common import from_plain, typed
 
-__all__ = ["ReposeReplicate", "ReposeResult", "measure_pile", "combine_replicates", "unmeasured_reason",
-           "repose_result_from_dict"]
+__all__ = ["ReposeReplicate", "ReposeResult", "measure_pile", "measure_replicate_pile",
+           "combine_replicates", "unmeasured_reason", "repose_result_from_dict"]
 
 log = logging.getLogger(__name__)
 
@@ -167,6 +167,32 @@ def unmeasured_reason(n_inserted: int, n_remaining: int, n_fallen: int, detail: 
     what = f": {detail}" if detail else ""
     return (f"the pile's flanks could not be fitted ({n_remaining} particles remain, "
             f"{n_fallen} of {n_inserted} drained){what}")
+
+
+def measure_replicate_pile(frame, cfg, *, r_max: float, n_inserted: int, n_fallen: int,
+                           label: str) -> tuple:
+    """:func:`measure_pile` of a replicate's final ``frame``, for every engine: a pile that
+    cannot be measured gives NaN angles and a note saying why (:func:`unmeasured_reason`,
+    logged as a warning naming ``label``), not an exception.
+
+    Returns
+    -------
+    tuple
+        ``(angle_deg, angle_std_deg, left_deg, right_deg, top, note)``; ``note`` is empty
+        when the pile was measured.
+    """
+    why = []
+    try:
+        a, s, left, right, top = measure_pile(frame, cfg, r_max=r_max, reasons=why)
+        note = ""
+    except ConfigError as exc:   # (almost) nothing left in the box
+        a = s = left = right = top = float("nan")
+        note = str(exc)
+    if not math.isfinite(a) and not note:
+        note = unmeasured_reason(n_inserted, int(frame.n_particles), n_fallen, "; ".join(why))
+    if note:
+        log.warning("repose: replicate %s: %s", label, note)
+    return a, s, left, right, top, note
 
 
 def measure_pile(frame, cfg, *, r_max: float, reasons: list | None = None):

@@ -289,12 +289,12 @@ def _spread_layers(cfg, layout, *, pile, progress) -> SpreadResult:
         def measure():
             fr = sim.frame()
             contacts_all = sim.contacts()
+            keep = bed_mask(fr, Lplat, z_plat, rmax)
             if writer is not None:
-                keep = bed_mask(fr, Lplat, z_plat, rmax)
                 writer.write_frame("bed", fr.select(keep), _subset_contacts(contacts_all, keep))
             layer, pack, cnw = measure_layer(
                 fr, contacts_all, cfg, index=k + 1, z_plat=z_plat, front0=front0, r_max=rmax,
-                pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=[],
+                pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=[], bed=keep,
                 segregation_values=seg[0] if seg else None, n_inserted=n_ins,
                 n_removed=int(sim.n_removed), wall_time=_time.perf_counter() - t_layer)
             layer = replace(layer, landing_wait=waited,

@@ -17,8 +17,7 @@ from .._json import to_jsonable
 from ._common import from_plain, typed
 
 __all__ = ["LayerResult", "SpreadResult", "bed_mask", "frame_metrics", "measure_layer",
-           "particles_in_flight",
-           "mid_layer_segregation", "spread_result_from_dict"]
+           "particles_in_flight", "mid_layer_segregation", "spread_result_from_dict"]
 
 # the spreading workflow's logger: these messages belong to its run
 log = logging.getLogger("bedstruct.workflows.spread")
@@ -240,10 +239,11 @@ def mid_layer_segregation(mfr, mfront: float, plate_length: float, pile) -> tupl
 
 def measure_layer(fr, contacts_all, cfg, *, index: int, z_plat: float, front0: float,
                   r_max: float, pile, dyn, cn_series, blade_pos, mid, n_inserted: int,
-                  n_removed: int, wall_time: float, segregation_values=None):
+                  n_removed: int, wall_time: float, segregation_values=None, bed=None):
     """Measure the bed of spread layer ``index`` in frame ``fr`` (SI) with its contacts.
 
-    The bed is :func:`bed_mask` of the frame: powder thrown into the air is left out.
+    The bed is :func:`bed_mask` of the frame (or ``bed``, that mask when the caller has
+    it): powder thrown into the air is left out.
 
     The same measurement for every engine (see :func:`run_spread`). ``mid`` is a list
     holding the ``(frame, tool front)`` of the middle of the layer (or empty), or give
@@ -260,7 +260,7 @@ def measure_layer(fr, contacts_all, cfg, *, index: int, z_plat: float, front0: f
     k = index - 1
     gap = gaps[k]
     n_ins = n_inserted
-    bed = fr.select(bed_mask(fr, Lplat, z_plat, rmax))
+    bed = fr.select(bed_mask(fr, Lplat, z_plat, rmax) if bed is None else bed)
     n_bed = bed.n_particles
     n_heap = fr.n_particles - n_bed
     H_k = sum(gaps[:k + 1])

@@ -131,6 +131,14 @@ def test_a_data_file_is_read_with_the_boundary_given_or_the_one_assumed_said(tmp
     assert "is for data files" in capsys.readouterr().err
 
 
+def test_the_boundary_of_data_files_read_by_one_glob_is_said(tmp_path):
+    for t in (100, 101):
+        write_data(tmp_path / f"bed{t}.data", _bed(timestep=t), density=1.0)
+    _, _, _, inputs = load_report_inputs([str(tmp_path / "bed*.data")], frames="all")
+    assert inputs["frames_in_input"] == 2
+    assert inputs["boundary"].startswith("pp pp pp (assumed")
+
+
 @pytest.mark.parametrize("bad, option", [
     (["--radius", "-1"], "--radius"), (["--radius", "0"], "--radius"),
     (["--radius", "inf"], "--radius"),
@@ -176,6 +184,20 @@ def test_lenient_warnings_are_one_line_each(tmp_path):
     assert any(line.startswith("bedstruct report: warning: skipping the truncated last frame")
                and "timestep 10" in line for line in lines)
     assert "BedstructWarning" not in run.stderr and ".py:" not in run.stderr
+
+
+def test_the_report_leaves_the_warning_format_as_it_found_it(tmp_path, capsys):
+    """The one-line format of bedstruct's warnings is the command's: a caller running it in
+    its own process gets its own format back, also when the command fails."""
+    import warnings
+    before = warnings.formatwarning
+    write_dump(tmp_path / "bed.dump", _bed())
+    assert main(["report", str(tmp_path / "bed.dump"), "--no-3d", "--out",
+                 str(tmp_path / "r")]) == 0
+    assert warnings.formatwarning is before
+    assert main(["report", str(tmp_path / "missing.dump"), "--out", str(tmp_path / "m")]) == 1
+    assert warnings.formatwarning is before
+    capsys.readouterr()
 
 
 def test_contact_keywords_and_columns_together_are_a_usage_error(tmp_path, capsys):
