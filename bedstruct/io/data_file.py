@@ -33,6 +33,10 @@ from ._text import check_unit_style
 
 __all__ = ["read_data", "write_data"]
 
+#: Begins the note of a frame read from a data file about its boundary flags, which data
+#: files do not record (assumed, or given by the caller).
+BOUNDARY_NOT_RECORDED = "data files do not record"
+
 _HEADER_KEYS = ("atoms", "atom types", "bonds", "bond types", "angles", "angle types",
                 "dihedrals", "dihedral types", "impropers", "improper types", "extra bond per atom",
                 "extra angle per atom", "extra dihedral per atom", "extra improper per atom",
@@ -369,10 +373,10 @@ def read_data(path, *, atom_style=None, boundary=None, radius=None, units=None) 
         notes.append("sections not read: " + ", ".join(skipped))
     bstr = " ".join(box_flags)
     if boundary is None:
-        notes.append(f"data files do not record boundary flags: boundary {bstr!r} assumed "
+        notes.append(f"{BOUNDARY_NOT_RECORDED} boundary flags: boundary {bstr!r} assumed "
                      f"(the LAMMPS default; give boundary=, --boundary on the command line)")
     else:
-        notes.append(f"boundary {bstr!r} given by the caller (data files do not record it)")
+        notes.append(f"boundary {bstr!r} given by the caller ({BOUNDARY_NOT_RECORDED} it)")
     if timestep is not None:
         notes.append(f"timestep {timestep} from the title line")
     lo = [bounds[a][0] for a in "xyz"]

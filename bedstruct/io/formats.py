@@ -17,7 +17,7 @@ from ..errors import DumpFormatError
 from ._source import _decompress_errors, _open_stream, compression_of
 from ._trajectory import check_on_error
 from .data_file import read_data
-from .hdf5 import load_hdf5
+from .hdf5 import HDF5_MAGIC, load_hdf5
 from .lammps_dump import expand_paths, read_dump
 
 __all__ = ["FORMATS", "detect_format", "read"]
@@ -31,7 +31,6 @@ FORMATS = {
     "hdf5": "bedstruct.io.load_hdf5 (bedstruct HDF5 archive)",
 }
 
-_HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _HEAD = 1 << 14
 _DATA_HEADER = re.compile(rb"^\s*[-+0-9.eE]+\s+[-+0-9.eE]+\s+[xyz]lo\s+[xyz]hi\b|^\s*\d+\s+atoms\s*$",
                           re.MULTILINE)
@@ -39,8 +38,8 @@ _DATA_HEADER = re.compile(rb"^\s*[-+0-9.eE]+\s+[-+0-9.eE]+\s+[xyz]lo\s+[xyz]hi\b
 
 def _head(path) -> bytes:
     with open(path, "rb") as fh:
-        raw = fh.read(len(_HDF5_MAGIC))
-    if raw == _HDF5_MAGIC:
+        raw = fh.read(len(HDF5_MAGIC))
+    if raw == HDF5_MAGIC:
         return raw
     stream = _open_stream(path, compression_of(path))
     try:
@@ -108,7 +107,7 @@ def detect_format(path) -> str:
         raise DumpFormatError(f"{path}: not a regular file (a device, pipe or socket); "
                               f"bedstruct reads dump, data and HDF5 files")
     head = _head(path)
-    if head.startswith(_HDF5_MAGIC):
+    if head.startswith(HDF5_MAGIC):
         return "hdf5"
     text = head.lstrip()
     if text.startswith(b"ITEM:"):

@@ -27,6 +27,9 @@ from .._atomic import atomic_path
 from .._version import __version__
 from ..core import Box, Contacts, Frame, FrameList, Provenance, Units
 
+#: The first bytes of every HDF5 file.
+HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
+
 __all__ = ["save_hdf5", "load_hdf5", "HDF5Contents"]
 
 _FORMAT = "bedstruct-hdf5"

@@ -12,6 +12,7 @@ from ._binary import is_binary
 from ._source import Source
 from ._trajectory import check_on_error
 from .data_file import read_data
+from .hdf5 import HDF5_MAGIC
 from .lammps_dump import expand_paths, read_dump
 
 __all__ = ["summarise", "summarise_all", "format_summary"]
@@ -19,7 +20,6 @@ __all__ = ["summarise", "summarise_all", "format_summary"]
 _HEAD = 4096
 _DATA_ATOMS = re.compile(rb"(?m)^[ \t]*\d+[ \t]+atoms[ \t]*(#.*)?\r?$")
 _ITEM_LINE = re.compile(rb"(?m)^ITEM:")
-_HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 
 
 def _box_dict(box) -> dict:
@@ -41,7 +41,7 @@ def _kind(path) -> tuple[str, str | None]:
     finally:
         src.close()
     comp = src.compression
-    if head.startswith(_HDF5_MAGIC):
+    if head.startswith(HDF5_MAGIC):
         raise DumpFormatError("an HDF5 file, not a LAMMPS/LIGGGHTS dump or data file: load it "
                               "with bedstruct.io.load_hdf5 or bedstruct.io.read", path=str(path))
     if not head.strip() and len(head) < _HEAD:

@@ -7,6 +7,7 @@ from typing import Sequence
 
 from ..core import Contacts, Frame, FrameList
 from ..io import read, read_dump_local
+from ..io.data_file import BOUNDARY_NOT_RECORDED
 from .build import build_report
 from .options import ReportOptions, select_frames
 from ._model import Report
@@ -101,7 +102,7 @@ def _data_file_boundaries(trajectories, boundary) -> str | None:
         if not isinstance(t, FrameList):   # data files are read into a FrameList
             continue
         for frame in t:
-            if any("data files do not record" in n for n in frame.provenance.notes):
+            if any(BOUNDARY_NOT_RECORDED in n for n in frame.provenance.notes):
                 flags = " ".join(frame.box.boundary)
                 if flags not in seen:
                     seen.append(flags)
