@@ -557,10 +557,12 @@ def build_library(simulator, design_spec: DesignSpec, out_dir, *, workers: int =
     redoes a run whose file cannot be read (moved aside as ``<name>.unreadable``). With
     several workers, at most one run per worker is handed out at a time: Ctrl-C (or a
     failed run) starts nothing more, and the runs in flight finish and are saved (a
-    warning names them; a second Ctrl-C stops them, and they are lost). The workers are
-    started with ``spawn`` (a script must build under ``if __name__ == "__main__":``),
-    ignore Ctrl-C and exit when the build's process is killed. With several workers, runs are
-    started longest first where the simulator estimates their cost (a
+    warning names them; a second Ctrl-C stops them, and they are lost). On a Dask cluster
+    likewise: the runs not yet started are cancelled, those finished on the cluster are
+    saved, and those running finish and are saved. The workers are started with
+    ``spawn`` (a script must build under ``if __name__ == "__main__":``), ignore Ctrl-C
+    and exit when the build's process is killed. With several workers, runs are started
+    longest first where the simulator estimates their cost (a
     ``relative_cost(base, effects)`` method, as
     :class:`~bedstruct.diagnose.engine_simulator.EngineSimulator` has).
 
@@ -629,7 +631,7 @@ def _run_todo(simulator, todo: list, out: Path, key: str, *, workers, scheduler,
 
     try:
         if scheduler is not None:
-            _build_dask(simulator, todo, scheduler, save)
+            _build_dask(simulator, todo, scheduler, save, out)
         elif int(workers) > 1 and len(todo) > 1:
             _build_local(simulator, todo, int(workers), save, out)
         else:
@@ -828,30 +830,55 @@ def _build_local(simulator, todo: list, workers: int, save, out: Path) -> None:
     pool.shutdown(wait=True)
 
 
-def _finish_in_flight(running: dict, save, out: Path, why: BaseException) -> None:
+def _finish_in_flight(running: dict, save, out: Path, why: BaseException,
+                      wait_first=None) -> None:
     """Wait for the runs in flight after an interrupt or a failed run and save each
-    (a KeyboardInterrupt while waiting is passed on: the runs left are lost)."""
+    (a KeyboardInterrupt while waiting is passed on: the runs left are lost).
+
+    Parameters
+    ----------
+    running : dict
+        Future -> ``(index, point, seed, t0)``, ``t0`` the time the run was handed out
+        (None: not known).
+    save : callable
+        ``save(index, point, seed, record)``.
+    out : Path
+        The library folder (for the messages).
+    why : BaseException
+        The interrupt or the failure of a run.
+    wait_first : callable, optional
+        ``wait_first(futures) -> done``: those of ``futures`` done once one is
+        (default: :func:`concurrent.futures.wait` with ``FIRST_COMPLETED``).
+    """
     from concurrent.futures import FIRST_COMPLETED, wait
     if not running:
         return
+    if wait_first is None:
+        def wait_first(futures):
+            return wait(futures, return_when=FIRST_COMPLETED)[0]
     now = time.time()
-    what = "; ".join(f"{_run_label(i, p, s)}, handed out {now - t0:.0f} s ago"
+    what = "; ".join(_run_label(i, p, s) + ("" if t0 is None else
+                                            f", handed out {now - t0:.0f} s ago")
                      for i, p, s, t0 in running.values())
     cause = "interrupted" if isinstance(why, KeyboardInterrupt) else f"a run failed ({why!r})"
     log.warning("run library %s: %s; nothing more is started. Waiting for the %d run(s) in "
                 "flight to finish and be saved: %s. Press Ctrl-C again to stop them now "
                 "(they are then lost)", out, cause, len(running), what)
     while running:
-        done, _ = wait(running, return_when=FIRST_COMPLETED)
-        for f in done:
-            i, p, s, _ = running.pop(f)
-            try:
-                rec = f.result()
-            except BaseException as exc:  # noqa: BLE001 - that run is lost, the others kept
-                log.warning("run library %s: %s failed (%r); not saved", out,
-                            _run_label(i, p, s), exc)
-                continue
-            save(i, p, s, rec)
+        for f in wait_first(list(running)):
+            _save_done(f, running.pop(f), save, out)
+
+
+def _save_done(f, run: tuple, save, out: Path) -> None:
+    """Save the run ``run`` (``(index, point, seed, ...)``) of the done future ``f``; a run
+    that failed (or was cancelled) is logged, not saved."""
+    i, p, s = run[:3]
+    failed = "cancelled" if f.cancelled() else f.exception()
+    if failed is None:
+        save(i, p, s, f.result())
+    else:   # that run is lost, the others kept
+        log.warning("run library %s: %s failed (%r); not saved", out, _run_label(i, p, s),
+                    failed)
 
 
 def _replace_stats(lib: RunLibrary, **kw) -> RunLibrary:
@@ -859,7 +886,13 @@ def _replace_stats(lib: RunLibrary, **kw) -> RunLibrary:
     return replace(lib, **kw)
 
 
-def _build_dask(simulator, todo, scheduler, save) -> None:
+def _build_dask(simulator, todo: list, scheduler, save, out: Path) -> None:
+    """Run ``todo`` on a Dask cluster, each run saved as it returns.
+
+    An interrupt (Ctrl-C) or a failed run cancels the runs not yet started, saves those
+    that finished on the cluster and waits for those running to finish and be saved
+    (:func:`_settle_dask`; a second Ctrl-C stops the wait, and those runs are lost).
+    """
     try:
         from distributed import Client, as_completed
     except ImportError as exc:  # pragma: no cover - optional dependency
@@ -881,12 +914,50 @@ def _build_dask(simulator, todo, scheduler, save) -> None:
         try:
             for f in as_completed(list(futs)):
                 save(*futs[f], f.result())
-        except BaseException:
-            client.cancel(list(futs))
+                del futs[f]   # once saved: a run interrupted before is left to _settle_dask
+        except BaseException as exc:
+            try:
+                _settle_dask(client, futs, save, out, exc)
+            finally:
+                client.cancel(list(futs))
             raise
     finally:
         if own:
             client.close()
+
+
+def _settle_dask(client, futs: dict, save, out: Path, why: BaseException) -> None:
+    """After an interrupt or a failed run on Dask: cancel the runs not yet started, save
+    those that finished on the cluster and wait for those running on a worker to finish
+    and be saved (:func:`_finish_in_flight`: a second Ctrl-C while waiting is passed on).
+
+    Parameters
+    ----------
+    client : distributed.Client
+    futs : dict
+        Future -> ``(index, point, seed)`` of each run not saved yet.
+    save : callable
+        ``save(index, point, seed, record)``.
+    out : Path
+        The library folder (for the messages).
+    why : BaseException
+        The interrupt or the failure of a run.
+    """
+    from distributed import wait
+    done = [f for f in futs if f.done()]
+    left = [f for f in futs if not f.done()]
+    busy: set = set()
+    if left:   # the runs executing now (one queued on a worker has not started)
+        try:
+            busy = {k for stacks in client.call_stack(futures=left).values() for k in stacks}
+        except Exception as exc:  # noqa: BLE001 - the cluster cannot say: none waited for
+            log.warning("run library %s: the Dask cluster could not say which runs are "
+                        "running (%r); the runs not finished are cancelled", out, exc)
+    client.cancel([f for f in left if f.key not in busy])
+    for f in done:   # finished on the cluster, not saved yet
+        _save_done(f, futs[f], save, out)
+    _finish_in_flight({f: (*futs[f], None) for f in left if f.key in busy}, save, out, why,
+                      wait_first=lambda fs: wait(fs, return_when="FIRST_COMPLETED").done)
 
 
 def load_library(path, simulator=None, *, design=None, key: str | None = None,
