@@ -126,6 +126,29 @@ class _TimeStep:
                                      "will hold, a smaller dt, or force=True.")
         self._dt_radius = r
 
+    def _check_wall_speed(self):
+        """The step stays within a tenth of the Hertz impact time at the fastest wall's speed.
+
+        ``v_max`` is the largest impact speed the step is planned for; a wall moving faster
+        (its translation, or the bound of its program's ramp and vibration) hits spheres at
+        its own speed. Where the step exceeds a tenth of the Hertz time of the smallest
+        sphere present at that speed, :class:`~bedstruct.UnsafeTimestepError` unless
+        ``force=True`` (then a warning, once per new top speed). Checked at each run start.
+        """
+        v = float(getattr(self, "_wall_speed", 0.0))
+        if v <= self.v_max or self.n_particles == 0 or v <= getattr(self, "_wall_speed_ok", 0.0):
+            return
+        r = float(self.rad.min())
+        t_h = self.model.hertz_time(r, v)
+        if self.dt > 0.1 * t_h:
+            self._refuse_unsafe(
+                [f"a wall moves at {v:.3g} m/s, faster than v_max = {self.v_max:g} m/s: dt = "
+                 f"{self.dt:.3g} s exceeds 10% of the Hertz impact time {t_h:.3g} s of the "
+                 f"smallest sphere present (r = {r:.3g} m) at that speed"],
+                "Give v_max >= the fastest wall speed (the step is then chosen for it), a "
+                "smaller dt, or force=True.")
+        self._wall_speed_ok = v
+
     def _step_limits(self, dt: float, r: float, which: str) -> list[str]:
         """Why ``dt`` is unsafe for spheres of radius ``r`` (empty when it is not): above
         ``max_rayleigh_fraction`` of their Rayleigh time, or a tenth of their Hertz impact

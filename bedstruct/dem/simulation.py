@@ -96,7 +96,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         tenth of the Hertz impact time at ``v_max``, is refused with
         :class:`~bedstruct.UnsafeTimestepError` unless ``force=True``.
     v_max : float, m/s
-        Largest expected impact speed, for the Hertz-time check (1 m/s; > 0).
+        Largest expected impact speed, for the Hertz-time check (1 m/s; > 0). A wall
+        moving faster is checked at its own speed at each run start.
     min_radius : float, m, optional
         Smallest radius to plan the time step and skin for (default: the
         smallest radius present at the first run).
@@ -477,6 +478,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
             raise ConfigError("give exactly one of `steps` or `time`")
         if not self._ready:
             self._setup()
+        self._check_wall_speed()
         nsteps = int(steps) if steps is not None else self.steps_for(time)
         if nsteps < 0:
             raise ConfigError(f"number of steps must be >= 0; got {nsteps}")

@@ -294,6 +294,30 @@ def test_a_forced_step_warns_once_for_smaller_spheres(caplog):
     assert caplog.text.count("planned for r = 0.0002 m") == 1
 
 
+def test_a_wall_faster_than_v_max_is_checked_at_its_speed(caplog):
+    # the step was planned for impacts at v_max = 0.1 m/s; a floor thrown up at 50 m/s
+    # hits the sphere within fewer than 10 steps of its Hertz time
+    model = ContactModel(Material(1e7, 0.3, 2500.0))
+
+    def sim_with_floor(speed, **kw):
+        sim = Simulation(Box([0, 0, 0], [2e-3] * 3), model, walls=[Plane((0, 0, 0), (0, 0, 1),
+                         name="floor")], v_max=0.1, n_threads=1, **kw)
+        sim.add_particles([[1e-3, 1e-3, 1e-3]], [1e-4])
+        sim.run(1)
+        sim.set_wall_motion("floor", velocity=(0.0, 0.0, speed))
+        return sim
+    with pytest.raises(UnsafeTimestepError, match=r"a wall moves at 50 m/s.*v_max >= the"):
+        sim_with_floor(50.0).run(1)
+    assert sim_with_floor(50.0).dt > 0.1 * model.hertz_time(1e-4, 50.0)
+    sim = sim_with_floor(5.0)             # faster than v_max, the step still within limits
+    sim.run(2)
+    assert sim.dt < 0.1 * model.hertz_time(1e-4, 5.0)
+    sim = sim_with_floor(50.0, force=True)
+    sim.run(1)
+    sim.run(1)
+    assert caplog.text.count("a wall moves at 50 m/s") == 1
+
+
 @pytest.mark.parametrize("ids", [[1, 2 ** 31 + 5], [2 ** 31, 3]])
 def test_ids_that_would_share_a_history_key_are_refused(ids):
     # pairs (1, 2^31 + 5) and (2, 5) had the same key: one took the other's history
