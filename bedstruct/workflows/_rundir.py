@@ -11,6 +11,7 @@ states of one stage. Resuming a stage from its checkpoint, bit for bit, is
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import functools
 import json
@@ -32,7 +33,8 @@ except ImportError:  # no flock (Windows): runs in one folder are not guarded ag
 
 log = logging.getLogger("bedstruct.workflows._common")
 
-__all__ = ["RunLayout", "StageWriter", "clear_run", "code_identity", "RUN_MARKER", "RUN_LOCK"]
+__all__ = ["RunLayout", "StageWriter", "clear_run", "code_identity", "marks_failure",
+           "RUN_MARKER", "RUN_LOCK"]
 
 
 #: The marker of a run folder: workflow, configuration and inputs of the run, the code that
@@ -209,7 +211,7 @@ class RunLayout:
 
         OUT/run.json               workflow, configuration, inputs, code and status of the
                                    run ("running" until the results are written, then
-                                   "complete"; "failed" with the error)
+                                   "complete"; "failed" with the error, or "interrupted")
         OUT/config.toml            the resolved configuration
         OUT/results.json           results (written atomically, last; removed when a run starts)
         OUT/progress.npz           spreading: the resume checkpoint (removed at the end)
@@ -365,11 +367,16 @@ class RunLayout:
                                                    "code": code_identity(), **extra},
                           keep_nan=True)
 
-    def fail(self, error) -> None:
+    def fail(self, error: BaseException) -> None:
         """Mark the run failed (``run.json``: status ``"failed"`` and the error) and release
-        the folder. Running it again resumes it, as an unfinished run."""
+        the folder; an interrupt (Ctrl-C, a stop signal raised as ``KeyboardInterrupt`` or
+        ``SystemExit``) marks it ``"interrupted"``. Running it again resumes it, as an
+        unfinished run."""
         if self.cfg is not None and not self._written:
-            self._mark("failed", error=f"{type(error).__name__}: {error}")
+            if isinstance(error, Exception):
+                self._mark("failed", error=f"{type(error).__name__}: {error}")
+            else:
+                self._mark("interrupted", error=type(error).__name__)
         self.release()
 
     def reuse_results(self, from_dict):
@@ -408,6 +415,35 @@ class RunLayout:
         """Release the folder's lock (done by :meth:`write_results`, and when the layout is
         collected or its process ends)."""
         self._lock = None  # the last layout of this process holding it lets it go
+
+
+@contextlib.contextmanager
+def marks_failure(layout: RunLayout | None):
+    """A block whose exception (or interrupt) marks ``layout``'s run folder failed
+    (:meth:`RunLayout.fail`) before it propagates; nothing with ``layout`` None.
+
+    Examples
+    --------
+    >>> import tempfile, json
+    >>> from pathlib import Path
+    >>> from bedstruct.workflows import load_config
+    >>> from bedstruct.workflows._rundir import RunLayout, marks_failure
+    >>> out = Path(tempfile.mkdtemp()) / "run"
+    >>> layout = RunLayout(out, load_config(preset="tiny"), workflow="repose")
+    >>> try:
+    ...     with marks_failure(layout):
+    ...         raise KeyboardInterrupt
+    ... except KeyboardInterrupt:
+    ...     pass
+    >>> json.loads((out / "run.json").read_text())["status"]
+    'interrupted'
+    """
+    try:
+        yield layout
+    except (Exception, KeyboardInterrupt, SystemExit) as exc:   # a kill leaves "running"
+        if layout is not None:
+            layout.fail(exc)
+        raise
 
 
 class StageWriter:

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .._json import to_jsonable, write_json_atomic
-from ._rundir import RunLayout
+from ._rundir import RunLayout, marks_failure
 from ._common import typed
 from .repose import ReposeResult, run_repose
 
@@ -228,13 +228,9 @@ def calibrate_cohesion(cfg, *, target_deg: float | None = None, bracket=None,
                                "points": sorted(pts.values(), key=lambda q: q.cohesion)})
         return p
 
-    try:
+    with marks_failure(layout):
         return _search(ev, pts, lo, hi, target=target, nmax=nmax, tol=tol, layout=layout,
                        bar=bar, n_runs=lambda: n_runs)
-    except Exception as exc:   # the folder says the calibration failed, and why (it resumes)
-        if layout is not None:
-            layout.fail(exc)
-        raise
 
 
 def _no_point_measured(pts, layout) -> ConfigError:

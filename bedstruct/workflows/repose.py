@@ -25,7 +25,7 @@ from ..errors import ConfigError
 from ._common import (check_engine, contact_model, progress_bar, psd_sampler, side_walls, typed,
                       width_bounds)
 from ._resume import resumable_simulation, run_in_frames
-from ._rundir import RunLayout, clear_run
+from ._rundir import RunLayout, clear_run, marks_failure
 from .config import check_run_geometry
 from .external import run_repose_external
 from .repose_measure import (ReposeReplicate, ReposeResult, _finished_replicate,
@@ -209,7 +209,7 @@ def run_repose(cfg, *, out=None, cohesion: float | None = None, replicates: int 
     if res is not None:
         return res
     reps = []
-    try:
+    with marks_failure(layout):
         for i in progress_bar(range(n), desc="repose", unit="replicate", progress=progress):
             seed, stage = int(cfg.seed) + i, f"rep{i:02d}"
             rep = _finished_replicate(layout, stage, seed, k)
@@ -218,10 +218,6 @@ def run_repose(cfg, *, out=None, cohesion: float | None = None, replicates: int 
                 if layout is not None:  # finished: recorded, its checkpoint no longer needed
                     _record_replicate(layout, stage, rep)
             reps.append(rep)
-    except Exception as exc:   # the folder says the run failed, and why (it resumes)
-        if layout is not None:
-            layout.fail(exc)
-        raise
     res = combine_replicates(reps, k)
     if layout is not None:
         layout.write_results({"workflow": "repose", **res.to_dict()})

@@ -36,7 +36,7 @@ from ._common import (check_engine, contact_model, frame_fingerprint, from_plain
                       german_fit_values, progress_bar, psd_sampler, side_walls, tool_motion, typed,
                       width_bounds)
 from ._resume import as_resumable, resumable_simulation, run_in_frames
-from ._rundir import RunLayout, clear_run
+from ._rundir import RunLayout, clear_run, marks_failure
 from .config import check_run_geometry
 from .external_spread import run_spread_external
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, LayerResult, SpreadResult,
@@ -139,12 +139,8 @@ def run_spread(cfg, *, out=None, progress: bool = False, pile=None,
     layout = (RunLayout(out, cfg, workflow="spread", inputs=inputs, overwrite=overwrite)
               if out is not None else None)
     _warn_pile_overhang(cfg, psd_sampler(cfg).r_max)
-    try:
+    with marks_failure(layout):
         return _spread_layers(cfg, layout, pile=pile, progress=progress)
-    except Exception as exc:   # the folder says the run failed, and why (it resumes)
-        if layout is not None:
-            layout.fail(exc)
-        raise
 
 
 def _warn_pile_overhang(cfg, r_max: float) -> None:

@@ -63,6 +63,26 @@ def test_a_failing_run_marks_its_folder_failed(tmp_path, monkeypatch):
     assert d["status"] == "failed" and "engine blew up" in d["error"]
 
 
+def test_an_interrupted_run_says_so_and_resumes(tmp_path, monkeypatch):
+    calls = []
+
+    def first_interrupted(cfg, *, seed, cohesion, layout=None, stage=""):
+        calls.append(stage)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return _rep(seed, 30.0, cohesion=cohesion, stage=stage)
+    monkeypatch.setattr(repose, "repose_replicate", first_interrupted)
+    cfg = load_config(preset="tiny", overrides=["repose.replicates=2"])
+    with pytest.raises(KeyboardInterrupt):
+        run_repose(cfg, out=tmp_path)
+    d = json.loads((tmp_path / "run.json").read_text())
+    assert d["status"] == "interrupted" and d["error"] == "KeyboardInterrupt"
+    # the finished replicate is kept: the rerun makes only the interrupted one
+    res = run_repose(cfg, out=tmp_path)
+    assert calls == ["rep00", "rep01", "rep01"] and res.n_measured == 2
+    assert json.loads((tmp_path / "run.json").read_text())["status"] == "complete"
+
+
 def test_a_calibration_without_any_pile_names_its_points(tmp_path, monkeypatch):
     def no_pile(cfg, *, seed, cohesion, layout=None, stage=""):
         return _rep(seed, NAN, "repose: only 5 particles remain in the box", cohesion, stage)
