@@ -80,8 +80,12 @@ def _unit_of(value: float, unit: str, kind: str) -> tuple[float, str]:
     return 1.0, unit
 
 
-def quantity_text(value: float, unit: str, kind: str = "", *, sigma: float | None = None) -> str:
+def quantity_text(value: float, unit: str, kind: str = "", *, sigma: float | None = None,
+                  like: float | None = None, resolution: float | None = None) -> str:
     """A measured or simulated value in natural units (µm, mm, deg, %).
+
+    The value has three significant digits, more where ``resolution`` needs them: it is
+    then shown at least to the first significant digit of ``resolution``.
 
     Parameters
     ----------
@@ -92,6 +96,12 @@ def quantity_text(value: float, unit: str, kind: str = "", *, sigma: float | Non
         Observable kind (a packing fraction is shown in %).
     sigma : float, optional
         Its uncertainty, shown as ``± sigma``.
+    like : float, optional
+        The value whose natural unit ``value`` is shown in (default: ``value`` itself), so
+        that a simulated value beside its measurement is in the measurement's unit.
+    resolution : float, optional
+        An uncertainty, in ``unit``, that the digits shown must resolve (a measurement's,
+        for its value and the simulated one beside it).
 
     Examples
     --------
@@ -101,9 +111,18 @@ def quantity_text(value: float, unit: str, kind: str = "", *, sigma: float | Non
     '33 ± 4 deg'
     >>> quantity_text(0.5123, "1", "packing_fraction")
     '51.2 %'
+    >>> quantity_text(1.004e-3, "m", "bed_height", sigma=2e-6, resolution=2e-6)
+    '1.004 ± 0.002 mm'
+    >>> quantity_text(9.95e-4, "m", "bed_height", like=1.004e-3, resolution=2e-6)
+    '0.995 mm'
     """
-    f, u = _unit_of(value, unit, kind)
-    text = _num(value * f)
+    f, u = _unit_of(value if like is None else like, unit, kind)
+    digits = 3
+    if (resolution is not None and math.isfinite(resolution) and resolution > 0
+            and math.isfinite(value) and value != 0):
+        digits = max(digits, math.floor(math.log10(abs(value * f)))
+                     - math.floor(math.log10(resolution * f)) + 1)
+    text = _num(value * f, digits)
     if sigma is not None and math.isfinite(sigma):
         text += f" ± {_num(sigma * f, 2)}"
     return f"{text} {u}".strip()
@@ -375,6 +394,23 @@ def _unexplained_words(diag) -> str:
             "narrows: the simulation misses something the catalogue does not hold" + closest)
 
 
+def _heldout_gap(diag) -> bool:
+    """Whether the held-out observables showed a gap beyond noise before, to shrink.
+
+    A shrink is measured where the excess gap before is positive and its chi-square test
+    against noise (:attr:`~bedstruct.diagnose.confirm.Shrink.p_before`) is below the
+    diagnosis' ``alpha``; a partial explanation, named for the part of the held-out gap it
+    closes, always has one. Elsewhere the ratio of two excesses within noise measures noise
+    (a shrink of -1400 % from a held-out gap of 0.16 sigma beyond noise).
+    """
+    sh = diag.shrink
+    if not math.isfinite(sh.fraction):
+        return False
+    if diag.attribution.partial:
+        return True
+    return not sh.p_before >= diag.settings.get("alpha", 0.05)
+
+
 def _how_far(diag) -> str:
     sh, att = diag.shrink, diag.attribution
     if sh.n_heldout == 0:
@@ -383,7 +419,7 @@ def _how_far(diag) -> str:
     n = f"{sh.n_heldout} held-out observable component{'s' if sh.n_heldout != 1 else ''}"
     added = (" once " + " and ".join(e.effect.replace("_", " ") for e in att.selected)
              + " is added" if att.verdict == "attributed" else " after recalibration alone")
-    if math.isfinite(sh.fraction):
+    if _heldout_gap(diag):
         lo, hi = sh.fraction_interval
         text = f"On the {n}, the gap beyond noise shrinks by {100 * sh.fraction:.0f} %{added}"
         if math.isfinite(lo) and math.isfinite(hi):
@@ -391,8 +427,10 @@ def _how_far(diag) -> str:
         return text + "."
     state = ("stay within noise" if sh.after_excess == 0 else
              f"depart by {sh.after:.1f}× the noise")
+    if sh.n_heldout == 1:
+        state = state.replace("stay", "stays").replace("depart", "departs")
     return (f"The {n} showed no gap beyond noise before, so there is no gap to shrink; "
-            f"they {state}{added}.")
+            f"{'it' if sh.n_heldout == 1 else 'they'} {state}{added}.")
 
 
 def _recalibration(diag) -> str:
@@ -440,10 +478,12 @@ def answer(diag) -> Answer:
     sigma = {(c["observable"], c["component"]): c["sigma"] for c in diag.shrink.components}
     rows = []
     for r in diag.where.ranked():
+        s = sigma.get((r["observable"], r["component"]), r["sigma"])
         rows.append({"what": _observable_words(r),
-                     "measured": quantity_text(r["real"], r["unit"], r["kind"], sigma=sigma.get(
-                         (r["observable"], r["component"]), r["sigma"])),
-                     "simulated": quantity_text(r["simulated"], r["unit"], r["kind"]),
+                     "measured": quantity_text(r["real"], r["unit"], r["kind"], sigma=s,
+                                               resolution=s),
+                     "simulated": quantity_text(r["simulated"], r["unit"], r["kind"],
+                                                like=r["real"], resolution=s),
                      "gap": _gap_words(r), "z": r["z"],
                      "role": "calibration" if r["role"] == "calibrate" else "held out"})
     return Answer(_headline(diag), rows, _which(diag), _how_far(diag), _recalibration(diag),
@@ -474,7 +514,8 @@ def compact_answer(diag, caveat: str | None = None) -> dict:
     :attr:`~bedstruct.diagnose.attribution.Attribution.partial`); ``effect`` (name, ``None``
     unless attributed); ``magnitude``
     (``value``, ``interval``, ``unit``, ``name``, or ``None``); ``shrink`` (``value`` and its
-    90 % ``interval`` as fractions, ``None`` where there was no held-out gap before, with
+    90 % ``interval`` as fractions, ``None`` where the held-out observables showed no gap
+    beyond noise before (their chi-square test at the diagnosis' ``alpha``), with
     ``n_heldout`` and the p-value of that gap, ``p_heldout_gap_before``); ``where``
     (the three largest gaps: ``observable``, ``component``, ``measured``, ``simulated``,
     ``unit``, ``z``); ``at_bound`` (recalibrated parameters that ended on a bound); with
@@ -492,7 +533,9 @@ def compact_answer(diag, caveat: str | None = None) -> dict:
         eff = diag.fingerprints[top.effect].effect
         mag = {"name": eff.magnitude, "value": fin(top.magnitude),
                "interval": [fin(v) for v in top.interval], "unit": eff.unit}
-    shrink = {"value": fin(sh.fraction), "interval": [fin(v) for v in sh.fraction_interval],
+    gap = _heldout_gap(diag)
+    shrink = {"value": fin(sh.fraction) if gap else None,
+              "interval": [fin(v) if gap else None for v in sh.fraction_interval],
               "n_heldout": sh.n_heldout, "p_heldout_gap_before": fin(sh.p_before)}
     where = [{"observable": r["observable"], "component": r["component"],
               "measured": fin(r["real"]), "simulated": fin(r["simulated"]), "unit": r["unit"],

@@ -280,6 +280,10 @@ def load_sim_config(path) -> SimConfig:
         effects = catalogue(names, exclude=cat.get("exclude", []))
     except ConfigError as exc:
         raise ConfigError(f"{p} [catalogue]: {exc}") from None
+    if not effects:
+        raise ConfigError(f"{p} [catalogue]: no effect is left to diagnose with (effects = "
+                          f"{list(names) if names is not None else 'all'}, exclude = "
+                          f"{list(cat.get('exclude', []))}); expected at least one effect")
     dg = doc.get("diagnosis", {})
     cfg = SimConfig(kind=kind, base=base, nuisance=nuisance, bounds=dict(bounds), effects=effects,
                     replicates=_get(sim, "replicates", int, f"{p} [simulator]", 4),

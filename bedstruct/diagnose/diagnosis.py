@@ -230,15 +230,31 @@ def diagnose(measurements: MeasurementSet, simulator: Simulator, *, base: Mappin
     Returns
     -------
     Diagnosis
+
+    Raises
+    ------
+    ConfigError
+        Before anything is simulated, when ``effects`` is empty, when the file has no
+        calibration observable or none of them gave a reading, or when ``seed`` is not a
+        whole number >= 0.
     """
     effects = tuple(_catalogue() if effects is None else effects)
+    source = measurements.path or measurements.title or "measurements"
+    if not effects:
+        raise ConfigError("effects: expected at least one catalogue effect to diagnose with; "
+                          "got none")
+    if not any(m.role == "calibrate" for m in measurements) and \
+            not any(m.role == "calibrate" for m in measurements.unmeasured):
+        raise ConfigError(f"{source}: no observable has role 'calibrate' (the default role); "
+                          f"the recalibration and the effects are fitted on calibration "
+                          f"observables only, so at least one is needed")
     if isinstance(seed, bool) or not isinstance(seed, (int, float, np.integer, np.floating)) \
             or not (np.isfinite(seed) and seed == int(seed) and seed >= 0):
         raise ConfigError(f"seed: expected an integer >= 0; got {seed!r}")
     if not any(m.role == "calibrate" for m in measurements) and \
             any(m.role == "calibrate" for m in measurements.unmeasured):
         raise ConfigError(
-            f"{measurements.path or measurements.title or 'measurements'}: no calibration "
+            f"{source}: no calibration "
             f"observable gave a reading in any of its trials "
             f"({', '.join(m.name for m in measurements.unmeasured)}); there is nothing to fit "
             f"the recalibration and the effects to")

@@ -108,7 +108,12 @@ class Diagnosis:
         return _residual(self.measurements, self.fingerprints)
 
     def to_json(self) -> dict:
-        """The compact JSON answer: where, which, how much, confidence, what next."""
+        """The compact JSON answer: where, which, how much, confidence, what next.
+
+        ``settings.data_notes`` holds every note of :meth:`data_notes` (unit conversions,
+        observables measured but not used, runs that missed an observable, uneven or
+        correlated scatter, trials without a reading).
+        """
         att = self.attribution
         confidence = (att.selected[0].confidence if att.selected else
                       (att.null.weight if att.verdict == "none" else None))
@@ -134,7 +139,7 @@ class Diagnosis:
             "not_identifiable": [identification(self.fingerprints, f.name)
                                  for f in self.fingerprints.fingerprints if not f.identifiable],
             "not_measured": self.trials_without_reading(),
-            "settings": self.settings,
+            "settings": dict(self.settings, data_notes=self.data_notes()),
         }
 
     def recalibration(self) -> dict[str, dict]:

@@ -101,14 +101,42 @@ def test_json_answer_is_compact(seed_run):
     _, out = seed_run
     full = json.loads((out / "diagnosis.json").read_text())
     assert full["verdict"] == "attributed"
+    # the data notes in full, as the docs' table of diagnosis.json says: the unit conversions
+    assert "bed_height_layer1: um -> m (x1e-06)" in full["settings"]["data_notes"]
 
 
-def test_compact_answer_and_how_far_with_a_held_out_gap():
+def test_docs_worked_example_is_what_the_command_prints(seed_run):
+    """docs/diagnose.md, "Worked example: the seed file", shows the command's output."""
+    text, out = seed_run
+    doc = (SEED.parents[2] / "docs" / "diagnose.md").read_text(encoding="utf-8")
+    block = doc[doc.index("takes a few seconds and prints\n\n```\n") + 36:]
+    block = block[:block.index("```")]
+    assert block.strip() == text.replace(str(out), "diag").strip()
+
+
+def test_docs_python_names_exist():
+    """The functions and methods docs/diagnose.md's "From Python" paragraph names exist."""
+    import bedstruct.diagnose as dg
+    doc = (SEED.parents[2] / "docs" / "diagnose.md").read_text(encoding="utf-8")
+    part = doc[doc.index("From Python:"):doc.index("A simulator is any callable")]
+    for name in set(re.findall(r"\bdg\.(\w+)", part)):
+        assert hasattr(dg, name), name
+    for name in set(re.findall(r"\bdiag\.(\w+)", part)):
+        assert hasattr(dg.Diagnosis, name), name
+
+
+@pytest.fixture(scope="module")
+def seed_diag():
+    """The seed diagnosed on the surrogate, cheaply (no refinement, three seeds)."""
     from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnose,
                                     diagnosis_design)
     ms = load_measurements(SEED)
     sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
-    d = diagnose(ms, sim, base=BASE_PARAMETERS, refine=0, confirm_rounds=0, replicates=3)
+    return diagnose(ms, sim, base=BASE_PARAMETERS, refine=0, confirm_rounds=0, replicates=3)
+
+
+def test_compact_answer_and_how_far_with_a_held_out_gap(seed_diag):
+    d = seed_diag
     j = compact_answer(d)
     assert set(j) == {"verdict", "partial", "effect", "magnitude", "shrink", "where", "at_bound"}
     assert len(j["where"]) == 3 and j["where"][0]["observable"] == "psd_before"
@@ -116,13 +144,64 @@ def test_compact_answer_and_how_far_with_a_held_out_gap():
     assert j["shrink"]["value"] is None and j["shrink"]["n_heldout"] == 3
     json.dumps(j, allow_nan=False)
     # a held-out gap that shrinks: the fraction and its interval in words
-    gapped = replace(d, shrink=replace(d.shrink, fraction=0.7, fraction_interval=(0.52, 0.9)))
+    gapped = replace(d, shrink=replace(d.shrink, fraction=0.7, fraction_interval=(0.52, 0.9),
+                                       p_before=0.001))
     how = answer(gapped).how_far
     assert "the gap beyond noise shrinks by 70 % once missing fines is added " \
            "(90 % interval 52 to 90 %)" in how
     assert compact_answer(gapped)["shrink"]["interval"] == [0.52, 0.9]
     lines = answer_lines(gapped)
     assert any(line.startswith("How far: On the 3 held-out") for line in lines)
+
+
+def test_a_held_out_gap_within_noise_is_not_said_to_shrink(seed_diag):
+    """A held-out gap whose test against noise does not reject (p = 0.31) has an excess of
+    a fraction of a sigma; the ratio of excesses is then noise (-1421 %, outside its own
+    interval) and is not said, in words or in the JSON line."""
+    d = seed_diag
+    noisy = replace(d, shrink=replace(d.shrink, fraction=-14.2, fraction_interval=(-7.6, 1.0),
+                                      p_before=0.31, before_excess=0.16, after=2.6,
+                                      after_excess=2.4, n_heldout=1))
+    how = answer(noisy).how_far
+    assert "%" not in how, how
+    assert how.startswith("The 1 held-out observable component showed no gap beyond noise "
+                          "before") and "it departs by 2.6× the noise" in how, how
+    j = compact_answer(noisy)["shrink"]
+    assert j["value"] is None and j["interval"] == [None, None]
+    assert j["p_heldout_gap_before"] == 0.31
+
+
+def test_simulated_value_is_shown_in_the_measurement_s_unit_and_precision(tmp_path):
+    """A bed of about 1 mm: the simulated value is shown in the measured value's unit, and
+    both to the digit the uncertainty needs (not 990 µm against 1 mm, nor 1 ± 0.002 mm for
+    1.004 mm)."""
+    from bedstruct.diagnose import (BASE_PARAMETERS, SurrogateSimulator, catalogue, diagnose,
+                                    diagnosis_design)
+    assert quantity_text(1.004e-3, "m", "bed_height", sigma=2e-6,
+                         resolution=2e-6) == "1.004 ± 0.002 mm"
+    assert quantity_text(1.5e-3, "m", "bed_height", like=9.9e-4, resolution=1e-5) == "1500 µm"
+    assert quantity_text(29.84e-6, "m", "psd", sigma=0.6e-6, resolution=0.6e-6) == "29.8 ± 0.6 µm"
+    f = tmp_path / "beds.toml"
+    f.write_text('[[observable]]\nname = "static_angle"\nkind = "static_angle"\n'
+                 'value = 33.0\nuncertainty = 1.0\n\n'
+                 '[[observable]]\nname = "h6"\nkind = "bed_height"\nunit = "um"\n'
+                 'value = 990\nuncertainty = 10\n[observable.conditions]\nlayer = 6\n',
+                 encoding="utf-8")
+    ms = load_measurements(f)
+    sim = SurrogateSimulator(diagnosis_design(ms, catalogue()))
+    d = diagnose(ms, sim, base=BASE_PARAMETERS, refine=0, confirm_rounds=0, replicates=2,
+                 max_effects=1)
+    row = next(r for r in answer(d).where if r["what"] == "h6")
+    assert row["measured"] == "990 ± 10 µm" and row["simulated"].endswith(" µm"), row
+    # a measurement finer than three digits: 1.004 ± 0.002 mm, not 1 ± 0.002 mm
+    fine = replace(ms["h6"], values=np.array([1.004e-3]),
+                   uncertainty=np.array([2e-6]))
+    ms = replace(ms, measurements=(ms.measurements[0], fine))
+    d = diagnose(ms, sim, base=BASE_PARAMETERS, refine=0, confirm_rounds=0, replicates=2,
+                 max_effects=1)
+    row = next(r for r in answer(d).where if r["what"] == "h6")
+    assert row["measured"] == "1.004 ± 0.002 mm" and row["simulated"].endswith(" mm"), row
+    assert len(row["simulated"].split()[0].split(".")[-1]) == 3, row
 
 
 def test_shrink_interval_brackets_the_shrink():

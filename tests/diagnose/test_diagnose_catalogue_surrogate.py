@@ -192,3 +192,32 @@ def test_shipped_simulation_configurations_load_and_build(name):
     assert cfg.kind == "engine" and cfg.replicates >= 2 and cfg.effects
     sim = make_simulator(cfg, load_measurements(root / "seed-angles.toml"))
     assert sim.name == "engine"
+
+
+def test_a_catalogue_with_no_effect_left_is_refused_before_any_run(tmp_path):
+    """``effects = []`` (or every effect excluded) names the file and the table, and
+    ``diagnose(..., effects=())`` is refused before the simulator is called."""
+    from bedstruct.diagnose import diagnose
+    p = tmp_path / "sim.toml"
+    for text in ('[catalogue]\neffects = []\n',
+                 '[catalogue]\neffects = ["missing_fines"]\nexclude = ["missing_fines"]\n'):
+        p.write_text(text)
+        with pytest.raises(ConfigError, match=r"sim\.toml \[catalogue\]: no effect is left"):
+            load_sim_config(p)
+    ms = _design(dict(name="aor", kind="static_angle", role="calibrate", value=33.0))
+    calls = []
+    with pytest.raises(ConfigError, match="at least one catalogue effect"):
+        diagnose(ms, lambda *a: calls.append(a), base=BASE_PARAMETERS, effects=())
+    assert calls == []
+
+
+def test_a_file_without_a_calibration_observable_is_refused_before_any_run(tmp_path):
+    """Every observable held out: nothing to fit, said naming the file before a run."""
+    from bedstruct.diagnose import diagnose, load_measurements
+    f = tmp_path / "held.toml"
+    f.write_text('[[observable]]\nname = "aor"\nkind = "static_angle"\nrole = "validate"\n'
+                 'value = 33.0\nuncertainty = 1.0\n', encoding="utf-8")
+    calls = []
+    with pytest.raises(ConfigError, match=r"held\.toml: no observable has role 'calibrate'"):
+        diagnose(load_measurements(f), lambda *a: calls.append(a), base=BASE_PARAMETERS)
+    assert calls == []
