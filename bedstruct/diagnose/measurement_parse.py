@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .measurements import (_DIM, _KNOWN_CONDITIONS, _UNIT, KINDS, NOT_PERCENT, PLAUSIBLE,
-                           PLAUSIBLE_CONDITIONS, Conditions, normalise_region)
+                           PLAUSIBLE_CONDITIONS, PLAUSIBLE_SETUP, Conditions, normalise_region)
 
 
 def _err(where: str, msg: str) -> ConfigError:
@@ -241,13 +241,14 @@ def _conditions(d: Mapping[str, Any] | None, where: str, conversions: list | Non
 #: Canonical unit of a condition in :data:`PLAUSIBLE_CONDITIONS` and the units a plain number
 #: is most often meant in when it is implausible in the canonical one.
 _CONDITION_UNITS = {"speed": ("m/s", (("cm/s", 1e-2), ("mm/s", 1e-3))),
-                    "box_width": ("m", (("mm", 1e-3),)), "rest_time": ("s", ())}
+                    "box_width": ("m", (("mm", 1e-3),)), "rest_time": ("s", ()),
+                    **{k: ("m", (("mm", 1e-3), ("um", 1e-6))) for k in PLAUSIBLE_SETUP}}
 
 
 def _check_condition(v: float, name: str, where: str, key: str, plain: bool) -> None:
     """A condition (SI) inside its plausible range, else an error; a plain number (no unit
     written) that would fit in another unit gets that unit as a hint."""
-    lo, hi = PLAUSIBLE_CONDITIONS[name]
+    lo, hi = PLAUSIBLE_CONDITIONS.get(name) or PLAUSIBLE_SETUP[name]
     if lo <= v <= hi:
         return
     unit, alternatives = _CONDITION_UNITS[name]
@@ -523,6 +524,9 @@ def _setup(d, where: str, base_dir: Path):
         if t.size > MAX_LAYERS:
             raise _err(where, f"key 'conditions.layer_thickness': {t.size} layers; at most "
                               f"{MAX_LAYERS}")
+        for x in t:
+            _check_condition(float(x), "layer_thickness", where, "conditions.layer_thickness",
+                             False)
         kw["layer_thickness"] = tuple(float(x) for x in t)
     elif layers is not None:
         raise _err(where, "key 'conditions.layer_thickness': 'layers' needs the layer thickness "
@@ -535,6 +539,7 @@ def _setup(d, where: str, base_dir: Path):
         if key in d:
             kw[key] = _scalar_quantity(d[key], where, f"conditions.{key}", _LENGTH_UNITS, what="length",
                                        conversions=conv)
+            _check_condition(kw[key], key, where, f"conditions.{key}", False)
     if "side_walls" in d:
         if not isinstance(d["side_walls"], bool):
             raise _err(where, f"key 'conditions.side_walls': expected true or false; got "

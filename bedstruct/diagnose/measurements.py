@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["KINDS", "ROLES", "PLAUSIBLE", "PLAUSIBLE_CONDITIONS", "KIND_CONDITIONS",
+__all__ = ["KINDS", "ROLES", "PLAUSIBLE", "PLAUSIBLE_CONDITIONS", "PLAUSIBLE_SETUP", "KIND_CONDITIONS",
            "normalise_region", "Conditions", "Setup",
            "Measurement", "MeasurementSet", "Observations"]
 
@@ -85,6 +85,15 @@ PLAUSIBLE_CONDITIONS: dict[str, tuple[float, float]] = {
     "speed": (1e-4, 2.0),          # m/s: 0.1 mm/s to 2 m/s
     "box_width": (1e-4, 1.0),      # m: 0.1 mm to 1 m
     "rest_time": (0.0, 1e7),       # s: up to about four months
+}
+
+#: Plausible lengths of a measurement set-up (``[conditions]``), SI, as
+#: :data:`PLAUSIBLE_CONDITIONS`: powder layers of 1 um to 10 mm, platforms of 1 mm to 10 m.
+PLAUSIBLE_SETUP: dict[str, tuple[float, float]] = {
+    "layer_thickness": (1e-6, 1e-2),
+    "platform_length": (1e-3, 10.0),
+    "platform_width": (1e-4, 10.0),
+    "wall_distance": (1e-4, 10.0),
 }
 
 #: Bed regions (``conditions.region``): accepted spellings (case-insensitive) -> the one kept.

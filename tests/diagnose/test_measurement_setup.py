@@ -216,6 +216,10 @@ def test_the_surrogate_refuses_a_setup(tmp_path):
     ('psd = {d10 = "30 um", d50 = "20 um", d90 = "55 um"}', r"d_min < d10 < d50 < d90 < d_max"),
     ('psd = {d50 = "20 um"}', r"'conditions\.psd\.d10': the percentile form needs"),
     ('humidity = 0.4', r"'conditions\.humidity': unknown condition of the set-up"),
+    ('layers = 10\nlayer_thickness = "100 mm"',
+     r"'conditions\.layer_thickness': implausible layer thickness 0\.1 m; expected 1e-06 to 0\.01"),
+    ('platform_length = "18.9 um"', r"implausible platform length 1\.89e-05 m"),
+    ('side_walls = true\nwall_distance = "30 m"', r"implausible wall distance 30 m"),
 ])
 def test_bad_setup_names_file_key_and_expectation(tmp_path, conditions, match):
     f = _file(tmp_path, "[conditions]\n" + conditions + "\n", name="bad.toml")

@@ -12,7 +12,8 @@ import pytest
 
 import bedstruct.diagnose.engine_simulator as engine_simulator
 import bedstruct.diagnose.validation.liggghts_twins as external_twins
-from bedstruct.diagnose import BASE_PARAMETERS, SurrogateSimulator, validate, validation_report
+from bedstruct.diagnose import (BASE_PARAMETERS, Observations, SurrogateSimulator, validate,
+                                validation_report)
 from bedstruct.diagnose.validation.records import METHOD_VERSION
 from bedstruct.errors import ConfigError
 
@@ -139,6 +140,23 @@ def test_validation_scores_resumes_and_reuses_twins(stand_ins, tmp_path):
     third = vl.validate_liggghts("tiny", workdir=tmp_path / "twins", refine=0)
     assert liggghts_runs() == 12 + 3
     assert [t["predicted"] for t in third.twins] == [t["predicted"] for t in res.twins]
+
+
+def test_a_twin_reading_outside_measured_ranges_is_diagnosed(stand_ins, tmp_path, monkeypatch):
+    # an empty end region reads a packing fraction near 0 (here, with noise, below): a
+    # twin's number, which the plausible ranges of measured files would refuse
+    class EmptyEnd(_StandIn):
+        def __call__(self, base, effects, seed):
+            obs = super().__call__(base, effects, seed)
+            return Observations({**obs.values, "packing_fraction_x1_end": [-0.002]}, obs.source)
+
+    null = vl.liggghts_twin_plan()[:1]
+    monkeypatch.setattr(vl, "liggghts_twin_plan", lambda base=None: null)
+    monkeypatch.setattr(external_twins, "liggghts_simulator",
+                        lambda design, effects, **kw: EmptyEnd(design))
+    res = vl.validate_liggghts("tiny", workdir=tmp_path / "twins", refine=0)
+    assert [t["type"] for t in res.twins] == ["null"] and not res.settings.get("failed")
+    assert 'name = "packing_fraction_x1_end"' in (tmp_path / "twins" / "twin0" / "twin.toml").read_text()
 
 
 def test_bad_requests_are_clear_errors(stand_ins, monkeypatch):
