@@ -26,6 +26,7 @@ import os
 from pathlib import Path
 from typing import Any, Mapping
 
+from .._numba import source_hash
 from .._version import __version__
 
 __all__ = ["code_versions", "call_key", "read_entry", "write_entry"]
@@ -64,19 +65,8 @@ def code_versions() -> dict[str, str]:
     -------
     dict of str to str
     """
-    root = Path(__file__).resolve().parents[1]
-    out = {"bedstruct": __version__}
-    for part, paths in _CODE.items():
-        h = hashlib.sha256()
-        for rel in paths:
-            p = root / rel
-            files = sorted(f for f in p.rglob("*") if f.suffix in (".py", ".toml")
-                           and "__pycache__" not in f.parts) if p.is_dir() else [p]
-            for f in files:
-                h.update(f.relative_to(root).as_posix().encode() + b"\0")
-                h.update(f.read_bytes() + b"\0")
-        out[part] = h.hexdigest()[:16]
-    return out
+    return {"bedstruct": __version__,
+            **{part: source_hash(paths, suffixes=(".py", ".toml")) for part, paths in _CODE.items()}}
 
 
 def call_key(cfg: Mapping[str, Any], *, wide_box: float, speed_scale: float) -> str:

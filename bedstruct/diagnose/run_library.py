@@ -56,6 +56,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from .._json import to_jsonable, write_json_atomic
+from .._numba import source_hash
 from .._version import __version__
 from ..errors import ConfigError
 from .catalogue import catalogue as _catalogue
@@ -89,15 +90,8 @@ def _hash(obj) -> str:
 
 
 def _code_hash(rel: str) -> str:
-    p = _ROOT / rel
-    files = sorted(p.rglob("*.py")) + sorted(p.rglob("*.toml")) if p.is_dir() else [p]
-    h = hashlib.sha256()
-    for f in files:
-        if "__pycache__" in f.parts:
-            continue
-        h.update(str(f.relative_to(_ROOT)).encode())
-        h.update(f.read_bytes())
-    return h.hexdigest()[:20]
+    """Hash of a source file or folder of the package (its ``*.py`` and ``*.toml`` files)."""
+    return source_hash((rel,), suffixes=(".py", ".toml"))
 
 
 class _Unkeyable(Exception):
