@@ -181,6 +181,8 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
         iteratively and do not count as held by the network (default 2).
     axis : int, optional
         Direction along the bed (0, 1 or 2; default 0), for the pile test.
+        Along the vertical (z in 3-D) the pile test runs along each
+        horizontal axis and takes the larger peak.
 
     Returns
     -------
@@ -295,10 +297,16 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
     # height: z, or for a 2-D run flat along z the in-plane axis across the bed
     vertical = 2 if flat != 2 else (3 - axis - flat if axis != flat else 1)
 
+    # the pile test runs along the bed: along a vertical ``axis`` (segregation with height, say)
+    # the bins would be height slices, each with its own top, so it runs along each horizontal
+    # axis instead and takes the larger peak
+    horizontal = [a for a in range(3) if a not in (vertical, flat)]
+    along = [axis] if axis in horizontal else horizontal
     peak = nan
     if held and not moving:
         cluster = largest_cluster(frame) & network
-        peak = _peak(frame, cluster, axis, vertical)
+        peaks = [_peak(frame, cluster, a, vertical) for a in along]
+        peak = max((p for p in peaks if np.isfinite(p)), default=nan)
         kind = "pile" if peak > _PILE_PEAK else "settled bed"
         shape = (f"its top surface peaks {peak:.0%} of its height above its mean along the bed"
                  if np.isfinite(peak) else "too few particles to judge its shape")

@@ -112,7 +112,8 @@ def local_packing(frame, *, region=None) -> LocalPacking:
     ImportError
         If ``pyvoro2`` is not installed (with the install hint).
     ValueError
-        No particles, a tilted box, or particles outside ``region``.
+        No particles, a tilted box, particles outside ``region``, or
+        coincident particle centres (closer than 1e-5 median diameters).
 
     Notes
     -----
@@ -124,7 +125,9 @@ def local_packing(frame, *, region=None) -> LocalPacking:
     sum to its volume. The cell of a particle at a bounded face of the region
     is closed by that face (``at_wall``); :meth:`LocalPacking.mean` leaves
     those out by default. Computed by voro++ (C. H. Rycroft, Chaos 19 (2009)
-    041111, doi:10.1063/1.3215722) through ``pyvoro2``.
+    041111, doi:10.1063/1.3215722) through ``pyvoro2``, in units of the
+    median diameter: voro++'s tolerances are absolute, and the cells come out
+    the same whatever the length unit of the frame (metres included).
 
     .. versionadded:: 0.1
 
@@ -164,20 +167,32 @@ def local_packing(frame, *, region=None) -> LocalPacking:
     if outside.any():
         raise ValueError(f"{int(outside.sum())} particle centres lie outside `region` along a bounded axis "
                          f"(first: row {int(np.argmax(outside))})")
+    # voro++ works with absolute tolerances (pyvoro2 refuses centres within 1e-5 of each other,
+    # and faces are cut to ~1e-11): tessellate in units of the median diameter from the region's
+    # lower corner, where touching centres are about 1 apart, whatever the dump's length unit
+    scale = float(np.median(2.0 * radii))
+    span = (hi - lo) / scale
     # periodic axes: wrap into the half-open primary domain
-    wrapped = pos.copy()
+    local = (pos - lo) / scale
     for a in range(3):
         if periodic[a]:
-            wrapped[:, a] = lo[a] + np.mod(pos[:, a] - lo[a], hi[a] - lo[a])
-    domain = pyvoro2.OrthorhombicCell(tuple((float(a), float(b)) for a, b in zip(lo, hi)), periodic=periodic)
-    with _native_stderr_to_log():
-        cells = pyvoro2.compute(wrapped, domain=domain, mode="power", radii=radii, return_vertices=False,
-                                return_adjacency=False, return_faces=True, output="cells")
+            local[:, a] = np.mod(local[:, a], span[a])
+    domain = pyvoro2.OrthorhombicCell(tuple((0.0, float(s)) for s in span), periodic=periodic)
+    try:
+        with _native_stderr_to_log():
+            cells = pyvoro2.compute(local, domain=domain, mode="power", radii=radii / scale,
+                                    return_vertices=False, return_adjacency=False, return_faces=True,
+                                    output="cells")
+    except getattr(pyvoro2, "DuplicateError", ()) as exc:
+        pairs = [(int(p.i), int(p.j)) for p in getattr(exc, "pairs", ())]
+        which = f" (first: rows {min(pairs[0])} and {max(pairs[0])})" if pairs else ""
+        raise ValueError(f"particle centres closer than 1e-5 median diameters{which}: coincident "
+                         f"particles have no Voronoi cells of their own") from None
     volumes = np.full(n, np.nan)
     at_wall = np.zeros(n, dtype=bool)
     for c in cells:
         k = int(c["id"])
-        volumes[k] = float(c["volume"])
+        volumes[k] = float(c["volume"]) * scale ** 3
         at_wall[k] = any(int(f["adjacent_cell"]) < 0 for f in c.get("faces", ()))
     if np.any(~np.isfinite(volumes)):
         missing = np.flatnonzero(~np.isfinite(volumes))

@@ -296,6 +296,12 @@ def _rows_by_id(ids, data, idx, raw):
     else:
         order = np.argsort(ids, kind="stable")
         sorted_ids = ids[order]
+        twice = sorted_ids[1:][sorted_ids[1:] == sorted_ids[:-1]]
+        if twice.size:   # a contact naming a repeated id could be either particle
+            raise DumpFormatError(f"cannot join contacts by particle id: id {int(twice[0])} "
+                                  f"appears more than once in the atom frame at timestep "
+                                  f"{raw.timestep} ({np.unique(twice).size} ids repeat)",
+                                  path=raw.path)
     # ids lo, lo + 1, ..., lo + n - 1: a particle's row is its id - lo (no search)
     lo = int(ids[0]) if n_atoms else 0
     dense = order is None and n_atoms > 0 and int(ids[-1]) - lo + 1 == n_atoms
@@ -317,7 +323,8 @@ def _rows_by_id(ids, data, idx, raw):
                 ok &= sorted_ids[pos_c] == as_int
         if m and not ok.all():
             r = int(np.flatnonzero(~ok)[0])
-            raise DumpFormatError(f"contact row {r + 1}: particle id {float(col[r])!r} ({name}) "
+            shown = int(col[r]) if ok[r] or float(col[r]).is_integer() else float(col[r])
+            raise DumpFormatError(f"contact row {r + 1}: particle id {shown!r} ({name}) "
                                   f"is not in the atom frame at timestep {raw.timestep}",
                                   path=raw.path, line=raw.data_line + r, text=raw.row_text(r))
         if not m:

@@ -117,7 +117,7 @@ def _finite_values(value):
 
 
 def _display_unit(value, unit: str, key: str = "") -> tuple[float, str]:
-    """(factor, unit) that shows ``value`` in natural units: um or mm, %, ms, mm/s."""
+    """(factor, unit) that shows ``value`` in natural units: um or mm, %, ms, mm/s, 1/mm^3."""
     if unit in _LENGTH_SI:
         vals = _finite_values(value)
         big = max((abs(v) for v in vals), default=0.0) * _LENGTH_SI[unit]
@@ -125,6 +125,13 @@ def _display_unit(value, unit: str, key: str = "") -> tuple[float, str]:
         return _LENGTH_SI[unit] / (1e-3 if target == "mm" else 1e-6), target
     if unit.endswith("/s") and unit[:-2] in _LENGTH_SI:
         return _LENGTH_SI[unit[:-2]] / 1e-3, "mm/s"
+    if unit.startswith("1/") and unit.endswith("^3") and unit[2:-2] in _LENGTH_SI:
+        # a number density: per mm^3 (per m^3 for sparse ones), whatever the dump's unit
+        per_mm3 = (1e-3 / _LENGTH_SI[unit[2:-2]]) ** 3
+        vals = _finite_values(value)
+        if max((abs(v) for v in vals), default=1.0) * per_mm3 >= 1e-2:
+            return per_mm3, "1/mm³"
+        return (1.0 / _LENGTH_SI[unit[2:-2]]) ** 3, "1/m³"
     if unit == "s":
         vals = _finite_values(value)
         if vals and max(abs(v) for v in vals) < 1:

@@ -380,6 +380,9 @@ def _harmonics(ctx: _Context, s: Section) -> None:
 def _repose(ctx: _Context, s: Section) -> None:
     from ..analysis import pile_angle
     f, opt = ctx.frame, ctx.options
+    if opt.axis_index == 2:
+        skip("the flanks of a pile are fitted along a horizontal axis, and the axis of the report "
+             "is z, the vertical: give --axis x or y for the angle of repose")
     try:
         pa = pile_angle(f, axis=opt.axis_index, base=opt.repose_base)
     except ValueError as exc:

@@ -33,6 +33,8 @@ def load_report_inputs(paths: Sequence[str], *, contacts: str | None = None,
     contacts : str, optional
         A ``dump local`` contact file; contacts of the last selected frame
         are joined by particle id (geometric contacts are used otherwise).
+        A frame whose particle ids repeat is refused: contacts could not be
+        joined to it.
     contact_keywords : sequence of str, optional
         The ``compute pair/gran/local`` keywords of the contact file.
     contact_columns : dict or sequence, optional

@@ -100,6 +100,17 @@ def test_a_heap_is_a_pile_and_its_roughness_is_not_meaningful():
     assert set(s.not_meaningful) == {"surface"}
 
 
+def test_a_vertical_axis_judges_the_shape_across_the_bed():
+    # along z (vertical segregation, say) a flat bed is still a settled bed, and a heap a pile:
+    # the top surface is judged along the horizontal axes, not in height slices
+    assert bed_state(_slab(), axis=2).kind == "settled bed"
+    lattice = cubic_lattice((40, 4, 20), spacing=1.0, radius=0.51, boundary=("ff", "pp", "ff"))
+    x, z = lattice.positions[:, 0], lattice.positions[:, 2]
+    heap = lattice.select(z <= 20.0 - np.abs(x - 20.0) * np.tan(np.radians(30)) * 1.5)
+    s = bed_state(heap, axis=2)
+    assert s.kind == "pile" and s.peak == pytest.approx(bed_state(heap, axis=0).peak)
+
+
 def test_empty_frame_and_bad_axis():
     empty = Frame(np.zeros((0, 3)), np.zeros(0), box=Box([0, 0, 0], [1, 1, 1]))
     s = bed_state(empty)

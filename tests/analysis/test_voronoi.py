@@ -57,3 +57,36 @@ def test_mean_over_a_window_equals_the_windowed_packing_of_the_bundled_bed():
         # the cells of the particles centred in a window tile it up to its ragged ends
         assert lp.mean(inside) == pytest.approx(prof.fractions[k], abs=0.005)
     assert 0.55 < lp.mean() < 0.62            # away from the walls and the free surface
+
+
+def _jittered_bed(scale, offset=0.0):
+    """A jittered, polydisperse FCC bed under open space (pp pp ff), lengths times ``scale``."""
+    f = fcc_lattice((4, 4, 3), boundary=("pp", "pp", "ff"))
+    rng = np.random.default_rng(3)
+    pos = f.positions + rng.normal(scale=0.03, size=f.positions.shape)
+    radii = f.radii * rng.uniform(0.8, 1.0, f.n_particles)
+    lo, hi = np.asarray(f.box.lo), np.asarray(f.box.hi)
+    return Frame((pos + offset) * scale, radii * scale,
+                 box=Box((lo + offset) * scale, (hi + offset) * scale, boundary=f.box.boundary))
+
+
+@pytest.mark.parametrize("scale, offset", [(1e-5, 0.0), (1e-4, 0.0), (1.0, 1e5)])
+def test_cells_do_not_depend_on_the_length_unit(scale, offset):
+    # 10 um and 100 um spheres in metres, and a bed far from the origin, tessellate as the
+    # same bed in units of its diameter does: voro++'s absolute tolerances do not see the unit
+    ref = local_packing(_jittered_bed(1.0))
+    lp = local_packing(_jittered_bed(scale, offset))
+    np.testing.assert_allclose(lp.fractions, ref.fractions, rtol=1e-9)
+    np.testing.assert_array_equal(lp.at_wall, ref.at_wall)
+    np.testing.assert_allclose(lp.cell_volumes, ref.cell_volumes * scale ** 3, rtol=1e-9)
+    # all cells together tile the bed's bounding box: their mean is its packing fraction
+    from bedstruct.analysis import packing_fraction
+    frame = _jittered_bed(scale, offset)
+    assert lp.mean(np.ones(lp.n_particles, bool)) == pytest.approx(packing_fraction(frame).fraction, rel=1e-9)
+
+
+def test_coincident_centres_are_named():
+    f = cubic_lattice((3, 3, 3))
+    pos = np.vstack([f.positions, f.positions[4]])
+    with pytest.raises(ValueError, match=r"rows 4 and 27\): coincident particles"):
+        local_packing(Frame(pos, np.full(len(pos), 0.5), box=f.box))

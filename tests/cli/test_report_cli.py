@@ -71,6 +71,23 @@ def test_contact_columns_read_a_property_local_contact_dump(tmp_path, capsys):
     assert contacts.n_contacts == 60 and contacts.ids_i.tolist() == frame.ids[:60].tolist()
 
 
+def test_contacts_are_not_joined_to_a_frame_whose_ids_repeat(tmp_path, capsys):
+    # a particle added above the bed with id 6, which another one has: a contact naming 6
+    # could be either, so the join is refused
+    frame = _bed()
+    dump, local = tmp_path / "bed.dump", tmp_path / "dump.neigh"
+    _property_local(local, frame, [(a, a + 12) for a in range(60)])
+    write_dump(dump, Frame(np.vstack([frame.positions, [0.5, 0.5, 5.5]]), np.full(frame.n_particles + 1, 0.5),
+                           box=frame.box, ids=np.append(frame.ids, frame.ids[1]), timestep=frame.timestep))
+    with pytest.warns(UserWarning, match="more than once"):
+        code = main(["report", str(dump), "--contacts", str(local), "--contact-columns", COLUMNS,
+                     "--no-3d", "--out", str(tmp_path / "r")])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "cannot join contacts by particle id" in err and "id 6 appears more than once" in err, err
+    assert not (tmp_path / "r" / "report.json").exists()
+
+
 @pytest.mark.parametrize("spec, expected", [
     ("c_1[1]=id1 c_1[2]=id2", {"c_1[1]": "id1", "c_1[2]": "id2"}),
     ("c_1[1]=id1,c_1[2]=id2", {"c_1[1]": "id1", "c_1[2]": "id2"}),

@@ -104,3 +104,19 @@ def test_a_layout_the_reader_cannot_guess_names_both_ways_to_say_it(tmp_path):
     assert "--contact-keywords" in text and "--contact-columns 'c_pgl[1]=id1 c_pgl[2]=id2" in text
     with pytest.raises(DumpFormatError, match="--contact-columns"):
         read_dump_local(local, keywords=["id"], frames=read_dump(atoms)[0])
+
+
+def test_contacts_are_not_joined_to_repeated_ids(tmp_path):
+    """A contact naming an id that two particles of the atom frame carry could be either:
+    the join is refused, naming the id."""
+    atoms = tmp_path / "ids.dump"
+    atoms.write_text(ATOMS.replace("ITEM: ATOMS x y z radius", "ITEM: ATOMS id x y z radius")
+                     .replace("5 5 1 1\n1 1 1 1\n3 1 1 1\n9.5 1 1 1",
+                              "3 5 5 1 1\n1 1 1 1 1\n3 3 1 1 1\n2 9.5 1 1 1"))
+    local = tmp_path / "pairs.local"
+    local.write_text(HEAD.format(n=1, names="c_p[1] c_p[2] c_p[3] c_p[4] c_p[5] c_p[6]")
+                     + "1 3 0 0.5 0 0\n")
+    with pytest.warns(UserWarning, match="id 3 appears more than once"):
+        frame = read_dump(atoms)[0]
+    with pytest.raises(DumpFormatError, match=r"id 3 appears more than once.*timestep 100"):
+        read_dump_local(local, keywords=["id", "force"], frames=frame)

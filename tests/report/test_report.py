@@ -1,5 +1,6 @@
 import contextlib
 import json
+import re
 import shutil
 import subprocess
 
@@ -239,6 +240,24 @@ def test_repose_section_on_a_pile(tmp_path):
     assert abs(sec.numbers["angle_deg"].value - 30.0) < 1.5
 
 
+def test_report_along_z_judges_the_input_across_the_bed():
+    # --axis z (packing and sizes by height) on a flat slab: a settled bed with its surface
+    # measured; on a heap: a pile, and the repose section says which axes it fits along
+    slab = cubic_lattice((12, 4, 4), spacing=1.0, radius=0.51, boundary=("ff", "pp", "ff"))
+    with _only("surface", "repose"):
+        rep = build_report(slab, options=ReportOptions(axis="z"))
+    assert rep.state["kind"] == "settled bed", rep.state["reason"]
+    assert rep.section("surface").status == "ok"
+    lattice = cubic_lattice((40, 4, 20), spacing=1.0, radius=0.51, boundary=("ff", "pp", "ff"))
+    x, z = lattice.positions[:, 0], lattice.positions[:, 2]
+    heap = lattice.select(z <= 20.0 - np.abs(x - 20.0) * np.tan(np.radians(30)) * 1.5)
+    with _only("repose"):
+        rep = build_report(heap, options=ReportOptions(axis="z"))
+    assert rep.state["kind"] == "pile", rep.state["reason"]
+    sec = rep.section("repose")
+    assert sec.status == "skipped" and "give --axis x or y" in sec.text, sec.text
+
+
 def test_heat_section_needs_units_and_reports_each_region(cli_heat_run):
     # bed_dump has no ITEM: UNITS
     heat = json.loads((cli_heat_run[3] / "report.json").read_text())["sections"]["heat"]
@@ -458,6 +477,24 @@ def test_fabric_roses_plot_the_regions_of_the_table(bed_report):
     expected = [1 + 7.5 * (row[2] - 1 / 3) for row in table.rows]
     np.testing.assert_allclose(reach, expected, rtol=2e-3)
     assert max(expected) - min(expected) > 0.05         # the regions differ: a mix-up shows
+
+
+@pytest.mark.parametrize("style, factor", [("si", 1.0), ("cgs", 1e2), ("micro", 1e6), ("nano", 1e9)])
+def test_number_density_is_shown_per_cubic_millimetre_in_every_unit_system(tmp_path, style, factor):
+    # 8 x 6 x 4 spheres 100 um apart, the centres spanning 0.7 x 0.6 (periodic) x 0.3 mm:
+    # 1524 per mm^3 on the page, in the dump's unit in the JSON
+    lattice = cubic_lattice((8, 6, 4), spacing=100e-6 * factor, radius=51e-6 * factor,
+                            boundary=("ff", "pp", "ff"))
+    with _only("rdf"):
+        rep = build_report(lattice.with_units(style))
+    density = rep.section("rdf").numbers["density"]
+    unit = {"si": "m", "cgs": "cm", "micro": "um", "nano": "nm"}[style]
+    assert density.unit == f"1/{unit}^3"
+    assert density.value == pytest.approx(192 / (0.7 * 0.6 * 0.3) * 1e9 / factor ** 3, rel=1e-9)
+    page = render_html(rep)
+    shown = re.search(r'<td>density</td><td class="num">([^<]*)</td><td>([^<]*)</td>', page)
+    assert shown is not None and shown.group(2) == "1/mm³", page
+    assert shown.group(1) == "1524", shown.group(1)
 
 
 def test_html_shows_natural_units_and_json_keeps_si(tmp_path):
