@@ -136,6 +136,13 @@ def effects_on(cfg, *, spreading: bool = False) -> list[str]:
 _MAPPING_OPTIONS = ("cohesion_model", "reference_radius", "reference_overlap")
 
 
+def _ranks(np) -> int:
+    """``np`` as a number of MPI ranks (an int >= 1)."""
+    if isinstance(np, bool) or int(np) != np or int(np) < 1:
+        raise ValueError(f"np must be a whole number of MPI ranks >= 1, not {np!r}")
+    return int(np)
+
+
 def path_word(path) -> str:
     """``path`` made absolute, as one word of a deck (engines cannot read paths with spaces)."""
     s = str(Path(path).resolve())
@@ -335,10 +342,19 @@ class Dialect:
         return lines
 
     def workflow_head(self, data_file, model, *, title: str, boundary: str, dt: float, skin,
-                      gravity: float):
+                      gravity: float, np: int = 1, span: tuple[float, float] | None = None):
         """Deck lines up to gravity of the workflow decks (set-up, data file, neighbours,
         contact model, time step, ``gravity`` in m/s^2 along -z); returns
-        ``(lines, wall_type)``."""
+        ``(lines, wall_type)``.
+
+        ``np``: the MPI ranks the deck is written for. On more than one, the processor grid
+        is :meth:`processors_grid`'s, :meth:`box_lines` follow ``read_data`` (``span`` =
+        ``(x0, x1)``: where along x the powder lies when it is far off the box's middle;
+        None: it is not) and :meth:`balance_lines` follow gravity: they share the powder
+        among the ranks. One rank's deck has none of them.
+        """
+        np_ = _ranks(np)
+        span = None if span is None else (float(span[0]), float(span[1]))
         head = read_data_header(data_file)
         if head["atom types"] < 2:
             raise ValueError("the data file must declare 2 atom types (walls use type 2); write "
@@ -346,14 +362,38 @@ class Dialect:
         if skin is None:
             r = data_file_radii(data_file)
             skin = 0.2 * float(r.min()) if r.size else 1e-6
-        lines = [self.header(title), *self.setup_lines(boundary, "* 1 1"),
-                 f"read_data {path_word(data_file)}",
-                 f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
+        lines = [self.header(title),
+                 *self.setup_lines(boundary, self.processors_grid(np_, span=span)),
+                 f"read_data {path_word(data_file)}"]
+        if np_ > 1:
+            lines += self.box_lines(np_, box=(float(head["lo"][0]), float(head["hi"][0])),
+                                    span=span)
+        lines += [f"neighbor {skin:.10g} bin", "neigh_modify delay 0"]
         model_lines, wt = self.model_lines(model, n_types=head["atom types"], soft=True)
         lines += model_lines
         lines.append(f"timestep {dt:.10g}")
         lines += self.gravity_lines(gravity)
+        if np_ > 1:
+            lines += self.balance_lines(np_)
         return lines, wt
+
+    def processors_grid(self, np: int, *, span: tuple[float, float] | None = None) -> str:
+        """The ``processors`` grid of the workflow decks on ``np`` ranks: slabs along x, the
+        long side of the repose box and of the spreading platform (the powder is thin in y
+        and lies low in z). ``span``: as :meth:`workflow_head`'s."""
+        return "* 1 1"
+
+    def box_lines(self, np: int, *, box: tuple[float, float],
+                  span: tuple[float, float] | None) -> list[str]:
+        """Lines just after ``read_data`` of a deck on ``np`` > 1 ranks (none here).
+
+        ``box``: the data file's x range; ``span``: the x range of the powder, when it lies
+        far off the box's middle (None: it does not)."""
+        return []
+
+    def balance_lines(self, np: int) -> list[str]:
+        """Load balancing of a deck on ``np`` > 1 ranks, after the contact model (none here)."""
+        return []
 
     @staticmethod
     def gravity_lines(gravity: float) -> list[str]:

@@ -58,6 +58,14 @@ REFERENCE_RADIUS = 26e-6
 #: Reference overlap as a fraction of the effective radius R* = r/2.
 REFERENCE_OVERLAP = 1e-3
 
+#: Steps between the checks of ``fix balance`` in a deck on several ranks
+#: (:meth:`LammpsDialect.balance_lines`).
+BALANCE_EVERY = 1000
+#: The imbalance (most particles on a rank / the mean) above which ``fix balance`` moves the
+#: cuts, and the one at which moving them stops.
+_BALANCE_THRESH = 1.05
+_BALANCE_STOP = 1.02
+
 
 def _mpich_libdir() -> Path | None:
     try:
@@ -378,6 +386,16 @@ class LammpsDialect(Dialect):
 
     def moving_run(self, fix, mesh, velocity, steps, *, rotate=None):
         return [f"run {steps}"]
+
+    def balance_lines(self, np):
+        """LAMMPS' own load balancing along the x slabs: ``balance`` moves the cuts until the
+        ranks hold as many particles (the powder covers only part of the box), ``fix balance``
+        moves them again as the powder does (checked every :data:`BALANCE_EVERY` steps).
+        Both come after the pair style (a pair style with contact history must exist before
+        a fix that migrates atoms)."""
+        return [f"balance 1.0 shift x 20 {_BALANCE_STOP}",
+                f"fix lbal all balance {BALANCE_EVERY} {_BALANCE_THRESH} shift x 10 "
+                f"{_BALANCE_STOP}"]
 
     def repose_walls(self, geometry, schedule, model, wall_type, *, stl_folder):
         """Block regions; the plate's moves by ``v_px``, a ramp over the slide's steps."""

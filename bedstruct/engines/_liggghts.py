@@ -534,6 +534,33 @@ class LiggghtsDialect(Dialect):
         return lines + [f"fix {rot} all move/mesh mesh {mesh} rotate {rotate}",
                         f"run {steps}", f"unfix {rot}", f"unfix {fix}"]
 
+    def processors_grid(self, np, *, span=None):
+        """LIGGGHTS 3.8 has no load balancing (no ``balance``, no ``fix balance``: both are
+        unknown commands), so its slabs are the box's equal parts. Where the powder covers
+        only ``span`` of the box along x (the repose box, which reaches past ``-L`` for the
+        plate), the box is split along x once on an even number of ranks, at the middle of
+        the powder (:meth:`box_lines` centres the box on it), and the halves along y (two
+        ranks: ``* 1 1``, which runs on any number); on an odd number along y only (the
+        powder fills the width). Otherwise (``span`` None, one rank) x slabs."""
+        if np <= 2 or span is None:
+            return "* 1 1"
+        return "2 * 1" if np % 2 == 0 else "1 * 1"
+
+    def box_lines(self, np, *, box, span):
+        """On an even number of ranks, ``change_box`` widens the box along x to be symmetric
+        about the middle of the powder ``span``, so that the cut between the two x slabs
+        halves it (the box only grows: the meshes must stay inside it). None without
+        ``span``."""
+        if np % 2 or span is None:
+            return []
+        lo, hi = box
+        mid = 0.5 * (span[0] + span[1])
+        half = max(mid - lo, hi - mid)
+        new_lo, new_hi = min(lo, mid - half), max(hi, mid + half)
+        if (new_lo, new_hi) == (lo, hi):
+            return []
+        return [f"change_box all x final {new_lo!r} {new_hi!r} units box"]
+
     def repose_walls(self, geometry, schedule, model, wall_type, *, stl_folder):
         if stl_folder is None:
             raise ValueError("LIGGGHTS needs the walls as STL files: pass `stl_folder`")

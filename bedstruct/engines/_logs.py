@@ -52,6 +52,10 @@ class ThermoRun:
         From ``Loop time of X on N procs for S steps with A atoms``.
     neighbors_per_atom : float or None
         ``Ave neighs/atom`` printed after the run (half list: contacts + near pairs).
+    atoms_per_proc : (float, float, float) or None
+        The atoms each rank owned at the end of the run, ``(mean, max, min)`` over the ranks
+        (``Nlocal: A ave B max C min`` printed after the run): how evenly the domain
+        decomposition shared them.
     """
 
     columns: tuple[str, ...]
@@ -61,6 +65,7 @@ class ThermoRun:
     n_steps: int | None = None
     n_atoms: int | None = None
     neighbors_per_atom: float | None = None
+    atoms_per_proc: tuple[float, float, float] | None = None
 
     def has_column(self, name: str) -> bool:
         """Whether ``name`` (or its LIGGGHTS/LAMMPS spelling) is a column."""
@@ -122,11 +127,18 @@ _LOOP_RE = re.compile(
     r"^Loop time of\s+(?P<t>[-+0-9.eE]+)\s+on\s+(?P<p>\d+)\s+procs?\s+(?:\(\d+ OpenMP threads\)\s+)?"
     r"for\s+(?P<s>\d+)\s+steps\s+with\s+(?P<a>\d+)\s+atoms")
 _NEIGH_RE = re.compile(r"^Ave neighs/atom\s*=\s*(?P<n>[-+0-9.eE]+)")
+_NLOCAL_RE = re.compile(r"^Nlocal:\s*(?P<ave>[-+0-9.eE]+)\s+ave\s+(?P<max>[-+0-9.eE]+)\s+max\s+"
+                        r"(?P<min>[-+0-9.eE]+)\s+min")
 _NUM_RE = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^[-+]?(nan|inf)$", re.IGNORECASE)
 
 
 def _is_number(tok: str) -> bool:
     return bool(_NUM_RE.match(tok))
+
+
+def _with(run: ThermoRun, **values) -> ThermoRun:
+    """``run`` with ``values`` set (what the log prints after its ``Loop time`` line)."""
+    return ThermoRun(**{**{f.name: getattr(run, f.name) for f in fields(run)}, **values})
 
 
 def parse_log(source) -> EngineLog:
@@ -161,6 +173,9 @@ def parse_log(source) -> EngineLog:
     ('lammps', 10, 0.25, [1.5, 0.5])
     >>> lg.last.neighbors_per_atom
     6.5
+    >>> two = text.replace("Ave neighs", "Nlocal:  50 ave 51 max 49 min" + chr(10) + "Ave neighs")
+    >>> parse_log(two).last.atoms_per_proc    # after the run: (mean, max, min) over the ranks
+    (50.0, 51.0, 49.0)
     """
     if isinstance(source, (str, os.PathLike)) and not (isinstance(source, str) and "\n" in source):
         text = Path(source).read_text(errors="replace")
@@ -216,10 +231,14 @@ def parse_log(source) -> EngineLog:
         if m:
             close(m)
             continue
+        m = _NLOCAL_RE.match(line)
+        if m and runs and pending is runs[-1]:   # before "Ave neighs/atom"
+            pending = runs[-1] = _with(pending, atoms_per_proc=(
+                float(m["ave"]), float(m["max"]), float(m["min"])))
+            continue
         m = _NEIGH_RE.match(line)
         if m and runs and pending is runs[-1]:
-            runs[-1] = ThermoRun(**{**{f.name: getattr(pending, f.name) for f in fields(pending)},
-                                   "neighbors_per_atom": float(m["n"])})
+            runs[-1] = _with(pending, neighbors_per_atom=float(m["n"]))
             pending = None
             continue
         toks = line.split()

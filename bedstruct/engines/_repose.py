@@ -56,7 +56,7 @@ def repose_deck(data_file, model=None, *, engine: str, geometry: ReposeGeometry,
                 schedule: ReposeSchedule, gravity: float = 9.81, stl_folder=None, contacts: bool = True,
                 thermo_every: int = 0, skin: float | None = None,
                 cohesion_model: str | None = None, reference_radius: float | None = None,
-                reference_overlap: float | None = None) -> str:
+                reference_overlap: float | None = None, np: int = 1) -> str:
     """The angle-of-repose deck: settle, slide the plate out, drain.
 
     Parameters
@@ -86,6 +86,13 @@ def repose_deck(data_file, model=None, *, engine: str, geometry: ReposeGeometry,
         LAMMPS only (:class:`~bedstruct.engines.LammpsDialect`; None: the dialect's,
         by default no cohesion model, ``REFERENCE_RADIUS`` and ``REFERENCE_OVERLAP``);
         see :func:`~bedstruct.engines.lammps_granular_coeffs`.
+    np : int
+        MPI ranks the deck is written for. On more than one the x slabs of the box share
+        the powder, which lies over ``[0, L]`` of a box reaching past ``-L`` (the plate
+        slides out there): LAMMPS balances them (``balance`` and ``fix balance ... shift
+        x``), LIGGGHTS, which has no load balancing, centres the box on the powder
+        (``change_box``; :meth:`~bedstruct.engines.Dialect.processors_grid`). A deck for
+        one rank has none of these lines (and runs on several, unbalanced).
 
     Returns
     -------
@@ -111,7 +118,7 @@ def repose_deck(data_file, model=None, *, engine: str, geometry: ReposeGeometry,
     boundary = "f p f" if geometry.periodic_width else "f f f"
     lines, wt = d.workflow_head(data_file, m, boundary=boundary, dt=schedule.dt,
                                 title="angle of repose (settle, slide the plate, drain)",
-                                skin=skin, gravity=gravity)
+                                skin=skin, gravity=gravity, np=np, span=(0.0, geometry.length))
     lines += d.repose_walls(geometry, schedule, m, wt, stl_folder=stl_folder)
     every = int(schedule.every)
     out, dumps = _integrate_and_dump(d, every, int(thermo_every) or every, contacts)

@@ -75,7 +75,7 @@ def spread_layers_deck(data_file, model=None, *, engine: str, plan: SpreadLayers
                        gravity: float = 9.81, stl_folder=None, contacts: bool = True, skin: float | None = None,
                        cohesion_model: str | None = None,
                        reference_radius: float | None = None,
-                       reference_overlap: float | None = None) -> str:
+                       reference_overlap: float | None = None, np: int = 1) -> str:
     """The deck of every spreading layer of ``plan`` in one engine run.
 
     Parameters
@@ -103,6 +103,13 @@ def spread_layers_deck(data_file, model=None, *, engine: str, plan: SpreadLayers
         LAMMPS only (:class:`~bedstruct.engines.LammpsDialect`; None: the dialect's,
         by default no cohesion model, ``REFERENCE_RADIUS`` and ``REFERENCE_OVERLAP``);
         see :func:`~bedstruct.engines.lammps_granular_coeffs`.
+    np : int
+        MPI ranks the deck is written for. On more than one the x slabs of the box (which
+        spans the platform) share the powder, a pile that the tool carries along x: LAMMPS
+        moves the cuts between them with the powder (``balance`` and ``fix balance ...
+        shift x``); LIGGGHTS, which has no load balancing, keeps the box's equal slabs (its
+        deck is the same on any number of ranks). A deck for one rank has none of these
+        lines.
 
     Returns
     -------
@@ -137,6 +144,7 @@ def spread_layers_deck(data_file, model=None, *, engine: str, plan: SpreadLayers
     dt = pl.dt
     lines, wt = d.workflow_head(
         data_file, m, gravity=grav, boundary="f f f" if pl.side_walls else "f p f", dt=dt, skin=skin,
+        np=np,   # the box spans the platform: its x slabs need no centring on the powder
         title=(f"{len(gaps)} spreading layer(s) in one run ({'roller' if roller else 'blade'}); "
                "contact histories carry over between layers"))
     for k, (a, b) in enumerate(pl.pile_ids):

@@ -290,7 +290,8 @@ def _repose_replicate(cfg, *, seed, cohesion, stage_dir: Path, info, write_only)
     ref = _reference_contact(model, inp["radii"], height=float(rc.fill_fraction) * H)
     deck = repose_deck(data, deck_model, engine=engine, geometry=geom, schedule=sched,
                        gravity=_GRAVITY, stl_folder=stage_dir,
-                       contacts=bool(cfg.output.contacts), cohesion_model=cm, **ref)
+                       contacts=bool(cfg.output.contacts), cohesion_model=cm,
+                       np=int(cfg.external.np), **ref)
     deck_path = stage_dir / "in.repose"
     deck_path.write_text(deck)
     n_inserted = len(inp["radii"])

@@ -167,7 +167,7 @@ def run_spread_external(cfg, *, out=None):
             deck = spread_layers_deck(data, deck_model, engine=engine, plan=plan,
                                       gravity=_GRAVITY, stl_folder=root,
                                       contacts=bool(cfg.output.contacts),
-                                      cohesion_model=cm, **ref)
+                                      cohesion_model=cm, np=int(cfg.external.np), **ref)
         deck_path = root / "in.spread"
         deck_path.write_text(deck)
         np_ = int(cfg.external.np)

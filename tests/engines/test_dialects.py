@@ -175,6 +175,76 @@ def test_repose_deck_key_lines(bed, tmp_path):
     assert "soft_particles yes" not in lmp and "move/mesh" not in lmp
 
 
+@pytest.fixture
+def repose_bed(tmp_path):
+    """Spheres over x in [0, L] of a repose box reaching from -L - m to L + m (L = 4e-4)."""
+    rng = np.random.default_rng(2)
+    pos = rng.uniform(0, 4e-4, (30, 3))
+    rad = rng.uniform(1e-5, 3e-5, 30)
+    return write_sphere_data(tmp_path / "repose.data", pos, rad, box_lo=[-5e-4, 0, -1e-4],
+                             box_hi=[5e-4, 4e-4, 8e-4], n_types=2)
+
+
+_BALANCE = ["balance 1.0 shift x 20 1.02", "fix lbal all balance 1000 1.05 shift x 10 1.02"]
+
+
+def _extra(one, many):
+    """The lines of deck ``many`` that deck ``one`` lacks, and those it lacks of ``one``."""
+    a, b = one.splitlines(), many.splitlines()
+    return [ln for ln in b if ln not in a], [ln for ln in a if ln not in b]
+
+
+def test_repose_decks_for_several_ranks_share_the_powder(repose_bed, tmp_path):
+    g = ReposeGeometry(4e-4, 4e-4, 4e-4, ledge_fraction=0.6, plate_speed=0.5, slide=4e-4,
+                       wall_thickness=5e-5)
+    s = ReposeSchedule.from_times(1e-7, fill=1e-5, slide=8e-4, drain=1e-5, n_frames=3)
+    kw = dict(geometry=g, schedule=s, stl_folder=tmp_path)
+    for engine in ("lammps", "liggghts"):
+        one = repose_deck(repose_bed, engine=engine, **kw)
+        # one rank: the deck of before (x slabs, nothing balanced)
+        assert repose_deck(repose_bed, engine=engine, np=1, **kw) == one
+        assert lines(one, "processors") == ["processors * 1 1"]
+        assert not lines(one, "balance") and not lines(one, "fix lbal") and "change_box" not in one
+        two = repose_deck(repose_bed, engine=engine, np=2, **kw).splitlines()
+        if engine == "lammps":
+            # LAMMPS balances: static after the pair style (contact history first), then
+            # dynamic through every run; nothing else changes
+            assert _extra(one, "\n".join(two)) == (_BALANCE, [])
+            i = two.index(_BALANCE[0])
+            assert two[i - 2].startswith("timestep") and two[i - 1].startswith("fix gravi")
+            assert two[i + 1] == _BALANCE[1] and two[i + 2].startswith("variable px")
+            assert lines(repose_deck(repose_bed, engine=engine, np=3, **kw), "balance") == [
+                _BALANCE[0]]
+        else:
+            # LIGGGHTS has no balance: the box, widened to be symmetric about the powder's
+            # middle L/2 = 2e-4, is cut there; the deck is otherwise the same
+            assert _extra(one, "\n".join(two)) == (
+                ["change_box all x final -0.0005 0.0009 units box"], [])
+            assert two[two.index("change_box all x final -0.0005 0.0009 units box") - 1
+                       ].startswith("read_data")
+            three = repose_deck(repose_bed, engine=engine, np=3, **kw)
+            assert _extra(one, three) == (["processors 1 * 1"], ["processors * 1 1"])
+            four = repose_deck(repose_bed, engine=engine, np=4, **kw)
+            assert lines(four, "processors") == ["processors 2 * 1"]
+            assert lines(four, "change_box") == lines("\n".join(two), "change_box")
+    for bad in (0, 1.5, True):
+        with pytest.raises(ValueError, match="MPI ranks"):
+            repose_deck(repose_bed, engine="lammps", np=bad, **kw)
+
+
+def test_spread_decks_for_several_ranks(bed, tmp_path):
+    plan = _plan(BladeGeometry(x0=1e-4, z_bottom=0.0, speed=0.1, height=2e-4))
+    lmp = spread_layers_deck(bed, engine="lammps", plan=plan)
+    lmp2 = spread_layers_deck(bed, engine="lammps", plan=plan, np=2)
+    assert not lines(lmp, "balance") and _extra(lmp, lmp2) == (_BALANCE, [])
+    # the pile moves along x with the tool: LAMMPS moves the cuts with it; LIGGGHTS's box
+    # already spans the platform and has no balancing: the same deck on any number of ranks
+    lig = spread_layers_deck(bed, engine="liggghts", plan=plan, stl_folder=tmp_path)
+    for n in (2, 3):
+        assert spread_layers_deck(bed, engine="liggghts", plan=plan, stl_folder=tmp_path,
+                                  np=n) == lig
+
+
 def _plan(tool, n_layers=2):
     ids = tuple((1 + 10 * k, 10 * (k + 1)) for k in range(n_layers))
     return SpreadLayersPlan(3e-3, 4e-4, (5e-5,) * n_layers, tool, ids,

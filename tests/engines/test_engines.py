@@ -75,6 +75,8 @@ Per MPI rank memory allocation (min/avg/max) = 18.45 | 18.45 | 18.45 Mbytes
 Loop time of 0.00293777 on 1 procs for 500 steps with 2 atoms
 
 0.0% CPU use with 1 MPI tasks x 1 OpenMP threads
+Nlocal:              2 ave           2 max           2 min
+Histogram: 1 0 0 0 0 0 0 0 0 0
 Total # of neighbors = 1
 Ave neighs/atom = 0.5
 Neighbor list builds = 1
@@ -90,8 +92,8 @@ def test_parse_liggghts_log():
     assert first.columns == ("Step", "Time", "dist", "vx1")
     assert first.data.shape == (3, 4)  # the WARNING inside the table is skipped
     assert (first.loop_time, first.n_procs, first.n_steps, first.n_atoms) == (0.00288291, 1, 2, 2)
-    assert first.neighbors_per_atom == 0.5
-    assert second.n_procs == 2 and second.loop_time == 0.5
+    assert first.neighbors_per_atom == 0.5 and first.atoms_per_proc == (2.0, 2.0, 2.0)
+    assert second.n_procs == 2 and second.loop_time == 0.5 and second.atoms_per_proc is None
     # LIGGGHTS drops the v_ prefix; both spellings work
     assert lg.column("v_vx1").tolist() == [0.5, 0.5, 0.4999999, 0.4999999, -0.25]
     assert len(lg.warnings) == 2 and not lg.errors
@@ -102,6 +104,7 @@ def test_parse_lammps_log():
     assert lg.engine == "lammps"
     assert lg.last.column("KinEng").shape == (2,)
     assert lg.last.n_steps == 500 and lg.last.neighbors_per_atom == 0.5
+    assert lg.last.atoms_per_proc == (2.0, 2.0, 2.0)
     assert lg.errors == ("ERROR: Lost atoms: original 2 current 1 (src/src/thermo.cpp:497)",)
     with pytest.raises(KeyError, match="columns are"):
         lg.last.column("PotEng")

@@ -55,6 +55,29 @@ def test_write_only_deck_is_parsed_by_the_engine(tmp_path, engine):
     assert out.log.last.n_atoms == res_atoms(tmp_path / "rep00" / "initial.data")
 
 
+@pytest.mark.parametrize("engine", sorted(ENGINES))
+def test_two_ranks_share_the_repose_powder(tmp_path, engine):
+    """The repose box reaches past -L for the sliding plate while the powder lies over
+    [0, L]: cut at the box's middle (x = 0), one rank held every particle. A deck for two
+    ranks shares them (LAMMPS: balance and fix balance; LIGGGHTS, which has neither: the box
+    centred on the powder), every run long enough for the powder to move a little."""
+    _need(engine)
+    info = ENGINES[engine]()
+    if info.mpirun is None:
+        pytest.skip(f"no MPI launcher for {engine}")
+    res = run_repose(_cfg(engine, "external.write_only=true", "external.np=2"), out=tmp_path)
+    deck = open(res.decks[0]).read()
+    assert ("fix lbal all balance" in deck) == (engine == "lammps")
+    assert ("change_box all x" in deck) == (engine == "liggghts")
+    short = tmp_path / "rep00" / "in.short"
+    short.write_text(re.sub(r"^run \d+$", "run 1200", deck, flags=re.MULTILINE))
+    log = run_deck(short, np=2, cwd=tmp_path / "rep00").log
+    assert len(log.runs) == 3 and not log.errors
+    for run in log.runs:   # fill, slide, drain
+        mean, most, least = run.atoms_per_proc
+        assert run.n_procs == 2 and least > 0 and most < 1.2 * mean, run.atoms_per_proc
+
+
 def res_atoms(path):
     from bedstruct.engines import read_data_header
     return read_data_header(path)["atoms"]
