@@ -326,10 +326,40 @@ def remap_history_csr(new_keys, new_sign, old_keys, old_sign, start, order, old_
             _carry(k, idx, new_sign, old_sign, old_ht, old_hr, ht, hr)
 
 
+@njit(inline="always")
+def _raindrop_cell(p, lo, cell_len, n, period):
+    """Grid cell of coordinate ``p`` along one axis (wrapped where ``period`` > 0)."""
+    c = int(math.floor((p - lo) / cell_len))
+    if period > 0.0:
+        return c % n
+    return min(max(c, 0), n - 1)
+
+
+@njit(inline="always")
+def _raindrop_span(c, n, period):
+    """``(first, last)`` cell offsets around cell ``c`` of ``n`` to visit along one axis
+    (taken modulo ``n`` where ``period`` > 0)."""
+    if period > 0.0:
+        if n < 3:
+            return 0, n - 1
+        return c - 1, c + 1
+    return max(c - 1, 0), min(c + 1, n - 1)
+
+
+@njit(inline="always")
+def _nearest_image(d, period):
+    """Separation ``d`` along one axis, the nearest periodic image where ``period`` > 0."""
+    if period > 0.0:
+        return d - period * math.floor(d / period + 0.5)
+    return d
+
+
 @njit
-def raindrop_accept(cand, crad, ex, erad, lo, cell_len, ncell, out_mask):
+def raindrop_accept(cand, crad, ex, erad, lo, cell_len, ncell, period, out_mask):
     """Greedy acceptance of candidate spheres that overlap neither existing spheres nor
-    earlier accepted candidates (grid hash, serial; deterministic)."""
+    earlier accepted candidates (grid hash, serial; deterministic). Along an axis with
+    ``period`` > 0 the grid (``ncell`` cells of ``cell_len`` from ``lo``) covers one period
+    and spheres overlap their neighbours' nearest images."""
     nc = ncell[0] * ncell[1] * ncell[2]
     ne = ex.shape[0]
     nn = cand.shape[0]
@@ -350,19 +380,25 @@ def raindrop_accept(cand, crad, ex, erad, lo, cell_len, ncell, out_mask):
             p1 = cand[k - ne, 1]
             p2 = cand[k - ne, 2]
             rr = crad[k - ne]
-        c0 = min(max(int(math.floor((p0 - lo[0]) / cell_len[0])), 0), ncell[0] - 1)
-        c1 = min(max(int(math.floor((p1 - lo[1]) / cell_len[1])), 0), ncell[1] - 1)
-        c2 = min(max(int(math.floor((p2 - lo[2]) / cell_len[2])), 0), ncell[2] - 1)
+        c0 = _raindrop_cell(p0, lo[0], cell_len[0], ncell[0], period[0])
+        c1 = _raindrop_cell(p1, lo[1], cell_len[1], ncell[1], period[1])
+        c2 = _raindrop_cell(p2, lo[2], cell_len[2], ncell[2], period[2])
         ok = True
         if k >= ne:
-            for a in range(max(c0 - 1, 0), min(c0 + 2, ncell[0])):
-                for b in range(max(c1 - 1, 0), min(c1 + 2, ncell[1])):
-                    for c in range(max(c2 - 1, 0), min(c2 + 2, ncell[2])):
+            a0, a1 = _raindrop_span(c0, ncell[0], period[0])
+            b0, b1 = _raindrop_span(c1, ncell[1], period[1])
+            e0, e1 = _raindrop_span(c2, ncell[2], period[2])
+            for aa in range(a0, a1 + 1):
+                a = aa % ncell[0]
+                for bb in range(b0, b1 + 1):
+                    b = bb % ncell[1]
+                    for cc in range(e0, e1 + 1):
+                        c = cc % ncell[2]
                         q = head[(c * ncell[1] + b) * ncell[0] + a]
                         while q >= 0:
-                            d0 = p0 - px[q, 0]
-                            d1 = p1 - px[q, 1]
-                            d2 = p2 - px[q, 2]
+                            d0 = _nearest_image(p0 - px[q, 0], period[0])
+                            d1 = _nearest_image(p1 - px[q, 1], period[1])
+                            d2 = _nearest_image(p2 - px[q, 2], period[2])
                             rs = rr + pr[q]
                             if d0 * d0 + d1 * d1 + d2 * d2 < rs * rs:
                                 ok = False

@@ -101,8 +101,9 @@ class _Particles:
         psd : radius, array, callable or percentile mapping
             Size distribution (see :func:`~bedstruct.dem.sample_radii`), m.
         region : ((3,), (3,)), m, optional
-            ``(lo, hi)`` corners; default the whole box. On periodic axes the
-            region is kept one largest diameter inside the upper face.
+            ``(lo, hi)`` corners; default the whole box. Along a periodic axis
+            that it spans whole, centres are drawn over the whole period and
+            spheres do not overlap across it.
         types : int or (n,) array
         velocity : (3,) array_like, m/s
 
@@ -114,11 +115,9 @@ class _Particles:
         radii = sample_radii(n, psd, rng=self.rng)
         lo, hi = (self._lo.copy(), self._hi.copy()) if region is None else (
             np.array(region[0], dtype=float), np.array(region[1], dtype=float))
-        for a in range(3):
-            if self._periodic[a] and hi[a] > self._hi[a] - 2 * radii.max():
-                hi[a] = self._hi[a] - 2 * radii.max()
+        period = np.where(self._periodic, self._L, 0.0)
         pos, ok = raindrop_positions(lo, hi, radii, existing=self.x, existing_radii=self.rad,
-                                     rng=self.rng, max_attempts=max_attempts)
+                                     rng=self.rng, max_attempts=max_attempts, period=period)
         typ = np.broadcast_to(np.asarray(types), (n,))[ok]
         self.add_particles(pos, radii[ok], types=typ,
                            velocities=np.tile(_vec3("velocity", velocity), (len(pos), 1)))

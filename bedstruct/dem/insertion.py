@@ -107,12 +107,15 @@ def _from_percentiles(n, pct: dict, rng) -> np.ndarray:
 
 
 def raindrop_positions(lo, hi, radii, *, existing=None, existing_radii=None, rng=None,
-                       max_attempts: int = 50) -> tuple[np.ndarray, np.ndarray]:
+                       max_attempts: int = 50, period=None) -> tuple[np.ndarray, np.ndarray]:
     """Random non-overlapping positions for spheres in the region ``[lo, hi]``.
 
     Spheres lie wholly inside the region, overlap neither each other nor
     the ``existing`` spheres. Candidates are drawn in batches and accepted
-    greedily in order, so the result is deterministic for a seed.
+    greedily in order, so the result is deterministic for a seed. Along a
+    periodic axis (``period``) whose whole period the region spans, centres
+    are drawn over the period ``[lo, lo + period)`` and spheres must not
+    overlap across it (nearest images).
 
     Parameters
     ----------
@@ -125,6 +128,9 @@ def raindrop_positions(lo, hi, radii, *, existing=None, existing_radii=None, rng
     rng : int or Generator, optional
     max_attempts : int
         Candidate rounds before giving up on the rest.
+    period : (3,) array_like, m, optional
+        Length of the period along each periodic axis, 0 along the others
+        (default: no periodic axis).
 
     Returns
     -------
@@ -137,6 +143,13 @@ def raindrop_positions(lo, hi, radii, *, existing=None, existing_radii=None, rng
     >>> pos, ok = raindrop_positions((0, 0, 0), (1e-3, 1e-3, 1e-3), np.full(20, 50e-6), rng=1)
     >>> pos.shape, bool(ok.all())
     ((20, 3), True)
+
+    Periodic along y, the region spanning the period: centres anywhere in it
+
+    >>> pos, ok = raindrop_positions((0, 0, 0), (2e-3, 0.3e-3, 2e-3), np.full(200, 50e-6),
+    ...                              rng=1, period=(0, 0.3e-3, 0))
+    >>> bool(pos[:, 1].max() > 0.3e-3 - 50e-6)
+    True
     """
     rng = np.random.default_rng(rng)
     lo = np.asarray(lo, dtype=np.float64)
@@ -146,15 +159,22 @@ def raindrop_positions(lo, hi, radii, *, existing=None, existing_radii=None, rng
         raise ConfigError(f"insertion region must have hi > lo; got lo={lo.tolist()}, hi={hi.tolist()}")
     ex = np.zeros((0, 3)) if existing is None else np.ascontiguousarray(existing, dtype=np.float64)
     er = np.zeros(0) if existing_radii is None else np.ascontiguousarray(existing_radii, dtype=np.float64)
+    per = np.zeros(3) if period is None else np.asarray(period, dtype=np.float64).reshape(3)
+    if np.any(~np.isfinite(per)) or np.any(per < 0):
+        raise ConfigError(f"`period` must be lengths >= 0 (0: not periodic); got {per.tolist()}")
+    # a periodic axis the region spans whole: centres anywhere in one period
+    whole = (per > 0) & (hi - lo >= per * (1 - 1e-12))
+    per = np.where(whole, per, 0.0)
     rmax = float(max(radii.max(initial=0.0), er.max(initial=0.0)))
-    if np.any(hi - lo <= 2 * radii.max(initial=0.0)):
+    if np.any((hi - lo <= 2 * radii.max(initial=0.0)) & ~whole):
         raise ConfigError("insertion region is smaller than the largest sphere")
     cell = max(2 * rmax, 1e-12)
-    glo = lo - 2 * rmax
-    ghi = hi + 2 * rmax
+    glo = np.where(whole, lo, lo - 2 * rmax)
+    ghi = np.where(whole, lo + per, hi + 2 * rmax)
     ncell = np.maximum(1, np.minimum(np.floor((ghi - glo) / cell), 200)).astype(np.int64)
     cell_len = (ghi - glo) / ncell
-    keep = (np.all(ex >= glo, axis=1) & np.all(ex <= ghi, axis=1)) if len(ex) else np.zeros(0, bool)
+    keep = (np.all((ex >= glo) & (ex <= ghi) | whole, axis=1) if len(ex)
+            else np.zeros(0, bool))
     ex = np.ascontiguousarray(ex[keep])
     er = np.ascontiguousarray(er[keep])
     placed = np.zeros(radii.size, dtype=bool)
@@ -164,10 +184,11 @@ def raindrop_positions(lo, hi, radii, *, existing=None, existing_radii=None, rng
         if todo.size == 0:
             break
         r = radii[todo]
-        cand = lo + r[:, None] + rng.random((todo.size, 3)) * (hi - lo - 2 * r[:, None])
+        u = rng.random((todo.size, 3))
+        cand = np.where(whole, lo + u * per, lo + r[:, None] + u * (hi - lo - 2 * r[:, None]))
         mask = np.zeros(todo.size, dtype=np.bool_)
         K.raindrop_accept(np.ascontiguousarray(cand), np.ascontiguousarray(r), ex, er, glo, cell_len,
-                          ncell, mask)
+                          ncell, per, mask)
         acc = todo[mask]
         out[acc] = cand[mask]
         placed[acc] = True

@@ -79,3 +79,28 @@ def test_insert_saved_pile_twice_keeps_geometry():
     fr = sim2.frame()
     assert fr.n_particles == 2 * n and len(np.unique(fr.ids)) == 2 * n
     assert np.allclose(fr.positions[n:] - fr.positions[:n], [0, 0, 2e-3])
+
+
+def test_raindrop_fills_a_periodic_width_evenly_without_overlaps_across_it():
+    # a region spanning the periodic y: centres anywhere across it (a strip one diameter
+    # and a radius wide next to the upper face stayed empty), and no sphere overlaps the
+    # images of its neighbours across the period
+    W = 0.7e-3
+    sim = Simulation(Box([0, 0, 0], [2.5e-3, W, 3e-3], boundary="ff pp ff"),
+                     ContactModel(Material(1e6, 0.3, 8000.0)), n_threads=1, seed=3)
+    r = np.random.default_rng(0).uniform(40e-6, 70e-6, 400)
+    assert sim.insert_raindrop(400, r, region=((0, 0, 0), (2.5e-3, W, 2e-3))) == 400
+    y = sim.x[:, 1]
+    counts = np.histogram(y, bins=7, range=(0, W))[0]
+    assert counts.min() > 0.6 * counts.mean()
+    d = sim.x[:, None, :] - sim.x[None, :, :]
+    d[..., 1] -= W * np.round(d[..., 1] / W)
+    gap = np.sqrt((d ** 2).sum(-1)) - (sim.rad[:, None] + sim.rad[None, :])
+    np.fill_diagonal(gap, np.inf)
+    assert gap.min() >= 0.0
+    # a region covering part of the period keeps its spheres inside it
+    sim2 = Simulation(Box([0, 0, 0], [2.5e-3, W, 3e-3], boundary="ff pp ff"),
+                      ContactModel(Material(1e6, 0.3, 8000.0)), n_threads=1, seed=3)
+    sim2.insert_raindrop(100, r[:100], region=((0, 0.1e-3, 0), (2.5e-3, 0.5e-3, 0.85e-3)))
+    assert (sim2.x[:, 1] - sim2.rad >= 0.1e-3 - 1e-12).all()
+    assert (sim2.x[:, 1] + sim2.rad <= 0.5e-3 + 1e-12).all()

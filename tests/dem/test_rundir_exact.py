@@ -15,7 +15,8 @@ def test_run_directory_dump_round_trips_bit_exactly(tmp_path):
     box = Box([0, 0, 0], [2e-3, 2e-3, 3e-3], boundary="pp pp ff")
     sim = Simulation(box, MODEL, walls=[Plane((0, 0, 0), (0, 0, 1), name="floor")],
                      n_threads=1, seed=5)
-    sim.insert_raindrop(80, lambda k, g: R * (0.6 + 0.8 * g.random(k)))
+    sim.insert_raindrop(80, lambda k, g: R * (0.6 + 0.8 * g.random(k)),
+                        region=((0, 0, 0), (2e-3, 2e-3, 1e-3)))
     sim.run(3000, dump_every=1500, run_dir=tmp_path / "run")
     traj = read_dump(tmp_path / "run" / "dump.liggghts")
     assert len(traj) == 2 and traj[-1].timestep == sim.step
