@@ -28,9 +28,28 @@ class _StateIO:
     """Frames, contacts, energies, configuration and checkpoints (mixed into Simulation)."""
 
     def _evaluate(self):
-        """Pair and wall forces at the current state without changing it."""
+        """Pair and wall forces of the last force evaluation, without changing the state.
+
+        After a step the forces were evaluated at the step's half-step velocities (velocity
+        Verlet; the second half kick followed): they are evaluated again at those, taken back
+        from the current ones, so that they are the forces that moved the particles (the
+        total in :meth:`frame`), as LIGGGHTS' ``compute pair/gran/local`` reports them.
+        """
         if not self._ready:
             self._setup()
+        if self._f_half_step and not self._kicked and self.dt:
+            v, om = self.v, self.om
+            h = 0.5 * self.dt
+            self.v = v - (h * self.inv_m)[:, None] * self.f
+            self.om = om - (h * self.inv_i)[:, None] * self.tq
+            try:
+                return self._evaluate_now()
+            finally:
+                self.v, self.om = v, om
+        return self._evaluate_now()
+
+    def _evaluate_now(self):
+        """Pair and wall forces at the current positions and velocities."""
         m = self.n_pairs
         n = self.n_particles
         T = self.n_threads
@@ -76,7 +95,12 @@ class _StateIO:
         """Touching pairs with their forces, indexed like :meth:`frame` (rows sorted by id).
 
         ``force_normal`` and ``force_tangential`` are the forces on ``i``
-        (N); ``branch`` points from i to j (minimum image); the SJKR area of
+        (N) of the last step, those in the total forces of :meth:`frame` (evaluated
+        at the step's half-step velocities, as in LIGGGHTS' ``pair/gran/local``; with
+        tangential damping, the tangential force of a contact sliding at the Coulomb
+        limit is evaluated again from its rescaled spring and carries the damping term
+        the limit left out of the step);
+        ``branch`` points from i to j (minimum image); the SJKR area of
         each contact is in ``area`` (m^2); ``walls`` holds the
         particle-wall contacts.
         """
@@ -162,6 +186,7 @@ class _StateIO:
                     t_rayleigh=self.t_rayleigh, t_hertz=self.t_hertz,
                     wall_list_time=self._wall_list_time, wall_speed=self._wall_speed,
                     wall_programs=self._programs, kicked=bool(getattr(self, "_kicked", False)),
+                    forces_half_step=bool(self._f_half_step),
                     pair_bounds=self._qbounds.tolist(), wload_steps=int(self._wload_steps),
                     n_lost_nonfinite=int(self.n_lost_nonfinite), nonfinite=self.nonfinite,
                     extra=extra if extra is not None else {})
@@ -218,6 +243,7 @@ class _StateIO:
         sim._wall_speed = meta["wall_speed"]
         sim._programs = dict(meta.get("wall_programs", {}))
         sim._kicked = bool(meta.get("kicked", False))  # saved after an interrupted run()
+        sim._f_half_step = bool(meta.get("forces_half_step", sim.step > 0))
         if sim._kicked:
             # the step under way looks at the displacements since the last build (a rebuild
             # may be due): as the drift computed them, per chunk

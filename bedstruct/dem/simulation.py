@@ -185,6 +185,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         self.dt = None
         self.skin = None
         self._kicked = False  # True between fused steps inside run() only
+        self._f_half_step = False  # self.f from a step (at its half-step velocities)
         self._next_id = 1
         tabs = model.tables()
         self._tabs = tuple(np.ascontiguousarray(a) for a in
@@ -318,6 +319,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
                         self._ft_out)
         self._finish_pass(0.0, self.v, self.om, self.f, self.tq, self._fbuf, self._tbuf,
                           self.wslot, self.whist, False, self._wfn, self._wdel, self._wnrm)
+        self._f_half_step = False
         self._ready = True
 
     def _one_step(self, kick_next: bool = False):
@@ -345,6 +347,7 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
                           self.wslot, self.whist, False, self._wfn, self._wdel, self._wnrm,
                           kick_next)
         self._kicked = kick_next
+        self._f_half_step = True
 
     def _run_fused(self, nmax: int, fuse_last: bool) -> int:
         """Up to ``nmax`` steps of :meth:`_one_step` in the numba step loop
@@ -373,6 +376,8 @@ class Simulation(_Particles, _WallControl, _NeighbourList, _StateIO, _TimeStep):
         self.step += done
         self.time = time
         self._kicked = kicked
+        if done:
+            self._f_half_step = True
         if self._wload is not None:
             self._wload_steps += done
         return done

@@ -156,11 +156,46 @@ def test_run_directory_output(tmp_path):
                        atol=1e-15)
 
 
+def _newton_residual(sim):
+    """Rows of the frame whose total force differs from the sum of its contacts' forces and
+    gravity (particles touching a wall left out)."""
+    fr = sim.frame()
+    c = sim.contacts()
+    total = np.zeros_like(fr.forces)
+    np.add.at(total, c.i, c.force)
+    np.add.at(total, c.j, -c.force)
+    total += fr.columns["mass"][:, None] * sim.gravity
+    walls = np.zeros(len(fr.forces), dtype=bool)
+    walls[c.walls.particle] = True
+    bad = ~np.isclose(total, fr.forces, rtol=1e-6, atol=1e-12).all(axis=1) & ~walls
+    return c.n_contacts, np.flatnonzero(bad)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_contact_forces_are_those_of_the_step(seed):
+    # the forces of a step are evaluated at its half-step velocities: the contacts report
+    # those (damping at the velocities after the step gave other forces). Without tangential
+    # damping, so that a sliding contact's force (mu F_n, its spring rescaled to it) is
+    # what evaluating it again gives
+    model = ContactModel(Material(E, NU, RHO), restitution=0.5, friction=0.5,
+                         tangential_damping=False)
+    box = Box([0, 0, 0], [2e-3, 2e-3, 3e-3], boundary="pp pp ff")
+    sim = Simulation(box, model, walls=[Plane((0, 0, 0), (0, 0, 1), name="floor")],
+                     n_threads=2, seed=seed)
+    sim.insert_raindrop(300, lambda k, g: R * (0.6 + 0.8 * g.random(k)),
+                        region=((0, 0, 0), (2e-3, 2e-3, 1.5e-3)))
+    sim.v[:] = np.random.default_rng(seed).normal(0, 0.2, sim.v.shape)
+    sim.run(300)
+    n, bad = _newton_residual(sim)
+    assert n > 0 and bad.size == 0
+
+
 def test_frame_and_contacts_are_consistent():
     sim = _gas(200, seed=3, n_threads=2)
     sim.run(300)
     fr = sim.frame()
     c = sim.contacts()
+    assert c.n_contacts > 0
     assert np.all(np.diff(fr.ids) > 0)
     assert np.allclose(fr.positions[c.i] + c.branch - fr.positions[c.j],
                        np.round((fr.positions[c.i] + c.branch - fr.positions[c.j]) / 2e-3) * 2e-3,
