@@ -49,7 +49,7 @@ from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, dialect, re
 from ..dem import Simulation
 from ..errors import ConfigError
 from ._common import contact_model, psd_sampler, typed
-from ._rundir import RunLayout
+from ._rundir import RunLayout, marks_failure
 from .schema import config_dict
 from .repose_measure import (ReposeReplicate, _finished_replicate, _record_replicate,
                              combine_replicates, measure_replicate_pile,
@@ -369,37 +369,34 @@ def run_repose_external(cfg, *, out=None, cohesion: float | None = None,
     if out is None:
         tmp = tempfile.mkdtemp(prefix="bedstruct-repose-")
         out = tmp
-    layout = None
     try:
         layout = RunLayout(out, cfg, workflow="repose", inputs={"cohesion": k, "replicates": n})
-        if not write_only:
-            res = layout.reuse_results(repose_result_from_dict)
-            if res is not None:
+        with marks_failure(layout):
+            if not write_only:
+                res = layout.reuse_results(repose_result_from_dict)
+                if res is not None:
+                    return res
+            reps = []
+            for i in range(n):
+                seed, stage = int(cfg.seed) + i, f"rep{i:02d}"
+                rep = None if write_only else _finished_replicate(layout, stage, seed, k)
+                if rep is None:
+                    rep = _repose_replicate(cfg, seed=seed, cohesion=k,
+                                            stage_dir=layout.path / stage, info=info,
+                                            write_only=write_only)
+                    if not write_only:
+                        _record_replicate(layout, stage, rep)
+                reps.append(rep)
+            if write_only:
+                cmds = tuple(_shell_command(cfg, info, d) for d in reps)
+                res = ExternalDecks(cfg.engine, "repose", tuple(str(d) for d in reps), cmds)
+                layout.write_results({"workflow": "repose", "engine": cfg.engine, **res.to_dict()})
                 return res
-        reps = []
-        for i in range(n):
-            seed, stage = int(cfg.seed) + i, f"rep{i:02d}"
-            rep = None if write_only else _finished_replicate(layout, stage, seed, k)
-            if rep is None:
-                rep = _repose_replicate(cfg, seed=seed, cohesion=k, stage_dir=layout.path / stage,
-                                        info=info, write_only=write_only)
-                if not write_only:
-                    _record_replicate(layout, stage, rep)
-            reps.append(rep)
-        if write_only:
-            cmds = tuple(_shell_command(cfg, info, d) for d in reps)
-            res = ExternalDecks(cfg.engine, "repose", tuple(str(d) for d in reps), cmds)
-            layout.write_results({"workflow": "repose", "engine": cfg.engine, **res.to_dict()})
+            res = combine_replicates(reps, k)
+            layout.write_results({"workflow": "repose", "engine": cfg.engine,
+                                  "np": int(cfg.external.np), "executable": info.executable,
+                                  **res.to_dict()})
             return res
-        res = combine_replicates(reps, k)
-        layout.write_results({"workflow": "repose", "engine": cfg.engine,
-                              "np": int(cfg.external.np), "executable": info.executable,
-                              **res.to_dict()})
-        return res
-    except Exception as exc:   # the folder says the run failed, and why (it resumes)
-        if layout is not None:
-            layout.fail(exc)
-        raise
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)

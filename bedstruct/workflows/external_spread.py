@@ -26,7 +26,7 @@ from ..engines import (BladeGeometry, RollerGeometry, SpreadLayersPlan, landing_
 from ..dem import Simulation
 from ..errors import BedstructError
 from ._common import german_fit_values, psd_sampler, typed
-from ._rundir import RunLayout
+from ._rundir import RunLayout, marks_failure
 from .external import (_GRAVITY, ExternalDecks, _check_effects, _deck_model, _engine_file, _gzip,
                        _reference_contact, _shell_command, effects_dialect, engine_for)
 from .spread_measure import (_MAX_LANDING_WAIT, _REGION_NAMES, SpreadResult, bed_mask,
@@ -86,177 +86,177 @@ def run_spread_external(cfg, *, out=None):
     if out is None:
         tmp = tempfile.mkdtemp(prefix="bedstruct-spread-")
         out = tmp
-    layout = None
     try:
         layout = RunLayout(out, cfg, workflow="spread")
-        if not write_only:
-            res = layout.reuse_results(spread_result_from_dict)
-            if res is not None:
+        with marks_failure(layout):
+            if not write_only:
+                res = layout.reuse_results(spread_result_from_dict)
+                if res is not None:
+                    return res
+            root = layout.path
+            t_start = _time.perf_counter()
+            seed = int(cfg.seed)
+            draw = psd_sampler(cfg)
+            rmax = draw.r_max
+            deck_model, cm, model = _deck_model(cfg, None)
+            pile = _run_pile(cfg, layout, seed=seed, draw=draw)   # a resumed run's finished pile
+            gz = ".dump.gz" if cfg.output.compress else ".dump"
+            Lplat, W, speed = float(sc.plate_length), float(sc.width), float(sc.speed)
+            if tool_name == "roller":
+                R = float(sc.roller_radius)
+                half = R
+                x0 = half + 0.5 * rmax            # roller axis at t = 0, as the embedded run
+                omega = float(sc.roller_omega_factor) * speed / R
+                tool = RollerGeometry(x0=x0, z_bottom=0.0, radius=R, speed=speed, omega=omega)
+                x_stop = Lplat + float(sc.stop_margin) + half
+                tool_top = tool.top
+            else:
+                half = 0.5 * float(sc.blade_thickness)
+                x0 = half + 0.5 * rmax            # blade mid-plane at t = 0, as the embedded run
+                bevel = 0.0 if tool_name == "plate" else float(sc.bevel_deg)
+                tool = BladeGeometry(x0=x0 - half, z_bottom=0.0, speed=speed,
+                                     thickness=float(sc.blade_thickness),
+                                     height=float(sc.blade_height), bevel_deg=bevel)
+                x_stop = Lplat + float(sc.stop_margin)   # trailing face; mid-plane at x_end
+                tool_top = float(sc.blade_height)
+            engine = effects_dialect(cfg, spreading=True)
+            for note in engine.approximations(tool=tool):
+                log.warning("%s: %s", cfg.engine, note)
+            front0 = x0 + half
+            x_end = Lplat + float(sc.stop_margin) + half
+            depth = sum(gaps) + 6 * rmax
+            pile_top = float(np.max(pile.positions[:, 2] + pile.radii))
+            x_off = front0 + 0.5 * rmax
+            lift = 0.25 * rmax
+            clear = 3 * rmax
+            n, K = pile.n_particles, len(gaps)
+            # piles 2.. wait above the tool's highest point (after it rises by `clear`)
+            park0 = max(tool_top, pile_top) + clear + 4 * rmax
+            parked = [0.0] + [park0 + (k - 1) * (pile_top + 4 * rmax) for k in range(1, K)]
+            lo = [-2 * rmax - 2 * half, 0.0, -depth]
+            hi = [x_end + half + 4 * rmax, W,
+                  max(pile_top * 3, tool_top + clear) + (parked[-1] + pile_top if K > 1 else 0.0)
+                  + 4 * rmax]
+            pv = pile.velocities if pile.velocities is not None else np.zeros((n, 3))
+            po = pile.omegas if pile.omegas is not None else np.zeros((n, 3))
+            z_plat0 = -gaps[0]
+            X = np.concatenate([pile.positions + np.array([x_off, 0.0, (z_plat0 + lift) if k == 0
+                                                           else parked[k]]) for k in range(K)])
+            R_ = np.tile(pile.radii, K)
+            dt = Simulation.default_time_step(model, draw.r_min, cfg.time.v_max, cfg.time.safety)
+            plan = SpreadLayersPlan(
+                Lplat, W, tuple(gaps), tool, tuple((1 + k * n, (k + 1) * n) for k in range(K)),
+                tuple(parked), (x_off - 2 * rmax, x_off + float(sc.pile_length) + 2 * rmax), dt,
+                lower_speed=float(sc.lower_speed), speed=speed,
+                return_speed=float(sc.return_speed), settle_time=float(sc.settle_time),
+                pile_lift=lift, clear=clear, x_end=x_stop,
+                chamber_depth=(depth - 2 * rmax) if sc.chamber else 0.0,
+                n_frames=max(1, int(sc.n_frames)), wall_thickness=4 * rmax,
+                landing_intervals=_MAX_LANDING_WAIT, landing_margin=rmax,
+                side_walls=bool(sc.side_walls))
+            data = write_sphere_data(root / "initial.data", X, R_, box_lo=lo, box_hi=hi,
+                                     density=model.materials[0].density, n_types=2,
+                                     velocities=np.tile(pv, (K, 1)),
+                                     omegas=np.tile(po, (K, 1)),
+                                     title=f"bedstruct spread seed {seed}: {K} piles")
+            for k in range(K):
+                (root / f"layer{k + 1:02d}").mkdir(parents=True, exist_ok=True)
+            ref = _reference_contact(model, pile.radii, height=pile_top)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                deck = spread_layers_deck(data, deck_model, engine=engine, plan=plan,
+                                          gravity=_GRAVITY, stl_folder=root,
+                                          contacts=bool(cfg.output.contacts),
+                                          cohesion_model=cm, np=int(cfg.external.np), **ref)
+            deck_path = root / "in.spread"
+            deck_path.write_text(deck)
+            np_ = int(cfg.external.np)
+            if write_only:
+                res = ExternalDecks(cfg.engine, "spread", (str(deck_path),),
+                                    (_shell_command(cfg, info, deck_path),))
+                layout.write_results({"workflow": "spread", "engine": cfg.engine, **res.to_dict()})
                 return res
-        root = layout.path
-        t_start = _time.perf_counter()
-        seed = int(cfg.seed)
-        draw = psd_sampler(cfg)
-        rmax = draw.r_max
-        deck_model, cm, model = _deck_model(cfg, None)
-        pile = _run_pile(cfg, layout, seed=seed, draw=draw)   # a resumed run's finished pile
-        gz = ".dump.gz" if cfg.output.compress else ".dump"
-        Lplat, W, speed = float(sc.plate_length), float(sc.width), float(sc.speed)
-        if tool_name == "roller":
-            R = float(sc.roller_radius)
-            half = R
-            x0 = half + 0.5 * rmax            # roller axis at t = 0, as the embedded run
-            omega = float(sc.roller_omega_factor) * speed / R
-            tool = RollerGeometry(x0=x0, z_bottom=0.0, radius=R, speed=speed, omega=omega)
-            x_stop = Lplat + float(sc.stop_margin) + half
-            tool_top = tool.top
-        else:
-            half = 0.5 * float(sc.blade_thickness)
-            x0 = half + 0.5 * rmax            # blade mid-plane at t = 0, as the embedded run
-            bevel = 0.0 if tool_name == "plate" else float(sc.bevel_deg)
-            tool = BladeGeometry(x0=x0 - half, z_bottom=0.0, speed=speed,
-                                 thickness=float(sc.blade_thickness),
-                                 height=float(sc.blade_height), bevel_deg=bevel)
-            x_stop = Lplat + float(sc.stop_margin)   # trailing face; mid-plane at x_end
-            tool_top = float(sc.blade_height)
-        engine = effects_dialect(cfg, spreading=True)
-        for note in engine.approximations(tool=tool):
-            log.warning("%s: %s", cfg.engine, note)
-        front0 = x0 + half
-        x_end = Lplat + float(sc.stop_margin) + half
-        depth = sum(gaps) + 6 * rmax
-        pile_top = float(np.max(pile.positions[:, 2] + pile.radii))
-        x_off = front0 + 0.5 * rmax
-        lift = 0.25 * rmax
-        clear = 3 * rmax
-        n, K = pile.n_particles, len(gaps)
-        # piles 2.. wait above the tool's highest point (after it rises by `clear`)
-        park0 = max(tool_top, pile_top) + clear + 4 * rmax
-        parked = [0.0] + [park0 + (k - 1) * (pile_top + 4 * rmax) for k in range(1, K)]
-        lo = [-2 * rmax - 2 * half, 0.0, -depth]
-        hi = [x_end + half + 4 * rmax, W,
-              max(pile_top * 3, tool_top + clear) + (parked[-1] + pile_top if K > 1 else 0.0)
-              + 4 * rmax]
-        pv = pile.velocities if pile.velocities is not None else np.zeros((n, 3))
-        po = pile.omegas if pile.omegas is not None else np.zeros((n, 3))
-        z_plat0 = -gaps[0]
-        X = np.concatenate([pile.positions + np.array([x_off, 0.0, (z_plat0 + lift) if k == 0
-                                                       else parked[k]]) for k in range(K)])
-        R_ = np.tile(pile.radii, K)
-        dt = Simulation.default_time_step(model, draw.r_min, cfg.time.v_max, cfg.time.safety)
-        plan = SpreadLayersPlan(
-            Lplat, W, tuple(gaps), tool, tuple((1 + k * n, (k + 1) * n) for k in range(K)),
-            tuple(parked), (x_off - 2 * rmax, x_off + float(sc.pile_length) + 2 * rmax), dt,
-            lower_speed=float(sc.lower_speed), speed=speed,
-            return_speed=float(sc.return_speed), settle_time=float(sc.settle_time),
-            pile_lift=lift, clear=clear, x_end=x_stop,
-            chamber_depth=(depth - 2 * rmax) if sc.chamber else 0.0,
-            n_frames=max(1, int(sc.n_frames)), wall_thickness=4 * rmax,
-            landing_intervals=_MAX_LANDING_WAIT, landing_margin=rmax,
-            side_walls=bool(sc.side_walls))
-        data = write_sphere_data(root / "initial.data", X, R_, box_lo=lo, box_hi=hi,
-                                 density=model.materials[0].density, n_types=2,
-                                 velocities=np.tile(pv, (K, 1)),
-                                 omegas=np.tile(po, (K, 1)),
-                                 title=f"bedstruct spread seed {seed}: {K} piles")
-        for k in range(K):
-            (root / f"layer{k + 1:02d}").mkdir(parents=True, exist_ok=True)
-        ref = _reference_contact(model, pile.radii, height=pile_top)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            deck = spread_layers_deck(data, deck_model, engine=engine, plan=plan,
-                                      gravity=_GRAVITY, stl_folder=root,
-                                      contacts=bool(cfg.output.contacts),
-                                      cohesion_model=cm, np=int(cfg.external.np), **ref)
-        deck_path = root / "in.spread"
-        deck_path.write_text(deck)
-        np_ = int(cfg.external.np)
-        if write_only:
-            res = ExternalDecks(cfg.engine, "spread", (str(deck_path),),
-                                (_shell_command(cfg, info, deck_path),))
-            layout.write_results({"workflow": "spread", "engine": cfg.engine, **res.to_dict()})
-            return res
-        contacts = bool(cfg.output.contacts)
-        if layout.resumed and _engine_finished(root, plan, contacts=contacts):
-            log.info("%s: the engine run had finished; its output is measured again", root)
-        else:
-            _clear_engine_output(root, K)
-            timeout = float(cfg.external.timeout) or None
-            run_deck(deck_path, engine=info, np=np_, cwd=root, log_path="in.log", timeout=timeout)
-        wall_run = _time.perf_counter() - t_start
-        # the landing waits shift every later event off the planned steps
-        offsets = landing_offsets(root / "in.log", K)
-        loads = tool_loads(root / "in.log", K)      # NaN on LAMMPS
-        steps = plan.shifted(offsets)
-        total_steps = plan.total_steps + offsets[-1]
-        n_reg = int(sc.regions)
-        names = _REGION_NAMES.get(n_reg, tuple(f"region{i}" for i in range(n_reg)))
-        layers, f_all, cn_all = [], [], []
-        final = None
-        for k, ls in enumerate(steps):
-            t_layer = _time.perf_counter()
-            stage = root / f"layer{k + 1:02d}"
-            z_plat = -sum(gaps[:k + 1])
-            n_active = (k + 1) * n
-            traj = read_dump(_engine_file(stage, "frames.dump"), units="si")
-            blade_pos, dyn, cn_series, mid = [], [], [], []
+            contacts = bool(cfg.output.contacts)
+            if layout.resumed and _engine_finished(root, plan, contacts=contacts):
+                log.info("%s: the engine run had finished; its output is measured again", root)
+            else:
+                _clear_engine_output(root, K)
+                timeout = float(cfg.external.timeout) or None
+                run_deck(deck_path, engine=info, np=np_, cwd=root, log_path="in.log",
+                         timeout=timeout)
+            wall_run = _time.perf_counter() - t_start
+            # the landing waits shift every later event off the planned steps
+            offsets = landing_offsets(root / "in.log", K)
+            loads = tool_loads(root / "in.log", K)      # NaN on LAMMPS
+            steps = plan.shifted(offsets)
+            total_steps = plan.total_steps + offsets[-1]
+            n_reg = int(sc.regions)
+            names = _REGION_NAMES.get(n_reg, tuple(f"region{i}" for i in range(n_reg)))
+            layers, f_all, cn_all = [], [], []
             final = None
-            for i in range(len(traj)):
-                fr = traj[i]
-                fr = fr.select(np.asarray(fr.ids) <= n_active)   # parked piles are not there yet
-                step = int(fr.timestep)
-                if step == ls.end:
-                    final = fr
-                if not (ls.spread < step <= ls.stop):
-                    continue
-                front = front0 + speed * dt * (step - ls.spread)
-                d_, c_ = frame_metrics(fr, find_contacts(fr), front, plate_length=Lplat,
-                                       z_plat=z_plat, r_max=rmax)
-                blade_pos.append(front)
-                dyn.append(d_)
-                cn_series.append(c_)
-                if len(blade_pos) == max(1, int(sc.n_frames) // 2):
-                    mid.append((fr, front))
-            if final is None:
-                final = traj[len(traj) - 1]
-                final = final.select(np.asarray(final.ids) <= n_active)
-            if cfg.output.compress:
-                for name in ("frames.dump", "contacts.dump", "start.dump", "start_contacts.dump"):
-                    if (stage / name).exists():
-                        _gzip(stage / name)
-            # the same layout as the embedded engine's: the bed on the platform after the
-            # layer, and the whole state after the last layer
-            on_bed = bed_mask(final, Lplat, z_plat, rmax)
-            write_dump(stage / f"bed{gz}", final.select(on_bed))
-            if k == K - 1:
-                write_dump(stage / f"final{gz}", final)
-            layer, pack, cnw = measure_layer(
-                final, find_contacts(final), cfg, index=k + 1, z_plat=z_plat, front0=front0,
-                r_max=rmax, pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos, mid=mid,
-                bed=on_bed, n_inserted=n, n_removed=n_active - final.n_particles,
-                wall_time=(wall_run * (ls.end - ls.start) / total_steps
-                           + _time.perf_counter() - t_layer))
-            wait = offsets[k] - (offsets[k - 1] if k else 0)
-            layers.append(replace(layer, landing_wait=wait * dt, tool_force=loads[k]))
-            f_all.extend(np.asarray(pack, float).tolist())
-            cn_all.extend(np.asarray(cnw, float).tolist())
-            log.info("layer %d on %s: bed height %.4g m (nominal %.4g)", k + 1, cfg.engine,
-                     layer.bed_height_m, -z_plat)
-        ga, gb, gr = german_fit_values(f_all, cn_all)
-        res = SpreadResult(layers=tuple(layers), tool=str(tool_name), speed=speed,
-                           regions=tuple(names), n_pile=n, n_inserted_total=K * n,
-                           german_a=ga, german_b=gb, german_r_squared=gr,
-                           extra={"wall_time": _time.perf_counter() - t_start,
-                                  "engine_wall_time": wall_run, "dt": dt,
-                                  "steps": total_steps, "engine": cfg.engine,
-                                  "n_particles_final": int(final.n_particles)})
-        layout.write_results({"workflow": "spread", "engine": cfg.engine, "np": np_,
-                              **res.to_dict()})
-        return res
-    except Exception as exc:   # the folder says the run failed, and why (it resumes)
-        if layout is not None:
-            layout.fail(exc)
-        raise
+            for k, ls in enumerate(steps):
+                t_layer = _time.perf_counter()
+                stage = root / f"layer{k + 1:02d}"
+                z_plat = -sum(gaps[:k + 1])
+                n_active = (k + 1) * n
+                traj = read_dump(_engine_file(stage, "frames.dump"), units="si")
+                blade_pos, dyn, cn_series, mid = [], [], [], []
+                final = None
+                for i in range(len(traj)):
+                    fr = traj[i]
+                    # parked piles are not there yet
+                    fr = fr.select(np.asarray(fr.ids) <= n_active)
+                    step = int(fr.timestep)
+                    if step == ls.end:
+                        final = fr
+                    if not (ls.spread < step <= ls.stop):
+                        continue
+                    front = front0 + speed * dt * (step - ls.spread)
+                    d_, c_ = frame_metrics(fr, find_contacts(fr), front, plate_length=Lplat,
+                                           z_plat=z_plat, r_max=rmax)
+                    blade_pos.append(front)
+                    dyn.append(d_)
+                    cn_series.append(c_)
+                    if len(blade_pos) == max(1, int(sc.n_frames) // 2):
+                        mid.append((fr, front))
+                if final is None:
+                    final = traj[len(traj) - 1]
+                    final = final.select(np.asarray(final.ids) <= n_active)
+                if cfg.output.compress:
+                    for name in ("frames.dump", "contacts.dump", "start.dump",
+                                 "start_contacts.dump"):
+                        if (stage / name).exists():
+                            _gzip(stage / name)
+                # the same layout as the embedded engine's: the bed on the platform after the
+                # layer, and the whole state after the last layer
+                on_bed = bed_mask(final, Lplat, z_plat, rmax)
+                write_dump(stage / f"bed{gz}", final.select(on_bed))
+                if k == K - 1:
+                    write_dump(stage / f"final{gz}", final)
+                layer, pack, cnw = measure_layer(
+                    final, find_contacts(final), cfg, index=k + 1, z_plat=z_plat, front0=front0,
+                    r_max=rmax, pile=pile, dyn=dyn, cn_series=cn_series, blade_pos=blade_pos,
+                    mid=mid,
+                    bed=on_bed, n_inserted=n, n_removed=n_active - final.n_particles,
+                    wall_time=(wall_run * (ls.end - ls.start) / total_steps
+                               + _time.perf_counter() - t_layer))
+                wait = offsets[k] - (offsets[k - 1] if k else 0)
+                layers.append(replace(layer, landing_wait=wait * dt, tool_force=loads[k]))
+                f_all.extend(np.asarray(pack, float).tolist())
+                cn_all.extend(np.asarray(cnw, float).tolist())
+                log.info("layer %d on %s: bed height %.4g m (nominal %.4g)", k + 1, cfg.engine,
+                         layer.bed_height_m, -z_plat)
+            ga, gb, gr = german_fit_values(f_all, cn_all)
+            res = SpreadResult(layers=tuple(layers), tool=str(tool_name), speed=speed,
+                               regions=tuple(names), n_pile=n, n_inserted_total=K * n,
+                               german_a=ga, german_b=gb, german_r_squared=gr,
+                               extra={"wall_time": _time.perf_counter() - t_start,
+                                      "engine_wall_time": wall_run, "dt": dt,
+                                      "steps": total_steps, "engine": cfg.engine,
+                                      "n_particles_final": int(final.n_particles)})
+            layout.write_results({"workflow": "spread", "engine": cfg.engine, "np": np_,
+                                  **res.to_dict()})
+            return res
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)

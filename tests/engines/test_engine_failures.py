@@ -149,3 +149,22 @@ def test_an_engine_run_that_leaves_no_pile_is_a_noted_replicate(tmp_path):
     assert rep.angle_deg != rep.angle_deg                      # NaN
     assert "only 2 particles remain" in rep.note
     assert res.n_measured == 0 and "rep00" in res.unmeasured
+
+
+def test_an_interrupted_engine_run_marks_its_folder_interrupted(tmp_path, monkeypatch):
+    import bedstruct.workflows.external as external
+
+    def ctrl_c(*a, **k):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(external, "run_deck", ctrl_c)
+    exe = _fake_engine(tmp_path / "bin")
+    for name, run in (("repose", run_repose), ("spread", run_spread)):
+        out = tmp_path / name
+        cfg = _tiny("liggghts", exe, "spread.gaps=[4.5e-4]", "spread.pile_particles=60",
+                    "spread.pile_time=0.002")
+        if name == "spread":
+            import bedstruct.workflows.external_spread as external_spread
+            monkeypatch.setattr(external_spread, "run_deck", ctrl_c)
+        with pytest.raises(KeyboardInterrupt):
+            run(cfg, out=out)
+        assert json.loads((out / "run.json").read_text())["status"] == "interrupted", name
