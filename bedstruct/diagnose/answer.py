@@ -512,8 +512,9 @@ def compact_answer(diag, caveat: str | None = None) -> dict:
 
     Keys: ``verdict``; ``partial`` (an attribution that leaves part of the held-out gap,
     :attr:`~bedstruct.diagnose.attribution.Attribution.partial`); ``effect`` (name, ``None``
-    unless attributed); ``magnitude``
-    (``value``, ``interval``, ``unit``, ``name``, or ``None``); ``shrink`` (``value`` and its
+    unless attributed; a pair joined by ``+``); ``magnitude`` of the (first) effect
+    (``value``, ``interval``, ``unit``, ``name``, or ``None``); ``magnitudes``, one per
+    attributed effect (each also with its ``effect``; empty unless attributed); ``shrink`` (``value`` and its
     90 % ``interval`` as fractions, ``None`` where the held-out observables showed no gap
     beyond noise before (their chi-square test at the diagnosis' ``alpha``), with
     ``n_heldout`` and the p-value of that gap, ``p_heldout_gap_before``); ``where``
@@ -527,12 +528,15 @@ def compact_answer(diag, caveat: str | None = None) -> dict:
         """A finite value to six significant digits (no float noise), else ``None``."""
         return float(f"{v:.6g}") if v is not None and np.isfinite(v) else None
 
-    top = att.selected[0] if att.verdict == "attributed" and att.selected else None
-    mag = None
-    if top is not None:
-        eff = diag.fingerprints[top.effect].effect
-        mag = {"name": eff.magnitude, "value": fin(top.magnitude),
-               "interval": [fin(v) for v in top.interval], "unit": eff.unit}
+    chosen = tuple(att.selected) if att.verdict == "attributed" else ()
+
+    def magnitude(sel):
+        eff = diag.fingerprints[sel.effect].effect
+        return {"effect": sel.effect, "name": eff.magnitude, "value": fin(sel.magnitude),
+                "interval": [fin(v) for v in sel.interval], "unit": eff.unit}
+    mags = [magnitude(sel) for sel in chosen]
+    top = chosen[0] if chosen else None
+    mag = {k: v for k, v in mags[0].items() if k != "effect"} if mags else None
     gap = _heldout_gap(diag)
     shrink = {"value": fin(sh.fraction) if gap else None,
               "interval": [fin(v) if gap else None for v in sh.fraction_interval],
@@ -544,7 +548,7 @@ def compact_answer(diag, caveat: str | None = None) -> dict:
         mag["value"] = fin(mag["value"])
     out = {"verdict": att.verdict, "partial": bool(att.partial),
            "effect": "+".join(e.effect for e in att.selected) if top is not None else None,
-           "magnitude": mag, "shrink": shrink, "where": where,
+           "magnitude": mag, "magnitudes": mags, "shrink": shrink, "where": where,
            "at_bound": [k for k, r in diag.recalibration().items() if r["at_bound"]]}
     if caveat is not None:
         out.update(trusted=False, caveat=caveat)

@@ -138,9 +138,20 @@ def seed_diag():
 def test_compact_answer_and_how_far_with_a_held_out_gap(seed_diag):
     d = seed_diag
     j = compact_answer(d)
-    assert set(j) == {"verdict", "partial", "effect", "magnitude", "shrink", "where", "at_bound"}
+    assert set(j) == {"verdict", "partial", "effect", "magnitude", "magnitudes", "shrink",
+                      "where", "at_bound"}
     assert len(j["where"]) == 3 and j["where"][0]["observable"] == "psd_before"
     assert j["magnitude"]["name"] == "fines_mass_fraction"
+    assert j["magnitudes"] == [{"effect": "missing_fines", **j["magnitude"]}]
+    # a pair: each effect's magnitude
+    first = d.attribution.selected[0]
+    second = replace(first, effect="wall_friction", magnitude=0.21, interval=(0.1, 0.3))
+    pair = compact_answer(replace(d, attribution=replace(d.attribution,
+                                                         selected=(first, second))))
+    assert pair["effect"] == "missing_fines+wall_friction"
+    assert [m["effect"] for m in pair["magnitudes"]] == ["missing_fines", "wall_friction"]
+    assert pair["magnitudes"][1]["value"] == 0.21 and pair["magnitudes"][1]["interval"] == [0.1, 0.3]
+    assert pair["magnitude"] == j["magnitude"]
     assert j["shrink"]["value"] is None and j["shrink"]["n_heldout"] == 3
     json.dumps(j, allow_nan=False)
     # a held-out gap that shrinks: the fraction and its interval in words
