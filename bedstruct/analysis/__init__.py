@@ -27,8 +27,8 @@ from .dimension import (
     flat_axis,
 )
 from .german import (
-    german_cn, GermanFit, fit_german_law, GermanAlongBed, german_law_along, GERMAN_WINDOWS,
-    GERMAN_MIN_PARTICLES,
+    german_cn, GermanFit, fit_german_law, GermanAlongBed, german_law_along, apart_from_bed,
+    GERMAN_WINDOWS, GERMAN_MIN_PARTICLES,
 )
 from .psd import (
     PSDResult, particle_size_distribution, percentile_diameter, psd_by_region, psd_series,
@@ -85,7 +85,7 @@ __all__ = [
     "packing_sliding", "packing_grid", "layer_packing", "bed_bounds", "bed_windows",
     "sphere_box_volume", "packing_table", "disc_rectangle_area", "area_fraction", "area_fractions",
     "flat_axis", "german_cn", "GermanFit", "fit_german_law",
-    "GermanAlongBed", "german_law_along", "GERMAN_WINDOWS", "GERMAN_MIN_PARTICLES",
+    "GermanAlongBed", "german_law_along", "apart_from_bed", "GERMAN_WINDOWS", "GERMAN_MIN_PARTICLES",
     "PSDResult", "particle_size_distribution", "percentile_diameter", "psd_by_region",
     "psd_series", "PSDFit", "psd_from_percentiles", "psd_table", "PSDComparison",
     "compare_psd", "wasserstein_psd", "segregation_index", "SegregationResult", "segregation",

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["german_cn", "GermanFit", "fit_german_law", "GermanAlongBed", "german_law_along",
-           "GERMAN_WINDOWS", "GERMAN_MIN_PARTICLES"]
+           "apart_from_bed", "GERMAN_WINDOWS", "GERMAN_MIN_PARTICLES"]
 
 #: Default number of equal windows along the bed for German's-law fits.
 GERMAN_WINDOWS = 12
@@ -221,6 +221,8 @@ class GermanAlongBed:
         Particles centred in each window.
     used : (n_windows,) ndarray of bool
         Windows that entered the fit.
+    n_apart : int
+        Particles apart from the bed (:func:`apart_from_bed`), left out of the bed region.
     """
 
     fit: GermanFit | None
@@ -233,6 +235,7 @@ class GermanAlongBed:
     cn: np.ndarray
     n_particles: np.ndarray
     used: np.ndarray
+    n_apart: int = 0
 
     @property
     def n_used(self) -> int:
@@ -242,9 +245,51 @@ class GermanAlongBed:
     @property
     def definition(self) -> str:
         """One sentence saying which points were fitted."""
+        apart = (f"; {self.n_apart} particle{'s' if self.n_apart != 1 else ''} apart from the "
+                 f"bed left out" if self.n_apart else "")
         return (f"{self.n_used} of {self.n_windows} equal windows along {_AXIS_NAMES[self.axis]} "
-                f"over the bed region (windows with at least {self.min_particles} particles): exact "
-                f"sphere-cuboid packing fraction and mean coordination of the particles centred there")
+                f"over the bed region (windows with at least {self.min_particles} particles"
+                f"{apart}): exact sphere-cuboid packing fraction and mean coordination of the "
+                f"particles centred there")
+
+
+def apart_from_bed(frame, network) -> np.ndarray:
+    """Particles apart from the bed: beyond the contact network's extent, by more than two
+    of the largest diameters, along a bounded axis (one thrown up or left far from it).
+
+    Parameters
+    ----------
+    frame : Frame
+    network : (N,) array_like of bool
+        The particles of the contact network (not rattlers).
+
+    Returns
+    -------
+    (N,) ndarray of bool
+        None when the frame has no network.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bedstruct import Box, Frame
+    >>> pos = [[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [1.0, 0.5, 9.0]]
+    >>> f = Frame(pos, [0.5, 0.5, 0.5], box=Box([0, 0, 0], [2, 1, 10], boundary="pp pp ff"))
+    >>> apart_from_bed(f, [True, True, False]).tolist()
+    [False, False, True]
+    """
+    pos = np.asarray(frame.positions, dtype=float)
+    rad = np.asarray(frame.radii, dtype=float)
+    net = np.asarray(network, dtype=bool)
+    out = np.zeros(len(rad), dtype=bool)
+    if not net.any():
+        return out
+    lo = (pos[net] - rad[net, None]).min(axis=0)
+    hi = (pos[net] + rad[net, None]).max(axis=0)
+    gap = 4.0 * float(rad.max())
+    for a in range(3):
+        if not frame.box.periodic[a]:
+            out |= (pos[:, a] - rad > hi[a] + gap) | (pos[:, a] + rad < lo[a] - gap)
+    return out
 
 
 def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, axis: int = 0,
@@ -253,7 +298,8 @@ def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, a
     """Fit German's law to the packing and coordination of windows along a bed.
 
     The one definition of a bed's German fit: the bed region
-    (:func:`bedstruct.analysis.bed_windows`) is split into ``n_windows``
+    (:func:`bedstruct.analysis.bed_windows`; particles apart from the bed,
+    :func:`apart_from_bed`, are left out of it) is split into ``n_windows``
     equal windows along ``axis``; each gives its exact sphere-cuboid packing
     fraction (:func:`bedstruct.analysis.packing_along`) and the mean
     coordination number of the particles centred in it
@@ -309,7 +355,7 @@ def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, a
     (6, '6 of 6 equal windows along x over the bed region (windows with at least 5 particles)')
     """
     from .coordination import coordination, coordination_by_window
-    from .packing import packing_along
+    from .packing import bed_bounds, packing_along
 
     if int(n_windows) < 3:
         raise ValueError(f"`n_windows` must be at least 3 for a two-coefficient fit; got {n_windows}")
@@ -329,7 +375,9 @@ def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, a
                              f"{state.not_meaningful['german']}; pass check_state=False to fit anyway")
     if coordination_result is None:
         coordination_result = coordination(frame, contacts)
-    prof = packing_along(frame, int(n_windows), axis=axis)
+    apart = apart_from_bed(frame, ~np.asarray(coordination_result.rattlers, dtype=bool))
+    bounds = bed_bounds(frame.select(~apart)) if apart.any() else None
+    prof = packing_along(frame, int(n_windows), axis=axis, bounds=bounds)
     wins = coordination_by_window(frame, prof.lower, prof.upper, result=coordination_result)
     f = np.asarray(prof.fractions, dtype=np.float64)
     cn = np.asarray(wins.mean, dtype=np.float64)
@@ -340,4 +388,4 @@ def german_law_along(frame, contacts=None, *, n_windows: int = GERMAN_WINDOWS, a
         fit = fit_german_law(f[used], cn[used], confidence=confidence)
     return GermanAlongBed(fit=fit, n_windows=int(n_windows), axis=int(axis), min_particles=int(min_particles),
                           lower=np.asarray(prof.lower), upper=np.asarray(prof.upper), fractions=f, cn=cn,
-                          n_particles=n, used=used)
+                          n_particles=n, used=used, n_apart=int(apart.sum()))

@@ -110,6 +110,12 @@ def _packing(ctx: _Context, s: Section) -> None:
     if ctx.flat_axis is not None:
         return _area_packing(ctx, s)
     seed_def = packing_fraction(f)
+    apart = _apart(ctx)
+    if apart:
+        s.text = (f"{apart} particle{'s lie' if apart != 1 else ' lies'} apart from the bed (more "
+                  f"than two diameters beyond its contact network): the enclosing box, and with it "
+                  f"these fractions, reaches out to {'them' if apart != 1 else 'it'}. The German's-law "
+                  f"windows leave {'them' if apart != 1 else 'it'} out.")
     s.add_number("bounding_box_fraction", seed_def.fraction, "1",
                  "total particle volume over the volume of the box enclosing all particles "
                  "(the seed report's definition)", DOCS + "analysis.md, Packing fraction")
@@ -122,6 +128,13 @@ def _packing(ctx: _Context, s: Section) -> None:
     factor, unit = ctx.plot_unit(np.asarray(fine.upper)[:, opt.axis_index])
     fig = _figure_of(plot_packing_profile(fine, axis=opt.axis_index, unit=unit, scale=factor))
     s.add_figure(fig, f"Packing fraction in {len(fine.fractions)} windows along the bed")
+
+
+def _apart(ctx: _Context) -> int:
+    """Particles apart from the bed (:func:`bedstruct.analysis.apart_from_bed`)."""
+    from ..analysis import apart_from_bed, coordination
+    res = coordination(ctx.frame, ctx.contacts, min_contacts=ctx.options.min_contacts)
+    return int(apart_from_bed(ctx.frame, ~np.asarray(res.rattlers, dtype=bool)).sum())
 
 
 def _area_packing(ctx: _Context, s: Section) -> None:

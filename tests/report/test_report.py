@@ -859,3 +859,24 @@ def test_an_input_that_cannot_be_judged_reports_no_state_dependent_numbers(monke
         sec = rep.section(key)
         assert sec.status == "not meaningful" and "could not be judged" in sec.text and not sec.numbers
     assert rep.section("packing").status == "ok"
+
+
+def test_a_particle_apart_from_the_bed_is_left_out_of_german_s_windows():
+    # one sphere far above a settled slab: the enclosing box reaches up to it (the packing
+    # fractions say so), German's law is fitted over the bed without it
+    lattice = cubic_lattice((24, 4, 4), spacing=1.0, radius=0.51, boundary=("ff", "pp", "ff"))
+    x, z = lattice.positions[:, 0], lattice.positions[:, 2]
+    slab = lattice.select((x < 12) | (z < 3))      # the second half one layer thinner
+    pos = np.vstack([slab.positions, [[12.0, 2.0, 60.0]]])
+    stray = bedstruct.Frame(pos, np.append(slab.radii, 0.51), box=bedstruct.Box(
+        [0, 0, 0], [24, 4, 64], boundary="ff pp ff"))
+    with _only("packing", "coordination"):
+        ref = build_report(slab)
+        rep = build_report(stray)
+    assert "1 particle lies apart from the bed" in rep.section("packing").text
+    assert "apart" not in (ref.section("packing").text or "")
+    got, want = rep.section("coordination").numbers, ref.section("coordination").numbers
+    for key in ("german_a", "german_b"):
+        assert got[key].value == pytest.approx(want[key].value), key
+    assert 0 < want["german_b"].value < 10, want["german_b"].value
+    assert "1 particle apart from the bed left out" in got["german_windows"].definition
