@@ -49,6 +49,7 @@ class _Context:
         self._contacts = contacts
         self._windows = None
         self._region_fractions = None
+        self._coordination = None
         self.state = None
         from ..analysis import flat_axis
         self.flat_axis = flat_axis(self.frame)
@@ -70,6 +71,14 @@ class _Context:
             from ..analysis import find_contacts
             self._contacts = find_contacts(self.frame, self.options.tolerance)
         return self._contacts
+
+    def coordination(self):
+        """The frame's coordination (:func:`bedstruct.analysis.coordination`), computed once."""
+        if self._coordination is None:
+            from ..analysis import coordination
+            self._coordination = coordination(self.frame, self.contacts,
+                                              min_contacts=self.options.min_contacts)
+        return self._coordination
 
     def region_fractions(self):
         """Area fractions of the regions of a 2-D run (a PackingProfile)."""
@@ -132,9 +141,9 @@ def _packing(ctx: _Context, s: Section) -> None:
 
 def _apart(ctx: _Context) -> int:
     """Particles apart from the bed (:func:`bedstruct.analysis.apart_from_bed`)."""
-    from ..analysis import apart_from_bed, coordination
-    res = coordination(ctx.frame, ctx.contacts, min_contacts=ctx.options.min_contacts)
-    return int(apart_from_bed(ctx.frame, ~np.asarray(res.rattlers, dtype=bool)).sum())
+    from ..analysis import apart_from_bed
+    network = ~np.asarray(ctx.coordination().rattlers, dtype=bool)
+    return int(apart_from_bed(ctx.frame, network).sum())
 
 
 def _area_packing(ctx: _Context, s: Section) -> None:
@@ -162,9 +171,9 @@ def _area_packing(ctx: _Context, s: Section) -> None:
 
 
 def _coordination(ctx: _Context, s: Section) -> None:
-    from ..analysis import coordination, coordination_by_window, german_law_along, packing_along
+    from ..analysis import coordination_by_window, german_law_along, packing_along
     f, opt = ctx.frame, ctx.options
-    res = coordination(f, ctx.contacts, min_contacts=opt.min_contacts)
+    res = ctx.coordination()
     s.add_number("mean", res.mean, "1", "mean number of contacts per particle",
                  DOCS + "analysis.md, Coordination number")
     s.add_number("mean_excluding_rattlers", res.mean_excluding_rattlers, "1",
