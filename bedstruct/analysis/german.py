@@ -82,6 +82,9 @@ class GermanFit:
         Coefficient of determination of the fit (NaN when cn is constant).
     confidence : float
         Confidence level of the intervals.
+    determined : bool
+        Whether ``a`` and ``b`` are separately determined (property;
+        :attr:`undetermined_reason` says why not).
     """
 
     a: float
@@ -106,6 +109,40 @@ class GermanFit:
     def predict(self, f) -> np.ndarray:
         """Fitted CN at packing fractions ``f``."""
         return german_cn(f, a=self.a, b=self.b)
+
+    @property
+    def undetermined_reason(self) -> str | None:
+        """Why the data do not determine ``a`` and ``b`` separately, or None when they do.
+
+        ``a`` and ``b`` are determined when the fit has intervals (at least 3 points), the
+        interval of ``b`` excludes 0 (the coordination number depends detectably on the
+        packing fraction over the points' range) and the interval of ``a`` does not lie
+        below 0 (``2a`` is the law's coordination at ``f -> 0``: a negative one is an
+        extrapolation beyond a packing range too narrow to reach it). Otherwise ``a`` and
+        ``b`` trade off along the data and their values describe the points' mean
+        coordination only; ``unfitted_deviation`` (the original law's error) keeps its
+        meaning either way.
+        """
+        lo, hi = float(self.f.min()), float(self.f.max())
+        span = f"f = {lo:.3f}-{hi:.3f}"
+        if not np.all(np.isfinite(self.a_ci + self.b_ci)):
+            return f"{self.n_points} points leave no interval for a and b"
+        level = f"{self.confidence:.0%}"
+        if self.b_ci[0] <= 0.0 <= self.b_ci[1]:
+            return (f"the coordination number shows no detectable dependence on the packing "
+                    f"fraction over {span} (the {level} interval of b includes 0): a and b are not "
+                    f"separately determined")
+        if self.a_ci[1] < 0.0:
+            return (f"the fitted law gives a negative coordination number at low packing "
+                    f"(the {level} interval of a lies below 0): the range {span} is too narrow "
+                    f"to extrapolate to f = 0, so a and b are not separately determined")
+        return None
+
+    @property
+    def determined(self) -> bool:
+        """Whether the data determine ``a`` and ``b`` separately (see
+        :attr:`undetermined_reason`)."""
+        return self.undetermined_reason is None
 
 
 def fit_german_law(f, cn, *, confidence: float = 0.95, weights=None) -> GermanFit:

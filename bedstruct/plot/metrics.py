@@ -70,7 +70,8 @@ def plot_german(fit, *, ax=None, residual_ax=None, label: str = "data"):
     ax.plot(grid, german_cn(grid), "--",
             label=f"$CN_S = 2 + 11 f^2$ (mean |dev| {fit.unfitted_deviation:.2f})")
     ax.plot(grid, fit.predict(grid), "-",
-            label=f"$CN_m = 2a + 11 b f^2$, a = {fit.a:.3f}, b = {fit.b:.4f}")
+            label=f"$CN_m = 2a + 11 b f^2$, a = {fit.a:.3f}, b = {fit.b:.4f}"
+                  + ("" if fit.determined else " (a, b not separately determined)"))
     ax.set_ylabel("coordination number")
     ax.legend(fontsize="small")
     if residual_ax is not None:

@@ -216,6 +216,14 @@ def _coordination(ctx: _Context, s: Section) -> None:
     s.add_number("german_b_ci", list(fit.b_ci), "1", f"{fit.confidence:.0%} confidence interval of b")
     s.add_number("german_unfitted_deviation", fit.unfitted_deviation, "1",
                  "mean absolute difference between CN = 2 + 11 f^2 and the measured CN")
+    s.add_number("german_determined", fit.determined, "1",
+                 "whether the windows determine a and b separately (the interval of b excludes 0 "
+                 "and that of a does not lie below 0)")
+    if not fit.determined:
+        s.text = (f"German's law over {german.n_used} windows along {opt.axis}: "
+                  f"{fit.undetermined_reason}; a and b are listed with their intervals, but "
+                  f"describe only the windows' mean coordination ({float(np.mean(fit.cn)):.2f}). "
+                  f"The original law's deviation keeps its meaning.")
     from ..plot import plot_german
     fig = _figure_of(plot_german(fit, label=f"{german.n_used} windows along {opt.axis}"))
     s.add_figure(fig, f"Coordination number against packing fraction with German's law ({german.definition})")

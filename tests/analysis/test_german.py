@@ -145,3 +145,49 @@ def test_german_law_along_leaves_out_sparse_windows_and_needs_three():
         german_law_along(bed, n_windows=2)
     with pytest.raises(ValueError, match="`axis`"):
         german_law_along(bed, axis=5)
+
+
+def test_determined_when_cn_rises_with_packing_over_the_points():
+    rng = np.random.default_rng(5)
+    f = np.linspace(0.40, 0.65, 12)
+    fit = fit_german_law(f, german_cn(f, a=1.2, b=0.5) + rng.normal(0, 0.05, f.size))
+    assert fit.b_ci[0] > 0 and fit.a_ci[1] > 0
+    assert fit.determined and fit.undetermined_reason is None
+
+
+def test_not_determined_when_cn_does_not_depend_on_packing():
+    # a flat coordination number with noise over a narrow packing range: b's interval spans 0
+    rng = np.random.default_rng(6)
+    f = np.linspace(0.600, 0.604, 12)
+    fit = fit_german_law(f, 6.0 + rng.normal(0, 0.1, f.size))
+    assert fit.b_ci[0] < 0 < fit.b_ci[1]
+    assert not fit.determined
+    assert "interval of b includes 0" in fit.undetermined_reason
+    assert "f = 0.600-0.604" in fit.undetermined_reason
+
+
+def test_not_determined_when_the_law_extrapolates_to_negative_coordination():
+    # a steep rise over a narrow range: b is well away from 0, but 2a (CN at f -> 0) is < 0
+    rng = np.random.default_rng(7)
+    f = np.linspace(0.60, 0.62, 10)
+    fit = fit_german_law(f, german_cn(f, a=-5.0, b=4.0) + rng.normal(0, 0.001, f.size))
+    assert fit.b_ci[0] > 0 and fit.a_ci[1] < 0
+    assert not fit.determined and "interval of a lies below 0" in fit.undetermined_reason
+    # two points leave no interval, so nothing is determined
+    two = fit_german_law([0.5, 0.6], [4.0, 4.2])
+    assert not two.determined and "no interval" in two.undetermined_reason
+
+
+def test_lattice_slab_windows_do_not_determine_a_and_b():
+    from bedstruct.analysis import german_law_along
+    rng = np.random.default_rng(0)
+    d, n, nz = 1.0, 8, 3
+    a = d * np.sqrt(2.0)
+    basis = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]]) * a
+    cells = np.stack(np.meshgrid(np.arange(n), np.arange(n), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
+    pos = (cells[:, None, :] * a + basis[None]).reshape(-1, 3) + 0.5 * d + rng.normal(0, 0.002, (len(cells) * 4, 3))
+    frame = bedstruct.Frame(pos, np.full(len(pos), 0.5005 * d),
+                            box=bedstruct.Box([0, 0, 0], [n * a, n * a, nz * a + 2], boundary="pp pp ff"))
+    g = german_law_along(frame, check_state=False)
+    assert g.n_used == 12 and np.ptp(g.fractions[g.used]) < 0.01
+    assert not g.fit.determined

@@ -421,6 +421,8 @@ def test_report_german_fit_is_the_library_default_and_says_its_windows(bed_dump,
     assert sec.numbers["german_windows"].value == lib.n_used
     assert lib.definition in sec.numbers["german_windows"].definition
     assert f"over {lib.n_used} windows along x" in sec.numbers["german_a"].definition
+    assert lib.fit.determined and sec.numbers["german_determined"].value is True
+    assert "not separately determined" not in sec.text
     # a different number of windows is a stated option, and gives the library's numbers for it
     with _only("coordination"):
         sec8 = build_report(frame, options=ReportOptions(german_windows=8)).section("coordination")
@@ -880,3 +882,25 @@ def test_a_particle_apart_from_the_bed_is_left_out_of_german_s_windows():
         assert got[key].value == pytest.approx(want[key].value), key
     assert 0 < want["german_b"].value < 10, want["german_b"].value
     assert "1 particle apart from the bed left out" in got["german_windows"].definition
+
+
+def test_report_says_when_the_windows_do_not_determine_german_a_and_b():
+    # spheres of 50 um touching on a lattice: every window's packing within 0.01 of the others
+    rng = np.random.default_rng(0)
+    d, n, nz = 50e-6, 8, 3
+    a = d * np.sqrt(2.0)
+    basis = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]]) * a
+    cells = np.stack(np.meshgrid(np.arange(n), np.arange(n), np.arange(nz), indexing="ij"), -1).reshape(-1, 3)
+    pos = (cells[:, None, :] * a + basis[None]).reshape(-1, 3) + 0.5 * d
+    pos += rng.normal(0, 0.002 * d, pos.shape)
+    frame = bedstruct.Frame(pos, np.full(len(pos), 0.5005 * d),
+                            box=bedstruct.Box([0, 0, 0], [n * a, n * a, nz * a + 2 * d], boundary="pp pp ff"),
+                            velocities=np.zeros_like(pos)).with_units("si")
+    with _only("coordination"):
+        sec = build_report(frame).section("coordination")
+    from bedstruct.analysis import german_law_along
+    fit = german_law_along(frame, check_state=False).fit
+    assert not fit.determined
+    assert sec.numbers["german_determined"].value is False
+    assert fit.undetermined_reason in sec.text and "mean coordination" in sec.text
+    assert sec.numbers["german_a"].value == fit.a     # still listed, with its interval
