@@ -88,7 +88,8 @@ def _summary(workflow, res) -> dict:
             "mean_dynamic_angle_deg": d["mean_dynamic_angle_deg"],
             "coordination": [layer["coordination"] for layer in d["layers"]],
             "nominal_height_m": [layer["nominal_height"] for layer in d["layers"]],
-            "german_a": d["german_a"], "german_b": d["german_b"], "layers": d["layers"]}
+            "german_a": d["german_a"], "german_b": d["german_b"],
+            "german_determined": d.get("german_determined"), "layers": d["layers"]}
 
 
 def _run_status(out) -> str | None:

@@ -310,16 +310,17 @@ def frame_fingerprint(frame) -> str:
     return h.hexdigest()[:16]
 
 
-def german_fit_values(fractions, coordinations) -> tuple[float, float, float]:
-    """``(a, b, r_squared)`` of German's law over the finite points; NaN with fewer than 3."""
+def german_fit_values(fractions, coordinations) -> tuple[float, float, float, bool | None]:
+    """``(a, b, r_squared, determined)`` of German's law over the finite points (``determined``:
+    :attr:`~bedstruct.analysis.GermanFit.determined`); NaN and None with fewer than 3."""
     from ..analysis import fit_german_law
     f_arr, c_arr = np.asarray(fractions, dtype=float), np.asarray(coordinations, dtype=float)
     good = np.isfinite(f_arr) & np.isfinite(c_arr) & (f_arr > 0)
     if good.sum() >= 3:
         try:
             g = fit_german_law(f_arr[good], c_arr[good])
-            return float(g.a), float(g.b), float(g.r_squared)
+            return float(g.a), float(g.b), float(g.r_squared), bool(g.determined)
         except (ValueError, np.linalg.LinAlgError) as exc:
             log.warning("German's-law fit failed: %s", exc)
     nan = float("nan")
-    return nan, nan, nan
+    return nan, nan, nan, None

@@ -246,10 +246,10 @@ def run_spread_external(cfg, *, out=None):
                 cn_all.extend(np.asarray(cnw, float).tolist())
                 log.info("layer %d on %s: bed height %.4g m (nominal %.4g)", k + 1, cfg.engine,
                          layer.bed_height_m, -z_plat)
-            ga, gb, gr = german_fit_values(f_all, cn_all)
+            ga, gb, gr, gd = german_fit_values(f_all, cn_all)
             res = SpreadResult(layers=tuple(layers), tool=str(tool_name), speed=speed,
                                regions=tuple(names), n_pile=n, n_inserted_total=K * n,
-                               german_a=ga, german_b=gb, german_r_squared=gr,
+                               german_a=ga, german_b=gb, german_r_squared=gr, german_determined=gd,
                                extra={"wall_time": _time.perf_counter() - t_start,
                                       "engine_wall_time": wall_run, "dt": dt,
                                       "steps": total_steps, "engine": cfg.engine,

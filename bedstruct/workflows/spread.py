@@ -316,12 +316,12 @@ def _spread_layers(cfg, layout, *, pile, progress) -> SpreadResult:
         ctl.checkpoint()
         if writer is not None and cfg.output.checkpoint and k + 1 < len(gaps):
             ctl.do(lambda: sim.save_checkpoint(writer.path / "checkpoint.npz"))
-    ga, gb, gr = german_fit_values(f_all, cn_all)
+    ga, gb, gr, gd = german_fit_values(f_all, cn_all)
     run_info = ctl.value(lambda: {"dt": sim.dt, "steps": sim.step,
                                   "n_particles_final": sim.n_particles})
     res = SpreadResult(layers=tuple(layers), tool=str(sc.tool), speed=speed, regions=tuple(names),
                        n_pile=n_pile, n_inserted_total=inserted_total, german_a=ga, german_b=gb,
-                       german_r_squared=gr,
+                       german_r_squared=gr, german_determined=gd,
                        extra={"wall_time": _time.perf_counter() - t_start, **run_info})
     if layout is not None:
         if writer is not None:

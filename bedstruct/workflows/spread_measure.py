@@ -348,6 +348,9 @@ class SpreadResult:
         Fit of ``CN = 2a + 11 b f^2`` over all layers and regions (NaN with
         fewer than 3 points).
     german_r_squared : float
+    german_determined : bool or None
+        Whether the points determine ``a`` and ``b`` separately
+        (:attr:`bedstruct.analysis.GermanFit.determined`); None without a fit.
     """
 
     layers: tuple
@@ -359,6 +362,7 @@ class SpreadResult:
     german_a: float = float("nan")
     german_b: float = float("nan")
     german_r_squared: float = float("nan")
+    german_determined: bool | None = None
     extra: dict = field(default_factory=dict)
 
     @property

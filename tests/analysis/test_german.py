@@ -191,3 +191,14 @@ def test_lattice_slab_windows_do_not_determine_a_and_b():
     g = german_law_along(frame, check_state=False)
     assert g.n_used == 12 and np.ptp(g.fractions[g.used]) < 0.01
     assert not g.fit.determined
+
+
+def test_workflow_summary_carries_whether_a_and_b_are_determined():
+    from bedstruct.workflows._common import german_fit_values
+    rng = np.random.default_rng(5)
+    f = np.linspace(0.40, 0.65, 12)
+    a, b, r2, determined = german_fit_values(f, german_cn(f, a=1.2, b=0.5) + rng.normal(0, 0.05, f.size))
+    assert determined is True and a == pytest.approx(1.2, abs=0.2)
+    flat = german_fit_values(np.linspace(0.6, 0.604, 12), 6.0 + rng.normal(0, 0.1, 12))
+    assert flat[3] is False
+    assert german_fit_values([0.5, 0.6], [4.0, 4.1])[3] is None
