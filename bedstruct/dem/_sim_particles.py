@@ -111,8 +111,42 @@ class _Particles:
         -------
         int
             Number actually inserted (fewer when the region is full).
+
+        Notes
+        -----
+        The radii that do not fit are dropped; large spheres fit less often than small
+        ones, so the spheres placed in a region that fills up are finer than ``psd``.
+        To fill a volume in several insertions with the distribution intact, draw the
+        radii once and carry those not placed to the next insertion with
+        :meth:`insert_radii`.
         """
         radii = sample_radii(n, psd, rng=self.rng)
+        return int(np.count_nonzero(self.insert_radii(radii, region=region, types=types,
+                                                      velocity=velocity,
+                                                      max_attempts=max_attempts)))
+
+    def insert_radii(self, radii, *, region=None, types=1, velocity=(0.0, 0.0, 0.0),
+                     max_attempts: int = 50) -> np.ndarray:
+        """Raindrop insertion of given radii, in order: which of them were placed.
+
+        Parameters
+        ----------
+        radii : (n,) array_like of float, m
+            Radii to place, in order of preference.
+        region : ((3,), (3,)), m, optional
+            As :meth:`insert_raindrop`.
+        types : int or (n,) array
+        velocity : (3,) array_like, m/s
+
+        Returns
+        -------
+        (n,) ndarray of bool
+            Which of ``radii`` were inserted (all but those that found no room).
+        """
+        radii = np.asarray(radii, dtype=np.float64).reshape(-1)
+        n = radii.shape[0]
+        if n and not (np.all(np.isfinite(radii)) and radii.min() > 0):
+            raise ValueError("`radii` must be positive and finite")
         lo, hi = (self._lo.copy(), self._hi.copy()) if region is None else (
             np.array(region[0], dtype=float), np.array(region[1], dtype=float))
         period = np.where(self._periodic, self._L, 0.0)
@@ -123,7 +157,7 @@ class _Particles:
                            velocities=np.tile(_vec3("velocity", velocity), (len(pos), 1)))
         if len(pos) < n:
             log.info("raindrop insertion placed %d of %d spheres (region full)", len(pos), n)
-        return int(len(pos))
+        return np.asarray(ok, dtype=bool)
 
     def insert_frame(self, frame: Frame, *, offset=(0.0, 0.0, 0.0), keep_ids: bool = False,
                      types=None) -> None:

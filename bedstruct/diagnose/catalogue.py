@@ -396,7 +396,8 @@ CATALOGUE: tuple[Effect, ...] = (
             "The simulated PSD is cut at 14 um radius (28 um diameter); the extension inserts the "
             "measured tail below the cut-off as a log-normal fines population (median 20 um "
             "diameter, sigma_ln 0.25) carrying the given mass fraction of the powder, with the "
-            "same contact law (their higher granular Bond number makes them more cohesive)."),
+            "same contact law (their higher granular Bond number makes them more cohesive); the "
+            "spreading pile keeps the base powder's solid volume (more, smaller spheres)."),
         signature=("PSD before spreading: d10 falls strongly, d50 a little; packing fraction rises "
                    "(fines fill voids), coordination rises; angles rise slightly; after spreading "
                    "fines percolate, so the spread layer is finer than the pile."),

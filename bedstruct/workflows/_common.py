@@ -17,7 +17,7 @@ from .schema import psd_table
 
 log = logging.getLogger(__name__)
 
-__all__ = ["contact_model", "psd_sampler", "tabulated_psd_sampler", "side_walls",
+__all__ = ["contact_model", "psd_sampler", "insert_carrying", "tabulated_psd_sampler", "side_walls",
            "width_bounds", "check_engine", "tool_motion", "from_plain", "frame_fingerprint",
            "german_fit_values", "progress_bar", "CONTACT_KEYWORDS"]
 
@@ -207,6 +207,24 @@ def tabulated_psd_sampler(diameters, volume_fractions, *, scale: float = 1.0):
     draw.number_fractions = p_num
     draw.fit = None
     return draw
+
+
+def insert_carrying(sim, need: int, carried, draw, region) -> list:
+    """Raindrop-insert ``need`` spheres into ``region``, the radii carried over first.
+
+    The radii are ``carried`` (those an earlier insertion found no room for) and, for the
+    rest of ``need``, fresh draws of ``draw`` from the simulation's generator. Returns the
+    radii not placed (floats), to carry to the next insertion: a volume filled in several
+    insertions then holds the distribution drawn, where dropping the spheres that found no
+    room (and drawing anew) keeps the small ones, which fit more often.
+    """
+    from ..dem import sample_radii
+    need = max(int(need), 0)
+    radii = np.asarray([float(r) for r in carried][:need], dtype=np.float64)
+    if need > radii.shape[0]:
+        radii = np.concatenate([radii, sample_radii(need - radii.shape[0], draw, rng=sim.rng)])
+    placed = sim.insert_radii(radii, region=region)
+    return [float(r) for r in radii[~placed]]
 
 
 def psd_sampler(cfg):

@@ -48,7 +48,7 @@ from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, dialect, re
                        run_deck, write_sphere_data)
 from ..dem import Simulation
 from ..errors import ConfigError
-from ._common import contact_model, psd_sampler, typed
+from ._common import contact_model, insert_carrying, psd_sampler, typed
 from ._rundir import RunLayout, marks_failure
 from .schema import config_dict
 from .repose_measure import (ReposeReplicate, _finished_replicate, _record_replicate,
@@ -204,10 +204,10 @@ def repose_inputs(cfg, *, seed: int):
         r = draw(20000, np.random.default_rng(0))
         v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
         n_want = int(0.6 * L * W * H * float(rc.fill_fraction) / v_mean)
-    sim.insert_raindrop(n_want, draw, region=((0.0, 0.0, 0.0), (L, W, H)))
-    if sim.n_particles < n_want:
-        sim.insert_raindrop(n_want - sim.n_particles, draw,
-                            region=((0.0, 0.0, H + rmax), (L, W, 2.0 * H - 2 * rmax)))
+    left = insert_carrying(sim, n_want, [], draw, ((0.0, 0.0, 0.0), (L, W, H)))
+    if sim.n_particles < n_want:   # the radii that found no room first (the PSD kept)
+        insert_carrying(sim, n_want - sim.n_particles, left, draw,
+                        ((0.0, 0.0, H + rmax), (L, W, 2.0 * H - 2 * rmax)))
     if sim.n_particles < n_want:
         log.warning("repose: inserted %d of %d particles (box full)", sim.n_particles, n_want)
     dt = Simulation.default_time_step(model, draw.r_min, cfg.time.v_max, cfg.time.safety)

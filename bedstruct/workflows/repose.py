@@ -22,8 +22,8 @@ import time as _time
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import (check_engine, contact_model, progress_bar, psd_sampler, side_walls, typed,
-                      width_bounds)
+from ._common import (check_engine, contact_model, insert_carrying, progress_bar, psd_sampler,
+                      side_walls, typed, width_bounds)
 from ._resume import resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run, marks_failure
 from .config import check_run_geometry
@@ -98,22 +98,26 @@ def repose_replicate(cfg, *, seed: int, cohesion: float | None = None, layout=No
     region_top = H * 1.0
     n_inserted = 0   # every particle inserted, also those lost while the box fills
 
-    def fill_round(top):
+    def fill_round(top, carried):
         need = n_want - sim.n_particles
         if need <= 0:
             return [0, top]
         zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9 if sim.n_particles else 0.0
         if top - zlo < 4 * rmax:
             top = zlo + max(0.5 * H, 4 * rmax)
-        return [int(sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (L, W, top)))),
-                top, need]
+        n0 = sim.n_particles
+        # the radii a round found no room for go into the next one: the pile keeps the PSD
+        left = insert_carrying(sim, need, carried, draw, ((0.0, 0.0, zlo), (L, W, top)))
+        return [sim.n_particles - n0, top, need, left]
 
+    carried = []
     for _ in range(6):
-        got = ctl.value(lambda: fill_round(region_top))
+        got = ctl.value(lambda c=carried: fill_round(region_top, c))
         if len(got) == 2:  # the box holds n_want
             break
         n_inserted += int(got[0])
         region_top = got[1]
+        carried = got[3]
         ctl.run_time(0.5 * rc.fill_time)
     if n_inserted < n_want and not ctl.replaying:
         log.warning("repose: inserted %d of %d particles (box full)", n_inserted, n_want)

@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-from ._common import contact_model, progress_bar, psd_sampler, side_walls, typed, width_bounds
+from ._common import (contact_model, insert_carrying, progress_bar, psd_sampler, side_walls, typed,
+                      width_bounds)
 from ._resume import resumable_simulation
 from .schema import config_dict
 
@@ -58,17 +59,19 @@ def generate_pile(cfg, *, seed: int, draw=None, checkpoint=None, progress: bool 
                                     seed=seed)
     layer = 8 * draw.r_max          # insert in thin slabs so that nothing falls far
 
-    def insert_slab():
+    def insert_slab(carried):
         need = n - sim.n_particles
         if need <= 0:
-            return False
+            return None
         zlo = float(np.max(sim.x[:, 2] + sim.rad)) + 1e-9 if sim.n_particles else 0.0
-        sim.insert_raindrop(need, draw, region=((0.0, 0.0, zlo), (Lp, W, zlo + layer)))
-        return True
+        # the radii a slab found no room for go into the next one: the pile keeps the PSD
+        return insert_carrying(sim, need, carried, draw, ((0.0, 0.0, zlo), (Lp, W, zlo + layer)))
 
+    carried = []
     with progress_bar(total=n, desc="pile", unit="particle", progress=progress, leave=False) as bar:
         for _ in range(50):
-            if not ctl.value(insert_slab):
+            carried = ctl.value(lambda c=carried: insert_slab(c))
+            if carried is None:
                 break
             ctl.run_time(math.sqrt(2 * layer / 9.81))
             bar.update(sim.n_particles - bar.n)

@@ -104,3 +104,40 @@ def test_raindrop_fills_a_periodic_width_evenly_without_overlaps_across_it():
     sim2.insert_raindrop(100, r[:100], region=((0, 0.1e-3, 0), (2.5e-3, 0.5e-3, 0.85e-3)))
     assert (sim2.x[:, 1] - sim2.rad >= 0.1e-3 - 1e-12).all()
     assert (sim2.x[:, 1] + sim2.rad <= 0.5e-3 + 1e-12).all()
+
+
+def test_insert_radii_says_which_were_placed_and_carrying_keeps_the_distribution():
+    from bedstruct.core import Box
+    from bedstruct.dem import ContactModel, Material, Simulation
+    from bedstruct.workflows._common import insert_carrying
+
+    def psd(n, rng):   # half of the spheres large, half small, by number
+        return np.where(rng.random(n) < 0.5, 100e-6, 30e-6)
+
+    def fill(carry):
+        sim = Simulation(Box([0, 0, 0], [1e-3, 1e-3, 3e-3], boundary="ff ff ff"), ContactModel(Material(1e6, 0.3, 8000.0)),
+                         seed=1)
+        carried, z = [], 0.0
+        for _ in range(20):
+            need = 400 - sim.n_particles
+            if need <= 0:
+                break
+            region = ((0.0, 0.0, z), (1e-3, 1e-3, z + 0.4e-3))
+            if carry:
+                carried = insert_carrying(sim, need, carried, psd, region)
+            else:
+                sim.insert_raindrop(need, psd, region=region)
+            z += 0.4e-3
+        return sim
+    kept, dropped = fill(True), fill(False)
+    assert kept.n_particles == dropped.n_particles == 400
+    # carried over, the spheres placed are those drawn: half large (binomial sd 0.025)
+    assert abs(np.mean(kept.rad == 100e-6) - 0.5) < 0.08
+    # dropped and drawn anew, the slabs keep the small ones
+    assert np.mean(dropped.rad == 100e-6) < 0.35
+    sim = Simulation(Box([0, 0, 0], [1e-3, 1e-3, 1e-3], boundary="ff ff ff"), ContactModel(Material(1e6, 0.3, 8000.0)), seed=2)
+    ok = sim.insert_radii(np.full(300, 100e-6), region=((0, 0, 0), (1e-3, 1e-3, 0.3e-3)))
+    assert ok.dtype == bool and ok.shape == (300,) and 0 < ok.sum() < 300 == ok.size
+    np.testing.assert_array_equal(sim.rad, np.full(ok.sum(), 100e-6))
+    with pytest.raises(ValueError, match="positive"):
+        sim.insert_radii([1e-4, -1e-4])
