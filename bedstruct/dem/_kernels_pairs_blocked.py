@@ -38,6 +38,11 @@ _DX, _DY, _DZ, _R2, _RI, _RJ, _MI, _MJ, _VR1, _VR2, _VR3, _OI1, _OI2, _OI3, _OJ1
 # and what the contact law writes for the scatter (force on i, torques, history, outputs)
 _FX, _FY, _FZ, _TI1, _TI2, _TI3, _TJ1, _TJ2, _TJ3, _FN, _F1, _F2, _F3 = range(32, 45)
 _NROW = 45
+# unsigned index constants: with unsigned indices numba emits no wrap-around of negative
+# indices, which costs the gather about as many instructions as its loads and stores
+_U1 = np.uint64(1)
+_U2 = np.uint64(2)
+_U3 = np.uint64(3)
 
 @njit(**STRICT)
 def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, limit, eta_r, dt,
@@ -69,17 +74,24 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
         nb = 0
         nn = 0
         for k in range(b0, b1):
-            i = pi[k]
-            j = pj[k]
-            dx = xf[3 * i] - xf[3 * j] - psh[k, 0] * L[0]
-            dy = xf[3 * i + 1] - xf[3 * j + 1] - psh[k, 1] * L[1]
-            dz = xf[3 * i + 2] - xf[3 * j + 2] - psh[k, 2] * L[2]
+            ku = np.uint64(k)
+            i = np.uint64(pi[ku])
+            j = np.uint64(pj[ku])
+            i3 = _U3 * i
+            j3 = _U3 * j
+            dx = xf[i3] - xf[j3] - psh[ku, 0] * L[0]
+            dy = xf[i3 + _U1] - xf[j3 + _U1] - psh[ku, 1] * L[1]
+            dz = xf[i3 + _U2] - xf[j3 + _U2] - psh[ku, 2] * L[2]
             r2 = dx * dx + dy * dy + dz * dz
-            rs = rad[i] + rad[j]
+            ri = rad[i]
+            rj = rad[j]
+            rs = ri + rj
             S[_DX * _BLOCK_B + nb] = dx
             S[_DY * _BLOCK_B + nb] = dy
             S[_DZ * _BLOCK_B + nb] = dz
             S[_R2 * _BLOCK_B + nb] = r2
+            S[_RI * _BLOCK_B + nb] = ri
+            S[_RJ * _BLOCK_B + nb] = rj
             tk[nb] = k
             tn[nn] = k
             touch = r2 < rs * rs
@@ -87,24 +99,24 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
             nn += 0 if touch else 1
         # the touching pairs' other data, contact by contact
         for q in range(nb):
-            k = tk[q]
-            i = pi[k]
-            j = pj[k]
+            k = np.uint64(tk[q])
+            i = np.uint64(pi[k])
+            j = np.uint64(pj[k])
+            i3 = _U3 * i
+            j3 = _U3 * j
             ti = np.uint32(ptype[i])
             tj = np.uint32(ptype[j])
-            S[_RI * _BLOCK_B + q] = rad[i]
-            S[_RJ * _BLOCK_B + q] = rad[j]
             S[_MI * _BLOCK_B + q] = mass[i]
             S[_MJ * _BLOCK_B + q] = mass[j]
-            S[_VR1 * _BLOCK_B + q] = vf[3 * i] - vf[3 * j]
-            S[_VR2 * _BLOCK_B + q] = vf[3 * i + 1] - vf[3 * j + 1]
-            S[_VR3 * _BLOCK_B + q] = vf[3 * i + 2] - vf[3 * j + 2]
-            S[_OI1 * _BLOCK_B + q] = of[3 * i]
-            S[_OI2 * _BLOCK_B + q] = of[3 * i + 1]
-            S[_OI3 * _BLOCK_B + q] = of[3 * i + 2]
-            S[_OJ1 * _BLOCK_B + q] = of[3 * j]
-            S[_OJ2 * _BLOCK_B + q] = of[3 * j + 1]
-            S[_OJ3 * _BLOCK_B + q] = of[3 * j + 2]
+            S[_VR1 * _BLOCK_B + q] = vf[i3] - vf[j3]
+            S[_VR2 * _BLOCK_B + q] = vf[i3 + _U1] - vf[j3 + _U1]
+            S[_VR3 * _BLOCK_B + q] = vf[i3 + _U2] - vf[j3 + _U2]
+            S[_OI1 * _BLOCK_B + q] = of[i3]
+            S[_OI2 * _BLOCK_B + q] = of[i3 + _U1]
+            S[_OI3 * _BLOCK_B + q] = of[i3 + _U2]
+            S[_OJ1 * _BLOCK_B + q] = of[j3]
+            S[_OJ2 * _BLOCK_B + q] = of[j3 + _U1]
+            S[_OJ3 * _BLOCK_B + q] = of[j3 + _U2]
             S[_Y * _BLOCK_B + q] = Y[ti, tj]
             S[_G * _BLOCK_B + q] = G[ti, tj]
             S[_B * _BLOCK_B + q] = B[ti, tj]
@@ -123,7 +135,7 @@ def _pair_chunk_blocked(t, P, PL, L, hist, bounds, fbuf, tbuf, TAB, rolling, lim
                 S[_II * _BLOCK_B + q] = inv_i[i]
                 S[_IJ * _BLOCK_B + q] = inv_i[j]
         for q in range(nn):
-            k = tn[q]
+            k = np.uint64(tn[q])
             _open_pair(k, ht, hr, store, fn_out, ft_out)
             if store:
                 fn_out[k] = 0.0
