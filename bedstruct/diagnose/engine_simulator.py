@@ -511,8 +511,9 @@ class EngineSimulator:
     def relative_cost(self, base: Mapping[str, float], effects: Mapping[str, float]) -> float:
         """Expected cost of one call relative to the base configuration's: the ratio of their
         time steps (``Simulation.default_time_step`` at the smallest sphere of each size
-        distribution), which sets the number of steps of every run of the call. Fines,
-        for instance, shrink the smallest sphere and the step with it."""
+        distribution), which sets the number of steps of every run of the call, times the
+        ratio of their spreading piles' sphere counts (:meth:`same_dose`). Fines, for
+        instance, shrink the smallest sphere and the step with it, and add spheres."""
         from ..dem import Simulation
         from ..workflows._common import contact_model, psd_sampler, typed
 
@@ -521,10 +522,15 @@ class EngineSimulator:
             return Simulation.default_time_step(contact_model(cfg), psd_sampler(cfg).r_min,
                                                 float(t.v_max), float(t.safety))
 
+        def count(cfg):
+            return float(cfg["spread"]["pile_particles"])
+
         ref = self.__dict__.get("_step_ref")
         if ref is None:
-            ref = self._step_ref = step(self.run_config({}, {}, 0))
-        return ref / step(self.run_config(base, effects, 0))
+            cfg0 = self.run_config({}, {}, 0)
+            ref = self._step_ref = (step(cfg0), count(cfg0))
+        cfg = self.run_config(base, effects, 0)
+        return ref[0] / step(cfg) * count(cfg) / ref[1]
 
     def with_effects(self, cfg: Mapping[str, Any], effects: Mapping[str, float], *,
                      replace=()) -> dict:

@@ -464,7 +464,7 @@ def test_cli_diagnose_cache_option_replaces_the_configs_cache(tmp_path, capsys):
     assert rc != 0 and "--cache needs a simulation config" in capsys.readouterr().err
 
 
-def test_relative_cost_follows_the_time_step_and_orders_a_library_build_longest_first():
+def test_relative_cost_follows_the_time_step_and_the_pile_and_orders_a_library_build_longest_first():
     from bedstruct.diagnose.run_design import DesignPoint
     from bedstruct.diagnose.run_library import _longest_first
     from bedstruct.dem import Simulation
@@ -478,13 +478,16 @@ def test_relative_cost_follows_the_time_step_and_orders_a_library_build_longest_
     steps = [Simulation.default_time_step(contact_model(c), psd_sampler(c).r_min,
                                           typed(c).time.v_max, typed(c).time.safety)
              for c in (cfg0, cfg1)]
+    # and the pile of the same solid volume holds more spheres
+    more = cfg1["spread"]["pile_particles"] / cfg0["spread"]["pile_particles"]
+    assert more > 1.2
     fines = sim.relative_cost(base, {"missing_fines": 0.06})
-    assert fines == pytest.approx(steps[0] / steps[1], rel=1e-12)
+    assert fines == pytest.approx(steps[0] / steps[1] * more, rel=1e-12)
     # the Rayleigh time, which sets both steps here, is proportional to the radius: the
     # ratio is that of the smallest diameters (the PSD's 28 um against the fines' 8 um)
     d_min = psd_sampler(cfg0).r_min / psd_sampler(cfg1).r_min
     assert d_min == pytest.approx(28.0 / 8.0, rel=1e-9)
-    assert fines == pytest.approx(d_min, rel=1e-9)
+    assert fines == pytest.approx(d_min * more, rel=1e-9)
     assert sim.relative_cost(base, {"wall_friction": 0.2}) == pytest.approx(1.0)
     todo = [(0, DesignPoint(base, {}, "base"), 1),
             (1, DesignPoint(base, {"missing_fines": 0.06}, "missing_fines"), 1),
