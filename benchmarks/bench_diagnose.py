@@ -118,7 +118,7 @@ def main(argv=None) -> int:
     per_run = float(np.nanmean(lib.run_wall_s)) if lib.n_runs else float("nan")
     per_run_cpu = float(np.nanmean(lib.run_cpu_s)) if np.isfinite(lib.run_cpu_s).any() else float("nan")
     print(f"answer: verdict={d.attribution.verdict} model={sh.model or 'none'} "
-          f"magnitudes={mags} recalibration={ {k: float(v) for k, v in sh.nuisance.items()} } "
+          f"magnitudes={mags} recalibration_shift={ {k: float(v) for k, v in sh.nuisance.items()} } "
           f"gap_fraction_closed={sh.fraction:.3g}")
     print(f"sim={a.sim} preset={a.preset if engine else '-'} workers={a.workers} "
           f"lib_dir={lib_dir} "
