@@ -138,14 +138,6 @@ def effects_config(effects: Mapping[str, float], base: Mapping[str, Any] | None 
     return out
 
 
-def _mean_sphere_volume(cfg) -> float:
-    """Mean sphere volume of the configuration's size distribution, m^3 (200,000 draws of a
-    fixed generator: the same for the same distribution)."""
-    from ..workflows._common import psd_sampler
-    r = psd_sampler(cfg)(200_000, np.random.default_rng(0))
-    return float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
-
-
 def with_options(cfg: Mapping[str, Any], options: Mapping[str, Any]) -> dict:
     """A copy of the workflow configuration ``cfg`` with ``{"section.option": value}`` set.
 
@@ -501,12 +493,22 @@ class EngineSimulator:
         if ref is None:
             base = load_config(with_options(copy.deepcopy(self.base_cfg), self.options))
             ref = self._dose_ref = (int(base["spread"]["pile_particles"]),
-                                    _mean_sphere_volume(base))
+                                    self._mean_sphere_volume(base))
         n0, v0 = ref
-        v = _mean_sphere_volume(cfg)
+        v = self._mean_sphere_volume(cfg)
         if v != v0:
             cfg["spread"]["pile_particles"] = max(1, int(round(n0 * v0 / v)))
         return cfg
+
+    def _mean_sphere_volume(self, cfg) -> float:
+        """Mean sphere volume of ``cfg``'s size distribution (200,000 draws), computed once
+        per distribution: every call's configuration asks for it."""
+        from ..workflows._common import mean_sphere_volume, psd_sampler
+        memo = self.__dict__.setdefault("_volume_memo", {})
+        key = json.dumps(cfg["psd"], sort_keys=True, default=float)
+        if key not in memo:
+            memo[key] = mean_sphere_volume(psd_sampler(cfg), 200_000)
+        return memo[key]
 
     def relative_cost(self, base: Mapping[str, float], effects: Mapping[str, float]) -> float:
         """Expected cost of one call relative to the base configuration's: the ratio of their

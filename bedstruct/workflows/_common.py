@@ -17,7 +17,8 @@ from .schema import psd_table
 
 log = logging.getLogger(__name__)
 
-__all__ = ["contact_model", "psd_sampler", "insert_carrying", "tabulated_psd_sampler", "side_walls",
+__all__ = ["contact_model", "psd_sampler", "mean_sphere_volume", "insert_carrying",
+           "tabulated_psd_sampler", "side_walls",
            "width_bounds", "check_engine", "tool_motion", "from_plain", "frame_fingerprint",
            "german_fit_values", "progress_bar", "CONTACT_KEYWORDS"]
 
@@ -207,6 +208,13 @@ def tabulated_psd_sampler(diameters, volume_fractions, *, scale: float = 1.0):
     draw.number_fractions = p_num
     draw.fit = None
     return draw
+
+
+def mean_sphere_volume(draw, n_draws: int = 20_000) -> float:
+    """Mean sphere volume of a size distribution ``draw`` (:func:`psd_sampler`), m^3, over
+    ``n_draws`` radii of a fixed generator (the same number for the same distribution)."""
+    r = draw(int(n_draws), np.random.default_rng(0))
+    return float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
 
 
 def insert_carrying(sim, need: int, carried, draw, region) -> list:

@@ -48,7 +48,7 @@ from ..engines import (ENGINE_NAMES, ReposeGeometry, ReposeSchedule, dialect, re
                        run_deck, write_sphere_data)
 from ..dem import Simulation
 from ..errors import ConfigError
-from ._common import contact_model, insert_carrying, psd_sampler, typed
+from ._common import contact_model, insert_carrying, mean_sphere_volume, psd_sampler, typed
 from ._rundir import RunLayout, marks_failure
 from .schema import config_dict
 from .repose_measure import (ReposeReplicate, _finished_replicate, _record_replicate,
@@ -201,9 +201,7 @@ def repose_inputs(cfg, *, seed: int):
                      v_max=cfg.time.v_max, min_radius=draw.r_min, n_threads=1, seed=seed)
     n_want = int(rc.n_particles)
     if n_want <= 0:  # as repose_replicate: fill_fraction of the box at a packing fraction of 0.6
-        r = draw(20000, np.random.default_rng(0))
-        v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
-        n_want = int(0.6 * L * W * H * float(rc.fill_fraction) / v_mean)
+        n_want = int(0.6 * L * W * H * float(rc.fill_fraction) / mean_sphere_volume(draw))
     left = insert_carrying(sim, n_want, [], draw, ((0.0, 0.0, 0.0), (L, W, H)))
     if sim.n_particles < n_want:   # the radii that found no room first (the PSD kept)
         insert_carrying(sim, n_want - sim.n_particles, left, draw,

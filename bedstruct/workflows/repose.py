@@ -22,8 +22,8 @@ import time as _time
 import numpy as np
 
 from ..errors import ConfigError
-from ._common import (check_engine, contact_model, insert_carrying, progress_bar, psd_sampler,
-                      side_walls, typed, width_bounds)
+from ._common import (check_engine, contact_model, insert_carrying, mean_sphere_volume,
+                      progress_bar, psd_sampler, side_walls, typed, width_bounds)
 from ._resume import resumable_simulation, run_in_frames
 from ._rundir import RunLayout, clear_run, marks_failure
 from .config import check_run_geometry
@@ -92,9 +92,7 @@ def repose_replicate(cfg, *, seed: int, cohesion: float | None = None, layout=No
     t0 = _time.perf_counter()
     n_want = int(rc.n_particles)
     if n_want <= 0:  # auto: fill_fraction of the box at a packing fraction of 0.6
-        r = draw(20000, np.random.default_rng(0))
-        v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
-        n_want = int(0.6 * L * W * H * float(rc.fill_fraction) / v_mean)
+        n_want = int(0.6 * L * W * H * float(rc.fill_fraction) / mean_sphere_volume(draw))
     region_top = H * 1.0
     n_inserted = 0   # every particle inserted, also those lost while the box fills
 

@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from ._common import (contact_model, insert_carrying, progress_bar, psd_sampler, side_walls, typed,
-                      width_bounds)
+from ._common import (contact_model, insert_carrying, mean_sphere_volume, progress_bar, psd_sampler,
+                      side_walls, typed, width_bounds)
 from ._resume import resumable_simulation
 from .schema import config_dict
 
@@ -42,9 +42,7 @@ def generate_pile(cfg, *, seed: int, draw=None, checkpoint=None, progress: bool 
     draw = psd_sampler(cfg) if draw is None else draw
     Lp, W = float(sc.pile_length), float(sc.width)
     n = int(sc.pile_particles)
-    r = draw(20000, np.random.default_rng(0))
-    v_mean = float(np.mean(4.0 / 3.0 * np.pi * r ** 3))
-    h_est = n * v_mean / (0.55 * Lp * W)
+    h_est = n * mean_sphere_volume(draw) / (0.55 * Lp * W)
     top = 3.0 * h_est + 20 * draw.r_max
     walled = bool(sc.side_walls)
     ylo, yhi, ybound = width_bounds(W, walls=walled, margin=4 * draw.r_max)
