@@ -53,12 +53,16 @@ class _NeighbourList:
             if self._periodic[a] and nc[a] < 3:
                 raise ConfigError(f"periodic box length along {'xyz'[a]} ({self._L[a]:.3g} m) must "
                                   f"be at least 3 neighbour cutoffs (3 x {cut:.3g} m)")
-            # limit the number of cells for very sparse systems
-        while np.prod(nc) > max(8 * self.n_particles, 1000):
-            nc = np.maximum(1, nc // 2)
-            for a in range(3):
-                if self._periodic[a] and nc[a] < 3:
-                    nc[a] = 3
+        # a sparse system in a large box: coarsen the axis with the most cells until the
+        # grid has at most max(32 n, 32768) cells (the cell sort and its offsets scale
+        # with the number of cells, the pair search with the particles per cell)
+        cap = max(32 * self.n_particles, 32768)
+        while np.prod(nc) > cap:
+            free = [a for a in range(3) if nc[a] > (3 if self._periodic[a] else 1)]
+            if not free:
+                break
+            a = max(free, key=lambda k: nc[k])
+            nc[a] = max(3 if self._periodic[a] else 1, nc[a] // 2)
         return nc, self._L / nc
 
     def _extra_cutoff(self) -> float:
