@@ -221,3 +221,20 @@ def test_a_file_without_a_calibration_observable_is_refused_before_any_run(tmp_p
     with pytest.raises(ConfigError, match=r"held\.toml: no observable has role 'calibrate'"):
         diagnose(load_measurements(f), lambda *a: calls.append(a), base=BASE_PARAMETERS)
     assert calls == []
+
+
+@pytest.mark.parametrize("name, dose", [("blind-engine-tiny-probed2", "count"),
+                                        ("blind-engine-tiny-dosed", "volume")])
+def test_blind_benchmark_configurations_state_how_piles_are_dosed(name, dose):
+    # the recorded batches replay with piles of a fixed sphere count; the dosed batch's
+    # file spreads the base pile's solid volume whatever the size distribution
+    from pathlib import Path
+    from bedstruct.diagnose import load_measurements
+    root = Path(__file__).resolve().parents[2] / "data" / "measurements"
+    cfg = load_sim_config(root / f"{name}.sim.toml")
+    assert cfg.bridge["engine"] == "liggghts" and cfg.bridge["probes"] == "reference"
+    sim = make_simulator(cfg, load_measurements(root / "seed-angles.toml"))
+    assert sim.pile_dose == dose
+    base = sim.run_config(dict(cfg.base), {}, 0)["spread"]["pile_particles"]
+    fines = sim.run_config(dict(cfg.base), {"missing_fines": 0.12}, 0)["spread"]["pile_particles"]
+    assert (fines == base) if dose == "count" else (fines > 1.5 * base)
