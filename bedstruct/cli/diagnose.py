@@ -133,15 +133,15 @@ _OPTIONS = [
                    "rounds simulating the leading effects at their fits")),
     (("--top-up",), dict(type=_rounds, default=None, metavar="N"),
      dict.fromkeys(("diagnose", "validate"), "seeds added where identifiability is marginal")),
-    (("--diagnose-setting",), dict(action="append", default=None, metavar="KEY=VALUE"),
-     {"benchmark": "replace a diagnosis setting (tests only; recorded)"}),
+    # replaces a diagnosis setting (recorded in the benchmark); for tests, so left out of --help
+    (("--diagnose-setting",), dict(action="append", default=None, metavar="KEY=VALUE"), {}),
     (("--score",), dict(nargs="+", metavar="DIR", default=None),
      {"benchmark": "score sealed benchmark folders (together when several); run nothing"}),
     (("--rediagnose",), dict(nargs="+", metavar=("DIR", "TWIN"), default=None),
      {"benchmark": "diagnose a sealed folder's twins again and compare; run nothing"}),
     (("--json",), dict(action="store_true"),
-     {"diagnose": "print the answer as one JSON line last",
-      "validate": "print the scores as one JSON line last",
+     {"diagnose": "print the answer as one line of JSON instead of in words",
+      "validate": "print the scores as one line of JSON instead of the table",
       "benchmark": "print the summary as one JSON line last"}),
     (("--progress",), dict(action="store_true"),
      dict.fromkeys(("diagnose", "validate"), "show progress bars")),
@@ -161,14 +161,26 @@ def _add_options(parser, mode: str, *, defaults: bool) -> None:
         parser.add_argument(*flags, **kw)
 
 
+class _OptionalModeFormatter(argparse.RawDescriptionHelpFormatter):
+    """Help formatter whose usage line shows an optional mode as optional: ``[MODE ...]``."""
+
+    def _format_args(self, action, default_metavar):
+        text = super()._format_args(action, default_metavar)
+        if action.nargs == argparse.PARSER and not action.required:
+            return f"[{text}]"
+        return text
+
+
 def add_arguments(parser) -> None:
     """The options of ``bedstruct diagnose`` and its modes ``validate`` and ``benchmark``.
 
     Each mode is a subparser whose help lists its own options; an option given before
-    the mode's name reaches the mode as well.
+    the mode's name reaches the mode as well. The mode is optional (without one: the
+    diagnosis), and the usage line says so.
     """
+    parser.formatter_class = _OptionalModeFormatter
     _add_options(parser, "diagnose", defaults=True)
-    sub = parser.add_subparsers(dest="action", metavar="MODE",
+    sub = parser.add_subparsers(dest="action", metavar="MODE", required=False,
                                 help="without one: the diagnosis")
     for mode, (line, description) in _MODES.items():
         p = sub.add_parser(mode, help=line, description=description,

@@ -131,17 +131,21 @@ def quantity_text(value: float, unit: str, kind: str = "", *, sigma: float | Non
 def difference_text(diff: float, value: float, unit: str, kind: str = "") -> str:
     """A signed difference of two values of an observable, in the unit ``value`` is shown in.
 
+    A difference of values shown in % is said in percentage points.
+
     Examples
     --------
     >>> difference_text(-2.6e-6, 1.01e-3, "m", "bed_height")
     '-0.0026 mm'
     >>> difference_text(0.46, 30.0, "deg")
     '+0.46 deg'
+    >>> difference_text(-0.004, 0.55, "1", "packing_fraction")
+    '-0.4 percentage points'
     """
     if not math.isfinite(diff):
         return "n/a"
     f, u = _unit_of(value, unit, kind)
-    return f"{_num(diff * f, 2, signed=True)} {u}".strip()
+    return f"{_num(diff * f, 2, signed=True)} {_difference_unit(u)}".strip()
 
 
 def magnitude_text(effect, value: float, interval=None) -> str:
@@ -230,14 +234,30 @@ def _observable_words(row: dict) -> str:
     return name if comp in ("value", "") else f"{name}, {_component_words(comp)}"
 
 
+def _difference_unit(unit: str) -> str:
+    """The unit a difference of two values shown in ``unit`` is said in.
+
+    A difference of two percentages is in percentage points: "1.8 %" would read as a
+    relative change.
+    """
+    return "percentage points" if unit == "%" else unit
+
+
 def _gap_words(row: dict) -> str:
-    """Where the measurement lies against the simulation, in its natural unit and in words."""
+    """Where the measurement lies against the simulation, in its natural unit and in words.
+
+    Examples
+    --------
+    >>> _gap_words(dict(z=3.0, real=0.55, simulated=0.5324, unit="1", kind="packing_fraction"))
+    '1.8 percentage points above the simulation, 3.0× the uncertainty'
+    """
     z = row["z"]
     if not math.isfinite(z):
         return "not observed in the simulation"
     if abs(z) < _WITHIN_NOISE:
         return "within noise"
     f, u = _unit_of(row["real"], row["unit"], row["kind"])
+    u = _difference_unit(u)
     diff = abs(row["real"] - row["simulated"]) * f
     return (f"{_num(diff, 2)}{(' ' + u) if u else ''} {'above' if z > 0 else 'below'} the "
             f"simulation, {abs(z):.1f}× the uncertainty")
@@ -377,6 +397,19 @@ def _unexplained_words(diag) -> str:
     att, sh = diag.attribution, diag.shrink
     if sh.magnitudes:
         names = " together with ".join(_effect_words(diag, e, a) for e, a in sh.magnitudes.items())
+        gof = float(diag.settings.get("gof_alpha", 0.01))
+        held = float(diag.settings.get("heldout_alpha", 0.1))
+        readings_ok = not (sh.p_rerun_calibration < gof or sh.p_rerun_heldout < held)
+        if readings_ok and sh.p_rerun_trials < gof and sh.trial_rows:
+            row = sh.trial_rows[0]
+            pools = [(int(k), int(n)) for k, n in row["pools"]]
+            runs = (f"none of the simulation's {max(n for _, n in pools)} runs"
+                    if all(k == 0 for k, _ in pools) else
+                    " or ".join(f"{k} of {n}" for k, n in pools) + " of the simulation's runs")
+            return (f"the best candidate, {names}, fits the calibration observables and its "
+                    f"rerun reproduces the readings, but not the trials that gave none: "
+                    f"{row['observable'].replace('_', ' ')} gave no reading in {row['unread']} of "
+                    f"your {row['trials']} trials and in {runs}")
         worst = sh.rerun_worst[0] if sh.rerun_worst else None
         where_ = (f", furthest on {_observable_words(worst)}" if worst is not None else "")
         return (f"the best candidate, {names}, fits the calibration observables, but the "

@@ -69,9 +69,17 @@ def candidate_design(effects: Sequence[Effect], existing: MeasurementSet | None 
 
 
 def diagnosis_design(measurements: MeasurementSet, effects: Sequence[Effect]) -> MeasurementSet:
-    """Measured observables (calibrate, validate) followed by candidate measurements."""
+    """The observables a diagnosis simulates.
+
+    The measured observables (calibrate, validate), then those the file tried but read in
+    none of their trials (the simulator must give them for the trial check,
+    :mod:`~bedstruct.diagnose.trial_counts`), then candidate measurements of what is in
+    neither.
+    """
     measured = measurements.select(("calibrate", "validate"))
-    return measured.merged(candidate_design(effects, measured))
+    tried = tuple(m for m in measurements.unmeasured if m.role in ("calibrate", "validate"))
+    design = replace(measured, measurements=measured.measurements + tried, unmeasured=())
+    return design.merged(candidate_design(effects, design))
 
 
 def _measured_vectors(measurements: MeasurementSet, fps: FingerprintSet):

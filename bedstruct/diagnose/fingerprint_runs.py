@@ -302,7 +302,11 @@ def _fingerprint_set(*, design, names, base, nuisance, steps, effects, alpha, si
     design = design.__class__(tuple(design[n] for n in keep_names), design.title, design.source,
                               design.path, design.notes)
     roles = design.roles()
-    rows_cal, rows_val, rows_cand = roles == "calibrate", roles == "validate", roles == "candidate"
+    # an observable the file tried but read in no trial has no uncertainty: it is simulated
+    # for the trial check only, and neither calibrates nor validates
+    stated = np.isfinite(_design_sigma(design, keep_names))
+    rows_cal, rows_val = (roles == "calibrate") & stated, (roles == "validate") & stated
+    rows_cand = roles == "candidate"
     if not rows_cal.any():
         raise ConfigError(f"the simulator could not observe any calibration observable often "
                           f"enough to fingerprint it ({unobservable})")

@@ -17,6 +17,7 @@ source (inline, replicates, CSV, images) in :mod:`bedstruct.diagnose.measurement
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 from typing import Any, Mapping
@@ -27,7 +28,16 @@ from ..errors import ConfigError
 from .measurement_parse import (_check_plausible, _conditions, _convert, _err, _float_array,
                                 _setup, _string, _table, _trials)
 from .measurement_values import _source_values
-from .measurements import _UNIT, KIND_CONDITIONS, KINDS, ROLES, Measurement, MeasurementSet
+from .measurements import (_UNIT, KIND_CONDITIONS, KINDS, PLAUSIBLE, ROLES, Measurement,
+                           MeasurementSet)
+
+#: Built-in kinds of one component: one number per observable (other layers, regions or
+#: speeds are observables of their own; repeated readings go in ``replicates``).
+ONE_COMPONENT = tuple(k for k in KIND_CONDITIONS if k not in ("dynamic_angle_series", "psd"))
+#: Smallest relative uncertainty a powder measurement is taken to have: below it the
+#: uncertainty was almost always written in another unit than the value (a fraction
+#: beside a value in %).
+MIN_RELATIVE_UNCERTAINTY = 5e-4
 
 __all__ = ["load_measurements", "write_measurements", "measurement_from_dict"]
 
@@ -206,6 +216,10 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
             sem = _convert(sem, unit, kind, where)[0]
 
     n = len(values)
+    if kind in ONE_COMPONENT and n != 1:
+        raise _err(where, f"key {src!r}: a {kind} is one number, got {n}; repeated readings go "
+                          f"in 'replicates = [...]', and another layer, region or speed is an "
+                          f"observable of its own")
     if windows is not None and len(windows) != n:
         raise _err(where, f"key 'windows': {len(windows)} windows but {n} values")
     if percentiles is not None and len(percentiles) != n:
@@ -220,6 +234,7 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
         if len(unc) != n:
             raise _err(where, f"key 'uncertainty': expected 1 or {n} values; got {len(unc)}")
         unc, note = _convert(unc, file_unit, kind, where)
+        stated_unc = unc
         if note and from_image:
             conversions.append(f"uncertainty: {note}")
         if np.any(~np.isfinite(unc)) or np.any(unc <= 0):
@@ -274,6 +289,8 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
                     raise _err(where, "key 'replicates': the replicates of one percentile scatter "
                                       "more than the percentiles differ; each row must be one "
                                       "reading of all percentiles (the layout looks transposed)")
+        if "uncertainty" in d and PLAUSIBLE.get(kind, (0.0,))[0] > 0:
+            _check_uncertainty(values, stated_unc, file_unit, where)
 
     labels = d.get("labels")
     if labels is None:
@@ -294,6 +311,13 @@ def measurement_from_dict(d: Mapping[str, Any], *, base_dir: Path | str | None =
     if twice:
         raise _err(where, f"key 'labels': {twice[0]!r} labels more than one component; each "
                           f"component needs a label of its own")
+    if percentiles is not None:
+        for lab, pc in zip(labels, percentiles):
+            named = re.fullmatch(r"[dD]_?(\d+(?:\.\d+)?)", lab.strip())
+            if named and float(named.group(1)) != float(pc):
+                raise _err(where, f"key 'labels': {lab!r} labels the {pc:g}th percentile; give "
+                                  f"the labels in the order of 'percentiles' "
+                                  f"({', '.join(f'{x:g}' for x in percentiles)})")
     return Measurement(name=name, kind=kind, values=values, uncertainty=unc, labels=labels,
                        conditions=cond, role=role, windows=windows, percentiles=percentiles,
                        replicates=replicates, note=str(d.get("note", "")),
@@ -309,6 +333,27 @@ def _identity(m: Measurement):
                   for a in (m.windows, m.percentiles) if a is not None)
     return (m.kind, repr(sorted(m.conditions.as_dict().items())), tuple(m.values.tolist()),
             tuple(m.uncertainty.tolist()), extra)
+
+
+def _check_uncertainty(values, unc, unit: str, where: str) -> None:
+    """A stated uncertainty (canonical unit) of the order a measurement can have, else an
+    error that names the likely unit slip."""
+    v = np.abs(np.asarray(values, dtype=float))
+    f = _UNIT[unit][1] if unit in _UNIT else 1.0
+    u = "" if unit == "1" else f" {unit}"
+    big = unc > v
+    if np.any(big):
+        i = int(np.flatnonzero(big)[0])
+        raise _err(where, f"key 'uncertainty': {unc[i] / f:g}{u} is larger than the value "
+                          f"{v[i] / f:g}{u}; the uncertainty is one standard deviation in "
+                          f"the observable's unit ({unit!r}), as the value")
+    small = unc < MIN_RELATIVE_UNCERTAINTY * v
+    if np.any(small):
+        i = int(np.flatnonzero(small)[0])
+        raise _err(where, f"key 'uncertainty': {unc[i] / f:g}{u} is {unc[i] / v[i]:.2%} of "
+                          f"the value {v[i] / f:g}{u}, finer than a powder measurement is; "
+                          f"the uncertainty is one standard deviation in the observable's unit "
+                          f"({unit!r}), as the value")
 
 
 def load_measurements(path, *, check_range: bool = True) -> MeasurementSet:

@@ -38,7 +38,8 @@ def _number(v, where: str, key: str, *, positive: bool = False, unit: str = "") 
     """A plain number from the file (not a string, not a boolean)."""
     u = f" {unit}" if unit else ""
     if not _is_number(v):
-        hint = " (write the number alone; units go in the documented unit)" if isinstance(v, str) else ""
+        hint = ((f" (write the number alone, in {unit.strip('()')})" if unit else
+                 " (write the number alone)") if isinstance(v, str) else "")
         raise _err(where, f"key {key!r}: expected a number{u}; got {v!r}{hint}")
     x = float(v)
     if not math.isfinite(x) or (positive and not x > 0):
@@ -143,7 +144,8 @@ def _check_plausible(values, kind: str, unit: str, stated_unit: bool, where: str
     shown = ", ".join(f"{x:g}" for x in v[bad][:3])
     u = "" if canonical == "1" else f" {canonical}"
     how = f"unit {unit!r}" if stated_unit else f"no 'unit' given, read in {unit!r}"
-    msg = f"key {key!r}: implausible {kind} {shown}{u} ({how}); expected {lo:g} < value < {hi:g}{u}"
+    low = "0 <= value" if -1e-9 < lo <= 0 else f"{lo:g} < value"
+    msg = f"key {key!r}: implausible {kind} {shown}{u} ({how}); expected {low} < {hi:g}{u}"
     if fits:
         msg += f"; the values fit unit = {fits[0]!r}: is that their unit?"
     elif np.any(v <= 0) and lo >= 0:
@@ -221,12 +223,16 @@ def _conditions(d: Mapping[str, Any] | None, where: str, conversions: list | Non
                     raise _err(where, f"key 'conditions.stage': expected 'before' or 'after'; got {v!r}")
             else:
                 plain = _is_number(v)
-                v = _scalar_quantity(v, where, f"conditions.{k}", _LENGTH_UNITS, what="length",
-                                     conversions=conv) \
-                    if k == "box_width" and not plain else _number(v, where, f"conditions.{k}")
+                units, what, si = {"box_width": (_LENGTH_UNITS, "length", "(m)"),
+                                   "rest_time": (_TIME_UNITS, "time", "(s)"),
+                                   "relative_humidity": (_FRACTION_UNITS, "fraction",
+                                                         "(a fraction 0-1)")}[k]
+                v = _number(v, where, f"conditions.{k}", unit=si) if plain else \
+                    _scalar_quantity(v, where, f"conditions.{k}", units, what=what,
+                                     conversions=conv)
                 if k == "relative_humidity" and not 0 <= v <= 1:
                     raise _err(where, f"key 'conditions.relative_humidity': expected 0..1 (a "
-                                      f"fraction, not %); got {v}")
+                                      f"fraction, or a string such as \"45 %\"); got {v:g}")
                 if k == "rest_time" and v < 0:
                     raise _err(where, f"key 'conditions.{k}': must be >= 0; got {v}")
                 if k == "box_width" and not v > 0:
@@ -245,6 +251,17 @@ _CONDITION_UNITS = {"speed": ("m/s", (("cm/s", 1e-2), ("mm/s", 1e-3))),
                     **{k: ("m", (("mm", 1e-3), ("um", 1e-6))) for k in PLAUSIBLE_SETUP}}
 
 
+def _natural(v: float, unit: str) -> str:
+    """An SI length or speed in the unit a person reads it in (um, mm, m; mm/s, m/s)."""
+    if unit == "m" and 0 < abs(v) < 1e-3:
+        return f"{v * 1e6:.4g} um"
+    if unit == "m" and 0 < abs(v) < 1.0:
+        return f"{v * 1e3:.4g} mm"
+    if unit == "m/s" and 0 < abs(v) < 0.1:
+        return f"{v * 1e3:.4g} mm/s"
+    return f"{v:.4g} {unit}"
+
+
 def _check_condition(v: float, name: str, where: str, key: str, plain: bool) -> None:
     """A condition (SI) inside its plausible range, else an error; a plain number (no unit
     written) that would fit in another unit gets that unit as a hint."""
@@ -252,8 +269,9 @@ def _check_condition(v: float, name: str, where: str, key: str, plain: bool) -> 
     if lo <= v <= hi:
         return
     unit, alternatives = _CONDITION_UNITS[name]
-    msg = (f"key {key!r}: implausible {name.replace('_', ' ')} {v:g} {unit}; expected "
-           f"{lo:g} to {hi:g} {unit}")
+    shown = f"{v:g} {unit}" if plain else _natural(v, unit)
+    msg = (f"key {key!r}: implausible {name.replace('_', ' ')} {shown}; expected "
+           f"{_natural(lo, unit)} to {_natural(hi, unit)}")
     fits = _units_that_fit(v, lo, hi, alternatives, closed=True) if plain else []
     if fits:
         msg += f"; is it in {' or '.join(fits)}? write \"{v:g} {fits[0]}\""
@@ -328,6 +346,11 @@ def _trials(d: Mapping[str, Any], where: str, role: str):
 _SPEED_UNITS = {"m/s": 1.0, "cm/s": 1e-2, "mm/s": 1e-3, "um/s": 1e-6, "µm/s": 1e-6,
                 "μm/s": 1e-6}
 _LENGTH_UNITS = {u: f for u, (dim, f) in _UNIT.items() if dim == "length"}
+_TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
+_FRACTION_UNITS = {"%": 1e-2, "1": 1.0}
+#: Per kind of quantity: its SI unit, an example, and whether it must be above zero.
+_QUANTITY = {"length": ("m", "18.9 mm", True), "speed": ("m/s", "2.54 cm/s", True),
+             "time": ("s", "10 min", False), "fraction": ("1", "45 %", False)}
 _SETUP_KEYS = ("psd", "layers", "layer_thickness", "blade_speed", "platform_length",
                "platform_width", "side_walls", "wall_distance")
 #: The most layers a file's set-up may ask for.
@@ -338,7 +361,8 @@ def _quantity(v, where: str, key: str, units: Mapping[str, float], *, what: str,
               conversions: list) -> np.ndarray:
     """Numbers with their unit, in SI: ``"18.9 mm"``, a list of such strings, or
     ``{value = 18.9, unit = "mm"}`` (``value`` a number or a list of numbers)."""
-    example = f'"{18.9 if what == "length" else 2.54} {"mm" if what == "length" else "cm/s"}"'
+    si, example, positive = _QUANTITY[what]
+    example = f'"{example}"'
     expected = (f"a {what} with its unit, e.g. {example} or {{value = ..., unit = ...}} "
                 f"(units: {', '.join(units)})")
     if isinstance(v, Mapping):
@@ -369,13 +393,14 @@ def _quantity(v, where: str, key: str, units: Mapping[str, float], *, what: str,
         if unit not in units:
             raise _err(where, f"key {key!r}: unknown {what} unit {unit!r}; expected one of "
                               f"{', '.join(units)}")
-        if not (math.isfinite(x) and x > 0):
-            raise _err(where, f"key {key!r}: expected a positive {what}; got {x:g} {unit}")
+        if not (math.isfinite(x) and (x > 0 if positive else x >= 0)):
+            raise _err(where, f"key {key!r}: expected a {'positive' if positive else 'non-negative'} "
+                              f"{what}; got {x:g} {unit}")
         f = units[unit]
         # a decimal prefix divides by its (exact) reciprocal: "100 um" is 1e-4 m exactly
         out.append(x / round(1.0 / f) if f < 1.0 and float(round(1.0 / f)) * f == 1.0 else x * f)
         if f != 1.0:
-            note = f"{key}: {unit} -> {'m' if what == 'length' else 'm/s'}"
+            note = f"{key}: {unit} -> {si}"
             if note not in conversions:
                 conversions.append(note)
     return np.asarray(out, dtype=float)
@@ -454,6 +479,9 @@ def _setup_psd(v, where: str, base_dir: Path, conversions: list):
                                  conversions=conversions)
              for k in v if k not in ("diameters", "cumulative")}
         d10, d50, d90 = q["d10"], q["d50"], q["d90"]
+        if not d10 < d50 < d90:
+            raise _err(where, f"key {key!r}: expected d10 < d50 < d90; got "
+                              f"{', '.join(str(v[k]) for k in ('d10', 'd50', 'd90'))}")
         # default truncation: as wide again as the D10-D90 span's outer parts
         d_min = q.get("d_min", max(d10 - (d50 - d10), 0.5 * d10))
         d_max = q.get("d_max", d90 + (d90 - d50))

@@ -68,11 +68,12 @@ KIND_CONDITIONS: dict[str, tuple[str, ...]] = {
 
 #: Plausible values per kind, canonical units: ``lo < value < hi`` (checked when a
 #: measurement file is read; a value outside is almost always a unit mistake, e.g. sizes
-#: in mm labelled ``um``). ``tool_force_ratio`` (a signed ratio) and ``segregation_index``
-#: (0 for a mixed bed) are not range-checked.
+#: in mm labelled ``um``). ``tool_force_ratio`` (a signed ratio) is not range-checked;
+#: ``segregation_index``, a coefficient of variation, is 0 for a mixed bed and never negative.
 PLAUSIBLE: dict[str, tuple[float, float]] = {
     "static_angle": (5.0, 90.0), "dynamic_angle_series": (5.0, 90.0),   # deg
-    "packing_fraction": (0.01, 0.9), "coordination": (0.1, 20.0),
+    "packing_fraction": (0.05, 0.9), "coordination": (0.1, 20.0),
+    "segregation_index": (-1e-12, 2.0),
     "bed_height": (1e-6, 0.1), "psd": (1e-6, 1e-2), "roughness": (1e-7, 1e-3),   # m
 }
 

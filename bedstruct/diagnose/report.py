@@ -10,7 +10,7 @@ import re
 
 from .._version import __version__
 from .answer import (_MAGNITUDE_WORDS, _PARAMETER_WORDS, _component_words, _num, _observable_words,
-                     _unit_of, answer, difference_text, quantity_text)
+                     _unit_of, answer, conditions_text, difference_text, quantity_text)
 from .diagnosis_result import identification, uneven_scatter_note
 from .separation import nearest_imitations
 
@@ -127,7 +127,7 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
         for r in w.ranked():
             f, u = _unit_of(r["real"], r["unit"], r["kind"])
             rows.append([r["observable"], _component_words(r["component"]), r["role"],
-                         r["conditions"], _fmt(r["real"] * f, 4), _fmt(r["simulated"] * f, 4),
+                         conditions_text(r["conditions"]), _fmt(r["real"] * f, 4), _fmt(r["simulated"] * f, 4),
                          _fmt(r["sigma"] * f), u, _fmt(r["z"])])
         s.tables.append(Table(["observable", "component", "role", "conditions", "real", "simulated",
                                "sigma", "unit", "z"], rows,
@@ -286,7 +286,7 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
                   "the top two models differ, in units of the noise.")
         s.tables.append(Table(["observable", "kind", "conditions", "status", "separation (sigma)",
                                "separates"],
-                              [[n.observable, n.kind, n.conditions,
+                              [[n.observable, n.kind, conditions_text(n.conditions),
                                 "measured" if n.measured else "not measured", _fmt(n.separation),
                                 " vs ".join(n.separates)] for n in diag.next]))
 
@@ -365,5 +365,6 @@ def diagnosis_report(diag, *, title: str | None = None, amortised=None):
                             ("catalogue", "Appendix: catalogue of effects", catalogue_),
                             *((("emulator", "Appendix: the emulator against the confirming rerun",
                                 emulator_),) if amortised is not None else ())):
-        rep.sections.append(run_section(key, title_, fn))
+        # "ok" beside the verdict would read as a judgement of the simulation
+        rep.sections.append(run_section(key, title_, fn, ok_badge=False))
     return rep

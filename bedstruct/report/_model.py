@@ -83,6 +83,11 @@ class Section:
     nothing to measure, e.g. no pile) or ``"not meaningful"`` (the analysis
     does not apply to this kind of input, e.g. German's law on a dilute flow;
     ``text`` gives the reason and no numbers are reported).
+
+    ``ok_badge`` says whether the HTML heading of an ``"ok"`` section shows the
+    ``ok`` badge. A section whose content is a judgement (a diagnosis's verdict)
+    leaves it out: ``ok`` beside "unexplained" would contradict it. The other
+    statuses are always shown.
     """
 
     key: str
@@ -94,6 +99,7 @@ class Section:
     text: str = ""
     error: str | None = None
     seconds: float = 0.0
+    ok_badge: bool = True
 
     def add_number(self, key: str, value, unit: str, definition: str, doc: str | None = None):
         self.numbers[key] = Quantity(value, unit, definition, doc)
@@ -185,9 +191,13 @@ def png_uri(png: bytes) -> str:
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
-def run_section(key: str, title: str, func: Callable[[Section], None]) -> Section:
-    """Run ``func(section)``; an exception marks the section failed, never the report."""
-    section = Section(key, title)
+def run_section(key: str, title: str, func: Callable[[Section], None], *,
+                ok_badge: bool = True) -> Section:
+    """Run ``func(section)``; an exception marks the section failed, never the report.
+
+    ``ok_badge`` is the section's :attr:`Section.ok_badge`.
+    """
+    section = Section(key, title, ok_badge=ok_badge)
     t0 = time.perf_counter()
     try:
         func(section)

@@ -184,8 +184,9 @@ def _quantity_scale(key: str, value, unit: str, factor: float) -> float | None:
 
 def _section_html(s: Section) -> str:
     css = s.status.replace(" ", "-")
-    parts = [f'<section id="{html.escape(s.key)}"><h2>{html.escape(s.title)}'
-             f'<span class="status {css}">{html.escape(s.status)}</span></h2>']
+    badge = ("" if s.status == "ok" and not s.ok_badge
+             else f'<span class="status {css}">{html.escape(s.status)}</span>')
+    parts = [f'<section id="{html.escape(s.key)}"><h2>{html.escape(s.title)}{badge}</h2>']
     if s.error:
         parts.append(f'<p class="error">This section failed: {html.escape(s.error)}. '
                      f'The rest of the report is unaffected.</p>')

@@ -383,7 +383,7 @@ def test_the_greek_mu_and_the_micro_sign_both_read_as_micro(tmp_path):
 @pytest.mark.parametrize("cond, key, hint", [
     ("speed = 2.54", "conditions.speed", 'is it in cm/s or mm/s? write "2.54 cm/s"'),
     ("speed = 12.7", "conditions.speed", 'write "12.7 cm/s"'),
-    ('speed = "254 cm/s"', "conditions.speed", "implausible speed 2.54 m/s; expected 0.0001 to 2"),
+    ('speed = "254 cm/s"', "conditions.speed", "implausible speed 2.54 m/s; expected 0.1 mm/s to 2 m/s"),
     ("speed = 1e-6", "conditions.speed", "implausible speed 1e-06 m/s"),
 ])
 def test_implausible_speeds_are_errors_with_a_unit_hint(tmp_path, cond, key, hint):
@@ -393,7 +393,7 @@ def test_implausible_speeds_are_errors_with_a_unit_hint(tmp_path, cond, key, hin
 
 
 @pytest.mark.parametrize("cond, hint", [
-    ("box_width = 30", 'implausible box width 30 m; expected 0.0001 to 1 m; is it in mm? '
+    ("box_width = 30", 'implausible box width 30 m; expected 100 um to 1 m; is it in mm? '
                        'write "30 mm"'),
     ("box_width = 0.0", "must be > 0"),
     ('box_width = "3 m"', "implausible box width 3 m"),
@@ -536,3 +536,52 @@ def test_an_observable_read_in_no_trial_has_no_uncertainty(tmp_path):
                                 '[[observable]]\nname = "b"\nkind = "static_angle"\n'
                                 'value = 33.0\nuncertainty = 1.0\n')
     assert [m.name for m in load_measurements(p).unmeasured] == ["a"]
+
+
+# --------------------------------------------------------------------------- 9. slips a file can hide
+
+@pytest.mark.parametrize("body, key, message", [
+    # repeated readings written as components of a one-number kind
+    ('kind = "static_angle"\nunit = "deg"\nvalue = [33.0, 34.5, 32.1]\nuncertainty = 1.0\n',
+     "value", "a static_angle is one number, got 3; repeated readings go in 'replicates"),
+    # an uncertainty in another unit than the value: larger than the value, or far finer
+    ('kind = "bed_height"\nunit = "mm"\nvalue = 0.508\nuncertainty = 10.0\n'
+     '[observable.conditions]\nlayer = 1\n',
+     "uncertainty", "10 mm is larger than the value 0.508 mm"),
+    ('kind = "packing_fraction"\nunit = "%"\nvalue = 55.0\nuncertainty = 0.015\n'
+     '[observable.conditions]\nlayer = 1\n',
+     "uncertainty", "0.015 % is 0.03% of the value 55 %, finer than a powder measurement"),
+    # a coefficient of variation is never negative
+    ('kind = "segregation_index"\nvalue = -0.2\nuncertainty = 0.05\n'
+     '[observable.conditions]\nlayer = 1\n',
+     "value", "implausible segregation_index -0.2"),
+    # labels that name other percentiles than they label
+    ('kind = "psd"\nunit = "um"\npercentiles = [10, 50, 90]\nlabels = ["D90", "D50", "D10"]\n'
+     'value = [30.0, 52.0, 86.0]\nuncertainty = 1.0\n',
+     "labels", "'D90' labels the 10th percentile"),
+])
+def test_slips_that_would_give_wrong_numbers_are_errors(tmp_path, body, key, message):
+    p = _write(tmp_path, HEAD + body)
+    _refused(p, key, re.escape(message))
+
+
+def test_a_packing_fraction_above_one_is_not_offered_percent(tmp_path):
+    """1.2 read as % would be 0.012, no packing of a powder bed: the error names the range
+    and suggests no unit."""
+    p = _write(tmp_path, HEAD + 'kind = "packing_fraction"\nunit = "1"\nvalue = 1.2\n'
+                                'uncertainty = 0.02\n[observable.conditions]\nlayer = 1\n')
+    with pytest.raises(ConfigError) as info:
+        load_measurements(p)
+    assert "expected 0.05 < value < 0.9" in str(info.value) and "fit unit" not in str(info.value)
+
+
+def test_rest_times_and_humidities_take_units(tmp_path):
+    p = _write(tmp_path, HEAD + 'kind = "static_angle"\nunit = "deg"\nvalue = 35.0\n'
+                                'uncertainty = 1.0\n[observable.conditions]\n'
+                                'rest_time = "10 min"\nrelative_humidity = "45 %"\n')
+    c = load_measurements(p)["a"].conditions.as_dict()
+    assert c["rest_time"] == pytest.approx(600.0) and c["relative_humidity"] == pytest.approx(0.45)
+    bad = _write(tmp_path, HEAD + 'kind = "static_angle"\nunit = "deg"\nvalue = 35.0\n'
+                                  'uncertainty = 1.0\n[observable.conditions]\nrest_time = "10 weeks"\n',
+                 name="bad.toml")
+    _refused(bad, "conditions.rest_time", re.escape("unknown time unit 'weeks'; expected one of s, min"))

@@ -191,6 +191,29 @@ def test_a_model_that_never_gives_the_trials_without_a_reading_is_unexplained(tm
     assert np.isnan(d0.shrink.p_rerun_trials)
 
 
+def test_fingerprints_made_for_the_file_simulate_what_it_read_in_no_trial(tmp_path):
+    """Without fingerprints given, the diagnosis simulates the file's design: an observable
+    read in no trial is in it (the trial check needs its runs) and not offered as a measurement
+    to make next."""
+    from bedstruct.diagnose import diagnosis_design
+    design, sim = _mimic()
+    effects, _, twin = _twin_and_fingerprints(tmp_path, design, sim)
+    assert "o3" in diagnosis_design(twin, effects).names
+    b_only = [e for e in effects if e.name == "B"]
+    d = diagnose(twin, sim, base={"k": 1.0}, effects=b_only, nuisance=("k",), replicates=3,
+                 refine=0)
+    assert d.verdict == "unexplained" and "trials without a reading" in d.attribution.reason
+    assert d.shrink.trial_rows[0]["observable"] == "o3" and d.shrink.p_rerun_trials < 0.01
+    assert all(n.observable != "o3" for n in d.next)
+    from bedstruct.diagnose import answer
+    which = answer(d).which
+    assert "not the trials that gave none" in which and "o3 gave no reading in 3 of your 3" in which
+    a_only = [e for e in effects if e.name == "A"]
+    d_a = diagnose(twin, sim, base={"k": 1.0}, effects=a_only, nuisance=("k",), replicates=3,
+                   refine=0)
+    assert d_a.verdict == "attributed" and d_a.shrink.p_rerun_trials >= 0.01
+
+
 def test_the_model_that_gives_them_is_confirmed(tmp_path):
     design, sim = _mimic()
     effects, fps, twin = _twin_and_fingerprints(tmp_path, design, sim)

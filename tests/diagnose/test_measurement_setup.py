@@ -213,12 +213,15 @@ def test_the_surrogate_refuses_a_setup(tmp_path):
     ('side_walls = "yes"', r"'conditions\.side_walls': expected true or false"),
     ('psd = {file = "none.csv", unit = "um"}', r"'conditions\.psd\.file': file not found"),
     ('psd = {file = "psd.csv"}', r"'conditions\.psd\.unit'"),
-    ('psd = {d10 = "30 um", d50 = "20 um", d90 = "55 um"}', r"d_min < d10 < d50 < d90 < d_max"),
+    ('psd = {d10 = "30 um", d50 = "20 um", d90 = "55 um"}',
+     r"expected d10 < d50 < d90; got 30 um, 20 um, 55 um"),
+    ('psd = {d10 = "30 um", d50 = "40 um", d90 = "55 um", d_min = "35 um"}',
+     r"d_min < d10 < d50 < d90 < d_max"),
     ('psd = {d50 = "20 um"}', r"'conditions\.psd\.d10': the percentile form needs"),
     ('humidity = 0.4', r"'conditions\.humidity': unknown condition of the set-up"),
     ('layers = 10\nlayer_thickness = "100 mm"',
-     r"'conditions\.layer_thickness': implausible layer thickness 0\.1 m; expected 1e-06 to 0\.01"),
-    ('platform_length = "18.9 um"', r"implausible platform length 1\.89e-05 m"),
+     r"'conditions\.layer_thickness': implausible layer thickness 100 mm; expected 1 um to 10 mm"),
+    ('platform_length = "18.9 um"', r"implausible platform length 18\.9 um"),
     ('side_walls = true\nwall_distance = "30 m"', r"implausible wall distance 30 m"),
 ])
 def test_bad_setup_names_file_key_and_expectation(tmp_path, conditions, match):
