@@ -232,7 +232,15 @@ class Diagnosis:
                 out.append(f"{t['observable']}: no reading in {k} of its {t['trials']} trials; "
                            f"the value is the mean of the others ({sim}), and the answer's "
                            f"model must give such trials as often")
-        out += [f"{m.name}: {c}" for m in self.measurements for c in m.conversions]
+        # a conversion that many observables share (a file of 20 layers with speeds in cm/s)
+        # is said once, with the observables it applies to
+        shared: dict[str, list[str]] = {}
+        for m in self.measurements:
+            for c in m.conversions:
+                shared.setdefault(c, []).append(m.name)
+        out += [f"{', '.join(names)}: {c}" if len(names) <= 3 else
+                f"{names[0]}, {names[1]} and {len(names) - 2} more observables: {c}"
+                for c, names in shared.items()]
         out += [f"set-up: {c}" for c in self.measurements.setup.conversions]
         return out + list(self.settings.get("data_notes") or [])
 

@@ -287,3 +287,28 @@ def test_a_bad_whole_distribution_is_refused_by_key(tmp_path, table, match):
     ''')
     with pytest.raises(ConfigError, match=r"conditions\.psd.*" + match):
         load_measurements(f)
+
+
+def test_a_conversion_many_observables_share_is_one_note(tmp_path):
+    from types import SimpleNamespace
+
+    from bedstruct.diagnose import Diagnosis
+    layers = "".join(f'''
+[[observable]]
+name = "h{i}"
+kind = "bed_height"
+unit = "um"
+value = {100.0 * i}
+uncertainty = 10.0
+[observable.conditions]
+layer = {i}
+speed = "5 cm/s"
+''' for i in range(1, 7))
+    f = tmp_path / "layers.toml"
+    f.write_text('[meta]\ntitle = "six layers"\n' + layers)
+    ms = load_measurements(f)
+    view = SimpleNamespace(settings={}, measurements=ms, trials_without_reading=lambda: [])
+    notes = Diagnosis.data_notes(view)
+    speed = [n for n in notes if "cm/s -> m/s" in n]
+    assert speed == ["h1, h2 and 4 more observables: conditions.speed: cm/s -> m/s"]
+    assert len([n for n in notes if "um" in n]) == 1
