@@ -102,7 +102,8 @@ def test_json_answer_is_compact(seed_run):
     full = json.loads((out / "diagnosis.json").read_text())
     assert full["verdict"] == "attributed"
     # the data notes in full, as the docs' table of diagnosis.json says: the unit conversions
-    assert "bed_height_layer1: um -> m (x1e-06)" in full["settings"]["data_notes"]
+    assert "bed_height_layer1, bed_height_layer2 and 3 more observables: um -> m (x1e-06)" \
+        in full["settings"]["data_notes"]
 
 
 def test_docs_worked_example_is_what_the_command_prints(seed_run):
