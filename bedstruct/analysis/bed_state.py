@@ -281,7 +281,7 @@ def bed_state(frame, contacts: Contacts | None = None, *, min_contacts: int = 2,
             moving_fraction = float(np.mean(speed > threshold))
             velocities_used = True
             speed_note = (f"{moving_fraction:.0%} of particles faster than 0.1 sqrt(g d50) "
-                          f"= {threshold:.3g} {frame.units.length_unit}/s")
+                          f"= {threshold:.3g} {frame.units.velocity_unit}")
     moving = velocities_used and moving_fraction > _MIN_MOVING_FRACTION
     held = network_fraction > _MIN_NETWORK_FRACTION
     phi_name = "packing fraction" if flat is None else "area fraction"

@@ -10,14 +10,16 @@ with status 2 like argparse's own; ``--traceback`` shows the full trace.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import json
 import pkgutil
 import sys
+import warnings
 
 from .._version import __version__
 from .._json import json_default
-from ..errors import BedstructError
+from ..errors import BedstructError, BedstructWarning
 
 __all__ = ["main", "print_json", "UsageError"]
 
@@ -54,6 +56,25 @@ def build_parser() -> argparse.ArgumentParser:
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser
+
+
+@contextlib.contextmanager
+def input_warnings_as_lines(prog: str):
+    """Within the block, bedstruct's warnings (about the input) are written as one
+    ``bedstruct PROG: warning: ...`` line each, without Python's source-line echo; other
+    warnings keep Python's format. The format is replaced, not ``showwarning``, so that
+    warnings a caller records (``warnings.catch_warnings(record=True)``) stay as they are."""
+    fallback = warnings.formatwarning
+
+    def format_warning(message, category, filename, lineno, line=None):
+        if not issubclass(category, BedstructWarning):
+            return fallback(message, category, filename, lineno, line)
+        return f"bedstruct {prog}: warning: " + " ".join(str(message).split()) + "\n"
+    warnings.formatwarning = format_warning
+    try:
+        yield
+    finally:
+        warnings.formatwarning = fallback
 
 
 def print_json(obj) -> None:

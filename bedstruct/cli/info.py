@@ -35,12 +35,13 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from .. import io
-    from . import print_json
+    from . import input_warnings_as_lines, print_json
 
     on_error = "skip" if args.lenient else "raise"
-    summaries = [s for p in args.paths
-                 for s in io.summarise_all(p, radius=args.radius, columns=args.columns,
-                                           on_error=on_error)]
+    with input_warnings_as_lines("info"):
+        summaries = [s for p in args.paths
+                     for s in io.summarise_all(p, radius=args.radius, columns=args.columns,
+                                               on_error=on_error)]
     if args.json:
         print_json({"files": summaries})
     else:

@@ -19,8 +19,21 @@ UNIT_STYLES: dict[str, dict[str, float]] = {
     "micro": dict(length=1e-6, time=1e-6, mass=1e-15, velocity=1.0, force=1e-9, density=1e3),
     # LAMMPS nano: attogram (1e-21 kg), nm, ns; force ag nm/ns^2, density ag/nm^3
     "nano": dict(length=1e-9, time=1e-9, mass=1e-21, velocity=1.0, force=1e-12, density=1e6),
+    # LAMMPS real and metal: g/mol, Angstrom, fs or ps; kcal/mol/A or eV/A; g/cm^3
+    "real": dict(length=1e-10, time=1e-15, mass=1e-3 / 6.02214076e23, velocity=1e5,
+                 force=4184.0 / 6.02214076e23 / 1e-10, density=1e3),
+    "metal": dict(length=1e-10, time=1e-12, mass=1e-3 / 6.02214076e23, velocity=1e2,
+                  force=1.602176634e-19 / 1e-10, density=1e3),
+    # LAMMPS electron: amu, Bohr, fs; velocity Bohr per atomic time unit (1.03275e-15 s),
+    # force Hartree/Bohr; the style defines no density
+    "electron": dict(length=5.29177210903e-11, time=1e-15, mass=1e-3 / 6.02214076e23,
+                     velocity=5.29177210903e-11 / 1.03275e-15,
+                     force=4.3597447222071e-18 / 5.29177210903e-11),
 }
-_LENGTH_NAMES = {"si": "m", "cgs": "cm", "micro": "um", "nano": "nm"}
+_LENGTH_NAMES = {"si": "m", "cgs": "cm", "micro": "um", "nano": "nm", "real": "Å", "metal": "Å",
+                 "electron": "Bohr"}
+_VELOCITY_NAMES = {"si": "m/s", "cgs": "cm/s", "micro": "um/us", "nano": "nm/ns", "real": "Å/fs",
+                   "metal": "Å/ps", "electron": "Bohr/atu"}
 
 
 @dataclass(frozen=True)
@@ -30,8 +43,8 @@ class Units:
     Parameters
     ----------
     style : str or None
-        A LAMMPS unit style (``"si"``, ``"cgs"``, ``"micro"``, ``"nano"``,
-        ``"lj"``) or None when unknown. Default ``"si"``.
+        A LAMMPS unit style (``"si"``, ``"cgs"``, ``"micro"``, ``"nano"``, ``"real"``,
+        ``"metal"``, ``"electron"``, ``"lj"``) or None when unknown. Default ``"si"``.
     conversions : tuple of str
         A record of every conversion already applied to the data.
 
@@ -53,6 +66,11 @@ class Units:
         """Name of the length unit (``"m"``, ``"cm"``, ..., or ``"unknown"``)."""
         return _LENGTH_NAMES.get(self.style or "", "lj units" if self.style == "lj" else "unknown")
 
+    @property
+    def velocity_unit(self) -> str:
+        """Name of the velocity unit (``"m/s"``, ``"um/us"``, ``"Å/ps"``, ..., or ``"unknown"``)."""
+        return _VELOCITY_NAMES.get(self.style or "", "lj units" if self.style == "lj" else "unknown")
+
     def to_si(self, quantity: str) -> float:
         """Factor converting ``quantity`` in this style to SI.
 
@@ -63,12 +81,15 @@ class Units:
         """
         if self.style not in UNIT_STYLES:
             raise ValueError(f"units {self.style!r} have no known SI conversion; "
-                             f"state the unit system with units='si'|'cgs'|'micro'|'nano'")
+                             f"state the unit system with units='si'|'cgs'|'micro'|'nano'|"
+                             f"'real'|'metal'|'electron'")
+        if quantity not in UNIT_STYLES["si"]:
+            raise ValueError(f"unknown quantity {quantity!r}; one of "
+                             f"{sorted(UNIT_STYLES['si'])}")
         try:
             return UNIT_STYLES[self.style][quantity]
         except KeyError:
-            raise ValueError(f"unknown quantity {quantity!r}; one of "
-                             f"{sorted(UNIT_STYLES['si'])}") from None
+            raise ValueError(f"LAMMPS units {self.style!r} define no {quantity}") from None
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,10 @@ nav a{margin-right:.8em}
 """
 
 
-_LENGTH_SI = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "nm": 1e-9}
+_LENGTH_SI = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "nm": 1e-9, "Å": 1e-10,
+              "Bohr": 5.29177210903e-11}
+#: Natural display units of lengths, largest first, with the smallest size (m) each shows.
+_LENGTH_DISPLAY = (("m", 1.0), ("mm", 1e-3), ("µm", 1e-6), ("nm", 1e-9))
 _PERCENT_KEYS = ("rattler_fraction", "uncovered_fraction", "network_fraction", "moving_fraction",
                  "wall_cell_fraction")
 
@@ -121,8 +124,16 @@ def _display_unit(value, unit: str, key: str = "") -> tuple[float, str]:
     if unit in _LENGTH_SI:
         vals = _finite_values(value)
         big = max((abs(v) for v in vals), default=0.0) * _LENGTH_SI[unit]
-        target = "mm" if big >= 1e-3 else "µm"
-        return _LENGTH_SI[unit] / (1e-3 if target == "mm" else 1e-6), target
+        # mm and um cover powder beds; metres from 1 m, nm below 1 um
+        if big >= 1.0:
+            target, size = _LENGTH_DISPLAY[0]
+        elif big >= 1e-3 or big == 0.0:
+            target, size = _LENGTH_DISPLAY[1]
+        elif big >= 1e-6:
+            target, size = _LENGTH_DISPLAY[2]
+        else:
+            target, size = _LENGTH_DISPLAY[3]
+        return _LENGTH_SI[unit] / size, target
     if unit.endswith("/s") and unit[:-2] in _LENGTH_SI:
         return _LENGTH_SI[unit[:-2]] / 1e-3, "mm/s"
     if unit.startswith("1/") and unit.endswith("^3") and unit[2:-2] in _LENGTH_SI:

@@ -213,3 +213,22 @@ def test_info_lenient_names_the_frames_it_leaves_out(tmp_path, capsys):
         assert main(["info", str(path), "--lenient"]) == 0
     out = capsys.readouterr().out
     assert f"skipped: frame at timestep 100 ({path}, line {bad}): non-numeric" in out
+
+
+def test_info_lenient_warnings_are_one_line_each(tmp_path):
+    """Run as a user would (a child process, warnings shown): a frame left out is one
+    'bedstruct info: warning:' line, without Python's warning format and source line."""
+    import os
+    import subprocess
+    import sys
+    path = tmp_path / "cut.dump"
+    write_dump(path, [Frame([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5]], [0.25, 0.25], box=[2, 1, 1],
+                            timestep=t) for t in (0, 100)])
+    path.write_text(path.read_text()[:-4])
+    run = subprocess.run([sys.executable, "-m", "bedstruct", "info", str(path), "--lenient"],
+                         capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "PYTHONWARNINGS": "default"})
+    assert run.returncode == 0, run.stderr
+    lines = run.stderr.splitlines()
+    assert lines and all(line.startswith("bedstruct info: warning: ") for line in lines), run.stderr
+    assert "BedstructWarning" not in run.stderr and ".py:" not in run.stderr

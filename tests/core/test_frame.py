@@ -52,9 +52,10 @@ def test_to_si_records_conversion():
         Units("lj").to_si("length")
 
 
-@pytest.mark.parametrize("style", sorted(UNIT_STYLES))
+@pytest.mark.parametrize("style", ["si", "cgs", "micro", "nano"])
 def test_unit_styles_are_dimensionally_consistent(style):
-    # velocity = L/T, force = M L/T^2, density = M/L^3 in every style
+    # velocity = L/T, force = M L/T^2, density = M/L^3 in the coherent styles (real, metal
+    # and electron take force from kcal/mol, eV or Hartree and density in g/cm^3: tested below)
     u = UNIT_STYLES[style]
     assert u["velocity"] == pytest.approx(u["length"] / u["time"], rel=1e-12)
     assert u["force"] == pytest.approx(u["mass"] * u["length"] / u["time"] ** 2, rel=1e-12)
@@ -93,3 +94,35 @@ def test_contacts_geometry_and_counts():
 def test_scalar_radius_broadcasts():
     f = Frame(np.zeros((3, 3)), 0.5, box=[2, 2, 2])
     assert f.radii.tolist() == [0.5, 0.5, 0.5]
+
+
+def test_every_lammps_unit_style_but_lj_has_its_si_factors():
+    """The styles a reader accepts all convert: real and metal in Angstrom, electron in Bohr."""
+    from bedstruct.core import UNIT_STYLES, Units
+    from bedstruct.io._text import LAMMPS_UNIT_STYLES
+    assert set(LAMMPS_UNIT_STYLES) - {"lj"} == set(UNIT_STYLES)
+    metal, real, electron = Units("metal"), Units("real"), Units("electron")
+    assert metal.length_unit == "Å" and metal.to_si("length") == 1e-10
+    assert metal.velocity_unit == "Å/ps" and metal.to_si("velocity") == pytest.approx(100.0)
+    assert real.to_si("time") == 1e-15 and real.to_si("velocity") == pytest.approx(1e5)
+    # kcal/mol/A and eV/A in newtons; g/mol in kg
+    assert real.to_si("force") == pytest.approx(6.9477e-11, rel=1e-4)
+    assert metal.to_si("force") == pytest.approx(1.602176634e-9)
+    assert metal.to_si("mass") == pytest.approx(1.66053907e-27, rel=1e-8)
+    # velocity = length / time in every style but electron's atomic time unit
+    for style in set(UNIT_STYLES) - {"electron"}:
+        u = UNIT_STYLES[style]
+        assert u["velocity"] == pytest.approx(u["length"] / u["time"]), style
+    assert electron.length_unit == "Bohr" and electron.velocity_unit == "Bohr/atu"
+    with pytest.raises(ValueError, match="define no density"):
+        electron.to_si("density")
+    with pytest.raises(ValueError, match="unknown quantity"):
+        metal.to_si("charge")
+
+
+def test_report_lengths_in_natural_units_from_nm_to_m():
+    from bedstruct.report._render import _display_unit
+    assert _display_unit(0.5, "nm") == (pytest.approx(1.0), "nm")
+    assert _display_unit(5.0, "Å")[1] == "nm"
+    assert _display_unit(2.1, "m") == (pytest.approx(1.0), "m")
+    assert _display_unit(25e-6, "m")[1] == "µm" and _display_unit(2e-3, "m")[1] == "mm"
