@@ -9,6 +9,11 @@ spectrum, angle of repose (when a pile is present) and, with --heat,
 heat-affected-zone roundness. A section that fails
 is reported as failed; the rest still renders. Prints where it wrote the
 report and what the input is (settled bed, pile, moving bed, dilute flow).
+Warnings about the input go to stderr and the report's input table: contact
+files whose pairs do not touch, input files that do not follow one another
+(timesteps not increasing, particle count or box changing), and a unit
+system the file does not state. With several frames selected, the sections
+describe the last; the others fill the table of frames.
 Exit status 0 when the report was written (even with failed sections), 1 on
 bad input. With ``--lenient``, malformed frames of damaged dumps are left out
 with a warning naming file, timestep and line; the report lists them.
@@ -19,7 +24,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import warnings
 
 NAME = "report"
 HELP = "write report.html and report.json for dumps"
@@ -137,23 +141,9 @@ def _contact_columns(text: str):
     return [None if w == "-" else w for w in words]
 
 
-def _one_line_warnings(fallback):
-    """A ``warnings.formatwarning`` that writes bedstruct's warnings (about the input) as one
-    ``bedstruct report: warning: ...`` line each; other warnings are formatted by
-    ``fallback``. Replacing the format, not ``showwarning``, leaves warnings recorded by a
-    caller (``warnings.catch_warnings(record=True)``) as they are."""
-    from ..errors import BedstructWarning
-
-    def format_warning(message, category, filename, lineno, line=None):
-        if not issubclass(category, BedstructWarning):
-            return fallback(message, category, filename, lineno, line)
-        return "bedstruct report: warning: " + " ".join(str(message).split()) + "\n"
-    return format_warning
-
-
 def run(args) -> int:
     from ..report import ReportOptions, report_on_files
-    from . import UsageError, print_json
+    from . import UsageError, input_warnings_as_lines, print_json
 
     try:
         options = ReportOptions(regions=args.regions, axis=args.axis, frames=args.frames,
@@ -168,16 +158,12 @@ def run(args) -> int:
     if args.contact_columns is not None and kw is not None:
         raise UsageError("give --contact-keywords (LIGGGHTS pair/gran/local) or --contact-columns "
                          "(other layouts), not both")
-    fallback = warnings.formatwarning   # restored after: catch_warnings() does not keep it
-    warnings.formatwarning = _one_line_warnings(fallback)
-    try:
+    with input_warnings_as_lines("report"):
         report, html_path, json_path = report_on_files(
             args.paths, args.out, contacts=args.contacts, contact_keywords=kw, options=options,
             radius=args.radius, units=args.units, progress=progress,
             on_error="skip" if args.lenient else "raise", contact_columns=args.contact_columns,
             boundary=args.boundary)
-    finally:
-        warnings.formatwarning = fallback
     state = report.state or {}
     kind = f" (input: {state['kind']}" + (f"; not meaningful for it: {', '.join(state['not_meaningful'])}"
                                         if state.get("not_meaningful") else "") + ")" if state else ""
@@ -187,6 +173,13 @@ def run(args) -> int:
         print(f"bedstruct report: note: boundary {flags!r} assumed for the data file, which "
               f"does not record it (give --boundary, e.g. 'pp pp ff' for a bed under open space)",
               file=sys.stderr)
+    for text in report.inputs.get("warnings") or []:
+        print(f"bedstruct report: warning: {text}", file=sys.stderr)
+    units = report.inputs.get("units")
+    if args.units is None and isinstance(units, str) and units.startswith("units not stated"):
+        print(f"bedstruct report: warning: {units}", file=sys.stderr)
+    if report.inputs.get("frame_described"):
+        print(f"bedstruct report: note: {report.inputs['frame_described']}", file=sys.stderr)
     skipped = report.inputs.get("skipped_frames") or []
     if skipped:   # each one was also warned about as it was read
         print(f"bedstruct report: warning: {len(skipped)} malformed frame(s) left out "

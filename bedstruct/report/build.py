@@ -46,7 +46,11 @@ class _Context:
         self.frame = frames[-1]
         self.options = options
         self.frame_indices = frame_indices
-        self._contacts = contacts
+        #: The gaps of the supplied contacts (:func:`contact_gaps`), None without a contact file.
+        self.contact_check = None if contacts is None else contact_gaps(self.frame, contacts)
+        # contacts that are mostly apart are not used: geometric detection stands in for them
+        # where the input is judged, and the sections built on contacts say why they are absent
+        self._contacts = None if self.contact_check and self.contact_check["apart"] else contacts
         self._windows = None
         self._region_fractions = None
         self._coordination = None
@@ -97,8 +101,12 @@ class _Context:
 # ---------------------------------------------------------------- sections
 def _summary(ctx: _Context, s: Section) -> None:
     f = ctx.frame
-    s.add_number("n_frames_analysed", len(ctx.frames), "1", "number of frames selected for analysis")
-    s.add_number("timestep", f.timestep, "steps", "timestep of the frame analysed in detail")
+    s.add_number("n_frames_selected", len(ctx.frames), "1",
+                 "number of frames selected; the detailed sections describe the last of them, the "
+                 "others contribute only their timestep and particle count to the table of frames")
+    s.add_number("frame_index", ctx.frame_indices[-1], "1",
+                 "index (over the frames read) of the frame the detailed sections describe")
+    s.add_number("timestep", f.timestep, "steps", "timestep of the frame the detailed sections describe")
     s.add_number("n_particles", f.n_particles, "1", "number of spheres in the frame")
     s.add_number("box_lo", f.box.lo, ctx.length_unit, "lower box bounds (x, y, z)")
     s.add_number("box_hi", f.box.hi, ctx.length_unit, "upper box bounds (x, y, z)")
@@ -108,9 +116,21 @@ def _summary(ctx: _Context, s: Section) -> None:
                  ctx.length_unit, "smallest and largest sphere radius")
     s.tables.append(Table(["frame index", "timestep", "n_particles"],
                           [[k, fr.timestep, fr.n_particles] for k, fr in zip(ctx.frame_indices, ctx.frames)],
-                          caption="frames analysed"))
+                          caption="frames selected (the last one is described by the sections below)"))
     notes = list(f.provenance.notes) + list(f.units.conversions)
-    s.text = f"Source: {f.provenance.source or 'in memory'}." + (" Notes: " + "; ".join(notes) if notes else "")
+    text = [_described_frame(ctx)]
+    text.append(f"Source: {f.provenance.source or 'in memory'}." + (" Notes: " + "; ".join(notes) if notes else ""))
+    s.text = " ".join(text)
+
+
+def _described_frame(ctx: _Context) -> str:
+    """Which frame the detailed sections describe, and what the other frames selected add."""
+    f, n = ctx.frame, len(ctx.frames)
+    if n == 1:
+        return f"Every section describes the one frame selected (timestep {f.timestep})."
+    return (f"The sections below describe one frame: the last of the {n} selected (timestep "
+            f"{f.timestep}, frame index {ctx.frame_indices[-1]}). The other {n - 1} frames add only "
+            f"their timestep and particle count to the table of frames; no number is averaged over them.")
 
 
 def _packing(ctx: _Context, s: Section) -> None:
@@ -497,6 +517,158 @@ _HEAT_UNITS = {"region": "", "peak_temperature_C": "degC", "peak_temperature_std
                "fabric_orientation_deg": "deg"}
 
 
+#: A supplied contact is apart when the gap between the two surfaces exceeds this fraction of
+#: the sum of their radii (1 %: well beyond the overlaps and rounding of a dump)...
+CONTACT_GAP_TOLERANCE = 0.01
+#: ...and the contact file is not trusted when more than this share of its contacts is apart
+#: (5 %: a few near contacts kept by a simulator's skin distance pass, a neighbour list does not).
+CONTACT_APART_SHARE = 0.05
+#: Radii whose spread (largest minus smallest, over the largest) is below this are one size.
+MONODISPERSE_SPREAD = 1e-9
+#: Sections built on the contacts: not reported when the supplied contacts do not touch.
+_CONTACT_SECTIONS = ("coordination", "fabric", "harmonics", "heat")
+
+
+def contact_gaps(frame: Frame, contacts: Contacts) -> dict:
+    """Measure how far apart the surfaces of supplied contacts are.
+
+    Each pair's centre distance is taken by the minimum image of the frame's
+    box (periodic axes respected) and compared with the sum of the two radii.
+
+    Parameters
+    ----------
+    frame : Frame
+        The frame the contacts belong to (``contacts.i`` and ``contacts.j``
+        are its rows).
+    contacts : Contacts
+        The contacts to check, e.g. read from a ``dump local`` file.
+
+    Returns
+    -------
+    dict
+        ``n_contacts``; ``n_apart``, the pairs whose gap exceeds
+        :data:`CONTACT_GAP_TOLERANCE` of their radii sum; ``share_apart``
+        (None without contacts); ``median_distance_over_radii_sum``; and
+        ``apart``, True when the share exceeds :data:`CONTACT_APART_SHARE`.
+    """
+    i, j = np.asarray(contacts.i), np.asarray(contacts.j)
+    n = int(i.size)
+    if n == 0:
+        return {"n_contacts": 0, "n_apart": 0, "share_apart": None,
+                "median_distance_over_radii_sum": None, "apart": False}
+    d = frame.box.minimum_image(frame.positions[j] - frame.positions[i])
+    dist = np.sqrt(np.einsum("ij,ij->i", d, d))
+    rsum = frame.radii[i] + frame.radii[j]
+    ratio = dist / rsum
+    n_apart = int(np.count_nonzero(ratio - 1.0 > CONTACT_GAP_TOLERANCE))
+    share = n_apart / n
+    return {"n_contacts": n, "n_apart": n_apart, "share_apart": share,
+            "median_distance_over_radii_sum": float(np.median(ratio)),
+            "apart": share > CONTACT_APART_SHARE}
+
+
+def _contacts_apart_text(check: dict, source: str) -> str:
+    """The warning about a contact file whose pairs do not touch."""
+    return (f"{source}: {check['n_apart']} of {check['n_contacts']} contacts "
+            f"({check['share_apart']:.0%}) join particles whose surfaces are apart (gap above "
+            f"{CONTACT_GAP_TOLERANCE:.0%} of the radii sum; median centre distance "
+            f"{check['median_distance_over_radii_sum']:.3g} times the radii sum): its pairs do not touch. "
+            f"Coordination, fabric, harmonics and heat from it are not "
+            f"reported; the input is judged from contacts detected geometrically")
+
+
+def _monodisperse(frame: Frame) -> str | None:
+    """Why size statistics mean nothing for this frame (one radius for all), or None."""
+    r = np.asarray(frame.radii, dtype=float)
+    if r.size == 0 or not np.all(np.isfinite(r)):
+        return None
+    top = float(np.max(np.abs(r)))
+    if top == 0 or (float(np.max(r)) - float(np.min(r))) / top >= MONODISPERSE_SPREAD:
+        return None
+    from ._render import _display_unit, _number
+    unit = frame.units.length_unit
+    if unit == "unknown":
+        size = f"{_number(top)} in the length unit of the dump"
+    else:
+        factor, shown = _display_unit([top], unit)
+        size = f"{_number(top * factor)} {shown}"
+    return (f"all {r.size} particles have the same radius, {size} (monodisperse): size percentiles, "
+            f"their change along the bed and the segregation index describe a spread of sizes, and "
+            f"there is none")
+
+
+def units_note(frame: Frame) -> str | None:
+    """What an unknown unit system leaves unjudged, naming the file; None when it is known."""
+    if frame.units.style is not None:
+        return None
+    where = frame.provenance.source or "the input"
+    what = ("velocities are not judged (whether the bed moves)"
+            if getattr(frame, "velocities", None) is not None else
+            "lengths are shown in the file's own unit and heat is not computed")
+    return f"units not stated in {where}: {what}; pass --units STYLE"
+
+
+def file_sequence_warnings(paths: Sequence[str], *, radius=None, units=None) -> list[str]:
+    """Warnings when several input files do not follow one another as one run.
+
+    Each file's frames are indexed (headers only for dumps) and compared with
+    those of the file before it: the first timestep of a file should exceed the
+    last of the one before, and the particle count and box should not change.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        The input files (or globs) in the order given.
+    radius, units : optional
+        As given for reading them (:func:`bedstruct.io.read`).
+
+    Returns
+    -------
+    list of str
+        One warning per pair of files that do not follow; empty for one file.
+    """
+    if len(paths) < 2:
+        return []
+    from ..io import read
+    spans = []
+    for p in paths:
+        try:
+            t = read(p, radius=radius, units=units)
+            spans.append((str(p), _file_end(t, 0), _file_end(t, -1)))
+        except Exception:   # already read for the report: a failure here only skips the check
+            log.debug("could not index %s for the sequence check", p, exc_info=True)
+            return []
+    out = []
+    for (pa, _, last), (pb, first, _) in zip(spans, spans[1:]):
+        what = []
+        if first[0] <= last[0]:
+            what.append(f"its first timestep ({first[0]}) does not follow the last of {pa} ({last[0]})")
+        if first[1] != last[1]:
+            what.append(f"its particle count changes from {last[1]} to {first[1]}")
+        if not (np.allclose(first[2], last[2], rtol=1e-9, atol=0.0)
+                and np.allclose(first[3], last[3], rtol=1e-9, atol=0.0)):
+            what.append(f"its box changes from {_bounds(last)} to {_bounds(first)}")
+        if what:
+            out.append(f"{pb} does not continue {pa}: " + "; ".join(what)
+                       + " (the files may be of unrelated runs)")
+    return out
+
+
+def _file_end(t, k: int) -> tuple:
+    """(timestep, particle count, box lo, box hi) of frame ``k`` of a trajectory."""
+    if hasattr(t, "header"):   # a dump read lazily: the header holds it all
+        h = t.header(k)
+        b = np.asarray(h.bounds, dtype=float)
+        return int(h.timestep), int(h.n), b[:, 0], b[:, 1]
+    f = t[k]
+    return int(f.timestep), int(f.n_particles), np.asarray(f.box.lo, float), np.asarray(f.box.hi, float)
+
+
+def _bounds(end: tuple) -> str:
+    lo, hi = end[2], end[3]
+    return "[" + ", ".join(f"{a:.4g} to {b:.4g}" for a, b in zip(lo, hi)) + "]"
+
+
 def _regions_text(profile, opt: ReportOptions, ctx: _Context) -> str:
     """'3 equal regions along x: start 0-1.2, ... (mm)' from a packing profile's windows."""
     lo, hi = np.asarray(profile.lower)[:, opt.axis_index], np.asarray(profile.upper)[:, opt.axis_index]
@@ -530,12 +702,26 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     Parameters
     ----------
     frames : Frame or sequence of Frame
-        The frames selected for the report; detailed sections use the last.
+        The frames selected for the report. Every detailed section describes
+        the last; the others add only a row (timestep, particle count) to the
+        table of frames of the data summary.
     contacts : Contacts, optional
         Contacts of the last frame (from a ``dump local`` file); geometric
-        contacts are detected when omitted.
+        contacts are detected when omitted. Their gaps are measured
+        (:func:`contact_gaps`): when more than :data:`CONTACT_APART_SHARE` of
+        them join surfaces apart by more than :data:`CONTACT_GAP_TOLERANCE` of
+        the radii sum, the report warns, leaves out the sections built on
+        contacts (saying why) and judges the input from geometric contacts.
     options : ReportOptions, optional
         Regions, axis, heat and other settings.
+    frame_indices : sequence of int, optional
+        Index of each frame among those read (default 0, 1, ...).
+    inputs : dict, optional
+        A description of the inputs (see :func:`bedstruct.report.load_report_inputs`). With
+        more than one entry under ``paths``, the files are checked to follow
+        one another (:func:`file_sequence_warnings`); warnings are listed under
+        ``warnings`` and at the top of the data summary, and ``units`` says the
+        unit system or what its absence leaves unjudged (:func:`units_note`).
     progress : bool
         Show a progress bar over the sections (stderr).
 
@@ -549,10 +735,34 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
         raise ValueError("no frames to report on")
     idx = list(frame_indices) if frame_indices is not None else list(range(len(frames)))
     if frames[-1].n_particles == 0:
-        raise ValueError(f"the frame analysed (timestep {frames[-1].timestep}) has no particles: "
-                         f"nothing to report")
+        where = frames[-1].provenance.source or "the frame given"
+        raise ValueError(f"{where}: the frame analysed (timestep {frames[-1].timestep}) has no "
+                         f"particles: nothing to report")
     ctx = _Context(frames, contacts, options, idx)
-    report = Report(title="bedstruct report", inputs=dict(inputs or {}),
+    inputs = dict(inputs or {})
+    warns = list(inputs.get("warnings") or [])
+    if len(inputs.get("paths") or ()) > 1:
+        warns += file_sequence_warnings(inputs["paths"], radius=inputs.get("radius_given"),
+                                        units=inputs.get("units_given"))
+    refused = {}
+    if ctx.contact_check and ctx.contact_check["apart"]:
+        source = contacts.source if contacts.source != "geometric" else "the contacts given"
+        warns.append(_contacts_apart_text(ctx.contact_check, source))
+        for key in _CONTACT_SECTIONS:
+            refused[key] = (f"the contacts given ({source}) are mostly apart: "
+                            f"{ctx.contact_check['n_apart']} of {ctx.contact_check['n_contacts']} "
+                            f"join surfaces more than {CONTACT_GAP_TOLERANCE:.0%} of their radii sum apart")
+    one_size = _monodisperse(ctx.frame)
+    if one_size:
+        refused["psd"] = one_size
+    if ctx.contact_check is not None:
+        inputs["contact_gaps"] = ctx.contact_check
+    if len(frames) > 1:
+        inputs["frame_described"] = _described_frame(ctx)
+    inputs["units"] = units_note(ctx.frame) or ctx.frame.units.style
+    if warns:
+        inputs["warnings"] = warns
+    report = Report(title="bedstruct report", inputs=inputs,
                     settings=dataclasses.asdict(options),   # every option, so a rerun can match
                     version=__version__)
     report.state = _state(ctx)
@@ -563,12 +773,18 @@ def build_report(frames: Sequence[Frame] | Frame, *, contacts: Contacts | None =
     else:   # tqdm's notebook front end warns where ipywidgets is missing: only for a shown bar
         from tqdm import tqdm
     for key, title, func in tqdm(todo, desc="report", unit="section", disable=not progress, leave=False):
+        if key in refused:   # the data do not support the section, whatever the input is
+            report.sections.append(not_meaningful_section(key, title, f"Not meaningful: {refused[key]}."))
+            continue
         why = report.state["not_meaningful"].get(key)
         if why is not None:
             subject = f" for {ctx.state.label}" if ctx.state is not None else ""
             report.sections.append(not_meaningful_section(key, title, f"Not meaningful{subject}: {why}."))
             continue
         report.sections.append(run_section(key, title, lambda sec, f=func: f(ctx, sec)))
+        if key == "summary" and warns:
+            sec = report.sections[-1]
+            sec.text = " ".join(f"Warning: {w}." for w in warns) + (" " + sec.text if sec.text else "")
         if report.sections[-1].figures:   # free its figures (reference cycles) now: left to the
             gc.collect()                  # collector, 3-D roses slow the heat runs after them 30-fold
     return report

@@ -174,7 +174,7 @@ def test_cli_report_json_last_line(bed_dump, tmp_path, capsys):
     summary = json.loads(last)
     assert summary["values"]["coordination.german_windows"] == 8
     assert summary["sections"]["summary"] == "ok"
-    assert summary["values"]["summary.n_frames_analysed"] == 2
+    assert summary["values"]["summary.n_frames_selected"] == 2
     assert (out / "report.html").exists() and (out / "report.json").exists()
 
 
@@ -375,7 +375,8 @@ def test_a_dilute_flow_is_not_reported_as_a_bed(tmp_path):
         assert sec.status == "not meaningful" and sec.text.startswith("Not meaningful for a dilute flow")
         assert not sec.numbers and not sec.figures
     assert _static_numbers(rep) == []                          # no German a = 0, b = 0
-    assert rep.section("packing").status == "ok" and rep.section("psd").status == "ok"
+    assert rep.section("packing").status == "ok"
+    assert rep.section("psd").status == "not meaningful" and "monodisperse" in rep.section("psd").text
     html_path, json_path = write_report(rep, tmp_path)
     doc = json.loads(json_path.read_text())
     assert doc["input_state"]["kind"] == "dilute flow"
@@ -512,15 +513,20 @@ def test_html_shows_natural_units_and_json_keeps_si(tmp_path):
     text = re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", page)
     assert not re.search(r"\bnan\b", text, flags=re.I)        # no nan, nor nan +- nan
     assert '<td class="num">[51, 51]</td><td>µm</td>' in page                    # radius_range
-    assert "D50 (µm)" in page
+    assert "51 µm (monodisperse)" in page                                        # psd
     assert '<td class="num">2.4</td><td>mm</td>' in page or "[2.4, 0.6, 0.4]" in page   # box_hi
     doc = json.loads(json_path.read_text())
     summary = doc["sections"]["summary"]["numbers"]
     assert summary["radius_range"] == {"value": [51e-6, 51e-6], "unit": "m",
                                        "definition": "smallest and largest sphere radius"}
-    psd_table = doc["sections"]["psd"]["tables"][0]
+    assert not doc["sections"]["psd"]["tables"]                 # one size: no size table
+    # two sizes: the size table in the JSON stays in metres
+    radii = np.where(np.arange(lattice.n_particles) % 2, 51e-6, 45e-6)
+    poly = bedstruct.Frame(lattice.positions, radii, box=lattice.box).with_units("si")
+    _, json_poly = write_report(build_report(poly), tmp_path / "poly")
+    psd_table = json.loads(json_poly.read_text())["sections"]["psd"]["tables"][0]
     assert psd_table["units"] == ["", "1", "m", "m", "m"]
-    assert psd_table["rows"][0][3] == pytest.approx(102e-6)
+    assert 90e-6 <= psd_table["rows"][0][3] <= 102e-6
 
 
 def test_a_section_whose_numbers_are_all_nan_is_not_ok(monkeypatch):
@@ -845,7 +851,7 @@ def test_a_handful_of_particles_gives_no_packing_or_rdf(n):
     for key in ("packing", "rdf", "voronoi"):
         sec = rep.section(key)
         assert sec.status == "not meaningful" and "fewer than 10" in sec.text and not sec.numbers
-    assert rep.section("psd").status == "ok"
+    assert rep.section("psd").status == "not meaningful" and "monodisperse" in rep.section("psd").text
 
 
 def test_an_input_that_cannot_be_judged_reports_no_state_dependent_numbers(monkeypatch):
