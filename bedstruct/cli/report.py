@@ -1,22 +1,8 @@
 """Write a self-contained HTML report and a JSON file of every number for dumps.
 
-At the top, pictures of the bed coloured by particle size: a 3-D view
-(rendered off screen with pyvista, the ``interop`` extra; the report says why
-when it cannot be drawn) and a side view. Sections: data summary, packing
-fraction along the bed, coordination and German's law, size distribution and
-segregation, surface roughness, fabric tensors with rose diagrams, harmonic
-spectrum, angle of repose (when a pile is present) and, with --heat,
-heat-affected-zone roundness. A section that fails
-is reported as failed; the rest still renders. Prints where it wrote the
-report and what the input is (settled bed, pile, moving bed, dilute flow).
-Warnings about the input go to stderr and the report's input table: contact
-files whose pairs do not touch, input files that do not follow one another
-(timesteps not increasing, particle count or box changing), and a unit
-system the file does not state. With several frames selected, the sections
-describe the last; the others fill the table of frames.
-Exit status 0 when the report was written (even with failed sections), 1 on
-bad input. With ``--lenient``, malformed frames of damaged dumps are left out
-with a warning naming file, timestep and line; the report lists them.
+Prints where it wrote them and what the input is (settled bed, pile, moving bed, dilute
+flow); warnings about the input go to stderr. Exit status 0 when the report was written
+(even with failed sections), 1 on bad input. The sections and checks: docs/report.md.
 """
 
 from __future__ import annotations
@@ -37,40 +23,32 @@ def add_arguments(parser) -> None:
     parser.add_argument("--contact-keywords", metavar="KW", default=None,
                         help="pair/gran/local keywords of the contact file, e.g. 'pos id force contactArea'")
     parser.add_argument("--contact-columns", metavar="MAP", default=None, type=_contact_columns,
-                        help="what each column of another contact layout (LAMMPS property/local, "
-                             "pair/local) holds, as COLUMN=MEANING pairs, e.g. "
-                             "'c_1[1]=id1 c_1[2]=id2 c_2[3]=fx c_2[4]=fy c_2[5]=fz'; meanings: "
-                             "id1 id2 (required, or x1 y1 z1 x2 y2 z2), periodic, fx fy fz, "
-                             "fnx fny fnz, ftx fty ftz, area")
+                        help="columns of another contact layout as COLUMN=MEANING pairs, e.g. "
+                             "'c_1[1]=id1 c_1[2]=id2 c_2[3]=fx' (meanings: docs/formats.md)")
     parser.add_argument("--regions", type=int, default=3, help="regions along the bed (default 3)")
     parser.add_argument("--axis", default="x", choices=["x", "y", "z"], help="spreading direction")
     parser.add_argument("--frames", default="-1", metavar="SEL",
                         help="frames: -1 (last, default), all, an index or start:stop:step")
     parser.add_argument("--radius", type=_positive, default=None, metavar="R",
-                        help="radius when the dump has none (positive, length unit of the dump)")
+                        help="radius when the dump has none (length unit of the dump)")
     parser.add_argument("--boundary", type=_boundary, default=None, metavar="FLAGS",
-                        help="boundary of data files, which do not record it: LAMMPS flags per "
-                             "axis, e.g. 'pp pp ff' for a bed under open space (default 'pp pp pp', "
-                             "the LAMMPS default; the report says which it assumed)")
+                        help="boundary flags of a data file, e.g. 'pp pp ff' (default 'pp pp pp')")
     parser.add_argument("--units", default=None,
                         choices=["si", "cgs", "micro", "nano", "lj", "real", "metal", "electron"],
                         help="LAMMPS unit style of the dump when it does not say")
     parser.add_argument("--repose-base", type=_finite, default=None, metavar="Z",
                         help="height of the plate a pile stands on (length unit of the dump)")
     parser.add_argument("--german-windows", type=int, default=None, metavar="N",
-                        help="windows along the bed for the German's-law fit (default 12, the library's "
-                             "analysis.german_law_along)")
+                        help="windows along the bed for the German's-law fit (default 12)")
     parser.add_argument("--no-3d", dest="view_3d", action="store_false",
-                        help="leave out the 3-D picture of the bed (the side view is always drawn)")
+                        help="leave out the 3-D picture of the bed")
     parser.add_argument("--heat", action="store_true", help="add the heat-conduction section")
     parser.add_argument("--heat-length-unit", type=_positive, default=None, metavar="M",
-                        help="metres per dump length unit (heat needs SI when the unit is unknown)")
+                        help="metres per length unit of the dump, for --heat")
     parser.add_argument("--heat-stop-fraction", type=_fraction, default=0.25, metavar="F",
-                        help="end the heat runs when the hottest particle has cooled to this fraction "
-                             "of the pulse excess, between 0 and 1 (default 0.25)")
+                        help="end the heat runs at this fraction of the pulse excess (default 0.25)")
     parser.add_argument("--lenient", action="store_true",
-                        help="read damaged dumps: leave malformed frames out (each named with "
-                             "file, timestep and line, and listed in the report)")
+                        help="leave malformed frames of damaged dumps out (named in the report)")
     parser.add_argument("--json", action="store_true", help="print the JSON summary as the last line")
     parser.add_argument("--progress", action="store_true", default=None,
                         help="show a progress bar (default: when stderr is a terminal)")
