@@ -674,6 +674,9 @@ def _regions_text(profile, opt: ReportOptions, ctx: _Context) -> str:
     lo, hi = np.asarray(profile.lower)[:, opt.axis_index], np.asarray(profile.upper)[:, opt.axis_index]
     from ._render import _display_unit, _number
     factor, unit = _display_unit(list(hi), ctx.length_unit)
+    # bounds within rounding of zero (a sum of region widths) are shown as 0
+    tiny = 1e-9 * float(np.max(np.abs(np.concatenate([lo, hi])))) if len(lo) else 0.0
+    lo, hi = np.where(np.abs(lo) <= tiny, 0.0, lo), np.where(np.abs(hi) <= tiny, 0.0, hi)
     spans = ", ".join(f"{n} {_number(a * factor)} to {_number(b * factor)}"
                       for n, a, b in zip(opt.region_names, lo, hi))
     return f"{len(lo)} equal regions along {opt.axis}: {spans}{f' {unit}' if unit else ''}"

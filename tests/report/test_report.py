@@ -910,3 +910,12 @@ def test_report_says_when_the_windows_do_not_determine_german_a_and_b():
     assert sec.numbers["german_determined"].value is False
     assert fit.undetermined_reason in sec.text and "mean coordination" in sec.text
     assert sec.numbers["german_a"].value == fit.a     # still listed, with its interval
+
+
+def test_region_bounds_within_rounding_of_zero_show_as_zero():
+    from types import SimpleNamespace
+    from bedstruct.report.build import _regions_text
+    profile = SimpleNamespace(lower=[[-7.051e-14, 0, 0], [6.2, 0, 0], [12.4, 0, 0]],
+                              upper=[[6.2, 0, 0], [12.4, 0, 0], [18.71, 0, 0]])
+    text = _regions_text(profile, ReportOptions(), SimpleNamespace(length_unit="mm"))
+    assert text == "3 equal regions along x: start 0 to 6.2, centre 6.2 to 12.4, end 12.4 to 18.71 mm"
