@@ -156,6 +156,30 @@ def _display_unit(value, unit: str, key: str = "") -> tuple[float, str]:
     return 1.0, unit
 
 
+#: Row names of the page's input table (the JSON keeps the keys).
+_INPUT_LABELS = {"paths": "files", "frames_in_input": "frames in the input",
+                 "frames_selected": "frames selected (index in the input)",
+                 "frame_described": "frame the sections describe",
+                 "units_given": "units given (--units)", "radius_given": "radius given (--radius)",
+                 "boundary": "boundary (data file)", "contact_gaps": "gaps of the given contacts"}
+
+
+def _input_html(value) -> str:
+    """A value of the input table: strings one per line, a table of values as 'key: value'
+    lines, numbers as :func:`_fmt`, nothing as 'not given'."""
+    if value is None:
+        return "not given"
+    if isinstance(value, (list, tuple)) and value and all(isinstance(v, str) for v in value):
+        return "<br>".join(html.escape(v) for v in value)
+    if isinstance(value, dict):
+        return "<br>".join(f"{html.escape(str(k).replace('_', ' '))}: {_fmt(v)}"
+                           for k, v in value.items())
+    if isinstance(value, (list, tuple)) and value and all(
+            isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in value):
+        return ", ".join(str(int(v)) for v in value[:12]) + (", ..." if len(value) > 12 else "")
+    return _fmt(value)
+
+
 def _fmt(value, factor: float = 1.0, scale: float | None = None) -> str:
     """A value for the page: numbers by :func:`_number`, lists as lists, None as n/a.
 
@@ -280,7 +304,8 @@ def _pictures_html(report: Report) -> str:
 def render_html(report: Report) -> str:
     """The report as a self-contained HTML document (figures embedded as data URIs)."""
     nav = " ".join(f'<a href="#{html.escape(s.key)}">{html.escape(s.title)}</a>' for s in report.sections)
-    inputs = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_fmt(v)}</td></tr>"
+    inputs = "".join(f"<tr><th>{html.escape(_INPUT_LABELS.get(k, str(k).replace('_', ' ')))}"
+                     f"</th><td>{_input_html(v)}</td></tr>"
                      for k, v in report.inputs.items() if k != "skipped_frames")
     if "skipped_frames" in report.inputs:
         n = len(report.inputs["skipped_frames"] or [])

@@ -919,3 +919,22 @@ def test_region_bounds_within_rounding_of_zero_show_as_zero():
                               upper=[[6.2, 0, 0], [12.4, 0, 0], [18.71, 0, 0]])
     text = _regions_text(profile, ReportOptions(), SimpleNamespace(length_unit="mm"))
     assert text == "3 equal regions along x: start 0 to 6.2, centre 6.2 to 12.4, end 12.4 to 18.71 mm"
+
+
+def test_the_input_table_speaks_words_not_python(tmp_path):
+    """Row names in words, files one per line, indices without brackets, nothing given as
+    'not given'; the JSON keeps its keys."""
+    from bedstruct.report._render import _input_html
+    assert _input_html(["/a/b.dump", "/a/c.dump"]) == "/a/b.dump<br>/a/c.dump"
+    assert _input_html([0, 2]) == "0, 2" and _input_html(None) == "not given"
+    path = tmp_path / "bed.dump"
+    bedstruct.write_dump(path, [bedstruct.Frame([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5]], [0.5, 0.4],
+                                                box=[2, 1, 1]).with_units("si")])
+    with _only("summary"):
+        assert main(["report", str(path), "--no-3d", "--out", str(tmp_path / "r")]) == 0
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert f"<tr><th>files</th><td>{path}</td></tr>" in page
+    assert "<th>frames selected (index in the input)</th><td>0</td>" in page
+    assert "[" + str(path) not in page
+    doc = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert doc["inputs"]["paths"] == [str(path)] and doc["inputs"]["frames_selected"] == [0]
