@@ -505,20 +505,43 @@ def _next(diag) -> str:
             "tells them apart.")
 
 
+def _where_rows(ranked, sigma: dict) -> list[dict]:
+    """The rows of :attr:`Answer.where` from the where-table's ranked rows; ``sigma`` maps
+    (observable, component) to the measurement's own uncertainty. Lengths of one kind are
+    shown in one unit, the one of its largest value (bed heights of 20 layers all in mm).
+
+    Examples
+    --------
+    >>> row = dict(observable="h", component="value", unit="m", kind="bed_height", z=0.5,
+    ...            sigma=1e-5, role="calibrate")
+    >>> rows = _where_rows([dict(row, real=5.08e-4, simulated=5.1e-4),
+    ...                     dict(row, observable="h2", real=1.245e-3, simulated=1.25e-3)], {})
+    >>> [r["measured"] for r in rows]
+    ['0.508 ± 0.01 mm', '1.25 ± 0.01 mm']
+    """
+    scale: dict[str, float] = {}
+    for r in ranked:
+        if r["unit"] == "m" and math.isfinite(r["real"]):
+            scale[r["kind"]] = max(scale.get(r["kind"], 0.0), abs(r["real"]))
+    rows = []
+    for r in ranked:
+        s = sigma.get((r["observable"], r["component"]), r["sigma"])
+        like = scale.get(r["kind"], r["real"])
+        rows.append({"what": _observable_words(r),
+                     "measured": quantity_text(r["real"], r["unit"], r["kind"], sigma=s,
+                                               like=like, resolution=s),
+                     "simulated": quantity_text(r["simulated"], r["unit"], r["kind"],
+                                                like=like, resolution=s),
+                     "gap": _gap_words(r), "z": r["z"],
+                     "role": "calibration" if r["role"] == "calibrate" else "held out"})
+    return rows
+
+
 def answer(diag) -> Answer:
     """The diagnosis in plain words and natural units (see :class:`Answer`)."""
     # the measurement's own uncertainty (the where rows' sigma adds the simulation's)
     sigma = {(c["observable"], c["component"]): c["sigma"] for c in diag.shrink.components}
-    rows = []
-    for r in diag.where.ranked():
-        s = sigma.get((r["observable"], r["component"]), r["sigma"])
-        rows.append({"what": _observable_words(r),
-                     "measured": quantity_text(r["real"], r["unit"], r["kind"], sigma=s,
-                                               resolution=s),
-                     "simulated": quantity_text(r["simulated"], r["unit"], r["kind"],
-                                                like=r["real"], resolution=s),
-                     "gap": _gap_words(r), "z": r["z"],
-                     "role": "calibration" if r["role"] == "calibrate" else "held out"})
+    rows = _where_rows(diag.where.ranked(), sigma)
     return Answer(_headline(diag), rows, _which(diag), _how_far(diag), _recalibration(diag),
                   _next(diag), gap_rows(diag))
 
