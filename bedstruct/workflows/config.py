@@ -95,7 +95,17 @@ def _read_toml(path) -> dict:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+        raise ConfigError(f"{path}: not valid TOML: {exc} (values are plain numbers in SI "
+                          f"units, e.g. speed = 0.05)") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not a UTF-8 text file (byte {exc.object[exc.start]:#x} at "
+                          f"position {exc.start}); a configuration is TOML text") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a folder; expected a configuration file (TOML)") from None
+    except FileNotFoundError:
+        raise ConfigError(f"configuration file not found: {path}") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot be read: {exc.strerror}") from None
 
 
 def _type_name(v) -> str:
@@ -228,7 +238,8 @@ def apply_override(config: dict, assignment: str) -> dict:
     return config
 
 
-def load_config(source=None, *, preset: str | None = None, overrides=()) -> dict:
+def load_config(source=None, *, preset: str | None = None, overrides=(),
+                workflow: str | None = None) -> dict:
     """Build a complete workflow configuration.
 
     Parameters
@@ -242,6 +253,11 @@ def load_config(source=None, *, preset: str | None = None, overrides=()) -> dict
     overrides : sequence of str
         ``section.key=value`` assignments applied last (see
         :func:`apply_override`).
+    workflow : {"repose", "calibrate", "spread"}, optional
+        The workflow the configuration is for: its lengths are checked against the
+        particle sizes (a repose run is not refused over ``spread.gaps``). Default: every
+        workflow's. A run checks its own sections again before it writes anything
+        (:func:`check_run_geometry`).
 
     Returns
     -------
@@ -295,8 +311,10 @@ def load_config(source=None, *, preset: str | None = None, overrides=()) -> dict
         except ConfigError as exc:
             raise ConfigError(_sourced(str(exc), label)) from None
         origin[str(a).split("=", 1)[0].strip()] = label
+    if workflow is not None and workflow not in _GEOMETRY:
+        raise ConfigError(f"unknown workflow {workflow!r}; one of {', '.join(_GEOMETRY)}")
     try:
-        _validate(cfg)
+        _validate(cfg, workflow)
     except ConfigError as exc:
         raise ConfigError(_sourced(str(exc), *_origins(str(exc), origin))) from None
     return cfg
@@ -400,7 +418,7 @@ def workflow_config(cfg) -> WorkflowConfig:
                     f"WorkflowConfig; got {type(cfg).__name__}")
 
 
-def _validate(cfg: dict) -> None:
+def _validate(cfg: dict, workflow: str | None = None) -> None:
     if not cfg["spread"]["gaps"]:
         raise ConfigError("config key `spread.gaps` must list at least one layer gap (m); got []")
     t = cfg["time"]
@@ -432,7 +450,10 @@ def _validate(cfg: dict) -> None:
     if len(b) != 2 or not b[0] < b[1]:
         raise ConfigError(f"config key `calibrate.cohesion_bracket` must be [low, high] with "
                           f"low < high; got {b!r}")
-    _validate_geometry(cfg)
+    _validate_fines(cfg["psd"])
+    _validate_wall_sentinels(cfg["contact"])
+    for part in (_GEOMETRY[workflow] if workflow else ("spread", "repose")):
+        _validate_geometry(cfg, part)
 
 
 def _diameter_range(p: dict) -> tuple[float, float]:
@@ -444,8 +465,36 @@ def _diameter_range(p: dict) -> tuple[float, float]:
     return lo * float(p["scale"]), hi * float(p["scale"])
 
 
-def _validate_geometry(cfg: dict) -> None:
-    """Cross-key checks of lengths against the particle sizes and each other (m)."""
+#: The sections whose lengths each workflow uses.
+_GEOMETRY = {"repose": ("repose",), "calibrate": ("repose",), "spread": ("spread",)}
+
+
+def _validate_fines(p: dict) -> None:
+    """Fines below the smallest diameter of the powder they are added to."""
+    if float(p["fines_mass_fraction"]) <= 0.0:
+        return
+    table = psd_table(p)
+    d_cut = float(table[0][0]) if table is not None else float(p["d_min"])
+    key = "`psd.diameters`" if table is not None else "`psd.d_min`"
+    if not float(p["fines_min_diameter"]) < d_cut:
+        raise ConfigError(f"config key `psd.fines_min_diameter` ({p['fines_min_diameter']!r} m) "
+                          f"must lie below the smallest diameter of the powder, {key} "
+                          f"({d_cut!r} m): the fines are the sizes below it")
+
+
+def _validate_wall_sentinels(c: dict) -> None:
+    """``contact.wall_friction`` / ``wall_cohesion``: -1 means the particle value; any
+    other negative number is a typing slip, not a setting."""
+    for k in ("wall_friction", "wall_cohesion"):
+        v = float(c[k])
+        if v < 0 and v != -1.0:
+            raise ConfigError(f"config key `contact.{k}` must be >= 0, or -1 for the particle "
+                              f"value; got {c[k]!r}")
+
+
+def _validate_geometry(cfg: dict, part: str) -> None:
+    """Cross-key checks of the lengths of section ``part`` (``"spread"`` or ``"repose"``)
+    against the particle sizes and each other (m)."""
     d_lo, d_hi = _diameter_range(cfg["psd"])
     psd_keys = ("`psd.diameters` x `psd.scale`" if psd_table(cfg["psd"]) is not None
                 else "`psd.d_min`/`psd.d_max` x `psd.scale`")
@@ -453,7 +502,13 @@ def _validate_geometry(cfg: dict) -> None:
     # at load: room for two of the largest particles across (a run checks the neighbour
     # cells of its own box before it writes anything: check_run_geometry)
     min_width = 2.0 * d_hi
-    sp = cfg["spread"]
+    if part == "spread":
+        _spread_geometry(cfg["spread"], d_lo, d_hi, sizes, min_width)
+    else:
+        _repose_geometry(cfg["repose"], d_hi, sizes, min_width)
+
+
+def _spread_geometry(sp: dict, d_lo: float, d_hi: float, sizes: str, min_width: float) -> None:
     gaps = [float(g) for g in sp["gaps"]]
     thin = [g for g in gaps if g < d_lo]
     if thin:
@@ -477,7 +532,9 @@ def _validate_geometry(cfg: dict) -> None:
             not float(sp["blade_height"]) > float(sp["blade_thickness"]):
         raise ConfigError(f"config key `spread.blade_height` ({sp['blade_height']!r} m) must "
                           f"exceed `spread.blade_thickness` ({sp['blade_thickness']!r} m)")
-    rp = cfg["repose"]
+
+
+def _repose_geometry(rp: dict, d_hi: float, sizes: str, min_width: float) -> None:
     L, W, H = (float(v) for v in rp["box"])
     if W < min_width:
         raise ConfigError(f"config key `repose.box` width {W!r} m is too narrow for {sizes}: it "
@@ -506,6 +563,8 @@ def check_run_geometry(cfg, workflow: str) -> None:
         Naming ``spread.width`` or ``repose.box`` and the least width.
     """
     c = cfg if isinstance(cfg, dict) else config_dict(cfg)
+    if workflow in ("spread", "repose"):
+        _validate_geometry(c, workflow)
     d_lo, d_hi = _diameter_range(c["psd"])
     need = 3.0 * (d_hi + 0.15 * d_lo)
     if workflow == "spread" and not c["spread"]["side_walls"]:

@@ -100,3 +100,49 @@ def test_a_periodic_width_too_narrow_for_the_neighbour_cells_is_refused_before_w
     with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
         run(cfg, out=tmp_path / "run")
     assert not (tmp_path / "run").exists()
+
+
+def test_a_workflow_is_checked_on_its_own_sections():
+    """A repose run is not refused over the spreading layers' gaps, nor a spread over the
+    repose box; a run checks its own sections again before it writes anything."""
+    from bedstruct.workflows.config import check_run_geometry
+    thin = ["spread.gaps=[50e-6]"]
+    cfg = load_config(preset="tiny", overrides=thin, workflow="repose")
+    load_config(preset="tiny", overrides=thin, workflow="calibrate")
+    with pytest.raises(ConfigError, match=r"spread\.gaps"):
+        load_config(preset="tiny", overrides=thin, workflow="spread")
+    with pytest.raises(ConfigError, match=r"spread\.gaps"):
+        check_run_geometry(cfg, "spread")
+    narrow = ["repose.box=[2.5e-3, 1e-4, 0.85e-3]"]
+    load_config(preset="tiny", overrides=narrow, workflow="spread")
+    with pytest.raises(ConfigError, match=r"repose\.box"):
+        load_config(preset="tiny", overrides=narrow, workflow="repose")
+    with pytest.raises(ConfigError, match="unknown workflow"):
+        load_config(preset="tiny", workflow="sprad")
+
+
+@pytest.mark.parametrize("overrides, match", [
+    (["psd.fines_mass_fraction=0.2", "psd.fines_min_diameter=2e-3"],
+     r"`psd\.fines_min_diameter` \(0\.002 m\) must lie below the smallest diameter"),
+    (["contact.wall_friction=-0.5"], r"`contact\.wall_friction` must be >= 0, or -1"),
+    (["contact.wall_cohesion=-3"], r"`contact\.wall_cohesion` must be >= 0, or -1"),
+])
+def test_fines_above_the_powder_and_negative_wall_values_are_refused_at_load(overrides, match):
+    with pytest.raises(ConfigError, match=match):
+        load_config(preset="tiny", overrides=overrides)
+    load_config(preset="tiny", overrides=["contact.wall_friction=-1"])   # the particle value
+
+
+def test_unreadable_configuration_files_are_named(tmp_path):
+    with pytest.raises(ConfigError, match="configuration file not found: .*missing.toml"):
+        load_config(tmp_path / "missing.toml")
+    with pytest.raises(ConfigError, match="is a folder"):
+        load_config(tmp_path)
+    binary = tmp_path / "bin.toml"
+    binary.write_bytes(b"\xff\xfe speed = 1\n")
+    with pytest.raises(ConfigError, match=r"bin\.toml: not a UTF-8 text file"):
+        load_config(binary)
+    units = tmp_path / "units.toml"
+    units.write_text("[spread]\nspeed = 0.05 m/s\n")
+    with pytest.raises(ConfigError, match=r"units\.toml: not valid TOML.*plain numbers in SI"):
+        load_config(units)

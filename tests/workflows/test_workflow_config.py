@@ -55,9 +55,9 @@ def validations(monkeypatch):
     calls = []
     real = config_module._validate
 
-    def counted(cfg):
+    def counted(cfg, *args):
         calls.append(cfg)
-        return real(cfg)
+        return real(cfg, *args)
     monkeypatch.setattr(config_module, "_validate", counted)
     return calls
 
