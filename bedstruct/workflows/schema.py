@@ -9,7 +9,7 @@ in ``psd``, the tool's start-up and vibration in ``spread``); every default is t
 base model.
 From this one definition come the defaults of :func:`~bedstruct.workflows.load_config`
 (:data:`~bedstruct.workflows.DEFAULTS`), the range checks and their messages, the
-configuration reference in ``bedstruct run --help`` and in the docs
+configuration reference of ``bedstruct run WORKFLOW --help-config`` and of the docs
 (:func:`config_reference`), and typed, read-only access to a loaded configuration
 (:func:`typed_config`; :func:`config_dict` gives its dict back). :func:`psd_table` checks a
 tabulated size distribution.
@@ -432,7 +432,7 @@ def config_reference(sections=None, *, markdown: bool = False) -> str:
         Section names (``"spread"``, ...; ``""`` for the top-level keys); all by default.
     markdown : bool, optional
         A Markdown table per section (the docs' reference) instead of plain text
-        (``bedstruct run --help``).
+        (``bedstruct run WORKFLOW --help-config``).
 
     Examples
     --------

@@ -13,7 +13,7 @@ def test_help(capsys):
 
 
 def test_needs_config_or_preset(tmp_path, capsys):
-    assert main(["run", "repose", "--out", str(tmp_path)]) == 1
+    assert main(["run", "repose", "--out", str(tmp_path)]) == 2   # a usage error
     assert "--preset" in capsys.readouterr().err
 
 
@@ -43,15 +43,17 @@ def test_repose_json(tmp_path, capsys):
                "--out", str(tmp_path), "--json"])
     assert rc == 0
     captured = capsys.readouterr()
-    out = captured.out.strip().splitlines()
-    # the page of the run, said on stderr (stdout: the result, then the JSON)
-    assert captured.err.strip().splitlines()[-1] == f"summary: {tmp_path}/summary.html"
+    # with --json stdout is the JSON alone; the result in words and the page go to stderr
+    (line,) = captured.out.strip().splitlines()
+    d = json.loads(line)
+    err = captured.err.strip().splitlines()
+    assert err[-1] == f"summary: {tmp_path}/summary.html"
     page = (tmp_path / "summary.html").read_text()
     assert "bed pictured" in page and "rep00/pile.dump.gz" in page and "Side view" in page
-    d = json.loads(out[-1])
     assert 5 < d["angle_deg"] < 60 and d["angle_std_deg"] > 0
     # the +- says what it is: with one pile (tiny) the flank fit's uncertainty, not a scatter
-    assert len(d["replicates"]) == 1 and "one pile" in out[0] and "not a scatter" in out[0]
+    said = [ln for ln in err if "angle of repose" in ln][0]
+    assert len(d["replicates"]) == 1 and "one pile" in said and "not a scatter" in said
     assert json.loads((tmp_path / "results.json").read_text())["angle_deg"] == pytest.approx(d["angle_deg"])
 
 
@@ -60,11 +62,12 @@ def test_spread_summary_never_prints_nan(tmp_path, capsys):
     rc = main(["run", "spread", "--preset", "tiny", "--set", "spread.gaps=[4.5e-4]",
                "--out", str(tmp_path), "--json"])
     assert rc == 0
-    out = capsys.readouterr().out
-    line = [ln for ln in out.splitlines() if ln.startswith("layer 1:")][0]
+    captured = capsys.readouterr()
+    line = [ln for ln in captured.err.splitlines() if ln.startswith("layer 1:")][0]
     assert "nan" not in line.lower()
     assert "not measurable" in line or line.rstrip().endswith(" deg")
-    d = json.loads(out.strip().splitlines()[-1])
+    (only,) = captured.out.strip().splitlines()
+    d = json.loads(only)
     angle = d["mean_dynamic_angle_deg"][0]
     assert angle is None or 0 < angle < 90
 
@@ -181,9 +184,9 @@ def test_repose_mean_says_how_many_piles_it_is_over(tmp_path, capsys, monkeypatc
                "--out", str(tmp_path), "--json", "--no-3d"])
     captured = capsys.readouterr()
     assert rc == 0
-    line = captured.out.splitlines()[0]
+    line = [ln for ln in captured.err.splitlines() if "piles" in ln][0]
     assert "mean of 1 of 3 piles (2 could not be measured: rep01: no pile formed" in line
-    d = json.loads(captured.out.strip().splitlines()[-1])
+    d = json.loads(captured.out.strip())
     assert d["n_measured"] == 1 and sorted(d["unmeasured"]) == ["rep01", "rep02"]
 
 

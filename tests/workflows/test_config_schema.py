@@ -52,16 +52,16 @@ def test_typed_config_is_read_only_and_equal_to_the_dict():
         typed.spread.speed = 1.0
 
 
-def test_run_help_lists_the_workflow_keys_with_defaults_and_units(capsys):
+def test_run_help_config_lists_the_workflow_keys_with_defaults_and_units(capsys):
     with pytest.raises(SystemExit) as e:
-        main(["run", "spread", "--help"])
+        main(["run", "spread", "--help-config"])
     assert e.value.code == 0
     out = capsys.readouterr().out
     assert re.search(r"^\s+gaps\s+\[0\.000508, 0\.000508, 0\.000102, 0\.000127\] m\s", out, re.M)
     assert re.search(r"^\s+speed\s+0\.0254 m/s\s+tool speed", out, re.M)
     assert "[repose]" not in out  # the spread command lists the spreading keys, not repose's
     with pytest.raises(SystemExit):
-        main(["run", "repose", "--help"])
+        main(["run", "repose", "--help-config"])
     assert "[repose]" in capsys.readouterr().out
 
 
