@@ -235,10 +235,11 @@ def test_cli_write_only_json(tmp_path, capsys, engine):
 
 
 def test_cli_write_only_needs_an_external_engine(tmp_path, capsys):
-    assert main(["run", "repose", "--preset", "tiny", "--write-only", "--out", str(tmp_path)]) == 1
+    # options that do not fit together: a usage error (exit status 2)
+    assert main(["run", "repose", "--preset", "tiny", "--write-only", "--out", str(tmp_path)]) == 2
     assert "--write-only" in capsys.readouterr().err
     assert main(["run", "calibrate", "--preset", "tiny", "--engine", "lammps", "--write-only",
-                 "--out", str(tmp_path)]) == 1
+                 "--out", str(tmp_path)]) == 2
 
 
 # ------------------------------------------------------------------ spreading: one layer

@@ -78,9 +78,10 @@ def test_fines_mix_into_a_tabulated_distribution():
     assert draw.r_min == pytest.approx(0.5 * cfg["psd"]["scale"] * 5e-6)
     # the fines are those below the table's smallest diameter, with their mass fraction
     assert np.sum(d[d < D[0]] ** 3) / np.sum(d ** 3) == pytest.approx(0.1, abs=0.01)
-    with pytest.raises(ConfigError, match="fines_min_diameter.*first of `psd.diameters`"):
-        psd_sampler(_cfg(D, F, "psd.fines_mass_fraction=0.1",
-                         "psd.fines_min_diameter=20e-6"))
+    # fines above the table's smallest diameter: refused when the configuration loads
+    with pytest.raises(ConfigError, match=r"fines_min_diameter.*smallest diameter of the "
+                                          r"powder, `psd\.diameters`"):
+        _cfg(D, F, "psd.fines_mass_fraction=0.1", "psd.fines_min_diameter=20e-6")
 
 
 def test_without_a_table_the_percentile_fit_draws_as_before():
