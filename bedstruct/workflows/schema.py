@@ -177,7 +177,7 @@ class CalibrateSection:
     cohesion_bracket: tuple = key((3.0e7, 3.6e7), "J/m^3", "[low, high] cohesion search bracket", gt=0)
     replicates: int = key(2, "", "repose replicates per point", gt=0)
     max_iter: int = key(4, "", "largest number of search steps", ge=0)
-    tolerance_deg: float = key(1.0, "deg", "stop within this angle of the target", gt=0)
+    tolerance_deg: float = key(1.0, "deg", "stop within this angle of the target", gt=0, lt=90)
 
 
 @dataclass(frozen=True)

@@ -146,3 +146,9 @@ def test_unreadable_configuration_files_are_named(tmp_path):
     units.write_text("[spread]\nspeed = 0.05 m/s\n")
     with pytest.raises(ConfigError, match=r"units\.toml: not valid TOML.*plain numbers in SI"):
         load_config(units)
+
+
+def test_a_calibration_tolerance_is_an_angle_below_a_right_angle():
+    with pytest.raises(ConfigError, match=r"calibrate\.tolerance_deg"):
+        load_config(preset="tiny", overrides=["calibrate.tolerance_deg=1000"])
+    load_config(preset="tiny", overrides=["calibrate.tolerance_deg=2.5"])
